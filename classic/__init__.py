@@ -1,0 +1,49 @@
+"""Classic hand-eye solvers: AX=XB, AX=YB, refinement, robust fitting, diagnostics.
+
+Needs only numpy and scipy: ``import classic`` works without torch, pinocchio
+or pyrender. Conventions (frames ``T_a_b``, metres, quaternions x, y, z, w):
+see :mod:`handeye`.
+
+Plain solvers
+    AX=XB on motion pairs ``A, B`` of shape ``(K, 4, 4)`` (build them with
+    :func:`motion_pairs`): :func:`tsai`, :func:`park`, :func:`horaud`,
+    :func:`andreff`, :func:`daniilidis` return ``X``.
+    AX=YB on absolute poses ``A_i X = Y B_i``: :func:`shah`, :func:`li` return
+    ``(X, Y)``.
+
+Front
+    :func:`calibrate` takes ``T_base_ee`` and ``T_cam_target`` for either
+    setup and returns a :class:`CalibrationResult` with the estimate by frame
+    name, residuals, covariance and diagnostics.
+
+Example
+-------
+>>> import classic
+>>> from handeye.synthetic import make_problem
+>>> p = make_problem(12, "eye_in_hand")
+>>> res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_in_hand", method="tsai")
+>>> res.T_ee_cam.shape
+(4, 4)
+"""
+
+from classic.andreff import andreff
+from classic.calibrate import AXXB_METHODS, AXYB_METHODS, DEFAULT_METHOD, METHODS, calibrate, initial_estimate, solve
+from classic.daniilidis import daniilidis
+from classic.diagnostics import MotionDiagnostics, check_consistency, diagnose_motion
+from classic.horaud import horaud
+from classic.li import li
+from classic.pairs import motion_pairs, pair_indices
+from classic.park import park
+from classic.ransac import lmeds_inliers
+from classic.refine import refine_xy
+from classic.result import CalibrationResult, PoseResiduals
+from classic.shah import shah
+from classic.tsai import tsai
+
+__all__ = [
+    "tsai", "park", "horaud", "andreff", "daniilidis", "shah", "li",
+    "calibrate", "solve", "initial_estimate", "motion_pairs", "pair_indices",
+    "refine_xy", "lmeds_inliers", "diagnose_motion", "check_consistency",
+    "CalibrationResult", "PoseResiduals", "MotionDiagnostics",
+    "METHODS", "AXXB_METHODS", "AXYB_METHODS", "DEFAULT_METHOD",
+]

@@ -1,0 +1,66 @@
+"""Andreff linear AX=XB solver (Kronecker product)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from classic._linear import check_motions, normalize_rotation
+from classic.motions import Motions, motions_from_transforms
+from handeye.se3 import make_transform
+
+__all__ = ["andreff"]
+
+
+def andreff(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r"""Solve ``A_k X = X B_k`` by Andreff, Horaud and Espiau (1999).
+
+    Rotation and translation in one linear least-squares system (row-major
+    ``vec``):
+
+    .. math::
+        \begin{bmatrix} I_9 - R_A \otimes R_B & 0 \\
+                        I_3 \otimes t_B^T & I_3 - R_A \end{bmatrix}
+        \begin{bmatrix} \mathrm{vec}(R_X) \\ t_X \end{bmatrix}
+        = \begin{bmatrix} 0 \\ t_A \end{bmatrix},
+
+    then ``R_X`` is projected on SO(3); ``t_X`` is the one of the joint solve,
+    as in the paper and OpenCV's ``CALIB_HAND_EYE_ANDREFF``.
+
+    Parameters
+    ----------
+    A : array, shape (K, 4, 4)
+        Robot motions.
+    B : array, shape (K, 4, 4)
+        Camera motions.
+
+    Returns
+    -------
+    X : array, shape (4, 4)
+
+    References
+    ----------
+    N. Andreff, R. Horaud, B. Espiau, "On-line hand-eye calibration", 3DIM 1999.
+    """
+    A, B = check_motions(A, B, 2, "andreff")
+    return _andreff(motions_from_transforms(A, B))
+
+
+def _andreff(m: Motions) -> np.ndarray:
+    # Normal equations of the stacked (12K x 12) system, summed block by block over motions
+    # with matrix products over k (no per-motion 9x9 Kronecker products are formed).
+    K = len(m)
+    R_A, R_B, t_A, t_B = m.R_A, m.R_B, m.t_A, m.t_B
+    I3 = np.eye(3)
+    kron_sum = (R_A.reshape(K, 9).T @ R_B.reshape(K, 9)).reshape(3, 3, 3, 3).transpose(0, 2, 1, 3).reshape(9, 9)
+    S = R_A.sum(axis=0)
+    t_B_sum = t_B.sum(axis=0)
+    G = np.zeros((12, 12))
+    G[:9, :9] = 2.0 * K * np.eye(9) - kron_sum - kron_sum.T + np.kron(I3, t_B.T @ t_B)
+    # (I3 kron t_B)(I3 - R_A): entry [(a, b), c] = t_B[b] (delta_ac - R_A[a, c])
+    C = np.einsum("ac,b->abc", I3, t_B_sum) - np.tensordot(t_B, R_A, axes=(0, 0)).transpose(1, 0, 2)
+    G[:9, 9:] = C.reshape(9, 3)
+    G[9:, :9] = G[:9, 9:].T
+    G[9:, 9:] = 2.0 * K * I3 - S - S.T
+    rhs = np.concatenate([(t_A.T @ t_B).reshape(9), t_A.sum(axis=0) - np.tensordot(R_A, t_A, axes=([0, 1], [0, 1]))])
+    x = np.linalg.lstsq(G, rhs, rcond=None)[0]
+    return make_transform(normalize_rotation(x[:9].reshape(3, 3)), x[9:])

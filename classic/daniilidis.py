@@ -1,0 +1,115 @@
+"""Daniilidis AX=XB solver (dual quaternions)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from classic._linear import check_motions
+from classic.motions import Motions, motions_from_transforms
+from handeye.se3 import hat, make_transform, matrix_from_quat_xyzw, quat_multiply_wxyz, quat_wxyz_to_xyzw, quat_xyzw_from_matrix, quat_xyzw_to_wxyz
+
+__all__ = ["daniilidis", "dual_quaternion_wxyz_from_transform"]
+
+
+def dual_quaternion_wxyz_from_transform(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit dual quaternion ``q + eps q'`` of a rigid transform, (w, x, y, z) order.
+
+    ``q`` is the rotation (``w >= 0``) and ``q' = (0, t) * q / 2``.
+
+    Parameters
+    ----------
+    T : array, shape (..., 4, 4)
+
+    Returns
+    -------
+    q, q_dual : array, shape (..., 4)
+    """
+    T = np.asarray(T, dtype=float)
+    return _dual(quat_xyzw_from_matrix(T[..., :3, :3]), T[..., :3, 3])
+
+
+def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r"""Solve ``A_k X = X B_k`` by Daniilidis (1999), rotation and translation at once.
+
+    With dual quaternions ``a + eps a'``, ``b + eps b'`` of the motions and
+    ``x + eps x'`` of X, each motion gives six linear equations
+
+    .. math::
+        \begin{bmatrix} a - b & [a + b]_\times & 0 & 0 \\
+                        a' - b' & [a' + b']_\times & a - b & [a + b]_\times \end{bmatrix}
+        \begin{bmatrix} x \\ x' \end{bmatrix} = 0
+
+    (vector parts only). The solution is the combination of the two smallest
+    right singular vectors that satisfies ``|x| = 1`` and ``x . x' = 0``.
+
+    Differs from OpenCV's ``CALIB_HAND_EYE_DANIILIDIS`` in one respect: the
+    sign of each ``b`` is aligned with ``a`` (equal scalar parts), as the
+    derivation requires; OpenCV takes the signs its matrix-to-quaternion
+    conversion happens to return, which for motions beyond 120 degrees can
+    break the solve. On motions below 120 degrees both agree.
+
+    Parameters
+    ----------
+    A : array, shape (K, 4, 4)
+        Robot motions.
+    B : array, shape (K, 4, 4)
+        Camera motions.
+
+    Returns
+    -------
+    X : array, shape (4, 4)
+
+    References
+    ----------
+    K. Daniilidis, "Hand-eye calibration using dual quaternions", Int. J.
+    Robotics Research 18(3), 1999.
+    """
+    A, B = check_motions(A, B, 2, "daniilidis")
+    return _daniilidis(motions_from_transforms(A, B))
+
+
+def _dual(q_xyzw: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Real and dual parts (w, x, y, z) of ``q + eps (0, t) q / 2``, written out for speed."""
+    x, y, z, w = np.moveaxis(q_xyzw, -1, 0)
+    tx, ty, tz = np.moveaxis(t, -1, 0)
+    # (0, t) * (w, v) = (-t.v, w t + t x v)
+    dual = 0.5 * np.stack(
+        [-(tx * x + ty * y + tz * z), w * tx + ty * z - tz * y, w * ty + tz * x - tx * z, w * tz + tx * y - ty * x],
+        axis=-1,
+    )
+    return quat_xyzw_to_wxyz(q_xyzw), dual
+
+
+def _daniilidis(m: Motions) -> np.ndarray:
+    a, a_d = _dual(m.q_A, m.t_A)
+    b, b_d = _dual(m.q_B, m.t_B)
+    flip = np.where(a[:, 0] * b[:, 0] < 0, -1.0, 1.0)[:, None]
+    b, b_d = b * flip, b_d * flip
+    K = len(m)
+    S = np.zeros((K, 6, 8))
+    S[:, :3, 0] = a[:, 1:] - b[:, 1:]
+    S[:, :3, 1:4] = hat(a[:, 1:] + b[:, 1:])
+    S[:, 3:, 0] = a_d[:, 1:] - b_d[:, 1:]
+    S[:, 3:, 1:4] = hat(a_d[:, 1:] + b_d[:, 1:])
+    S[:, 3:, 4:] = S[:, :3, :4]
+    S2 = S.reshape(-1, 8)
+    _, V = np.linalg.eigh(S2.T @ S2)
+    v1, v2 = V[:, 0], V[:, 1]
+    u1, w1, u2, w2 = v1[:4], v1[4:], v2[:4], v2[4:]
+    # lambda = (l1, l2): |l1 u1 + l2 u2| = 1 and (l1 u1 + l2 u2) . (l1 w1 + l2 w2) = 0
+    Q_norm = np.array([[u1 @ u1, u1 @ u2], [u1 @ u2, u2 @ u2]])
+    c = 0.5 * (u1 @ w2 + u2 @ w1)
+    Q_orth = np.array([[u1 @ w1, c], [c, u2 @ w2]])
+    e, E = np.linalg.eigh(Q_orth)
+    if e[0] < 0 < e[1]:
+        r = np.sqrt(-e[0] / e[1])
+        candidates = [E @ np.array([1.0, r]), E @ np.array([1.0, -r])]
+    else:  # noise removed the real roots: take the direction closest to orthogonality
+        candidates = [E[:, int(np.argmin(np.abs(e)))]]
+    lam = max(candidates, key=lambda v: (v @ Q_norm @ v) / (v @ v))
+    lam = lam / np.sqrt(lam @ Q_norm @ lam)
+    x = lam[0] * u1 + lam[1] * u2
+    x_d = lam[0] * w1 + lam[1] * w2
+    x_conj = x * np.array([1.0, -1.0, -1.0, -1.0])
+    t = 2.0 * quat_multiply_wxyz(x_d, x_conj)[1:]
+    return make_transform(matrix_from_quat_xyzw(quat_wxyz_to_xyzw(x)), t)

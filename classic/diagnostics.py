@@ -1,0 +1,243 @@
+"""Diagnostics of a motion set: can it determine X, and are the poses consistent?
+
+Two checks every hand-eye tool should make and OpenCV does not:
+
+* **rotation-axis diversity.** X is determined only if the robot rotates about
+  at least two non-parallel axes. The axes of the motions, weighted by
+  ``2 sin(theta / 2)``, are stacked in a ``(K, 3)`` matrix; its singular
+  values ``s1 >= s2 >= s3`` (normalised by ``sqrt(K)``) measure the spread.
+  ``s2 / s1`` near zero means one axis only.
+* **angle consistency.** ``A_ij X = X B_ij`` makes the rotation angles of
+  ``A_ij`` and ``B_ij`` equal whatever X is. Mis-paired poses, an inverted pose
+  and the wrong setup all break this, before any solve.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from classic.motions import Motions, motions_from_poses
+from classic.pairs import pair_indices
+from handeye.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
+from handeye.se3 import invert_transform
+from handeye.setups import robot_side_poses
+
+__all__ = [
+    "MotionDiagnostics",
+    "THRESHOLDS",
+    "diagnose_motion",
+    "angle_mismatch_deg",
+    "check_consistency",
+]
+
+#: Limits of the motion checks (angles in degrees). Below ``*_error`` refuses, below ``*_warn`` warns.
+THRESHOLDS = {
+    "max_rotation_error_deg": 0.5,
+    "max_rotation_warn_deg": 10.0,
+    "axis_diversity_error": 0.02,
+    "axis_diversity_warn": 0.15,
+    "poses_warn": 6,
+    # consistency: low quantile of |angle(A_ij) - angle(B_ij)| (robust to outliers)
+    "consistency_quantile": 0.2,
+    "consistency_error_deg": 1.0,
+    "consistency_error_ratio": 0.15,
+}
+
+
+@dataclass
+class MotionDiagnostics:
+    """What the motion set can determine.
+
+    Attributes
+    ----------
+    n_poses, n_motions : int
+    max_rotation_deg : float
+        Largest rotation between two robot poses.
+    axis_singular_values : list of float, length 3
+        Singular values of the weighted rotation axes, normalised.
+    axis_diversity : float
+        ``s2 / s1``: 0 when all rotations share one axis, up to 1.
+    dominant_axis : list of float, length 3
+        The principal rotation axis (in the frame of ``A``'s motions).
+    translation_condition : float
+        Condition number of ``sum (R_A - I)^T (R_A - I)``, the translation system.
+    angle_mismatch_deg : float
+        Robust (low-quantile) ``|angle(A_ij) - angle(B_ij)|``; near the noise level when consistent.
+    warnings : list of str
+    """
+
+    n_poses: int
+    n_motions: int
+    max_rotation_deg: float
+    axis_singular_values: list
+    axis_diversity: float
+    dominant_axis: list
+    translation_condition: float
+    angle_mismatch_deg: float
+    warnings: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """Plain JSON-serialisable dictionary."""
+        return asdict(self)
+
+
+def _motions(T_base_ee, T_cam_target, setup, pairs) -> Motions:
+    return motions_from_poses(robot_side_poses(T_base_ee, setup), T_cam_target, *pair_indices(len(T_base_ee), pairs))
+
+
+def _angles(q: np.ndarray) -> np.ndarray:
+    return 2.0 * np.arctan2(np.linalg.norm(q[:, :3], axis=1), np.abs(q[:, 3]))
+
+
+def angle_mismatch_deg(m: Motions, quantile: float = THRESHOLDS["consistency_quantile"]) -> tuple[float, float]:
+    """Robust mismatch of the rotation angles of paired motions.
+
+    Parameters
+    ----------
+    m : Motions
+        Motions with ``A_k X = X B_k``.
+    quantile : float
+        Quantile of the per-motion mismatch reported (low, to tolerate outliers).
+
+    Returns
+    -------
+    mismatch_deg : float
+        The quantile of ``|angle(A_k) - angle(B_k)|``.
+    typical_angle_deg : float
+        The median motion angle, for scale.
+    """
+    a = np.degrees(_angles(m.q_A))
+    b = np.degrees(_angles(m.q_B))
+    return float(np.quantile(np.abs(a - b), quantile)), float(np.median(a))
+
+
+def _is_inconsistent(mismatch: float, typical: float) -> bool:
+    return mismatch > THRESHOLDS["consistency_error_deg"] and mismatch > THRESHOLDS["consistency_error_ratio"] * typical
+
+
+def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all") -> float:
+    """Refuse pose sets whose motions no hand-eye transform can relate.
+
+    Tries the likely mistakes (camera poses inverted, robot poses inverted,
+    the other setup) and names the one that makes the data consistent.
+
+    Parameters
+    ----------
+    T_base_ee, T_cam_target : array, shape (N, 4, 4)
+    setup : {"eye_to_hand", "eye_in_hand"}
+    pairs : {"all", "consecutive"}
+
+    Returns
+    -------
+    mismatch_deg : float
+        The robust angle mismatch of the data as given.
+
+    Raises
+    ------
+    InconsistentPosesError
+    """
+    mismatch, typical = angle_mismatch_deg(_motions(T_base_ee, T_cam_target, setup, pairs))
+    if not _is_inconsistent(mismatch, typical):
+        return mismatch
+    other = "eye_in_hand" if setup == "eye_to_hand" else "eye_to_hand"
+    alternatives = {
+        f"with setup='{other}'": (T_base_ee, T_cam_target, other),
+        "with the camera poses inverted (were T_target_cam passed for T_cam_target?)": (
+            T_base_ee, invert_transform(T_cam_target), setup),
+        f"with the camera poses inverted and setup='{other}'": (
+            T_base_ee, invert_transform(T_cam_target), other),
+    }
+    hint = ""
+    for text, (ee, ct, s) in alternatives.items():
+        m, t = angle_mismatch_deg(_motions(ee, ct, s, pairs))
+        if not _is_inconsistent(m, t):
+            hint = f" The data are consistent {text}: mismatch {m:.2f} deg."
+            break
+    raise InconsistentPosesError(
+        f"robot and camera motions disagree: the rotation angles of paired motions differ by "
+        f"{mismatch:.1f} deg or more for {100 * (1 - THRESHOLDS['consistency_quantile']):.0f}% of pairs "
+        f"(typical motion {typical:.1f} deg); no hand-eye transform can explain that.{hint or ''}"
+        + ("" if hint else " Check that pose i of the robot and of the camera were recorded together, "
+           "and that each is the pose of the named frame in the other (T_base_ee, T_cam_target).")
+    )
+
+
+def diagnose_motion(
+    T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all", raise_on_degenerate: bool = True
+) -> MotionDiagnostics:
+    """Measure how well a pose set determines X; warn on weak data, refuse degenerate data.
+
+    Parameters
+    ----------
+    T_base_ee, T_cam_target : array, shape (N, 4, 4)
+    setup : {"eye_to_hand", "eye_in_hand"}
+    pairs : {"all", "consecutive"}
+    raise_on_degenerate : bool
+        Raise :class:`DegenerateMotionError` when X is not determined.
+
+    Returns
+    -------
+    MotionDiagnostics
+
+    Raises
+    ------
+    DegenerateMotionError
+        When the robot barely rotates or rotates about one axis only.
+
+    Warns
+    -----
+    WeakMotionWarning
+        When the set is poorly conditioned (few poses, small or near-parallel rotations).
+    """
+    m = _motions(T_base_ee, T_cam_target, setup, pairs)
+    angles = _angles(m.q_A)
+    P = 2.0 * m.q_A[:, :3]
+    eigval, eigvec = np.linalg.eigh(P.T @ P)
+    s = np.sqrt(np.maximum(eigval[::-1], 0.0) / len(P))
+    Vt = eigvec[:, ::-1].T
+    diversity = float(s[1] / s[0]) if s[0] > 0 else 0.0
+    S = m.R_A.sum(axis=0)
+    cond = float(np.linalg.cond(2.0 * len(m) * np.eye(3) - S - S.T))
+    mismatch, _ = angle_mismatch_deg(m)
+    max_rot = float(np.degrees(angles.max()))
+    axis = Vt[0] * (1 if Vt[0][np.argmax(np.abs(Vt[0]))] > 0 else -1)
+    frame = "base" if setup == "eye_to_hand" else "end-effector"
+    diag = MotionDiagnostics(
+        n_poses=len(T_base_ee),
+        n_motions=len(m),
+        max_rotation_deg=max_rot,
+        axis_singular_values=[float(v) for v in s],
+        axis_diversity=diversity,
+        dominant_axis=[float(v) for v in axis],
+        translation_condition=cond,
+        angle_mismatch_deg=mismatch,
+    )
+    if raise_on_degenerate:
+        if max_rot < THRESHOLDS["max_rotation_error_deg"]:
+            raise DegenerateMotionError(
+                f"the robot barely rotates between poses (largest rotation {max_rot:.3f} deg): translations "
+                "alone cannot determine the camera's rotation. Rotate the end-effector between poses, "
+                "by 20 degrees or more about at least two different axes."
+            )
+        if diversity < THRESHOLDS["axis_diversity_error"]:
+            raise DegenerateMotionError(
+                f"all robot rotations are about one axis (~[{axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f}] in the "
+                f"{frame} frame; axis diversity {diversity:.4f}): the translation along that axis is "
+                "undetermined. Add poses that rotate the end-effector about a second axis, at least 20 "
+                "degrees away from it."
+            )
+    if len(T_base_ee) < THRESHOLDS["poses_warn"]:
+        diag.warnings.append(f"only {len(T_base_ee)} poses: 10 to 20 well spread poses are recommended")
+    if max_rot < THRESHOLDS["max_rotation_warn_deg"]:
+        diag.warnings.append(f"small rotations (largest {max_rot:.1f} deg): the estimate will be noisy")
+    if diversity < THRESHOLDS["axis_diversity_warn"]:
+        diag.warnings.append(
+            f"rotation axes are nearly parallel (diversity {diversity:.3f}, dominant axis "
+            f"[{axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f}] in the {frame} frame): rotate about other axes too"
+        )
+    for text in diag.warnings:
+        warnings.warn(text, WeakMotionWarning, stacklevel=3)
+    return diag

@@ -1,0 +1,86 @@
+"""Horaud-Dornaika AX=XB solver (unit quaternions)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from classic._linear import check_motions, translation_axxb
+from classic.motions import Motions, motions_from_transforms
+from handeye.se3 import make_transform, matrix_from_quat_xyzw, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
+
+__all__ = ["horaud", "quat_left_matrix_wxyz", "quat_right_matrix_wxyz"]
+
+
+def quat_left_matrix_wxyz(p: np.ndarray) -> np.ndarray:
+    """Matrix ``L(p)`` with ``L(p) q = p * q`` (Hamilton, (w, x, y, z) order).
+
+    Parameters
+    ----------
+    p : array, shape (..., 4)
+
+    Returns
+    -------
+    L : array, shape (..., 4, 4)
+    """
+    w, x, y, z = np.moveaxis(p, -1, 0)
+    return np.stack(
+        [np.stack([w, -x, -y, -z], -1), np.stack([x, w, -z, y], -1),
+         np.stack([y, z, w, -x], -1), np.stack([z, -y, x, w], -1)], -2)
+
+
+def quat_right_matrix_wxyz(p: np.ndarray) -> np.ndarray:
+    """Matrix ``W(p)`` with ``W(p) q = q * p`` (Hamilton, (w, x, y, z) order).
+
+    Parameters
+    ----------
+    p : array, shape (..., 4)
+
+    Returns
+    -------
+    W : array, shape (..., 4, 4)
+    """
+    w, x, y, z = np.moveaxis(p, -1, 0)
+    return np.stack(
+        [np.stack([w, -x, -y, -z], -1), np.stack([x, w, z, -y], -1),
+         np.stack([y, -z, w, x], -1), np.stack([z, y, -x, w], -1)], -2)
+
+
+def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r"""Solve ``A_k X = X B_k`` by Horaud and Dornaika (1995).
+
+    The rotation's unit quaternion ``q`` minimises
+
+    .. math:: \sum_k |a_k q - q b_k|^2 = q^T \Big[\sum_k (L(a_k) - W(b_k))^T (L(a_k) - W(b_k))\Big] q,
+
+    the eigenvector of the smallest eigenvalue; ``a_k``, ``b_k`` are the
+    motions' quaternions, both with non-negative scalar part. Then
+    ``(R_A - I) t_X = R_X t_B - t_A``. Same algebra as OpenCV's
+    ``CALIB_HAND_EYE_HORAUD``.
+
+    Parameters
+    ----------
+    A : array, shape (K, 4, 4)
+        Robot motions.
+    B : array, shape (K, 4, 4)
+        Camera motions.
+
+    Returns
+    -------
+    X : array, shape (4, 4)
+
+    References
+    ----------
+    R. Horaud, F. Dornaika, "Hand-eye calibration", Int. J. Robotics Research
+    14(3), 1995.
+    """
+    A, B = check_motions(A, B, 2, "horaud")
+    return _horaud(motions_from_transforms(A, B))
+
+
+def _horaud(m: Motions) -> np.ndarray:
+    a = quat_xyzw_to_wxyz(m.q_A)
+    b = quat_xyzw_to_wxyz(m.q_B)
+    D = (quat_left_matrix_wxyz(a) - quat_right_matrix_wxyz(b)).reshape(-1, 4)
+    _, vecs = np.linalg.eigh(D.T @ D)
+    R_X = matrix_from_quat_xyzw(quat_wxyz_to_xyzw(vecs[:, 0]))
+    return make_transform(R_X, translation_axxb(m, R_X))

@@ -1,0 +1,51 @@
+"""Park-Martin AX=XB solver."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from classic._linear import check_motions, translation_axxb
+from classic.motions import Motions, motions_from_transforms
+from handeye.se3 import make_transform, project_to_so3, rotvec_from_quat_xyzw
+
+__all__ = ["park"]
+
+
+def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r"""Solve ``A_k X = X B_k`` by Park and Martin (1994).
+
+    With ``alpha_k = log R_A``, ``beta_k = log R_B`` (rotation vectors),
+    ``alpha_k = R_X beta_k``, and
+
+    .. math:: M = \sum_k \beta_k \alpha_k^T, \qquad R_X = (M^T M)^{-1/2} M^T,
+
+    the orthogonal polar factor of ``M^T`` (computed by SVD); then
+    ``(R_A - I) t_X = R_X t_B - t_A``. Same algebra as OpenCV's
+    ``CALIB_HAND_EYE_PARK``.
+
+    Parameters
+    ----------
+    A : array, shape (K, 4, 4)
+        Robot motions.
+    B : array, shape (K, 4, 4)
+        Camera motions.
+
+    Returns
+    -------
+    X : array, shape (4, 4)
+
+    References
+    ----------
+    F. C. Park, B. J. Martin, "Robot sensor calibration: solving AX = XB on the
+    Euclidean group", IEEE Trans. Robotics and Automation 10(5), 1994.
+    """
+    A, B = check_motions(A, B, 2, "park")
+    return _park(motions_from_transforms(A, B))
+
+
+def _park(m: Motions) -> np.ndarray:
+    alpha = rotvec_from_quat_xyzw(m.q_A)
+    beta = rotvec_from_quat_xyzw(m.q_B)
+    M = beta.T @ alpha
+    R_X = project_to_so3(M.T)
+    return make_transform(R_X, translation_axxb(m, R_X))

@@ -1,0 +1,57 @@
+"""Tsai-Lenz AX=XB solver."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from classic._linear import check_motions, translation_axxb
+from classic.motions import Motions, motions_from_transforms
+from handeye.se3 import make_transform, matrix_from_quat_xyzw
+
+__all__ = ["tsai"]
+
+
+def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r"""Solve ``A_k X = X B_k`` by Tsai and Lenz (1989).
+
+    With the modified Rodrigues vectors ``P = 2 sin(theta / 2) n`` of the
+    motions, the rotation satisfies
+
+    .. math:: [P_A + P_B]_\times P'_X = P_B - P_A, \qquad
+              P_X = 2 P'_X / \sqrt{1 + |P'_X|^2},
+
+    solved in least squares over all motions; then
+    ``(R_A - I) t_X = R_X t_B - t_A``. Same algebra as OpenCV's
+    ``CALIB_HAND_EYE_TSAI``.
+
+    Parameters
+    ----------
+    A : array, shape (K, 4, 4)
+        Robot motions, e.g. from :func:`classic.motion_pairs`.
+    B : array, shape (K, 4, 4)
+        Camera motions.
+
+    Returns
+    -------
+    X : array, shape (4, 4)
+
+    References
+    ----------
+    R. Y. Tsai, R. K. Lenz, "A new technique for fully autonomous and efficient
+    3D robotics hand/eye calibration", IEEE Trans. Robotics and Automation
+    5(3), 1989.
+    """
+    A, B = check_motions(A, B, 2, "tsai")
+    return _tsai(motions_from_transforms(A, B))
+
+
+def _tsai(m: Motions) -> np.ndarray:
+    s = 2.0 * (m.q_A[:, :3] + m.q_B[:, :3])
+    d = 2.0 * (m.q_B[:, :3] - m.q_A[:, :3])
+    # normal equations of [s]x x = d: sum [s]x^T [s]x = sum(|s|^2) I - s^T s, sum [s]x^T d = -sum s x d
+    G = np.sum(s * s) * np.eye(3) - s.T @ s
+    x = np.linalg.lstsq(G, -np.cross(s, d).sum(axis=0), rcond=None)[0]
+    P_X = 2.0 * x / np.sqrt(1.0 + x @ x)
+    q_v = 0.5 * P_X
+    R_X = matrix_from_quat_xyzw(np.append(q_v, np.sqrt(max(0.0, 1.0 - q_v @ q_v))))
+    return make_transform(R_X, translation_axxb(m, R_X))

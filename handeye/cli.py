@@ -1,0 +1,42 @@
+"""The ``handeye`` command line: one module per command in :mod:`handeye.commands`.
+
+Commands import their packages lazily, inside ``run``, so that ``handeye
+calibrate`` works with only the core dependencies installed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from handeye.errors import HandEyeInputError, MissingDependencyError
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every sub-command registered."""
+    from handeye.commands import calibrate
+
+    parser = argparse.ArgumentParser(prog="handeye", description="Robot hand-eye calibration toolkit.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for module in (calibrate,):
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``handeye`` console script.
+
+    Bad input exits with status 2 and a one-line message, no traceback.
+    """
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except (HandEyeInputError, MissingDependencyError) as exc:
+        print(f"handeye {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

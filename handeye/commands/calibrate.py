@@ -1,0 +1,106 @@
+"""``handeye calibrate``: hand-eye calibration from a pose file.
+
+Example
+-------
+::
+
+    handeye calibrate handeye/data/example_eye_to_hand.csv --setup eye-to-hand \\
+        --truth handeye/data/example_eye_to_hand_truth.json -o result.json
+
+reads paired ``T_base_ee`` / ``T_cam_target`` poses (CSV or JSON, format in
+:mod:`handeye.posefile`), solves, refines, prints a summary and writes the full
+result (poses by frame name, per-pose residuals, covariance, diagnostics) as
+JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register the command."""
+    from classic.calibrate import DEFAULT_METHOD, METHODS
+
+    p = sub.add_parser("calibrate", help="hand-eye calibration from a pose file (CSV or JSON)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("poses", type=Path, help="pose file: CSV or JSON of T_base_ee and T_cam_target")
+    p.add_argument("--setup", required=True, choices=["eye-to-hand", "eye-in-hand", "eye_to_hand", "eye_in_hand"],
+                   help="eye-to-hand: static camera, target on the flange; eye-in-hand: camera on the flange")
+    p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"closed form (default {DEFAULT_METHOD})")
+    p.add_argument("--pairs", default="all", choices=["all", "consecutive"], help="motion pairs for AX=XB methods")
+    p.add_argument("--no-refine", action="store_true", help="skip the Levenberg-Marquardt refinement")
+    p.add_argument("--robust", action="store_true", help="flag gross outlier poses and refine with a robust loss")
+    p.add_argument("--loss", choices=["linear", "huber", "cauchy"], help="refinement loss (default linear, cauchy if --robust)")
+    p.add_argument("--units", choices=["m", "mm"], help="translation units of the file (default m, or the JSON's 'units')")
+    p.add_argument("--quat-order", choices=["xyzw", "wxyz"],
+                   help="order of positional quaternions (JSON lists, CSV .q0-.q3 columns); default xyzw")
+    p.add_argument("--truth", type=Path, help="JSON with the true X (and Y) by frame name: prints the error")
+    p.add_argument("-o", "--output", type=Path, help="write the result as JSON here ('-' for stdout)")
+    p.set_defaults(run=run)
+    return p
+
+
+def _fmt_pose(name: str, T: np.ndarray) -> str:
+    from handeye.se3 import pos_quat_xyzw_from_transform
+
+    t, q = pos_quat_xyzw_from_transform(T)
+    return (f"  {name}: translation [m] = [{t[0]:+.5f}, {t[1]:+.5f}, {t[2]:+.5f}]"
+            f"  quaternion xyzw = [{q[0]:+.6f}, {q[1]:+.6f}, {q[2]:+.6f}, {q[3]:+.6f}]")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the command; returns the exit status."""
+    import classic
+    from handeye.metrics import pose_error
+    from handeye.posefile import read_pose_file
+    from handeye.setups import UNKNOWN_NAMES, normalize_setup
+
+    setup = normalize_setup(args.setup)
+    poses = read_pose_file(args.poses, quat_order=args.quat_order, units=args.units, setup=setup)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup=setup, method=args.method,
+                                pairs=args.pairs, refine=not args.no_refine, robust=args.robust, loss=args.loss)
+    out = sys.stderr if args.output is not None and str(args.output) == "-" else sys.stdout
+    x_name, y_name = UNKNOWN_NAMES[setup]
+    sig = res.sigma
+    lines = [
+        f"handeye calibrate {args.poses} --setup {setup.replace('_', '-')} --method {args.method}",
+        f"{len(poses.T_base_ee)} poses, method {res.method}",
+        _fmt_pose(x_name, res.X),
+        f"    1-sigma: {sig['X_rotation_deg']:.4f} deg, {sig['X_translation_mm']:.3f} mm",
+        _fmt_pose(y_name, res.Y),
+        f"    1-sigma: {sig['Y_rotation_deg']:.4f} deg, {sig['Y_translation_mm']:.3f} mm",
+        f"  residual RMS per pose: {res.residuals.rms_rotation_deg:.4f} deg, {res.residuals.rms_translation_mm:.3f} mm",
+    ]
+    if res.diagnostics.get("outliers"):
+        lines.append(f"  outlier poses (excluded): {res.diagnostics['outliers']}")
+    motion = res.diagnostics["motion"]
+    lines.append(f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
+                 f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg")
+    for w in caught:
+        lines.append(f"  warning: {w.message}")
+    if args.truth is not None:
+        truth = json.loads(args.truth.read_text())
+        for name, T in ((x_name, res.X), (y_name, res.Y)):
+            if name in truth:
+                rot, trans = pose_error(T, np.asarray(truth[name], dtype=float))
+                lines.append(f"  error vs truth {name}: {float(rot):.4f} deg, {float(trans):.3f} mm")
+    print("\n".join(lines), file=out)
+    if args.output is not None:
+        text = json.dumps(res.to_dict(), indent=2)
+        if str(args.output) == "-":
+            print(text)
+        else:
+            args.output.write_text(text + "\n")
+            print(f"  written: {args.output}", file=out)
+    return 0

@@ -1,0 +1,70 @@
+"""Exceptions and warnings raised on bad input.
+
+Every error a user can cause by passing bad data is a subclass of
+:class:`HandEyeInputError`, itself a :class:`ValueError`, so
+``except ValueError`` catches them all and ``except DegenerateMotionError``
+catches exactly one kind. Messages say what is wrong, where (pose index, file,
+row) and what to do about it.
+"""
+
+from __future__ import annotations
+
+
+class HandEyeInputError(ValueError):
+    """Base class of all errors caused by bad input data."""
+
+
+class ShapeError(HandEyeInputError):
+    """An array has the wrong shape (for example not ``(N, 4, 4)``)."""
+
+
+class NonFiniteError(HandEyeInputError):
+    """An array holds NaN or infinity."""
+
+
+class NotARotationError(HandEyeInputError):
+    """A rotation block is not orthonormal with determinant +1."""
+
+
+class LengthMismatchError(HandEyeInputError):
+    """Two sequences that must be paired have different lengths."""
+
+
+class TooFewPosesError(HandEyeInputError):
+    """Fewer poses than the problem needs (at least 3)."""
+
+
+class DuplicatePoseError(HandEyeInputError):
+    """The same pose pair appears twice: it adds no information."""
+
+
+class DegenerateMotionError(HandEyeInputError):
+    """The motion set cannot determine the unknowns (e.g. all rotations about one axis)."""
+
+
+class UnitsError(HandEyeInputError):
+    """Translations look like they are not in metres."""
+
+
+class QuaternionOrderError(HandEyeInputError):
+    """Quaternions seem to be given in the other component order (xyzw vs wxyz)."""
+
+
+class InconsistentPosesError(HandEyeInputError):
+    """Robot and camera motions disagree in a way no hand-eye transform can explain.
+
+    Typical causes: poses mis-paired, a pose inverted (``T_target_cam`` passed
+    for ``T_cam_target``), or the wrong setup (eye-in-hand vs eye-to-hand).
+    """
+
+
+class PoseFileError(HandEyeInputError):
+    """A pose file cannot be read; the message names the file and row."""
+
+
+class WeakMotionWarning(UserWarning):
+    """The motion set is poorly conditioned: the estimate will be noisy."""
+
+
+class MissingDependencyError(ImportError):
+    """An optional dependency is missing; the message names the extra to install."""

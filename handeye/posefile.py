@@ -1,0 +1,285 @@
+"""Read and write pose files: paired robot and target poses, CSV or JSON.
+
+CSV: one row per pose, a header naming the columns, ``#`` lines ignored::
+
+    # T_base_ee: flange in robot base; T_cam_target: board in camera; metres
+    T_base_ee.x,T_base_ee.y,T_base_ee.z,T_base_ee.qx,T_base_ee.qy,T_base_ee.qz,T_base_ee.qw,T_cam_target.x,...,T_cam_target.qw
+
+Each pose is ``<name>.x, .y, .z`` plus one rotation: ``.qx, .qy, .qz, .qw``
+(a quaternion; the column names state the order, so columns may come in any
+order), ``.q0, .q1, .q2, .q3`` (a quaternion in the order given by
+``quat_order``), or ``.rx, .ry, .rz`` (a rotation vector in radians, as UR
+controllers report). ``<name>`` is ``T_base_ee`` and ``T_cam_target``.
+
+JSON::
+
+    {"units": "m", "quaternion_order": "xyzw",
+     "poses": [{"T_base_ee": {"translation": [x, y, z], "quaternion": [...]},
+                "T_cam_target": {"matrix": [[...], [...], [...], [...]]}}, ...]}
+
+each pose given as ``matrix`` (4x4), ``translation`` + ``quaternion`` (order
+``quaternion_order``) or ``translation`` + ``rotvec`` (radians).
+
+Units: metres by default; ``units="mm"`` converts. A quaternion that is not
+unit, or an order mistake that makes robot and camera motions inconsistent
+while the other order makes them consistent, is reported with the row.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from handeye.errors import InconsistentPosesError, PoseFileError, QuaternionOrderError
+from handeye.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform, quat_wxyz_to_xyzw, so3_exp
+
+__all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "read_pose_file", "write_pose_csv"]
+
+POSE_NAMES = ("T_base_ee", "T_cam_target")
+QUAT_ORDERS = ("xyzw", "wxyz")
+UNIT_SCALE = {"m": 1.0, "mm": 1e-3}
+_QUAT_NORM_TOL = 1e-3
+
+
+@dataclass
+class PoseSet:
+    """Paired poses read from a file.
+
+    Attributes
+    ----------
+    T_base_ee : array, shape (N, 4, 4)
+    T_cam_target : array, shape (N, 4, 4)
+    source : str
+    rows : list of int
+        The file's row (CSV line number, or JSON list index) of each pose, for messages.
+    """
+
+    T_base_ee: np.ndarray
+    T_cam_target: np.ndarray
+    source: str
+    rows: list = field(default_factory=list)
+
+
+def _quat(values: np.ndarray, order: str) -> np.ndarray:
+    return values if order == "xyzw" else quat_wxyz_to_xyzw(values)
+
+
+def _check_unit(q: np.ndarray, where: str) -> None:
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > _QUAT_NORM_TOL:
+        raise PoseFileError(f"{where}: quaternion {np.round(q, 4).tolist()} has norm {norm:.4f}, not 1")
+
+
+def _read_csv(path: Path) -> tuple[dict, list[int], dict]:
+    """Raw columns per pose name ``(N, 6 or 7)``, the line numbers, and the rotation kind per name."""
+    with path.open(newline="") as f:
+        lines = [(i + 1, line) for i, line in enumerate(f) if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise PoseFileError(f"{path}: no header and no rows")
+    header_line, header = lines[0][0], [h.strip() for h in next(csv.reader([lines[0][1]]))]
+    col = {h: k for k, h in enumerate(header)}
+    raw, kinds = {}, {}
+    rows = [ln for ln, _ in lines[1:]]
+    table = list(csv.reader([text for _, text in lines[1:]]))
+    for name in POSE_NAMES:
+        xyz = [f"{name}.{c}" for c in "xyz"]
+        options = {
+            "quat_named": [f"{name}.q{c}" for c in "xyzw"],
+            "quat_positional": [f"{name}.q{k}" for k in range(4)],
+            "rotvec": [f"{name}.r{c}" for c in "xyz"],
+        }
+        missing = [c for c in xyz if c not in col]
+        kind = next((k for k, cols in options.items() if all(c in col for c in cols)), None)
+        if missing or kind is None:
+            raise PoseFileError(
+                f"{path}, header (line {header_line}): columns for {name} not found; need {', '.join(xyz)} and "
+                f"one of: {', '.join(options['quat_named'])} | {', '.join(options['quat_positional'])} | "
+                f"{', '.join(options['rotvec'])}. Header is: {', '.join(header)}"
+            )
+        cols = xyz + options[kind]
+        values = np.empty((len(table), len(cols)))
+        for r, (line_no, row) in enumerate(zip(rows, table)):
+            if len(row) != len(header):
+                raise PoseFileError(f"{path}, line {line_no}: {len(row)} fields, header has {len(header)}")
+            for c, cname in enumerate(cols):
+                try:
+                    values[r, c] = float(row[col[cname]])
+                except ValueError:
+                    raise PoseFileError(
+                        f"{path}, line {line_no}, column {cname}: {row[col[cname]]!r} is not a number"
+                    ) from None
+        raw[name] = values
+        kinds[name] = kind
+    return raw, rows, kinds
+
+
+def _to_transforms(values: np.ndarray, kind: str, quat_order: str, scale: float, where, rows) -> np.ndarray:
+    t = values[:, :3] * scale
+    rot = values[:, 3:]
+    if kind == "rotvec":
+        return make_transform(so3_exp(rot), t)
+    q = rot if kind == "quat_named" else _quat(rot, quat_order)
+    for r, qi in enumerate(q):
+        _check_unit(qi, where(rows[r]))
+    return make_transform(matrix_from_quat_xyzw(q), t)
+
+
+def _pose_from_json(entry, quat_order: str, scale: float, where: str) -> np.ndarray:
+    if not isinstance(entry, dict):
+        raise PoseFileError(f"{where}: expected an object with 'matrix' or 'translation' + 'quaternion'/'rotvec'")
+    try:
+        if "matrix" in entry:
+            T = np.asarray(entry["matrix"], dtype=float)
+            if T.shape != (4, 4):
+                raise PoseFileError(f"{where}: 'matrix' must be 4x4, got shape {T.shape}")
+            T = T.copy()
+            T[:3, 3] *= scale
+            return T
+        t = np.asarray(entry["translation"], dtype=float) * scale
+        if "quaternion" in entry:
+            q = _quat(np.asarray(entry["quaternion"], dtype=float), quat_order)
+            _check_unit(q, where)
+            return make_transform(matrix_from_quat_xyzw(q), t)
+        if "rotvec" in entry:
+            return make_transform(so3_exp(np.asarray(entry["rotvec"], dtype=float)), t)
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, PoseFileError):
+            raise
+        raise PoseFileError(f"{where}: {exc}") from None
+    raise PoseFileError(f"{where}: give 'matrix', or 'translation' with 'quaternion' or 'rotvec'")
+
+
+def _parse(path: Path, quat_orders: dict, units: str | None):
+    """Transforms of both pose names with the given quaternion order per name."""
+    if path.suffix.lower() == ".json":
+        try:
+            doc = json.loads(path.read_text())
+        except json.JSONDecodeError as exc:
+            raise PoseFileError(f"{path}: not valid JSON ({exc})") from None
+        if not isinstance(doc, dict) or not isinstance(doc.get("poses"), list):
+            raise PoseFileError(f"{path}: expected an object with a 'poses' list")
+        unit = units or doc.get("units", "m")
+        if unit not in UNIT_SCALE:
+            raise PoseFileError(f"{path}: units {unit!r} not understood; use 'm' or 'mm'")
+        out = {}
+        for name in POSE_NAMES:
+            Ts = []
+            for k, pose in enumerate(doc["poses"]):
+                if not isinstance(pose, dict) or name not in pose:
+                    raise PoseFileError(f"{path}, poses[{k}]: missing {name}")
+                Ts.append(_pose_from_json(pose[name], quat_orders[name], UNIT_SCALE[unit], f"{path}, poses[{k}].{name}"))
+            out[name] = np.array(Ts).reshape(-1, 4, 4)
+        return out, list(range(len(doc["poses"]))), {n: "json" for n in POSE_NAMES}
+    raw, rows, kinds = _read_csv(path)
+    unit = units or "m"
+    if unit not in UNIT_SCALE:
+        raise PoseFileError(f"units {unit!r} not understood; use 'm' or 'mm'")
+    out = {}
+    for name in POSE_NAMES:
+        out[name] = _to_transforms(
+            raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit], lambda ln, n=name: f"{path}, line {ln}, {n}", rows
+        )
+    return out, rows, kinds
+
+
+def read_pose_file(
+    path: str | Path,
+    quat_order: str | None = None,
+    units: str | None = None,
+    setup: str | None = None,
+) -> PoseSet:
+    """Read paired ``T_base_ee`` and ``T_cam_target`` from a CSV or JSON file.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.csv`` or ``.json`` (format in this module's docstring).
+    quat_order : {"xyzw", "wxyz"}, optional
+        Order of positional quaternions (JSON ``quaternion`` lists, CSV
+        ``.q0 .. .q3`` columns). Overrides the JSON's ``quaternion_order``;
+        default ``xyzw``. Named CSV columns (``.qx`` ...) state their own order.
+    units : {"m", "mm"}, optional
+        Translation units; overrides the JSON's ``units``; default metres.
+    setup : {"eye_to_hand", "eye_in_hand"}, optional
+        When given, the motions are checked for a quaternion-order mistake:
+        if they are inconsistent as read but consistent with the other order,
+        :class:`QuaternionOrderError` says so.
+
+    Returns
+    -------
+    PoseSet
+
+    Raises
+    ------
+    PoseFileError
+        Unreadable file, missing column, bad number, non-unit quaternion; the
+        message names the file and the line or entry.
+    QuaternionOrderError
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise PoseFileError(f"{path}: no such file")
+    if quat_order is not None and quat_order not in QUAT_ORDERS:
+        raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
+    if path.suffix.lower() == ".json" and quat_order is None:
+        try:
+            quat_order = json.loads(path.read_text()).get("quaternion_order")
+        except (json.JSONDecodeError, AttributeError):
+            quat_order = None
+    order = quat_order or "xyzw"
+    if order not in QUAT_ORDERS:
+        raise PoseFileError(f"{path}: quaternion_order {order!r} not understood; use one of {QUAT_ORDERS}")
+    poses, rows, _ = _parse(path, {n: order for n in POSE_NAMES}, units)
+    result = PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows)
+    if setup is not None:
+        _check_quaternion_order(path, result, order, units, setup)
+    return result
+
+
+def _check_quaternion_order(path: Path, poses: PoseSet, order: str, units, setup: str) -> None:
+    from classic.diagnostics import check_consistency  # lazy: the front composes packages
+
+    try:
+        check_consistency(poses.T_base_ee, poses.T_cam_target, setup)
+        return
+    except InconsistentPosesError:
+        pass
+    other = "wxyz" if order == "xyzw" else "xyzw"
+    for names in (POSE_NAMES, POSE_NAMES[:1], POSE_NAMES[1:]):
+        orders = {n: (other if n in names else order) for n in POSE_NAMES}
+        try:
+            alt, _, _ = _parse(path, orders, units)
+            check_consistency(alt["T_base_ee"], alt["T_cam_target"], setup)
+        except (InconsistentPosesError, PoseFileError):
+            continue
+        raise QuaternionOrderError(
+            f"{path}: the quaternions of {' and '.join(names)} look like they are in {other} order, not "
+            f"{order}: read as {other}, robot and camera motions agree; read as {order}, they do not. "
+            f"Fix the file or pass quat_order='{other}' (CLI: --quat-order {other})."
+        )
+
+
+def write_pose_csv(path: str | Path, T_base_ee: np.ndarray, T_cam_target: np.ndarray, comment: str = "") -> None:
+    """Write paired poses as a CSV with named (x, y, z, w) quaternion columns.
+
+    Parameters
+    ----------
+    path : str or Path
+    T_base_ee, T_cam_target : array, shape (N, 4, 4)
+        Metres.
+    comment : str
+        Lines written as ``#`` comments above the header.
+    """
+    header = []
+    for name in POSE_NAMES:
+        header += [f"{name}.{c}" for c in "xyz"] + [f"{name}.q{c}" for c in "xyzw"]
+    lines = [f"# {c}" for c in comment.splitlines()] + [",".join(header)]
+    t1, q1 = pos_quat_xyzw_from_transform(T_base_ee)
+    t2, q2 = pos_quat_xyzw_from_transform(T_cam_target)
+    for row in np.concatenate([t1, q1, t2, q2], axis=1):
+        lines.append(",".join(f"{v:.12g}" for v in row))
+    Path(path).write_text("\n".join(lines) + "\n")
