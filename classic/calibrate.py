@@ -186,7 +186,7 @@ def calibrate(
     T_base_ee, T_cam_target = _validated(T_base_ee, T_cam_target)
     diagnostics: dict = {}
     if check:
-        check_consistency(T_base_ee, T_cam_target, setup, pairs)
+        diagnostics["consistency"] = check_consistency(T_base_ee, T_cam_target, setup, pairs)
     A = robot_side_poses(T_base_ee, setup)
     B = T_cam_target
     inliers = np.ones(len(A), dtype=bool)

@@ -44,6 +44,8 @@ THRESHOLDS = {
     "consistency_quantile": 0.2,
     "consistency_error_deg": 1.0,
     "consistency_error_ratio": 0.15,
+    # an alternative reading of the data (inverted poses, other setup) that fits this many times better wins
+    "fit_ratio": 10.0,
 }
 
 
@@ -118,11 +120,42 @@ def _is_inconsistent(mismatch: float, typical: float) -> bool:
     return mismatch > THRESHOLDS["consistency_error_deg"] and mismatch > THRESHOLDS["consistency_error_ratio"] * typical
 
 
-def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all") -> float:
-    """Refuse pose sets whose motions no hand-eye transform can relate.
+def fit_residual_m(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str) -> float:
+    """Median per-pose residual of a quick closed-form fit (Shah), in metres.
 
-    Tries the likely mistakes (camera poses inverted, robot poses inverted,
-    the other setup) and names the one that makes the data consistent.
+    The residual of pose i is ``sqrt(|r_trans|^2 + (L r_angle)^2)`` with ``L``
+    the median camera-to-target distance (the displacement an angle error
+    causes at the target).
+
+    Parameters
+    ----------
+    T_base_ee, T_cam_target : array, shape (N, 4, 4)
+    setup : {"eye_to_hand", "eye_in_hand"}
+
+    Returns
+    -------
+    residual_m : float
+    """
+    from classic.ransac import pose_distance_m
+    from classic.shah import _shah
+
+    A = robot_side_poses(T_base_ee, setup)
+    try:
+        Y_target, X_cam = _shah(A, T_cam_target)
+    except np.linalg.LinAlgError:
+        return np.inf
+    return float(np.median(pose_distance_m(A, T_cam_target, X_cam, Y_target)))
+
+
+def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all") -> dict:
+    """Refuse pose sets that no hand-eye transform explains, naming the likely mistake.
+
+    Two tests. Rotation angles of paired motions must agree (``A_ij X = X B_ij``
+    preserves angles whatever X is); mis-paired poses break this. Angles cannot
+    see an inverted pose, the wrong setup or a permuted quaternion order (all
+    preserve relative angles), so a quick closed-form fit is compared with the
+    fits of those alternatives: if one explains the data ten times better, the
+    data as given are refused with its name.
 
     Parameters
     ----------
@@ -132,37 +165,40 @@ def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: st
 
     Returns
     -------
-    mismatch_deg : float
-        The robust angle mismatch of the data as given.
+    dict
+        ``angle_mismatch_deg`` and ``fit_residual_mm`` of the data as given.
 
     Raises
     ------
     InconsistentPosesError
     """
     mismatch, typical = angle_mismatch_deg(_motions(T_base_ee, T_cam_target, setup, pairs))
-    if not _is_inconsistent(mismatch, typical):
-        return mismatch
+    if _is_inconsistent(mismatch, typical):
+        raise InconsistentPosesError(
+            f"robot and camera motions disagree: the rotation angles of paired motions differ by "
+            f"{mismatch:.1f} deg or more for {100 * (1 - THRESHOLDS['consistency_quantile']):.0f}% of pairs "
+            f"(typical motion {typical:.1f} deg); no hand-eye transform can explain that. Check that pose i "
+            "of the robot and of the camera were recorded together (mis-paired or shifted rows), and that "
+            "quaternions are read in the right order."
+        )
+    given = fit_residual_m(T_base_ee, T_cam_target, setup)
     other = "eye_in_hand" if setup == "eye_to_hand" else "eye_to_hand"
+    # Inverting the robot poses is the other setup; inverting the camera poses is the other setup
+    # with the roles of X and Y swapped: one alternative covers the three mistakes.
     alternatives = {
-        f"with setup='{other}'": (T_base_ee, T_cam_target, other),
-        "with the camera poses inverted (were T_target_cam passed for T_cam_target?)": (
-            T_base_ee, invert_transform(T_cam_target), setup),
-        f"with the camera poses inverted and setup='{other}'": (
+        f"with setup='{other}', or equivalently with the robot poses or the camera poses inverted "
+        "(T_ee_base passed for T_base_ee, or T_target_cam for T_cam_target?)": (T_base_ee, T_cam_target, other),
+        "with both the robot poses and the camera poses inverted": (
             T_base_ee, invert_transform(T_cam_target), other),
     }
-    hint = ""
     for text, (ee, ct, s) in alternatives.items():
-        m, t = angle_mismatch_deg(_motions(ee, ct, s, pairs))
-        if not _is_inconsistent(m, t):
-            hint = f" The data are consistent {text}: mismatch {m:.2f} deg."
-            break
-    raise InconsistentPosesError(
-        f"robot and camera motions disagree: the rotation angles of paired motions differ by "
-        f"{mismatch:.1f} deg or more for {100 * (1 - THRESHOLDS['consistency_quantile']):.0f}% of pairs "
-        f"(typical motion {typical:.1f} deg); no hand-eye transform can explain that.{hint or ''}"
-        + ("" if hint else " Check that pose i of the robot and of the camera were recorded together, "
-           "and that each is the pose of the named frame in the other (T_base_ee, T_cam_target).")
-    )
+        alt = fit_residual_m(ee, ct, s)
+        if given > 1e-6 and alt < given / THRESHOLDS["fit_ratio"]:
+            raise InconsistentPosesError(
+                f"the poses do not fit the {setup} model (median residual {1000 * given:.1f} mm) but fit "
+                f"{text}: median residual {1000 * alt:.2f} mm. Fix the input rather than calibrate on it."
+            )
+    return {"angle_mismatch_deg": mismatch, "fit_residual_mm": 1000 * given}
 
 
 def diagnose_motion(

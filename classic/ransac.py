@@ -18,7 +18,7 @@ import numpy as np
 from classic.residuals import pose_residuals
 from classic.shah import _shah
 
-__all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers"]
+__all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers", "pose_distance_m"]
 
 #: Poses with a residual above this multiple of the median residual are outliers.
 INLIER_FACTOR = 3.0
@@ -43,8 +43,25 @@ class RansacResult:
     iterations: int
 
 
-def _score(A, B, X_cam, Y_target, L):
-    r_rot, r_trans = pose_residuals(A, B, X_cam, Y_target)
+def pose_distance_m(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray, L: float | None = None) -> np.ndarray:
+    """Per-pose residual ``d_i = sqrt(|r_trans|^2 + (L r_angle)^2)`` in metres.
+
+    Parameters
+    ----------
+    A, B : array, shape (N, 4, 4)
+        Robot-side poses and ``T_cam_target``.
+    X, Y : array, shape (4, 4)
+        Camera and target poses.
+    L : float, optional
+        Lever arm turning radians into metres; default the median camera-to-target distance.
+
+    Returns
+    -------
+    d : array, shape (N,)
+    """
+    if L is None:
+        L = float(np.median(np.linalg.norm(B[:, :3, 3], axis=1)))
+    r_rot, r_trans = pose_residuals(A, B, X, Y)
     return np.sqrt(np.sum(r_trans**2, axis=1) + (L * np.linalg.norm(r_rot, axis=1)) ** 2)
 
 
@@ -85,14 +102,14 @@ def lmeds_inliers(
             X, Y = _solve(A[idx], B[idx])
         except np.linalg.LinAlgError:
             continue
-        med = float(np.median(_score(A, B, X, Y, L)))
+        med = float(np.median(pose_distance_m(A, B, X, Y, L)))
         if med < best_med:
             best, best_med = (X, Y), med
-    d = _score(A, B, *best, L)
+    d = pose_distance_m(A, B, *best, L)
     inliers = d <= INLIER_FACTOR * np.median(d)
     # refit on the inliers, then re-flag against the better fit
     X, Y = _solve(A[inliers], B[inliers])
-    d = _score(A, B, X, Y, L)
+    d = pose_distance_m(A, B, X, Y, L)
     med = float(np.median(d))
     inliers = d <= INLIER_FACTOR * med
     return RansacResult(inliers=inliers, residual_m=d, median_residual_m=med, iterations=iterations)

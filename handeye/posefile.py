@@ -21,8 +21,8 @@ each pose given as ``matrix`` (4x4), ``translation`` + ``quaternion`` (order
 ``quaternion_order``) or ``translation`` + ``rotvec`` (radians).
 
 Units: metres by default; ``units="mm"`` converts. A quaternion that is not
-unit, or an order mistake that makes robot and camera motions inconsistent
-while the other order makes them consistent, is reported with the row.
+unit is reported with its row. A quaternion-order mistake is caught by
+:func:`handeye.checked_poses.load_poses`, which needs the solvers.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.errors import InconsistentPosesError, PoseFileError, QuaternionOrderError
+from handeye.errors import PoseFileError
 from handeye.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform, quat_wxyz_to_xyzw, so3_exp
 
 __all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "read_pose_file", "write_pose_csv"]
@@ -190,7 +190,7 @@ def read_pose_file(
     path: str | Path,
     quat_order: str | None = None,
     units: str | None = None,
-    setup: str | None = None,
+    swap_order_of: tuple[str, ...] = (),
 ) -> PoseSet:
     """Read paired ``T_base_ee`` and ``T_cam_target`` from a CSV or JSON file.
 
@@ -204,10 +204,10 @@ def read_pose_file(
         default ``xyzw``. Named CSV columns (``.qx`` ...) state their own order.
     units : {"m", "mm"}, optional
         Translation units; overrides the JSON's ``units``; default metres.
-    setup : {"eye_to_hand", "eye_in_hand"}, optional
-        When given, the motions are checked for a quaternion-order mistake:
-        if they are inconsistent as read but consistent with the other order,
-        :class:`QuaternionOrderError` says so.
+    swap_order_of : tuple of str
+        Pose names (from :data:`POSE_NAMES`) whose positional quaternions are
+        read in the other order: how :func:`handeye.checked_poses.load_poses`
+        tests for an order mistake.
 
     Returns
     -------
@@ -218,7 +218,6 @@ def read_pose_file(
     PoseFileError
         Unreadable file, missing column, bad number, non-unit quaternion; the
         message names the file and the line or entry.
-    QuaternionOrderError
     """
     path = Path(path)
     if not path.is_file():
@@ -233,34 +232,9 @@ def read_pose_file(
     order = quat_order or "xyzw"
     if order not in QUAT_ORDERS:
         raise PoseFileError(f"{path}: quaternion_order {order!r} not understood; use one of {QUAT_ORDERS}")
-    poses, rows, _ = _parse(path, {n: order for n in POSE_NAMES}, units)
-    result = PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows)
-    if setup is not None:
-        _check_quaternion_order(path, result, order, units, setup)
-    return result
-
-
-def _check_quaternion_order(path: Path, poses: PoseSet, order: str, units, setup: str) -> None:
-    from classic.diagnostics import check_consistency  # lazy: the front composes packages
-
-    try:
-        check_consistency(poses.T_base_ee, poses.T_cam_target, setup)
-        return
-    except InconsistentPosesError:
-        pass
-    other = "wxyz" if order == "xyzw" else "xyzw"
-    for names in (POSE_NAMES, POSE_NAMES[:1], POSE_NAMES[1:]):
-        orders = {n: (other if n in names else order) for n in POSE_NAMES}
-        try:
-            alt, _, _ = _parse(path, orders, units)
-            check_consistency(alt["T_base_ee"], alt["T_cam_target"], setup)
-        except (InconsistentPosesError, PoseFileError):
-            continue
-        raise QuaternionOrderError(
-            f"{path}: the quaternions of {' and '.join(names)} look like they are in {other} order, not "
-            f"{order}: read as {other}, robot and camera motions agree; read as {order}, they do not. "
-            f"Fix the file or pass quat_order='{other}' (CLI: --quat-order {other})."
-        )
+    other = QUAT_ORDERS[1 - QUAT_ORDERS.index(order)]
+    poses, rows, _ = _parse(path, {n: (other if n in swap_order_of else order) for n in POSE_NAMES}, units)
+    return PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows)
 
 
 def write_pose_csv(path: str | Path, T_base_ee: np.ndarray, T_cam_target: np.ndarray, comment: str = "") -> None:

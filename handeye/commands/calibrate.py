@@ -61,11 +61,11 @@ def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     import classic
     from handeye.metrics import pose_error
-    from handeye.posefile import read_pose_file
+    from handeye.checked_poses import load_poses
     from handeye.setups import UNKNOWN_NAMES, normalize_setup
 
     setup = normalize_setup(args.setup)
-    poses = read_pose_file(args.poses, quat_order=args.quat_order, units=args.units, setup=setup)
+    poses = load_poses(args.poses, setup, quat_order=args.quat_order, units=args.units)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup=setup, method=args.method,
