@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    python benchmarks/classic_solvers.py                 # the README's figures (about 3 minutes)
+    python benchmarks/classic_solvers.py                 # the README's figures (a few minutes)
     python benchmarks/classic_solvers.py --trials 20     # a quick look
 
 Every table comes from one run on synthetic eye-to-hand data
@@ -104,6 +104,7 @@ def accuracy(trials, seed):
     table, sigmas, passes = {}, {}, []
     for cam in CAMERA_NOISES:
         for n in POSE_COUNTS:
+            print(f"accuracy: camera noise {cam}, {n} poses, {trials} trials ...", file=sys.stderr, flush=True)
             rng = np.random.default_rng(seed)
             errs = {k: [] for k in names}
             pred, actual = [], []
@@ -207,6 +208,7 @@ def outliers(trials, seed):
     }
     res = {k: {} for k in methods}
     for frac in OUTLIER_FRACTIONS:
+        print(f"outliers: {int(100 * frac)} %, {trials} trials ...", file=sys.stderr, flush=True)
         rng = np.random.default_rng(seed)
         errs = {k: [] for k in methods}
         for _ in range(trials):
@@ -235,7 +237,7 @@ def outliers(trials, seed):
 
 
 def uncertainty(sigmas, trials):
-    print(f"\n## Uncertainty: predicted 1-sigma of X (RMS over trials of sqrt(trace) of the covariance blocks) against")
+    print("\n## Uncertainty: predicted 1-sigma of X (RMS over trials of sqrt(trace) of the covariance blocks) against")
     print(f"the Monte Carlo RMS error of the default method, {trials} trials per cell\n")
     print("| camera noise | poses | predicted rot deg | actual rot deg | ratio | predicted trans mm | actual trans mm "
           "| ratio |")
@@ -261,7 +263,7 @@ def machine() -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--trials", type=int, default=100, help="Monte Carlo trials per cell (default 100)")
+    ap.add_argument("--trials", type=int, default=200, help="Monte Carlo trials per cell (default 200)")
     ap.add_argument("--repeats", type=int, default=20, help="timing repeats (default 20)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--only", choices=["accuracy", "speed", "outliers"], help="run one section")

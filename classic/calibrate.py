@@ -18,9 +18,9 @@ from classic.residuals import estimate_target_pose, pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
 from classic.shah import _shah
 from classic.tsai import _tsai
-from handeye.errors import HandEyeInputError
+from handeye.errors import HandEyeInputError, TooFewPosesError
 from handeye.setups import normalize_setup, robot_side_poses
-from handeye.validation import check_no_duplicates, check_paired, check_transforms, check_units_metres
+from handeye.validation import MIN_POSES, check_no_duplicates, check_paired, check_transforms, check_units_metres
 
 __all__ = ["AXXB_METHODS", "AXYB_METHODS", "METHODS", "DEFAULT_METHOD", "calibrate", "initial_estimate", "solve"]
 
@@ -185,16 +185,21 @@ def calibrate(
         raise HandEyeInputError(f"unknown loss {loss!r}: use one of {LOSSES}")
     T_base_ee, T_cam_target = _validated(T_base_ee, T_cam_target)
     diagnostics: dict = {}
-    if check:
-        diagnostics["consistency"] = check_consistency(T_base_ee, T_cam_target, setup, pairs)
     A = robot_side_poses(T_base_ee, setup)
     B = T_cam_target
     inliers = np.ones(len(A), dtype=bool)
     if robust:
         found = lmeds_inliers(A, B, rng)
         inliers = found.inliers
+        if inliers.sum() < MIN_POSES:
+            raise TooFewPosesError(
+                f"only {int(inliers.sum())} of {len(A)} poses agree with each other after outlier rejection; "
+                f"at least {MIN_POSES} are needed. Check the pairing of robot and camera poses."
+            )
         diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
         diagnostics["lmeds_median_residual_mm"] = 1000 * found.median_residual_m
+    if check:
+        diagnostics["consistency"] = check_consistency(T_base_ee[inliers], T_cam_target[inliers], setup, pairs)
     motion = diagnose_motion(T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check)
     diagnostics["motion"] = motion.to_dict()
 

@@ -42,11 +42,12 @@ def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     (vector parts only). The solution is the combination of the two smallest
     right singular vectors that satisfies ``|x| = 1`` and ``x . x' = 0``.
 
-    Differs from OpenCV's ``CALIB_HAND_EYE_DANIILIDIS`` in one respect: the
-    sign of each ``b`` is aligned with ``a`` (equal scalar parts), as the
-    derivation requires; OpenCV takes the signs its matrix-to-quaternion
-    conversion happens to return, which for motions beyond 120 degrees can
-    break the solve. On motions below 120 degrees both agree.
+    Differs from OpenCV's ``CALIB_HAND_EYE_DANIILIDIS`` in one respect: every
+    motion quaternion is taken with ``w >= 0``, so ``a`` and ``b`` (equal
+    angles) have equal scalar parts, as the derivation requires; OpenCV takes
+    the signs its matrix-to-quaternion conversion happens to return, which for
+    motions beyond 120 degrees can pair opposite signs and break the solve.
+    On motions below 120 degrees both agree.
 
     Parameters
     ----------
@@ -83,8 +84,6 @@ def _dual(q_xyzw: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _daniilidis(m: Motions) -> np.ndarray:
     a, a_d = _dual(m.q_A, m.t_A)
     b, b_d = _dual(m.q_B, m.t_B)
-    flip = np.where(a[:, 0] * b[:, 0] < 0, -1.0, 1.0)[:, None]
-    b, b_d = b * flip, b_d * flip
     K = len(m)
     S = np.zeros((K, 6, 8))
     S[:, :3, 0] = a[:, 1:] - b[:, 1:]

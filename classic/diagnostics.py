@@ -7,9 +7,12 @@ Two checks every hand-eye tool should make and OpenCV does not:
   ``2 sin(theta / 2)``, are stacked in a ``(K, 3)`` matrix; its singular
   values ``s1 >= s2 >= s3`` (normalised by ``sqrt(K)``) measure the spread.
   ``s2 / s1`` near zero means one axis only.
-* **angle consistency.** ``A_ij X = X B_ij`` makes the rotation angles of
-  ``A_ij`` and ``B_ij`` equal whatever X is. Mis-paired poses, an inverted pose
-  and the wrong setup all break this, before any solve.
+* **consistency.** ``A_ij X = X B_ij`` makes the rotation angles of ``A_ij``
+  and ``B_ij`` equal whatever X is: mis-paired poses break this before any
+  solve. Relative angles cannot see an inverted pose, the wrong setup or a
+  permuted quaternion order (each preserves them), so a quick closed-form fit
+  is compared with the fit of the other reading of the data, and with shifted
+  pairings; a fit far beyond any sensor's noise is refused.
 """
 
 from __future__ import annotations
@@ -22,7 +25,6 @@ import numpy as np
 from classic.motions import Motions, motions_from_poses
 from classic.pairs import pair_indices
 from handeye.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
-from handeye.se3 import invert_transform
 from handeye.setups import robot_side_poses
 
 __all__ = [
@@ -31,6 +33,8 @@ __all__ = [
     "diagnose_motion",
     "angle_mismatch_deg",
     "check_consistency",
+    "fit_residual_m",
+    "quick_fit_residuals",
 ]
 
 #: Limits of the motion checks (angles in degrees). Below ``*_error`` refuses, below ``*_warn`` warns.
@@ -46,6 +50,8 @@ THRESHOLDS = {
     "consistency_error_ratio": 0.15,
     # an alternative reading of the data (inverted poses, other setup) that fits this many times better wins
     "fit_ratio": 10.0,
+    # no usable camera or robot has a median pose error this large: the data are mis-paired
+    "fit_error_deg": 5.0,
 }
 
 
@@ -120,6 +126,35 @@ def _is_inconsistent(mismatch: float, typical: float) -> bool:
     return mismatch > THRESHOLDS["consistency_error_deg"] and mismatch > THRESHOLDS["consistency_error_ratio"] * typical
 
 
+def quick_fit_residuals(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str) -> tuple[float, float]:
+    """Median per-pose residuals of a quick closed-form fit (Shah): distance (m) and angle (deg).
+
+    Parameters
+    ----------
+    T_base_ee, T_cam_target : array, shape (N, 4, 4)
+    setup : {"eye_to_hand", "eye_in_hand"}
+
+    Returns
+    -------
+    residual_m : float
+        See :func:`fit_residual_m`.
+    angle_deg : float
+        Median rotation residual.
+    """
+    from classic.ransac import pose_distance_m
+    from classic.residuals import pose_residuals
+    from classic.shah import _shah
+
+    A = robot_side_poses(T_base_ee, setup)
+    try:
+        Y_target, X_cam = _shah(A, T_cam_target)
+    except np.linalg.LinAlgError:
+        return np.inf, 180.0
+    r_rot, _ = pose_residuals(A, T_cam_target, X_cam, Y_target)
+    d = pose_distance_m(A, T_cam_target, X_cam, Y_target)
+    return float(np.median(d)), float(np.degrees(np.median(np.linalg.norm(r_rot, axis=1))))
+
+
 def fit_residual_m(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str) -> float:
     """Median per-pose residual of a quick closed-form fit (Shah), in metres.
 
@@ -136,15 +171,7 @@ def fit_residual_m(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str) 
     -------
     residual_m : float
     """
-    from classic.ransac import pose_distance_m
-    from classic.shah import _shah
-
-    A = robot_side_poses(T_base_ee, setup)
-    try:
-        Y_target, X_cam = _shah(A, T_cam_target)
-    except np.linalg.LinAlgError:
-        return np.inf
-    return float(np.median(pose_distance_m(A, T_cam_target, X_cam, Y_target)))
+    return quick_fit_residuals(T_base_ee, T_cam_target, setup)[0]
 
 
 def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all") -> dict:
@@ -181,24 +208,41 @@ def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: st
             "of the robot and of the camera were recorded together (mis-paired or shifted rows), and that "
             "quaternions are read in the right order."
         )
-    given = fit_residual_m(T_base_ee, T_cam_target, setup)
+    given, given_deg = quick_fit_residuals(T_base_ee, T_cam_target, setup)
     other = "eye_in_hand" if setup == "eye_to_hand" else "eye_to_hand"
-    # Inverting the robot poses is the other setup; inverting the camera poses is the other setup
-    # with the roles of X and Y swapped: one alternative covers the three mistakes.
-    alternatives = {
-        f"with setup='{other}', or equivalently with the robot poses or the camera poses inverted "
-        "(T_ee_base passed for T_base_ee, or T_target_cam for T_cam_target?)": (T_base_ee, T_cam_target, other),
-        "with both the robot poses and the camera poses inverted": (
-            T_base_ee, invert_transform(T_cam_target), other),
-    }
-    for text, (ee, ct, s) in alternatives.items():
-        alt = fit_residual_m(ee, ct, s)
+    # Inverting the robot poses is the other setup; inverting the camera poses is the other setup with
+    # the roles of X and Y swapped (A^-1 X = Y B^-1); inverting both is this setup with X and Y swapped,
+    # which fits as well as the data as given. So one alternative covers the detectable mistakes.
+    alt = fit_residual_m(T_base_ee, T_cam_target, other)
+    if given > 1e-6 and alt < given / THRESHOLDS["fit_ratio"]:
+        raise InconsistentPosesError(
+            f"the poses do not fit the {setup} model (median residual {1000 * given:.1f} mm) but fit with "
+            f"setup='{other}', or equivalently with the robot poses or the camera poses inverted (T_ee_base "
+            f"passed for T_base_ee, or T_target_cam for T_cam_target?): median residual {1000 * alt:.2f} mm. "
+            "Fix the input rather than calibrate on it."
+        )
+    n = len(T_base_ee)
+    for shift in (1, -1, 2, -2):
+        robot = np.arange(max(0, -shift), min(n, n - shift))
+        if len(robot) < 6:
+            continue
+        alt = fit_residual_m(T_base_ee[robot], T_cam_target[robot + shift], setup)
         if given > 1e-6 and alt < given / THRESHOLDS["fit_ratio"]:
             raise InconsistentPosesError(
-                f"the poses do not fit the {setup} model (median residual {1000 * given:.1f} mm) but fit "
-                f"{text}: median residual {1000 * alt:.2f} mm. Fix the input rather than calibrate on it."
+                f"robot and camera poses were not recorded together as paired: the poses do not fit "
+                f"(median residual {1000 * given:.1f} mm, {given_deg:.1f} deg) but fit when robot pose i is "
+                f"paired with camera pose i{shift:+d} (median residual {1000 * alt:.2f} mm): rows shifted by "
+                f"{abs(shift)}?"
             )
-    return {"angle_mismatch_deg": mismatch, "fit_residual_mm": 1000 * given}
+    if given_deg > THRESHOLDS["fit_error_deg"]:
+        raise InconsistentPosesError(
+            f"the poses do not fit any hand-eye transform: median rotation residual {given_deg:.1f} deg and "
+            f"{1000 * given:.0f} mm after a closed-form fit, far beyond any camera's or robot's noise. Check "
+            "that pose i of the robot and of the camera were recorded together, that each is the pose of the "
+            "named frame in the other (T_base_ee, T_cam_target), and the setup. If only some poses are "
+            "gross outliers, calibrate with robust=True (CLI: --robust)."
+        )
+    return {"angle_mismatch_deg": mismatch, "fit_residual_mm": 1000 * given, "fit_residual_deg": given_deg}
 
 
 def diagnose_motion(

@@ -17,6 +17,7 @@ import numpy as np
 
 from classic.residuals import pose_residuals
 from classic.shah import _shah
+from handeye.errors import DegenerateMotionError
 
 __all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers", "pose_distance_m"]
 
@@ -105,6 +106,8 @@ def lmeds_inliers(
         med = float(np.median(pose_distance_m(A, B, X, Y, L)))
         if med < best_med:
             best, best_med = (X, Y), med
+    if best is None:
+        raise DegenerateMotionError("no triple of poses gave a solution: the motions are degenerate")
     d = pose_distance_m(A, B, *best, L)
     inliers = d <= INLIER_FACTOR * np.median(d)
     # refit on the inliers, then re-flag against the better fit

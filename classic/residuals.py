@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.se3 import invert_transform, so3_log
+from handeye.se3 import invert_transform, make_transform, project_to_so3, so3_log
 
 __all__ = ["predict_cam_target", "pose_residuals", "estimate_target_pose"]
 
@@ -62,8 +62,6 @@ def estimate_target_pose(A: np.ndarray, B: np.ndarray, X: np.ndarray, weights: n
     -------
     Y : array, shape (4, 4)
     """
-    from handeye.se3 import make_transform, project_to_so3
-
     Y_i = invert_transform(A) @ X @ B
     w = np.ones(len(A)) if weights is None else np.asarray(weights, dtype=float)
     w = w / w.sum()

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handeye.se3 import invert_transform, make_transform, so3_exp
+from handeye.se3 import invert_transform, make_transform, matrix_from_quat_xyzw, so3_exp
 from handeye.setups import normalize_setup
 
 __all__ = ["HandEyeProblem", "make_problem", "random_rotations", "perturb"]
@@ -62,8 +62,6 @@ def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
     -------
     R : array, shape (n, 3, 3)
     """
-    from handeye.se3 import matrix_from_quat_xyzw
-
     return matrix_from_quat_xyzw(rng.normal(size=(n, 4)))
 
 

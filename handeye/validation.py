@@ -166,8 +166,8 @@ def check_units_metres(T: np.ndarray, name: str, max_translation_m: float = MAX_
         i = int(np.argmax(norms))
         raise UnitsError(
             f"{name}[{i}] has a translation of {norms[i]:.1f} m; handeye works in metres and this "
-            f"looks like millimetres. Convert (divide by 1000) or pass units='mm' "
-            f"(CLI: --units mm)."
+            "looks like millimetres. Convert the translations to metres (divide by 1000); pose files "
+            "read with units='mm' (CLI: --units mm) are converted for you."
         )
 
 
