@@ -9,7 +9,7 @@ from handeye.errors import LengthMismatchError
 from handeye.se3 import project_to_so3
 from handeye.validation import check_transforms
 
-__all__ = ["check_motions", "translation_axxb", "normalize_rotation"]
+__all__ = ["check_motions", "translation_stats", "translation_from_stats", "normalize_rotation"]
 
 
 def check_motions(A: np.ndarray, B: np.ndarray, min_count: int, what: str) -> tuple[np.ndarray, np.ndarray]:
@@ -25,25 +25,52 @@ def check_motions(A: np.ndarray, B: np.ndarray, min_count: int, what: str) -> tu
     return A, B
 
 
-def translation_axxb(m: Motions, R_X: np.ndarray) -> np.ndarray:
-    """Translation of X from ``(R_A - I) t_X = R_X t_B - t_A`` over all motions.
+def translation_stats(m: Motions) -> dict:
+    """Sums over motions that determine ``t_X`` once ``R_X`` is known.
 
-    Least squares through the normal equations
-    ``sum (2 I - R_A - R_A^T) t_X = sum (R_A - I)^T (R_X t_B - t_A)``.
+    ``(R_A - I) t_X = R_X t_B - t_A`` has normal equations
+    ``sum (2 I - R_A - R_A^T) t_X = sum R_A^T R_X t_B - sum R_A^T t_A - R_X sum t_B + sum t_A``;
+    the first term of the right side is ``T[a, b, c] R_X[b, c]`` with
+    ``T[a, b, c] = sum R_A[b, a] t_B[c]``, so a single pass over the motions suffices.
 
     Parameters
     ----------
     m : Motions
+
+    Returns
+    -------
+    dict of arrays
+        ``n``, ``sum_R_A``, ``T``, ``sum_RAt_tA``, ``sum_t_A``, ``sum_t_B``.
+    """
+    R_A = m.R_A
+    K = len(m)
+    ones = np.ones(K)  # sums over motions as matrix products: BLAS, faster than axis-0 reductions
+    R_flat = R_A.reshape(K, 9)
+    return {
+        "n": np.array(float(K)),
+        "sum_R_A": (ones @ R_flat).reshape(3, 3),
+        "T": (R_flat.T @ m.t_B).reshape(3, 3, 3).transpose(1, 0, 2),
+        "sum_RAt_tA": np.einsum("bab->a", (R_flat.T @ m.t_A).reshape(3, 3, 3)),
+        "sum_t_A": ones @ m.t_A,
+        "sum_t_B": ones @ m.t_B,
+    }
+
+
+def translation_from_stats(st: dict, R_X: np.ndarray) -> np.ndarray:
+    """Least-squares ``t_X`` from :func:`translation_stats` and ``R_X``.
+
+    Parameters
+    ----------
+    st : dict
     R_X : array, shape (3, 3)
 
     Returns
     -------
     t_X : array, shape (3,)
     """
-    S = m.R_A.sum(axis=0)
-    G = 2.0 * len(m) * np.eye(3) - S - S.T
-    u = m.t_B @ R_X.T - m.t_A
-    rhs = np.tensordot(m.R_A, u, axes=([0, 1], [0, 1])) - u.sum(axis=0)
+    S = st["sum_R_A"]
+    G = 2.0 * st["n"] * np.eye(3) - S - S.T
+    rhs = np.einsum("abc,bc->a", st["T"], R_X) - st["sum_RAt_tA"] - R_X @ st["sum_t_B"] + st["sum_t_A"]
     return np.linalg.lstsq(G, rhs, rcond=None)[0]
 
 

@@ -42,25 +42,39 @@ def andreff(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     N. Andreff, R. Horaud, B. Espiau, "On-line hand-eye calibration", 3DIM 1999.
     """
     A, B = check_motions(A, B, 2, "andreff")
-    return _andreff(motions_from_transforms(A, B))
+    return _andreff_finish(_andreff_stats(motions_from_transforms(A, B)))
 
 
-def _andreff(m: Motions) -> np.ndarray:
+def _andreff_stats(m: Motions) -> dict:
     # Normal equations of the stacked (12K x 12) system, summed block by block over motions
     # with matrix products over k (no per-motion 9x9 Kronecker products are formed).
     K = len(m)
     R_A, R_B, t_A, t_B = m.R_A, m.R_B, m.t_A, m.t_B
+    return {
+        "n": np.array(float(K)),
+        "RA_RB": R_A.reshape(K, 9).T @ R_B.reshape(K, 9),
+        "tB_tB": t_B.T @ t_B,
+        "tB_RA": np.tensordot(t_B, R_A, axes=(0, 0)),
+        "tA_tB": t_A.T @ t_B,
+        "sum_R_A": R_A.sum(axis=0),
+        "sum_t_A": t_A.sum(axis=0),
+        "sum_t_B": t_B.sum(axis=0),
+        "sum_RAt_tA": np.tensordot(R_A, t_A, axes=([0, 1], [0, 1])),
+    }
+
+
+def _andreff_finish(st: dict) -> np.ndarray:
+    K = st["n"]
     I3 = np.eye(3)
-    kron_sum = (R_A.reshape(K, 9).T @ R_B.reshape(K, 9)).reshape(3, 3, 3, 3).transpose(0, 2, 1, 3).reshape(9, 9)
-    S = R_A.sum(axis=0)
-    t_B_sum = t_B.sum(axis=0)
+    kron_sum = st["RA_RB"].reshape(3, 3, 3, 3).transpose(0, 2, 1, 3).reshape(9, 9)
+    S = st["sum_R_A"]
     G = np.zeros((12, 12))
-    G[:9, :9] = 2.0 * K * np.eye(9) - kron_sum - kron_sum.T + np.kron(I3, t_B.T @ t_B)
+    G[:9, :9] = 2.0 * K * np.eye(9) - kron_sum - kron_sum.T + np.kron(I3, st["tB_tB"])
     # (I3 kron t_B)(I3 - R_A): entry [(a, b), c] = t_B[b] (delta_ac - R_A[a, c])
-    C = np.einsum("ac,b->abc", I3, t_B_sum) - np.tensordot(t_B, R_A, axes=(0, 0)).transpose(1, 0, 2)
+    C = np.einsum("ac,b->abc", I3, st["sum_t_B"]) - st["tB_RA"].transpose(1, 0, 2)
     G[:9, 9:] = C.reshape(9, 3)
     G[9:, :9] = G[:9, 9:].T
     G[9:, 9:] = 2.0 * K * I3 - S - S.T
-    rhs = np.concatenate([(t_A.T @ t_B).reshape(9), t_A.sum(axis=0) - np.tensordot(R_A, t_A, axes=([0, 1], [0, 1]))])
+    rhs = np.concatenate([st["tA_tB"].reshape(9), st["sum_t_A"] - st["sum_RAt_tA"]])
     x = np.linalg.lstsq(G, rhs, rcond=None)[0]
     return make_transform(normalize_rotation(x[:9].reshape(3, 3)), x[9:])

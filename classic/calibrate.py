@@ -4,27 +4,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic.andreff import _andreff
-from classic.daniilidis import _daniilidis
+from classic.andreff import _andreff_finish, _andreff_stats
+from classic.daniilidis import _daniilidis_finish, _daniilidis_stats
 from classic.diagnostics import check_consistency, diagnose_motion
-from classic.horaud import _horaud
+from classic.horaud import _horaud_finish, _horaud_stats
 from classic.li import _li
-from classic.motions import motions_from_poses
+from classic.motions import accumulate, iter_motions
 from classic.pairs import PAIRINGS, pair_indices
-from classic.park import _park
+from classic.park import _park_finish, _park_stats
 from classic.ransac import lmeds_inliers
 from classic.refine import LOSSES, refine_xy
 from classic.residuals import estimate_target_pose, pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
 from classic.shah import _shah
-from classic.tsai import _tsai
+from classic.tsai import _tsai_finish, _tsai_stats
 from handeye.errors import HandEyeInputError, TooFewPosesError
 from handeye.setups import normalize_setup, robot_side_poses
 from handeye.validation import MIN_POSES, check_no_duplicates, check_paired, check_transforms, check_units_metres
 
 __all__ = ["AXXB_METHODS", "AXYB_METHODS", "METHODS", "DEFAULT_METHOD", "calibrate", "initial_estimate", "solve"]
 
-AXXB_METHODS = {"tsai": _tsai, "park": _park, "horaud": _horaud, "andreff": _andreff, "daniilidis": _daniilidis}
+#: AX=XB methods as (statistics of a chunk of motions, solve from the summed statistics).
+AXXB_METHODS = {
+    "tsai": (_tsai_stats, _tsai_finish),
+    "park": (_park_stats, _park_finish),
+    "horaud": (_horaud_stats, _horaud_finish),
+    "andreff": (_andreff_stats, _andreff_finish),
+    "daniilidis": (_daniilidis_stats, _daniilidis_finish),
+}
 AXYB_METHODS = {"shah": _shah, "li": _li}
 METHODS = tuple(AXXB_METHODS) + tuple(AXYB_METHODS)
 #: Closed form used to start the refinement by default (see the benchmark in the README).
@@ -51,7 +58,8 @@ def initial_estimate(A: np.ndarray, B: np.ndarray, method: str, pairs: str = "al
         Camera pose and target pose.
     """
     if method in AXXB_METHODS:
-        X = AXXB_METHODS[method](motions_from_poses(A, B, *pair_indices(len(A), pairs)))
+        stats, finish = AXXB_METHODS[method]
+        X = finish(accumulate(stats, iter_motions(A, B, *pair_indices(len(A), pairs))))
         return X, estimate_target_pose(A, B, X)
     if method in AXYB_METHODS:
         Y_target, X_cam = AXYB_METHODS[method](A, B)

@@ -6,7 +6,7 @@ import numpy as np
 
 from classic._linear import check_motions
 from classic.motions import Motions, motions_from_transforms
-from handeye.se3 import hat, make_transform, matrix_from_quat_xyzw, quat_multiply_wxyz, quat_wxyz_to_xyzw, quat_xyzw_from_matrix, quat_xyzw_to_wxyz
+from handeye.se3 import make_transform, matrix_from_quat_xyzw, quat_multiply_wxyz, quat_wxyz_to_xyzw, quat_xyzw_from_matrix, quat_xyzw_to_wxyz
 
 __all__ = ["daniilidis", "dual_quaternion_wxyz_from_transform"]
 
@@ -66,7 +66,7 @@ def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     Robotics Research 18(3), 1999.
     """
     A, B = check_motions(A, B, 2, "daniilidis")
-    return _daniilidis(motions_from_transforms(A, B))
+    return _daniilidis_finish(_daniilidis_stats(motions_from_transforms(A, B)))
 
 
 def _dual(q_xyzw: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -81,18 +81,33 @@ def _dual(q_xyzw: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return quat_xyzw_to_wxyz(q_xyzw), dual
 
 
-def _daniilidis(m: Motions) -> np.ndarray:
+def _block(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rows ``[u, [v]x]`` of shape (3K, 4) for vectors ``u, v`` of shape (K, 3)."""
+    P = np.zeros((len(u), 3, 4))
+    P[:, :, 0] = u
+    P[:, 0, 2], P[:, 0, 3] = -v[:, 2], v[:, 1]
+    P[:, 1, 1], P[:, 1, 3] = v[:, 2], -v[:, 0]
+    P[:, 2, 1], P[:, 2, 2] = -v[:, 1], v[:, 0]
+    return P.reshape(-1, 4)
+
+
+def _daniilidis_stats(m: Motions) -> dict:
+    # S = [[P, 0], [Q, P]] per motion, so S^T S = [[P^T P + Q^T Q, Q^T P], [P^T Q, P^T P]] summed
     a, a_d = _dual(m.q_A, m.t_A)
     b, b_d = _dual(m.q_B, m.t_B)
-    K = len(m)
-    S = np.zeros((K, 6, 8))
-    S[:, :3, 0] = a[:, 1:] - b[:, 1:]
-    S[:, :3, 1:4] = hat(a[:, 1:] + b[:, 1:])
-    S[:, 3:, 0] = a_d[:, 1:] - b_d[:, 1:]
-    S[:, 3:, 1:4] = hat(a_d[:, 1:] + b_d[:, 1:])
-    S[:, 3:, 4:] = S[:, :3, :4]
-    S2 = S.reshape(-1, 8)
-    _, V = np.linalg.eigh(S2.T @ S2)
+    P = _block(a[:, 1:] - b[:, 1:], a[:, 1:] + b[:, 1:])
+    Q = _block(a_d[:, 1:] - b_d[:, 1:], a_d[:, 1:] + b_d[:, 1:])
+    PtP, QtP = P.T @ P, Q.T @ P
+    M = np.empty((8, 8))
+    M[:4, :4] = PtP + Q.T @ Q
+    M[:4, 4:] = QtP
+    M[4:, :4] = QtP.T
+    M[4:, 4:] = PtP
+    return {"M": M}
+
+
+def _daniilidis_finish(st: dict) -> np.ndarray:
+    _, V = np.linalg.eigh(st["M"])
     v1, v2 = V[:, 0], V[:, 1]
     u1, w1, u2, w2 = v1[:4], v1[4:], v2[:4], v2[4:]
     # lambda = (l1, l2): |l1 u1 + l2 u2| = 1 and (l1 u1 + l2 u2) . (l1 w1 + l2 w2) = 0

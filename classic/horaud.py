@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions, translation_axxb
+from classic._linear import check_motions, translation_from_stats, translation_stats
 from classic.motions import Motions, motions_from_transforms
 from handeye.se3 import make_transform, matrix_from_quat_xyzw, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
 
@@ -74,13 +74,24 @@ def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     14(3), 1995.
     """
     A, B = check_motions(A, B, 2, "horaud")
-    return _horaud(motions_from_transforms(A, B))
+    return _horaud_finish(_horaud_stats(motions_from_transforms(A, B)))
 
 
-def _horaud(m: Motions) -> np.ndarray:
-    a = quat_xyzw_to_wxyz(m.q_A)
-    b = quat_xyzw_to_wxyz(m.q_B)
-    D = (quat_left_matrix_wxyz(a) - quat_right_matrix_wxyz(b)).reshape(-1, 4)
-    _, vecs = np.linalg.eigh(D.T @ D)
+def _horaud_stats(m: Motions) -> dict:
+    # L(a) - W(b) written out with d = a - b and s = a + b ((w, x, y, z) indices 0..3)
+    d = quat_xyzw_to_wxyz(m.q_A) - quat_xyzw_to_wxyz(m.q_B)
+    s = m.q_A[:, :3] + m.q_B[:, :3]  # s1, s2, s3
+    D = np.empty((len(m), 4, 4))
+    D[:, :, 0] = d
+    D[:, 0, 1:] = -d[:, 1:]
+    D[:, 1, 1], D[:, 1, 2], D[:, 1, 3] = d[:, 0], -s[:, 2], s[:, 1]
+    D[:, 2, 1], D[:, 2, 2], D[:, 2, 3] = s[:, 2], d[:, 0], -s[:, 0]
+    D[:, 3, 1], D[:, 3, 2], D[:, 3, 3] = -s[:, 1], s[:, 0], d[:, 0]
+    D = D.reshape(-1, 4)
+    return {"M": D.T @ D, **translation_stats(m)}
+
+
+def _horaud_finish(st: dict) -> np.ndarray:
+    _, vecs = np.linalg.eigh(st["M"])
     R_X = matrix_from_quat_xyzw(quat_wxyz_to_xyzw(vecs[:, 0]))
-    return make_transform(R_X, translation_axxb(m, R_X))
+    return make_transform(R_X, translation_from_stats(st, R_X))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions, translation_axxb
+from classic._linear import check_motions, translation_from_stats, translation_stats
 from classic.motions import Motions, motions_from_transforms
 from handeye.se3 import make_transform, project_to_so3, rotvec_from_quat_xyzw
 
@@ -40,12 +40,15 @@ def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     Euclidean group", IEEE Trans. Robotics and Automation 10(5), 1994.
     """
     A, B = check_motions(A, B, 2, "park")
-    return _park(motions_from_transforms(A, B))
+    return _park_finish(_park_stats(motions_from_transforms(A, B)))
 
 
-def _park(m: Motions) -> np.ndarray:
+def _park_stats(m: Motions) -> dict:
     alpha = rotvec_from_quat_xyzw(m.q_A)
     beta = rotvec_from_quat_xyzw(m.q_B)
-    M = beta.T @ alpha
-    R_X = project_to_so3(M.T)
-    return make_transform(R_X, translation_axxb(m, R_X))
+    return {"M": beta.T @ alpha, **translation_stats(m)}
+
+
+def _park_finish(st: dict) -> np.ndarray:
+    R_X = project_to_so3(st["M"].T)
+    return make_transform(R_X, translation_from_stats(st, R_X))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions, translation_axxb
+from classic._linear import check_motions, translation_from_stats, translation_stats
 from classic.motions import Motions, motions_from_transforms
 from handeye.se3 import make_transform, matrix_from_quat_xyzw
 
@@ -42,16 +42,22 @@ def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     5(3), 1989.
     """
     A, B = check_motions(A, B, 2, "tsai")
-    return _tsai(motions_from_transforms(A, B))
+    return _tsai_finish(_tsai_stats(motions_from_transforms(A, B)))
 
 
-def _tsai(m: Motions) -> np.ndarray:
+def _tsai_stats(m: Motions) -> dict:
     s = 2.0 * (m.q_A[:, :3] + m.q_B[:, :3])
     d = 2.0 * (m.q_B[:, :3] - m.q_A[:, :3])
     # normal equations of [s]x x = d: sum [s]x^T [s]x = sum(|s|^2) I - s^T s, sum [s]x^T d = -sum s x d
-    G = np.sum(s * s) * np.eye(3) - s.T @ s
-    x = np.linalg.lstsq(G, -np.cross(s, d).sum(axis=0), rcond=None)[0]
+    s_x_d = np.stack([s[:, 1] * d[:, 2] - s[:, 2] * d[:, 1], s[:, 2] * d[:, 0] - s[:, 0] * d[:, 2],
+                      s[:, 0] * d[:, 1] - s[:, 1] * d[:, 0]], axis=1)
+    sTs = s.T @ s
+    return {"G": np.trace(sTs) * np.eye(3) - sTs, "rhs": -(np.ones(len(m)) @ s_x_d), **translation_stats(m)}
+
+
+def _tsai_finish(st: dict) -> np.ndarray:
+    x = np.linalg.lstsq(st["G"], st["rhs"], rcond=None)[0]
     P_X = 2.0 * x / np.sqrt(1.0 + x @ x)
     q_v = 0.5 * P_X
     R_X = matrix_from_quat_xyzw(np.append(q_v, np.sqrt(max(0.0, 1.0 - q_v @ q_v))))
-    return make_transform(R_X, translation_axxb(m, R_X))
+    return make_transform(R_X, translation_from_stats(st, R_X))

@@ -130,20 +130,23 @@ def quat_xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
     return q
 
 
-def matrix_from_quat_xyzw(q_xyzw: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a quaternion in (x, y, z, w) order (normalised first).
+def matrix_from_quat_xyzw(q_xyzw: np.ndarray, normalize: bool = True) -> np.ndarray:
+    """Rotation matrix of a quaternion in (x, y, z, w) order.
 
     Parameters
     ----------
     q_xyzw : array, shape (..., 4)
         Scalar last.
+    normalize : bool
+        Normalise first (default); pass False only for quaternions known to be unit.
 
     Returns
     -------
     R : array, shape (..., 3, 3)
     """
     q = np.asarray(q_xyzw, dtype=float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    if normalize:
+        q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     R = np.empty(q.shape[:-1] + (3, 3))
     R[..., 0, 0] = 1 - 2 * (y * y + z * z)
