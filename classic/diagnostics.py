@@ -24,6 +24,9 @@ import numpy as np
 
 from classic.motions import Motions, motions_from_poses
 from classic.pairs import pair_indices
+from classic.ransac import pose_distance_m
+from classic.residuals import pose_residuals
+from classic.shah import _shah
 from handeye.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
 from handeye.setups import robot_side_poses
 
@@ -141,10 +144,6 @@ def quick_fit_residuals(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: 
     angle_deg : float
         Median rotation residual.
     """
-    from classic.ransac import pose_distance_m
-    from classic.residuals import pose_residuals
-    from classic.shah import _shah
-
     A = robot_side_poses(T_base_ee, setup)
     try:
         Y_target, X_cam = _shah(A, T_cam_target)
