@@ -1,0 +1,75 @@
+"""Pinhole camera intrinsics with OpenCV's distortion model."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from handeye.errors import HandEyeInputError
+
+__all__ = ["CameraIntrinsics", "IntrinsicsError"]
+
+
+class IntrinsicsError(HandEyeInputError):
+    """Camera intrinsics are invalid or cannot be read."""
+
+
+@dataclass
+class CameraIntrinsics:
+    """Camera matrix, distortion and image size.
+
+    Attributes
+    ----------
+    K : array, shape (3, 3)
+        ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]`` in pixels; pixel centres at integers (OpenCV).
+    dist : array, shape (5,)
+        OpenCV's ``(k1, k2, p1, p2, k3)``.
+    width, height : int
+        Image size in pixels.
+    """
+
+    K: np.ndarray
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    width: int = 0
+    height: int = 0
+
+    def __post_init__(self):
+        self.K = np.asarray(self.K, dtype=float)
+        self.dist = np.asarray(self.dist, dtype=float).ravel()
+        if self.K.shape != (3, 3) or not np.isfinite(self.K).all():
+            raise IntrinsicsError(f"K must be a finite 3x3 matrix, got shape {self.K.shape}")
+        if self.K[0, 0] <= 0 or self.K[1, 1] <= 0 or abs(self.K[2, 2] - 1) > 1e-9 or np.any(self.K[[1, 2, 2], [0, 0, 1]]):
+            raise IntrinsicsError(f"K is not a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]]: {self.K.tolist()}")
+        if self.dist.size not in (4, 5, 8, 12, 14) or not np.isfinite(self.dist).all():
+            raise IntrinsicsError(f"distortion must hold 4, 5, 8, 12 or 14 finite coefficients, got {self.dist.size}")
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable dictionary."""
+        return {"K": self.K.tolist(), "dist": self.dist.tolist(), "width": int(self.width), "height": int(self.height),
+                "distortion_model": "opencv (k1, k2, p1, p2, k3)"}
+
+    def save(self, path: str | Path) -> None:
+        """Write as JSON."""
+        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+
+    @classmethod
+    def load(cls, path: str | Path) -> "CameraIntrinsics":
+        """Read intrinsics written by :meth:`save`.
+
+        Raises
+        ------
+        IntrinsicsError
+            Naming the file.
+        """
+        path = Path(path)
+        try:
+            doc = json.loads(path.read_text())
+            return cls(np.array(doc["K"], dtype=float), np.array(doc.get("dist", np.zeros(5)), dtype=float),
+                       int(doc.get("width", 0)), int(doc.get("height", 0)))
+        except FileNotFoundError:
+            raise IntrinsicsError(f"{path}: no such intrinsics file") from None
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+            raise IntrinsicsError(f"{path}: not a valid intrinsics file ({exc})") from None
