@@ -37,7 +37,7 @@ import numpy as np
 from handeye.errors import PoseFileError
 from handeye.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform, quat_wxyz_to_xyzw, so3_exp
 
-__all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "read_pose_file", "write_pose_csv"]
+__all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "RobotPoses", "read_pose_file", "read_robot_poses", "write_pose_csv"]
 
 POSE_NAMES = ("T_base_ee", "T_cam_target")
 QUAT_ORDERS = ("xyzw", "wxyz")
@@ -74,8 +74,11 @@ def _check_unit(q: np.ndarray, where: str) -> None:
         raise PoseFileError(f"{where}: quaternion {np.round(q, 4).tolist()} has norm {norm:.4f}, not 1")
 
 
-def _read_csv(path: Path) -> tuple[dict, list[int], dict]:
-    """Raw columns per pose name ``(N, 6 or 7)``, the line numbers, and the rotation kind per name."""
+def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, list[int], dict]:
+    """Raw columns per pose name ``(N, 6 or 7)``, the line numbers, and the rotation kind per name.
+
+    An ``image`` column, if present, is returned under the key ``"image"`` of the first dict.
+    """
     with path.open(newline="") as f:
         lines = [(i + 1, line) for i, line in enumerate(f) if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
@@ -85,7 +88,9 @@ def _read_csv(path: Path) -> tuple[dict, list[int], dict]:
     raw, kinds = {}, {}
     rows = [ln for ln, _ in lines[1:]]
     table = list(csv.reader([text for _, text in lines[1:]]))
-    for name in POSE_NAMES:
+    if "image" in col:
+        raw["image"] = [row[col["image"]].strip() if len(row) > col["image"] else "" for row in table]
+    for name in names:
         xyz = [f"{name}.{c}" for c in "xyz"]
         options = {
             "quat_named": [f"{name}.q{c}" for c in "xyzw"],
@@ -153,8 +158,8 @@ def _pose_from_json(entry, quat_order: str, scale: float, where: str) -> np.ndar
     raise PoseFileError(f"{where}: give 'matrix', or 'translation' with 'quaternion' or 'rotvec'")
 
 
-def _parse(path: Path, quat_orders: dict, units: str | None):
-    """Transforms of both pose names with the given quaternion order per name."""
+def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, ...] = POSE_NAMES):
+    """Transforms of the pose names with the given quaternion order per name (and ``image`` if given)."""
     if path.suffix.lower() == ".json":
         try:
             doc = json.loads(path.read_text())
@@ -166,20 +171,22 @@ def _parse(path: Path, quat_orders: dict, units: str | None):
         if unit not in UNIT_SCALE:
             raise PoseFileError(f"{path}: units {unit!r} not understood; use 'm' or 'mm'")
         out = {}
-        for name in POSE_NAMES:
+        if all(isinstance(pose, dict) and "image" in pose for pose in doc["poses"]):
+            out["image"] = [str(pose["image"]) for pose in doc["poses"]]
+        for name in names:
             Ts = []
             for k, pose in enumerate(doc["poses"]):
                 if not isinstance(pose, dict) or name not in pose:
                     raise PoseFileError(f"{path}, poses[{k}]: missing {name}")
                 Ts.append(_pose_from_json(pose[name], quat_orders[name], UNIT_SCALE[unit], f"{path}, poses[{k}].{name}"))
             out[name] = np.array(Ts).reshape(-1, 4, 4)
-        return out, list(range(len(doc["poses"]))), {n: "json" for n in POSE_NAMES}
-    raw, rows, kinds = _read_csv(path)
+        return out, list(range(len(doc["poses"]))), {n: "json" for n in names}
+    raw, rows, kinds = _read_csv(path, names)
     unit = units or "m"
     if unit not in UNIT_SCALE:
         raise PoseFileError(f"units {unit!r} not understood; use 'm' or 'mm'")
-    out = {}
-    for name in POSE_NAMES:
+    out = {"image": raw["image"]} if "image" in raw else {}
+    for name in names:
         out[name] = _to_transforms(
             raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit], lambda ln, n=name: f"{path}, line {ln}, {n}", rows
         )
@@ -235,6 +242,58 @@ def read_pose_file(
     other = QUAT_ORDERS[1 - QUAT_ORDERS.index(order)]
     poses, rows, _ = _parse(path, {n: (other if n in swap_order_of else order) for n in POSE_NAMES}, units)
     return PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows)
+
+
+@dataclass
+class RobotPoses:
+    """Robot poses read from a file, optionally named by the image recorded at each.
+
+    Attributes
+    ----------
+    T_base_ee : array, shape (N, 4, 4)
+    images : list of str or None
+        The ``image`` column (file names relative to the image folder), when the file has one.
+    source : str
+    rows : list of int
+    """
+
+    T_base_ee: np.ndarray
+    images: list | None
+    source: str
+    rows: list = field(default_factory=list)
+
+
+def read_robot_poses(path: str | Path, quat_order: str | None = None, units: str | None = None) -> RobotPoses:
+    """Read robot poses ``T_base_ee``, one per view, for calibration from images.
+
+    Same formats as :func:`read_pose_file` with only the ``T_base_ee`` columns
+    (or entries), plus an optional ``image`` column (JSON: key) naming the
+    image recorded at that pose: with it, poses are paired with detections by
+    name, not by order.
+
+    Parameters
+    ----------
+    path : str or Path
+    quat_order : {"xyzw", "wxyz"}, optional
+    units : {"m", "mm"}, optional
+
+    Returns
+    -------
+    RobotPoses
+
+    Raises
+    ------
+    PoseFileError
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise PoseFileError(f"{path}: no such file")
+    order = quat_order or "xyzw"
+    if order not in QUAT_ORDERS:
+        raise PoseFileError(f"quaternion order {order!r} not understood; use one of {QUAT_ORDERS}")
+    names = ("T_base_ee",)
+    out, rows, _ = _parse(path, {n: order for n in names}, units, names)
+    return RobotPoses(out["T_base_ee"], out.get("image"), str(path), rows)
 
 
 def write_pose_csv(path: str | Path, T_base_ee: np.ndarray, T_cam_target: np.ndarray, comment: str = "") -> None:

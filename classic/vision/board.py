@@ -129,10 +129,17 @@ class BoardSpec:
         -------
         image : array of uint8, shape (H, W)
             The board's top-left corner (target origin) is at pixel ``(margin_px, margin_px)``.
+            Each square is a whole number of pixels, :meth:`pixels_per_square` (rounded from
+            ``square_length_m * pixels_per_metre``), so the drawing is exact.
         """
-        w = int(round(self.size_m[0] * pixels_per_metre)) + 2 * margin_px
-        h = int(round(self.size_m[1] * pixels_per_metre)) + 2 * margin_px
+        n = self.pixels_per_square(pixels_per_metre)
+        w = self.squares_x * n + 2 * margin_px
+        h = self.squares_y * n + 2 * margin_px
         return self.cv_board().generateImage((w, h), marginSize=int(margin_px), borderBits=1)
+
+    def pixels_per_square(self, pixels_per_metre: float) -> int:
+        """Whole pixels per square used by :meth:`render` (at least 10)."""
+        return max(10, int(round(self.square_length_m * pixels_per_metre)))
 
     def to_dict(self) -> dict:
         """JSON-serialisable dictionary."""

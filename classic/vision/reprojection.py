@@ -51,7 +51,9 @@ class ReprojectionResult:
     outlier_views : list of int
         Views whose RMS exceeds ``OUTLIER_VIEW_FACTOR`` times the median (and 1 px).
     covariance : array, shape (P, P)
-        Of the parameters (X, Y, [intrinsics]), from the Jacobian at the optimum.
+        Of the parameters (X, Y, [intrinsics]), from the Jacobian at the optimum. With fixed
+        intrinsics it leaves out their own uncertainty: intrinsics calibrated from few views bias X
+        by more than this predicts; refine them (``refine_intrinsics=True``) to include it.
     sigma : dict
         ``X_rotation_deg``, ``X_translation_mm``, ``Y_rotation_deg``, ``Y_translation_mm``.
     """

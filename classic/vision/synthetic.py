@@ -79,8 +79,9 @@ def render_view(
     Y = c[1] + lam * d[:, 1]
     behind = ~(lam > 0)
     # board texture: ppm chosen so a texel is smaller than a sample at the nearest corner
-    depth = np.min((T_cam_target @ np.column_stack([spec.corners_target(), np.ones(spec.n_corners)]).T)[2])
-    ppm = 2.0 * s * intr.K[0, 0] / max(depth, 1e-3)
+    depth = (T_cam_target @ np.column_stack([spec.corners_target(), np.ones(spec.n_corners)]).T)[2]
+    nearest = depth[depth > 0].min() if np.any(depth > 0) else 1.0
+    ppm = min(2.0 * s * intr.K[0, 0] / max(nearest, 0.05), 8000.0 / max(spec.size_m))
     margin = 2
     tex = spec.render(ppm, margin_px=margin)
     ppm_x = (tex.shape[1] - 2 * margin) / spec.size_m[0]
@@ -94,3 +95,70 @@ def render_view(
     if noise_gray > 0:
         img = img + rng.normal(scale=noise_gray, size=img.shape)
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+def make_image_dataset(
+    folder,
+    n_views: int,
+    setup: str = "eye_to_hand",
+    spec: BoardSpec | None = None,
+    intr: CameraIntrinsics | None = None,
+    rng: np.random.Generator | None = None,
+    noise_gray: float = 2.0,
+    max_tilt_deg: float = 35.0,
+):
+    """Write a synthetic hand-eye recording: board images, robot poses and the truth.
+
+    The geometry is :func:`handeye.synthetic.make_problem`'s, with the board
+    centred where that problem puts the target.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Created if missing; receives ``images/view_###.png``, ``robot.csv``
+        (``image`` column plus ``T_base_ee``), ``board.json``, ``camera.json``
+        and ``truth.json`` (``X`` and ``Y`` by frame name).
+    n_views : int
+    setup : {"eye_to_hand", "eye_in_hand"}
+    spec : BoardSpec, optional
+        Default 7x5 squares of 4 cm, 3 cm markers, 5X5_100.
+    intr : CameraIntrinsics, optional
+        Default :func:`default_intrinsics`.
+    rng : numpy.random.Generator, optional
+    noise_gray : float
+        Image intensity noise.
+    max_tilt_deg : float
+
+    Returns
+    -------
+    problem : handeye.synthetic.HandEyeProblem
+        With ``T_cam_target`` and ``Y_true`` of the centred board.
+    """
+    import json
+    from pathlib import Path
+
+    from handeye.se3 import make_transform, pos_quat_xyzw_from_transform
+    from handeye.setups import UNKNOWN_NAMES
+    from handeye.synthetic import make_problem
+
+    rng = np.random.default_rng(0) if rng is None else rng
+    spec = spec or BoardSpec(7, 5, 0.04, 0.03, "5X5_100")
+    intr = intr or default_intrinsics()
+    folder = Path(folder)
+    (folder / "images").mkdir(parents=True, exist_ok=True)
+    p = make_problem(n_views, setup, rng, max_tilt_deg=max_tilt_deg)
+    centre = make_transform(np.eye(3), [-spec.size_m[0] / 2, -spec.size_m[1] / 2, 0.0])
+    p.T_cam_target = p.T_cam_target @ centre
+    p.Y_true = p.Y_true @ centre  # A_i (Y c) = X (B_i c) in both setups
+    rows = ["image,T_base_ee.x,T_base_ee.y,T_base_ee.z,T_base_ee.qx,T_base_ee.qy,T_base_ee.qz,T_base_ee.qw"]
+    for k in range(n_views):
+        name = f"view_{k:03d}.png"
+        cv2.imwrite(str(folder / "images" / name), render_view(spec, intr, p.T_cam_target[k], noise_gray, rng))
+        t, q = pos_quat_xyzw_from_transform(p.T_base_ee[k])
+        rows.append(",".join([name] + [f"{v:.12g}" for v in (*t, *q)]))
+    (folder / "robot.csv").write_text("\n".join(rows) + "\n")
+    spec.save(folder / "board.json")
+    intr.save(folder / "camera.json")
+    x_name, y_name = UNKNOWN_NAMES[setup]
+    (folder / "truth.json").write_text(json.dumps({x_name: p.X_true.tolist(), y_name: p.Y_true.tolist()}, indent=2))
+    return p

@@ -10,7 +10,14 @@ Example
 reads paired ``T_base_ee`` / ``T_cam_target`` poses (CSV or JSON, format in
 :mod:`handeye.posefile`), solves, refines, prints a summary and writes the full
 result (poses by frame name, per-pose residuals, covariance, diagnostics) as
-JSON.
+JSON. From images instead::
+
+    handeye calibrate --detections detections.json --robot-poses robot.csv --setup eye-in-hand
+
+takes the views accepted by ``handeye detect``, solves on their PnP poses,
+then refines X and Y on the corners' reprojection error (``--refine-intrinsics``
+to refine K and distortion too) and reports the pixel RMS per view, flagging
+outlier views.
 """
 
 from __future__ import annotations
@@ -30,9 +37,16 @@ def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
     from classic.calibrate import DEFAULT_METHOD, METHODS
 
-    p = sub.add_parser("calibrate", help="hand-eye calibration from a pose file (CSV or JSON)",
+    p = sub.add_parser("calibrate", help="hand-eye calibration from a pose file, or from board detections",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("poses", type=Path, help="pose file: CSV or JSON of T_base_ee and T_cam_target")
+    p.add_argument("poses", type=Path, nargs="?", help="pose file: CSV or JSON of T_base_ee and T_cam_target")
+    p.add_argument("--detections", type=Path, help="detections.json from 'handeye detect' (instead of a pose file)")
+    p.add_argument("--robot-poses", type=Path,
+                   help="with --detections: CSV/JSON of T_base_ee per image (an 'image' column pairs them by name)")
+    p.add_argument("--no-reprojection", action="store_true",
+                   help="with --detections: skip the refinement on corner reprojection error")
+    p.add_argument("--refine-intrinsics", action="store_true",
+                   help="with --detections: refine the camera intrinsics in the reprojection refinement")
     p.add_argument("--setup", required=True, choices=["eye-to-hand", "eye-in-hand", "eye_to_hand", "eye_in_hand"],
                    help="eye-to-hand: static camera, target on the flange; eye-in-hand: camera on the flange")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"closed form (default {DEFAULT_METHOD})")
@@ -49,6 +63,21 @@ def add_parser(sub) -> argparse.ArgumentParser:
     return p
 
 
+def _truth_lines(path: Path | None, named: tuple) -> list[str]:
+    """Error of each named pose against a truth JSON (frame name -> 4x4), when one is given."""
+    from handeye.metrics import pose_error
+
+    if path is None:
+        return []
+    truth = json.loads(path.read_text())
+    lines = []
+    for name, T in named:
+        if name in truth:
+            rot, trans = pose_error(T, np.asarray(truth[name], dtype=float))
+            lines.append(f"  error vs truth {name}: {float(rot):.4f} deg, {float(trans):.3f} mm")
+    return lines
+
+
 def _fmt_pose(name: str, T: np.ndarray) -> str:
     from handeye.se3 import pos_quat_xyzw_from_transform
 
@@ -59,8 +88,71 @@ def _fmt_pose(name: str, T: np.ndarray) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
+    from handeye.errors import HandEyeInputError
+
+    if args.detections is not None or args.robot_poses is not None:
+        if args.poses is not None or args.detections is None or args.robot_poses is None:
+            raise HandEyeInputError("give either a pose file, or --detections with --robot-poses")
+        return _run_detections(args)
+    if args.poses is None:
+        raise HandEyeInputError("give a pose file, or --detections with --robot-poses")
+    return _run_poses(args)
+
+
+def _run_detections(args: argparse.Namespace) -> int:
+    from classic.vision.views import Views
+    from handeye.image_calibration import calibrate_from_views, pair_robot_poses
+    from handeye.posefile import read_robot_poses
+    from handeye.setups import UNKNOWN_NAMES, normalize_setup
+
+    setup = normalize_setup(args.setup)
+    views = Views.load(args.detections)
+    robot = read_robot_poses(args.robot_poses, quat_order=args.quat_order, units=args.units)
+    T_base_ee = pair_robot_poses([v.image for v in views.views], robot.images, robot.T_base_ee, robot.source)
+    out = calibrate_from_views(views, T_base_ee, setup, method=args.method, robust=args.robust,
+                               reprojection=not args.no_reprojection, refine_intrinsics=args.refine_intrinsics)
+    x_name, y_name = UNKNOWN_NAMES[setup]
+    res = out.pose_based
+    lines = [f"handeye calibrate --detections {args.detections} --robot-poses {args.robot_poses} --setup "
+             f"{setup.replace('_', '-')}",
+             f"{len(views.views)} images, {len(views.accepted)} with a pose; method {res.method}",
+             "pose-based:",
+             _fmt_pose(x_name, res.X),
+             f"    1-sigma: {res.sigma['X_rotation_deg']:.4f} deg, {res.sigma['X_translation_mm']:.3f} mm"]
+    for image, reason in out.rejected.items():
+        lines.append(f"  rejected {image}: {reason}")
+    rep = out.reprojection
+    if rep is not None:
+        lines += ["refined on corner reprojection error:", _fmt_pose(x_name, rep.X),
+                  f"    1-sigma: {rep.sigma['X_rotation_deg']:.4f} deg, {rep.sigma['X_translation_mm']:.3f} mm",
+                  _fmt_pose(y_name, rep.Y), f"  pixel RMS {rep.rms_px:.3f} px; per view:"]
+        for image, rms in zip(out.images, rep.per_view_rms_px):
+            flag = "  <- outlier" if out.images.index(image) in rep.outlier_views else ""
+            lines.append(f"    {image}: {rms:.3f} px{flag}")
+    lines += _truth_lines(args.truth, ((x_name, out.X), (y_name, out.Y)))
+    print("\n".join(lines))
+    if args.output is not None:
+        doc = res.to_dict()
+        doc["images"] = out.images
+        doc["rejected"] = out.rejected
+        if rep is not None:
+            doc["reprojection"] = {
+                x_name: rep.X.tolist(), y_name: rep.Y.tolist(), "rms_px": rep.rms_px,
+                "per_view_rms_px": dict(zip(out.images, map(float, rep.per_view_rms_px))),
+                "outlier_views": [out.images[k] for k in rep.outlier_views], "sigma": rep.sigma,
+                "intrinsics": rep.intrinsics.to_dict(),
+            }
+        text = json.dumps(doc, indent=2)
+        if str(args.output) == "-":
+            print(text)
+        else:
+            args.output.write_text(text + "\n")
+            print(f"  written: {args.output}")
+    return 0
+
+
+def _run_poses(args: argparse.Namespace) -> int:
     import classic
-    from handeye.metrics import pose_error
     from handeye.checked_poses import load_poses
     from handeye.setups import UNKNOWN_NAMES, normalize_setup
 
@@ -89,12 +181,7 @@ def run(args: argparse.Namespace) -> int:
                  f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg")
     for w in caught:
         lines.append(f"  warning: {w.message}")
-    if args.truth is not None:
-        truth = json.loads(args.truth.read_text())
-        for name, T in ((x_name, res.X), (y_name, res.Y)):
-            if name in truth:
-                rot, trans = pose_error(T, np.asarray(truth[name], dtype=float))
-                lines.append(f"  error vs truth {name}: {float(rot):.4f} deg, {float(trans):.3f} mm")
+    lines += _truth_lines(args.truth, ((x_name, res.X), (y_name, res.Y)))
     print("\n".join(lines), file=out)
     if args.output is not None:
         text = json.dumps(res.to_dict(), indent=2)

@@ -1,0 +1,67 @@
+"""``handeye board``: a printable ChArUco board and its spec.
+
+Example
+-------
+::
+
+    handeye board --squares 7x5 --square 0.04 --marker 0.03 --dict 5X5_100 --dpi 300 -o board.png
+
+writes ``board.png`` (print it at 100 % scale, at the given dpi) and
+``board.json`` (the spec every other command reads). Measure a printed square
+and edit ``square_length_m`` / ``marker_length_m`` in the JSON if the
+printer scaled it.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+INCH_M = 0.0254
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register the command."""
+    p = sub.add_parser("board", help="write a printable ChArUco board (PNG) and its spec (JSON)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--squares", default="7x5", help="squares along x and y, e.g. 7x5")
+    p.add_argument("--square", type=float, default=0.04, help="square side in metres")
+    p.add_argument("--marker", type=float, default=0.03, help="marker side in metres")
+    p.add_argument("--dict", default="5X5_100", help="ArUco dictionary, e.g. 5X5_100, 4X4_50, 6X6_250")
+    p.add_argument("--dpi", type=float, default=300.0, help="printer resolution")
+    p.add_argument("--margin", type=float, default=0.01, help="white margin around the board, metres")
+    p.add_argument("-o", "--output", type=Path, default=Path("board.png"), help="PNG path; the spec goes beside it")
+    p.set_defaults(run=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the command."""
+    import cv2
+
+    from classic.vision.board import BoardSpec, BoardSpecError
+
+    try:
+        sx, sy = (int(v) for v in args.squares.lower().split("x"))
+    except ValueError:
+        raise BoardSpecError(f"--squares {args.squares!r}: expected COLUMNSxROWS, e.g. 7x5") from None
+    spec = BoardSpec(sx, sy, args.square, args.marker, args.dict)
+    ppm = args.dpi / INCH_M
+    image = spec.render(ppm, margin_px=int(round(args.margin * ppm)))
+    if not cv2.imwrite(str(args.output), image):
+        raise BoardSpecError(f"{args.output}: could not write the image (folder missing? .png suffix?)")
+    printed_square_m = spec.pixels_per_square(ppm) / ppm
+    if abs(printed_square_m - spec.square_length_m) > 0.001 * spec.square_length_m:
+        print(f"warning: at {args.dpi:g} dpi a square is {spec.pixels_per_square(ppm)} px = "
+              f"{1000 * printed_square_m:.3f} mm, not {1000 * spec.square_length_m:.3f} mm; measure the print "
+              "and correct square_length_m / marker_length_m in the JSON")
+    json_path = args.output.with_suffix(".json")
+    spec.save(json_path)
+    w_m, h_m = spec.size_m
+    print(f"board {sx}x{sy} squares of {1000 * args.square:.1f} mm, markers {1000 * args.marker:.1f} mm, "
+          f"dictionary {spec.dictionary}: {1000 * w_m:.0f} x {1000 * h_m:.0f} mm, {spec.n_corners} corners")
+    print(f"  written: {args.output} ({image.shape[1]}x{image.shape[0]} px at {args.dpi:g} dpi; print at 100 %)")
+    print(f"  written: {json_path}")
+    return 0

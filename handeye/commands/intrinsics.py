@@ -1,0 +1,52 @@
+"""``handeye intrinsics``: calibrate the camera (K and distortion) from board images.
+
+Example
+-------
+::
+
+    handeye intrinsics images/ --board board.json -o camera.json
+
+prints the RMS reprojection error and the one-sigma of fx, fy, cx, cy, so a
+person can judge the calibration: below 0.5 px RMS and sigmas of a pixel or
+two are typical of a good one.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register the command."""
+    p = sub.add_parser("intrinsics", help="calibrate camera intrinsics from board images",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("images", type=Path, help="folder of PNG/JPEG images")
+    p.add_argument("--board", type=Path, required=True, help="board spec written by 'handeye board'")
+    p.add_argument("-o", "--output", type=Path, default=Path("camera.json"))
+    p.set_defaults(run=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the command."""
+    from classic.vision.board import BoardSpec
+    from classic.vision.detect import detect_board
+    from classic.vision.images import list_images, read_image
+    from classic.vision.intrinsics import calibrate_intrinsics
+
+    spec = BoardSpec.load(args.board)
+    files = list_images(args.images)
+    detections = [detect_board(read_image(f), spec) for f in files]
+    res = calibrate_intrinsics(detections, spec)
+    print(res.summary())
+    for k, rms in zip(res.used, res.per_view_rms_px):
+        print(f"  {files[k].name}: {rms:.3f} px")
+    skipped = sorted(set(range(len(files))) - set(res.used))
+    for k in skipped:
+        print(f"  {files[k].name}: not used ({detections[k].reason or 'too few or collinear corners'})")
+    res.intrinsics.save(args.output)
+    print(f"  written: {args.output}")
+    return 0
