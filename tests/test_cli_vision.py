@@ -100,3 +100,16 @@ def test_wrong_board_and_unreadable_image(dataset, tmp_path, capsys):
     assert rows and all("board not found" in r for r in rows)
     assert main(["detect", str(images), "--board", str(tmp_path / "nope.json"), "-o", str(tmp_path / "d.json")]) == 2
     assert "nope.json" in capsys.readouterr().err
+
+
+def test_missing_intrinsics_where_needed(dataset, tmp_path, capsys):
+    """Two images cannot calibrate a camera: without --intrinsics the command says to pass them."""
+    images = tmp_path / "two"
+    images.mkdir()
+    for name in ("view_000.png", "view_001.png"):
+        shutil.copy(dataset / "images" / name, images / name)
+    assert main(["detect", str(images), "--board", str(dataset / "board.json"), "-o", str(tmp_path / "d.json")]) == 2
+    assert "--intrinsics" in capsys.readouterr().err
+    assert main(["detect", str(images), "--board", str(dataset / "board.json"), "--intrinsics",
+                 str(tmp_path / "camera.json"), "-o", str(tmp_path / "d.json")]) == 2
+    assert "camera.json: no such intrinsics file" in capsys.readouterr().err

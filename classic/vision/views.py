@@ -180,7 +180,13 @@ def detect_folder(folder: str | Path, spec: BoardSpec, intrinsics: CameraIntrins
         raise HandEyeInputError(f"{folder}: images of different sizes {sorted(sizes)}; one camera per folder")
     calibrated = None
     if intrinsics is None:
-        calibrated = calibrate_intrinsics(detections, spec)
+        try:
+            calibrated = calibrate_intrinsics(detections, spec)
+        except HandEyeInputError as exc:
+            raise HandEyeInputError(
+                f"{folder}: no intrinsics given and these images cannot calibrate them ({exc}); "
+                "pass the camera's intrinsics (CLI: --intrinsics camera.json, from 'handeye intrinsics')"
+            ) from None
         intrinsics = calibrated.intrinsics
         report = f"calibrated from these images: {calibrated.summary()}"
     else:
