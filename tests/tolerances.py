@@ -179,3 +179,96 @@ INLIER_RMS_FACTOR = 2.0
 
 DEG = np.pi / 180.0
 MM = 1e-3
+
+# --------------------------------------------------------------------------
+# ChArUco vision (tests/vision)
+# --------------------------------------------------------------------------
+# Pixel quantities are in pixels (suffix _PX). The synthetic camera is
+# classic.vision.synthetic.default_intrinsics(): 640 x 480, fx ~ 554 px.
+
+#: BoardSpec.corners_target() vs OpenCV's getChessboardCorners(), which are
+#: float32: relative rounding 2^-24 = 6e-8 of coordinates <= 0.3 m, i.e.
+#: <= 2e-8 m. 1e-7 m leaves a factor 5; a wrong order or offset is off by a
+#: whole square (>= 1e-2 m).
+FLOAT32_M = 1e-7
+
+#: Corners detected on a flat image from BoardSpec.render at a scale with a
+#: whole number of pixels per square: each corner is an exact symmetric saddle
+#: on a pixel boundary, which cornerSubPix's fixed point is; ChArUco's sub-pixel
+#: refinement stops once a step is below cornerRefinementMinAccuracy = 0.1 px,
+#: so the corner is within 0.1 px. A pixel-centre convention slip (half a pixel
+#: on each axis) puts it 0.71 px off.
+FLAT_CORNER_PX = 0.1
+
+#: Systematic corner error of render_view (a property of the renderer, not of
+#: the detector). It samples the board s x s times per pixel (s = supersample
+#: = 3) and box-averages the samples, so an edge is placed to within half a
+#: sample, 1 / (2 s) = 0.17 px; the texture under the samples has whole texels
+#: per square (BoardSpec.render), square edges on texel boundaries, which
+#: bilinear lookup reproduces without bias. Rounded up: 0.25 px per axis. The
+#: part that varies from corner to corner shows in the residuals and so in any
+#: noise estimate made from them; the part common to a view's corners is
+#: absorbed by its pose and is invisible there, so the tests bound it
+#: separately: by a common shift of RENDER_BIAS_PX per axis propagated through
+#: the pose's Jacobian (tests/vision/_helpers.common_shift_floor) for one view,
+#: and by the measured per-view mean corner error propagated through the
+#: hand-eye Jacobian for the end-to-end test (the worst case over 10 views with
+#: independent signs, ~80 predicted sigma, would make that test vacuous).
+RENDER_BIAS_PX = 0.25
+
+#: A detected corner vs its true projection: common bias <= RENDER_BIAS_PX per
+#: axis (sqrt(2) RENDER_BIAS_PX in 2-D) plus noise of per-axis sigma estimated
+#: from the view's RMS; the 2-D noise norm is Rayleigh, P(> 5 sigma) =
+#: exp(-12.5) = 4e-6 per corner, 1e-3 over the ~200 corners of the test views.
+#: The per-view mean error is bounded alike by RENDER_BIAS_PX + 5 sigma / sqrt(M).
+CORNER_SIGMA_BOUND = 5.0
+
+#: "Within the noise" when sigma is *estimated* from the same data's
+#: residuals: |error| <= 5 sqrt(tr C) for a 3-D block (or 5 std for a scalar)
+#: plus the bias floor. For a known C, P(|e| > k sqrt(tr C)) <= P(|z| > k) (see
+#: SIGMA_BOUND): 6e-7 at k = 5. The estimated sigma has relative standard
+#: deviation 1 / sqrt(2 dof) <= 0.11 (one view: 2M - 6 = 42 dof; more elsewhere),
+#: so 5 estimated sigmas are below 4 true ones only if the estimate is 20 % low,
+#: a 2-standard-deviation event at the fewest dof: overall P(fail) < 1e-3.
+ESTIMATED_SIGMA_BOUND = 5.0
+
+#: Intrinsics from rendered views: overall RMS reprojection error. The corner
+#: error budget is RENDER_BIAS_PX per axis (0.35 px in 2-D, worst case, of which
+#: the common part is absorbed by the view poses) plus intensity-noise jitter
+#: (< 0.1 px at noise_gray = 2); 0.5 px stays above that budget, while a
+#: missing or wrong distortion model leaves px-level residuals at the image
+#: edges. The floors of the parameters' comparison with the truth: a shift
+#: common to every view is a principal-point shift, so cx and cy get
+#: RENDER_BIAS_PX; the focal lengths and the distortion none (a shift does not
+#: scale, and the texture's scale is exact in x and y alike).
+INTRINSICS_MAX_RMS_PX = 0.5
+
+#: Noise-free reprojection refinement of pixel quantities (fx, fy, cx, cy ~ 300
+#: to 560 px): the optimiser stops at xtol = ftol = gtol = 1e-12 relative, i.e.
+#: ~1e-9 px on quantities of ~500 px (measured ~1e-12 px); 1e-6 px is still
+#: 5e6 below the 1 % focal perturbation the test starts from.
+EXACT_PX = 1e-6
+
+#: ReprojectionResult.sigma vs sqrt(trace) of s^2 (J^T J)^-1 with J from our
+#: own central differences (step 1e-6, relative error ~1e-9) at the same point:
+#: scipy's forward-difference Jacobian (relative step sqrt(eps) = 1.5e-8) has
+#: relative error ~1e-7; 1e-4 relative is far above both, while a unit slip
+#: (degrees vs radians: 57x; mm vs m: 1000x) or a wrong block is not.
+SIGMA_JACOBIAN_RTOL = 1e-4
+
+#: Seeded problems for "the reprojection refinement's median X error is below
+#: that of the pose-based calibration on PnP poses": the reprojection estimate
+#: is the maximum-likelihood one under pixel noise, and the PnP poses carry
+#: strongly anisotropic (depth) errors that the pose-based cost weights
+#: isotropically, so the gap is a large factor; 20 trials make the median
+#: comparison stable.
+REPROJECTION_TRIALS = 20
+
+#: A robust (Cauchy) reprojection fit with one grossly wrong view: its
+#: predicted sigma should describe the remaining views, i.e. match the sigma of
+#: the linear fit without that view. Dropping 1 of 15 views changes sigma by
+#: sqrt(15 / 14) = 1.04, the noise-scale estimate (~650 dof) by a few %, and
+#: the Cauchy weights of inlier residuals at 0.3 px noise on a 1 px scale are
+#: mostly near 1 (1 / (1 + 0.3^2) = 0.92 at one sigma): a factor 2 either way
+#: is far outside all of that.
+ROBUST_SIGMA_FACTOR = 2.0

@@ -80,8 +80,7 @@ class BoardSpec:
         if self.square_length_m > 1.0:
             raise BoardSpecError(f"square length {self.square_length_m} m: lengths are in metres (millimetres given?)")
         n_markers = (self.squares_x * self.squares_y) // 2
-        size = int(str(self.dictionary).upper().replace("DICT_", "").split("_")[-1])
-        dictionary_id(self.dictionary)
+        size = int(cv2.aruco.getPredefinedDictionary(dictionary_id(self.dictionary)).bytesList.shape[0])
         if n_markers > size:
             raise BoardSpecError(f"a {self.squares_x}x{self.squares_y} board needs {n_markers} markers; "
                                  f"dictionary {self.dictionary} has {size}")

@@ -94,8 +94,9 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
         if n_markers == 0:
             reason = f"board not found: no marker of dictionary {spec.dictionary} (wrong dictionary, or board not in view)"
         else:
-            reason = (f"{n_markers} markers found but no ChArUco corner: the board spec does not match the board "
-                      f"({spec.squares_x}x{spec.squares_y} squares; swapped?)")
+            reason = (f"{n_markers} markers found but no ChArUco corner could be interpolated: too little of the board "
+                      f"in view, or the spec does not match the board ({spec.squares_x}x{spec.squares_y} squares; "
+                      "swapped?)")
         return Detection(np.zeros(0, int), np.zeros((0, 2)), n_markers, size, reason)
     return Detection(ids.ravel().astype(int), corners.reshape(-1, 2).astype(float), n_markers, size)
 

@@ -44,7 +44,7 @@ class ReprojectionResult:
     X, Y : array, shape (4, 4)
         Camera pose and target pose (:mod:`handeye.setups`).
     intrinsics : CameraIntrinsics
-        Refined when asked for, else the input.
+        Refined when asked for, else equal to the input.
     rms_px : float
         Over all corners.
     per_view_rms_px : array, shape (V,)
@@ -148,7 +148,7 @@ def refine_reprojection(
             f"{n_views} robot poses but {len(corner_ids)} corner-id lists and {len(corners_px)} corner lists: "
             "one entry per view is needed"
         )
-    view = np.concatenate([np.full(len(ids), k) for k, ids in enumerate(corner_ids)]).astype(int)
+    view = np.concatenate([np.full(len(ids), k) for k, ids in enumerate(corner_ids)] + [np.zeros(0)]).astype(int)
     if len(np.unique(view)) < 3:
         raise HandEyeInputError("the reprojection refinement needs corners in at least 3 views")
     p_target = spec.corners_target()[np.concatenate(corner_ids).astype(int)]
@@ -185,8 +185,11 @@ def refine_reprojection(
     has = np.bincount(view, minlength=n_views) > 0
     med = float(np.median(per_view[has]))
     outliers = [int(k) for k in np.flatnonzero(has & (per_view > max(OUTLIER_VIEW_FACTOR * med, 1.0)))]
-    dof = max(2 * len(uv) - n_params, 1)
-    s2 = float(np.sum(sq)) / dof
+    if loss == "linear":
+        s2 = float(np.sum(sq)) / max(2 * len(uv) - n_params, 1)  # per-axis variance, dof-corrected
+    else:
+        # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
+        s2 = float(np.median(sq)) / 1.3863
     J = sol.jac
     cov = s2 * np.linalg.pinv(J.T @ J)
     tr = [np.trace(cov[k : k + 3, k : k + 3]) for k in (0, 3, 6, 9)]
