@@ -95,9 +95,15 @@ def test_wrong_board_and_unreadable_image(dataset, tmp_path, capsys):
     wrong = tmp_path / "wrong.json"
     BoardSpec(7, 5, 0.04, 0.03, "6X6_250").save(wrong)
     assert main(["detect", str(images), "--board", str(wrong), "--intrinsics", str(dataset / "camera.json"),
-                 "-o", str(tmp_path / "d.json")]) == 0
+                 "-o", str(tmp_path / "d.json")]) == 2
+    assert "wrong.json" in capsys.readouterr().err
     rows = (tmp_path / "d.csv").read_text().splitlines()[1:]
     assert rows and all("board not found" in r for r in rows)
+    swapped = tmp_path / "swapped.json"
+    BoardSpec(5, 7, 0.04, 0.03, "5X5_100").save(swapped)
+    assert main(["detect", str(images), "--board", str(swapped), "--intrinsics", str(dataset / "camera.json"),
+                 "-o", str(tmp_path / "d.json")]) == 2
+    assert "swapped.json" in capsys.readouterr().err
     assert main(["detect", str(images), "--board", str(tmp_path / "nope.json"), "-o", str(tmp_path / "d.json")]) == 2
     assert "nope.json" in capsys.readouterr().err
 

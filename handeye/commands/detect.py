@@ -59,4 +59,12 @@ def run(args: argparse.Namespace) -> int:
     csv_path = views.save(args.output)
     print(f"{len(views.accepted)} of {len(views.views)} images accepted")
     print(f"  written: {args.output}, {csv_path}")
+    if not views.accepted:
+        from handeye.errors import HandEyeInputError
+
+        reasons = sorted({v.pose.reason for v in views.views})
+        raise HandEyeInputError(
+            f"no image of {args.images} gave a board pose with the spec {args.board} "
+            f"({'; '.join(reasons[:3])}); check the dictionary and the square counts of the board file"
+        )
     return 0

@@ -36,11 +36,15 @@ def run(args: argparse.Namespace) -> int:
     from classic.vision.detect import detect_board
     from classic.vision.images import list_images, read_image
     from classic.vision.intrinsics import calibrate_intrinsics
+    from handeye.errors import HandEyeInputError
 
     spec = BoardSpec.load(args.board)
     files = list_images(args.images)
     detections = [detect_board(read_image(f), spec) for f in files]
-    res = calibrate_intrinsics(detections, spec)
+    try:
+        res = calibrate_intrinsics(detections, spec)
+    except HandEyeInputError as exc:
+        raise HandEyeInputError(f"{args.images} with board {args.board}: {exc}") from None
     print(res.summary())
     for k, rms in zip(res.used, res.per_view_rms_px):
         print(f"  {files[k].name}: {rms:.3f} px")
