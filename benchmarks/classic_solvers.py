@@ -27,6 +27,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import classic  # noqa: E402
+from benchmarks._machine import machine  # noqa: E402
 from classic.calibrate import initial_estimate  # noqa: E402
 from handeye.conventions import opencv_hand_eye_args  # noqa: E402
 from handeye.errors import WeakMotionWarning  # noqa: E402
@@ -249,16 +250,6 @@ def uncertainty(sigmas, trials):
         print(f"| {cam[0]} deg / {cam[1]} mm | {n} | {pred[0]:.4f} | {act[0]:.4f} | {ratios[0]:.2f} | {pred[1]:.3f} "
               f"| {act[1]:.3f} | {ratios[1]:.2f} |")
     print(f"\nTarget: within 30 %. Worst deviation {100 * worst:.0f} % -> {'met' if worst <= 0.3 else 'MISSED'}")
-
-
-def machine() -> str:
-    cpu = platform.processor() or "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
 
 
 def main(argv=None):

@@ -32,6 +32,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import cv2  # noqa: E402
 
 import classic  # noqa: E402
+from benchmarks._machine import machine  # noqa: E402
 from classic.calibrate import initial_estimate  # noqa: E402
 from classic.vision.board import BoardSpec  # noqa: E402
 from classic.vision.detect import Detection, estimate_pose, project_points  # noqa: E402
@@ -92,16 +93,6 @@ def trial(n_views, noise_px, spec, intr, rng):
     out[METHODS[4]] = make_transform(R, t.ravel())
     out[METHODS[5]] = refine_reprojection(robot, ids, corners, spec, intr, res.X, res.Y, setup=SETUP).X
     return {k: pose_error(X, X_true) for k, X in out.items()}, len(poses)
-
-
-def machine() -> str:
-    cpu = platform.processor() or "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
 
 
 def main(argv=None):
