@@ -1,0 +1,200 @@
+"""Camera placement: poses on a hemisphere around the robot base, grouped into regions by azimuth.
+
+Positions come from sines and cosines of azimuth and elevation (the paper's
+recipe), each camera looking at the workspace centre with its x axis
+horizontal, in the OpenCV optical convention (x right, y down, z forward).
+Regions (the subsets S1..Sk of the continual-learning protocol) are azimuth
+sectors; within each region a seeded choice of poses is held out for test.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from handeye.errors import HandEyeInputError
+from handeye.se3 import make_transform
+
+__all__ = ["CameraPreset", "CameraSet", "PRESETS", "get_preset", "look_at", "place_cameras"]
+
+
+@dataclass(frozen=True)
+class CameraPreset:
+    """How cameras and robot configurations are laid out for a dataset.
+
+    Attributes
+    ----------
+    name : str
+    robot : {"ur5", "ur3"}
+    region_azimuths_deg : tuple of (float, float)
+        Azimuth sector of each region, degrees, in time-step order.
+    train_per_region, test_per_region : tuple of int
+        Camera poses of each region for training and for testing.
+    configurations : int
+        Robot configurations recorded per camera pose (data recording).
+    calibration_views : int
+        Board views recorded per camera pose (calibration recording).
+    radius_m : (float, float)
+        Camera distance from the look-at point.
+    elevation_deg : (float, float)
+        Camera elevation above the base plane.
+    look_at_m : (float, float, float)
+        Workspace centre the cameras look at, in the base frame.
+    image_size : (int, int)
+        ``(width, height)`` of the data images.
+    fov_deg : float
+        Horizontal field of view.
+    """
+
+    name: str
+    robot: str
+    region_azimuths_deg: tuple
+    train_per_region: tuple
+    test_per_region: tuple
+    configurations: int
+    calibration_views: int = 15
+    radius_m: tuple = (1.3, 1.7)
+    elevation_deg: tuple = (20.0, 50.0)
+    look_at_m: tuple = (0.0, 0.0, 0.3)
+    image_size: tuple = (256, 256)
+    fov_deg: float = 60.0
+
+    def __post_init__(self):
+        k = len(self.region_azimuths_deg)
+        if not (len(self.train_per_region) == len(self.test_per_region) == k):
+            raise HandEyeInputError(f"preset {self.name}: one train and one test count per region ({k} regions)")
+
+    @property
+    def n_cameras(self) -> int:
+        """Camera poses in all."""
+        return int(sum(self.train_per_region) + sum(self.test_per_region))
+
+
+def _sectors(k: int, start: float = 0.0, span: float = 360.0) -> tuple:
+    width = span / k
+    return tuple((start + i * width, start + (i + 1) * width) for i in range(k))
+
+
+PRESETS = {
+    # the paper's simulation: 108 poses, 6 regions of 14 train + 4 test, 50 configurations, UR5
+    "paper-sim": CameraPreset("paper-sim", "ur5", _sectors(6), (14,) * 6, (4,) * 6, 50),
+    # the paper's real rig: 24 poses on three sides of the table (front, side at 90 deg, back at 180 deg),
+    # 19 train + 5 test in all, 100 configurations, UR3
+    "paper-real": CameraPreset(
+        "paper-real", "ur3", ((-30.0, 30.0), (60.0, 120.0), (150.0, 210.0)), (6, 7, 6), (2, 1, 2), 100,
+        radius_m=(0.9, 1.2), elevation_deg=(25.0, 45.0), look_at_m=(0.0, 0.0, 0.2),
+    ),
+    # for tests and CI: 2 regions of 2 train + 1 test, 6 configurations
+    "small": CameraPreset("small", "ur5", _sectors(2), (2, 2), (1, 1), 6, calibration_views=10,
+                          image_size=(128, 128)),
+}
+
+
+def get_preset(name: str) -> CameraPreset:
+    """A preset by name.
+
+    Raises
+    ------
+    HandEyeInputError
+        Naming the known presets.
+    """
+    if name not in PRESETS:
+        raise HandEyeInputError(f"unknown preset {name!r}: use one of {', '.join(PRESETS)}")
+    return PRESETS[name]
+
+
+def look_at(position: np.ndarray, target: np.ndarray, up: np.ndarray = np.array([0.0, 0.0, 1.0])) -> np.ndarray:
+    """``T_base_cam`` of an OpenCV camera at ``position`` looking at ``target``, x axis horizontal.
+
+    Parameters
+    ----------
+    position, target : array, shape (..., 3)
+        Base frame, metres.
+    up : array, shape (3,)
+        The world's up direction; the camera's y axis points away from it (down).
+
+    Returns
+    -------
+    T_base_cam : array, shape (..., 4, 4)
+
+    Raises
+    ------
+    HandEyeInputError
+        When looking straight along ``up`` (the horizontal is undefined).
+    """
+    position = np.asarray(position, dtype=float)
+    z = np.asarray(target, dtype=float) - position
+    z = z / np.linalg.norm(z, axis=-1, keepdims=True)
+    x = np.cross(z, up)
+    norm = np.linalg.norm(x, axis=-1, keepdims=True)
+    if np.any(norm < 1e-9):
+        raise HandEyeInputError("camera looks straight up or down: its horizontal axis is undefined")
+    x = x / norm
+    y = np.cross(z, x)
+    return make_transform(np.stack([x, y, z], axis=-1), position)
+
+
+@dataclass
+class CameraSet:
+    """Camera poses of a preset.
+
+    Attributes
+    ----------
+    T_base_cam : array, shape (N, 4, 4)
+    region : array of int, shape (N,)
+        0-based region (subset S1 is 0).
+    split : array of str, shape (N,)
+        ``"train"`` or ``"test"``.
+    azimuth_deg, elevation_deg, radius_m : array, shape (N,)
+    """
+
+    T_base_cam: np.ndarray
+    region: np.ndarray
+    split: np.ndarray
+    azimuth_deg: np.ndarray
+    elevation_deg: np.ndarray
+    radius_m: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.T_base_cam)
+
+
+def place_cameras(preset: CameraPreset, rng: np.random.Generator) -> CameraSet:
+    """Camera poses of a preset: per region, azimuths spread over the sector, elevations and radii drawn.
+
+    Within a region the azimuths are evenly spaced with a random jitter (so the
+    region is covered evenly), elevation and radius uniform in their ranges;
+    the test poses are a seeded random choice within the region.
+
+    Parameters
+    ----------
+    preset : CameraPreset
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    CameraSet
+        Ordered by region, then azimuth.
+    """
+    centre = np.asarray(preset.look_at_m, dtype=float)
+    T, region, split, az_all, el_all, r_all = [], [], [], [], [], []
+    for k, (a0, a1) in enumerate(preset.region_azimuths_deg):
+        n = preset.train_per_region[k] + preset.test_per_region[k]
+        width = (a1 - a0) / n
+        az = a0 + width * (np.arange(n) + rng.uniform(0.2, 0.8, n))
+        el = rng.uniform(*preset.elevation_deg, n)
+        r = rng.uniform(*preset.radius_m, n)
+        a, e = np.radians(az), np.radians(el)
+        pos = centre + r[:, None] * np.column_stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+        T.append(look_at(pos, centre))
+        is_test = np.zeros(n, dtype=bool)
+        is_test[rng.choice(n, preset.test_per_region[k], replace=False)] = True
+        split.append(np.where(is_test, "test", "train"))
+        region.append(np.full(n, k))
+        az_all.append(az)
+        el_all.append(el)
+        r_all.append(r)
+    return CameraSet(np.concatenate(T), np.concatenate(region), np.concatenate(split), np.concatenate(az_all),
+                     np.concatenate(el_all), np.concatenate(r_all), {"preset": preset.name})

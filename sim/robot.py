@@ -1,0 +1,167 @@
+"""The robot: a UR arm from ``example-robot-data`` through Pinocchio.
+
+Frames: ``base`` is the model's world frame (the robot base), ``ee`` is
+Pinocchio's ``tool0`` frame (the flange), ``ref`` a point on the tool at
+``T_ee_ref`` (the reference point the learned model is given).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from handeye.errors import HandEyeInputError
+from handeye.optional import require_package
+from handeye.se3 import invert_transform, make_transform, so3_log
+
+__all__ = ["ROBOTS", "Robot", "load_robot"]
+
+ROBOTS = ("ur5", "ur3")
+_LOADERS = {"ur5": "UR5Loader", "ur3": "UR3Loader"}
+#: The reference point: the tip of a 12 cm tool along the flange's z axis.
+DEFAULT_T_EE_REF = make_transform(np.eye(3), [0.0, 0.0, 0.12])
+
+
+@dataclass
+class Robot:
+    """A Pinocchio robot with its flange and reference frames.
+
+    Attributes
+    ----------
+    name : str
+    model, data : pinocchio.Model, pinocchio.Data
+    visual_model : pinocchio.GeometryModel
+    ee_frame : int
+        Frame id of ``tool0``.
+    T_ee_ref : array, shape (4, 4)
+    """
+
+    name: str
+    model: object
+    data: object
+    visual_model: object
+    ee_frame: int
+    T_ee_ref: np.ndarray = field(default_factory=lambda: DEFAULT_T_EE_REF.copy())
+
+    @property
+    def nq(self) -> int:
+        """Number of joints."""
+        return int(self.model.nq)
+
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """Flange poses ``T_base_ee`` of joint configurations.
+
+        Parameters
+        ----------
+        q : array, shape (..., nq)
+            Joint angles, radians.
+
+        Returns
+        -------
+        T_base_ee : array, shape (..., 4, 4)
+        """
+        pin = require_package("pinocchio", extra="sim")
+        q = np.asarray(q, dtype=float)
+        flat = q.reshape(-1, self.nq)
+        out = np.empty((len(flat), 4, 4))
+        for k, qk in enumerate(flat):
+            pin.framesForwardKinematics(self.model, self.data, qk)
+            out[k] = self.data.oMf[self.ee_frame].homogeneous
+        return out.reshape(q.shape[:-1] + (4, 4))
+
+    def fk_ref(self, q: np.ndarray) -> np.ndarray:
+        """Reference-point poses ``T_base_ref = T_base_ee @ T_ee_ref``, shape (..., 4, 4)."""
+        return self.fk(q) @ self.T_ee_ref
+
+    def link_poses(self, q: np.ndarray) -> list[tuple[str, str, np.ndarray]]:
+        """Visual geometry of one configuration: (name, mesh path, ``T_base_geom``) per mesh.
+
+        Parameters
+        ----------
+        q : array, shape (nq,)
+
+        Returns
+        -------
+        list of (str, str, array (4, 4))
+        """
+        pin = require_package("pinocchio", extra="sim")
+        pin.forwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
+        out = []
+        for g in self.visual_model.geometryObjects:
+            T = (self.data.oMi[g.parentJoint] * g.placement).homogeneous
+            S = np.diag(list(np.asarray(g.meshScale, dtype=float)) + [1.0])
+            out.append((g.name, g.meshPath, T @ S))
+        return out
+
+    def ik(self, T_base_ee: np.ndarray, q0: np.ndarray, tol: float = 1e-10, max_iterations: int = 200,
+           damping: float = 1e-6) -> np.ndarray | None:
+        """Joint angles reaching a flange pose (damped least squares on SE(3)), or None.
+
+        Parameters
+        ----------
+        T_base_ee : array, shape (4, 4)
+        q0 : array, shape (nq,)
+            Start; the solution found is the one this start converges to.
+        tol : float
+            Pose error norm (radians and metres) accepted.
+        max_iterations : int
+        damping : float
+
+        Returns
+        -------
+        q : array, shape (nq,), or None when it did not converge or left the joint limits.
+        """
+        pin = require_package("pinocchio", extra="sim")
+        q = np.asarray(q0, dtype=float).copy()
+        target = pin.SE3(np.asarray(T_base_ee, dtype=float))
+        for _ in range(max_iterations):
+            pin.framesForwardKinematics(self.model, self.data, q)
+            err_T = self.data.oMf[self.ee_frame].actInv(target)  # current^-1 * target, in the flange frame
+            err = pin.log6(err_T).vector
+            if np.linalg.norm(err) < tol:
+                lo, hi = self.model.lowerPositionLimit, self.model.upperPositionLimit
+                return q if np.all(q >= lo) and np.all(q <= hi) else None
+            J = pin.computeFrameJacobian(self.model, self.data, q, self.ee_frame, pin.LOCAL)
+            J = pin.Jlog6(err_T) @ J
+            dq = J.T @ np.linalg.solve(J @ J.T + damping * np.eye(6), err)
+            q = pin.integrate(self.model, q, dq)
+        return None
+
+    def pose_error(self, q: np.ndarray, T_base_ee: np.ndarray) -> tuple[float, float]:
+        """Rotation (rad) and translation (m) error of ``fk(q)`` against a flange pose."""
+        D = invert_transform(self.fk(q)) @ T_base_ee
+        return float(np.linalg.norm(so3_log(D[:3, :3]))), float(np.linalg.norm(D[:3, 3]))
+
+
+def load_robot(name: str, T_ee_ref: np.ndarray | None = None) -> Robot:
+    """Load ``ur5`` or ``ur3`` from ``example-robot-data``.
+
+    Parameters
+    ----------
+    name : {"ur5", "ur3"}
+    T_ee_ref : array, shape (4, 4), optional
+        Reference point on the tool; default 12 cm along the flange's z.
+
+    Returns
+    -------
+    Robot
+
+    Raises
+    ------
+    HandEyeInputError
+        For another name.
+    MissingDependencyError
+        Without ``handeye[sim]``.
+    """
+    if name not in ROBOTS:
+        raise HandEyeInputError(f"unknown robot {name!r}: use one of {', '.join(ROBOTS)}")
+    require_package("pinocchio", extra="sim", purpose="the robot model")
+    erd = require_package("example_robot_data", extra="sim", purpose="the UR robot description")
+    # the loader classes, not erd.load(name): example-robot-data-loaders 5.0 maps "ur3" to the UR5 loader
+    wrapper = getattr(erd.robots_loader, _LOADERS[name])().robot
+    model = wrapper.model
+    robot = Robot(name, model, model.createData(), wrapper.visual_model, model.getFrameId("tool0"))
+    if T_ee_ref is not None:
+        robot.T_ee_ref = np.asarray(T_ee_ref, dtype=float)
+    return robot

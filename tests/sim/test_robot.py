@@ -1,0 +1,73 @@
+"""The UR robot through Pinocchio: kinematics against the published DH parameters, IK, meshes."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pinocchio")
+pytest.importorskip("example_robot_data")
+
+from handeye.errors import HandEyeInputError  # noqa: E402
+from sim.robot import load_robot  # noqa: E402
+from tests.tolerances import EXACT  # noqa: E402
+
+# Universal Robots' published DH parameters (metres): d1, a2, a3, d4, d5, d6
+DH = {"ur5": (0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823),
+      "ur3": (0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819)}
+
+
+@pytest.fixture(scope="module", params=["ur5", "ur3"])
+def robot(request):
+    return load_robot(request.param)
+
+
+def test_zero_configuration_matches_dh(robot):
+    """At q = 0 the arm is stretched out: the flange sits at (|a2 + a3|, d4 + d6, d1 - d5) (model base frame)."""
+    d1, a2, a3, d4, d5, d6 = DH[robot.name]
+    p = robot.fk(np.zeros(robot.nq))[:3, 3]
+    np.testing.assert_allclose(np.abs(p), [abs(a2 + a3), d4 + d6, abs(d1 - d5)], atol=1e-6)
+
+
+def test_base_joint_rotates_the_flange_about_base_z(robot):
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-2, 2, robot.nq)
+    q2 = q.copy()
+    q2[0] += 0.7
+    p, p2 = robot.fk(q)[:3, 3], robot.fk(q2)[:3, 3]
+    c, s = np.cos(0.7), np.sin(0.7)
+    np.testing.assert_allclose(p2, [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]], atol=EXACT)
+
+
+def test_batch_and_reference_point(robot):
+    q = np.random.default_rng(1).uniform(-2, 2, (2, 3, robot.nq))
+    T = robot.fk(q)
+    assert T.shape == (2, 3, 4, 4)
+    np.testing.assert_allclose(T[1, 2], robot.fk(q[1, 2]), atol=EXACT)
+    np.testing.assert_allclose(robot.fk_ref(q), T @ robot.T_ee_ref, atol=EXACT)
+
+
+def test_ik_round_trip(robot):
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        q = rng.uniform(-2, 2, robot.nq)
+        target = robot.fk(q)
+        sol = robot.ik(target, q + rng.normal(scale=0.1, size=robot.nq))
+        assert sol is not None
+        rot, trans = robot.pose_error(sol, target)
+        assert rot < EXACT and trans < EXACT
+
+
+def test_meshes_exist(robot):
+    links = robot.link_poses(np.zeros(robot.nq))
+    assert len(links) == 7
+    for _, path, T in links:
+        assert os.path.isfile(path)
+        assert T.shape == (4, 4)
+
+
+def test_unknown_robot():
+    with pytest.raises(HandEyeInputError, match="ur5"):
+        load_robot("ur10e")
