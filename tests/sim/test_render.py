@@ -1,0 +1,78 @@
+"""Rendering agrees with geometry: the flange origin appears where the intrinsics and T_base_cam put it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pinocchio")
+pytest.importorskip("pyrender")
+
+from handeye.se3 import invert_transform  # noqa: E402
+from sim.cameras import look_at  # noqa: E402
+from sim.render import Renderer  # noqa: E402
+from sim.robot import load_robot  # noqa: E402
+
+W, H = 320, 240
+K = np.array([[300.0, 0.0, 161.3], [0.0, 302.0, 118.6], [0.0, 0.0, 1.0]])  # off-centre principal point
+RADIUS = 0.015
+#: The marker is an icosphere (642 vertices): its facets lie within r (1 - cos(4.5 deg)) = 0.05 mm of the
+#: sphere, 0.015 px at 1 m, so a pixel centre can only change sides of the silhouette when it lies within
+#: that distance of it: a few pixels of the ~40 on the outline at most. A principal point off by half a
+#: pixel moves a whole side of the outline (6-15 pixels).
+MAX_MASK_MISMATCH_PX = 3
+#: Depth against the ray-sphere intersection, on the pixels within 60 % of the projected radius (further
+#: out the surface grazes the ray and a facet's 0.05 mm sag becomes millimetres along it): the sag over
+#: cos(37 deg) = 0.8, plus the depth buffer's resolution at ~1 m (24 bits over znear..zfar: < 0.1 mm).
+CORE_FRACTION = 0.6
+DEPTH_M = 2e-4
+
+
+def _ray_sphere(centre_cam, radius):
+    """Analytic mask and depth (camera z of the first hit) of a sphere, pixel centres at integers (OpenCV)."""
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    b = rays @ centre_cam
+    a = np.sum(rays**2, axis=-1)
+    disc = b**2 - a * (centre_cam @ centre_cam - radius**2)
+    hit = disc > 0
+    t = (b - np.sqrt(np.where(hit, disc, 0.0))) / a
+    return hit, np.where(hit, t, 0.0)  # rays have z = 1, so t is the depth
+
+
+@pytest.fixture(scope="module")
+def setup():
+    robot = load_robot("ur5")
+    renderer = Renderer(robot, K, W, H, environment=False, gripper=False, robot_visible=False,
+                        marker_radius_m=RADIUS)
+    yield robot, renderer
+    renderer.close()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_flange_origin_projects_where_the_image_shows_it(setup, seed):
+    """A sphere centred on the flange origin covers exactly the pixels whose rays hit it, at the right depth."""
+    robot, renderer = setup
+    rng = np.random.default_rng(seed)
+    q = np.array([0.3, -1.2, 1.5, -1.8, -1.57, 0.4]) + rng.normal(scale=0.3, size=6)
+    p_base = robot.fk(q)[:3, 3]
+    # a camera 0.6-1.0 m away, looking near (not exactly at) the flange so it lands off the image centre
+    direction = rng.normal(size=3)
+    direction[2] = abs(direction[2]) + 0.3
+    direction /= np.linalg.norm(direction)
+    T_base_cam = look_at(p_base + rng.uniform(0.6, 1.0) * direction, p_base + rng.normal(scale=0.08, size=3))
+    p_cam = (invert_transform(T_base_cam) @ np.append(p_base, 1.0))[:3]
+    u, v = K[0, 0] * p_cam[0] / p_cam[2] + K[0, 2], K[1, 1] * p_cam[1] / p_cam[2] + K[1, 2]
+    assert 15 < u < W - 15 and 15 < v < H - 15
+    rgb, depth = renderer.render(q, T_base_cam)
+    blob = depth > 0
+    expected, expected_depth = _ray_sphere(p_cam, RADIUS)
+    assert expected.sum() > 40
+    assert np.sum(blob != expected) <= MAX_MASK_MISMATCH_PX
+    rows, cols = np.mgrid[0:H, 0:W]
+    core = np.hypot(cols - u, rows - v) < CORE_FRACTION * K[0, 0] * RADIUS / p_cam[2]
+    assert core.sum() >= 10
+    np.testing.assert_allclose(depth[core], expected_depth[core], atol=DEPTH_M)
+    # the blob is the marker's colour (magenta) and sits around the projected flange origin
+    assert np.all(rgb[blob][:, 1] < rgb[blob][:, 0]) and np.all(rgb[blob][:, 1] < rgb[blob][:, 2])
+    assert blob[int(round(v)), int(round(u))]
