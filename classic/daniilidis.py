@@ -6,26 +6,9 @@ import numpy as np
 
 from classic._linear import check_motions
 from classic.motions import Motions, motions_from_transforms
-from handeye.se3 import make_transform, matrix_from_quat_xyzw, quat_multiply_wxyz, quat_wxyz_to_xyzw, quat_xyzw_from_matrix, quat_xyzw_to_wxyz
+from handeye.se3 import make_transform, matrix_from_quat_xyzw, quat_multiply_wxyz, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
 
-__all__ = ["daniilidis", "dual_quaternion_wxyz_from_transform"]
-
-
-def dual_quaternion_wxyz_from_transform(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit dual quaternion ``q + eps q'`` of a rigid transform, (w, x, y, z) order.
-
-    ``q`` is the rotation (``w >= 0``) and ``q' = (0, t) * q / 2``.
-
-    Parameters
-    ----------
-    T : array, shape (..., 4, 4)
-
-    Returns
-    -------
-    q, q_dual : array, shape (..., 4)
-    """
-    T = np.asarray(T, dtype=float)
-    return _dual(quat_xyzw_from_matrix(T[..., :3, :3]), T[..., :3, 3])
+__all__ = ["daniilidis"]
 
 
 def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:

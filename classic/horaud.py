@@ -8,41 +8,7 @@ from classic._linear import check_motions, translation_from_stats, translation_s
 from classic.motions import Motions, motions_from_transforms
 from handeye.se3 import make_transform, matrix_from_quat_xyzw, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
 
-__all__ = ["horaud", "quat_left_matrix_wxyz", "quat_right_matrix_wxyz"]
-
-
-def quat_left_matrix_wxyz(p: np.ndarray) -> np.ndarray:
-    """Matrix ``L(p)`` with ``L(p) q = p * q`` (Hamilton, (w, x, y, z) order).
-
-    Parameters
-    ----------
-    p : array, shape (..., 4)
-
-    Returns
-    -------
-    L : array, shape (..., 4, 4)
-    """
-    w, x, y, z = np.moveaxis(p, -1, 0)
-    return np.stack(
-        [np.stack([w, -x, -y, -z], -1), np.stack([x, w, -z, y], -1),
-         np.stack([y, z, w, -x], -1), np.stack([z, -y, x, w], -1)], -2)
-
-
-def quat_right_matrix_wxyz(p: np.ndarray) -> np.ndarray:
-    """Matrix ``W(p)`` with ``W(p) q = q * p`` (Hamilton, (w, x, y, z) order).
-
-    Parameters
-    ----------
-    p : array, shape (..., 4)
-
-    Returns
-    -------
-    W : array, shape (..., 4, 4)
-    """
-    w, x, y, z = np.moveaxis(p, -1, 0)
-    return np.stack(
-        [np.stack([w, -x, -y, -z], -1), np.stack([x, w, z, -y], -1),
-         np.stack([y, -z, w, x], -1), np.stack([z, y, -x, w], -1)], -2)
+__all__ = ["horaud"]
 
 
 def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -52,7 +18,8 @@ def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
     .. math:: \sum_k |a_k q - q b_k|^2 = q^T \Big[\sum_k (L(a_k) - W(b_k))^T (L(a_k) - W(b_k))\Big] q,
 
-    the eigenvector of the smallest eigenvalue; ``a_k``, ``b_k`` are the
+    the eigenvector of the smallest eigenvalue (``L``, ``W``: left and right
+    quaternion-multiplication matrices); ``a_k``, ``b_k`` are the
     motions' quaternions, both with non-negative scalar part. Then
     ``(R_A - I) t_X = R_X t_B - t_A``. Same algebra as OpenCV's
     ``CALIB_HAND_EYE_HORAUD``.

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from classic.motions import motions_from_poses
 from handeye.se3 import make_transform
 from handeye.setups import robot_side_poses
 
-__all__ = ["PAIRINGS", "pair_indices", "relative_motions", "motion_pairs"]
+__all__ = ["PAIRINGS", "pair_indices", "motion_pairs"]
 
 PAIRINGS = ("all", "consecutive")
 
@@ -33,24 +34,6 @@ def pair_indices(n: int, pairs: str = "all") -> tuple[np.ndarray, np.ndarray]:
     raise ValueError(f"unknown pairs {pairs!r}: use one of {PAIRINGS}")
 
 
-def relative_motions(T: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Relative motions ``T_j T_i^-1`` for index pairs ``(i, j)``.
-
-    Parameters
-    ----------
-    T : array, shape (N, 4, 4)
-    i, j : array of int, shape (K,)
-
-    Returns
-    -------
-    M : array, shape (K, 4, 4)
-    """
-    R, t = T[:, :3, :3], T[:, :3, 3]
-    R_ij = R[j] @ np.swapaxes(R[i], 1, 2)
-    t_ij = t[j] - np.einsum("kab,kb->ka", R_ij, t[i])
-    return make_transform(R_ij, t_ij)
-
-
 def motion_pairs(
     T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all"
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -72,7 +55,5 @@ def motion_pairs(
     -------
     A, B : array, shape (K, 4, 4)
     """
-    i, j = pair_indices(len(T_base_ee), pairs)
-    A = relative_motions(robot_side_poses(T_base_ee, setup), i, j)
-    B = relative_motions(T_cam_target, i, j)
-    return A, B
+    m = motions_from_poses(robot_side_poses(T_base_ee, setup), T_cam_target, *pair_indices(len(T_base_ee), pairs))
+    return make_transform(m.R_A, m.t_A), make_transform(m.R_B, m.t_B)

@@ -117,9 +117,9 @@ class Renderer:
         T_base_ee = self.robot.fk(q)
         for node, T_ee_mesh in self.ee_nodes:
             self.scene.set_pose(node, T_base_ee @ T_ee_mesh)
-        T_gl = gl_camera_pose(T_base_cam)
-        self.scene.set_pose(self.camera_node, T_gl)
-        self.scene.set_pose(self.light_node, T_gl)
+        T_base_glcam = gl_camera_pose(T_base_cam)
+        self.scene.set_pose(self.camera_node, T_base_glcam)
+        self.scene.set_pose(self.light_node, T_base_glcam)
         rgb, depth = self.renderer.render(self.scene)
         return rgb, depth.astype(np.float32)
 

@@ -25,9 +25,7 @@ def _trimesh():
 @lru_cache(maxsize=64)
 def load_link_mesh(path: str):
     """A robot link's visual mesh (``.dae`` needs pycollada), merged into one trimesh, cached."""
-    trimesh = _trimesh()
-    loaded = trimesh.load(path, force="mesh")
-    return loaded
+    return _trimesh().load(path, force="mesh")
 
 
 def _box(extents, color, T=np.eye(4)):

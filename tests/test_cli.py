@@ -15,6 +15,7 @@ from handeye.metrics import pose_error
 from handeye.posefile import write_pose_csv
 from handeye.se3 import invert_transform
 from handeye.synthetic import make_problem
+from tests.tolerances import EXACT
 
 DATA = Path(__file__).resolve().parents[1] / "handeye" / "data"
 
@@ -84,4 +85,4 @@ def test_units_option(tmp_path, units):
     out = tmp_path / "r.json"
     assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--units", units, "-o", str(out)]) == 0
     X = np.array(json.loads(out.read_text())["T_base_cam"]["matrix"])
-    np.testing.assert_allclose(X, p.X_true, atol=1e-9)
+    np.testing.assert_allclose(X, p.X_true, atol=EXACT)

@@ -12,8 +12,8 @@ from handeye.checked_poses import load_poses
 from handeye.posefile import read_pose_file, write_pose_csv
 from handeye.se3 import pos_quat_xyzw_from_transform, quat_xyzw_to_wxyz, so3_log
 from handeye.synthetic import make_problem
+from tests.tolerances import EXACT
 
-EXACT = 1e-9
 
 
 @pytest.fixture

@@ -272,3 +272,18 @@ REPROJECTION_TRIALS = 20
 #: mostly near 1 (1 / (1 + 0.3^2) = 0.92 at one sigma): a factor 2 either way
 #: is far outside all of that.
 ROBUST_SIGMA_FACTOR = 2.0
+
+# --------------------------------------------------------------------------
+# Rendering (sim): a sphere of radius 0.015 m on the flange, 0.6-1.0 m from the camera
+# --------------------------------------------------------------------------
+
+#: The marker is an icosphere (642 vertices): its facets lie within r (1 - cos(4.5 deg)) = 0.05 mm of the
+#: sphere, 0.015 px at 1 m, so a pixel centre can only change sides of the silhouette when it lies within
+#: that distance of it: a few pixels of the ~40 on the outline at most. A principal point off by half a
+#: pixel moves a whole side of the outline (6-15 pixels).
+MAX_MASK_MISMATCH_PX = 3
+#: Depth against the ray-sphere intersection, on the pixels within 60 % of the projected radius (further
+#: out the surface grazes the ray and a facet's 0.05 mm sag becomes millimetres along it): the sag over
+#: cos(37 deg) = 0.8, plus the depth buffer's resolution at ~1 m (24 bits over znear..zfar: < 0.1 mm).
+CORE_FRACTION = 0.6
+DEPTH_M = 2e-4

@@ -56,6 +56,12 @@ class CameraIntrinsics:
         Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
 
     @classmethod
+    def from_dict(cls, doc: dict) -> "CameraIntrinsics":
+        """Inverse of :meth:`to_dict`."""
+        return cls(np.array(doc["K"], dtype=float), np.array(doc.get("dist", np.zeros(5)), dtype=float),
+                   int(doc.get("width", 0)), int(doc.get("height", 0)))
+
+    @classmethod
     def load(cls, path: str | Path) -> "CameraIntrinsics":
         """Read intrinsics written by :meth:`save`.
 
@@ -66,9 +72,7 @@ class CameraIntrinsics:
         """
         path = Path(path)
         try:
-            doc = json.loads(path.read_text())
-            return cls(np.array(doc["K"], dtype=float), np.array(doc.get("dist", np.zeros(5)), dtype=float),
-                       int(doc.get("width", 0)), int(doc.get("height", 0)))
+            return cls.from_dict(json.loads(path.read_text()))
         except FileNotFoundError:
             raise IntrinsicsError(f"{path}: no such intrinsics file") from None
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:

@@ -163,7 +163,7 @@ def estimate_pose(det: Detection, spec: BoardSpec, intr: CameraIntrinsics, limit
     T = make_transform(so3_exp(rvec.ravel()), tvec.ravel())
     rms = float(np.sqrt(np.mean(np.sum((project_points(obj, T, intr) - img) ** 2, axis=1))))
     if rms > lim["max_rms_px"]:
-        return ViewPose(T, rms, n, f"reprojection RMS {rms:.2f} px above {lim['max_rms_px']} px "
+        return ViewPose(None, rms, n, f"reprojection RMS {rms:.2f} px above {lim['max_rms_px']} px "
                                    "(wrong intrinsics, motion blur, or a mis-detection)")
     if T[2, 3] <= 0:
         return ViewPose(None, rms, n, "PnP put the board behind the camera")

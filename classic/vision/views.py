@@ -121,8 +121,7 @@ class Views:
         try:
             doc = json.loads(path.read_text())
             spec = BoardSpec(**doc["board"])
-            d = doc["intrinsics"]
-            intr = CameraIntrinsics(np.array(d["K"]), np.array(d["dist"]), d["width"], d["height"])
+            intr = CameraIntrinsics.from_dict(doc["intrinsics"])
             views = []
             for v in doc["views"]:
                 det = Detection(np.array(v["ids"], dtype=int), np.array(v["corners_px"], dtype=float).reshape(-1, 2),

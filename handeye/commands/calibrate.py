@@ -126,8 +126,8 @@ def _run_detections(args: argparse.Namespace) -> int:
         lines += ["refined on corner reprojection error:", _fmt_pose(x_name, rep.X),
                   f"    1-sigma: {rep.sigma['X_rotation_deg']:.4f} deg, {rep.sigma['X_translation_mm']:.3f} mm",
                   _fmt_pose(y_name, rep.Y), f"  pixel RMS {rep.rms_px:.3f} px; per view:"]
-        for image, rms in zip(out.images, rep.per_view_rms_px):
-            flag = "  <- outlier" if out.images.index(image) in rep.outlier_views else ""
+        for k, (image, rms) in enumerate(zip(out.images, rep.per_view_rms_px)):
+            flag = "  <- outlier" if k in rep.outlier_views else ""
             lines.append(f"    {image}: {rms:.3f} px{flag}")
     lines += _truth_lines(args.truth, ((x_name, out.X), (y_name, out.Y)))
     print("\n".join(lines))

@@ -181,3 +181,18 @@ def test_with_given_noise_the_optimum_does_not_depend_on_the_start():
     for res in results[1:]:
         assert rotation_error_deg(res.X, ref.X) <= rot_tol, res.method
         assert translation_error_mm(res.X, ref.X) <= trans_tol, res.method
+
+
+def test_analytic_jacobian_matches_central_differences():
+    """The LM's analytic Jacobian against central differences, away from the optimum (large residuals)."""
+    from classic.refine import _jacobian, _jacobian_numeric
+    from handeye.setups import robot_side_poses
+
+    for setup in ("eye_to_hand", "eye_in_hand"):
+        p = make_problem(8, setup, np.random.default_rng(3), camera_noise=(3.0, 30.0))
+        A = robot_side_poses(p.T_base_ee, setup)
+        J = _jacobian(A, p.T_cam_target, p.X_true, p.Y_true, 0.01, 0.005)
+        J_num = _jacobian_numeric(A, p.T_cam_target, p.X_true, p.Y_true, 0.01, 0.005)
+        # central differences with h = 1e-7 on entries of order 100: truncation ~h^2 * 100, rounding
+        # ~eps * |r| / h ~ 1e-7; the relative bound 1e-6 is far below any real derivative mistake (order 1)
+        np.testing.assert_allclose(J, J_num, atol=1e-6 * np.abs(J_num).max())

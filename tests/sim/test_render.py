@@ -12,20 +12,11 @@ from handeye.se3 import invert_transform  # noqa: E402
 from sim.cameras import look_at  # noqa: E402
 from sim.render import Renderer  # noqa: E402
 from sim.robot import load_robot  # noqa: E402
+from tests.tolerances import CORE_FRACTION, DEPTH_M, MAX_MASK_MISMATCH_PX  # noqa: E402
 
 W, H = 320, 240
 K = np.array([[300.0, 0.0, 161.3], [0.0, 302.0, 118.6], [0.0, 0.0, 1.0]])  # off-centre principal point
 RADIUS = 0.015
-#: The marker is an icosphere (642 vertices): its facets lie within r (1 - cos(4.5 deg)) = 0.05 mm of the
-#: sphere, 0.015 px at 1 m, so a pixel centre can only change sides of the silhouette when it lies within
-#: that distance of it: a few pixels of the ~40 on the outline at most. A principal point off by half a
-#: pixel moves a whole side of the outline (6-15 pixels).
-MAX_MASK_MISMATCH_PX = 3
-#: Depth against the ray-sphere intersection, on the pixels within 60 % of the projected radius (further
-#: out the surface grazes the ray and a facet's 0.05 mm sag becomes millimetres along it): the sag over
-#: cos(37 deg) = 0.8, plus the depth buffer's resolution at ~1 m (24 bits over znear..zfar: < 0.1 mm).
-CORE_FRACTION = 0.6
-DEPTH_M = 2e-4
 
 
 def _ray_sphere(centre_cam, radius):
