@@ -206,9 +206,11 @@ def calibrate(
             )
         diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
         diagnostics["lmeds_median_residual_mm"] = 1000 * found.median_residual_m
+    # motion first: on degenerate motion a closed-form fit is ill-posed, and the fit-based consistency test
+    # would blame the pairing for what is a lack of rotation
+    motion = diagnose_motion(T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check)
     if check:
         diagnostics["consistency"] = check_consistency(T_base_ee[inliers], T_cam_target[inliers], setup, pairs)
-    motion = diagnose_motion(T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check)
     diagnostics["motion"] = motion.to_dict()
 
     X, Y = initial_estimate(A[inliers], B[inliers], method, pairs)
