@@ -62,6 +62,10 @@ class PoseFileError(HandEyeInputError):
     """A pose file cannot be read; the message names the file and row."""
 
 
+class DatasetError(HandEyeInputError):
+    """A dataset directory is incomplete or corrupt; the message names the file (and row)."""
+
+
 class WeakMotionWarning(UserWarning):
     """The motion set is poorly conditioned: the estimate will be noisy."""
 

@@ -43,6 +43,9 @@ class CameraPreset:
         Workspace centre the cameras look at, in the base frame.
     image_size : (int, int)
         ``(width, height)`` of the data images.
+    calibration_image_size : (int, int)
+        ``(width, height)`` of the calibration images: the same camera at a higher resolution (the
+        learner gets downscaled images; the calibration uses the sensor's resolution).
     fov_deg : float
         Horizontal field of view.
     """
@@ -58,12 +61,21 @@ class CameraPreset:
     elevation_deg: tuple = (20.0, 50.0)
     look_at_m: tuple = (0.0, 0.0, 0.3)
     image_size: tuple = (256, 256)
+    calibration_image_size: tuple = (640, 640)
     fov_deg: float = 60.0
 
     def __post_init__(self):
         k = len(self.region_azimuths_deg)
         if not (len(self.train_per_region) == len(self.test_per_region) == k):
             raise HandEyeInputError(f"preset {self.name}: one train and one test count per region ({k} regions)")
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "CameraPreset":
+        """Inverse of ``dataclasses.asdict`` after a JSON round trip (lists back to tuples)."""
+        def as_tuple(v):
+            return tuple(as_tuple(x) for x in v) if isinstance(v, list) else v
+
+        return cls(**{k: as_tuple(v) for k, v in doc.items()})
 
     @property
     def n_cameras(self) -> int:
@@ -87,7 +99,7 @@ PRESETS = {
     ),
     # for tests and CI: 2 regions of 2 train + 1 test, 6 configurations
     "small": CameraPreset("small", "ur5", _sectors(2), (2, 2), (1, 1), 6, calibration_views=10,
-                          image_size=(128, 128)),
+                          image_size=(128, 128), calibration_image_size=(480, 480)),
 }
 
 

@@ -45,6 +45,17 @@ def _single_sample_framebuffers(pyrender) -> None:
     module._handeye_single_sample = True
 
 
+def _matte(mesh):
+    """Paper-like surfaces: trimesh's textured materials arrive in pyrender metallic and darkened (0.4)."""
+    for primitive in mesh.primitives:
+        material = primitive.material
+        material.metallicFactor = 0.0
+        material.roughnessFactor = 1.0
+        if material.baseColorTexture is not None:
+            material.baseColorFactor = np.ones(4)
+    return mesh
+
+
 class Renderer:
     """A pyrender scene of one robot, its tool, the lab, and optionally a board or a flange marker.
 
@@ -74,7 +85,7 @@ class Renderer:
         self.scene = pr.Scene(ambient_light=np.array([0.35, 0.35, 0.35]), bg_color=np.array([0.8, 0.85, 0.9, 1.0]))
         if environment:
             for m in environment_meshes():
-                self.scene.add(pr.Mesh.from_trimesh(m, smooth=False))
+                self.scene.add(_matte(pr.Mesh.from_trimesh(m, smooth=False)))
         self.link_nodes = []
         if robot_visible:
             for name, path, _ in robot.link_poses(np.zeros(robot.nq)):
@@ -85,7 +96,7 @@ class Renderer:
                 self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(m, smooth=False)), np.eye(4)))
         if board is not None:
             spec, T_ee_target = board
-            self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(board_mesh(spec, T_ee_target))), np.eye(4)))
+            self.ee_nodes.append((self.scene.add(_matte(pr.Mesh.from_trimesh(board_mesh(spec, T_ee_target)))), np.eye(4)))
         if marker_radius_m is not None:
             self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(marker_mesh(marker_radius_m), smooth=False)),
                                   np.eye(4)))

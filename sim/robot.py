@@ -35,6 +35,10 @@ class Robot:
     ee_frame : int
         Frame id of ``tool0``.
     T_ee_ref : array, shape (4, 4)
+    shoulder_m : array, shape (3,)
+        The shoulder joint's origin in the base frame.
+    reach_m : float
+        Distance from the shoulder to the flange with the arm stretched.
     """
 
     name: str
@@ -43,6 +47,13 @@ class Robot:
     visual_model: object
     ee_frame: int
     T_ee_ref: np.ndarray = field(default_factory=lambda: DEFAULT_T_EE_REF.copy())
+    shoulder_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    reach_m: float = 0.0
+
+    @property
+    def pin(self):
+        """The pinocchio module."""
+        return require_package("pinocchio", extra="sim")
 
     @property
     def nq(self) -> int:
@@ -164,4 +175,8 @@ def load_robot(name: str, T_ee_ref: np.ndarray | None = None) -> Robot:
     robot = Robot(name, model, model.createData(), wrapper.visual_model, model.getFrameId("tool0"))
     if T_ee_ref is not None:
         robot.T_ee_ref = np.asarray(T_ee_ref, dtype=float)
+    q_stretched = np.zeros(robot.nq)
+    robot.pin.forwardKinematics(model, robot.data, q_stretched)
+    robot.shoulder_m = robot.data.oMi[2].translation.copy()
+    robot.reach_m = float(np.linalg.norm(robot.fk(q_stretched)[:3, 3] - robot.shoulder_m))
     return robot

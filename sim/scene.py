@@ -76,16 +76,23 @@ def _textured_quad(width_m: float, height_m: float, image: np.ndarray, T: np.nda
 
 
 def environment_meshes(seed: int = 0) -> list:
-    """Floor, two walls and objects around the base (base frame, metres)."""
+    """Floor, two walls and objects around the base (base frame, metres).
+
+    The objects stand 2.2-2.6 m from the base, beyond the cameras (at most
+    about 1.7 m out), so they are background and never hide the robot.
+    """
     trimesh = _trimesh()
-    meshes = [_textured_quad(4.0, 4.0, floor_texture(seed=seed), make_transform(np.eye(3), [0, 0, -0.001]))]
-    meshes.append(_box((4.0, 0.05, 1.5), (200, 190, 150, 255), make_transform(np.eye(3), [0, 2.0, 0.75])))
-    meshes.append(_box((0.05, 4.0, 1.0), (120, 140, 170, 255), make_transform(np.eye(3), [-2.0, 0, 0.5])))
-    meshes.append(_box((0.3, 0.3, 0.3), (200, 40, 40, 255), make_transform(np.eye(3), [0.9, 0.7, 0.15])))
-    meshes.append(_box((0.2, 0.5, 0.6), (240, 200, 30, 255), make_transform(np.eye(3), [-0.9, -0.8, 0.3])))
-    cyl = trimesh.creation.cylinder(radius=0.12, height=0.5, transform=make_transform(np.eye(3), [-0.7, 0.9, 0.25]))
+    meshes = [_textured_quad(7.0, 7.0, floor_texture(seed=seed), make_transform(np.eye(3), [0, 0, -0.001]))]
+    meshes.append(_box((7.0, 0.05, 2.0), (200, 190, 150, 255), make_transform(np.eye(3), [0, 3.2, 1.0])))
+    meshes.append(_box((0.05, 7.0, 1.4), (120, 140, 170, 255), make_transform(np.eye(3), [-3.2, 0, 0.7])))
+    meshes.append(_box((0.4, 0.4, 0.4), (200, 40, 40, 255), make_transform(np.eye(3), [2.3, 0.9, 0.2])))
+    meshes.append(_box((0.3, 0.6, 0.9), (240, 200, 30, 255), make_transform(np.eye(3), [-2.0, -1.4, 0.45])))
+    cyl = trimesh.creation.cylinder(radius=0.18, height=0.8, transform=make_transform(np.eye(3), [-1.0, 2.3, 0.4]))
     cyl.visual.face_colors = np.array([40, 160, 60, 255], dtype=np.uint8)
     meshes.append(cyl)
+    cone = trimesh.creation.cone(radius=0.25, height=0.7, transform=make_transform(np.eye(3), [1.2, -2.3, 0.0]))
+    cone.visual.face_colors = np.array([150, 60, 190, 255], dtype=np.uint8)
+    meshes.append(cone)
     return meshes
 
 

@@ -1,0 +1,453 @@
+"""The labelled RGB-D dataset format: a directory any user can open with standard tools.
+
+Layout (``FORMAT_VERSION`` 1)::
+
+    meta.json                   format, version, robot, intrinsics, depth scale, board, recipe
+    cameras.csv                 one row per camera pose: region, split, truth, classic label
+    shards/cam_0000/frames.csv  one row per frame of that camera pose
+    shards/cam_0000/rgb/*.png   colour, 8-bit RGB
+    shards/cam_0000/depth/*.png depth, 16-bit, metres = value * meta["depth"]["scale_m"], 0 = no depth
+    shards/cam_0000/manifest.json   written last: every file of the shard with its size
+
+Poses are columns ``<T_a_b>.x, .y, .z`` (metres) and ``.qx, .qy, .qz, .qw``
+(unit quaternion, scalar last), as in pose files (:mod:`handeye.posefile`);
+joint angles ``q0 .. q<n-1>`` in radians. Every frame belongs to a recording:
+``calibration`` (the board on the flange, no depth) or ``data`` (the robot
+with its tool, colour and depth; what the learned model trains on).
+
+A shard is complete when its ``manifest.json`` exists and every file it lists
+has the listed size; a shard is written into ``cam_XXXX.partial`` and renamed
+once complete, so a crash never leaves a shard that looks complete. Reading is
+lazy (tables on first use, images on request) and validated, with errors
+(:class:`handeye.errors.DatasetError`) that name the file, row and column.
+
+Filling it from a real robot: write ``meta.json`` (intrinsics from ``handeye
+intrinsics``, the board, ``depth.scale_m`` of your sensor), one ``cameras.csv``
+row per camera placement (truth columns empty), and per placement a shard with
+the calibration images and flange poses and the data images with joint angles,
+``T_base_ee`` and ``T_base_ref``; then run ``handeye label``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from handeye.errors import DatasetError
+from handeye.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
+
+__all__ = [
+    "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "Dataset",
+    "pose_columns", "poses_to_columns", "columns_to_poses", "read_table", "write_table", "shard_name",
+    "write_manifest", "shard_is_complete", "write_json_atomic", "encode_depth", "decode_depth",
+]
+
+FORMAT = "handeye-dataset"
+FORMAT_VERSION = 1
+RECORDINGS = ("calibration", "data")
+POSE_FIELDS = ("x", "y", "z", "qx", "qy", "qz", "qw")
+SPLITS = ("train", "test")
+
+
+def pose_columns(name: str) -> list[str]:
+    """The seven column names of pose ``name``: ``name.x`` ... ``name.qw``."""
+    return [f"{name}.{f}" for f in POSE_FIELDS]
+
+
+#: Camera table: the placement, and the truth where known (empty cells for a real robot).
+CAMERA_COLUMNS = ["camera_id", "region", "split", "azimuth_deg", "elevation_deg", "radius_m",
+                  *pose_columns("T_base_cam_true")]
+#: Written by labelling: the classic label, how it was obtained and, with a truth, its error.
+LABEL_COLUMNS = [*pose_columns("T_base_cam_label"), "label_status", "label_views_used", "label_views_total",
+                 "label_rms_px", "label_sigma_rot_deg", "label_sigma_trans_mm", "label_error_rot_deg",
+                 "label_error_trans_mm"]
+_INT_COLUMNS = {"camera_id", "region", "frame", "label_views_used", "label_views_total"}
+_STR_COLUMNS = {"split", "recording", "rgb", "depth", "label_status"}
+
+
+def shard_name(camera_id: int) -> str:
+    """Directory of a camera pose's shard, relative to the dataset root."""
+    return f"shards/cam_{int(camera_id):04d}"
+
+
+def frame_columns(n_joints: int) -> list[str]:
+    """Columns of a shard's ``frames.csv``."""
+    return ["frame", "camera_id", "region", "split", "recording", *[f"q{j}" for j in range(n_joints)],
+            *pose_columns("T_base_ee"), *pose_columns("T_base_ref"), "rgb", "depth"]
+
+
+# ------------------------------------------------------------------ poses <-> columns
+
+
+def poses_to_columns(name: str, T: np.ndarray) -> dict:
+    """Columns ``name.x .. name.qw`` of poses, shape (N, 4, 4) -> dict of arrays (N,)."""
+    t, q = pos_quat_xyzw_from_transform(np.asarray(T, dtype=float).reshape(-1, 4, 4))
+    values = np.concatenate([t, q], axis=1)
+    return {c: values[:, k] for k, c in enumerate(pose_columns(name))}
+
+
+def columns_to_poses(table: dict, name: str, where: str = "") -> np.ndarray:
+    """Poses ``name`` of a table, shape (N, 4, 4); NaN rows (unknown) give NaN poses.
+
+    Raises
+    ------
+    DatasetError
+        When a quaternion is not unit (a corrupted or hand-edited table).
+    """
+    values = np.column_stack([np.asarray(table[c], dtype=float) for c in pose_columns(name)])
+    known = np.isfinite(values).all(axis=1)
+    norms = np.linalg.norm(values[:, 3:], axis=1)
+    bad = np.flatnonzero(known & (np.abs(norms - 1.0) > 1e-4))
+    if len(bad):
+        raise DatasetError(f"{where}: {name} of row {bad[0] + 2} has a quaternion of norm {norms[bad[0]]:.6f}, "
+                           "not a unit quaternion")
+    out = np.full((len(values), 4, 4), np.nan)
+    if known.any():
+        out[known] = transform_from_pos_quat_xyzw(values[known, :3], values[known, 3:])
+    return out
+
+
+# ------------------------------------------------------------------ tables
+
+
+def _parse(value: str, column: str, path: Path, row: int):
+    if column in _STR_COLUMNS:
+        return value
+    if value == "":
+        return None if column in _INT_COLUMNS else np.nan
+    try:
+        return int(value) if column in _INT_COLUMNS else float(value)
+    except ValueError:
+        kind = "an integer" if column in _INT_COLUMNS else "a number"
+        raise DatasetError(f"{path}: row {row} column {column}: {value!r} is not {kind}") from None
+
+
+def read_table(path: str | Path, required: list[str]) -> dict:
+    """Read a CSV table into columns, checking that the required ones are there and typed.
+
+    Parameters
+    ----------
+    path : str or Path
+    required : list of str
+
+    Returns
+    -------
+    dict
+        Column name to array (float, int or str); extra columns are kept.
+
+    Raises
+    ------
+    DatasetError
+        Missing file, missing column, a value that does not parse, a ragged row.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"{path}: table missing")
+    try:
+        with path.open(newline="") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: cannot read the table ({exc})") from None
+    if not rows:
+        raise DatasetError(f"{path}: empty table (no header)")
+    header, body = rows[0], rows[1:]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise DatasetError(f"{path}: missing column(s) {', '.join(missing)} (header: {','.join(header[:12])}...)")
+    columns = {c: [] for c in header}
+    for r, values in enumerate(body, start=2):
+        if len(values) != len(header):
+            raise DatasetError(f"{path}: row {r} has {len(values)} values for {len(header)} columns")
+        for c, v in zip(header, values):
+            columns[c].append(_parse(v, c, path, r))
+    out = {}
+    for c, values in columns.items():
+        if c in _STR_COLUMNS:
+            out[c] = np.array(values, dtype=object)
+        elif c in _INT_COLUMNS:
+            if any(v is None for v in values):
+                if c in required:
+                    raise DatasetError(f"{path}: column {c} has an empty cell")
+                out[c] = np.array([-1 if v is None else v for v in values], dtype=int)
+            else:
+                out[c] = np.array(values, dtype=int)
+        else:
+            out[c] = np.array(values, dtype=float)
+    return out
+
+
+def _format(value) -> str:
+    if isinstance(value, (float, np.floating)):
+        return "" if not np.isfinite(value) else repr(float(value))
+    if isinstance(value, (np.integer,)):
+        return str(int(value))
+    return "" if value is None else str(value)
+
+
+def write_table(path: str | Path, table: dict, columns: list[str] | None = None) -> None:
+    """Write columns as CSV atomically (a temporary file renamed over the target)."""
+    path = Path(path)
+    columns = list(table) if columns is None else columns
+    n = len(next(iter(table.values()))) if table else 0
+    tmp = path.with_name(path.name + ".tmp")
+    with tmp.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        for i in range(n):
+            writer.writerow([_format(table[c][i]) if c in table else "" for c in columns])
+    os.replace(tmp, path)
+
+
+def write_json_atomic(path: str | Path, doc: dict) -> None:
+    """Write JSON atomically."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=2) + "\n")
+    os.replace(tmp, path)
+
+
+# ------------------------------------------------------------------ images
+
+
+def encode_depth(depth_m: np.ndarray, scale_m: float) -> np.ndarray:
+    """Depth in metres to 16-bit units of ``scale_m`` (0 where no depth or beyond range).
+
+    Parameters
+    ----------
+    depth_m : array, shape (H, W)
+    scale_m : float
+        Metres per unit.
+
+    Returns
+    -------
+    array of uint16, shape (H, W)
+    """
+    units = np.rint(np.asarray(depth_m, dtype=np.float64) / scale_m)
+    units[~np.isfinite(units) | (units > np.iinfo(np.uint16).max) | (units < 0)] = 0
+    return units.astype(np.uint16)
+
+
+def decode_depth(units: np.ndarray, scale_m: float) -> np.ndarray:
+    """Inverse of :func:`encode_depth`: float32 metres, 0 where no depth."""
+    return np.asarray(units, dtype=np.float32) * np.float32(scale_m)
+
+
+def _read_png(path: Path) -> np.ndarray:
+    from PIL import Image, UnidentifiedImageError
+
+    if not path.is_file():
+        raise DatasetError(f"{path}: image missing")
+    try:
+        with Image.open(path) as im:
+            return np.array(im)
+    except (OSError, UnidentifiedImageError) as exc:
+        raise DatasetError(f"{path}: cannot read the image ({exc})") from None
+
+
+# ------------------------------------------------------------------ manifests
+
+
+def write_manifest(shard_dir: Path, camera_id: int, n_frames: dict) -> None:
+    """List every file of a shard with its size, last, so a complete shard can be recognised."""
+    files = {}
+    for p in sorted(shard_dir.rglob("*")):
+        if p.is_file() and p.name != "manifest.json":
+            files[p.relative_to(shard_dir).as_posix()] = p.stat().st_size
+    write_json_atomic(shard_dir / "manifest.json", {"format": FORMAT, "version": FORMAT_VERSION,
+                                                    "camera_id": int(camera_id), "frames": n_frames, "files": files})
+
+
+def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
+    """Whether a shard is complete, and if not why (for messages and for resuming)."""
+    manifest = shard_dir / "manifest.json"
+    if not shard_dir.is_dir():
+        return False, f"{shard_dir}: shard missing"
+    if not manifest.is_file():
+        return False, f"{manifest}: missing (shard half-written)"
+    try:
+        files = json.loads(manifest.read_text())["files"]
+    except (json.JSONDecodeError, KeyError, OSError) as exc:
+        return False, f"{manifest}: unreadable ({exc})"
+    for rel, size in files.items():
+        p = shard_dir / rel
+        if not p.is_file():
+            return False, f"{p}: listed in the manifest but missing"
+        if p.stat().st_size != size:
+            return False, f"{p}: {p.stat().st_size} bytes, the manifest says {size} (truncated or rewritten)"
+    return True, ""
+
+
+# ------------------------------------------------------------------ the dataset
+
+
+@dataclass
+class Dataset:
+    """A dataset directory, read lazily and validated.
+
+    Open with :meth:`open`. Tables are read on first use; images on request.
+
+    Attributes
+    ----------
+    root : Path
+    meta : dict
+    """
+
+    root: Path
+    meta: dict
+    _cameras: dict | None = field(default=None, repr=False)
+    _frames: dict = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def open(cls, root: str | Path) -> "Dataset":
+        """Open and validate ``meta.json`` (tables and images are checked when read).
+
+        Raises
+        ------
+        DatasetError
+            No such directory, missing or invalid ``meta.json``, another format version.
+        """
+        root = Path(root)
+        if not root.is_dir():
+            raise DatasetError(f"{root}: no such dataset directory")
+        path = root / "meta.json"
+        if not path.is_file():
+            raise DatasetError(f"{path}: missing; not a handeye dataset (generate one with 'handeye sim generate')")
+        try:
+            meta = json.loads(path.read_text())
+        except json.JSONDecodeError as exc:
+            raise DatasetError(f"{path}: not valid JSON ({exc})") from None
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+            raise DatasetError(f"{path}: not a {FORMAT} meta file (format {meta.get('format') if isinstance(meta, dict) else None!r})")
+        if meta.get("version") != FORMAT_VERSION:
+            raise DatasetError(f"{path}: format version {meta.get('version')!r}; this handeye reads version "
+                               f"{FORMAT_VERSION}")
+        for key in ("robot", "intrinsics", "depth", "n_joints", "cameras"):
+            if key not in meta:
+                raise DatasetError(f"{path}: key {key!r} missing")
+        return cls(root, meta)
+
+    # -- tables
+
+    @property
+    def cameras_path(self) -> Path:
+        return self.root / "cameras.csv"
+
+    def cameras(self) -> dict:
+        """The camera table (columns to arrays), validated: ids 0..N-1, splits, unit quaternions."""
+        if self._cameras is None:
+            table = read_table(self.cameras_path, CAMERA_COLUMNS)
+            n = len(table["camera_id"])
+            if n != self.meta["cameras"]:
+                raise DatasetError(f"{self.cameras_path}: {n} rows, meta.json says {self.meta['cameras']} cameras")
+            if not np.array_equal(table["camera_id"], np.arange(n)):
+                raise DatasetError(f"{self.cameras_path}: camera_id must run 0..{n - 1} in order")
+            bad = [s for s in table["split"] if s not in SPLITS]
+            if bad:
+                raise DatasetError(f"{self.cameras_path}: split {bad[0]!r} is not one of {SPLITS}")
+            columns_to_poses(table, "T_base_cam_true", str(self.cameras_path))
+            if "T_base_cam_label.x" in table:
+                columns_to_poses(table, "T_base_cam_label", str(self.cameras_path))
+            self._cameras = table
+        return self._cameras
+
+    def __len__(self) -> int:
+        return int(self.meta["cameras"])
+
+    def shard_dir(self, camera_id: int) -> Path:
+        return self.root / shard_name(camera_id)
+
+    def frames(self, camera_id: int) -> dict:
+        """The frame table of one camera pose (both recordings), validated.
+
+        Raises
+        ------
+        DatasetError
+            Incomplete shard (pointing to the command that resumes it), bad table.
+        """
+        camera_id = int(camera_id)
+        if not 0 <= camera_id < len(self):
+            raise DatasetError(f"{self.root}: no camera {camera_id} (the dataset has 0..{len(self) - 1})")
+        if camera_id not in self._frames:
+            shard = self.shard_dir(camera_id)
+            ok, why = shard_is_complete(shard)
+            if not ok:
+                raise DatasetError(f"{why}; run the generator again on {self.root} to resume")
+            path = shard / "frames.csv"
+            table = read_table(path, frame_columns(self.meta["n_joints"]))
+            if np.any(table["camera_id"] != camera_id):
+                raise DatasetError(f"{path}: rows of another camera in camera {camera_id}'s shard")
+            bad = [r for r in table["recording"] if r not in RECORDINGS]
+            if bad:
+                raise DatasetError(f"{path}: recording {bad[0]!r} is not one of {RECORDINGS}")
+            for name in ("T_base_ee", "T_base_ref"):
+                columns_to_poses(table, name, str(path))
+            self._frames[camera_id] = table
+        return self._frames[camera_id]
+
+    def select(self, camera_id: int, recording: str) -> dict:
+        """Rows of one recording of one camera pose."""
+        t = self.frames(camera_id)
+        keep = t["recording"] == recording
+        return {c: v[keep] for c, v in t.items()}
+
+    def poses(self, table: dict, name: str) -> np.ndarray:
+        """Poses ``name`` of a (selected) frame table, shape (N, 4, 4)."""
+        return columns_to_poses(table, name, str(self.root))
+
+    def joints(self, table: dict) -> np.ndarray:
+        """Joint angles of a frame table, radians, shape (N, n_joints)."""
+        return np.column_stack([table[f"q{j}"] for j in range(self.meta["n_joints"])])
+
+    def truth(self) -> np.ndarray:
+        """``T_base_cam`` truth per camera pose, shape (N, 4, 4) (NaN where unknown)."""
+        return columns_to_poses(self.cameras(), "T_base_cam_true", str(self.cameras_path))
+
+    def labels(self) -> np.ndarray:
+        """Classic labels ``T_base_cam`` per camera pose, shape (N, 4, 4) (NaN where labelling failed).
+
+        Raises
+        ------
+        DatasetError
+            When the dataset has not been labelled.
+        """
+        cams = self.cameras()
+        if "T_base_cam_label.x" not in cams:
+            raise DatasetError(f"{self.cameras_path}: no labels; run 'handeye label {self.root}' first")
+        return columns_to_poses(cams, "T_base_cam_label", str(self.cameras_path))
+
+    # -- images
+
+    def rgb(self, camera_id: int, relpath: str) -> np.ndarray:
+        """Colour image of a frame (its ``rgb`` cell), uint8 (H, W, 3)."""
+        img = _read_png(self.shard_dir(camera_id) / relpath)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise DatasetError(f"{self.shard_dir(camera_id) / relpath}: expected 8-bit RGB, got {img.dtype} "
+                               f"{img.shape}")
+        return img
+
+    def depth_m(self, camera_id: int, relpath: str) -> np.ndarray:
+        """Depth image of a frame (its ``depth`` cell) in metres, float32 (H, W), 0 = no depth."""
+        units = _read_png(self.shard_dir(camera_id) / relpath)
+        if units.ndim != 2 or units.dtype not in (np.uint16, np.int32):
+            raise DatasetError(f"{self.shard_dir(camera_id) / relpath}: expected a 16-bit depth PNG, got "
+                               f"{units.dtype} {units.shape}")
+        return decode_depth(units, self.meta["depth"]["scale_m"])
+
+    def validate(self, images: bool = False) -> None:
+        """Check every table (and with ``images`` every image file exists); raise on the first problem."""
+        self.cameras()
+        for c in range(len(self)):
+            t = self.frames(c)
+            if images:
+                for rel in list(t["rgb"]) + [d for d in t["depth"] if d]:
+                    if not (self.shard_dir(c) / rel).is_file():
+                        raise DatasetError(f"{self.shard_dir(c) / rel}: image missing")
+
+    def complete_shards(self) -> list[int]:
+        """Camera ids whose shard is complete."""
+        return [c for c in range(len(self)) if shard_is_complete(self.shard_dir(c))[0]]

@@ -1,0 +1,244 @@
+"""Label a dataset: the classic eye-to-hand calibration of every camera pose from its calibration recording.
+
+Per camera pose: ChArUco detection and PnP on each calibration image (with
+the recorded calibration intrinsics), the pose-based eye-to-hand solve
+(closed form, Levenberg-Marquardt) and the corner-reprojection refinement
+(:func:`handeye.image_calibration.calibrate_from_views`). The label
+``T_base_cam``, its diagnostics and, where the truth is known, its error are
+written to ``cameras.csv``; a report (``labels.md``) and a plot
+(``label_errors.png``) next to it.
+
+This is a pipeline module of the front: it imports ``classic`` lazily.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from handeye.dataset import CAMERA_COLUMNS, LABEL_COLUMNS, Dataset, poses_to_columns, write_table
+from handeye.errors import DatasetError, HandEyeInputError
+from handeye.metrics import pose_error
+
+__all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown",
+           "plot_label_errors"]
+
+
+def _board_and_intrinsics(ds: Dataset):
+    from classic.vision.board import BoardSpec
+    from classic.vision.camera import CameraIntrinsics
+
+    if "board" not in ds.meta:
+        raise DatasetError(f"{ds.root / 'meta.json'}: no 'board' entry; labelling needs the calibration board")
+    intr = ds.meta.get("calibration_intrinsics", ds.meta["intrinsics"])
+    return BoardSpec(**ds.meta["board"]), CameraIntrinsics.from_dict(intr)
+
+
+def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dict, object]:
+    """Calibrate one camera pose from its calibration recording.
+
+    Parameters
+    ----------
+    ds : Dataset
+    camera_id : int
+    method : str
+        Closed form of the pose-based solve.
+
+    Returns
+    -------
+    row : dict
+        The :data:`handeye.dataset.LABEL_COLUMNS` values (NaN pose and a ``failed: ...`` status
+        when the calibration is refused).
+    calibration : handeye.image_calibration.ImageCalibration or None
+    """
+    from classic.vision.detect import detect_board, estimate_pose
+    from classic.vision.views import View, Views
+    from handeye.image_calibration import calibrate_from_views
+
+    spec, intr = _board_and_intrinsics(ds)
+    rows = ds.select(camera_id, "calibration")
+    n = len(rows["frame"])
+    views = []
+    for rel in rows["rgb"]:
+        det = detect_board(ds.rgb(camera_id, rel), spec)
+        views.append(View(rel, det, estimate_pose(det, spec, intr)))
+    out = {c: np.nan for c in LABEL_COLUMNS}
+    out.update(label_views_total=n, label_views_used=0)
+    try:
+        if n == 0:
+            raise HandEyeInputError("no calibration recording")
+        cal = calibrate_from_views(Views(views, spec, intr, ds.shard_dir(camera_id), "recorded"),
+                                   ds.poses(rows, "T_base_ee"), "eye_to_hand", method=method)
+    except HandEyeInputError as exc:
+        out["label_status"] = f"failed: {exc}".replace("\n", " ")
+        return out, None
+    out.update(poses_to_columns("T_base_cam_label", cal.X))
+    out = {k: (v[0] if isinstance(v, np.ndarray) else v) for k, v in out.items()}
+    rep = cal.reprojection
+    out.update(label_status="ok", label_views_used=len(cal.images), label_rms_px=rep.rms_px,
+               label_sigma_rot_deg=rep.sigma["X_rotation_deg"], label_sigma_trans_mm=rep.sigma["X_translation_mm"])
+    truth = ds.truth()[camera_id]
+    if np.isfinite(truth).all():
+        rot, trans = pose_error(cal.X, truth)
+        out.update(label_error_rot_deg=float(rot), label_error_trans_mm=float(trans))
+    return out, cal
+
+
+@dataclass
+class LabelReport:
+    """What :func:`label_dataset` wrote.
+
+    Attributes
+    ----------
+    root : Path
+    table : dict
+        The camera table with its label columns.
+    wall_s : float
+    """
+
+    root: Path
+    table: dict
+    wall_s: float
+
+    def summary(self) -> str:
+        """Median and worst label error, failures."""
+        return label_summary(self.table)
+
+
+def _label_one(args):
+    import cv2
+
+    cv2.setNumThreads(1)
+    root, camera_id, method = args
+    return camera_id, label_camera(Dataset.open(root), camera_id, method)[0]
+
+
+def label_dataset(root: str | Path, workers: int = 2, method: str = "park", progress: bool = True,
+                  plot: bool = True) -> LabelReport:
+    """Label every camera pose of a dataset and write the labels, a report and a plot.
+
+    Parameters
+    ----------
+    root : str or Path
+    workers : int
+        Processes (1: in this process).
+    method : str
+    progress : bool
+        A progress bar on stderr.
+    plot : bool
+        Write ``label_errors.png`` (needs matplotlib).
+
+    Returns
+    -------
+    LabelReport
+
+    Raises
+    ------
+    DatasetError
+        An invalid or incomplete dataset (checked before any work).
+    """
+    t0 = time.perf_counter()
+    ds = Dataset.open(root)
+    cams = ds.cameras()
+    for c in range(len(ds)):
+        ds.frames(c)  # validate every shard up front: fail before an hour of work, not after
+    results = {}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(ds), desc=f"label {ds.root.name}", unit="camera", file=sys.stderr)
+    jobs = [(str(ds.root), c, method) for c in range(len(ds))]
+    if workers == 1:
+        it = (_label_one(j) for j in jobs)
+        pool = None
+    else:
+        pool = multiprocessing.get_context("spawn").Pool(min(workers, len(jobs)))
+        it = pool.imap_unordered(_label_one, jobs)
+    try:
+        for c, row in it:
+            results[c] = row
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
+        if bar is not None:
+            bar.close()
+    table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS}
+    for col in LABEL_COLUMNS:
+        table[col] = np.array([results[c][col] for c in range(len(ds))],
+                              dtype=object if col == "label_status" else float)
+    for col in ("label_views_used", "label_views_total"):
+        table[col] = table[col].astype(int)
+    write_table(ds.cameras_path, table, CAMERA_COLUMNS + LABEL_COLUMNS)
+    (ds.root / "labels.md").write_text(label_table_markdown(table) + "\n")
+    if plot:
+        plot_label_errors(table, ds.root / "label_errors.png")
+    return LabelReport(ds.root, table, time.perf_counter() - t0)
+
+
+def label_summary(table: dict) -> str:
+    """One paragraph: how many camera poses were labelled, median and worst error against truth."""
+    ok = np.array([s == "ok" for s in table["label_status"]])
+    text = f"{ok.sum()} of {len(ok)} camera poses labelled"
+    rot, trans = table["label_error_rot_deg"][ok], table["label_error_trans_mm"][ok]
+    if np.isfinite(rot).any():
+        text += (f"; label error against truth: median {np.nanmedian(rot):.4f} deg / {np.nanmedian(trans):.3f} mm, "
+                 f"worst {np.nanmax(rot):.4f} deg / {np.nanmax(trans):.3f} mm")
+    failed = [(int(c), s) for c, s in zip(table["camera_id"], table["label_status"]) if s != "ok"]
+    for c, s in failed:
+        text += f"\ncamera {c}: {s}"
+    return text
+
+
+def label_table_markdown(table: dict) -> str:
+    """Per camera pose: split, region, views used, RMS, predicted sigma and error against truth."""
+    lines = ["| camera | region | split | views used | RMS px | sigma deg | sigma mm | error deg | error mm | status |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+
+    def f(x, d):
+        return "" if not np.isfinite(x) else f"{x:.{d}f}"
+
+    for i in range(len(table["camera_id"])):
+        status = table["label_status"][i]
+        lines.append(
+            f"| {table['camera_id'][i]} | {table['region'][i]} | {table['split'][i]} | "
+            f"{table['label_views_used'][i]}/{table['label_views_total'][i]} | {f(table['label_rms_px'][i], 3)} | "
+            f"{f(table['label_sigma_rot_deg'][i], 4)} | {f(table['label_sigma_trans_mm'][i], 3)} | "
+            f"{f(table['label_error_rot_deg'][i], 4)} | {f(table['label_error_trans_mm'][i], 3)} | "
+            f"{status if status == 'ok' else status[:60]} |")
+    return "\n".join(lines) + "\n\n" + label_summary(table)
+
+
+def plot_label_errors(table: dict, path: str | Path) -> None:
+    """Bar plot of each camera pose's label error (rotation, translation), with its predicted 3-sigma."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ids = np.asarray(table["camera_id"])
+    colours = plt.get_cmap("tab10")(np.asarray(table["region"]) % 10)
+    fig, axes = plt.subplots(2, 1, figsize=(max(6.0, 0.12 * len(ids) + 2), 5.5), sharex=True)
+    for ax, err, sig, unit in ((axes[0], "label_error_rot_deg", "label_sigma_rot_deg", "deg"),
+                               (axes[1], "label_error_trans_mm", "label_sigma_trans_mm", "mm")):
+        ax.bar(ids, np.nan_to_num(table[err]), color=colours, width=0.8)
+        ax.plot(ids, 3 * np.asarray(table[sig]), "k_", markersize=8, label="predicted 3 sigma")
+        ax.set_ylabel(f"label error ({unit})")
+        ax.grid(axis="y", alpha=0.3)
+    failed = [i for i, s in zip(ids, table["label_status"]) if s != "ok"]
+    for i in failed:
+        axes[0].axvline(i, color="r", alpha=0.4)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].set_title("classic label against truth per camera pose (colour: region; red line: failed)")
+    axes[1].set_xlabel("camera pose")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,409 @@
+"""Generate a dataset: per camera pose a calibration recording and a data recording, in shards.
+
+Each camera pose is one shard, rendered by one worker process into
+``cam_XXXX.partial`` and renamed when complete (:mod:`handeye.dataset`).
+Everything a shard holds is drawn from ``default_rng([seed, camera_id])``, so
+a shard regenerated on resume is identical to the one a crash interrupted,
+whichever worker renders it. Resuming skips complete shards and regenerates
+half-written ones.
+
+Noise (optional, a sensor model applied to what is recorded, never to the
+truth): Gaussian pixel noise on colour, depth noise growing with the square
+of the depth, joint-encoder noise on the recorded joint angles (the recorded
+``T_base_ee`` and ``T_base_ref`` are the forward kinematics of the noisy
+readings, as a controller reports them; the rendering uses the true joints).
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import shutil
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from handeye.dataset import (
+    CAMERA_COLUMNS, FORMAT, FORMAT_VERSION, encode_depth, frame_columns, poses_to_columns, shard_is_complete,
+    shard_name, write_json_atomic, write_manifest, write_table,
+)
+from handeye.errors import DatasetError, HandEyeInputError
+from handeye.se3 import invert_transform
+from sim.cameras import CameraPreset, get_preset, place_cameras
+from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
+
+__all__ = ["NoiseModel", "DEFAULT_NOISE", "DEPTH_SCALE_M", "GenerationReport", "generate", "dataset_meta"]
+
+#: Depth PNG unit: 0.1 mm, so 16 bits cover 6.5 m.
+DEPTH_SCALE_M = 1e-4
+#: A board corner counts as visible when the rendered depth at its pixel is this close to the board's.
+OCCLUSION_TOLERANCE_M = 0.005
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Sensor noise applied to what is recorded.
+
+    Attributes
+    ----------
+    pixel_sigma : float
+        Gaussian noise on each colour channel, grey levels (0-255).
+    depth_sigma_m_at_1m : float
+        Depth noise sigma at 1 m; it grows with the square of the depth (structured-light and
+        stereo sensors).
+    joint_sigma_deg : float
+        Joint-encoder noise on each recorded joint angle, degrees.
+    """
+
+    pixel_sigma: float = 0.0
+    depth_sigma_m_at_1m: float = 0.0
+    joint_sigma_deg: float = 0.0
+
+    def __post_init__(self):
+        for name, value in asdict(self).items():
+            if not np.isfinite(value) or value < 0:
+                raise HandEyeInputError(f"noise {name} must be a finite value >= 0, got {value}")
+
+    @property
+    def is_zero(self) -> bool:
+        return not any(asdict(self).values())
+
+
+#: The default noise options: an 8-bit camera's noise, a 1 mm-at-1 m depth sensor, 0.01 deg encoders.
+DEFAULT_NOISE = NoiseModel(pixel_sigma=2.0, depth_sigma_m_at_1m=0.001, joint_sigma_deg=0.01)
+
+
+@dataclass
+class GenerationReport:
+    """What :func:`generate` did.
+
+    Attributes
+    ----------
+    out : Path
+    rendered : list of int
+        Camera ids rendered by this call.
+    skipped : list of int
+        Complete shards found and kept.
+    regenerated : list of int
+        Shards found half-written and rendered again (a subset of ``rendered``).
+    frames : int
+        Frames rendered by this call.
+    wall_s : float
+    """
+
+    out: Path
+    rendered: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    regenerated: list = field(default_factory=list)
+    frames: int = 0
+    wall_s: float = 0.0
+
+    def summary(self) -> str:
+        fps = self.frames / self.wall_s if self.wall_s > 0 else float("nan")
+        text = (f"{self.out}: rendered {len(self.rendered)} camera poses ({self.frames} frames, {self.wall_s:.1f} s, "
+                f"{fps:.1f} frames/s), kept {len(self.skipped)} complete")
+        if self.regenerated:
+            text += f", regenerated half-written {self.regenerated}"
+        return text
+
+
+def _intrinsics(K: np.ndarray, size: tuple[int, int]) -> dict:
+    return {"K": K.tolist(), "dist": [0.0] * 5, "width": int(size[0]), "height": int(size[1]),
+            "distortion_model": "opencv (k1, k2, p1, p2, k3)"}
+
+
+def dataset_meta(preset: CameraPreset, seed: int, noise: NoiseModel, recordings: tuple[str, ...],
+                 marker_radius_m: float | None = None) -> dict:
+    """The ``meta.json`` of a simulated dataset (everything needed to regenerate it).
+
+    Parameters
+    ----------
+    preset : CameraPreset
+    seed : int
+    noise : NoiseModel
+    recordings : tuple of str
+    marker_radius_m : float, optional
+        A debugging sphere on the flange origin in data recordings (robot hidden).
+
+    Returns
+    -------
+    dict
+    """
+    from sim.robot import load_robot
+
+    robot = load_robot(preset.robot)
+    board = DEFAULT_BOARD
+    size_m = (board["squares_x"] * board["square_length_m"], board["squares_y"] * board["square_length_m"])
+    meta = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "robot": preset.robot,
+        "n_joints": robot.nq,
+        "joint_names": [str(n) for n in list(robot.model.names)[1:]],
+        "T_ee_ref": robot.T_ee_ref.tolist(),
+        "intrinsics": _intrinsics(camera_matrix(*preset.image_size, preset.fov_deg), preset.image_size),
+        "calibration_intrinsics": _intrinsics(camera_matrix(*preset.calibration_image_size, preset.fov_deg),
+                                              preset.calibration_image_size),
+        "depth": {"format": "png16", "scale_m": DEPTH_SCALE_M, "invalid": 0,
+                  "quantity": "z coordinate in the camera frame (not the ray length)"},
+        "board": dict(board),
+        "T_ee_target_true": board_mount(size_m).tolist(),
+        "cameras": preset.n_cameras,
+        "regions": len(preset.region_azimuths_deg),
+        "recordings": list(recordings),
+        "conventions": "T_a_b maps frame b to frame a; metres, radians; quaternions x,y,z,w; camera frame OpenCV "
+                       "(x right, y down, z forward); eye-to-hand: label X = T_base_cam",
+        "recipe": {"generator": "handeye sim generate", "preset": asdict(preset), "seed": int(seed),
+                   "noise": asdict(noise), "marker_radius_m": marker_radius_m},
+    }
+    return json.loads(json.dumps(meta))  # as it reads back from the file (tuples become lists)
+
+
+def _camera_table(cams) -> dict:
+    table = {"camera_id": np.arange(len(cams)), "region": cams.region, "split": cams.split,
+             "azimuth_deg": cams.azimuth_deg, "elevation_deg": cams.elevation_deg, "radius_m": cams.radius_m}
+    table.update(poses_to_columns("T_base_cam_true", cams.T_base_cam))
+    return table
+
+
+# ------------------------------------------------------------------ worker
+
+
+class _ShardRenderer:
+    """One process's robot and renderers (the OpenGL context lives and dies with the process)."""
+
+    def __init__(self, meta: dict):
+        from classic.vision.board import BoardSpec
+        from sim.render import Renderer
+        from sim.robot import load_robot
+
+        self.meta = meta
+        recipe = meta["recipe"]
+        self.preset = CameraPreset.from_dict(recipe["preset"])
+        self.noise = NoiseModel(**recipe["noise"])
+        self.robot = load_robot(meta["robot"])
+        self.cams = place_cameras(self.preset, np.random.default_rng(recipe["seed"]))
+        self.spec = BoardSpec(**meta["board"])
+        self.T_ee_target = np.array(meta["T_ee_target_true"])
+        self.K_data = np.array(meta["intrinsics"]["K"])
+        self.K_cal = np.array(meta["calibration_intrinsics"]["K"])
+        self.size_data = self.preset.image_size
+        self.size_cal = self.preset.calibration_image_size
+        marker = recipe.get("marker_radius_m")
+        self.renderers = {}
+        if "data" in meta["recordings"]:
+            self.renderers["data"] = Renderer(self.robot, self.K_data, *self.size_data, marker_radius_m=marker,
+                                              robot_visible=marker is None, gripper=marker is None)
+        if "calibration" in meta["recordings"]:
+            self.renderers["calibration"] = Renderer(self.robot, self.K_cal, *self.size_cal, gripper=False,
+                                                     board=(self.spec, self.T_ee_target))
+
+    def _board_visible(self, depth_m: np.ndarray, T_base_cam: np.ndarray, T_base_target: np.ndarray) -> bool:
+        """Whether the rendered depth shows the board (not the arm) at every projected corner."""
+        p = (invert_transform(T_base_cam) @ T_base_target @ np.column_stack(
+            [self.spec.corners_target(), np.ones(self.spec.n_corners)]).T).T[:, :3]
+        u = np.rint(self.K_cal[0, 0] * p[:, 0] / p[:, 2] + self.K_cal[0, 2]).astype(int)
+        v = np.rint(self.K_cal[1, 1] * p[:, 1] / p[:, 2] + self.K_cal[1, 2]).astype(int)
+        inside = (u >= 0) & (u < depth_m.shape[1]) & (v >= 0) & (v < depth_m.shape[0])
+        if not inside.all():
+            return False
+        return bool(np.all(np.abs(depth_m[v, u] - p[:, 2]) < OCCLUSION_TOLERANCE_M))
+
+    def _noisy_rgb(self, rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        if self.noise.pixel_sigma == 0:
+            return rgb
+        return np.clip(np.rint(rgb + rng.normal(scale=self.noise.pixel_sigma, size=rgb.shape)), 0, 255).astype(np.uint8)
+
+    def _noisy_depth(self, depth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        if self.noise.depth_sigma_m_at_1m == 0:
+            return depth
+        noisy = depth + rng.normal(size=depth.shape) * self.noise.depth_sigma_m_at_1m * depth**2
+        return np.where(depth > 0, np.maximum(noisy, 0.0), 0.0)
+
+    def _recorded_joints(self, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        return q + rng.normal(scale=np.radians(self.noise.joint_sigma_deg), size=q.shape)
+
+    def render_shard(self, camera_id: int, out: Path) -> int:
+        """Render one camera pose's shard into ``out`` atomically; returns the number of frames."""
+        from PIL import Image
+
+        final = out / shard_name(camera_id)
+        partial = final.with_name(final.name + ".partial")
+        if partial.exists():
+            shutil.rmtree(partial)
+        (partial / "rgb").mkdir(parents=True)
+        (partial / "depth").mkdir()
+        rng = np.random.default_rng([self.meta["recipe"]["seed"], camera_id])
+        noise_rng = np.random.default_rng([self.meta["recipe"]["seed"], camera_id, 1])
+        T_base_cam = self.cams.T_base_cam[camera_id]
+        rows = []  # (recording, q_true, rgb_rel, depth_rel)
+        counts = {}
+        if "calibration" in self.renderers:
+            renderer = self.renderers["calibration"]
+            n, tries = 0, 0
+            while n < self.preset.calibration_views and tries < 4 * self.preset.calibration_views:
+                tries += 1
+                view = sample_calibration_view(self.robot, T_base_cam, self.K_cal, self.size_cal, self.T_ee_target,
+                                               self.spec.size_m, rng)
+                rgb, depth = renderer.render(view.q, T_base_cam)
+                if not self._board_visible(depth, T_base_cam, view.T_base_target):
+                    continue  # the arm hides part of the board: draw another view
+                rel = f"rgb/calibration_{n:03d}.png"
+                Image.fromarray(self._noisy_rgb(rgb, noise_rng)).save(partial / rel, compress_level=1)
+                rows.append(("calibration", view.q, rel, ""))
+                n += 1
+            counts["calibration"] = n
+        if "data" in self.renderers:
+            renderer = self.renderers["data"]
+            for k in range(self.preset.configurations):
+                q = sample_data_configuration(self.robot, T_base_cam, self.K_data, self.size_data, rng)
+                rgb, depth = renderer.render(q, T_base_cam)
+                rel_rgb, rel_depth = f"rgb/data_{k:03d}.png", f"depth/data_{k:03d}.png"
+                Image.fromarray(self._noisy_rgb(rgb, noise_rng)).save(partial / rel_rgb, compress_level=1)
+                units = encode_depth(self._noisy_depth(depth, noise_rng), DEPTH_SCALE_M)
+                Image.fromarray(units).save(partial / rel_depth, compress_level=1)
+                rows.append(("data", q, rel_rgb, rel_depth))
+            counts["data"] = self.preset.configurations
+        q_rec = np.array([self._recorded_joints(r[1], noise_rng) for r in rows]).reshape(-1, self.robot.nq)
+        table = {"frame": np.arange(len(rows)), "camera_id": np.full(len(rows), camera_id),
+                 "region": np.full(len(rows), self.cams.region[camera_id]),
+                 "split": np.array([self.cams.split[camera_id]] * len(rows), dtype=object),
+                 "recording": np.array([r[0] for r in rows], dtype=object),
+                 "rgb": np.array([r[2] for r in rows], dtype=object),
+                 "depth": np.array([r[3] for r in rows], dtype=object)}
+        for j in range(self.robot.nq):
+            table[f"q{j}"] = q_rec[:, j]
+        T_base_ee = self.robot.fk(q_rec)
+        table.update(poses_to_columns("T_base_ee", T_base_ee))
+        table.update(poses_to_columns("T_base_ref", T_base_ee @ self.robot.T_ee_ref))
+        write_table(partial / "frames.csv", table, frame_columns(self.robot.nq))
+        write_manifest(partial, camera_id, counts)
+        if final.exists():
+            shutil.rmtree(final)
+        os.replace(partial, final)
+        return len(rows)
+
+
+_WORKER: _ShardRenderer | None = None
+
+
+def _init_worker(meta: dict) -> None:
+    global _WORKER
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    _WORKER = _ShardRenderer(meta)
+
+
+def _work(args) -> tuple[int, int]:
+    camera_id, out = args
+    return camera_id, _WORKER.render_shard(camera_id, Path(out))
+
+
+# ------------------------------------------------------------------ driver
+
+
+def _check_or_write_meta(out: Path, meta: dict) -> None:
+    path = out / "meta.json"
+    if path.exists():
+        try:
+            old = json.loads(path.read_text())
+        except json.JSONDecodeError as exc:
+            raise DatasetError(f"{path}: not valid JSON ({exc}); remove it or choose another --out") from None
+        if old.get("recipe") != meta["recipe"] or old.get("recordings") != meta["recordings"]:
+            raise DatasetError(
+                f"{path}: {out} holds a dataset generated with other options (preset "
+                f"{old.get('recipe', {}).get('preset', {}).get('name')!r}, seed {old.get('recipe', {}).get('seed')!r}); "
+                "resume it with the same options or choose another --out")
+        return
+    write_json_atomic(path, meta)
+
+
+def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 0, noise: NoiseModel | None = None,
+             workers: int = 2, recordings: tuple[str, ...] = ("calibration", "data"),
+             marker_radius_m: float | None = None, progress: bool = True) -> GenerationReport:
+    """Render a dataset (or resume one): one shard per camera pose, on ``workers`` processes.
+
+    Parameters
+    ----------
+    out : str or Path
+        Dataset directory (created; an existing one with the same recipe is resumed).
+    preset : str or CameraPreset
+        ``"paper-sim"``, ``"paper-real"``, ``"small"`` or a custom preset.
+    seed : int
+    noise : NoiseModel, optional
+        None for none.
+    workers : int
+        Processes (1: render in this process).
+    recordings : tuple of {"calibration", "data"}
+    marker_radius_m : float, optional
+        Debugging: data recordings show only a sphere on the flange origin (and the lab).
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    GenerationReport
+
+    Raises
+    ------
+    DatasetError
+        ``out`` holds a dataset made with other options.
+    """
+    t0 = time.perf_counter()
+    preset = get_preset(preset) if isinstance(preset, str) else preset
+    noise = noise or NoiseModel()
+    bad = [r for r in recordings if r not in ("calibration", "data")]
+    if bad or not recordings:
+        raise HandEyeInputError(f"recordings must be calibration and/or data, got {list(recordings)}")
+    if workers < 1:
+        raise HandEyeInputError(f"workers must be >= 1, got {workers}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m)
+    _check_or_write_meta(out, meta)
+    if not (out / "cameras.csv").exists():
+        write_table(out / "cameras.csv", _camera_table(place_cameras(preset, np.random.default_rng(seed))),
+                    CAMERA_COLUMNS)
+    report = GenerationReport(out)
+    pending = []
+    for c in range(preset.n_cameras):
+        shard = out / shard_name(c)
+        if shard_is_complete(shard)[0]:
+            report.skipped.append(c)
+            continue
+        if shard.exists() or shard.with_name(shard.name + ".partial").exists():
+            report.regenerated.append(c)
+        pending.append(c)
+    bar = None
+    if progress and pending:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(pending), desc=f"render {out.name}", unit="camera", file=sys.stderr)
+    if pending:
+        if workers == 1:
+            worker = _ShardRenderer(meta)
+            results = ((c, worker.render_shard(c, out)) for c in pending)
+        else:
+            pool = multiprocessing.get_context("spawn").Pool(min(workers, len(pending)), _init_worker, (meta,))
+            results = pool.imap_unordered(_work, [(c, str(out)) for c in pending])
+        try:
+            for c, n in results:
+                report.rendered.append(c)
+                report.frames += n
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if workers > 1:
+                pool.close()
+                pool.join()
+            else:
+                for r in worker.renderers.values():
+                    r.close()
+            if bar is not None:
+                bar.close()
+    report.rendered.sort()
+    report.wall_s = time.perf_counter() - t0
+    return report
