@@ -1,0 +1,41 @@
+"""``handeye show``: a contact sheet of one camera pose of a dataset.
+
+Example
+-------
+::
+
+    handeye show data/paper-sim --camera 17 -o cam17.png
+
+Top row: data frames (colour, and the depth of the first). Bottom row:
+calibration views with the detected ChArUco corners (green) and the corners
+projected through the label (red); the title gives the label against the truth.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register the command."""
+    p = sub.add_parser("show", help="contact sheet of a camera pose: views, detections, label vs truth",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("dataset", type=Path, help="dataset directory")
+    p.add_argument("--camera", type=int, required=True, help="camera id")
+    p.add_argument("-o", "--output", type=Path, default=None, help="PNG path (default cam<N>.png)")
+    p.set_defaults(run=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the command."""
+    from handeye.contact_sheet import contact_sheet
+
+    out = args.output or Path(f"cam{args.camera}.png")
+    text = contact_sheet(args.dataset, args.camera, out)
+    print(text)
+    print(f"written: {out}")
+    return 0
