@@ -336,7 +336,7 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
     noise : NoiseModel, optional
         None for none.
     workers : int
-        Processes (1: render in this process).
+        Rendering processes.
     recordings : tuple of {"calibration", "data"}
     marker_radius_m : float, optional
         Debugging: data recordings show only a sphere on the flange origin (and the lab).
@@ -383,25 +383,18 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
 
         bar = tqdm(total=len(pending), desc=f"render {out.name}", unit="camera", file=sys.stderr)
     if pending:
-        if workers == 1:
-            worker = _ShardRenderer(meta)
-            results = ((c, worker.render_shard(c, out)) for c in pending)
-        else:
-            pool = multiprocessing.get_context("spawn").Pool(min(workers, len(pending)), _init_worker, (meta,))
-            results = pool.imap_unordered(_work, [(c, str(out)) for c in pending])
+        # always in worker processes, even one: pyrender's EGL teardown (eglTerminate) breaks any other
+        # context of the process, so the caller's process never holds one
+        pool = multiprocessing.get_context("spawn").Pool(min(workers, len(pending)), _init_worker, (meta,))
         try:
-            for c, n in results:
+            for c, n in pool.imap_unordered(_work, [(c, str(out)) for c in pending]):
                 report.rendered.append(c)
                 report.frames += n
                 if bar is not None:
                     bar.update(1)
         finally:
-            if workers > 1:
-                pool.close()
-                pool.join()
-            else:
-                for r in worker.renderers.values():
-                    r.close()
+            pool.close()
+            pool.join()
             if bar is not None:
                 bar.close()
     report.rendered.sort()

@@ -287,3 +287,16 @@ MAX_MASK_MISMATCH_PX = 3
 #: cos(37 deg) = 0.8, plus the depth buffer's resolution at ~1 m (24 bits over znear..zfar: < 0.1 mm).
 CORE_FRACTION = 0.6
 DEPTH_M = 2e-4
+
+# -------------------------------------------------------------------------- datasets
+
+#: Depth PNGs store 0.1 mm units (sim.generate.DEPTH_SCALE_M): rounding adds at most half a unit.
+DEPTH_QUANTUM_M = 0.5e-4
+
+#: Classic labels against truth. Their sigma is estimated from the corner residuals (ESTIMATED_SIGMA_BOUND
+#: applies); corner errors that differ between views show in those residuals, because the hand-eye
+#: reprojection model has 12 parameters for all views and cannot absorb a view's shift. What it can absorb
+#: unseen is a shift common to every corner of every view, i.e. a camera-model error such as the principal
+#: point: tests/sim/test_render.py resolves that to 0.2 px (it fails on a principal point off by 0.2 px), so
+#: the floor is that shift seen from the camera: 0.2 px / f in rotation, times the distance in translation.
+LABEL_COMMON_SHIFT_PX = 0.2

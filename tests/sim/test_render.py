@@ -12,23 +12,12 @@ from handeye.se3 import invert_transform  # noqa: E402
 from sim.cameras import look_at  # noqa: E402
 from sim.render import Renderer  # noqa: E402
 from sim.robot import load_robot  # noqa: E402
+from tests.sim._geometry import ray_sphere  # noqa: E402
 from tests.tolerances import CORE_FRACTION, DEPTH_M, MAX_MASK_MISMATCH_PX  # noqa: E402
 
 W, H = 320, 240
 K = np.array([[300.0, 0.0, 161.3], [0.0, 302.0, 118.6], [0.0, 0.0, 1.0]])  # off-centre principal point
 RADIUS = 0.015
-
-
-def _ray_sphere(centre_cam, radius):
-    """Analytic mask and depth (camera z of the first hit) of a sphere, pixel centres at integers (OpenCV)."""
-    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
-    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    b = rays @ centre_cam
-    a = np.sum(rays**2, axis=-1)
-    disc = b**2 - a * (centre_cam @ centre_cam - radius**2)
-    hit = disc > 0
-    t = (b - np.sqrt(np.where(hit, disc, 0.0))) / a
-    return hit, np.where(hit, t, 0.0)  # rays have z = 1, so t is the depth
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +46,7 @@ def test_flange_origin_projects_where_the_image_shows_it(setup, seed):
     assert 15 < u < W - 15 and 15 < v < H - 15
     rgb, depth = renderer.render(q, T_base_cam)
     blob = depth > 0
-    expected, expected_depth = _ray_sphere(p_cam, RADIUS)
+    expected, expected_depth = ray_sphere(p_cam, RADIUS, K, W, H)
     assert expected.sum() > 40
     assert np.sum(blob != expected) <= MAX_MASK_MISMATCH_PX
     rows, cols = np.mgrid[0:H, 0:W]
