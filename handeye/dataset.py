@@ -322,7 +322,8 @@ class Dataset:
         except json.JSONDecodeError as exc:
             raise DatasetError(f"{path}: not valid JSON ({exc})") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-            raise DatasetError(f"{path}: not a {FORMAT} meta file (format {meta.get('format') if isinstance(meta, dict) else None!r})")
+            found = meta.get("format") if isinstance(meta, dict) else None
+            raise DatasetError(f"{path}: not a {FORMAT} meta file (format {found!r})")
         if meta.get("version") != FORMAT_VERSION:
             raise DatasetError(f"{path}: format version {meta.get('version')!r}; this handeye reads version "
                                f"{FORMAT_VERSION}")

@@ -313,9 +313,10 @@ def _check_or_write_meta(out: Path, meta: dict) -> None:
         except json.JSONDecodeError as exc:
             raise DatasetError(f"{path}: not valid JSON ({exc}); remove it or choose another --out") from None
         if old.get("recipe") != meta["recipe"] or old.get("recordings") != meta["recordings"]:
+            recipe = old.get("recipe", {})
             raise DatasetError(
                 f"{path}: {out} holds a dataset generated with other options (preset "
-                f"{old.get('recipe', {}).get('preset', {}).get('name')!r}, seed {old.get('recipe', {}).get('seed')!r}); "
+                f"{recipe.get('preset', {}).get('name')!r}, seed {recipe.get('seed')!r}); "
                 "resume it with the same options or choose another --out")
         return
     write_json_atomic(path, meta)

@@ -96,7 +96,8 @@ class Renderer:
                 self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(m, smooth=False)), np.eye(4)))
         if board is not None:
             spec, T_ee_target = board
-            self.ee_nodes.append((self.scene.add(_matte(pr.Mesh.from_trimesh(board_mesh(spec, T_ee_target)))), np.eye(4)))
+            board_node = self.scene.add(_matte(pr.Mesh.from_trimesh(board_mesh(spec, T_ee_target))))
+            self.ee_nodes.append((board_node, np.eye(4)))
         if marker_radius_m is not None:
             self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(marker_mesh(marker_radius_m), smooth=False)),
                                   np.eye(4)))

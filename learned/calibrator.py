@@ -1,0 +1,188 @@
+"""A robot cell's calibration that keeps learning: Algorithm 2 online, with its state on disk.
+
+>>> cal = ContinualCalibrator(preset="cpu")          # doctest: +SKIP
+>>> cal.observe(first_region_frames)                 # trains both networks from scratch
+>>> cal.observe(new_pose_frames)                     # novel? then trains with the buffer, else skips
+>>> T_base_cam = cal.predict(rgb, depth_m, T_base_ref)
+>>> cal.save("cell.pt"); cal = ContinualCalibrator.load("cell.pt")
+
+Each network (translation, orientation) decides novelty on its own (the
+paper's thresholds per network: mean error of a 10 % sample above 3 mm or 4
+degrees) and keeps its own buffer of ``c1`` samples per camera pose it trained
+on. The buffer holds the samples themselves (images, reference poses,
+targets), so the calibrator needs no dataset to keep learning after a restart.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from handeye.errors import HandEyeInputError
+from handeye.se3 import make_transform, matrix_from_quat_xyzw
+from learned.data import FrameSet, concat
+from learned.experiment import Preset, average_quaternions, get_preset
+from learned.model import KINDS, CalibrationNet, ModelConfig
+from learned.trainer import TrainConfig, errors, predict, train
+
+__all__ = ["ContinualCalibrator"]
+
+STATE_VERSION = 1
+
+
+class ContinualCalibrator:
+    """Continual hand-eye calibration of a static camera from RGB-D images and the reference pose.
+
+    Parameters
+    ----------
+    preset : str or Preset
+        Resolution, network size, epochs, c1, c3 and thresholds (:data:`learned.experiment.PRESETS`).
+    seed : int
+    sample_fraction : float
+        Share of a new camera pose's frames evaluated to decide its novelty.
+    """
+
+    def __init__(self, preset: str | Preset = "cpu", seed: int = 0, sample_fraction: float = 0.1):
+        self.preset = get_preset(preset) if isinstance(preset, str) else preset
+        self.sample_fraction = sample_fraction
+        self.rng = np.random.default_rng(seed)
+        self.models: dict[str, CalibrationNet] = {}
+        self.memory: dict[str, FrameSet | None] = {k: None for k in KINDS}
+        self.history: list[dict] = []
+
+    @property
+    def threshold(self) -> dict:
+        return {"translation": self.preset.threshold_mm, "orientation": self.preset.threshold_deg}
+
+    def _check(self, frames: FrameSet) -> None:
+        if tuple(frames.image_size) != tuple(self.preset.image_size):
+            raise HandEyeInputError(f"frames are {frames.image_size[0]}x{frames.image_size[1]}, this calibrator "
+                                    f"takes {self.preset.image_size[0]}x{self.preset.image_size[1]}: load them at "
+                                    "that size")
+
+    def _store(self, kind: str, frames: FrameSet) -> None:
+        keep = []
+        for c in np.unique(frames.camera):
+            idx = np.flatnonzero(frames.camera == c)
+            keep.append(np.sort(self.rng.choice(idx, min(self.preset.c1, len(idx)), replace=False)))
+        self.memory[kind] = concat([self.memory[kind], frames.subset(np.concatenate(keep))])
+
+    def _train(self, kind: str, frames: FrameSet, first: bool) -> int:
+        current = np.arange(len(frames))
+        if self.preset.c3 < 1.0:
+            current = np.sort(self.rng.choice(current, max(1, int(round(self.preset.c3 * len(current)))),
+                                              replace=False))
+        data = concat([frames.subset(current), self.memory[kind]])
+        epochs = self.preset.first_epochs if first else self.preset.later_epochs
+        cfg = TrainConfig(epochs, self.preset.batch_size, self.preset.learning_rate)
+        return train(self.models[kind], data, np.arange(len(data)), cfg, self.rng)
+
+    def observe(self, frames: FrameSet) -> dict:
+        """Take a new camera pose's frames (targets: its classic label); learn from them if they are novel.
+
+        The first call trains both networks from scratch on what it is given (typically the first
+        region's camera poses). Later calls, one camera pose each, run Algorithm 2 per network.
+
+        Returns
+        -------
+        dict
+            Per network: ``novel`` (bool), ``sample_error`` (mm or deg, None on the first call),
+            ``processed`` samples.
+        """
+        self._check(frames)
+        first = not self.models
+        if first:
+            offset = tuple(float(v) for v in frames.t_mm.mean(axis=0))
+            for kind in KINDS:
+                self.models[kind] = CalibrationNet(ModelConfig(
+                    kind, tuple(self.preset.image_size), tuple(self.preset.channels), tuple(self.preset.hidden),
+                    translation_offset_mm=offset))
+        elif len(np.unique(frames.camera)) != 1:
+            raise HandEyeInputError("after the first call, observe one camera pose at a time "
+                                    f"(got cameras {np.unique(frames.camera).tolist()})")
+        entry = {"cameras": [int(c) for c in np.unique(frames.camera)], "first": first}
+        for kind in KINDS:
+            sample_error = None
+            novel = True
+            if not first:
+                n = max(1, int(round(self.sample_fraction * len(frames))))
+                sample = np.sort(self.rng.choice(len(frames), n, replace=False))
+                sample_error = float(np.mean(errors(self.models[kind], frames, sample)))
+                novel = sample_error > self.threshold[kind]
+            processed = self._train(kind, frames, first) if novel else 0
+            if novel:
+                self._store(kind, frames)
+            entry[kind] = {"novel": bool(novel), "sample_error": sample_error, "processed": int(processed)}
+        self.history.append(entry)
+        return entry
+
+    def predict(self, rgb: np.ndarray, depth_m: np.ndarray, ref: np.ndarray) -> np.ndarray:
+        """``T_base_cam`` from one or more frames of the same camera (predictions averaged).
+
+        Parameters
+        ----------
+        rgb : array of uint8, shape (N, 3, H, W) or (H, W, 3)
+        depth_m : array, shape (N, 1, H, W) or (H, W)
+        ref : array, shape (N, 7) or (7,)
+            ``T_base_ref`` as x, y, z, qx, qy, qz, qw.
+
+        Returns
+        -------
+        T_base_cam : array, shape (4, 4)
+        """
+        if not self.models:
+            raise HandEyeInputError("the calibrator has not been trained: call observe() first")
+        rgb = np.asarray(rgb)
+        if rgb.ndim == 3:
+            rgb, depth_m, ref = rgb.transpose(2, 0, 1)[None], np.asarray(depth_m)[None, None], np.asarray(ref)[None]
+        n = len(rgb)
+        w, h = self.preset.image_size
+        if rgb.shape[1:] != (3, h, w) or np.asarray(depth_m).shape[1:] != (1, h, w):
+            raise HandEyeInputError(f"images must be {w}x{h} (rgb (N, 3, {h}, {w}), depth (N, 1, {h}, {w})), got "
+                                    f"{rgb.shape} and {np.asarray(depth_m).shape}")
+        frames = FrameSet(rgb.astype(np.uint8), np.asarray(depth_m, np.float16), np.asarray(ref, np.float32),
+                          np.zeros((n, 3), np.float32), np.zeros((n, 4), np.float32), np.zeros(n, int),
+                          np.zeros(n, int), np.array(["test"] * n), np.full((n, 3), np.nan), np.full((n, 4), np.nan),
+                          "none", (w, h))
+        t_mm = predict(self.models["translation"], frames).mean(axis=0)
+        q = average_quaternions(predict(self.models["orientation"], frames))
+        return make_transform(matrix_from_quat_xyzw(q), t_mm / 1000.0)
+
+    def save(self, path: str | Path) -> None:
+        """Weights, configs, buffers, history and the random state, in one file."""
+        doc = {"version": STATE_VERSION, "preset": self.preset.to_dict(), "history": self.history,
+               "rng": json.dumps(self.rng.bit_generator.state),
+               "models": {k: {"config": m.config.to_dict(), "state_dict": m.state_dict()}
+                          for k, m in self.models.items()},
+               "memory": {k: (None if f is None else asdict(f)) for k, f in self.memory.items()}}
+        torch.save(doc, Path(path))
+
+    @classmethod
+    def load(cls, path: str | Path, preset: str | Preset | None = None) -> "ContinualCalibrator":
+        """Restore a saved calibrator; with ``preset``, refuse a state saved with another one."""
+        path = Path(path)
+        if not path.is_file():
+            raise HandEyeInputError(f"{path}: no saved calibrator")
+        doc = torch.load(path, map_location="cpu", weights_only=False)
+        if doc.get("version") != STATE_VERSION:
+            raise HandEyeInputError(f"{path}: calibrator state version {doc.get('version')!r}, expected "
+                                    f"{STATE_VERSION}")
+        saved = Preset(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc["preset"].items()})
+        if preset is not None:
+            want = get_preset(preset) if isinstance(preset, str) else preset
+            if want != saved:
+                diff = [k for k in asdict(saved) if getattr(saved, k) != getattr(want, k)]
+                raise HandEyeInputError(f"{path}: saved with preset {saved.name} (differs in {', '.join(diff)})")
+        cal = cls(saved)
+        cal.rng.bit_generator.state = json.loads(doc["rng"])
+        cal.history = doc["history"]
+        for k, m in doc["models"].items():
+            cal.models[k] = CalibrationNet(ModelConfig.from_dict(m["config"]))
+            cal.models[k].load_state_dict(m["state_dict"])
+            cal.models[k].eval()
+        cal.memory = {k: (None if f is None else FrameSet(**f)) for k, f in doc["memory"].items()}
+        return cal

@@ -1,0 +1,185 @@
+"""Frames of a labelled dataset as arrays: images at the model's resolution, reference poses, targets.
+
+Reads the dataset format of :mod:`handeye.dataset` (never the simulator).
+Targets are the camera pose ``T_base_cam`` of each frame's camera pose: the
+classic label by default (as the paper trains on Tsai's labels), or the truth.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from handeye.dataset import Dataset
+from handeye.errors import DatasetError, HandEyeInputError
+from handeye.se3 import pos_quat_xyzw_from_transform
+
+__all__ = ["FrameSet", "load_frames", "pose_targets", "LABEL_SOURCES"]
+
+LABEL_SOURCES = ("classic", "truth")
+
+
+@dataclass
+class FrameSet:
+    """Data frames in memory.
+
+    Attributes
+    ----------
+    rgb : array of uint8, shape (N, 3, H, W)
+    depth_m : array of float16, shape (N, 1, H, W)
+        Metres, 0 = no depth.
+    ref : array of float32, shape (N, 7)
+        ``T_base_ref`` as x, y, z (m), qx, qy, qz, qw.
+    t_mm : array of float32, shape (N, 3)
+        Target camera position in the base frame, mm.
+    q : array of float32, shape (N, 4)
+        Target camera orientation, quaternion xyzw, w >= 0.
+    camera : array of int, shape (N,)
+    region : array of int, shape (N,)
+    split : array of str, shape (N,)
+    truth_t_mm, truth_q : arrays, shapes (N, 3), (N, 4)
+        The truth (NaN when unknown), for validation.
+    label_source : str
+    image_size : (int, int)
+        ``(width, height)``.
+    """
+
+    rgb: np.ndarray
+    depth_m: np.ndarray
+    ref: np.ndarray
+    t_mm: np.ndarray
+    q: np.ndarray
+    camera: np.ndarray
+    region: np.ndarray
+    split: np.ndarray
+    truth_t_mm: np.ndarray
+    truth_q: np.ndarray
+    label_source: str
+    image_size: tuple
+
+    def __len__(self) -> int:
+        return len(self.camera)
+
+    def subset(self, index: np.ndarray) -> "FrameSet":
+        """The frames at ``index``."""
+        fields = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        return FrameSet(**{k: (v[index] if isinstance(v, np.ndarray) else v) for k, v in fields.items()})
+
+    def cameras(self, split: str | None = None) -> np.ndarray:
+        """Camera ids present (of a split), sorted."""
+        keep = np.ones(len(self), bool) if split is None else self.split == split
+        return np.unique(self.camera[keep])
+
+
+def pose_targets(T_base_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Translation (mm) and canonical quaternion xyzw of camera poses, shapes (N, 3), (N, 4)."""
+    t, q = pos_quat_xyzw_from_transform(np.asarray(T_base_cam, dtype=float).reshape(-1, 4, 4))
+    q = q * np.where(q[:, 3:4] < 0, -1.0, 1.0)
+    return 1000.0 * t, q
+
+
+def _resize(image: np.ndarray, size: tuple, nearest: bool) -> np.ndarray:
+    from PIL import Image
+
+    if (image.shape[1], image.shape[0]) == tuple(size):
+        return image
+    resample = Image.NEAREST if nearest else Image.BOX
+    if image.dtype == np.float32:
+        return np.array(Image.fromarray(image, mode="F").resize(size, resample))
+    return np.array(Image.fromarray(image).resize(size, resample))
+
+
+def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels: str = "classic",
+                cameras: list[int] | None = None, progress: bool = True) -> FrameSet:
+    """Read the data recordings of a labelled dataset at a given image size.
+
+    Parameters
+    ----------
+    root : str or Path
+    image_size : (int, int)
+        ``(width, height)`` the images are resized to (area average for colour, nearest for depth,
+        so no depth is averaged with "no depth").
+    labels : {"classic", "truth"}
+        Which ``T_base_cam`` the targets are.
+    cameras : list of int, optional
+        Only these camera poses.
+    progress : bool
+
+    Returns
+    -------
+    FrameSet
+
+    Raises
+    ------
+    DatasetError
+        Unlabelled dataset (with ``labels="classic"``), a camera pose whose labelling failed, unknown
+        truth with ``labels="truth"``, images of different sizes.
+    """
+    if labels not in LABEL_SOURCES:
+        raise HandEyeInputError(f"labels must be one of {LABEL_SOURCES}, got {labels!r}")
+    ds = Dataset.open(root)
+    cams = ds.cameras()
+    truth = ds.truth()
+    if labels == "classic":
+        target = ds.labels()
+        failed = [c for c in range(len(ds)) if cams["label_status"][c] != "ok"]
+        if failed:
+            raise DatasetError(f"{ds.cameras_path}: camera poses {failed} have no classic label "
+                               f"({cams['label_status'][failed[0]][:80]}); relabel, or train with labels='truth'")
+    else:
+        target = truth
+        if not np.isfinite(truth).all():
+            raise DatasetError(f"{ds.cameras_path}: the truth is unknown for some camera poses; use labels='classic'")
+    t_all, q_all = pose_targets(target)
+    tt_all, tq_all = pose_targets(np.nan_to_num(truth, nan=0.0))
+    tt_all[~np.isfinite(truth).all(axis=(1, 2))] = np.nan
+    ids = list(range(len(ds))) if cameras is None else [int(c) for c in cameras]
+    rows = []
+    for c in ids:
+        t = ds.select(c, "data")
+        rows += [(c, t["rgb"][k], t["depth"][k], ds.poses(t, "T_base_ref")[k]) for k in range(len(t["frame"]))]
+    if not rows:
+        raise DatasetError(f"{ds.root}: no data frames")
+    w, h = image_size
+    n = len(rows)
+    rgb = np.empty((n, 3, h, w), np.uint8)
+    depth = np.empty((n, 1, h, w), np.float16)
+    ref = np.empty((n, 7), np.float32)
+    native = None
+    iterator = rows
+    if progress:
+        from tqdm import tqdm
+
+        iterator = tqdm(rows, desc=f"load {ds.root.name}", unit="frame", file=sys.stderr)
+    for i, (c, rel_rgb, rel_depth, T_base_ref) in enumerate(iterator):
+        img = ds.rgb(c, rel_rgb)
+        d = ds.depth_m(c, rel_depth)
+        if native is None:
+            native = img.shape[:2]
+        if img.shape[:2] != native or d.shape != native:
+            raise DatasetError(f"{ds.shard_dir(c) / rel_rgb}: image size {img.shape[1]}x{img.shape[0]} (depth "
+                               f"{d.shape[1]}x{d.shape[0]}), other frames are {native[1]}x{native[0]}")
+        rgb[i] = _resize(img, (w, h), nearest=False).transpose(2, 0, 1)
+        depth[i, 0] = _resize(d, (w, h), nearest=True)
+        tr, q = pos_quat_xyzw_from_transform(T_base_ref)
+        ref[i] = np.concatenate([tr, q])
+    cam = np.array([r[0] for r in rows])
+    return FrameSet(rgb, depth, ref, t_all[cam].astype(np.float32), q_all[cam].astype(np.float32), cam,
+                    cams["region"][cam], np.asarray(cams["split"][cam]).astype(str), tt_all[cam], tq_all[cam],
+                    labels, (w, h))
+
+
+def concat(parts: list[FrameSet]) -> FrameSet:
+    """Frames of several sets, in order (same image size and label source)."""
+    parts = [p for p in parts if p is not None and len(p)]
+    if not parts:
+        raise HandEyeInputError("nothing to concatenate")
+    sizes = {tuple(p.image_size) for p in parts}
+    if len(sizes) > 1:
+        raise HandEyeInputError(f"frames of different image sizes {sorted(sizes)}")
+    fields = [k for k in FrameSet.__dataclass_fields__ if k not in ("label_source", "image_size")]
+    return FrameSet(**{k: np.concatenate([getattr(p, k) for p in parts]) for k in fields},
+                    label_source=parts[0].label_source, image_size=parts[0].image_size)

@@ -1,0 +1,281 @@
+"""The paper's protocol: strategies x networks x repeats over region time steps, evaluated on every test subset.
+
+Per strategy, network and repeat: the time-step x test-subset matrix of mean
+test error (paper tables 3-8), data and compute (table 11: samples stored,
+samples processed, wall time, poses skipped), and per test camera pose the
+learned prediction (frame predictions averaged) against the classic label and
+the truth. Written to ``<out>/results.json``; the last repeat's networks to
+``<out>/<strategy>/<network>.pt``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from handeye.errors import HandEyeInputError
+from learned.data import FrameSet, load_frames
+from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
+from learned.model import KINDS, CalibrationNet, ModelConfig
+from learned.strategies import STRATEGIES, make_strategy
+from learned.trainer import TrainConfig, errors, predict
+
+__all__ = ["Preset", "PRESETS", "run_experiment", "camera_predictions", "save_model", "load_model"]
+
+
+@dataclass(frozen=True)
+class Preset:
+    """Resolution, network size, epochs and strategy parameters of an experiment.
+
+    Attributes
+    ----------
+    name : str
+    image_size : (int, int)
+    channels, hidden : tuple of int
+        See :class:`learned.model.ModelConfig`.
+    first_epochs, later_epochs, batch_epochs : int
+        Epochs of the first time step, of each later one, and of the batch baseline.
+    batch_size : int
+    learning_rate : float
+    c1 : int
+    c2 : int or None
+    c3 : float
+    threshold_mm, threshold_deg : float
+        Novelty thresholds of camera-pose selection.
+    repeats : int
+    """
+
+    name: str
+    image_size: tuple = (64, 64)
+    channels: tuple = (16, 32, 64, 64)
+    hidden: tuple = (256, 128)
+    first_epochs: int = 20
+    later_epochs: int = 10
+    batch_epochs: int = 20
+    batch_size: int = 32
+    learning_rate: float = 1e-3
+    c1: int = 4
+    c2: int | None = None
+    c3: float = 1.0
+    threshold_mm: float = 3.0
+    threshold_deg: float = 4.0
+    repeats: int = 3
+
+    def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0)) -> ModelConfig:
+        return ModelConfig(kind, tuple(self.image_size), tuple(self.channels), tuple(self.hidden),
+                           translation_offset_mm=tuple(float(v) for v in offset_mm))
+
+    def train_configs(self, strategy: str) -> tuple[TrainConfig, TrainConfig]:
+        first = TrainConfig(self.batch_epochs if strategy == "batch" else self.first_epochs, self.batch_size,
+                            self.learning_rate)
+        return first, TrainConfig(self.later_epochs, self.batch_size, self.learning_rate)
+
+    def to_dict(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+
+PRESETS = {
+    # a test: seconds per strategy on 2 cores
+    "tiny": Preset("tiny", (32, 32), (8, 16, 32), (64, 32), first_epochs=6, later_epochs=4, batch_epochs=6,
+                   batch_size=16, repeats=1),
+    # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
+    "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=12, later_epochs=6, batch_epochs=12,
+                  repeats=1),
+    # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
+    "paper": Preset("paper", (256, 256), (32, 64, 128, 128, 256, 256), (512, 256), first_epochs=50,
+                    later_epochs=25, batch_epochs=50, repeats=3),
+}
+
+
+def get_preset(name: str) -> Preset:
+    if name not in PRESETS:
+        raise HandEyeInputError(f"unknown learned preset {name!r}: use {', '.join(PRESETS)}")
+    return PRESETS[name]
+
+
+def time_steps(frames: FrameSet) -> list[list[int]]:
+    """Training camera poses per region, in region order (the time steps S1, S2, ...)."""
+    steps = []
+    for r in np.unique(frames.region):
+        cams = np.unique(frames.camera[(frames.region == r) & (frames.split == "train")])
+        steps.append([int(c) for c in cams])
+    return steps
+
+
+def _subset_error(model: CalibrationNet, frames: FrameSet, region: int, device_batch: int = 256) -> float:
+    idx = np.flatnonzero((frames.region == region) & (frames.split == "test"))
+    return float(np.mean(errors(model, frames, idx))) if len(idx) else float("nan")
+
+
+def average_quaternions(q: np.ndarray) -> np.ndarray:
+    """Mean rotation of unit quaternions (eigenvector of the largest eigenvalue of sum q q^T), w >= 0."""
+    w, v = np.linalg.eigh(np.einsum("ni,nj->ij", q, q))
+    m = v[:, -1]
+    return m if m[3] >= 0 else -m
+
+
+def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
+                       cameras: list[int]) -> dict:
+    """Per camera pose: the learned ``T_base_cam`` (frame predictions averaged) against label and truth.
+
+    Returns
+    -------
+    dict
+        Lists per camera: ``camera``, ``region``, ``learned_vs_label_mm/deg``, ``learned_vs_truth_mm/deg``,
+        ``label_vs_truth_mm/deg``, ``per_frame_vs_label_mm/deg`` (mean over the pose's frames).
+    """
+    out = {k: [] for k in ("camera", "region", "learned_vs_label_mm", "learned_vs_label_deg", "learned_vs_truth_mm",
+                           "learned_vs_truth_deg", "label_vs_truth_mm", "label_vs_truth_deg",
+                           "per_frame_vs_label_mm", "per_frame_vs_label_deg")}
+    for c in cameras:
+        idx = np.flatnonzero(frames.camera == c)
+        t = predict(t_model, frames, idx)
+        q = predict(q_model, frames, idx)
+        t_mean, q_mean = t.mean(axis=0), average_quaternions(q)
+        lab_t, lab_q = frames.t_mm[idx[0]], frames.q[idx[0]]
+        tru_t, tru_q = frames.truth_t_mm[idx[0]], frames.truth_q[idx[0]]
+        out["camera"].append(int(c))
+        out["region"].append(int(frames.region[idx[0]]))
+        out["learned_vs_label_mm"].append(float(translation_errors_mm(t_mean, lab_t)))
+        out["learned_vs_label_deg"].append(float(rotation_errors_deg(q_mean[None], lab_q[None])[0]))
+        out["learned_vs_truth_mm"].append(float(translation_errors_mm(t_mean, tru_t)))
+        out["learned_vs_truth_deg"].append(float(rotation_errors_deg(q_mean[None], tru_q[None])[0]))
+        out["label_vs_truth_mm"].append(float(translation_errors_mm(lab_t, tru_t)))
+        out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q[None], tru_q[None])[0]))
+        out["per_frame_vs_label_mm"].append(float(np.mean(translation_errors_mm(t, frames.t_mm[idx]))))
+        out["per_frame_vs_label_deg"].append(float(np.mean(rotation_errors_deg(q, frames.q[idx]))))
+    return out
+
+
+def save_model(model: CalibrationNet, path: Path, meta: dict | None = None) -> None:
+    """Weights with their config (and any metrics) in one file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save({"config": model.config.to_dict(), "state_dict": model.state_dict(), "meta": meta or {}}, path)
+
+
+def load_model(path: str | Path, expect: ModelConfig | None = None) -> CalibrationNet:
+    """A network saved by :func:`save_model`; with ``expect``, refuse another config.
+
+    Raises
+    ------
+    HandEyeInputError
+        Missing file, or a config other than ``expect`` (naming the fields that differ).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise HandEyeInputError(f"{path}: no saved model")
+    doc = torch.load(path, map_location="cpu", weights_only=False)
+    config = ModelConfig.from_dict(doc["config"])
+    if expect is not None and config != expect:
+        diff = [k for k in asdict(config) if getattr(config, k) != getattr(expect, k)]
+        what = ", ".join(f"{k}: saved {getattr(config, k)}, expected {getattr(expect, k)}" for k in diff)
+        raise HandEyeInputError(f"{path}: saved with another config ({what})")
+    model = CalibrationNet(config)
+    model.load_state_dict(doc["state_dict"])
+    model.eval()
+    return model
+
+
+@dataclass
+class RunRecord:
+    """One strategy, network and repeat."""
+
+    strategy: str
+    network: str
+    repeat: int
+    matrix: list = field(default_factory=list)
+    processed: int = 0
+    stored: int = 0
+    evaluated: int = 0
+    skipped: list = field(default_factory=list)
+    wall_s: float = 0.0
+
+
+def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", strategies=("batch", "naive",
+                   "reservoir", "selection"), out: str | Path | None = None, labels: str = "classic", seed: int = 0,
+                   progress: bool = True, threads: int | None = None) -> dict:
+    """Run the protocol; write ``results.json`` and the last repeat's networks under ``out``.
+
+    Parameters
+    ----------
+    data : path of a labelled dataset, or a FrameSet
+    preset : str or Preset
+    strategies : iterable of str
+    out : path, optional
+    labels : {"classic", "truth"}
+        Training targets.
+    seed : int
+        Repeat r uses ``default_rng([seed, r, strategy index, network index])``.
+    progress : bool
+    threads : int, optional
+        torch CPU threads.
+
+    Returns
+    -------
+    dict
+        The results (as written to ``results.json``).
+    """
+    preset = get_preset(preset) if isinstance(preset, str) else preset
+    strategies = list(strategies)
+    unknown = [s for s in strategies if s not in STRATEGIES]
+    if unknown:
+        raise HandEyeInputError(f"unknown strategies {unknown}: use {', '.join(STRATEGIES)}")
+    if threads:
+        torch.set_num_threads(threads)
+    frames = data if isinstance(data, FrameSet) else load_frames(data, preset.image_size, labels, progress=progress)
+    if tuple(frames.image_size) != tuple(preset.image_size):
+        raise HandEyeInputError(f"frames are {frames.image_size}, preset {preset.name} needs {preset.image_size}")
+    steps = time_steps(frames)
+    regions = [int(r) for r in np.unique(frames.region)]
+    test_cams = [int(c) for c in frames.cameras("test")]
+    # the translation network's output offset: the first time step's mean camera position (known at step 1)
+    offset_mm = frames.t_mm[np.isin(frames.camera, steps[0])].mean(axis=0)
+    records, validation = [], {}
+    out = Path(out) if out is not None else None
+    for si, name in enumerate(strategies):
+        for ki, kind in enumerate(KINDS):
+            for rep in range(preset.repeats):
+                t0 = time.perf_counter()
+                rng = np.random.default_rng([seed, rep, si, ki])
+                first, later = preset.train_configs(name)
+                strat = make_strategy(name, preset.model_config(kind, offset_mm), first, later, rng, progress, c1=preset.c1,
+                                      c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
+                                      threshold_deg=preset.threshold_deg)
+                rec = RunRecord(name, kind, rep)
+                for k, cams in enumerate(steps):
+                    strat.step(k, cams, frames, last=k == len(steps) - 1)
+                    trained = name != "batch" or k == len(steps) - 1
+                    rec.matrix.append([_subset_error(strat.model, frames, r) if trained else float("nan")
+                                       for r in regions])
+                    if progress:
+                        row = " ".join(f"S{r + 1} {e:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
+                        print(f"{name:9s} {kind:11s} repeat {rep + 1} step {k + 1}: {row}", file=sys.stderr)
+                rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
+                rec.skipped = list(strat.skipped)
+                rec.wall_s = time.perf_counter() - t0
+                records.append(rec)
+                if rep == preset.repeats - 1:
+                    validation.setdefault(name, {})[kind] = strat.model
+                    if out is not None:
+                        save_model(strat.model, out / name / f"{kind}.pt",
+                                   {"preset": preset.name, "labels": labels, "seed": seed})
+    per_camera = {name: camera_predictions(m["translation"], m["orientation"], frames, test_cams)
+                  for name, m in validation.items()}
+    results = {"preset": preset.to_dict(), "labels": labels, "seed": seed, "regions": regions,
+               "steps": steps, "test_cameras": test_cams, "strategies": strategies,
+               "runs": [asdict(r) for r in records], "per_camera": per_camera,
+               "test_frames_per_region": {int(r): int(np.sum((frames.region == r) & (frames.split == "test")))
+                                          for r in regions},
+               "summary": {name: {kind: summarize(errors(validation[name][kind], frames,
+                                                         np.flatnonzero(frames.split == "test")))
+                                  for kind in KINDS} for name in validation}}
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "results.json").write_text(json.dumps(results, indent=1))
+    return results

@@ -1,0 +1,125 @@
+"""The regression architecture (paper section 2.2): RGB and depth encoders, reference pose, fully connected head.
+
+Each encoder is a stack of strided convolutions whose output is flattened, not
+pooled: global average pooling would throw away where the robot is in the
+image, which is what tells the camera's pose. The two feature vectors and the
+reference point's pose (x, y, z in metres, quaternion xyzw) go through three
+fully connected layers. Two networks: ``translation`` (3 outputs, the camera
+position in the base frame, mm) and ``orientation`` (10 outputs mapped to a
+unit quaternion by :mod:`learned.quaternion`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+
+from learned.quaternion import quaternion_from_10
+
+__all__ = ["ModelConfig", "CalibrationNet", "KINDS"]
+
+KINDS = ("translation", "orientation")
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Everything that fixes a network's shape and scaling (saved with its weights).
+
+    Attributes
+    ----------
+    kind : {"translation", "orientation"}
+    image_size : (int, int)
+        ``(width, height)`` of the inputs.
+    channels : tuple of int
+        Output channels of each stride-2 convolution of an encoder.
+    hidden : tuple of int
+        Widths of the fully connected layers before the output.
+    translation_scale_mm : float
+        The translation network's raw output times this, plus the offset, is millimetres (keeps raw
+        outputs near 0 and of order 1).
+    translation_offset_mm : (float, float, float)
+        Usually the mean camera position of the first time step's training data.
+    depth_scale_m : float
+        Depth is divided by this before the encoder.
+    """
+
+    kind: str
+    image_size: tuple = (64, 64)
+    channels: tuple = (16, 32, 64, 64)
+    hidden: tuple = (256, 128)
+    translation_scale_mm: float = 500.0
+    translation_offset_mm: tuple = (0.0, 0.0, 0.0)
+    depth_scale_m: float = 3.0
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        w, h = self.image_size
+        stride = 2 ** len(self.channels)
+        if w % stride or h % stride:
+            raise ValueError(f"image size {w}x{h} must be divisible by {stride} ({len(self.channels)} stride-2 layers)")
+
+    def to_dict(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "ModelConfig":
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+
+
+def _encoder(in_channels: int, channels: tuple) -> nn.Sequential:
+    layers, c = [], in_channels
+    for k, out in enumerate(channels):
+        layers += [nn.Conv2d(c, out, kernel_size=5 if k == 0 else 3, stride=2, padding=2 if k == 0 else 1),
+                   nn.BatchNorm2d(out), nn.ReLU(inplace=True)]
+        c = out
+    return nn.Sequential(*layers, nn.Flatten())
+
+
+class CalibrationNet(nn.Module):
+    """One network of the pair: translation or orientation of ``T_base_cam`` from RGB-D and ``T_base_ref``.
+
+    Parameters
+    ----------
+    config : ModelConfig
+    """
+
+    def __init__(self, config: ModelConfig):
+        super().__init__()
+        self.config = config
+        w, h = config.image_size
+        cells = (w // 2 ** len(config.channels)) * (h // 2 ** len(config.channels))
+        features = 2 * config.channels[-1] * cells + 7
+        self.rgb_encoder = _encoder(3, config.channels)
+        self.depth_encoder = _encoder(1, config.channels)
+        layers, width = [], features
+        for hdim in config.hidden:
+            layers += [nn.Linear(width, hdim), nn.ReLU(inplace=True)]
+            width = hdim
+        layers.append(nn.Linear(width, 3 if config.kind == "translation" else 10))
+        self.head = nn.Sequential(*layers)
+
+    def forward(self, rgb: torch.Tensor, depth_m: torch.Tensor, ref: torch.Tensor) -> torch.Tensor:
+        """Predict.
+
+        Parameters
+        ----------
+        rgb : tensor of uint8 or float, shape (B, 3, H, W)
+            uint8 is scaled to [0, 1].
+        depth_m : tensor, shape (B, 1, H, W)
+        ref : tensor, shape (B, 7)
+
+        Returns
+        -------
+        tensor, shape (B, 3)
+            Translation in mm (``translation``), or shape (B, 4), unit quaternions xyzw (``orientation``).
+        """
+        x = rgb.float() / 255.0 if rgb.dtype == torch.uint8 else rgb.float()
+        d = depth_m.float() / self.config.depth_scale_m
+        features = torch.cat([self.rgb_encoder(x), self.depth_encoder(d), ref.float()], dim=1)
+        out = self.head(features)
+        if self.config.kind == "translation":
+            return out * self.config.translation_scale_mm + out.new_tensor(self.config.translation_offset_mm)
+        return quaternion_from_10(out)

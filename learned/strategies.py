@@ -1,0 +1,205 @@
+"""Continual-learning strategies (paper section 3): what each time step trains on.
+
+A strategy owns one network and its buffer and is stepped through the time
+steps (one region's training camera poses per step). All randomness comes from
+the generator it is given.
+
+- :class:`Batch`: the baseline, trained from scratch on all data seen so far
+  (by default only at the last step: the paper's baseline on all training data).
+- :class:`Naive`: fine-tuning on the current step's data only.
+- :class:`Reservoir`: Algorithm 1, reservoir buffer with class balance: the
+  current step's data (a fraction ``c3``) plus ``c1`` stored samples from each
+  of ``c2`` past camera poses (``None``: all); after training, ``c1`` samples
+  of each current camera pose join the buffer.
+- :class:`Selection`: Algorithm 2, reservoir buffer with class balance and
+  camera-pose selection: the first step as :class:`Reservoir`; afterwards
+  each camera pose is its own time step: a ``sample_fraction`` sample of its
+  frames is evaluated with the current network, and only if the mean error
+  exceeds the threshold (mm for translation, degrees for orientation) is the
+  pose novel, trained on with the buffer, and added to it; else it is skipped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from learned.data import FrameSet
+from learned.model import CalibrationNet, ModelConfig
+from learned.trainer import TrainConfig, errors, train
+
+__all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy"]
+
+
+@dataclass
+class Strategy:
+    """Base: a network, its buffer (camera id -> frame indices) and counters.
+
+    Attributes
+    ----------
+    config : ModelConfig
+    first : TrainConfig
+        Training of the first time step (from scratch).
+    later : TrainConfig
+        Training of each later time step.
+    rng : numpy.random.Generator
+    model : CalibrationNet
+    buffer : dict
+        Camera id to stored frame indices.
+    processed : int
+        Samples processed by training (epochs times training-set sizes).
+    evaluated : int
+        Samples evaluated for novelty.
+    skipped : list of int
+        Camera poses judged not novel.
+    trained_on : list of list of int
+        Per time step, the camera poses whose current data were trained on.
+    """
+
+    config: ModelConfig
+    first: TrainConfig
+    later: TrainConfig
+    rng: np.random.Generator
+    progress: bool = False
+    model: CalibrationNet = field(init=False)
+    buffer: dict = field(init=False, default_factory=dict)
+    processed: int = field(init=False, default=0)
+    evaluated: int = field(init=False, default=0)
+    skipped: list = field(init=False, default_factory=list)
+    trained_on: list = field(init=False, default_factory=list)
+    name = "base"
+
+    def __post_init__(self):
+        self.model = CalibrationNet(self.config)
+
+    @property
+    def stored(self) -> int:
+        """Samples held in the buffer."""
+        return int(sum(len(v) for v in self.buffer.values()))
+
+    def _frames_of(self, frames: FrameSet, cameras) -> np.ndarray:
+        return np.flatnonzero(np.isin(frames.camera, list(cameras)) & (frames.split == "train"))
+
+    def _train(self, frames: FrameSet, index: np.ndarray, step: int) -> None:
+        cfg = self.first if step == 0 else self.later
+        self.processed += train(self.model, frames, index, cfg, self.rng, self.progress,
+                                desc=f"{self.name} {self.config.kind} step {step + 1}")
+
+    def step(self, step: int, cameras: list, frames: FrameSet, last: bool) -> None:
+        """Train for one time step (the training camera poses of one region)."""
+        raise NotImplementedError
+
+
+class Batch(Strategy):
+    """From scratch on everything seen so far; ``every_step=False`` trains at the last step only."""
+
+    name = "batch"
+    every_step: bool = False
+
+    def step(self, step, cameras, frames, last):
+        self.buffer.setdefault("seen", [])
+        self.buffer["seen"] = list(self.buffer["seen"]) + list(cameras)
+        if last or self.every_step:
+            self.model = CalibrationNet(self.config)
+            self._train(frames, self._frames_of(frames, self.buffer["seen"]), 0)
+            self.trained_on.append(list(self.buffer["seen"]))
+        else:
+            self.trained_on.append([])
+
+    @property
+    def stored(self) -> int:
+        return 0  # keeps all the data, not a buffer: reported as the data it trains on
+
+
+class Naive(Strategy):
+    """Fine-tune on the current step's data only."""
+
+    name = "naive"
+
+    def step(self, step, cameras, frames, last):
+        self._train(frames, self._frames_of(frames, cameras), step)
+        self.trained_on.append(list(cameras))
+
+
+@dataclass
+class Reservoir(Strategy):
+    """Algorithm 1: current data (fraction c3) plus c1 samples from each of c2 past camera poses."""
+
+    c1: int = 4
+    c2: int | None = None
+    c3: float = 1.0
+    name = "reservoir"
+
+    def _replay(self) -> np.ndarray:
+        past = list(self.buffer)
+        if self.c2 is not None and len(past) > self.c2:
+            past = list(self.rng.choice(past, self.c2, replace=False))
+        return np.concatenate([self.buffer[c] for c in past]) if past else np.zeros(0, int)
+
+    def _current(self, frames, cameras) -> np.ndarray:
+        idx = self._frames_of(frames, cameras)
+        if self.c3 >= 1.0:
+            return idx
+        return np.sort(self.rng.choice(idx, max(1, int(round(self.c3 * len(idx)))), replace=False))
+
+    def _store(self, frames, cameras) -> None:
+        for c in cameras:
+            idx = self._frames_of(frames, [c])
+            self.buffer[int(c)] = np.sort(self.rng.choice(idx, min(self.c1, len(idx)), replace=False))
+
+    def step(self, step, cameras, frames, last):
+        index = np.concatenate([self._current(frames, cameras), self._replay()])
+        self._train(frames, index, step)
+        self._store(frames, cameras)
+        self.trained_on.append(list(cameras))
+
+
+@dataclass
+class Selection(Reservoir):
+    """Algorithm 2: after the first step, each camera pose is a time step, trained on only if novel."""
+
+    threshold_mm: float = 3.0
+    threshold_deg: float = 4.0
+    sample_fraction: float = 0.1
+    name = "selection"
+
+    @property
+    def threshold(self) -> float:
+        return self.threshold_mm if self.config.kind == "translation" else self.threshold_deg
+
+    def is_novel(self, frames: FrameSet, camera: int) -> tuple[bool, float]:
+        """Mean error of the current network on a random sample of the pose's frames, against the threshold."""
+        idx = self._frames_of(frames, [camera])
+        sample = self.rng.choice(idx, max(1, int(round(self.sample_fraction * len(idx)))), replace=False)
+        self.evaluated += len(sample)
+        mean = float(np.mean(errors(self.model, frames, np.sort(sample))))
+        return mean > self.threshold, mean
+
+    def step(self, step, cameras, frames, last):
+        if step == 0:
+            return super().step(step, cameras, frames, last)
+        novel = []
+        for c in cameras:
+            is_novel, _ = self.is_novel(frames, c)
+            if not is_novel:
+                self.skipped.append(int(c))
+                continue
+            index = np.concatenate([self._current(frames, [c]), self._replay()])
+            self._train(frames, index, step)
+            self._store(frames, [c])
+            novel.append(int(c))
+        self.trained_on.append(novel)
+
+
+STRATEGIES = {"batch": Batch, "naive": Naive, "reservoir": Reservoir, "selection": Selection}
+
+
+def make_strategy(name: str, config: ModelConfig, first: TrainConfig, later: TrainConfig, rng: np.random.Generator,
+                  progress: bool = False, **params) -> Strategy:
+    """A strategy by name; ``params`` are its own (c1, c2, c3, thresholds), ignored by those without them."""
+    if name not in STRATEGIES:
+        raise ValueError(f"unknown strategy {name!r}: use {', '.join(STRATEGIES)}")
+    cls = STRATEGIES[name]
+    own = {k: v for k, v in params.items() if k in getattr(cls, "__dataclass_fields__", {})}
+    return cls(config, first, later, rng, progress, **own)

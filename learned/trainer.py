@@ -1,0 +1,119 @@
+"""Training and evaluation of one network on frames in memory."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from learned.data import FrameSet
+from learned.losses import chordal_loss, translation_loss
+from learned.metrics import rotation_errors_deg, translation_errors_mm
+from learned.model import CalibrationNet
+
+__all__ = ["TrainConfig", "train", "predict", "errors"]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation settings of one training call.
+
+    Attributes
+    ----------
+    epochs : int
+    batch_size : int
+    learning_rate : float
+    weight_decay : float
+    """
+
+    epochs: int = 10
+    batch_size: int = 32
+    learning_rate: float = 1e-3
+    weight_decay: float = 0.0
+
+
+def _tensors(frames: FrameSet, index: np.ndarray):
+    return (torch.from_numpy(frames.rgb[index]), torch.from_numpy(frames.depth_m[index].astype(np.float32)),
+            torch.from_numpy(frames.ref[index]))
+
+
+def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> torch.Tensor:
+    out = model(*_tensors(frames, index))
+    if model.config.kind == "translation":
+        return translation_loss(out, torch.from_numpy(frames.t_mm[index]))
+    return chordal_loss(out, torch.from_numpy(frames.q[index]))
+
+
+def train(model: CalibrationNet, frames: FrameSet, index: np.ndarray, config: TrainConfig,
+          rng: np.random.Generator, progress: bool = False, desc: str = "train") -> int:
+    """Train on the frames at ``index`` (a fresh Adam per call); returns the samples processed.
+
+    Parameters
+    ----------
+    model : CalibrationNet
+    frames : FrameSet
+    index : array of int
+    config : TrainConfig
+    rng : numpy.random.Generator
+        Shuffles the batches (torch's own generator is seeded from it).
+    progress : bool
+    desc : str
+
+    Returns
+    -------
+    int
+        ``epochs * len(index)``.
+    """
+    index = np.asarray(index)
+    if len(index) == 0:
+        return 0
+    torch.manual_seed(int(rng.integers(2**31)))
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
+    model.train()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=config.epochs, desc=desc, unit="epoch", file=sys.stderr, leave=False)
+    for _ in range(config.epochs):
+        order = rng.permutation(index)
+        for start in range(0, len(order), config.batch_size):
+            batch = np.sort(order[start:start + config.batch_size])
+            if len(batch) < 2:  # batch norm needs two samples
+                continue
+            optimizer.zero_grad()
+            loss = _loss(model, frames, batch)
+            loss.backward()
+            optimizer.step()
+        if bar is not None:
+            bar.set_postfix(loss=f"{loss.item():.4g}")
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    model.eval()
+    return config.epochs * len(index)
+
+
+@torch.no_grad()
+def predict(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None,
+            batch_size: int = 256) -> np.ndarray:
+    """Predictions for the frames at ``index`` (all by default): (N, 3) mm or (N, 4) quaternions."""
+    index = np.arange(len(frames)) if index is None else np.asarray(index)
+    model.eval()
+    out = [model(*_tensors(frames, index[s:s + batch_size])).numpy() for s in range(0, len(index), batch_size)]
+    width = 3 if model.config.kind == "translation" else 4
+    return np.concatenate(out) if out else np.zeros((0, width))
+
+
+def errors(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None,
+           against: str = "label") -> np.ndarray:
+    """Per-frame error of a network, mm or degrees, against the training targets or the truth."""
+    index = np.arange(len(frames)) if index is None else np.asarray(index)
+    pred = predict(model, frames, index)
+    if model.config.kind == "translation":
+        ref = frames.t_mm if against == "label" else frames.truth_t_mm
+        return translation_errors_mm(pred, ref[index])
+    ref = frames.q if against == "label" else frames.truth_q
+    return rotation_errors_deg(pred, ref[index])
