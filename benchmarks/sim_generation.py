@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    python benchmarks/sim_generation.py                      # the README's figures (about 10 minutes)
+    python benchmarks/sim_generation.py                      # the README's figures (about 25 minutes)
     python benchmarks/sim_generation.py --preset small       # a quick look
 
 1. Generation: the whole preset (data and calibration recordings) into
@@ -114,7 +114,8 @@ def main() -> None:
     n_data = preset.n_cameras * preset.configurations
     n_cal = report.frames - n_data
     lines += ["## Generation", "",
-              "| camera poses | data frames | calibration frames | wall time | frames/s | peak memory (all processes) |",
+              "| camera poses | data frames | calibration frames | wall time | frames/s | "
+              "peak memory (all processes) |",
               "|---|---|---|---|---|---|",
               f"| {preset.n_cameras} | {n_data} at {preset.image_size[0]}x{preset.image_size[1]} | {n_cal} at "
               f"{preset.calibration_image_size[0]}x{preset.calibration_image_size[1]} | {report.wall_s:.0f} s "

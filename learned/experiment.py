@@ -84,6 +84,9 @@ PRESETS = {
     # a test: seconds per strategy on 2 cores
     "tiny": Preset("tiny", (32, 32), (8, 16, 32), (64, 32), first_epochs=6, later_epochs=4, batch_epochs=6,
                    batch_size=16, repeats=1),
+    # the README's demo: a small dataset, a minute or two on 2 cores
+    "demo": Preset("demo", (32, 32), (8, 16, 32), (64, 32), first_epochs=30, later_epochs=15, batch_epochs=30,
+                   batch_size=16, repeats=1),
     # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
     "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=12, later_epochs=6, batch_epochs=12,
                   repeats=1),

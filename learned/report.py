@@ -1,0 +1,208 @@
+"""Reports of an experiment: the paper's tables (markdown and CSV) and figures (PNG) from ``results.json``.
+
+- per strategy and network, the time-step x test-subset matrix of mean test error (tables 3-8);
+- the final step against the batch baseline per test subset (tables 9-10, 19-20);
+- data and compute (table 11): samples stored, samples processed, novelty samples evaluated, wall
+  time, camera poses skipped;
+- per test camera pose: learned against the classic label and the truth, and the label against
+  the truth (translation mm, rotation degrees);
+- figures: the error on each test subset over the time steps per strategy (like figures 12-13),
+  and the final-step comparison with the baseline.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from handeye.errors import HandEyeInputError
+
+__all__ = ["load_results", "write_report", "findings"]
+
+UNIT = {"translation": "mm", "orientation": "deg"}
+
+
+def load_results(run_dir: str | Path) -> dict:
+    """``results.json`` of a run directory, with a clear error when it is missing."""
+    path = Path(run_dir) / "results.json"
+    if not path.is_file():
+        raise HandEyeInputError(f"{path}: missing; run 'handeye learned run ... --out {run_dir}' first")
+    return json.loads(path.read_text())
+
+
+def _runs(results: dict, strategy: str, network: str) -> list[dict]:
+    return [r for r in results["runs"] if r["strategy"] == strategy and r["network"] == network]
+
+
+def mean_matrix(results: dict, strategy: str, network: str) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation over repeats of the step x subset matrix."""
+    m = np.array([r["matrix"] for r in _runs(results, strategy, network)], dtype=float)
+    return m.mean(axis=0), m.std(axis=0)
+
+
+def _cell(mean: float, std: float, repeats: int) -> str:
+    if not np.isfinite(mean):
+        return "-"
+    return f"{mean:.2f} ± {std:.2f}" if repeats > 1 else f"{mean:.2f}"
+
+
+def findings(results: dict) -> list[str]:
+    """The paper's three findings, checked on these results, each with its numbers."""
+    lines = []
+    strategies = results["strategies"]
+    for net in ("translation", "orientation"):
+        u = UNIT[net]
+        if "naive" in strategies:
+            m, _ = mean_matrix(results, "naive", net)
+            ok = m[-1, 0] >= 2 * m[0, 0]
+            lines.append(f"{net}: naive forgets S1: {m[0, 0]:.2f} {u} after step 1, {m[-1, 0]:.2f} {u} at the last "
+                         f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): {'reproduced' if ok else 'NOT reproduced'}")
+        if "reservoir" in strategies and "batch" in strategies:
+            r, _ = mean_matrix(results, "reservoir", net)
+            b, _ = mean_matrix(results, "batch", net)
+            ratio = np.nanmean(r[-1]) / np.nanmean(b[-1])
+            lines.append(f"{net}: reservoir ends at {np.nanmean(r[-1]):.2f} {u} mean over subsets, batch baseline "
+                         f"{np.nanmean(b[-1]):.2f} {u} ({ratio:.2f}x; finding needs <= 1.5x): "
+                         f"{'reproduced' if ratio <= 1.5 else 'NOT reproduced'}")
+        if "selection" in strategies and "reservoir" in strategies:
+            s = _runs(results, "selection", net)
+            r = _runs(results, "reservoir", net)
+            skipped = np.mean([len(x["skipped"]) for x in s])
+            proc_s, proc_r = np.mean([x["processed"] for x in s]), np.mean([x["processed"] for x in r])
+            es = np.nanmean(mean_matrix(results, "selection", net)[0][-1])
+            er = np.nanmean(mean_matrix(results, "reservoir", net)[0][-1])
+            ok = skipped > 0 and proc_s < proc_r
+            lines.append(f"{net}: selection skipped {skipped:.1f} camera poses, processed {proc_s:.0f} samples against "
+                         f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} {u}: "
+                         f"{'reproduced' if ok else 'NOT reproduced'} (skips and less data)")
+    return lines
+
+
+def write_report(run_dir: str | Path, figures: bool = True) -> str:
+    """Write ``report.md``, ``*.csv`` and (with ``figures``) ``*.png`` into the run directory; return the markdown."""
+    run_dir = Path(run_dir)
+    results = load_results(run_dir)
+    regions = results["regions"]
+    subsets = [f"S{r + 1}" for r in regions]
+    repeats = results["preset"]["repeats"]
+    md = [f"# Learned continual calibration: preset {results['preset']['name']}, labels {results['labels']}", "",
+          f"Mean test error per subset (mean ± std over {repeats} repeats where > 1); rows: time steps "
+          "(after training on region k); batch trains from scratch on all training data at the last step.", ""]
+    for net in ("translation", "orientation"):
+        for strategy in results["strategies"]:
+            mean, std = mean_matrix(results, strategy, net)
+            md += [f"## {strategy}, {net} ({UNIT[net]})", "", "| step | " + " | ".join(subsets) + " | mean |",
+                   "|---|" + "---|" * (len(subsets) + 1)]
+            rows = []
+            for k in range(len(mean)):
+                cells = [_cell(mean[k, j], std[k, j], repeats) for j in range(len(subsets))]
+                avg = np.nanmean(mean[k]) if np.isfinite(mean[k]).any() else float("nan")
+                md.append(f"| T{k + 1} | " + " | ".join(cells) + f" | {_cell(avg, 0.0, 1)} |")
+                rows.append([k + 1, *mean[k], *std[k]])
+            md.append("")
+            with (run_dir / f"matrix_{strategy}_{net}.csv").open("w", newline="") as f:
+                w = csv.writer(f)
+                w.writerow(["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]])
+                w.writerows(rows)
+    # final step against the baseline
+    md += ["## Final step per test subset (tables 9-10)", ""]
+    final_rows = []
+    for net in ("translation", "orientation"):
+        md += [f"### {net} ({UNIT[net]})", "", "| strategy | " + " | ".join(subsets) + " | mean |",
+               "|---|" + "---|" * (len(subsets) + 1)]
+        for strategy in results["strategies"]:
+            mean, std = mean_matrix(results, strategy, net)
+            md.append(f"| {strategy} | " + " | ".join(_cell(mean[-1, j], std[-1, j], repeats)
+                                                     for j in range(len(subsets))) + f" | {np.nanmean(mean[-1]):.2f} |")
+            final_rows.append([net, strategy, *mean[-1], float(np.nanmean(mean[-1]))])
+        md.append("")
+    with (run_dir / "final_step.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["network", "strategy", *subsets, "mean"])
+        w.writerows(final_rows)
+    # data and compute
+    md += ["## Data and compute (table 11)", "",
+           "| strategy | network | samples stored | samples processed | samples evaluated for novelty | wall time s | "
+           "camera poses skipped |", "|---|---|---|---|---|---|---|"]
+    compute_rows = []
+    for strategy in results["strategies"]:
+        for net in ("translation", "orientation"):
+            runs = _runs(results, strategy, net)
+            vals = [np.mean([r[k] for r in runs]) for k in ("stored", "processed", "evaluated", "wall_s")]
+            skipped = np.mean([len(r["skipped"]) for r in runs])
+            md.append(f"| {strategy} | {net} | {vals[0]:.0f} | {vals[1]:.0f} | {vals[2]:.0f} | {vals[3]:.0f} | "
+                      f"{skipped:.1f} |")
+            compute_rows.append([strategy, net, *vals, skipped])
+    md.append("")
+    with (run_dir / "compute.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"])
+        w.writerows(compute_rows)
+    # per camera pose validation
+    md += ["## Per test camera pose: learned vs classic label vs truth", "",
+           "Learned: the frame predictions of the pose averaged. mm / deg.", ""]
+    with (run_dir / "per_camera.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        keys = None
+        for strategy, pc in results["per_camera"].items():
+            md += [f"### {strategy}", "", "| camera | subset | learned vs label | learned vs truth | label vs truth | "
+                   "per-frame vs label |", "|---|---|---|---|---|---|"]
+            for i, c in enumerate(pc["camera"]):
+                md.append(f"| {c} | S{pc['region'][i] + 1} | {pc['learned_vs_label_mm'][i]:.2f} / "
+                          f"{pc['learned_vs_label_deg'][i]:.2f} | {pc['learned_vs_truth_mm'][i]:.2f} / "
+                          f"{pc['learned_vs_truth_deg'][i]:.2f} | {pc['label_vs_truth_mm'][i]:.3f} / "
+                          f"{pc['label_vs_truth_deg'][i]:.4f} | {pc['per_frame_vs_label_mm'][i]:.2f} / "
+                          f"{pc['per_frame_vs_label_deg'][i]:.2f} |")
+                if keys is None:
+                    keys = list(pc)
+                    w.writerow(["strategy", *keys])
+                w.writerow([strategy, *[pc[k][i] for k in keys]])
+            md.append("")
+    md += ["## The paper's findings on this run", ""] + [f"- {line}" for line in findings(results)] + [""]
+    text = "\n".join(md)
+    (run_dir / "report.md").write_text(text)
+    if figures:
+        _figures(results, run_dir)
+    return text
+
+
+def _figures(results: dict, run_dir: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    regions = results["regions"]
+    for net in ("translation", "orientation"):
+        strategies = results["strategies"]
+        fig, axes = plt.subplots(1, len(strategies), figsize=(3.6 * len(strategies), 3.2), sharey=True, squeeze=False)
+        for ax, strategy in zip(axes[0], strategies):
+            mean, _ = mean_matrix(results, strategy, net)
+            for j, r in enumerate(regions):
+                ax.plot(np.arange(1, len(mean) + 1), mean[:, j], "o-", label=f"S{r + 1}")
+            ax.set_title(strategy)
+            ax.set_xlabel("time step")
+            ax.set_yscale("log")
+            ax.grid(alpha=0.3)
+        axes[0, 0].set_ylabel(f"mean test error ({UNIT[net]})")
+        axes[0, -1].legend(fontsize=7)
+        fig.suptitle(f"{net}: error on each test subset over the time steps")
+        fig.tight_layout()
+        fig.savefig(run_dir / f"steps_{net}.png", dpi=110)
+        plt.close(fig)
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+    for ax, net in zip(axes, ("translation", "orientation")):
+        width = 0.8 / len(results["strategies"])
+        for i, strategy in enumerate(results["strategies"]):
+            mean, std = mean_matrix(results, strategy, net)
+            ax.bar(np.arange(len(regions)) + i * width, mean[-1], width, yerr=std[-1], label=strategy)
+        ax.set_xticks(np.arange(len(regions)) + 0.4 - width / 2, [f"S{r + 1}" for r in regions])
+        ax.set_ylabel(f"final-step error ({UNIT[net]})")
+        ax.set_title(net)
+    axes[1].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(run_dir / "final_step.png", dpi=110)
+    plt.close(fig)
