@@ -1,5 +1,14 @@
-"""Learned continual hand-eye calibration (torch): models, losses, strategies.
+"""Learned continual hand-eye calibration (torch): the paper's regression networks and strategies.
 
-Not implemented yet: this package arrives with the learned-module issue. It
-will never import :mod:`sim` or :mod:`classic`; it reads datasets and labels.
+Modules: :mod:`learned.model` (RGB and depth encoders keeping spatial layout,
+reference pose, fully connected head; translation and orientation networks),
+:mod:`learned.quaternion` (the 10-D quaternion layer), :mod:`learned.losses`,
+:mod:`learned.metrics` (eq. 2), :mod:`learned.data` (frames of a labelled
+dataset), :mod:`learned.trainer`, :mod:`learned.strategies` (batch, naive,
+reservoir with class balance, camera-pose selection), :mod:`learned.experiment`
+(the protocol and its presets), :mod:`learned.report` (tables and figures),
+:mod:`learned.calibrator` (the online :class:`ContinualCalibrator`).
+
+It never imports :mod:`sim` or :mod:`classic`: it reads datasets and their labels
+through :mod:`handeye.dataset`.
 """

@@ -155,6 +155,7 @@ class ContinualCalibrator:
     def save(self, path: str | Path) -> None:
         """Weights, configs, buffers, history and the random state, in one file."""
         doc = {"version": STATE_VERSION, "preset": self.preset.to_dict(), "history": self.history,
+               "sample_fraction": self.sample_fraction,
                "rng": json.dumps(self.rng.bit_generator.state),
                "models": {k: {"config": m.config.to_dict(), "state_dict": m.state_dict()}
                           for k, m in self.models.items()},
@@ -177,7 +178,7 @@ class ContinualCalibrator:
             if want != saved:
                 diff = [k for k in asdict(saved) if getattr(saved, k) != getattr(want, k)]
                 raise HandEyeInputError(f"{path}: saved with preset {saved.name} (differs in {', '.join(diff)})")
-        cal = cls(saved)
+        cal = cls(saved, sample_fraction=doc["sample_fraction"])
         cal.rng.bit_generator.state = json.loads(doc["rng"])
         cal.history = doc["history"]
         for k, m in doc["models"].items():

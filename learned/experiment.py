@@ -88,7 +88,7 @@ PRESETS = {
     "demo": Preset("demo", (32, 32), (8, 16, 32), (64, 32), first_epochs=30, later_epochs=15, batch_epochs=30,
                    batch_size=16, repeats=1),
     # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
-    "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=12, later_epochs=6, batch_epochs=12,
+    "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=30, later_epochs=15, batch_epochs=30,
                   repeats=1),
     # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
     "paper": Preset("paper", (256, 256), (32, 64, 128, 128, 256, 256), (512, 256), first_epochs=50,
@@ -111,7 +111,7 @@ def time_steps(frames: FrameSet) -> list[list[int]]:
     return steps
 
 
-def _subset_error(model: CalibrationNet, frames: FrameSet, region: int, device_batch: int = 256) -> float:
+def _subset_error(model: CalibrationNet, frames: FrameSet, region: int) -> float:
     idx = np.flatnonzero((frames.region == region) & (frames.split == "test"))
     return float(np.mean(errors(model, frames, idx))) if len(idx) else float("nan")
 
@@ -247,8 +247,8 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
                 t0 = time.perf_counter()
                 rng = np.random.default_rng([seed, rep, si, ki])
                 first, later = preset.train_configs(name)
-                strat = make_strategy(name, preset.model_config(kind, offset_mm), first, later, rng, progress, c1=preset.c1,
-                                      c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
+                strat = make_strategy(name, preset.model_config(kind, offset_mm), first, later, rng, progress,
+                                      c1=preset.c1, c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
                                       threshold_deg=preset.threshold_deg)
                 rec = RunRecord(name, kind, rep)
                 for k, cams in enumerate(steps):

@@ -59,7 +59,8 @@ def findings(results: dict) -> list[str]:
             m, _ = mean_matrix(results, "naive", net)
             ok = m[-1, 0] >= 2 * m[0, 0]
             lines.append(f"{net}: naive forgets S1: {m[0, 0]:.2f} {u} after step 1, {m[-1, 0]:.2f} {u} at the last "
-                         f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): {'reproduced' if ok else 'NOT reproduced'}")
+                         f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): "
+                         f"{'reproduced' if ok else 'NOT reproduced'}")
         if "reservoir" in strategies and "batch" in strategies:
             r, _ = mean_matrix(results, "reservoir", net)
             b, _ = mean_matrix(results, "batch", net)
@@ -76,7 +77,8 @@ def findings(results: dict) -> list[str]:
             er = np.nanmean(mean_matrix(results, "reservoir", net)[0][-1])
             ok = skipped > 0 and proc_s < proc_r
             lines.append(f"{net}: selection skipped {skipped:.1f} camera poses, processed {proc_s:.0f} samples against "
-                         f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} {u}: "
+                         f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} "
+                         f"{u}: "
                          f"{'reproduced' if ok else 'NOT reproduced'} (skips and less data)")
     return lines
 

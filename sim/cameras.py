@@ -98,8 +98,9 @@ PRESETS = {
         radius_m=(0.9, 1.2), elevation_deg=(25.0, 45.0), look_at_m=(0.0, 0.0, 0.2),
     ),
     # the README's demo: 2 regions of 4 train + 1 test, 20 configurations, small images
-    "demo": CameraPreset("demo", "ur5", _sectors(2), (4, 4), (1, 1), 20, calibration_views=10,
-                         image_size=(128, 128), calibration_image_size=(480, 480)),
+    "demo": CameraPreset("demo", "ur5", ((0.0, 30.0), (30.0, 60.0)), (6, 6), (1, 1), 20, calibration_views=10,
+                         radius_m=(1.4, 1.6), elevation_deg=(30.0, 40.0), image_size=(128, 128),
+                         calibration_image_size=(480, 480)),
     # for tests and CI: 2 regions of 2 train + 1 test, 6 configurations
     "small": CameraPreset("small", "ur5", _sectors(2), (2, 2), (1, 1), 6, calibration_views=10,
                           image_size=(128, 128), calibration_image_size=(480, 480)),

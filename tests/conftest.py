@@ -1,6 +1,8 @@
-"""Shared fixtures: every random draw in the suite comes from a seeded generator."""
+"""Shared fixtures: every random draw in the suite comes from a seeded generator; datasets rendered once."""
 
 from __future__ import annotations
+
+import shutil
 
 import numpy as np
 import pytest
@@ -10,3 +12,52 @@ import pytest
 def rng() -> np.random.Generator:
     """A fresh, seeded generator per test (reproducible, independent of test order)."""
     return np.random.default_rng(0)
+
+
+MARKER_RADIUS_M = 0.03
+
+
+def _have_sim() -> bool:
+    try:
+        import pinocchio  # noqa: F401
+        import pyrender  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.fixture(scope="session")
+def small_dataset(tmp_path_factory):
+    """The ``small`` preset, generated on 2 processes and labelled: a read-only path (copy before changing it)."""
+    if not _have_sim():
+        pytest.skip("needs handeye[sim]")
+    from handeye.labelling import label_dataset
+    from sim.generate import generate
+
+    root = tmp_path_factory.mktemp("data") / "small"
+    report = generate(root, "small", seed=0, workers=2, progress=False)
+    label_dataset(root, workers=2, progress=False)
+    return root, report
+
+
+@pytest.fixture
+def small_copy(small_dataset, tmp_path):
+    """A private copy of the small dataset, to damage."""
+    root = tmp_path / "small"
+    shutil.copytree(small_dataset[0], root)
+    return root
+
+
+@pytest.fixture(scope="session")
+def marker_dataset(tmp_path_factory):
+    """Data recordings of a sphere on the flange origin (robot hidden) at 320x320, 3 camera poses."""
+    if not _have_sim():
+        pytest.skip("needs handeye[sim]")
+    from sim.cameras import CameraPreset
+    from sim.generate import generate
+
+    preset = CameraPreset("marker", "ur5", ((0.0, 360.0),), (3,), (0,), 4, image_size=(320, 320))
+    root = tmp_path_factory.mktemp("data") / "marker"
+    generate(root, preset, seed=3, workers=1, recordings=("data",), marker_radius_m=MARKER_RADIUS_M,
+             progress=False)
+    return root

@@ -82,3 +82,22 @@ def test_classic_does_not_import_opencv():
     out = _run([])
     assert "cv2" not in out["after_import"]
     assert "cv2" not in out["after_calibrate"]
+
+
+def test_learned_never_imports_sim_or_classic():
+    """DESIGN: learned reads datasets and labels; it imports neither the simulator nor the solvers."""
+    import ast
+
+    for path in sorted((REPO / "learned").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            for name in names:
+                assert name.split(".")[0] not in ("sim", "classic"), f"{path.name} imports {name}"
+    code = ("import sys, learned.experiment, learned.calibrator, learned.report; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('sim', 'classic', 'pinocchio', 'pyrender')))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -35,3 +35,12 @@ def test_simulator_walkthrough(tmp_path, monkeypatch):
     ns = run_notebook(NOTEBOOKS / "01_simulator.ipynb")
     assert (tmp_path / "small" / "cam2.png").is_file()
     assert all(s == "ok" for s in ns["cams"]["label_status"])
+
+
+def test_continual_learning_walkthrough(tmp_path, monkeypatch):
+    pytest.importorskip("pinocchio")
+    pytest.importorskip("torch")
+    monkeypatch.setenv("HANDEYE_NOTEBOOK_DATA", str(tmp_path))
+    ns = run_notebook(NOTEBOOKS / "02_continual_learning.ipynb")
+    assert (tmp_path / "cell.pt").is_file() and (tmp_path / "run" / "report.md").is_file()
+    assert ns["T"].shape == (4, 4)

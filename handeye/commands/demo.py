@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     print(f"[1/4] rendering the {args.sim_preset} preset into {args.data}")
     print("      " + generate(args.data, args.sim_preset, progress=not args.quiet).summary())
-    print(f"[2/4] labelling every camera pose (classic calibration)")
+    print("[2/4] labelling every camera pose (classic calibration)")
     labels = label_dataset(args.data, progress=not args.quiet)
     print("      " + labels.summary().replace("\n", "\n      "))
     print(f"[3/4] continual training, preset {args.preset}, strategies {args.strategies}")

@@ -12,7 +12,7 @@ import pytest
 from handeye.dataset import Dataset
 from handeye.se3 import invert_transform
 from tests.sim._geometry import ray_sphere
-from tests.sim.conftest import MARKER_RADIUS_M
+from tests.conftest import MARKER_RADIUS_M
 from tests.tolerances import CORE_FRACTION, DEPTH_M, DEPTH_QUANTUM_M, MAX_MASK_MISMATCH_PX
 
 

@@ -1,0 +1,60 @@
+"""The tiny preset end to end on the small simulated dataset, through the command line; bad datasets refused."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+
+from handeye.errors import DatasetError  # noqa: E402
+from learned.data import load_frames  # noqa: E402
+
+
+def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
+    from handeye.cli import main
+
+    root = small_dataset[0]
+    out = tmp_path / "run"
+    assert main(["learned", "run", "--data", str(root), "--preset", "tiny", "--out", str(out), "--quiet",
+                 "--threads", "2"]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert {r["strategy"] for r in results["runs"]} == {"batch", "naive", "reservoir", "selection"}
+    assert all(len(r["matrix"]) == 2 and len(r["matrix"][0]) == 2 for r in results["runs"])
+    assert main(["learned", "report", str(out)]) == 0
+    for name in ("report.md", "final_step.csv", "compute.csv", "per_camera.csv", "steps_translation.png",
+                 "final_step.png"):
+        assert (out / name).is_file(), name
+    capsys.readouterr()
+    assert main(["compare", str(root), "--model", str(out / "reservoir")]) == 0
+    text = capsys.readouterr().out
+    assert "learned vs classic" in text and text.count("| S") == 2  # the two test camera poses
+    # the classic label column is the labelling's error against truth
+    from handeye.dataset import Dataset
+
+    cams = Dataset.open(root).cameras()
+    pc = results["per_camera"]["reservoir"]
+    np.testing.assert_allclose(pc["label_vs_truth_mm"], cams["label_error_trans_mm"][pc["camera"]], rtol=1e-5)
+
+
+def test_an_unlabelled_dataset_is_refused(small_copy):
+    from handeye.dataset import CAMERA_COLUMNS, read_table, write_table
+
+    write_table(small_copy / "cameras.csv", read_table(small_copy / "cameras.csv", CAMERA_COLUMNS), CAMERA_COLUMNS)
+    with pytest.raises(DatasetError, match="no labels; run 'handeye label"):
+        load_frames(small_copy, (32, 32), "classic", progress=False)
+    assert len(load_frames(small_copy, (32, 32), "truth", progress=False)) == 36
+
+
+def test_mismatched_image_sizes_are_refused(small_copy):
+    from PIL import Image
+
+    path = small_copy / "shards" / "cam_0002" / "rgb" / "data_001.png"
+    Image.fromarray(np.zeros((64, 64, 3), np.uint8)).save(path)
+    from handeye.dataset import write_manifest
+
+    write_manifest(path.parent.parent, 2, {"calibration": 10, "data": 6})  # a consistent but odd shard
+    with pytest.raises(DatasetError, match="data_001.png: image size 64x64.*other frames are 128x128"):
+        load_frames(small_copy, (32, 32), "classic", progress=False)

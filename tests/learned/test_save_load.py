@@ -1,0 +1,85 @@
+"""Saved networks and calibrators reload to identical predictions; mismatches are refused clearly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from handeye.errors import HandEyeInputError  # noqa: E402
+from learned.calibrator import ContinualCalibrator  # noqa: E402
+from learned.experiment import PRESETS, load_model, save_model  # noqa: E402
+from learned.model import CalibrationNet  # noqa: E402
+from learned.trainer import TrainConfig, predict, train  # noqa: E402
+from tests.learned._synthetic import make_frames  # noqa: E402
+
+TINY = PRESETS["tiny"]
+
+
+@pytest.fixture(scope="module")
+def frames():
+    return make_frames(np.random.default_rng(0), regions=((0, 60), (120, 180)), train_per_region=3,
+                       test_per_region=1, frames_per_camera=10, size=TINY.image_size)
+
+
+@pytest.mark.parametrize("kind", ["translation", "orientation"])
+def test_a_saved_network_reloads_to_identical_predictions(frames, tmp_path, kind):
+    model = CalibrationNet(TINY.model_config(kind, (100.0, 200.0, 300.0)))
+    train(model, frames, np.arange(len(frames)), TrainConfig(epochs=2, batch_size=16), np.random.default_rng(0))
+    save_model(model, tmp_path / "m.pt")
+    again = load_model(tmp_path / "m.pt", expect=model.config)
+    assert torch.equal(torch.from_numpy(predict(model, frames)), torch.from_numpy(predict(again, frames)))
+
+
+def test_a_network_with_another_config_is_refused(frames, tmp_path):
+    save_model(CalibrationNet(TINY.model_config("translation")), tmp_path / "m.pt")
+    other = PRESETS["demo"].model_config("translation")
+    with pytest.raises(HandEyeInputError, match="m.pt: saved with another config.*channels"):
+        load_model(tmp_path / "m.pt", expect=other)
+    with pytest.raises(HandEyeInputError, match="no saved model"):
+        load_model(tmp_path / "none.pt")
+
+
+def _pose_frames(frames, camera):
+    return frames.subset(np.flatnonzero(frames.camera == camera))
+
+
+def test_the_calibrator_keeps_learning_across_a_restart(frames, tmp_path):
+    cal = ContinualCalibrator(TINY, seed=0)
+    first = cal.observe(frames.subset(np.flatnonzero((frames.region == 0) & (frames.split == "train"))))
+    assert first["first"] and first["translation"]["novel"] and first["translation"]["sample_error"] is None
+    assert len(cal.memory["translation"]) == 3 * TINY.c1  # c1 samples per camera pose trained on
+    new_pose = int(frames.cameras("train")[frames.cameras("train") >= 4][0])
+    step = cal.observe(_pose_frames(frames, new_pose))
+    assert step["translation"]["sample_error"] is not None
+    cal.save(tmp_path / "cell.pt")
+    again = ContinualCalibrator.load(tmp_path / "cell.pt", preset=TINY)
+    test = _pose_frames(frames, int(frames.cameras("test")[0]))
+    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.ref),
+                                  again.predict(test.rgb, test.depth_m, test.ref))
+    assert again.history == cal.history
+    for kind in ("translation", "orientation"):
+        np.testing.assert_array_equal(again.memory[kind].rgb, cal.memory[kind].rgb)
+    # the same next update on both gives the same model: weights, buffer and random state all survived
+    nxt = _pose_frames(frames, int(frames.cameras("train")[-1]))
+    a, b = cal.observe(nxt), again.observe(nxt)
+    assert a == b
+    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.ref),
+                                  again.predict(test.rgb, test.depth_m, test.ref))
+    T = cal.predict(test.rgb, test.depth_m, test.ref)
+    assert T.shape == (4, 4) and np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-6)
+
+
+def test_calibrator_input_errors(frames, tmp_path):
+    cal = ContinualCalibrator(TINY)
+    with pytest.raises(HandEyeInputError, match="not been trained"):
+        cal.predict(frames.rgb[:1], frames.depth_m[:1], frames.ref[:1])
+    cal.observe(frames.subset(np.flatnonzero(frames.region == 0)))
+    with pytest.raises(HandEyeInputError, match="one camera pose at a time"):
+        cal.observe(frames.subset(np.flatnonzero(frames.region == 1)))
+    with pytest.raises(HandEyeInputError, match="images must be 32x32"):
+        cal.predict(np.zeros((1, 3, 16, 16), np.uint8), np.zeros((1, 1, 16, 16)), np.zeros((1, 7)))
+    cal.save(tmp_path / "cell.pt")
+    with pytest.raises(HandEyeInputError, match="saved with preset tiny"):
+        ContinualCalibrator.load(tmp_path / "cell.pt", preset="demo")
