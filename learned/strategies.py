@@ -4,8 +4,8 @@ A strategy owns one network and its buffer and is stepped through the time
 steps (one region's training camera poses per step). All randomness comes from
 the generator it is given.
 
-- :class:`Batch`: the baseline, trained from scratch on all data seen so far
-  (by default only at the last step: the paper's baseline on all training data).
+- :class:`Batch`: the baseline, trained from scratch on all training data at the
+  last time step (the paper's baseline); nothing before.
 - :class:`Naive`: fine-tuning on the current step's data only.
 - :class:`Reservoir`: Algorithm 1, reservoir buffer with class balance: the
   current step's data (a fraction ``c3``) plus ``c1`` stored samples from each
@@ -91,21 +91,19 @@ class Strategy:
         raise NotImplementedError
 
 
+@dataclass
 class Batch(Strategy):
-    """From scratch on everything seen so far; ``every_step=False`` trains at the last step only."""
+    """The baseline: at the last time step, from scratch on all training data seen (nothing before)."""
 
+    seen: list = field(init=False, default_factory=list)
     name = "batch"
-    every_step: bool = False
 
     def step(self, step, cameras, frames, last):
-        self.buffer.setdefault("seen", [])
-        self.buffer["seen"] = list(self.buffer["seen"]) + list(cameras)
-        if last or self.every_step:
+        self.seen += list(cameras)
+        if last:
             self.model = CalibrationNet(self.config)
-            self._train(frames, self._frames_of(frames, self.buffer["seen"]), 0)
-            self.trained_on.append(list(self.buffer["seen"]))
-        else:
-            self.trained_on.append([])
+            self._train(frames, self._frames_of(frames, self.seen), 0)
+        self.trained_on.append(list(self.seen) if last else [])
 
     @property
     def stored(self) -> int:
