@@ -27,7 +27,7 @@ import numpy as np
 
 from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig
-from learned.trainer import TrainConfig, errors, train
+from learned.trainer import TrainConfig, default_device, errors, train
 
 __all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy"]
 
@@ -71,7 +71,7 @@ class Strategy:
     name = "base"
 
     def __post_init__(self):
-        self.model = CalibrationNet(self.config)
+        self.model = CalibrationNet(self.config).to(default_device())
 
     @property
     def stored(self) -> int:
@@ -101,7 +101,7 @@ class Batch(Strategy):
     def step(self, step, cameras, frames, last):
         self.seen += list(cameras)
         if last:
-            self.model = CalibrationNet(self.config)
+            self.model = CalibrationNet(self.config).to(default_device())
             self._train(frames, self._frames_of(frames, self.seen), 0)
         self.trained_on.append(list(self.seen) if last else [])
 

@@ -13,7 +13,12 @@ from learned.losses import chordal_loss, translation_loss
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 from learned.model import CalibrationNet
 
-__all__ = ["TrainConfig", "train", "predict", "errors"]
+__all__ = ["TrainConfig", "train", "predict", "errors", "default_device"]
+
+
+def default_device() -> torch.device:
+    """CUDA when available (the ``paper`` preset), else the CPU."""
+    return torch.device("cuda" if torch.cuda.is_available() else "cpu")
 
 
 @dataclass(frozen=True)
@@ -34,16 +39,22 @@ class TrainConfig:
     weight_decay: float = 0.0
 
 
-def _tensors(frames: FrameSet, index: np.ndarray):
-    return (torch.from_numpy(frames.rgb[index]), torch.from_numpy(frames.depth_m[index].astype(np.float32)),
-            torch.from_numpy(frames.ref[index]))
+def _device(model: CalibrationNet) -> torch.device:
+    return next(model.parameters()).device
+
+
+def _tensors(frames: FrameSet, index: np.ndarray, device: torch.device):
+    return (torch.from_numpy(frames.rgb[index]).to(device),
+            torch.from_numpy(frames.depth_m[index].astype(np.float32)).to(device),
+            torch.from_numpy(frames.ref[index]).to(device))
 
 
 def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> torch.Tensor:
-    out = model(*_tensors(frames, index))
+    device = _device(model)
+    out = model(*_tensors(frames, index, device))
     if model.config.kind == "translation":
-        return translation_loss(out, torch.from_numpy(frames.t_mm[index]))
-    return chordal_loss(out, torch.from_numpy(frames.q[index]))
+        return translation_loss(out, torch.from_numpy(frames.t_mm[index]).to(device))
+    return chordal_loss(out, torch.from_numpy(frames.q[index]).to(device))
 
 
 def train(model: CalibrationNet, frames: FrameSet, index: np.ndarray, config: TrainConfig,
@@ -102,7 +113,9 @@ def predict(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = 
     """Predictions for the frames at ``index`` (all by default): (N, 3) mm or (N, 4) quaternions."""
     index = np.arange(len(frames)) if index is None else np.asarray(index)
     model.eval()
-    out = [model(*_tensors(frames, index[s:s + batch_size])).numpy() for s in range(0, len(index), batch_size)]
+    device = _device(model)
+    out = [model(*_tensors(frames, index[s:s + batch_size], device)).cpu().numpy()
+           for s in range(0, len(index), batch_size)]
     width = 3 if model.config.kind == "translation" else 4
     return np.concatenate(out) if out else np.zeros((0, width))
 
