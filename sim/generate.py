@@ -314,10 +314,13 @@ def _check_or_write_meta(out: Path, meta: dict) -> None:
             raise DatasetError(f"{path}: not valid JSON ({exc}); remove it or choose another --out") from None
         if old.get("recipe") != meta["recipe"] or old.get("recordings") != meta["recordings"]:
             recipe = old.get("recipe", {})
+            differ = [k for k in meta["recipe"] if recipe.get(k) != meta["recipe"][k]]
+            if old.get("recordings") != meta["recordings"]:
+                differ.append("recordings")
             raise DatasetError(
                 f"{path}: {out} holds a dataset generated with other options (preset "
-                f"{recipe.get('preset', {}).get('name')!r}, seed {recipe.get('seed')!r}); "
-                "resume it with the same options or choose another --out")
+                f"{recipe.get('preset', {}).get('name')!r}, seed {recipe.get('seed')!r}; differing: "
+                f"{', '.join(differ)}); resume it with the same options or choose another --out")
         return
     write_json_atomic(path, meta)
 
