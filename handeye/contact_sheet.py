@@ -15,21 +15,22 @@ __all__ = ["contact_sheet"]
 
 
 def _label_text(ds: Dataset, camera_id: int) -> tuple[str, np.ndarray | None]:
+    """The sheet's title and the camera pose's label ``T_base_cam`` (None when there is none)."""
     cams = ds.cameras()
-    truth = ds.truth()[camera_id]
+    T_base_cam_true = ds.truth()[camera_id]
     head = f"camera {camera_id}: region S{cams['region'][camera_id] + 1}, {cams['split'][camera_id]}"
     if "T_base_cam_label.x" not in cams:
         return head + "; not labelled (run 'handeye label')", None
-    label = ds.labels()[camera_id]
+    T_base_cam_label = ds.labels()[camera_id]
     status = cams["label_status"][camera_id]
     if status != "ok":
         return head + f"; labelling {status[:80]}", None
     text = head + (f"; label from {cams['label_views_used'][camera_id]}/{cams['label_views_total'][camera_id]} "
                    f"views, RMS {cams['label_rms_px'][camera_id]:.2f} px")
-    if np.isfinite(truth).all():
-        rot, trans = pose_error(label, truth)
+    if np.isfinite(T_base_cam_true).all():
+        rot, trans = pose_error(T_base_cam_label, T_base_cam_true)
         text += f"; label vs truth {float(rot):.4f} deg / {float(trans):.3f} mm"
-    return text, label
+    return text, T_base_cam_label
 
 
 def contact_sheet(root: str | Path, camera_id: int, path: str | Path, n_data: int = 4, n_calibration: int = 4) -> str:
@@ -63,7 +64,7 @@ def contact_sheet(root: str | Path, camera_id: int, path: str | Path, n_data: in
     ds = Dataset.open(root)
     data = ds.select(camera_id, "data")  # validates the camera id and its shard first
     cal = ds.select(camera_id, "calibration")
-    title, label = _label_text(ds, camera_id)
+    title, T_base_cam_label = _label_text(ds, camera_id)
     if len(data["frame"]) == 0 and len(cal["frame"]) == 0:
         raise DatasetError(f"{ds.shard_dir(camera_id)}: no frames")
     ncols = max(n_data + 1, n_calibration, 1)
@@ -87,7 +88,7 @@ def contact_sheet(root: str | Path, camera_id: int, path: str | Path, n_data: in
         intr = CameraIntrinsics.from_dict(ds.meta.get("calibration_intrinsics", ds.meta["intrinsics"]))
         T_base_ee = ds.poses(cal, "T_base_ee")
         T_ee_target = None
-        if label is not None and "T_ee_target_true" in ds.meta:
+        if T_base_cam_label is not None and "T_ee_target_true" in ds.meta:
             T_ee_target = np.array(ds.meta["T_ee_target_true"])
         for k in range(min(n_calibration, len(cal["frame"]))):
             img = ds.rgb(camera_id, cal["rgb"][k])
@@ -98,7 +99,7 @@ def contact_sheet(root: str | Path, camera_id: int, path: str | Path, n_data: in
                 ax.plot(det.corners_px[:, 0], det.corners_px[:, 1], "o", mfc="none", mec="lime", ms=4)
             if T_ee_target is not None:
                 # corners where the label (and the nominal board mount) put them
-                T_cam_target = invert_transform(label) @ T_base_ee[k] @ T_ee_target
+                T_cam_target = invert_transform(T_base_cam_label) @ T_base_ee[k] @ T_ee_target
                 uv = project_points(spec.corners_target(), T_cam_target, intr)
                 ax.plot(uv[:, 0], uv[:, 1], "r+", ms=4)
             ax.set_title(f"calibration {cal['frame'][k]}: {len(det.ids)} corners", fontsize=8)

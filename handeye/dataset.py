@@ -43,7 +43,7 @@ from handeye.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xy
 
 __all__ = [
     "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "Dataset",
-    "pose_columns", "poses_to_columns", "columns_to_poses", "read_table", "write_table", "shard_name",
+    "pose_columns", "frame_columns", "poses_to_columns", "columns_to_poses", "read_table", "write_table", "shard_name",
     "write_manifest", "shard_is_complete", "write_json_atomic", "encode_depth", "decode_depth",
 ]
 

@@ -82,9 +82,9 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dic
     rep = cal.reprojection
     out.update(label_status="ok", label_views_used=len(cal.images), label_rms_px=rep.rms_px,
                label_sigma_rot_deg=rep.sigma["X_rotation_deg"], label_sigma_trans_mm=rep.sigma["X_translation_mm"])
-    truth = ds.truth()[camera_id]
-    if np.isfinite(truth).all():
-        rot, trans = pose_error(cal.X, truth)
+    T_base_cam_true = ds.truth()[camera_id]
+    if np.isfinite(T_base_cam_true).all():
+        rot, trans = pose_error(cal.X, T_base_cam_true)
         out.update(label_error_rot_deg=float(rot), label_error_trans_mm=float(trans))
     return out, cal
 

@@ -27,7 +27,8 @@ from handeye.se3 import make_transform, matrix_from_quat_xyzw
 from learned.data import FrameSet, concat
 from learned.experiment import Preset, average_quaternions, get_preset
 from learned.model import KINDS, CalibrationNet, ModelConfig
-from learned.trainer import TrainConfig, errors, predict, train
+from learned.strategies import per_camera_sample, random_fraction, sample_error
+from learned.trainer import TrainConfig, predict, train
 
 __all__ = ["ContinualCalibrator"]
 
@@ -65,17 +66,11 @@ class ContinualCalibrator:
                                     "that size")
 
     def _store(self, kind: str, frames: FrameSet) -> None:
-        keep = []
-        for c in np.unique(frames.camera):
-            idx = np.flatnonzero(frames.camera == c)
-            keep.append(np.sort(self.rng.choice(idx, min(self.preset.c1, len(idx)), replace=False)))
-        self.memory[kind] = concat([self.memory[kind], frames.subset(np.concatenate(keep))])
+        keep = per_camera_sample(np.arange(len(frames)), frames.camera, self.preset.c1, self.rng)
+        self.memory[kind] = concat([self.memory[kind], frames.subset(np.concatenate(list(keep.values())))])
 
     def _train(self, kind: str, frames: FrameSet, first: bool) -> int:
-        current = np.arange(len(frames))
-        if self.preset.c3 < 1.0:
-            current = np.sort(self.rng.choice(current, max(1, int(round(self.preset.c3 * len(current)))),
-                                              replace=False))
+        current = random_fraction(np.arange(len(frames)), self.preset.c3, self.rng)
         data = concat([frames.subset(current), self.memory[kind]])
         epochs = self.preset.first_epochs if first else self.preset.later_epochs
         cfg = TrainConfig(epochs, self.preset.batch_size, self.preset.learning_rate)
@@ -96,38 +91,35 @@ class ContinualCalibrator:
         self._check(frames)
         first = not self.models
         if first:
-            offset = tuple(float(v) for v in frames.t_mm.mean(axis=0))
+            offset_mm = frames.t_base_cam_mm.mean(axis=0)
             for kind in KINDS:
-                self.models[kind] = CalibrationNet(ModelConfig(
-                    kind, tuple(self.preset.image_size), tuple(self.preset.channels), tuple(self.preset.hidden),
-                    translation_offset_mm=offset))
+                self.models[kind] = CalibrationNet(self.preset.model_config(kind, offset_mm))
         elif len(np.unique(frames.camera)) != 1:
             raise HandEyeInputError("after the first call, observe one camera pose at a time "
                                     f"(got cameras {np.unique(frames.camera).tolist()})")
         entry = {"cameras": [int(c) for c in np.unique(frames.camera)], "first": first}
         for kind in KINDS:
-            sample_error = None
+            mean_error = None
             novel = True
             if not first:
-                n = max(1, int(round(self.sample_fraction * len(frames))))
-                sample = np.sort(self.rng.choice(len(frames), n, replace=False))
-                sample_error = float(np.mean(errors(self.models[kind], frames, sample)))
-                novel = sample_error > self.threshold[kind]
+                mean_error, _ = sample_error(self.models[kind], frames, np.arange(len(frames)), self.sample_fraction,
+                                             self.rng)
+                novel = mean_error > self.threshold[kind]
             processed = self._train(kind, frames, first) if novel else 0
             if novel:
                 self._store(kind, frames)
-            entry[kind] = {"novel": bool(novel), "sample_error": sample_error, "processed": int(processed)}
+            entry[kind] = {"novel": bool(novel), "sample_error": mean_error, "processed": int(processed)}
         self.history.append(entry)
         return entry
 
-    def predict(self, rgb: np.ndarray, depth_m: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    def predict(self, rgb: np.ndarray, depth_m: np.ndarray, pose_base_ref: np.ndarray) -> np.ndarray:
         """``T_base_cam`` from one or more frames of the same camera (predictions averaged).
 
         Parameters
         ----------
         rgb : array of uint8, shape (N, 3, H, W) or (H, W, 3)
         depth_m : array, shape (N, 1, H, W) or (H, W)
-        ref : array, shape (N, 7) or (7,)
+        pose_base_ref : array, shape (N, 7) or (7,)
             ``T_base_ref`` as x, y, z, qx, qy, qz, qw.
 
         Returns
@@ -138,19 +130,21 @@ class ContinualCalibrator:
             raise HandEyeInputError("the calibrator has not been trained: call observe() first")
         rgb = np.asarray(rgb)
         if rgb.ndim == 3:
-            rgb, depth_m, ref = rgb.transpose(2, 0, 1)[None], np.asarray(depth_m)[None, None], np.asarray(ref)[None]
+            rgb, depth_m, pose_base_ref = (rgb.transpose(2, 0, 1)[None], np.asarray(depth_m)[None, None],
+                                           np.asarray(pose_base_ref)[None])
         n = len(rgb)
         w, h = self.preset.image_size
         if rgb.shape[1:] != (3, h, w) or np.asarray(depth_m).shape[1:] != (1, h, w):
             raise HandEyeInputError(f"images must be {w}x{h} (rgb (N, 3, {h}, {w}), depth (N, 1, {h}, {w})), got "
                                     f"{rgb.shape} and {np.asarray(depth_m).shape}")
-        frames = FrameSet(rgb.astype(np.uint8), np.asarray(depth_m, np.float16), np.asarray(ref, np.float32),
+        frames = FrameSet(rgb.astype(np.uint8), np.asarray(depth_m, np.float16),
+                          np.asarray(pose_base_ref, np.float32),
                           np.zeros((n, 3), np.float32), np.zeros((n, 4), np.float32), np.zeros(n, int),
                           np.zeros(n, int), np.array(["test"] * n), np.full((n, 3), np.nan), np.full((n, 4), np.nan),
                           "none", (w, h))
-        t_mm = predict(self.models["translation"], frames).mean(axis=0)
-        q = average_quaternions(predict(self.models["orientation"], frames))
-        return make_transform(matrix_from_quat_xyzw(q), t_mm / 1000.0)
+        t_base_cam_mm = predict(self.models["translation"], frames).mean(axis=0)
+        q_base_cam_xyzw = average_quaternions(predict(self.models["orientation"], frames))
+        return make_transform(matrix_from_quat_xyzw(q_base_cam_xyzw), t_base_cam_mm / 1000.0)
 
     def save(self, path: str | Path) -> None:
         """Weights, configs, buffers, history and the random state, in one file."""
@@ -172,7 +166,7 @@ class ContinualCalibrator:
         if doc.get("version") != STATE_VERSION:
             raise HandEyeInputError(f"{path}: calibrator state version {doc.get('version')!r}, expected "
                                     f"{STATE_VERSION}")
-        saved = Preset(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc["preset"].items()})
+        saved = Preset.from_dict(doc["preset"])
         if preset is not None:
             want = get_preset(preset) if isinstance(preset, str) else preset
             if want != saved:

@@ -31,17 +31,17 @@ class FrameSet:
     rgb : array of uint8, shape (N, 3, H, W)
     depth_m : array of float16, shape (N, 1, H, W)
         Metres, 0 = no depth.
-    ref : array of float32, shape (N, 7)
-        ``T_base_ref`` as x, y, z (m), qx, qy, qz, qw.
-    t_mm : array of float32, shape (N, 3)
-        Target camera position in the base frame, mm.
-    q : array of float32, shape (N, 4)
-        Target camera orientation, quaternion xyzw, w >= 0.
+    pose_base_ref : array of float32, shape (N, 7)
+        ``T_base_ref`` as x, y, z (metres), qx, qy, qz, qw.
+    t_base_cam_mm : array of float32, shape (N, 3)
+        Target: the translation of ``T_base_cam`` (camera position in the base frame), millimetres.
+    q_base_cam_xyzw : array of float32, shape (N, 4)
+        Target: the rotation of ``T_base_cam``, quaternion x, y, z, w with w >= 0.
     camera : array of int, shape (N,)
     region : array of int, shape (N,)
     split : array of str, shape (N,)
-    truth_t_mm, truth_q : arrays, shapes (N, 3), (N, 4)
-        The truth (NaN when unknown), for validation.
+    truth_t_base_cam_mm, truth_q_base_cam_xyzw : arrays, shapes (N, 3), (N, 4)
+        The same for the truth (NaN when unknown), for validation.
     label_source : str
     image_size : (int, int)
         ``(width, height)``.
@@ -49,14 +49,14 @@ class FrameSet:
 
     rgb: np.ndarray
     depth_m: np.ndarray
-    ref: np.ndarray
-    t_mm: np.ndarray
-    q: np.ndarray
+    pose_base_ref: np.ndarray
+    t_base_cam_mm: np.ndarray
+    q_base_cam_xyzw: np.ndarray
     camera: np.ndarray
     region: np.ndarray
     split: np.ndarray
-    truth_t_mm: np.ndarray
-    truth_q: np.ndarray
+    truth_t_base_cam_mm: np.ndarray
+    truth_q_base_cam_xyzw: np.ndarray
     label_source: str
     image_size: tuple
 
@@ -75,10 +75,14 @@ class FrameSet:
 
 
 def pose_targets(T_base_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Translation (mm) and canonical quaternion xyzw of camera poses, shapes (N, 3), (N, 4)."""
-    t, q = pos_quat_xyzw_from_transform(np.asarray(T_base_cam, dtype=float).reshape(-1, 4, 4))
-    q = q * np.where(q[:, 3:4] < 0, -1.0, 1.0)
-    return 1000.0 * t, q
+    """Translation (mm) and quaternion xyzw (w >= 0) of camera poses, shapes (N, 3), (N, 4); NaN where unknown."""
+    T_base_cam = np.asarray(T_base_cam, dtype=float).reshape(-1, 4, 4)
+    t_mm, q_xyzw = np.full((len(T_base_cam), 3), np.nan), np.full((len(T_base_cam), 4), np.nan)
+    known = np.isfinite(T_base_cam).all(axis=(1, 2))
+    if known.any():
+        t_m, q_xyzw[known] = pos_quat_xyzw_from_transform(T_base_cam[known])  # canonical w >= 0 already
+        t_mm[known] = 1000.0 * t_m
+    return t_mm, q_xyzw
 
 
 def _resize(image: np.ndarray, size: tuple, nearest: bool) -> np.ndarray:
@@ -134,8 +138,7 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         if not np.isfinite(truth).all():
             raise DatasetError(f"{ds.cameras_path}: the truth is unknown for some camera poses; use labels='classic'")
     t_all, q_all = pose_targets(target)
-    tt_all, tq_all = pose_targets(np.nan_to_num(truth, nan=0.0))
-    tt_all[~np.isfinite(truth).all(axis=(1, 2))] = np.nan
+    tt_all, tq_all = pose_targets(truth)
     ids = list(range(len(ds))) if cameras is None else [int(c) for c in cameras]
     rows = []
     for c in ids:
@@ -147,7 +150,7 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
     n = len(rows)
     rgb = np.empty((n, 3, h, w), np.uint8)
     depth = np.empty((n, 1, h, w), np.float16)
-    ref = np.empty((n, 7), np.float32)
+    pose_base_ref = np.empty((n, 7), np.float32)
     native = None
     iterator = rows
     if progress:
@@ -164,10 +167,10 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
                                f"{d.shape[1]}x{d.shape[0]}), other frames are {native[1]}x{native[0]}")
         rgb[i] = _resize(img, (w, h), nearest=False).transpose(2, 0, 1)
         depth[i, 0] = _resize(d, (w, h), nearest=True)
-        tr, q = pos_quat_xyzw_from_transform(T_base_ref)
-        ref[i] = np.concatenate([tr, q])
+        t_m, q_xyzw = pos_quat_xyzw_from_transform(T_base_ref)
+        pose_base_ref[i] = np.concatenate([t_m, q_xyzw])
     cam = np.array([r[0] for r in rows])
-    return FrameSet(rgb, depth, ref, t_all[cam].astype(np.float32), q_all[cam].astype(np.float32), cam,
+    return FrameSet(rgb, depth, pose_base_ref, t_all[cam].astype(np.float32), q_all[cam].astype(np.float32), cam,
                     cams["region"][cam], np.asarray(cams["split"][cam]).astype(str), tt_all[cam], tq_all[cam],
                     labels, (w, h))
 

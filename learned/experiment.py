@@ -79,6 +79,11 @@ class Preset:
     def to_dict(self) -> dict:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
+    @classmethod
+    def from_dict(cls, doc: dict) -> "Preset":
+        """Inverse of :meth:`to_dict`."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+
 
 PRESETS = {
     # a test: seconds per strategy on 2 cores
@@ -116,9 +121,9 @@ def _subset_error(model: CalibrationNet, frames: FrameSet, region: int) -> float
     return float(np.mean(errors(model, frames, idx))) if len(idx) else float("nan")
 
 
-def average_quaternions(q: np.ndarray) -> np.ndarray:
-    """Mean rotation of unit quaternions (eigenvector of the largest eigenvalue of sum q q^T), w >= 0."""
-    w, v = np.linalg.eigh(np.einsum("ni,nj->ij", q, q))
+def average_quaternions(q_xyzw: np.ndarray) -> np.ndarray:
+    """Mean rotation of unit quaternions x, y, z, w (eigenvector of the largest eigenvalue of sum q q^T), w >= 0."""
+    _, v = np.linalg.eigh(np.einsum("ni,nj->ij", q_xyzw, q_xyzw))
     m = v[:, -1]
     return m if m[3] >= 0 else -m
 
@@ -141,8 +146,8 @@ def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames:
         t = predict(t_model, frames, idx)
         q = predict(q_model, frames, idx)
         t_mean, q_mean = t.mean(axis=0), average_quaternions(q)
-        lab_t, lab_q = frames.t_mm[idx[0]], frames.q[idx[0]]
-        tru_t, tru_q = frames.truth_t_mm[idx[0]], frames.truth_q[idx[0]]
+        lab_t, lab_q = frames.t_base_cam_mm[idx[0]], frames.q_base_cam_xyzw[idx[0]]
+        tru_t, tru_q = frames.truth_t_base_cam_mm[idx[0]], frames.truth_q_base_cam_xyzw[idx[0]]
         out["camera"].append(int(c))
         out["region"].append(int(frames.region[idx[0]]))
         out["learned_vs_label_mm"].append(float(translation_errors_mm(t_mean, lab_t)))
@@ -151,8 +156,8 @@ def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames:
         out["learned_vs_truth_deg"].append(float(rotation_errors_deg(q_mean[None], tru_q[None])[0]))
         out["label_vs_truth_mm"].append(float(translation_errors_mm(lab_t, tru_t)))
         out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q[None], tru_q[None])[0]))
-        out["per_frame_vs_label_mm"].append(float(np.mean(translation_errors_mm(t, frames.t_mm[idx]))))
-        out["per_frame_vs_label_deg"].append(float(np.mean(rotation_errors_deg(q, frames.q[idx]))))
+        out["per_frame_vs_label_mm"].append(float(np.mean(translation_errors_mm(t, frames.t_base_cam_mm[idx]))))
+        out["per_frame_vs_label_deg"].append(float(np.mean(rotation_errors_deg(q, frames.q_base_cam_xyzw[idx]))))
     return out
 
 
@@ -238,7 +243,7 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
     regions = [int(r) for r in np.unique(frames.region)]
     test_cams = [int(c) for c in frames.cameras("test")]
     # the translation network's output offset: the first time step's mean camera position (known at step 1)
-    offset_mm = frames.t_mm[np.isin(frames.camera, steps[0])].mean(axis=0)
+    offset_mm = frames.t_base_cam_mm[np.isin(frames.camera, steps[0])].mean(axis=0)
     records, validation = [], {}
     out = Path(out) if out is not None else None
     for si, name in enumerate(strategies):

@@ -29,7 +29,33 @@ from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig
 from learned.trainer import TrainConfig, default_device, errors, train
 
-__all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy"]
+__all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy", "random_fraction",
+           "per_camera_sample", "sample_error"]
+
+
+def random_fraction(index: np.ndarray, fraction: float, rng: np.random.Generator) -> np.ndarray:
+    """A random share of ``index`` (at least one), sorted; all of it for ``fraction >= 1`` (no draw)."""
+    index = np.asarray(index)
+    if fraction >= 1.0:
+        return index
+    return np.sort(rng.choice(index, max(1, int(round(fraction * len(index)))), replace=False))
+
+
+def per_camera_sample(index: np.ndarray, camera: np.ndarray, c1: int, rng: np.random.Generator) -> dict:
+    """Class balance: up to ``c1`` random entries of ``index`` per camera pose (``camera[index]``), sorted."""
+    index = np.asarray(index)
+    out = {}
+    for c in np.unique(camera[index]):
+        idx = index[camera[index] == c]
+        out[int(c)] = np.sort(rng.choice(idx, min(c1, len(idx)), replace=False))
+    return out
+
+
+def sample_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, fraction: float,
+                 rng: np.random.Generator) -> tuple[float, int]:
+    """Algorithm 2's novelty measure: mean error (mm or deg) of a random ``fraction`` of ``index``, and its size."""
+    sample = random_fraction(index, fraction, rng)
+    return float(np.mean(errors(model, frames, sample))), len(sample)
 
 
 @dataclass
@@ -136,15 +162,10 @@ class Reservoir(Strategy):
         return np.concatenate([self.buffer[c] for c in past]) if past else np.zeros(0, int)
 
     def _current(self, frames, cameras) -> np.ndarray:
-        idx = self._frames_of(frames, cameras)
-        if self.c3 >= 1.0:
-            return idx
-        return np.sort(self.rng.choice(idx, max(1, int(round(self.c3 * len(idx)))), replace=False))
+        return random_fraction(self._frames_of(frames, cameras), self.c3, self.rng)
 
     def _store(self, frames, cameras) -> None:
-        for c in cameras:
-            idx = self._frames_of(frames, [c])
-            self.buffer[int(c)] = np.sort(self.rng.choice(idx, min(self.c1, len(idx)), replace=False))
+        self.buffer.update(per_camera_sample(self._frames_of(frames, cameras), frames.camera, self.c1, self.rng))
 
     def step(self, step, cameras, frames, last):
         index = np.concatenate([self._current(frames, cameras), self._replay()])
@@ -168,10 +189,8 @@ class Selection(Reservoir):
 
     def is_novel(self, frames: FrameSet, camera: int) -> tuple[bool, float]:
         """Mean error of the current network on a random sample of the pose's frames, against the threshold."""
-        idx = self._frames_of(frames, [camera])
-        sample = self.rng.choice(idx, max(1, int(round(self.sample_fraction * len(idx)))), replace=False)
-        self.evaluated += len(sample)
-        mean = float(np.mean(errors(self.model, frames, np.sort(sample))))
+        mean, n = sample_error(self.model, frames, self._frames_of(frames, [camera]), self.sample_fraction, self.rng)
+        self.evaluated += n
         return mean > self.threshold, mean
 
     def step(self, step, cameras, frames, last):

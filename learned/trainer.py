@@ -46,15 +46,15 @@ def _device(model: CalibrationNet) -> torch.device:
 def _tensors(frames: FrameSet, index: np.ndarray, device: torch.device):
     return (torch.from_numpy(frames.rgb[index]).to(device),
             torch.from_numpy(frames.depth_m[index].astype(np.float32)).to(device),
-            torch.from_numpy(frames.ref[index]).to(device))
+            torch.from_numpy(frames.pose_base_ref[index]).to(device))
 
 
 def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> torch.Tensor:
     device = _device(model)
     out = model(*_tensors(frames, index, device))
     if model.config.kind == "translation":
-        return translation_loss(out, torch.from_numpy(frames.t_mm[index]).to(device))
-    return chordal_loss(out, torch.from_numpy(frames.q[index]).to(device))
+        return translation_loss(out, torch.from_numpy(frames.t_base_cam_mm[index]).to(device))
+    return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device))
 
 
 def train(model: CalibrationNet, frames: FrameSet, index: np.ndarray, config: TrainConfig,
@@ -126,7 +126,7 @@ def errors(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = N
     index = np.arange(len(frames)) if index is None else np.asarray(index)
     pred = predict(model, frames, index)
     if model.config.kind == "translation":
-        ref = frames.t_mm if against == "label" else frames.truth_t_mm
-        return translation_errors_mm(pred, ref[index])
-    ref = frames.q if against == "label" else frames.truth_q
-    return rotation_errors_deg(pred, ref[index])
+        t_mm = frames.t_base_cam_mm if against == "label" else frames.truth_t_base_cam_mm
+        return translation_errors_mm(pred, t_mm[index])
+    q_xyzw = frames.q_base_cam_xyzw if against == "label" else frames.truth_q_base_cam_xyzw
+    return rotation_errors_deg(pred, q_xyzw[index])

@@ -111,11 +111,6 @@ class GenerationReport:
         return text
 
 
-def _intrinsics(K: np.ndarray, size: tuple[int, int]) -> dict:
-    return {"K": K.tolist(), "dist": [0.0] * 5, "width": int(size[0]), "height": int(size[1]),
-            "distortion_model": "opencv (k1, k2, p1, p2, k3)"}
-
-
 def dataset_meta(preset: CameraPreset, seed: int, noise: NoiseModel, recordings: tuple[str, ...],
                  marker_radius_m: float | None = None) -> dict:
     """The ``meta.json`` of a simulated dataset (everything needed to regenerate it).
@@ -133,11 +128,15 @@ def dataset_meta(preset: CameraPreset, seed: int, noise: NoiseModel, recordings:
     -------
     dict
     """
+    from classic.vision.board import BoardSpec
+    from classic.vision.camera import CameraIntrinsics
     from sim.robot import load_robot
 
     robot = load_robot(preset.robot)
-    board = DEFAULT_BOARD
-    size_m = (board["squares_x"] * board["square_length_m"], board["squares_y"] * board["square_length_m"])
+
+    def intrinsics(size):  # the simulated camera: a pinhole without distortion
+        return CameraIntrinsics(camera_matrix(*size, preset.fov_deg), np.zeros(5), *size).to_dict()
+
     meta = {
         "format": FORMAT,
         "version": FORMAT_VERSION,
@@ -145,13 +144,12 @@ def dataset_meta(preset: CameraPreset, seed: int, noise: NoiseModel, recordings:
         "n_joints": robot.nq,
         "joint_names": [str(n) for n in list(robot.model.names)[1:]],
         "T_ee_ref": robot.T_ee_ref.tolist(),
-        "intrinsics": _intrinsics(camera_matrix(*preset.image_size, preset.fov_deg), preset.image_size),
-        "calibration_intrinsics": _intrinsics(camera_matrix(*preset.calibration_image_size, preset.fov_deg),
-                                              preset.calibration_image_size),
+        "intrinsics": intrinsics(preset.image_size),
+        "calibration_intrinsics": intrinsics(preset.calibration_image_size),
         "depth": {"format": "png16", "scale_m": DEPTH_SCALE_M, "invalid": 0,
                   "quantity": "z coordinate in the camera frame (not the ray length)"},
-        "board": dict(board),
-        "T_ee_target_true": board_mount(size_m).tolist(),
+        "board": dict(DEFAULT_BOARD),
+        "T_ee_target_true": board_mount(BoardSpec(**DEFAULT_BOARD).size_m).tolist(),
         "cameras": preset.n_cameras,
         "regions": len(preset.region_azimuths_deg),
         "recordings": list(recordings),
@@ -178,6 +176,7 @@ class _ShardRenderer:
 
     def __init__(self, meta: dict):
         from classic.vision.board import BoardSpec
+        from classic.vision.camera import CameraIntrinsics
         from sim.render import Renderer
         from sim.robot import load_robot
 
@@ -190,7 +189,8 @@ class _ShardRenderer:
         self.spec = BoardSpec(**meta["board"])
         self.T_ee_target = np.array(meta["T_ee_target_true"])
         self.K_data = np.array(meta["intrinsics"]["K"])
-        self.K_cal = np.array(meta["calibration_intrinsics"]["K"])
+        self.intr_cal = CameraIntrinsics.from_dict(meta["calibration_intrinsics"])
+        self.K_cal = self.intr_cal.K
         self.size_data = self.preset.image_size
         self.size_cal = self.preset.calibration_image_size
         marker = recipe.get("marker_radius_m")
@@ -204,14 +204,16 @@ class _ShardRenderer:
 
     def _board_visible(self, depth_m: np.ndarray, T_base_cam: np.ndarray, T_base_target: np.ndarray) -> bool:
         """Whether the rendered depth shows the board (not the arm) at every projected corner."""
-        p = (invert_transform(T_base_cam) @ T_base_target @ np.column_stack(
-            [self.spec.corners_target(), np.ones(self.spec.n_corners)]).T).T[:, :3]
-        u = np.rint(self.K_cal[0, 0] * p[:, 0] / p[:, 2] + self.K_cal[0, 2]).astype(int)
-        v = np.rint(self.K_cal[1, 1] * p[:, 1] / p[:, 2] + self.K_cal[1, 2]).astype(int)
+        from classic.vision.detect import project_points
+
+        T_cam_target = invert_transform(T_base_cam) @ T_base_target
+        p_target = self.spec.corners_target()
+        z_cam = (p_target @ T_cam_target[:3, :3].T + T_cam_target[:3, 3])[:, 2]
+        u, v = np.rint(project_points(p_target, T_cam_target, self.intr_cal)).astype(int).T
         inside = (u >= 0) & (u < depth_m.shape[1]) & (v >= 0) & (v < depth_m.shape[0])
         if not inside.all():
             return False
-        return bool(np.all(np.abs(depth_m[v, u] - p[:, 2]) < OCCLUSION_TOLERANCE_M))
+        return bool(np.all(np.abs(depth_m[v, u] - z_cam) < OCCLUSION_TOLERANCE_M))
 
     def _noisy_rgb(self, rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         if self.noise.pixel_sigma == 0:

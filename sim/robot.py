@@ -72,7 +72,7 @@ class Robot:
         -------
         T_base_ee : array, shape (..., 4, 4)
         """
-        pin = require_package("pinocchio", extra="sim")
+        pin = self.pin
         q = np.asarray(q, dtype=float)
         flat = q.reshape(-1, self.nq)
         out = np.empty((len(flat), 4, 4))
@@ -96,7 +96,7 @@ class Robot:
         -------
         list of (str, str, array (4, 4))
         """
-        pin = require_package("pinocchio", extra="sim")
+        pin = self.pin
         pin.forwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
         out = []
         for g in self.visual_model.geometryObjects:
@@ -123,7 +123,7 @@ class Robot:
         -------
         q : array, shape (nq,), or None when it did not converge or left the joint limits.
         """
-        pin = require_package("pinocchio", extra="sim")
+        pin = self.pin
         q = np.asarray(q0, dtype=float).copy()
         target = pin.SE3(np.asarray(T_base_ee, dtype=float))
         for _ in range(max_iterations):

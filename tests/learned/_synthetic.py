@@ -27,7 +27,7 @@ def make_frames(rng: np.random.Generator, regions=((0.0, 90.0), (180.0, 270.0)),
     """Frames of cameras spread over azimuth regions; targets are the exact camera poses (label = truth)."""
     w, h = size
     u, v = np.meshgrid(np.linspace(0, 1, w), np.linspace(0, 1, h))
-    rgb, depth, ref, t_mm, q, camera, region, split = [], [], [], [], [], [], [], []
+    rgb, depth, pose_base_ref, t_mm, q_xyzw, camera, region, split = [], [], [], [], [], [], [], []
     cam_id = 0
     for r, (a0, a1) in enumerate(regions):
         n = train_per_region + test_per_region
@@ -38,22 +38,22 @@ def make_frames(rng: np.random.Generator, regions=((0.0, 90.0), (180.0, 270.0)),
             a, el = np.radians(az), np.radians(35.0)
             position = 1.5 * np.array([np.cos(el) * np.cos(a), np.cos(el) * np.sin(a), np.sin(el)])
             R = _look_at_rotation(position, np.array([0.0, 0.0, 0.3]))
-            quat = quat_xyzw_from_matrix(R)
-            quat = quat if quat[3] >= 0 else -quat
+            quat = quat_xyzw_from_matrix(R)  # w >= 0
             for _ in range(frames_per_camera):
                 phase = a + rng.normal(scale=0.02)
                 img = np.stack([np.sin(2 * np.pi * u + phase), np.cos(2 * np.pi * v + phase),
                                 np.sin(2 * np.pi * (u + v) + 2 * phase)])
                 rgb.append(np.clip(127.5 + 120 * img + rng.normal(scale=3, size=img.shape), 0, 255).astype(np.uint8))
                 depth.append((1.0 + 0.5 * np.cos(a) * u + 0.5 * np.sin(a) * v)[None].astype(np.float16))
-                ref.append(np.concatenate([rng.uniform(-0.4, 0.4, 3), [0.0, 0.0, 0.0, 1.0]]))
+                pose_base_ref.append(np.concatenate([rng.uniform(-0.4, 0.4, 3), [0.0, 0.0, 0.0, 1.0]]))
                 t_mm.append(1000 * position)
-                q.append(quat)
+                q_xyzw.append(quat)
                 camera.append(cam_id)
                 region.append(r)
                 split.append("test" if is_test[k] else "train")
             cam_id += 1
     n = len(camera)
-    t_mm, q = np.array(t_mm, np.float32), np.array(q, np.float32)
-    return FrameSet(np.array(rgb), np.array(depth), np.array(ref, np.float32), t_mm, q, np.array(camera),
-                    np.array(region), np.array(split), t_mm.astype(float), q.astype(float), "truth", (w, h))
+    t_mm, q_xyzw = np.array(t_mm, np.float32), np.array(q_xyzw, np.float32)
+    return FrameSet(np.array(rgb), np.array(depth), np.array(pose_base_ref, np.float32), t_mm, q_xyzw,
+                    np.array(camera), np.array(region), np.array(split), t_mm.astype(float), q_xyzw.astype(float),
+                    "truth", (w, h))

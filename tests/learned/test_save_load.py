@@ -56,8 +56,8 @@ def test_the_calibrator_keeps_learning_across_a_restart(frames, tmp_path):
     cal.save(tmp_path / "cell.pt")
     again = ContinualCalibrator.load(tmp_path / "cell.pt", preset=TINY)
     test = _pose_frames(frames, int(frames.cameras("test")[0]))
-    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.ref),
-                                  again.predict(test.rgb, test.depth_m, test.ref))
+    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.pose_base_ref),
+                                  again.predict(test.rgb, test.depth_m, test.pose_base_ref))
     assert again.history == cal.history
     for kind in ("translation", "orientation"):
         np.testing.assert_array_equal(again.memory[kind].rgb, cal.memory[kind].rgb)
@@ -65,16 +65,16 @@ def test_the_calibrator_keeps_learning_across_a_restart(frames, tmp_path):
     nxt = _pose_frames(frames, int(frames.cameras("train")[-1]))
     a, b = cal.observe(nxt), again.observe(nxt)
     assert a == b
-    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.ref),
-                                  again.predict(test.rgb, test.depth_m, test.ref))
-    T = cal.predict(test.rgb, test.depth_m, test.ref)
+    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.pose_base_ref),
+                                  again.predict(test.rgb, test.depth_m, test.pose_base_ref))
+    T = cal.predict(test.rgb, test.depth_m, test.pose_base_ref)
     assert T.shape == (4, 4) and np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-6)
 
 
 def test_calibrator_input_errors(frames, tmp_path):
     cal = ContinualCalibrator(TINY)
     with pytest.raises(HandEyeInputError, match="not been trained"):
-        cal.predict(frames.rgb[:1], frames.depth_m[:1], frames.ref[:1])
+        cal.predict(frames.rgb[:1], frames.depth_m[:1], frames.pose_base_ref[:1])
     cal.observe(frames.subset(np.flatnonzero(frames.region == 0)))
     with pytest.raises(HandEyeInputError, match="one camera pose at a time"):
         cal.observe(frames.subset(np.flatnonzero(frames.region == 1)))

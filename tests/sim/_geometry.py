@@ -30,3 +30,25 @@ def ray_sphere(centre_cam: np.ndarray, radius: float, K: np.ndarray, width: int,
     hit = disc > 0
     t = (b - np.sqrt(np.where(hit, disc, 0.0))) / a
     return hit, np.where(hit, t, 0.0)  # rays have z = 1, so t is the depth
+
+
+def assert_sphere_rendered(mask: np.ndarray, depth_m: np.ndarray, centre_cam: np.ndarray, radius: float,
+                           K: np.ndarray, min_pixels: int, min_core: int, depth_atol_m: float) -> tuple[float, float]:
+    """A rendered sphere covers the pixels whose rays hit it (to MAX_MASK_MISMATCH_PX) at the ray-sphere depth.
+
+    The depth is compared on the core (within CORE_FRACTION of the projected radius, where the facets do
+    not graze the rays). Returns the projected centre ``(u, v)``.
+    """
+    from tests.tolerances import CORE_FRACTION, MAX_MASK_MISMATCH_PX
+
+    H, W = mask.shape
+    u = K[0, 0] * centre_cam[0] / centre_cam[2] + K[0, 2]
+    v = K[1, 1] * centre_cam[1] / centre_cam[2] + K[1, 2]
+    expected, expected_depth = ray_sphere(centre_cam, radius, K, W, H)
+    assert expected.sum() > min_pixels
+    assert np.sum(mask != expected) <= MAX_MASK_MISMATCH_PX
+    rows, cols = np.mgrid[0:H, 0:W]
+    core = np.hypot(cols - u, rows - v) < CORE_FRACTION * K[0, 0] * radius / centre_cam[2]
+    assert core.sum() >= min_core
+    np.testing.assert_allclose(depth_m[core], expected_depth[core], atol=depth_atol_m)
+    return u, v

@@ -11,9 +11,9 @@ import pytest
 
 from handeye.dataset import Dataset
 from handeye.se3 import invert_transform
-from tests.sim._geometry import ray_sphere
+from tests.sim._geometry import assert_sphere_rendered
 from tests.conftest import MARKER_RADIUS_M
-from tests.tolerances import CORE_FRACTION, DEPTH_M, DEPTH_QUANTUM_M, MAX_MASK_MISMATCH_PX
+from tests.tolerances import DEPTH_M, DEPTH_QUANTUM_M
 
 
 def _frames(root):
@@ -35,16 +35,10 @@ def test_flange_origin_where_the_recorded_camera_model_puts_it(marker_dataset, i
     W, H = ds.meta["intrinsics"]["width"], ds.meta["intrinsics"]["height"]
     T_base_ee = ds.poses(t, "T_base_ee")[k]
     p_cam = (invert_transform(ds.truth()[c]) @ T_base_ee[:, 3])[:3]
-    u, v = K[0, 0] * p_cam[0] / p_cam[2] + K[0, 2], K[1, 1] * p_cam[1] / p_cam[2] + K[1, 2]
-    assert 5 < u < W - 5 and 5 < v < H - 5  # the generator keeps the tool in the image
     rgb = ds.rgb(c, t["rgb"][k]).astype(int)
     depth = ds.depth_m(c, t["depth"][k])
     # the marker is magenta: red and blue high, green a small fraction of them (nothing else in the lab is)
     magenta = (rgb[..., 0] > 80) & (rgb[..., 2] > 80) & (rgb[..., 1] < 0.25 * np.minimum(rgb[..., 0], rgb[..., 2]))
-    expected, expected_depth = ray_sphere(p_cam, MARKER_RADIUS_M, K, W, H)
-    assert expected.sum() > 20
-    assert np.sum(magenta != expected) <= MAX_MASK_MISMATCH_PX
-    rows, cols = np.mgrid[0:H, 0:W]
-    core = np.hypot(cols - u, rows - v) < CORE_FRACTION * K[0, 0] * MARKER_RADIUS_M / p_cam[2]
-    assert core.sum() >= 5
-    np.testing.assert_allclose(depth[core], expected_depth[core], atol=DEPTH_M + DEPTH_QUANTUM_M)
+    u, v = assert_sphere_rendered(magenta, depth, p_cam, MARKER_RADIUS_M, K, min_pixels=20, min_core=5,
+                                  depth_atol_m=DEPTH_M + DEPTH_QUANTUM_M)
+    assert 5 < u < W - 5 and 5 < v < H - 5  # the generator keeps the tool in the image

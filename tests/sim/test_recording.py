@@ -9,14 +9,14 @@ pytest.importorskip("pinocchio")
 
 from handeye.se3 import invert_transform, rotation_angle  # noqa: E402
 from sim.cameras import get_preset, place_cameras  # noqa: E402
+from classic.vision.board import BoardSpec  # noqa: E402
 from sim.recording import (  # noqa: E402
     DEFAULT_BOARD, board_mount, camera_matrix, in_image, sample_calibration_view, sample_data_configuration,
 )
 from sim.robot import load_robot  # noqa: E402
 from tests.tolerances import EXACT  # noqa: E402
 
-SIZE_M = (DEFAULT_BOARD["squares_x"] * DEFAULT_BOARD["square_length_m"],
-          DEFAULT_BOARD["squares_y"] * DEFAULT_BOARD["square_length_m"])
+SIZE_M = BoardSpec(**DEFAULT_BOARD).size_m
 
 
 def test_board_is_centred_on_the_flange_axis_facing_out():

@@ -12,8 +12,8 @@ from handeye.se3 import invert_transform  # noqa: E402
 from sim.cameras import look_at  # noqa: E402
 from sim.render import Renderer  # noqa: E402
 from sim.robot import load_robot  # noqa: E402
-from tests.sim._geometry import ray_sphere  # noqa: E402
-from tests.tolerances import CORE_FRACTION, DEPTH_M, MAX_MASK_MISMATCH_PX  # noqa: E402
+from tests.sim._geometry import assert_sphere_rendered  # noqa: E402
+from tests.tolerances import DEPTH_M  # noqa: E402
 
 W, H = 320, 240
 K = np.array([[300.0, 0.0, 161.3], [0.0, 302.0, 118.6], [0.0, 0.0, 1.0]])  # off-centre principal point
@@ -42,17 +42,10 @@ def test_flange_origin_projects_where_the_image_shows_it(setup, seed):
     direction /= np.linalg.norm(direction)
     T_base_cam = look_at(p_base + rng.uniform(0.6, 1.0) * direction, p_base + rng.normal(scale=0.08, size=3))
     p_cam = (invert_transform(T_base_cam) @ np.append(p_base, 1.0))[:3]
-    u, v = K[0, 0] * p_cam[0] / p_cam[2] + K[0, 2], K[1, 1] * p_cam[1] / p_cam[2] + K[1, 2]
-    assert 15 < u < W - 15 and 15 < v < H - 15
     rgb, depth = renderer.render(q, T_base_cam)
     blob = depth > 0
-    expected, expected_depth = ray_sphere(p_cam, RADIUS, K, W, H)
-    assert expected.sum() > 40
-    assert np.sum(blob != expected) <= MAX_MASK_MISMATCH_PX
-    rows, cols = np.mgrid[0:H, 0:W]
-    core = np.hypot(cols - u, rows - v) < CORE_FRACTION * K[0, 0] * RADIUS / p_cam[2]
-    assert core.sum() >= 10
-    np.testing.assert_allclose(depth[core], expected_depth[core], atol=DEPTH_M)
+    u, v = assert_sphere_rendered(blob, depth, p_cam, RADIUS, K, min_pixels=40, min_core=10, depth_atol_m=DEPTH_M)
+    assert 15 < u < W - 15 and 15 < v < H - 15
     # the blob is the marker's colour (magenta) and sits around the projected flange origin
     assert np.all(rgb[blob][:, 1] < rgb[blob][:, 0]) and np.all(rgb[blob][:, 1] < rgb[blob][:, 2])
     assert blob[int(round(v)), int(round(u))]
