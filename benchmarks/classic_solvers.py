@@ -6,7 +6,7 @@ Run from the repository root::
     python benchmarks/classic_solvers.py --trials 20     # a quick look
 
 Every table comes from one run on synthetic eye-to-hand data
-(:func:`handeye.synthetic.make_problem`): camera noise per axis on
+(:func:`handeye.core.synthetic.make_problem`): camera noise per axis on
 ``T_cam_target``, robot noise per axis on ``T_base_ee``. Errors are those of
 ``X = T_base_cam`` against the truth. OpenCV gets the same data through its
 documented eye-to-hand mapping (``base2gripper`` in the ``gripper2base`` slot).
@@ -29,12 +29,12 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import classic  # noqa: E402
 from benchmarks._machine import machine  # noqa: E402
 from classic.calibrate import initial_estimate  # noqa: E402
-from handeye.conventions import opencv_hand_eye_args  # noqa: E402
-from handeye.errors import WeakMotionWarning  # noqa: E402
-from handeye.metrics import pose_error  # noqa: E402
-from handeye.se3 import make_transform  # noqa: E402
-from handeye.setups import robot_side_poses  # noqa: E402
-from handeye.synthetic import make_problem  # noqa: E402
+from handeye.core.conventions import opencv_hand_eye_args  # noqa: E402
+from handeye.core.errors import WeakMotionWarning  # noqa: E402
+from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.se3 import make_transform  # noqa: E402
+from handeye.core.setups import robot_side_poses  # noqa: E402
+from handeye.core.synthetic import make_problem  # noqa: E402
 
 SETUP = "eye_to_hand"
 ROBOT_NOISE = (0.01, 0.2)  # deg, mm per axis
@@ -67,7 +67,7 @@ CV_AXYB = {"shah": cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH, "li": cv2.CALIB_ROBOT_WO
 
 
 def opencv_inputs(T_base_ee, T_cam_target):
-    """Lists of rotations and translations in OpenCV's eye-to-hand slots (handeye.conventions)."""
+    """Lists of rotations and translations in OpenCV's eye-to-hand slots (handeye.core.conventions)."""
     A = robot_side_poses(T_base_ee, SETUP)
     return {
         "axxb": opencv_hand_eye_args(T_base_ee, T_cam_target, SETUP),

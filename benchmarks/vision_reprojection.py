@@ -5,7 +5,7 @@ Run from the repository root::
     python benchmarks/vision_reprojection.py              # the README's table (about a minute)
     python benchmarks/vision_reprojection.py --trials 20  # a quick look
 
-Each trial: an eye-to-hand problem (:func:`handeye.synthetic.make_problem`,
+Each trial: an eye-to-hand problem (:func:`handeye.core.synthetic.make_problem`,
 board centred on its target pose), the 24 corners of a 7x5 ChArUco board of
 4 cm squares projected through a 640x480 camera with distortion, Gaussian
 noise of the given standard deviation (pixels, per axis) on every corner,
@@ -38,12 +38,12 @@ from classic.vision.board import BoardSpec  # noqa: E402
 from classic.vision.detect import Detection, estimate_pose, project_points  # noqa: E402
 from classic.vision.reprojection import refine_reprojection  # noqa: E402
 from classic.vision.synthetic import default_intrinsics  # noqa: E402
-from handeye.conventions import opencv_hand_eye_args  # noqa: E402
-from handeye.errors import WeakMotionWarning  # noqa: E402
-from handeye.metrics import pose_error  # noqa: E402
-from handeye.se3 import make_transform  # noqa: E402
-from handeye.setups import robot_side_poses  # noqa: E402
-from handeye.synthetic import make_problem  # noqa: E402
+from handeye.core.conventions import opencv_hand_eye_args  # noqa: E402
+from handeye.core.errors import WeakMotionWarning  # noqa: E402
+from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.se3 import make_transform  # noqa: E402
+from handeye.core.setups import robot_side_poses  # noqa: E402
+from handeye.core.synthetic import make_problem  # noqa: E402
 
 SETUP = "eye_to_hand"
 NOISES_PX = [0.1, 0.3, 1.0]

@@ -19,7 +19,7 @@ Front
 Example
 -------
 >>> import classic
->>> from handeye.synthetic import make_problem
+>>> from handeye.core.synthetic import make_problem
 >>> p = make_problem(12, "eye_in_hand")
 >>> res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_in_hand", method="tsai")
 >>> res.T_ee_cam.shape

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from classic.motions import Motions
-from handeye.errors import LengthMismatchError
-from handeye.se3 import project_to_so3
-from handeye.validation import check_transforms
+from handeye.core.errors import LengthMismatchError
+from handeye.core.se3 import project_to_so3
+from handeye.core.validation import check_transforms
 
 __all__ = ["check_motions", "translation_stats", "translation_from_stats", "normalize_rotation"]
 
@@ -19,7 +19,7 @@ def check_motions(A: np.ndarray, B: np.ndarray, min_count: int, what: str) -> tu
     if len(A) != len(B):
         raise LengthMismatchError(f"A has {len(A)} transforms but B has {len(B)}: they must pair one to one")
     if len(A) < min_count:
-        from handeye.errors import TooFewPosesError
+        from handeye.core.errors import TooFewPosesError
 
         raise TooFewPosesError(f"{what} needs at least {min_count} transforms, got {len(A)}")
     return A, B

@@ -6,7 +6,7 @@ import numpy as np
 
 from classic._linear import check_motions, normalize_rotation
 from classic.motions import Motions, motions_from_transforms
-from handeye.se3 import make_transform
+from handeye.core.se3 import make_transform
 
 __all__ = ["andreff"]
 

@@ -18,9 +18,9 @@ from classic.residuals import estimate_target_pose, pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
 from classic.shah import _shah
 from classic.tsai import _tsai_finish, _tsai_stats
-from handeye.errors import HandEyeInputError, TooFewPosesError
-from handeye.setups import normalize_setup, robot_side_poses
-from handeye.validation import MIN_POSES, check_no_duplicates, check_paired, check_transforms, check_units_metres
+from handeye.core.errors import HandEyeInputError, TooFewPosesError
+from handeye.core.setups import normalize_setup, robot_side_poses
+from handeye.core.validation import MIN_POSES, check_no_duplicates, check_paired, check_transforms, check_units_metres
 
 __all__ = ["AXXB_METHODS", "AXYB_METHODS", "METHODS", "DEFAULT_METHOD", "calibrate", "initial_estimate", "solve"]
 
@@ -44,7 +44,7 @@ def initial_estimate(A: np.ndarray, B: np.ndarray, method: str, pairs: str = "al
     Parameters
     ----------
     A : array, shape (N, 4, 4)
-        Robot-side poses (:func:`handeye.setups.robot_side_poses`).
+        Robot-side poses (:func:`handeye.core.setups.robot_side_poses`).
     B : array, shape (N, 4, 4)
         ``T_cam_target``.
     method : str
@@ -127,7 +127,7 @@ def calibrate(
     Eye-to-hand (static camera, target on the flange) estimates
     ``X = T_base_cam`` and ``Y = T_ee_target``; eye-in-hand (camera on the
     flange, static target) ``X = T_ee_cam`` and ``Y = T_base_target``. Both
-    satisfy ``A_i Y = X B_i`` (:mod:`handeye.setups`).
+    satisfy ``A_i Y = X B_i`` (:mod:`handeye.core.setups`).
 
     Steps: validate the input (raises a :class:`ValueError` subclass naming the
     pose); check that robot and camera motions are consistent and that the
@@ -177,7 +177,7 @@ def calibrate(
 
     Examples
     --------
-    >>> from handeye.synthetic import make_problem
+    >>> from handeye.core.synthetic import make_problem
     >>> p = make_problem(15, "eye_to_hand")
     >>> res = calibrate(p.T_base_ee, p.T_cam_target, setup="eye_to_hand")
     >>> bool(abs(res.T_base_cam - p.X_true).max() < 1e-9)

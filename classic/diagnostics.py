@@ -27,8 +27,8 @@ from classic.pairs import pair_indices
 from classic.ransac import pose_distance_m
 from classic.residuals import pose_residuals
 from classic.shah import _shah
-from handeye.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
-from handeye.setups import robot_side_poses
+from handeye.core.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
+from handeye.core.setups import robot_side_poses
 
 __all__ = [
     "MotionDiagnostics",

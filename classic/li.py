@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from classic._linear import check_motions, normalize_rotation
-from handeye.se3 import make_transform
+from handeye.core.se3 import make_transform
 
 __all__ = ["li"]
 

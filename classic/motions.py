@@ -14,7 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from handeye.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
+from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 
 __all__ = ["Motions", "motions_from_transforms", "motions_from_poses", "iter_motions", "accumulate"]
 
@@ -102,7 +102,7 @@ def iter_motions(A: np.ndarray, B: np.ndarray, i: np.ndarray, j: np.ndarray, chu
     Parameters
     ----------
     A, B : array, shape (N, 4, 4)
-        Robot-side poses and ``T_cam_target`` (:mod:`handeye.setups`).
+        Robot-side poses and ``T_cam_target`` (:mod:`handeye.core.setups`).
     i, j : array of int, shape (K,)
     chunk : int
 
@@ -123,7 +123,7 @@ def motions_from_poses(A: np.ndarray, B: np.ndarray, i: np.ndarray, j: np.ndarra
     Parameters
     ----------
     A, B : array, shape (N, 4, 4)
-        Robot-side poses and ``T_cam_target`` (:mod:`handeye.setups`).
+        Robot-side poses and ``T_cam_target`` (:mod:`handeye.core.setups`).
     i, j : array of int, shape (K,)
 
     Returns

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from classic.motions import motions_from_poses
-from handeye.se3 import make_transform
-from handeye.setups import robot_side_poses
+from handeye.core.se3 import make_transform
+from handeye.core.setups import robot_side_poses
 
 __all__ = ["PAIRINGS", "pair_indices", "motion_pairs"]
 

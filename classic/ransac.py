@@ -17,7 +17,7 @@ import numpy as np
 
 from classic.residuals import pose_residuals
 from classic.shah import _shah
-from handeye.errors import DegenerateMotionError
+from handeye.core.errors import DegenerateMotionError
 
 __all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers", "pose_distance_m"]
 

@@ -7,7 +7,7 @@ Minimises, over the camera pose X and the target pose Y of ``A_i Y = X B_i``,
           \\qquad \\hat B_i = X^{-1} A_i Y,
 
 the maximum-likelihood estimate under the camera-noise model of
-:mod:`handeye.synthetic` (``rho`` the identity, or Huber / Cauchy for robust
+:mod:`handeye.core.synthetic` (``rho`` the identity, or Huber / Cauchy for robust
 fits). ``sigma_r`` (rad) and ``sigma_t`` (m) are given, or estimated from the
 residuals and re-estimated once after convergence.
 
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from classic.residuals import pose_residuals
-from handeye.se3 import hat, make_transform, so3_exp, so3_log
+from handeye.core.se3 import hat, make_transform, so3_exp, so3_log
 
 __all__ = ["LOSSES", "Refinement", "refine_xy", "robust_weights"]
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.se3 import invert_transform, make_transform, project_to_so3, so3_log
+from handeye.core.se3 import invert_transform, make_transform, project_to_so3, so3_log
 
 __all__ = ["predict_cam_target", "pose_residuals", "estimate_target_pose"]
 
@@ -15,7 +15,7 @@ def predict_cam_target(A: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarra
     Parameters
     ----------
     A : array, shape (N, 4, 4)
-        Robot-side poses of :mod:`handeye.setups` (``T_base_ee`` or ``T_ee_base``).
+        Robot-side poses of :mod:`handeye.core.setups` (``T_base_ee`` or ``T_ee_base``).
     X, Y : array, shape (4, 4)
         Camera pose and target pose of the setup.
 
@@ -31,7 +31,7 @@ def pose_residuals(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray) -
 
     ``r_rot = log(R_pred^T R_B)`` (radians, in the target frame) and
     ``r_trans = t_B - t_pred`` (metres, in the camera frame): the noise model
-    of :mod:`handeye.synthetic`.
+    of :mod:`handeye.core.synthetic`.
 
     Parameters
     ----------

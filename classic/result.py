@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handeye.se3 import pos_quat_xyzw_from_transform
-from handeye.setups import UNKNOWN_NAMES
+from handeye.core.se3 import pos_quat_xyzw_from_transform
+from handeye.core.setups import UNKNOWN_NAMES
 
 __all__ = ["PoseResiduals", "CalibrationResult"]
 
@@ -44,7 +44,7 @@ class CalibrationResult:
     """Hand-eye calibration result.
 
     ``X`` is the camera pose and ``Y`` the target pose of ``A_i Y = X B_i``
-    (:mod:`handeye.setups`); read them by frame name: ``T_base_cam`` and
+    (:mod:`handeye.core.setups`); read them by frame name: ``T_base_cam`` and
     ``T_ee_target`` (eye-to-hand) or ``T_ee_cam`` and ``T_base_target``
     (eye-in-hand).
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from classic._linear import check_motions, normalize_rotation
-from handeye.se3 import make_transform
+from handeye.core.se3 import make_transform
 
 __all__ = ["shah", "translations_axyb"]
 
@@ -22,7 +22,7 @@ def shah(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     projected on SO(3); then ``R_A t_X - t_Y = R_Y t_B - t_A`` in least
     squares. Same algebra as OpenCV's ``CALIB_ROBOT_WORLD_HAND_EYE_SHAH``.
 
-    For hand-eye data (see :mod:`handeye.setups`): eye-to-hand
+    For hand-eye data (see :mod:`handeye.core.setups`): eye-to-hand
     ``A = T_base_ee``, ``B = T_cam_target`` give ``X = T_ee_target``,
     ``Y = T_base_cam``; eye-in-hand ``A = T_ee_base``, ``B = T_cam_target``
     give ``X = T_base_target``, ``Y = T_ee_cam``.

@@ -6,7 +6,7 @@ import numpy as np
 
 from classic._linear import check_motions, translation_from_stats, translation_stats
 from classic.motions import Motions, motions_from_transforms
-from handeye.se3 import make_transform, matrix_from_quat_xyzw
+from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
 
 __all__ = ["tsai"]
 

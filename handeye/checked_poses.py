@@ -1,6 +1,6 @@
 """Load a pose file and check it against the hand-eye model: the front's reader.
 
-This module composes :mod:`handeye.posefile` (reading) with
+This module composes :mod:`handeye.core.posefile` (reading) with
 :mod:`classic.diagnostics` (a quick closed-form fit), so it lives in the front
 and imports ``classic`` lazily.
 """
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from handeye.errors import PoseFileError, QuaternionOrderError
-from handeye.posefile import POSE_NAMES, QUAT_ORDERS, PoseSet, read_pose_file
+from handeye.core.errors import PoseFileError, QuaternionOrderError
+from handeye.core.posefile import POSE_NAMES, QUAT_ORDERS, PoseSet, read_pose_file
 
 __all__ = ["FIT_RATIO", "load_poses"]
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from handeye.errors import HandEyeInputError, MissingDependencyError
+from handeye.core.errors import HandEyeInputError, MissingDependencyError
 
 __all__ = ["main", "build_parser"]
 

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.dataset import Dataset
-from handeye.errors import DatasetError
-from handeye.metrics import pose_error
-from handeye.se3 import invert_transform
+from handeye.core.dataset import Dataset
+from handeye.core.errors import DatasetError
+from handeye.core.metrics import pose_error
+from handeye.core.se3 import invert_transform
 
 __all__ = ["contact_sheet"]
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handeye.errors import LengthMismatchError, PoseFileError
+from handeye.core.errors import LengthMismatchError, PoseFileError
 
 __all__ = ["ImageCalibration", "pair_robot_poses", "calibrate_from_views"]
 

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.dataset import CAMERA_COLUMNS, LABEL_COLUMNS, Dataset, poses_to_columns, write_table
-from handeye.errors import DatasetError, HandEyeInputError
-from handeye.metrics import pose_error
+from handeye.core.dataset import CAMERA_COLUMNS, LABEL_COLUMNS, Dataset, poses_to_columns, write_table
+from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.metrics import pose_error
 
 __all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown",
            "plot_label_errors"]
@@ -52,7 +52,7 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dic
     Returns
     -------
     row : dict
-        The :data:`handeye.dataset.LABEL_COLUMNS` values (NaN pose and a ``failed: ...`` status
+        The :data:`handeye.core.dataset.LABEL_COLUMNS` values (NaN pose and a ``failed: ...`` status
         when the calibration is refused).
     calibration : handeye.image_calibration.ImageCalibration or None
     """

@@ -10,5 +10,5 @@ reservoir with class balance, camera-pose selection), :mod:`learned.experiment`
 :mod:`learned.calibrator` (the online :class:`ContinualCalibrator`).
 
 It never imports :mod:`sim` or :mod:`classic`: it reads datasets and their labels
-through :mod:`handeye.dataset`.
+through :mod:`handeye.core.dataset`.
 """

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from handeye.errors import HandEyeInputError
-from handeye.se3 import make_transform, matrix_from_quat_xyzw
+from handeye.core.errors import HandEyeInputError
+from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
 from learned.data import FrameSet, concat
 from learned.experiment import Preset, average_quaternions, get_preset
 from learned.model import KINDS, CalibrationNet, ModelConfig

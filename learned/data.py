@@ -1,6 +1,6 @@
 """Frames of a labelled dataset as arrays: images at the model's resolution, reference poses, targets.
 
-Reads the dataset format of :mod:`handeye.dataset` (never the simulator).
+Reads the dataset format of :mod:`handeye.core.dataset` (never the simulator).
 Targets are the camera pose ``T_base_cam`` of each frame's camera pose: the
 classic label by default (as the paper trains on Tsai's labels), or the truth.
 """
@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.dataset import Dataset
-from handeye.errors import DatasetError, HandEyeInputError
-from handeye.se3 import pos_quat_xyzw_from_transform
+from handeye.core.dataset import Dataset
+from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.se3 import pos_quat_xyzw_from_transform
 
 __all__ = ["FrameSet", "load_frames", "pose_targets", "LABEL_SOURCES"]
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 from learned.data import FrameSet, load_frames
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
 from learned.model import KINDS, CalibrationNet, ModelConfig

@@ -3,7 +3,7 @@
 The quaternion is the eigenvector of A's smallest eigenvalue, the minimiser of
 ``q^T A q`` over unit q: smooth in A wherever that eigenvalue is simple, valid
 for any network output, and defined up to sign; the sign is fixed to the half
-space ``w >= 0`` (the canonical form of :mod:`handeye.conventions`). Quaternions
+space ``w >= 0`` (the canonical form of :mod:`handeye.core.conventions`). Quaternions
 are ``(x, y, z, w)``.
 """
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 
 __all__ = ["load_results", "write_report", "findings"]
 

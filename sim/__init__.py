@@ -8,5 +8,5 @@ pyrender cell: links, gripper, asymmetric lab, board on the flange),
 the only place that sees an OpenGL pose), :mod:`sim.recording` (board views
 and data configurations per camera pose), :mod:`sim.generate` (sharded,
 resumable, multi-process dataset generation in the format of
-:mod:`handeye.dataset`).
+:mod:`handeye.core.dataset`).
 """

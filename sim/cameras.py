@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handeye.errors import HandEyeInputError
-from handeye.se3 import make_transform
+from handeye.core.errors import HandEyeInputError
+from handeye.core.se3 import make_transform
 
 __all__ = ["CameraPreset", "CameraSet", "PRESETS", "get_preset", "look_at", "place_cameras"]
 

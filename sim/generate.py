@@ -1,7 +1,7 @@
 """Generate a dataset: per camera pose a calibration recording and a data recording, in shards.
 
 Each camera pose is one shard, rendered by one worker process into
-``cam_XXXX.partial`` and renamed when complete (:mod:`handeye.dataset`).
+``cam_XXXX.partial`` and renamed when complete (:mod:`handeye.core.dataset`).
 Everything a shard holds is drawn from ``default_rng([seed, camera_id])``, so
 a shard regenerated on resume is identical to the one a crash interrupted,
 whichever worker renders it. Resuming skips complete shards and regenerates
@@ -27,12 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.dataset import (
+from handeye.core.dataset import (
     CAMERA_COLUMNS, FORMAT, FORMAT_VERSION, encode_depth, frame_columns, poses_to_columns, shard_is_complete,
     shard_name, write_json_atomic, write_manifest, write_table,
 )
-from handeye.errors import DatasetError, HandEyeInputError
-from handeye.se3 import invert_transform
+from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.se3 import invert_transform
 from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
 

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handeye.errors import HandEyeInputError
-from handeye.se3 import invert_transform, make_transform, so3_exp
+from handeye.core.errors import HandEyeInputError
+from handeye.core.se3 import invert_transform, make_transform, so3_exp
 
 __all__ = ["DEFAULT_BOARD", "board_mount", "camera_matrix", "CalibrationView", "sample_calibration_view",
            "sample_data_configuration", "in_image"]

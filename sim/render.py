@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from handeye.optional import require_package
+from handeye.core.optional import require_package
 from sim.opengl import gl_camera_pose, gl_principal_point
 from sim.scene import board_mesh, environment_meshes, gripper_meshes, load_link_mesh, marker_mesh
 

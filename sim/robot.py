@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handeye.errors import HandEyeInputError
-from handeye.optional import require_package
-from handeye.se3 import invert_transform, make_transform, so3_log
+from handeye.core.errors import HandEyeInputError
+from handeye.core.optional import require_package
+from handeye.core.se3 import invert_transform, make_transform, so3_log
 
 __all__ = ["ROBOTS", "Robot", "load_robot"]
 

@@ -12,8 +12,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from handeye.optional import require_package
-from handeye.se3 import make_transform
+from handeye.core.optional import require_package
+from handeye.core.se3 import make_transform
 
 __all__ = ["floor_texture", "load_link_mesh", "gripper_meshes", "environment_meshes", "board_mesh", "marker_mesh"]
 

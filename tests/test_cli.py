@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from handeye.cli import main
-from handeye.metrics import pose_error
-from handeye.posefile import write_pose_csv
-from handeye.se3 import invert_transform
-from handeye.synthetic import make_problem
+from handeye.core.metrics import pose_error
+from handeye.core.posefile import write_pose_csv
+from handeye.core.se3 import invert_transform
+from handeye.core.synthetic import make_problem
 from tests.tolerances import EXACT
 
 DATA = Path(__file__).resolve().parents[1] / "handeye" / "data"

@@ -13,7 +13,7 @@ pytest.importorskip("cv2")
 from classic.vision.board import BoardSpec  # noqa: E402
 from classic.vision.synthetic import make_image_dataset  # noqa: E402
 from handeye.cli import main  # noqa: E402
-from handeye.metrics import pose_error  # noqa: E402
+from handeye.core.metrics import pose_error  # noqa: E402
 
 N_VIEWS = 10
 

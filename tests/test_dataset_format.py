@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from handeye.dataset import (
+from handeye.core.dataset import (
     columns_to_poses, decode_depth, encode_depth, poses_to_columns, read_table, shard_is_complete, write_manifest,
     write_table,
 )
-from handeye.errors import DatasetError
-from handeye.se3 import make_transform
-from handeye.synthetic import random_rotations
+from handeye.core.errors import DatasetError
+from handeye.core.se3 import make_transform
+from handeye.core.synthetic import random_rotations
 from tests.tolerances import DEPTH_QUANTUM_M, EXACT
 
 

@@ -1,4 +1,4 @@
-"""handeye.se3 against scipy.spatial.transform.Rotation, an independent implementation."""
+"""handeye.core.se3 against scipy.spatial.transform.Rotation, an independent implementation."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from handeye import se3
+from handeye.core import se3
 from tests.tolerances import FLOAT, NEAR_PI_ANGLE
 
 BATCH_SHAPES = [(), (5,), (2, 5)]

@@ -1,7 +1,7 @@
 """Bad input is refused with a named ValueError subclass that says what and where.
 
 Each error is triggered twice: by the validation function itself and through
-classic.calibrate, on otherwise valid data from handeye.synthetic.
+classic.calibrate, on otherwise valid data from handeye.core.synthetic.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import classic
-from handeye import errors, validation
-from handeye.errors import (
+from handeye.core import errors, validation
+from handeye.core.errors import (
     DegenerateMotionError,
     DuplicatePoseError,
     HandEyeInputError,
@@ -26,9 +26,9 @@ from handeye.errors import (
     TooFewPosesError,
     UnitsError,
 )
-from handeye.optional import require_package
-from handeye.se3 import invert_transform, make_transform, so3_exp, so3_log
-from handeye.synthetic import make_problem
+from handeye.core.optional import require_package
+from handeye.core.se3 import invert_transform, make_transform, so3_exp, so3_log
+from handeye.core.synthetic import make_problem
 from tests.tolerances import EXACT
 
 SETUPS = ["eye_to_hand", "eye_in_hand"]

@@ -11,7 +11,7 @@ board. Inner corner ``k = r * (squares_x - 1) + c`` sits at
 ``((c + 1) L, (r + 1) L, 0)`` metres, ``L`` the square length.
 """
 
-from handeye.optional import require_package
+from handeye.core.optional import require_package
 
 require_package("cv2", extra="vision", purpose="ChArUco board detection")
 

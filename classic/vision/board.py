@@ -9,7 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 
 __all__ = ["BoardSpec", "BoardSpecError", "dictionary_id"]
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 
 __all__ = ["CameraIntrinsics", "IntrinsicsError"]
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
-from handeye.se3 import make_transform, so3_exp
+from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = ["Detection", "ViewPose", "POSE_LIMITS", "detect_board", "estimate_pose", "project_points"]
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 
 __all__ = ["ImageError", "IMAGE_SUFFIXES", "read_image", "list_images"]
 

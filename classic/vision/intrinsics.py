@@ -10,7 +10,7 @@ import numpy as np
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
 from classic.vision.detect import POSE_LIMITS, Detection
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 
 __all__ = ["IntrinsicsResult", "calibrate_intrinsics"]
 

@@ -5,7 +5,7 @@ detected corner over all views,
 
 .. math:: \\sum_{i,k} \\rho\\big(|\\pi(K, d, X^{-1} A_i Y\\, p_k) - u_{ik}|^2\\big),
 
-with ``A_i`` the robot-side poses of :mod:`handeye.setups`, ``p_k`` the
+with ``A_i`` the robot-side poses of :mod:`handeye.core.setups`, ``p_k`` the
 corners in the target frame and ``u_ik`` their detections. This is the
 maximum-likelihood estimate under pixel noise: the per-view PnP poses that the
 pose-based solvers take are not needed, and views with few corners count for
@@ -25,9 +25,9 @@ from scipy.optimize import least_squares
 
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
-from handeye.errors import HandEyeInputError
-from handeye.se3 import invert_transform, make_transform, so3_exp
-from handeye.setups import normalize_setup, robot_side_poses
+from handeye.core.errors import HandEyeInputError
+from handeye.core.se3 import invert_transform, make_transform, so3_exp
+from handeye.core.setups import normalize_setup, robot_side_poses
 
 __all__ = ["ReprojectionResult", "OUTLIER_VIEW_FACTOR", "project", "refine_reprojection"]
 
@@ -42,7 +42,7 @@ class ReprojectionResult:
     Attributes
     ----------
     X, Y : array, shape (4, 4)
-        Camera pose and target pose (:mod:`handeye.setups`).
+        Camera pose and target pose (:mod:`handeye.core.setups`).
     intrinsics : CameraIntrinsics
         Refined when asked for, else equal to the input.
     rms_px : float

@@ -13,7 +13,7 @@ import numpy as np
 
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
-from handeye.se3 import invert_transform
+from handeye.core.se3 import invert_transform
 
 __all__ = ["render_view", "default_intrinsics"]
 
@@ -109,7 +109,7 @@ def make_image_dataset(
 ):
     """Write a synthetic hand-eye recording: board images, robot poses and the truth.
 
-    The geometry is :func:`handeye.synthetic.make_problem`'s, with the board
+    The geometry is :func:`handeye.core.synthetic.make_problem`'s, with the board
     centred where that problem puts the target.
 
     Parameters
@@ -131,15 +131,15 @@ def make_image_dataset(
 
     Returns
     -------
-    problem : handeye.synthetic.HandEyeProblem
+    problem : handeye.core.synthetic.HandEyeProblem
         With ``T_cam_target`` and ``Y_true`` of the centred board.
     """
     import json
     from pathlib import Path
 
-    from handeye.se3 import make_transform, pos_quat_xyzw_from_transform
-    from handeye.setups import UNKNOWN_NAMES
-    from handeye.synthetic import make_problem
+    from handeye.core.se3 import make_transform, pos_quat_xyzw_from_transform
+    from handeye.core.setups import UNKNOWN_NAMES
+    from handeye.core.synthetic import make_problem
 
     rng = np.random.default_rng(0) if rng is None else rng
     spec = spec or BoardSpec(7, 5, 0.04, 0.03, "5X5_100")

@@ -22,8 +22,8 @@ from classic.vision.camera import CameraIntrinsics
 from classic.vision.detect import Detection, ViewPose, detect_board, estimate_pose
 from classic.vision.images import list_images, read_image
 from classic.vision.intrinsics import IntrinsicsResult, calibrate_intrinsics
-from handeye.errors import HandEyeInputError
-from handeye.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
+from handeye.core.errors import HandEyeInputError
+from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = ["View", "Views", "DetectionsFileError", "detect_folder"]
 

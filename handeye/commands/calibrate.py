@@ -8,7 +8,7 @@ Example
         --truth handeye/data/example_eye_to_hand_truth.json -o result.json
 
 reads paired ``T_base_ee`` / ``T_cam_target`` poses (CSV or JSON, format in
-:mod:`handeye.posefile`), solves, refines, prints a summary and writes the full
+:mod:`handeye.core.posefile`), solves, refines, prints a summary and writes the full
 result (poses by frame name, per-pose residuals, covariance, diagnostics) as
 JSON. From images instead::
 
@@ -65,7 +65,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 def _truth_lines(path: Path | None, named: tuple) -> list[str]:
     """Error of each named pose against a truth JSON (frame name -> 4x4), when one is given."""
-    from handeye.metrics import pose_error
+    from handeye.core.metrics import pose_error
 
     if path is None:
         return []
@@ -79,7 +79,7 @@ def _truth_lines(path: Path | None, named: tuple) -> list[str]:
 
 
 def _fmt_pose(name: str, T: np.ndarray) -> str:
-    from handeye.se3 import pos_quat_xyzw_from_transform
+    from handeye.core.se3 import pos_quat_xyzw_from_transform
 
     t, q = pos_quat_xyzw_from_transform(T)
     return (f"  {name}: translation [m] = [{t[0]:+.5f}, {t[1]:+.5f}, {t[2]:+.5f}]"
@@ -88,7 +88,7 @@ def _fmt_pose(name: str, T: np.ndarray) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
-    from handeye.errors import HandEyeInputError
+    from handeye.core.errors import HandEyeInputError
 
     if args.detections is not None or args.robot_poses is not None:
         if args.poses is not None or args.detections is None or args.robot_poses is None:
@@ -102,8 +102,8 @@ def run(args: argparse.Namespace) -> int:
 def _run_detections(args: argparse.Namespace) -> int:
     from classic.vision.views import Views
     from handeye.image_calibration import calibrate_from_views, pair_robot_poses
-    from handeye.posefile import read_robot_poses
-    from handeye.setups import UNKNOWN_NAMES, normalize_setup
+    from handeye.core.posefile import read_robot_poses
+    from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
 
     setup = normalize_setup(args.setup)
     views = Views.load(args.detections)
@@ -154,7 +154,7 @@ def _run_detections(args: argparse.Namespace) -> int:
 def _run_poses(args: argparse.Namespace) -> int:
     import classic
     from handeye.checked_poses import load_poses
-    from handeye.setups import UNKNOWN_NAMES, normalize_setup
+    from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
 
     setup = normalize_setup(args.setup)
     poses = load_poses(args.poses, setup, quat_order=args.quat_order, units=args.units)

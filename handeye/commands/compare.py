@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the command."""
     import numpy as np
 
-    from handeye.optional import require_package
+    from handeye.core.optional import require_package
 
     require_package("torch", extra="learned", purpose="the learned calibration")
     from learned.data import load_frames
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     t_model = load_model(args.model / "translation.pt")
     q_model = load_model(args.model / "orientation.pt")
     if t_model.config.image_size != q_model.config.image_size:
-        from handeye.errors import HandEyeInputError
+        from handeye.core.errors import HandEyeInputError
 
         raise HandEyeInputError(f"{args.model}: the two networks take different image sizes")
     frames = load_frames(args.dataset, t_model.config.image_size, "classic", progress=False)

@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the command."""
     import time
 
-    from handeye.optional import require_package
+    from handeye.core.optional import require_package
 
     require_package("pyrender", extra="sim", purpose="rendering")
     require_package("torch", extra="learned", purpose="the learned calibration")

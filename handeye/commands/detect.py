@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{len(views.accepted)} of {len(views.views)} images accepted")
     print(f"  written: {args.output}, {csv_path}")
     if not views.accepted:
-        from handeye.errors import HandEyeInputError
+        from handeye.core.errors import HandEyeInputError
 
         reasons = sorted({v.pose.reason for v in views.views})
         raise HandEyeInputError(

@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from classic.vision.detect import detect_board
     from classic.vision.images import list_images, read_image
     from classic.vision.intrinsics import calibrate_intrinsics
-    from handeye.errors import HandEyeInputError
+    from handeye.core.errors import HandEyeInputError
 
     spec = BoardSpec.load(args.board)
     files = list_images(args.images)

@@ -35,7 +35,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command."""
-    from handeye.optional import require_package
+    from handeye.core.optional import require_package
 
     require_package("cv2", extra="vision", purpose="board detection")
     from handeye.labelling import label_dataset

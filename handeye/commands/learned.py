@@ -46,7 +46,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 def run_run(args: argparse.Namespace) -> int:
     """``handeye learned run``."""
-    from handeye.optional import require_package
+    from handeye.core.optional import require_package
 
     require_package("torch", extra="learned", purpose="the learned calibration")
     from learned.experiment import run_experiment

@@ -44,7 +44,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 def parse_noise(text: str):
     """``none``, ``default`` or three comma-separated numbers -> NoiseModel."""
-    from handeye.errors import HandEyeInputError
+    from handeye.core.errors import HandEyeInputError
     from sim.generate import DEFAULT_NOISE, NoiseModel
 
     if text == "none":
@@ -60,7 +60,7 @@ def parse_noise(text: str):
 
 def run(args: argparse.Namespace) -> int:
     """Run the command."""
-    from handeye.optional import require_package
+    from handeye.core.optional import require_package
 
     require_package("pyrender", extra="sim", purpose="rendering")
     from sim.generate import generate

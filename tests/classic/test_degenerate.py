@@ -9,15 +9,15 @@ import pytest
 
 import classic
 from classic.diagnostics import THRESHOLDS
-from handeye.errors import DegenerateMotionError, WeakMotionWarning
-from handeye.se3 import (
+from handeye.core.errors import DegenerateMotionError, WeakMotionWarning
+from handeye.core.se3 import (
     invert_transform,
     make_transform,
     quat_xyzw_from_matrix,
     so3_exp,
     so3_log,
 )
-from handeye.synthetic import make_problem, random_rotations
+from handeye.core.synthetic import make_problem, random_rotations
 from tests.tolerances import EXACT, GRAM_FLOOR
 
 SETUPS = ["eye_to_hand", "eye_in_hand"]
@@ -144,7 +144,7 @@ def test_nearly_parallel_axes_warn(setup):
     np.testing.assert_allclose(res.X, X, atol=EXACT)
 
 
-@pytest.mark.filterwarnings("error::handeye.errors.WeakMotionWarning")
+@pytest.mark.filterwarnings("error::handeye.core.errors.WeakMotionWarning")
 @pytest.mark.parametrize("setup", SETUPS)
 def test_good_motion_does_not_warn(setup):
     p = make_problem(12, setup, np.random.default_rng(0))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import classic
-from handeye.setups import robot_side_poses
-from handeye.synthetic import make_problem
+from handeye.core.setups import robot_side_poses
+from handeye.core.synthetic import make_problem
 from tests.tolerances import DANIILIDIS_MAX_PAIR_ANGLE_DEG, EXACT
 
 SETUPS = ["eye_to_hand", "eye_in_hand"]
@@ -76,7 +76,7 @@ def test_axyb_solver_with_three_poses(solver):
 def test_axxb_solver_handles_large_motions(solver):
     # boards tilted up to 80 degrees: motions beyond 120 degrees, where the
     # matrix-to-quaternion branch and the quaternion sign matter
-    from handeye.se3 import rotation_angle
+    from handeye.core.se3 import rotation_angle
 
     p = make_problem(12, "eye_to_hand", np.random.default_rng(11), max_tilt_deg=80.0)
     A, B = classic.motion_pairs(p.T_base_ee, p.T_cam_target, "eye_to_hand")
@@ -94,7 +94,7 @@ def test_calibrate_recovers_truth(method, setup, refine):
     _assert_pose_equal(res.Y, p.Y_true)
     assert res.setup == setup
     assert res.method.startswith(method) and res.method.endswith("+lm") == refine
-    # frame names map to X and Y as documented in handeye.setups
+    # frame names map to X and Y as documented in handeye.core.setups
     if setup == "eye_to_hand":
         assert res.T_base_cam is res.X and res.T_ee_target is res.Y
         with pytest.raises(AttributeError):
@@ -118,7 +118,7 @@ def test_calibrate_structured_motion_and_pairings(setup, pairs):
 
 
 def test_calibrate_result_to_dict_round_trips_the_poses():
-    from handeye.se3 import transform_from_pos_quat_xyzw
+    from handeye.core.se3 import transform_from_pos_quat_xyzw
 
     p = _problem("eye_in_hand", "random", 2, n=10)
     d = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_in_hand").to_dict()
@@ -135,7 +135,7 @@ def test_calibrate_result_to_dict_round_trips_the_poses():
 def test_motion_pairs_follow_the_documented_definition(setup):
     # pair (i, j), i < j: eye-to-hand A = T_base_ee(j) T_base_ee(i)^-1,
     # eye-in-hand A = T_base_ee(j)^-1 T_base_ee(i) (OpenCV's Hg_ij); B = T_cam_target(j) T_cam_target(i)^-1
-    from handeye.se3 import invert_transform
+    from handeye.core.se3 import invert_transform
 
     p = _problem(setup, "random", 0, n=6)
     i, j = classic.pair_indices(6, "all")

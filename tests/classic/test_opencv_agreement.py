@@ -24,16 +24,16 @@ import pytest
 cv2 = pytest.importorskip("cv2")
 
 import classic
-from handeye.metrics import rotation_error_deg
-from handeye.se3 import (
+from handeye.core.metrics import rotation_error_deg
+from handeye.core.se3 import (
     hat,
     invert_transform,
     make_transform,
     quat_xyzw_from_matrix,
     rotation_angle,
 )
-from handeye.setups import robot_side_poses
-from handeye.synthetic import make_problem
+from handeye.core.setups import robot_side_poses
+from handeye.core.synthetic import make_problem
 from tests.tolerances import (
     DANIILIDIS_MAX_PAIR_ANGLE_DEG,
     DEG,
@@ -140,7 +140,7 @@ def test_tsai_matches_opencv_within_its_known_difference(setup, seed):
 def test_tsai_residual_is_minimal_among_nearby_rotations():
     # (a) above is only meaningful if our residual is the minimum: perturbing
     # our rotation in any direction must increase it
-    from handeye.se3 import so3_exp
+    from handeye.core.se3 import so3_exp
 
     p = _problem("eye_in_hand", 0)
     A, B = classic.motion_pairs(p.T_base_ee, p.T_cam_target, p.setup, "all")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import classic
-from handeye.metrics import rotation_error_deg, translation_error_mm
-from handeye.synthetic import make_problem
+from handeye.core.metrics import rotation_error_deg, translation_error_mm
+from handeye.core.synthetic import make_problem
 from tests.tolerances import (
     COST_RTOL,
     COVARIANCE_RTOL,
@@ -186,7 +186,7 @@ def test_with_given_noise_the_optimum_does_not_depend_on_the_start():
 def test_analytic_jacobian_matches_central_differences():
     """The LM's analytic Jacobian against central differences, away from the optimum (large residuals)."""
     from classic.refine import _jacobian, _jacobian_numeric
-    from handeye.setups import robot_side_poses
+    from handeye.core.setups import robot_side_poses
 
     for setup in ("eye_to_hand", "eye_in_hand"):
         p = make_problem(8, setup, np.random.default_rng(3), camera_noise=(3.0, 30.0))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import classic
-from handeye.errors import InconsistentPosesError
-from handeye.metrics import rotation_error_deg, translation_error_mm
-from handeye.synthetic import make_problem
+from handeye.core.errors import InconsistentPosesError
+from handeye.core.metrics import rotation_error_deg, translation_error_mm
+from handeye.core.synthetic import make_problem
 from tests.tolerances import (
     INLIER_RMS_FACTOR,
     NONROBUST_FAILURE_FACTOR,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.se3 import quat_xyzw_from_matrix
+from handeye.core.se3 import quat_xyzw_from_matrix
 from learned.data import FrameSet
 
 

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("torch")
 
-from handeye.errors import DatasetError  # noqa: E402
+from handeye.core.errors import DatasetError  # noqa: E402
 from learned.data import load_frames  # noqa: E402
 from tests.tolerances import FLOAT32_POSITION_MM  # noqa: E402
 
@@ -33,7 +33,7 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "learned vs classic" in text and text.count("| S") == 2  # the two test camera poses
     # the classic label column is the labelling's error against truth
-    from handeye.dataset import Dataset
+    from handeye.core.dataset import Dataset
 
     cams = Dataset.open(root).cameras()
     pc = results["per_camera"]["reservoir"]
@@ -42,7 +42,7 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
 
 
 def test_an_unlabelled_dataset_is_refused(small_copy):
-    from handeye.dataset import CAMERA_COLUMNS, read_table, write_table
+    from handeye.core.dataset import CAMERA_COLUMNS, read_table, write_table
 
     write_table(small_copy / "cameras.csv", read_table(small_copy / "cameras.csv", CAMERA_COLUMNS), CAMERA_COLUMNS)
     with pytest.raises(DatasetError, match="no labels; run 'handeye label"):
@@ -55,7 +55,7 @@ def test_mismatched_image_sizes_are_refused(small_copy):
 
     path = small_copy / "shards" / "cam_0002" / "rgb" / "data_001.png"
     Image.fromarray(np.zeros((64, 64, 3), np.uint8)).save(path)
-    from handeye.dataset import write_manifest
+    from handeye.core.dataset import write_manifest
 
     write_manifest(path.parent.parent, 2, {"calibration": 10, "data": 6})  # a consistent but odd shard
     with pytest.raises(DatasetError, match="data_001.png: image size 64x64.*other frames are 128x128"):

@@ -7,7 +7,7 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from handeye.errors import HandEyeInputError  # noqa: E402
+from handeye.core.errors import HandEyeInputError  # noqa: E402
 from learned.calibrator import ContinualCalibrator  # noqa: E402
 from learned.experiment import PRESETS, load_model, save_model  # noqa: E402
 from learned.model import CalibrationNet  # noqa: E402

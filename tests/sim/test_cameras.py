@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 from sim.cameras import PRESETS, get_preset, look_at, place_cameras
 from tests.tolerances import FLOAT
 

@@ -8,8 +8,8 @@ import os
 import numpy as np
 import pytest
 
-from handeye.dataset import Dataset, shard_name
-from handeye.errors import DatasetError
+from handeye.core.dataset import Dataset, shard_name
+from handeye.core.errors import DatasetError
 from tests.tolerances import ESTIMATED_SIGMA_BOUND, LABEL_COMMON_SHIFT_PX
 
 
@@ -61,7 +61,7 @@ def test_labels_are_within_their_uncertainty_of_the_truth(small_dataset):
     assert np.all(cams["label_error_trans_mm"] <= ESTIMATED_SIGMA_BOUND * cams["label_sigma_trans_mm"]
                   + floor_trans_mm)
     # and the label columns agree with the poses they describe
-    from handeye.metrics import pose_error
+    from handeye.core.metrics import pose_error
 
     rot, trans = pose_error(ds.labels(), ds.truth())
     np.testing.assert_allclose(rot, cams["label_error_rot_deg"], rtol=1e-9)
@@ -162,7 +162,7 @@ def test_meta_errors(small_copy, tmp_path):
 
 
 def test_an_unlabelled_dataset_says_how_to_label_it(small_copy):
-    from handeye.dataset import CAMERA_COLUMNS, read_table, write_table
+    from handeye.core.dataset import CAMERA_COLUMNS, read_table, write_table
 
     table = read_table(small_copy / "cameras.csv", CAMERA_COLUMNS)
     write_table(small_copy / "cameras.csv", table, CAMERA_COLUMNS)

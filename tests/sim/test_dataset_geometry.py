@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from handeye.dataset import Dataset
-from handeye.se3 import invert_transform
+from handeye.core.dataset import Dataset
+from handeye.core.se3 import invert_transform
 from tests.sim._geometry import assert_sphere_rendered
 from tests.conftest import MARKER_RADIUS_M
 from tests.tolerances import DEPTH_M, DEPTH_QUANTUM_M

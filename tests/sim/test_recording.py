@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("pinocchio")
 
-from handeye.se3 import invert_transform, rotation_angle  # noqa: E402
+from handeye.core.se3 import invert_transform, rotation_angle  # noqa: E402
 from sim.cameras import get_preset, place_cameras  # noqa: E402
 from classic.vision.board import BoardSpec  # noqa: E402
 from sim.recording import (  # noqa: E402

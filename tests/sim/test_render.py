@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("pinocchio")
 pytest.importorskip("pyrender")
 
-from handeye.se3 import invert_transform  # noqa: E402
+from handeye.core.se3 import invert_transform  # noqa: E402
 from sim.cameras import look_at  # noqa: E402
 from sim.render import Renderer  # noqa: E402
 from sim.robot import load_robot  # noqa: E402

@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("pinocchio")
 pytest.importorskip("example_robot_data")
 
-from handeye.errors import HandEyeInputError  # noqa: E402
+from handeye.core.errors import HandEyeInputError  # noqa: E402
 from sim.robot import load_robot  # noqa: E402
 from tests.tolerances import EXACT  # noqa: E402
 

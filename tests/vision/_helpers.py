@@ -12,8 +12,8 @@ import numpy as np
 from classic.vision import BoardSpec
 from classic.vision.detect import project_points
 from classic.vision.synthetic import default_intrinsics
-from handeye.se3 import invert_transform, make_transform, so3_exp, so3_log
-from handeye.setups import robot_side_poses
+from handeye.core.se3 import invert_transform, make_transform, so3_exp, so3_log
+from handeye.core.setups import robot_side_poses
 
 SPEC = BoardSpec(7, 5, 0.04, 0.03, "5X5_100")
 INTR = default_intrinsics()

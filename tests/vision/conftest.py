@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from classic.vision.synthetic import render_view
-from handeye.synthetic import HandEyeProblem, make_problem
+from handeye.core.synthetic import HandEyeProblem, make_problem
 from tests.vision._helpers import CENTRE, INTR, SPEC, board_pose
 
 #: Seeds of the single-view poses, and the image noise levels each is drawn with.

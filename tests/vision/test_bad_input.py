@@ -12,8 +12,8 @@ from classic.vision import BoardSpec, CameraIntrinsics, read_image, refine_repro
 from classic.vision.board import BoardSpecError
 from classic.vision.camera import IntrinsicsError
 from classic.vision.images import ImageError, list_images
-from handeye.errors import HandEyeInputError
-from handeye.synthetic import make_problem
+from handeye.core.errors import HandEyeInputError
+from handeye.core.synthetic import make_problem
 from tests.tolerances import EXACT_PX
 from tests.vision._helpers import CENTRE, INTR, SPEC, corners_in_image
 

@@ -9,7 +9,7 @@ import pytest
 from classic.vision import CameraIntrinsics, Detection, detect_board, estimate_pose
 from classic.vision.detect import POSE_LIMITS, project_points
 from classic.vision.synthetic import render_view
-from handeye.se3 import make_transform, so3_exp
+from handeye.core.se3 import make_transform, so3_exp
 from tests.tolerances import CORNER_SIGMA_BOUND, ESTIMATED_SIGMA_BOUND, EXACT, RENDER_BIAS_PX
 from tests.vision._helpers import (
     CENTRE,

@@ -8,7 +8,7 @@ import pytest
 import classic
 from classic.vision import detect_board, estimate_pose, read_image, refine_reprojection
 from classic.vision.detect import project_points
-from handeye.validation import MIN_POSES
+from handeye.core.validation import MIN_POSES
 from tests.tolerances import ESTIMATED_SIGMA_BOUND
 from tests.vision._helpers import (
     INTR,

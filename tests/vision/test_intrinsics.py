@@ -9,7 +9,7 @@ import pytest
 
 from classic.vision import CameraIntrinsics, Detection, calibrate_intrinsics, detect_board, read_image
 from classic.vision.camera import IntrinsicsError
-from handeye.errors import HandEyeInputError
+from handeye.core.errors import HandEyeInputError
 from tests.tolerances import ESTIMATED_SIGMA_BOUND, INTRINSICS_MAX_RMS_PX, RENDER_BIAS_PX
 from tests.vision._helpers import INTR, SPEC
 

@@ -8,7 +8,7 @@ import pytest
 from classic.vision import BoardSpec, CameraIntrinsics, Detection, detect_board, estimate_pose
 from classic.vision.detect import POSE_LIMITS, project_points
 from classic.vision.synthetic import render_view
-from handeye.se3 import make_transform, so3_exp
+from handeye.core.se3 import make_transform, so3_exp
 from tests.vision._helpers import CENTRE, INTR, SPEC, corners_in_image
 
 

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.errors import HandEyeInputError
-from handeye.se3 import invert_transform
+from handeye.core.errors import HandEyeInputError
+from handeye.core.se3 import invert_transform
 
 __all__ = ["SETUPS", "UNKNOWN_NAMES", "normalize_setup", "robot_side_poses"]
 

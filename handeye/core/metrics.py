@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.se3 import rotation_angle
+from handeye.core.se3 import rotation_angle
 
 __all__ = ["rotation_error_deg", "translation_error_mm", "pose_error"]
 

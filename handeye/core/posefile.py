@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.errors import PoseFileError
-from handeye.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform, quat_wxyz_to_xyzw, so3_exp
+from handeye.core.errors import PoseFileError
+from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform, quat_wxyz_to_xyzw, so3_exp
 
 __all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "RobotPoses", "read_pose_file", "read_robot_poses", "write_pose_csv"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from handeye.errors import MissingDependencyError
+from handeye.core.errors import MissingDependencyError
 
 
 def require_package(module: str, extra: str, purpose: str | None = None) -> ModuleType:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.errors import (
+from handeye.core.errors import (
     DuplicatePoseError,
     LengthMismatchError,
     NonFiniteError,
@@ -84,7 +84,7 @@ def check_transforms(T: np.ndarray, name: str, tol: float = ROTATION_TOLERANCE) 
         raise NotARotationError(
             f"{name}[{i}] has a rotation block that is {what}"
             f"; {int(bad.sum())} pose(s) fail in all (indices {_list(np.flatnonzero(bad))}). "
-            "Pass proper rotations (re-orthonormalise with handeye.se3.project_to_so3 if they are "
+            "Pass proper rotations (re-orthonormalise with handeye.core.se3.project_to_so3 if they are "
             "rounded)."
         )
     return T

@@ -5,7 +5,7 @@ Poses
 ``T_a_b`` is a 4x4 homogeneous transform, the pose of frame ``b`` in frame
 ``a``: it maps coordinates of a point in ``b`` to ``a``, ``p_a = T_a_b @ p_b``,
 and chains as ``T_a_c = T_a_b @ T_b_c``; ``T_b_a = inv(T_a_b)``
-(:func:`handeye.se3.invert_transform`). Arrays are batched ``(..., 4, 4)``.
+(:func:`handeye.core.se3.invert_transform`). Arrays are batched ``(..., 4, 4)``.
 
 Frames: ``base`` (robot base), ``ee`` (flange, Pinocchio/URDF frame
 ``tool0``), ``ref`` (reference point on the end-effector), ``cam`` (OpenCV
@@ -16,7 +16,7 @@ Units: metres and radians inside; reports in millimetres and degrees, and the
 name says so (``translation_mm``, ``rotation_deg``).
 
 Quaternions: ``(x, y, z, w)``, scalar last (scipy, ROS), canonical ``w >= 0``;
-converters for other orders are named (:func:`handeye.se3.quat_wxyz_to_xyzw`).
+converters for other orders are named (:func:`handeye.core.se3.quat_wxyz_to_xyzw`).
 
 Setups
 ------
@@ -28,7 +28,7 @@ eye-in-hand     ``T_ee_cam`` (camera on flange)     ``T_base_target`` (static bo
 ==============  =================================  =============================
 
 Measurements are always ``T_base_ee`` (robot) and ``T_cam_target`` (board
-detection); :mod:`handeye.setups` reduces both setups to ``A_i Y = X B_i``.
+detection); :mod:`handeye.core.setups` reduces both setups to ``A_i Y = X B_i``.
 
 OpenCV
 ------
@@ -67,8 +67,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.se3 import invert_transform
-from handeye.setups import normalize_setup
+from handeye.core.se3 import invert_transform
+from handeye.core.setups import normalize_setup
 
 __all__ = ["opencv_hand_eye_args"]
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handeye.se3 import invert_transform, make_transform, matrix_from_quat_xyzw, so3_exp
-from handeye.setups import normalize_setup
+from handeye.core.se3 import invert_transform, make_transform, matrix_from_quat_xyzw, so3_exp
+from handeye.core.setups import normalize_setup
 
 __all__ = ["HandEyeProblem", "make_problem", "random_rotations", "perturb"]
 

@@ -10,7 +10,7 @@ Layout (``FORMAT_VERSION`` 1)::
     shards/cam_0000/manifest.json   written last: every file of the shard with its size
 
 Poses are columns ``<T_a_b>.x, .y, .z`` (metres) and ``.qx, .qy, .qz, .qw``
-(unit quaternion, scalar last), as in pose files (:mod:`handeye.posefile`);
+(unit quaternion, scalar last), as in pose files (:mod:`handeye.core.posefile`);
 joint angles ``q0 .. q<n-1>`` in radians. Every frame belongs to a recording:
 ``calibration`` (the board on the flange, no depth) or ``data`` (the robot
 with its tool, colour and depth; what the learned model trains on).
@@ -19,7 +19,7 @@ A shard is complete when its ``manifest.json`` exists and every file it lists
 has the listed size; a shard is written into ``cam_XXXX.partial`` and renamed
 once complete, so a crash never leaves a shard that looks complete. Reading is
 lazy (tables on first use, images on request) and validated, with errors
-(:class:`handeye.errors.DatasetError`) that name the file, row and column.
+(:class:`handeye.core.errors.DatasetError`) that name the file, row and column.
 
 Filling it from a real robot: write ``meta.json`` (intrinsics from ``handeye
 intrinsics``, the board, ``depth.scale_m`` of your sensor), one ``cameras.csv``
@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.errors import DatasetError
-from handeye.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
+from handeye.core.errors import DatasetError
+from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = [
     "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "Dataset",

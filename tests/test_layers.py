@@ -1,0 +1,130 @@
+"""The import picture: layers seen from the folder tree, no arrow running back up.
+
+Layers, bottom to top::
+
+    foundation  handeye/core/           numpy (+ scipy, PIL where a module says so)
+    engines     classic/  sim/  learned/
+    front       handeye/ (cli, commands, labelling, ...), everything above
+
+Rules (``../shared/DESIGN.md``): the foundation imports no engine and not the front;
+``classic`` imports neither ``sim``, ``learned`` nor the front; ``learned`` imports
+neither ``sim``, ``classic`` nor the front; ``sim`` may use ``classic`` (ChArUco board,
+projection) but neither ``learned`` nor the front. Every ``import`` statement counts,
+also those inside functions: a lazy import is still an arrow.
+
+``python -m tests.test_layers`` prints the picture (arrows between layers, with counts).
+"""
+
+from __future__ import annotations
+
+import ast
+from collections import Counter
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGES = ("handeye", "classic", "sim", "learned")
+
+# layer -> layers it must never import
+FORBIDDEN = {
+    "foundation": {"front", "classic", "sim", "learned"},
+    "classic": {"front", "sim", "learned"},
+    "sim": {"front", "learned"},
+    "learned": {"front", "sim", "classic"},
+    "front": set(),
+}
+
+
+def layer_of_module(name: str) -> str | None:
+    """Layer of a dotted module name inside the project, None for anything else."""
+    parts = name.split(".")
+    if parts[0] == "handeye":
+        return "foundation" if len(parts) >= 2 and parts[1] == "core" else "front"
+    if parts[0] in ("classic", "sim", "learned"):
+        return parts[0]
+    return None
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(REPO).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def imported_modules(path: Path) -> list[tuple[int, str]]:
+    """``(line, dotted name)`` of every import in a file, relative imports resolved."""
+    own = module_name(path).split(".")
+    package = own if path.name == "__init__.py" else own[:-1]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            mod = ".".join(base + ([node.module] if node.module else []))
+            # `from handeye import core` imports handeye.core: name the module and the name
+            out += [(node.lineno, f"{mod}.{a.name}") for a in node.names]
+    return out
+
+
+def project_files() -> list[Path]:
+    return sorted(p for pkg in PACKAGES for p in (REPO / pkg).rglob("*.py"))
+
+
+def arrows() -> list[tuple[str, str, str, int, str]]:
+    """Every import between project modules: ``(from layer, to layer, file, line, module)``."""
+    out = []
+    for path in project_files():
+        src = layer_of_module(module_name(path))
+        for line, name in imported_modules(path):
+            dst = layer_of_module(name)
+            if dst is not None and dst != src:
+                out.append((src, dst, str(path.relative_to(REPO)), line, name))
+    return out
+
+
+def test_every_package_file_has_a_layer():
+    files = project_files()
+    assert len(files) > 50
+    assert all(layer_of_module(module_name(p)) is not None for p in files)
+    assert any(module_name(p).startswith("handeye.core.") for p in files)
+
+
+def test_no_import_runs_against_the_layers():
+    bad = [f"{file}:{line} ({src}) imports {name} ({dst})"
+           for src, dst, file, line, name in arrows() if dst in FORBIDDEN[src]]
+    assert bad == [], "\n".join(bad)
+
+
+def test_the_rules_catch_a_backward_arrow(tmp_path):
+    """The checker itself: a foundation file importing the front is flagged, with its line."""
+    fake = REPO / "handeye" / "core" / "_layer_probe_tmp.py"
+    fake.write_text("import numpy\n\ndef f():\n    from handeye.labelling import label_dataset\n    from classic import park\n")
+    try:
+        found = [(src, dst, line) for src, dst, file, line, _ in arrows() if file.endswith("_layer_probe_tmp.py")]
+    finally:
+        fake.unlink()
+    assert ("foundation", "front", 4) in found and ("foundation", "classic", 5) in found
+
+
+def test_relative_imports_are_resolved():
+    probe = REPO / "learned" / "_layer_probe_tmp.py"
+    probe.write_text("from . import model\nfrom .data import load_frames\n")
+    try:
+        names = [n for _, n in imported_modules(probe)]
+    finally:
+        probe.unlink()
+    assert names == ["learned.model", "learned.data.load_frames"]
+
+
+def picture() -> str:
+    counts = Counter((src, dst) for src, dst, *_ in arrows())
+    lines = ["| from | to | imports | allowed |", "|---|---|---|---|"]
+    for (src, dst), n in sorted(counts.items()):
+        lines.append(f"| {src} | {dst} | {n} | {'no' if dst in FORBIDDEN[src] else 'yes'} |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(picture())
