@@ -16,11 +16,23 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command registered."""
-    from handeye.commands import board, calibrate, compare, demo, detect, intrinsics, label, learned, show, sim
+    from handeye.commands import (
+        board,
+        calibrate,
+        compare,
+        demo,
+        detect,
+        intrinsics,
+        label,
+        learned,
+        markerless,
+        show,
+        sim,
+    )
 
     parser = argparse.ArgumentParser(prog="handeye", description="Robot hand-eye calibration toolkit.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (calibrate, board, detect, intrinsics, sim, label, show, learned, compare, demo):
+    for module in (calibrate, board, detect, intrinsics, sim, label, show, learned, compare, markerless, demo):
         module.add_parser(sub)
     return parser
 

@@ -128,6 +128,23 @@ def average_quaternions(q_xyzw: np.ndarray) -> np.ndarray:
     return m if m[3] >= 0 else -m
 
 
+def camera_pose_prediction(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
+                           camera: int) -> tuple[np.ndarray, np.ndarray]:
+    """The learned ``T_base_cam`` of one camera pose: its frames' predictions averaged.
+
+    Returns
+    -------
+    t_base_cam_mm : array, shape (3,)
+        Translation, millimetres.
+    q_base_cam_xyzw : array, shape (4,)
+        Rotation, quaternion (x, y, z, w), w >= 0.
+    """
+    idx = np.flatnonzero(frames.camera == camera)
+    if len(idx) == 0:
+        raise HandEyeInputError(f"no frames of camera {camera}")
+    return predict(t_model, frames, idx).mean(axis=0), average_quaternions(predict(q_model, frames, idx))
+
+
 def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
                        cameras: list[int]) -> dict:
     """Per camera pose: the learned ``T_base_cam`` (frame predictions averaged) against label and truth.

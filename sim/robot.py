@@ -15,7 +15,7 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.optional import require_package
 from handeye.core.se3 import invert_transform, make_transform, so3_log
 
-__all__ = ["ROBOTS", "Robot", "load_robot"]
+__all__ = ["ROBOTS", "Robot", "load_robot", "load_robot_urdf"]
 
 ROBOTS = ("ur5", "ur3")
 _LOADERS = {"ur5": "UR5Loader", "ur3": "UR3Loader"}
@@ -179,4 +179,47 @@ def load_robot(name: str, T_ee_ref: np.ndarray | None = None) -> Robot:
     robot.pin.forwardKinematics(model, robot.data, q_stretched)
     robot.shoulder_m = robot.data.oMi[2].translation.copy()
     robot.reach_m = float(np.linalg.norm(robot.fk(q_stretched)[:3, 3] - robot.shoulder_m))
+    return robot
+
+
+def load_robot_urdf(urdf_path, package_dirs=(), ee_frame: str = "tool0", T_ee_ref: np.ndarray | None = None) -> Robot:
+    """Load any robot from a URDF with visual meshes (for the markerless calibration of your own arm).
+
+    Parameters
+    ----------
+    urdf_path : str or Path
+    package_dirs : sequence of str or Path
+        Folders where ``package://`` mesh paths are looked up (the folder above the package).
+    ee_frame : str
+        The flange frame's name in the URDF.
+    T_ee_ref : array, shape (4, 4), optional
+
+    Returns
+    -------
+    Robot
+
+    Raises
+    ------
+    HandEyeInputError
+        Missing or unreadable URDF, a mesh file that does not exist, no such flange frame (each named).
+    """
+    from pathlib import Path
+
+    pin = require_package("pinocchio", extra="sim", purpose="the robot model")
+    path = Path(urdf_path)
+    if not path.is_file():
+        raise HandEyeInputError(f"{path}: no such URDF file")
+    try:
+        model, _, visual = pin.buildModelsFromUrdf(str(path), [str(d) for d in package_dirs])
+    except Exception as exc:  # pinocchio raises ValueError/RuntimeError with the parser's text
+        raise HandEyeInputError(f"{path}: cannot load the URDF ({str(exc).splitlines()[0] if str(exc) else exc})") \
+            from None
+    for g in visual.geometryObjects:
+        if not Path(g.meshPath).is_file():
+            raise HandEyeInputError(f"{path}: mesh of {g.name} not found: {g.meshPath}")
+    if not model.existFrame(ee_frame):
+        raise HandEyeInputError(f"{path}: no frame {ee_frame!r} (the flange); pass ee_frame")
+    robot = Robot(path.stem, model, model.createData(), visual, model.getFrameId(ee_frame))
+    if T_ee_ref is not None:
+        robot.T_ee_ref = np.asarray(T_ee_ref, dtype=float)
     return robot

@@ -1,0 +1,498 @@
+"""Camera pose from the robot's own surface: register the posed robot model to the depth of many frames.
+
+For one static camera and N frames of a moving robot, the robot's surface is
+known in the base frame at every frame (forward kinematics of the recorded
+joints, sampled as points with outward normals by the caller). The camera
+pose ``T_base_cam`` is the one under which that surface lands on the observed
+depth in all frames at once.
+
+Stages:
+
+1. **The arm's pixels from motion** (:mod:`classic.markerless.depth`): what is
+   nearer than the static depth moved there; no start needed.
+2. **Start from centroids**: per frame, the centroid of the moving pixels'
+   points (camera frame) and of the moving links' surface (base frame) form N
+   point pairs; their rigid alignment (Kabsch) is a start within centimetres,
+   refined a few times with the visible part of the model only. Any start the
+   caller gives (the learned prediction, a tape-measure guess) is tried first.
+3. **Coarse ICP**: each moving pixel matched to the nearest front-facing model
+   point of its frame in 3-D, over a window shrinking from 30 cm to 1 cm,
+   point-to-plane with a Cauchy loss.
+4. **Fine registration**: the model's visible surface from the estimate
+   (:mod:`classic.markerless.visibility`), each visible point matched to the
+   observed point in its pixel (projective association), point-to-plane with
+   a Cauchy loss over all frames, the gate shrinking to a few noise sigmas.
+
+A result is accepted only when most of the visible model is matched, the
+residual is of the depth noise's size and the last step has converged;
+otherwise it is refused with the reason (:attr:`MarkerlessResult.refused`),
+never returned as a calibration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from classic.markerless.depth import backproject, moving_mask, static_depth
+from classic.markerless.point_to_plane import solve_point_to_plane
+from classic.markerless.visibility import project, visible_points
+from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
+from handeye.core.se3 import invert_transform, make_transform, so3_log
+from handeye.core.validation import check_transforms
+
+__all__ = ["RobotSurfaceFrames", "MarkerlessOptions", "MarkerlessResult", "register_robot", "RefusedError",
+           "pose_distance"]
+
+_FRAME_KEY_M = 1000.0  # frames kept apart in the KD-tree by this offset on a 4th coordinate
+
+
+class RefusedError(HandEyeInputError):
+    """Raised by :meth:`MarkerlessResult.require` when the registration refused to answer."""
+
+
+@dataclass
+class RobotSurfaceFrames:
+    """The robot's surface at every frame, base frame, stacked.
+
+    Attributes
+    ----------
+    points_base : array, shape (M, 3)
+        Surface samples, metres.
+    normals_base : array, shape (M, 3)
+        Outward unit normals.
+    frame : array of int, shape (M,)
+        Frame index (0..N-1) of each sample.
+    part : array of int, shape (M,)
+        Rigid part (link mesh) of each sample; parts whose position changes between frames
+        are "moving" (found from the data, not from names).
+    """
+
+    points_base: np.ndarray
+    normals_base: np.ndarray
+    frame: np.ndarray
+    part: np.ndarray
+
+    def __post_init__(self):
+        m = len(self.points_base)
+        for name in ("points_base", "normals_base"):
+            a = np.asarray(getattr(self, name), dtype=float)
+            if a.shape != (m, 3):
+                raise ShapeError(f"surface {name} must be (M, 3), got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise NonFiniteError(f"surface {name} has NaN or inf")
+            setattr(self, name, a)
+        for name in ("frame", "part"):
+            a = np.asarray(getattr(self, name)).astype(np.int64)
+            if a.shape != (m,):
+                raise ShapeError(f"surface {name} must be (M,), got {a.shape}")
+            setattr(self, name, a)
+
+
+@dataclass(frozen=True)
+class MarkerlessOptions:
+    """Settings of :func:`register_robot` (defaults fit RGB-D sensors at 0.5-3 m).
+
+    Attributes
+    ----------
+    depth_sigma_m_at_1m : float
+        Depth noise sigma at 1 m (it grows with depth squared); sets the robust scales.
+    min_moving_pixels : int
+        Fewer moving pixels in all frames than this: refused (the arm is not in view).
+    min_matched_fraction : float
+        Fraction of the visible model that must land on the observed surface.
+    max_residual_ratio : float
+        Inlier RMS residual at most this times the expected noise plus the model floor.
+    model_floor_m : float
+        Residual the model itself leaves (mesh detail, unmodelled cables), metres.
+    coarse_windows_m : tuple of float
+        Match windows of the coarse stage, widest first.
+    fine_iterations : int
+    max_points : int
+        Moving pixels used by the coarse stage (a random subset beyond this).
+    max_model_points : int
+        Model points used by the coarse stages (a random subset beyond this).
+    zbuffer_stride : int
+        Image pixels per z-buffer pixel: 1 when the model's sample spacing is below the pixel
+        footprint, 2 when below two (the front chooses the spacing to match).
+    seed : int
+    """
+
+    depth_sigma_m_at_1m: float = 0.001
+    min_moving_pixels: int = 200
+    min_matched_fraction: float = 0.6
+    max_residual_ratio: float = 3.0
+    model_floor_m: float = 0.0015
+    coarse_windows_m: tuple = (0.3, 0.2, 0.12, 0.08, 0.05, 0.03, 0.02, 0.01)
+    fine_iterations: int = 20
+    max_points: int = 40000
+    max_model_points: int = 300000
+    zbuffer_stride: int = 1
+    seed: int = 0
+
+
+@dataclass
+class MarkerlessResult:
+    """A camera pose from the robot's surface, or a refusal with its reason.
+
+    Attributes
+    ----------
+    T_base_cam : array, shape (4, 4) or None
+        None when refused.
+    refused : str or None
+        Why no answer is given (too few robot pixels, did not converge, residual too large,
+        start outside the basin); None when accepted.
+    covariance : array, shape (6, 6)
+        Of the camera's rotation (rad, camera frame) and position (m, camera frame).
+    sigma : dict
+        ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate.
+    residual_mm_per_frame : array, shape (N,)
+        RMS point-to-plane residual of the matched points of each frame.
+    matched_fraction : float
+        Visible model points landing on the observed surface, over all frames.
+    start : str
+        Which start led to the answer.
+    diagnostics : dict
+    """
+
+    T_base_cam: np.ndarray | None
+    refused: str | None
+    covariance: np.ndarray
+    sigma: dict
+    residual_mm_per_frame: np.ndarray
+    matched_fraction: float
+    start: str
+    diagnostics: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.refused is None
+
+    def require(self) -> np.ndarray:
+        """``T_base_cam``, or :class:`RefusedError` with the reason."""
+        if self.refused is not None:
+            raise RefusedError(f"markerless registration refused: {self.refused}")
+        return self.T_base_cam
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable summary."""
+        from handeye.core.se3 import pos_quat_xyzw_from_transform
+
+        out = {"status": "ok" if self.ok else "refused", "refused": self.refused, "start": self.start,
+               "matched_fraction": self.matched_fraction, "sigma": self.sigma,
+               "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
+               "diagnostics": self.diagnostics}
+        if self.T_base_cam is not None:
+            t, q = pos_quat_xyzw_from_transform(self.T_base_cam)
+            out["T_base_cam"] = {"matrix": self.T_base_cam.tolist(), "translation_m": t.tolist(),
+                                 "quaternion_xyzw": q.tolist()}
+        return out
+
+
+def _check_inputs(depth_m, K, surface, n_frames):
+    depth_m = np.asarray(depth_m, dtype=float)
+    if depth_m.ndim != 3:
+        raise ShapeError(f"depth must be (N frames, H, W), got shape {depth_m.shape}")
+    bad = ~np.isfinite(depth_m).reshape(len(depth_m), -1).all(axis=1)
+    if bad.any():
+        raise NonFiniteError(f"depth of frame {int(np.flatnonzero(bad)[0])} has NaN or inf (use 0 for no depth)")
+    K = np.asarray(K, dtype=float)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise ShapeError(f"K must be a finite 3x3 camera matrix with positive focal lengths, got {K.tolist()}")
+    if len(surface.frame) == 0 or surface.frame.min() < 0 or surface.frame.max() >= n_frames:
+        raise ShapeError(f"surface frames must index the {n_frames} depth frames")
+    return depth_m, K
+
+
+def _sigma_z(z, opts):
+    return opts.depth_sigma_m_at_1m * z**2
+
+
+def _kabsch(p_from, p_to, w=None):
+    """Rigid T with ``p_to ~ R p_from + t`` (weighted), shape (4, 4)."""
+    w = np.ones(len(p_from)) if w is None else w
+    c_from = (w[:, None] * p_from).sum(0) / w.sum()
+    c_to = (w[:, None] * p_to).sum(0) / w.sum()
+    rot, _ = Rotation.align_vectors(p_to - c_to, p_from - c_from, weights=w)
+    R = rot.as_matrix()
+    return make_transform(R, c_to - R @ c_from)
+
+
+class _Problem:
+    """Everything the stages share for one camera placement."""
+
+    def __init__(self, depth_m, K, surface, opts):
+        self.depth, self.K, self.s, self.opts = depth_m, K, surface, opts
+        self.n, self.h, self.w = depth_m.shape
+        self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth
+        static = static_depth(depth_m)
+        z = np.where(depth_m > 0, depth_m, 1.0)
+        self.moving = moving_mask(depth_m, static, 0.0)
+        self.moving &= depth_m < static - np.maximum(0.02, 6 * _sigma_z(z, opts))
+        self.moving |= (depth_m > 0) & (static <= 0)
+        f, r, c = np.nonzero(self.moving)
+        self.n_moving = len(f)
+        rng = np.random.default_rng(opts.seed)
+        if len(f) > opts.max_points:
+            keep = np.sort(rng.choice(len(f), opts.max_points, replace=False))
+            f, r, c = f[keep], r[keep], c[keep]
+        self.mov_frame, self.mov_p = f, self.P[f, r, c]
+        # parts that move between frames: RMS spread of each part's centroid over the frames
+        n_parts, n_fr = int(surface.part.max()) + 1, int(surface.frame.max()) + 1
+        key = surface.part * n_fr + surface.frame
+        count = np.bincount(key, minlength=n_parts * n_fr).reshape(n_parts, n_fr)
+        sums = np.stack([np.bincount(key, surface.points_base[:, k], minlength=n_parts * n_fr) for k in range(3)],
+                        axis=-1).reshape(n_parts, n_fr, 3)
+        spread = np.zeros(n_parts)
+        for k in range(n_parts):
+            seen = count[k] > 0
+            cent = sums[k, seen] / count[k, seen, None]
+            spread[k] = np.sqrt(((cent - cent.mean(0)) ** 2).sum(1).mean()) if len(cent) > 1 else 0.0
+        self.moving_part = spread[surface.part] > 0.02
+        # the coarse stages work on a subset of the model (their windows are centimetres)
+        m = len(surface.frame)
+        self.coarse_subset = np.sort(rng.choice(m, opts.max_model_points, replace=False)) if m > opts.max_model_points \
+            else np.arange(m)
+        cs = self.coarse_subset
+        self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
+
+    # -- visibility
+
+    def visible(self, T_base_cam, subset=None):
+        """Visible model points (indices into the whole model), their pixels and camera-frame points.
+
+        The z-buffer's pixels are ``zbuffer_stride`` image pixels wide (twice that on a ``subset``),
+        as sparse as the model's samples; each visible point's pixel is where it projects in the image.
+        """
+        T_cam_base = invert_transform(T_base_cam)
+        sel = np.arange(len(self.s.frame)) if subset is None else subset
+        stride = self.opts.zbuffer_stride * (1 if subset is None else 2)
+        p = self.s.points_base[sel] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+        n = self.s.normals_base[sel] @ T_cam_base[:3, :3].T
+        Ks = self.K.copy()
+        Ks[:2] /= stride
+        Ks[:2, 2] = (self.K[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
+        idx, _ = visible_points(p, n, self.s.frame[sel], Ks, -(-self.h // stride), -(-self.w // stride))
+        p = p[idx]
+        uv = np.rint(project(p, self.K)).astype(np.int64)
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h)
+        return sel[idx[inside]], uv[inside][:, ::-1], p[inside]
+
+    # -- stage 2: centroids
+
+    def _centroids(self, frame, points):
+        count = np.bincount(frame, minlength=self.n).astype(float)
+        sums = np.stack([np.bincount(frame, points[:, k], minlength=self.n) for k in range(3)], axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return sums / count[:, None], count
+
+    def centroid_start(self, iterations=4):
+        c_obs, counts = self._centroids(self.mov_frame, self.mov_p)
+        use = counts >= 20
+        if use.sum() < 3:
+            return None
+        T = None
+        for _ in range(iterations + 1):
+            idx = self.coarse_subset if T is None else self.visible(T, subset=self.coarse_subset)[0]
+            idx = idx[self.moving_part[idx]]
+            c_mod, n_mod = self._centroids(self.s.frame[idx], self.s.points_base[idx])
+            ok = use & (n_mod >= 10)
+            if ok.sum() < 3:
+                return T
+            T = _kabsch(c_obs[ok], c_mod[ok], counts[ok])
+        return T
+
+    # -- stage 3: coarse ICP in 3-D
+
+    def coarse(self, T):
+        for window in self.opts.coarse_windows_m:
+            for _ in range(3):
+                p_base = self.mov_p @ T[:3, :3].T + T[:3, 3]
+                d, j = self.tree.query(np.c_[p_base, self.mov_frame * _FRAME_KEY_M], distance_upper_bound=window)
+                ok = np.isfinite(d)
+                if ok.sum() < 50:
+                    break
+                jj = self.coarse_subset[j[ok]]
+                n = self.s.normals_base[jj]
+                # front-facing matches only: the normal must point towards the camera
+                towards = np.einsum("ij,ij->i", n, T[:3, 3] - self.s.points_base[jj]) > 0
+                sel = np.flatnonzero(ok)[towards]
+                jj = jj[towards]
+                if len(sel) < 50:
+                    break
+                fit = solve_point_to_plane(self.mov_p[sel], self.s.points_base[jj], self.s.normals_base[jj],
+                                           T, scale_m=window / 3, loss="cauchy", iterations=2)
+                T = fit.T_base_cam
+        return T
+
+    # -- stage 4: fine, projective
+
+    def associate(self, T, gate_m, cached=None):
+        """Projective matches: each visible model point and the observed point in its pixel.
+
+        ``cached`` (indices of visible points from an earlier pose) skips the z-buffer: the points
+        are only projected again, for iterations where the pose moves by less than a pixel.
+        """
+        if cached is None:
+            idx, pix, p_cam = self.visible(T)
+        else:
+            idx = cached
+            T_cam_base = invert_transform(T)
+            p_cam = self.s.points_base[idx] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+            uv = np.rint(project(p_cam, self.K)).astype(np.int64)
+            inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h) & (p_cam[:, 2] > 0)
+            idx, p_cam, pix = idx[inside], p_cam[inside], uv[inside][:, ::-1]
+        f = self.s.frame[idx]
+        q = self.P[f, pix[:, 0], pix[:, 1]]
+        has_depth = np.isfinite(q[:, 2])
+        close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
+        return idx, f, q, has_depth, close
+
+    def fine(self, T):
+        opts = self.opts
+        gates = [0.05, 0.03, 0.02, 0.01]
+        fit, step = None, np.inf
+        scale = None
+        for it in range(opts.fine_iterations):
+            if it < len(gates):
+                gate = gates[it]
+            else:
+                gate = max(4 * scale, 0.004)
+            full = it < len(gates) or (it - len(gates)) % 4 == 0
+            idx, f, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
+            if full:
+                visible_idx = idx
+            if close.sum() < 50:
+                return T, None, np.inf
+            sel = np.flatnonzero(close)
+            z = q[sel, 2]
+            expected = np.sqrt(_sigma_z(z, opts) ** 2 + opts.model_floor_m**2)
+            fit = solve_point_to_plane(q[sel], self.s.points_base[idx[sel]], self.s.normals_base[idx[sel]], T,
+                                       scale_m=float(np.median(expected)) * 2, loss="cauchy", group=f[sel],
+                                       iterations=3)
+            T = fit.T_base_cam
+            inl = fit.weights > 0.5
+            scale = 1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate
+            scale = max(scale, float(np.median(expected)))
+            step = fit.step_norm
+            if it >= len(gates) and step < 1e-7:
+                if not full:  # converged on cached visibility: check once more with a fresh z-buffer
+                    idx, f, q, has_depth, close = self.associate(T, gate)
+                    sel = np.flatnonzero(close)
+                    fit = solve_point_to_plane(q[sel], self.s.points_base[idx[sel]], self.s.normals_base[idx[sel]],
+                                               T, scale_m=float(np.median(expected)) * 2, loss="cauchy",
+                                               group=f[sel], iterations=3)
+                    T, step = fit.T_base_cam, fit.step_norm
+                break
+        return T, fit, step
+
+
+def _score(problem, T, opts):
+    """Matched fraction and inlier RMS of a pose (used to pick among starts and to accept)."""
+    idx, f, q, has_depth, close = problem.associate(T, 0.01)
+    n_vis = int(has_depth.sum())
+    if n_vis == 0:
+        return 0.0, np.inf, idx, f, q, close
+    return float(close.sum()) / n_vis, 0.0, idx, f, q, close
+
+
+def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFrames,
+                   starts: dict | None = None, options: MarkerlessOptions | None = None,
+                   centroid_start: bool = True) -> MarkerlessResult:
+    """Register the posed robot surface to the depth of all frames: ``T_base_cam`` or a refusal.
+
+    Parameters
+    ----------
+    depth_m : array, shape (N, H, W)
+        Depth of N frames from one static camera, metres, 0 where missing (NaN is an error).
+    K : array, shape (3, 3)
+        Camera matrix of the depth images (undistorted, OpenCV convention).
+    surface : RobotSurfaceFrames
+        The robot's surface at each frame's joint angles, base frame.
+    starts : dict of str -> array (4, 4), optional
+        Starting ``T_base_cam`` by name (``"learned"``, ``"user"``), tried in order.
+    options : MarkerlessOptions, optional
+    centroid_start : bool
+        Also try the start from the moving pixels' centroids (no prior needed).
+
+    Returns
+    -------
+    MarkerlessResult
+        Accepted, or refused with the reason; each start's outcome in ``diagnostics["starts"]``.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError
+        Depth not (N, H, W), NaN in a frame (named), a bad K, surface frames out of range.
+    """
+    opts = options or MarkerlessOptions()
+    depth_m = np.asarray(depth_m, dtype=float)
+    depth_m, K = _check_inputs(depth_m, K, surface, len(depth_m) if depth_m.ndim == 3 else 0)
+    starts = dict(starts or {})
+    for name, T in starts.items():
+        check_transforms(T, f"start {name!r}")
+    n = len(depth_m)
+    empty = MarkerlessResult(None, None, np.full((6, 6), np.nan), {"rotation_deg": np.nan, "translation_mm": np.nan},
+                             np.full(n, np.nan), 0.0, "", {})
+    problem = _Problem(depth_m, K, surface, opts)
+    diag = {"frames": n, "moving_pixels": int(problem.n_moving), "starts": {}}
+    if problem.n_moving < opts.min_moving_pixels:
+        empty.refused = (f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "
+                         f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?")
+        empty.diagnostics = diag
+        return empty
+    if centroid_start:
+        T0 = problem.centroid_start()
+        if T0 is not None:
+            starts["centroids"] = T0
+    if not starts:
+        empty.refused = "no start: the moving pixels of too few frames to align centroids, and none was given"
+        empty.diagnostics = diag
+        return empty
+    best = None
+    for name, T_start in starts.items():
+        T = problem.coarse(np.asarray(T_start, dtype=float))
+        T, fit, step = problem.fine(T)
+        matched, _, *_ = _score(problem, T, opts)
+        diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
+        if fit is not None and (best is None or matched > best[0]):
+            best = (matched, name, T, fit, step)
+        if fit is not None and matched >= opts.min_matched_fraction + 0.15:
+            break  # a clear success: the other starts cannot do better than the noise
+    if best is None:
+        empty.refused = "did not converge: no start kept enough matched points"
+        empty.diagnostics = diag
+        return empty
+    matched, name, T, fit, step = best
+    inl = fit.weights > 0.5
+    group = fit.group
+    res_frame = np.array([np.sqrt(np.mean(fit.residuals_m[inl & (group == i)] ** 2)) * 1e3
+                          if np.any(inl & (group == i)) else np.nan for i in range(n)])
+    rms_mm = float(np.sqrt(np.mean(fit.residuals_m[inl] ** 2)) * 1e3) if inl.any() else np.inf
+    z_med = float(np.median(depth_m[depth_m > 0]))
+    expected_mm = float(np.hypot(_sigma_z(z_med, opts), opts.model_floor_m) * 1e3)
+    cov = fit.covariance
+    R = T[:3, :3]
+    sigma = {"rotation_deg": float(np.degrees(np.sqrt(np.trace(cov[:3, :3])))),
+             "translation_mm": float(np.sqrt(np.trace(R @ cov[3:, 3:] @ R.T)) * 1e3)}
+    diag.update({"inlier_rms_mm": rms_mm, "expected_rms_mm": expected_mm, "last_step": float(step),
+                 "matched_points": int(inl.sum())})
+    refused = None
+    if matched < opts.min_matched_fraction:
+        refused = (f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
+                   f"(at least {opts.min_matched_fraction:.0%} needed)")
+    elif rms_mm > opts.max_residual_ratio * expected_mm:
+        refused = (f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth "
+                   f"noise")
+    elif step > 1e-5:
+        refused = f"did not converge: last step {step:.2g} (rad + m)"
+    return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag)
+
+
+def pose_distance(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
+    """Rotation (deg) and translation (mm) between two poses."""
+    D = invert_transform(T_a) @ T_b
+    return float(np.degrees(np.linalg.norm(so3_log(D[:3, :3])))), float(np.linalg.norm(D[:3, 3]) * 1e3)

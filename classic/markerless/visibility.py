@@ -1,0 +1,59 @@
+"""Which model points a camera sees: a point-splat z-buffer, in numpy.
+
+The model is a dense sample of the robot's surface with outward normals.
+Points facing away from the camera are dropped, the rest are projected, and
+in every pixel the nearest one is kept. With a sample spacing near the
+pixel footprint this is what a renderer's depth test gives, without an
+OpenGL context, for all frames in one sort.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["project", "visible_points"]
+
+
+def project(p_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Pinhole projection (no distortion) of camera-frame points, pixels ``(u, v)``, shape (..., 2)."""
+    z = p_cam[..., 2]
+    u = K[0, 0] * p_cam[..., 0] / z + K[0, 1] * p_cam[..., 1] / z + K[0, 2]
+    v = K[1, 1] * p_cam[..., 1] / z + K[1, 2]
+    return np.stack([u, v], axis=-1)
+
+
+def visible_points(p_cam: np.ndarray, n_cam: np.ndarray, frame: np.ndarray, K: np.ndarray, height: int, width: int,
+                   znear_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest front-facing model point in every pixel of every frame.
+
+    Parameters
+    ----------
+    p_cam : array, shape (M, 3)
+        Model points in the camera frame (all frames stacked).
+    n_cam : array, shape (M, 3)
+        Their outward unit normals in the camera frame.
+    frame : array of int, shape (M,)
+        Frame index of each point.
+    K : array, shape (3, 3)
+    height, width : int
+    znear_m : float
+
+    Returns
+    -------
+    index : array of int, shape (V,)
+        Indices into the M points of the visible ones (one per covered pixel).
+    pixel : array of int, shape (V, 2)
+        Their pixel ``(row, column)``.
+    """
+    front = (p_cam[:, 2] > znear_m) & (np.einsum("ij,ij->i", p_cam, n_cam) < 0)
+    idx = np.flatnonzero(front)
+    uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
+    inside = (uv[:, 0] >= 0) & (uv[:, 0] < width) & (uv[:, 1] >= 0) & (uv[:, 1] < height)
+    idx, uv = idx[inside], uv[inside]
+    key = (frame[idx].astype(np.int64) * height + uv[:, 1]) * width + uv[:, 0]
+    order = np.lexsort((p_cam[idx, 2], key))  # by pixel, nearest first
+    key_sorted = key[order]
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = key_sorted[1:] != key_sorted[:-1]
+    keep = order[first]
+    return idx[keep], uv[keep][:, ::-1]

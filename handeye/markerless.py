@@ -1,0 +1,246 @@
+"""Markerless calibration of a dataset's camera placements: learned or given start, then the robot's surface.
+
+Composes the engines: the dataset's depth frames and joints (:mod:`handeye.core.dataset`),
+the robot's surface posed at each frame (:mod:`sim.surface`, a UR of the simulator or any
+URDF), an optional learned start (:mod:`learned.experiment`), and the registration
+(:func:`classic.markerless.register_robot`). Starts, in order: the learned prediction
+(``model_dir``), the user's (``T_base_cam_start``), and always the start from the moving
+pixels' centroids, which needs no prior.
+
+Example
+-------
+>>> from handeye.markerless import markerless_dataset          # doctest: +SKIP
+>>> out = markerless_dataset("data/small", cameras=[0, 1])     # doctest: +SKIP
+>>> out.results[0].T_base_cam, out.results[0].sigma            # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from classic.markerless import MarkerlessOptions, MarkerlessResult, pose_distance, register_robot
+from handeye.core.dataset import Dataset
+from handeye.core.errors import DatasetError, HandEyeInputError, ShapeError
+from handeye.core.se3 import transform_from_pos_quat_xyzw
+
+__all__ = ["MarkerlessRun", "markerless_dataset", "calibrate_camera", "robot_surface_for", "read_start"]
+
+
+@dataclass
+class MarkerlessRun:
+    """Markerless results of a dataset's camera placements.
+
+    Attributes
+    ----------
+    results : dict of int -> MarkerlessResult
+    seconds : dict of int -> float
+        Wall time per camera placement (registration, surface posing and image reading included).
+    errors : dict of int -> (float, float)
+        Against the truth, ``(deg, mm)``, where the truth is known and the result accepted.
+    label_errors : dict of int -> (float, float)
+        The classic label against the truth, same cameras, for comparison.
+    starts : dict of int -> dict of str -> array (4, 4)
+    """
+
+    results: dict = field(default_factory=dict)
+    seconds: dict = field(default_factory=dict)
+    errors: dict = field(default_factory=dict)
+    label_errors: dict = field(default_factory=dict)
+    starts: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable: per camera, the result, its error against the truth and the label's."""
+        out = {}
+        for c, res in self.results.items():
+            d = res.to_dict()
+            d["seconds"] = self.seconds[c]
+            if c in self.errors:
+                d["error_vs_truth"] = {"deg": self.errors[c][0], "mm": self.errors[c][1]}
+            if c in self.label_errors:
+                d["label_error_vs_truth"] = {"deg": self.label_errors[c][0], "mm": self.label_errors[c][1]}
+            out[str(c)] = d
+        return {"cameras": out}
+
+    def table(self) -> str:
+        """Markdown: per camera, status, error against truth, sigma, the classic label's error."""
+        lines = ["| camera | status | start | hybrid vs truth (mm / deg) | sigma (mm / deg) | matched | "
+                 "classic label vs truth | s |", "|---|---|---|---|---|---|---|---|"]
+        for c, r in self.results.items():
+            err = self.errors.get(c)
+            lab = self.label_errors.get(c)
+            lines.append(
+                f"| {c} | {'ok' if r.ok else 'refused: ' + r.refused} | {r.start or '-'} | "
+                f"{f'{err[1]:.3f} / {err[0]:.4f}' if err else '-'} | "
+                f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f} | {r.matched_fraction:.2f} | "
+                f"{f'{lab[1]:.3f} / {lab[0]:.4f}' if lab else '-'} | {self.seconds[c]:.1f} |")
+        return "\n".join(lines)
+
+
+def robot_surface_for(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), ee_frame: str = "tool0",
+                      zbuffer_stride: int | None = None):
+    """The robot surface sampler for a dataset's camera, and the z-buffer stride it was sampled for.
+
+    The spacing is 0.7 of the pixel footprint at 0.8 m times the stride; the stride is 1 up to
+    160 pixels of width and 2 beyond (the fine stage then uses a quarter of the pixels).
+    """
+    from sim.robot import load_robot, load_robot_urdf
+    from sim.surface import RobotSurface, spacing_for_camera
+
+    robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot(ds.meta["robot"])
+    if robot.nq != ds.meta["n_joints"]:
+        raise ShapeError(f"{ds.root / 'meta.json'}: {ds.meta['n_joints']} joints, the robot model "
+                         f"{robot.name} has {robot.nq}")
+    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    width = int(ds.meta["intrinsics"]["width"])
+    stride = zbuffer_stride or (1 if width <= 160 else 2)
+    return RobotSurface(robot, spacing_m=spacing_for_camera(K, 0.8) * stride), stride
+
+
+def read_start(path: str | Path) -> np.ndarray:
+    """A start ``T_base_cam`` from JSON: ``{"T_base_cam": 4x4}`` or translation (m) and quaternion (x, y, z, w).
+
+    Raises
+    ------
+    HandEyeInputError
+        Missing or unreadable file, or neither form (naming the file).
+    """
+    import json
+
+    from handeye.core.validation import check_transforms
+
+    path = Path(path)
+    if not path.is_file():
+        raise HandEyeInputError(f"{path}: no such start file")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise HandEyeInputError(f"{path}: not a JSON file ({exc})") from None
+    doc = doc.get("T_base_cam", doc) if isinstance(doc, dict) else doc
+    try:
+        if isinstance(doc, dict):
+            T = transform_from_pos_quat_xyzw(np.array(doc["translation_m"], dtype=float),
+                                             np.array(doc["quaternion_xyzw"], dtype=float))
+        else:
+            T = np.array(doc, dtype=float)
+    except (KeyError, TypeError, ValueError):
+        raise HandEyeInputError(f"{path}: expected {{\"T_base_cam\": 4x4 matrix}} or {{\"translation_m\": [x, y, z], "
+                                f"\"quaternion_xyzw\": [x, y, z, w]}}") from None
+    return check_transforms(T, f"{path}: T_base_cam")[0]
+
+
+def calibrate_camera(ds: Dataset, camera_id: int, surface, starts: dict | None = None,
+                     options: MarkerlessOptions | None = None, frames: slice | np.ndarray | None = None
+                     ) -> MarkerlessResult:
+    """Markerless ``T_base_cam`` of one camera placement from its data recording.
+
+    Parameters
+    ----------
+    ds : Dataset
+    camera_id : int
+    surface : sim.surface.RobotSurface
+    starts : dict of str -> array (4, 4), optional
+    options : MarkerlessOptions, optional
+    frames : index into the data frames, optional
+        A subset (for example the first 10).
+
+    Raises
+    ------
+    DatasetError
+        No data frames with depth in this camera's shard.
+    """
+    t = ds.select(camera_id, "data")
+    rel = t["depth"] if frames is None else t["depth"][frames]
+    q = ds.joints(t) if frames is None else ds.joints(t)[frames]
+    if len(rel) == 0 or any(not r for r in rel):
+        raise DatasetError(f"{ds.shard_dir(camera_id) / 'frames.csv'}: no data frames with depth")
+    depth = np.stack([ds.depth_m(camera_id, r) for r in rel])
+    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    w, h = int(ds.meta["intrinsics"]["width"]), int(ds.meta["intrinsics"]["height"])
+    if depth.shape[1:] != (h, w):
+        raise ShapeError(f"{ds.shard_dir(camera_id) / rel[0]}: depth is {depth.shape[2]}x{depth.shape[1]}, the "
+                         f"intrinsics in meta.json are for {w}x{h}")
+    return register_robot(depth, K, surface.posed(q), starts=starts, options=options)
+
+
+def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
+    """The learned ``T_base_cam`` of each camera (``handeye learned run``'s saved networks)."""
+    from learned.data import load_frames
+    from learned.experiment import camera_pose_prediction, load_model
+
+    t_model = load_model(Path(model_dir) / "translation.pt")
+    q_model = load_model(Path(model_dir) / "orientation.pt")
+    frames = load_frames(ds_root, t_model.config.image_size, "truth", progress=False)
+    out = {}
+    for c in cameras:
+        t_mm, q = camera_pose_prediction(t_model, q_model, frames, c)
+        out[c] = transform_from_pos_quat_xyzw(t_mm / 1000.0, q)
+    return out
+
+
+def markerless_dataset(root: str | Path, cameras: list[int] | None = None, model_dir: str | Path | None = None,
+                       T_base_cam_start: np.ndarray | None = None, urdf: str | Path | None = None,
+                       package_dirs=(), options: MarkerlessOptions | None = None, progress: bool = False,
+                       frames=None) -> MarkerlessRun:
+    """Markerless calibration of camera placements of a dataset.
+
+    Parameters
+    ----------
+    root : str or Path
+        Dataset directory.
+    cameras : list of int, optional
+        Camera placements; all by default.
+    model_dir : path, optional
+        A learned model (``translation.pt``, ``orientation.pt``): its prediction is the first start.
+    T_base_cam_start : array, shape (4, 4), optional
+        A start of the user's (a tape-measure guess).
+    urdf, package_dirs : optional
+        Another robot than the dataset's UR.
+    options : MarkerlessOptions, optional
+    progress : bool
+    frames : index, optional
+        Use only these data frames of each camera.
+
+    Returns
+    -------
+    MarkerlessRun
+    """
+    ds = Dataset.open(root)
+    cameras = list(range(len(ds))) if cameras is None else [int(c) for c in cameras]
+    for c in cameras:
+        if not 0 <= c < len(ds):
+            raise DatasetError(f"{ds.root}: no camera {c} (the dataset has 0..{len(ds) - 1})")
+    surface, stride = robot_surface_for(ds, urdf, package_dirs)
+    opts = options or MarkerlessOptions()
+    if opts.zbuffer_stride != stride:
+        from dataclasses import replace
+
+        opts = replace(opts, zbuffer_stride=stride)
+    learned = learned_starts(ds.root, Path(model_dir), cameras) if model_dir else {}
+    truth = ds.truth()
+    labels = ds.labels() if "T_base_cam_label.x" in ds.cameras() else None
+    run = MarkerlessRun()
+    iterator = cameras
+    if progress:
+        from tqdm import tqdm
+
+        iterator = tqdm(cameras, desc=f"markerless {ds.root.name}", unit="camera")
+    for c in iterator:
+        starts = {}
+        if c in learned:
+            starts["learned"] = learned[c]
+        if T_base_cam_start is not None:
+            starts["user"] = np.asarray(T_base_cam_start, dtype=float)
+        t0 = time.perf_counter()
+        res = calibrate_camera(ds, c, surface, starts, opts, frames)
+        run.seconds[c] = time.perf_counter() - t0
+        run.results[c] = res
+        run.starts[c] = starts
+        if res.ok and np.all(np.isfinite(truth[c])):
+            run.errors[c] = pose_distance(res.T_base_cam, truth[c])
+        if labels is not None and np.all(np.isfinite(labels[c])) and np.all(np.isfinite(truth[c])):
+            run.label_errors[c] = pose_distance(labels[c], truth[c])
+    return run

@@ -1,0 +1,97 @@
+"""The robot's surface as points with outward normals, posed by forward kinematics.
+
+Each link's visual mesh is sampled once, area-weighted, at a spacing near the
+depth camera's pixel footprint, in the mesh's own frame; posing a frame's
+configuration moves those samples with the link (no re-sampling). The result
+is what :func:`classic.markerless.register_robot` registers to depth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from classic.markerless import RobotSurfaceFrames
+from handeye.core.errors import HandEyeInputError, ShapeError
+from handeye.core.optional import require_package
+from sim.scene import load_link_mesh
+
+__all__ = ["RobotSurface", "spacing_for_camera"]
+
+
+def spacing_for_camera(K: np.ndarray, nearest_m: float, fraction: float = 0.7) -> float:
+    """Sample spacing (m) of a fraction of the pixel footprint at the nearest distance the robot is seen."""
+    return float(fraction * nearest_m / max(K[0, 0], K[1, 1]))
+
+
+class RobotSurface:
+    """Surface samples of a robot's visual meshes.
+
+    Parameters
+    ----------
+    robot : sim.robot.Robot
+    spacing_m : float
+        Mean distance between samples.
+    seed : int
+
+    Raises
+    ------
+    HandEyeInputError
+        A mesh file that cannot be read, named.
+    """
+
+    def __init__(self, robot, spacing_m: float = 0.005, seed: int = 0):
+        trimesh = require_package("trimesh", extra="sim", purpose="robot meshes")
+        if not np.isfinite(spacing_m) or spacing_m <= 0:
+            raise HandEyeInputError(f"surface spacing must be > 0 m, got {spacing_m}")
+        self.robot = robot
+        self.spacing_m = float(spacing_m)
+        self.parts = []  # (name, points in mesh frame (k, 3), normals (k, 3))
+        rng = np.random.default_rng(seed)
+        for name, path, _ in robot.link_poses(np.zeros(robot.nq)):
+            try:
+                mesh = load_link_mesh(path)
+            except Exception as exc:  # trimesh raises many types for unreadable files
+                raise HandEyeInputError(f"{path}: cannot read the mesh of {name} ({exc})") from None
+            if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+                raise HandEyeInputError(f"{path}: the mesh of {name} has no triangles")
+            n = max(int(np.ceil(mesh.area / self.spacing_m**2)), 10)
+            points, face = trimesh.sample.sample_surface(mesh, n, seed=int(rng.integers(2**31)))
+            self.parts.append((name, np.asarray(points, dtype=float), np.asarray(mesh.face_normals[face], dtype=float)))
+
+    @property
+    def n_points(self) -> int:
+        """Samples per frame."""
+        return sum(len(p) for _, p, _ in self.parts)
+
+    def posed(self, q: np.ndarray) -> RobotSurfaceFrames:
+        """The surface at each configuration, stacked.
+
+        Parameters
+        ----------
+        q : array, shape (N, nq)
+            Joint angles of N frames, radians.
+
+        Returns
+        -------
+        RobotSurfaceFrames
+            Points and outward normals in the base frame, with frame and part indices.
+
+        Raises
+        ------
+        ShapeError
+            When the joint count does not fit the robot.
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if q.ndim != 2 or q.shape[1] != self.robot.nq:
+            raise ShapeError(f"joint angles must be (N, {self.robot.nq}) for {self.robot.name}, got {q.shape}")
+        pts, nrm, frame, part = [], [], [], []
+        for i, qi in enumerate(q):
+            for k, ((_, _, T), (_, p, n)) in enumerate(zip(self.robot.link_poses(qi), self.parts)):
+                A = T[:3, :3]
+                pts.append(p @ A.T + T[:3, 3])
+                nk = n @ np.linalg.inv(A)  # normals move with the inverse transpose (meshes may be scaled)
+                nrm.append(nk / np.linalg.norm(nk, axis=1, keepdims=True))
+                frame.append(np.full(len(p), i))
+                part.append(np.full(len(p), k))
+        return RobotSurfaceFrames(np.concatenate(pts), np.concatenate(nrm), np.concatenate(frame),
+                                  np.concatenate(part))
