@@ -355,7 +355,7 @@ class _Problem:
         opts = self.opts
         gates = [0.05, 0.03, 0.02, 0.01]
         fit, step = None, np.inf
-        scale = None
+        scale, visible_idx = None, None
         for it in range(opts.fine_iterations):
             if it < len(gates):
                 gate = gates[it]

@@ -1,0 +1,89 @@
+"""The markerless calibration of rendered camera placements: the UR5's own surface registered to depth."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from tests.tolerances import SIGMA_BOUND
+
+pytest.importorskip("pinocchio")
+
+#: The model's sampling bias (tests/classic/test_markerless.py): F^2 / (8 r) with F the pixel footprint at the
+#: farthest robot pixel (2 m at fx = 111 px in the small preset) and r = 4 cm, the UR5's thinnest tube.
+SAMPLING_BIAS_MM = (2.0 / 110.85) ** 2 / (8 * 0.04) * 1e3
+SAMPLING_BIAS_DEG = np.degrees(SAMPLING_BIAS_MM / 1e3 / 0.3)  # over the arm's 30 cm of motion at least
+
+
+def test_recovers_rendered_camera_poses_without_a_start(small_dataset):
+    from handeye.markerless import markerless_dataset
+
+    out = markerless_dataset(small_dataset[0], cameras=[0, 3])
+    for c, res in out.results.items():
+        assert res.ok, res.refused
+        rot_deg, trans_mm = out.errors[c]
+        assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + SAMPLING_BIAS_MM
+        assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + SAMPLING_BIAS_DEG
+
+
+def test_cli_writes_results_and_refusals_exit_1(small_dataset, tmp_path, capsys):
+    from handeye.cli import main
+
+    out = tmp_path / "ml.json"
+    assert main(["markerless", str(small_dataset[0]), "--camera", "1", "-o", str(out), "--quiet"]) == 0
+    doc = json.loads(out.read_text())
+    cam = doc["cameras"]["1"]
+    assert cam["status"] == "ok" and len(cam["T_base_cam"]["matrix"]) == 4 and "error_vs_truth" in cam
+    assert "| 1 | ok |" in capsys.readouterr().out
+
+
+def test_start_file_and_its_errors(small_dataset, tmp_path):
+    from handeye.core.dataset import Dataset
+    from handeye.core.errors import HandEyeInputError
+    from handeye.core.se3 import pos_quat_xyzw_from_transform
+    from handeye.markerless import read_start
+
+    T = Dataset.open(small_dataset[0]).truth()[0]
+    t, q = pos_quat_xyzw_from_transform(T)
+    good = tmp_path / "start.json"
+    good.write_text(json.dumps({"translation_m": t.tolist(), "quaternion_xyzw": q.tolist()}))
+    assert np.allclose(read_start(good), T, atol=1e-12)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"T_base_cam": [[1, 0], [0, 1]]}))
+    with pytest.raises(HandEyeInputError, match="bad.json"):
+        read_start(bad)
+    binary = tmp_path / "binary.json"
+    binary.write_bytes(b"\xff\xfe\x00garbage")
+    with pytest.raises(HandEyeInputError, match="binary.json"):
+        read_start(binary)
+    with pytest.raises(HandEyeInputError, match="no such start file"):
+        read_start(tmp_path / "missing.json")
+
+
+def test_bad_robot_and_dataset_inputs_are_named(small_copy, tmp_path):
+    from handeye.core.errors import HandEyeInputError, ShapeError
+    from handeye.markerless import markerless_dataset
+    from sim.robot import load_robot_urdf
+
+    with pytest.raises(HandEyeInputError, match="no such URDF"):
+        markerless_dataset(small_copy, cameras=[0], urdf=tmp_path / "missing.urdf")
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text('<robot name="arm"><link name="base"><visual><geometry><mesh filename="/nope/base.stl"/>'
+                    '</geometry></visual></link></robot>')
+    with pytest.raises(HandEyeInputError, match="base.stl|cannot load"):
+        load_robot_urdf(urdf)
+    # intrinsics of another size than the depth images
+    meta_path = small_copy / "meta.json"
+    meta = json.loads(meta_path.read_text())
+    meta["intrinsics"]["width"] = 2 * meta["intrinsics"]["width"]
+    meta_path.write_text(json.dumps(meta))
+    with pytest.raises(ShapeError, match="intrinsics"):
+        markerless_dataset(small_copy, cameras=[0])
+    # a robot model whose joint count does not fit the dataset
+    meta["intrinsics"]["width"] //= 2
+    meta["n_joints"] = 7
+    meta_path.write_text(json.dumps(meta))
+    with pytest.raises(HandEyeInputError):
+        markerless_dataset(small_copy, cameras=[0])
