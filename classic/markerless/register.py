@@ -351,52 +351,47 @@ class _Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q, has_depth, close
 
+    def _fit(self, T, idx, f, q, close):
+        sel = np.flatnonzero(close)
+        expected = np.sqrt(_sigma_z(q[sel, 2], self.opts) ** 2 + self.opts.model_floor_m**2)
+        fit = solve_point_to_plane(q[sel], self.s.points_base[idx[sel]], self.s.normals_base[idx[sel]], T,
+                                   scale_m=float(np.median(expected)) * 2, loss="cauchy", group=f[sel], iterations=3)
+        return fit, float(np.median(expected))
+
     def fine(self, T):
+        """Projective point-to-plane, gate shrinking to 4 robust sigmas; returns (T, fit, last step, matched).
+
+        The z-buffer is rebuilt on the first and fourth association and every fifth after; in between the
+        visible points are only projected again. The last association always has a fresh z-buffer, and the
+        matched fraction (visible model points with depth within 1 cm) is taken from it.
+        """
         opts = self.opts
         gates = [0.05, 0.03, 0.02, 0.01]
-        fit, step = None, np.inf
-        scale, visible_idx = None, None
+        fit, step, scale, visible_idx = None, np.inf, None, None
         for it in range(opts.fine_iterations):
-            if it < len(gates):
-                gate = gates[it]
-            else:
-                gate = max(4 * scale, 0.004)
-            full = it < len(gates) or (it - len(gates)) % 4 == 0
+            gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)
+            full = it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
             idx, f, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
             if full:
                 visible_idx = idx
             if close.sum() < 50:
-                return T, None, np.inf
-            sel = np.flatnonzero(close)
-            z = q[sel, 2]
-            expected = np.sqrt(_sigma_z(z, opts) ** 2 + opts.model_floor_m**2)
-            fit = solve_point_to_plane(q[sel], self.s.points_base[idx[sel]], self.s.normals_base[idx[sel]], T,
-                                       scale_m=float(np.median(expected)) * 2, loss="cauchy", group=f[sel],
-                                       iterations=3)
-            T = fit.T_base_cam
+                return T, None, np.inf, 0.0
+            fit, expected = self._fit(T, idx, f, q, close)
+            T, step = fit.T_base_cam, fit.step_norm
             inl = fit.weights > 0.5
-            scale = 1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate
-            scale = max(scale, float(np.median(expected)))
-            step = fit.step_norm
+            scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
             if it >= len(gates) and step < 1e-7:
-                if not full:  # converged on cached visibility: check once more with a fresh z-buffer
-                    idx, f, q, has_depth, close = self.associate(T, gate)
-                    sel = np.flatnonzero(close)
-                    fit = solve_point_to_plane(q[sel], self.s.points_base[idx[sel]], self.s.normals_base[idx[sel]],
-                                               T, scale_m=float(np.median(expected)) * 2, loss="cauchy",
-                                               group=f[sel], iterations=3)
-                    T, step = fit.T_base_cam, fit.step_norm
                 break
-        return T, fit, step
-
-
-def _score(problem, T, opts):
-    """Matched fraction and inlier RMS of a pose (used to pick among starts and to accept)."""
-    idx, f, q, has_depth, close = problem.associate(T, 0.01)
-    n_vis = int(has_depth.sum())
-    if n_vis == 0:
-        return 0.0, np.inf, idx, f, q, close
-    return float(close.sum()) / n_vis, 0.0, idx, f, q, close
+        # the final association, fresh z-buffer: one more fit on it, and the matched fraction
+        idx, f, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
+        if close.sum() < 50:
+            return T, None, np.inf, 0.0
+        fit, _ = self._fit(T, idx, f, q, close)
+        step = max(step, fit.step_norm)
+        within_1cm = has_depth & (np.abs(q[:, 2] - (self.s.points_base[idx] - fit.T_base_cam[:3, 3])
+                                         @ fit.T_base_cam[:3, 2]) < 0.01)
+        matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
+        return fit.T_base_cam, fit, step, matched
 
 
 def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFrames,
@@ -455,8 +450,7 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     best = None
     for name, T_start in starts.items():
         T = problem.coarse(np.asarray(T_start, dtype=float))
-        T, fit, step = problem.fine(T)
-        matched, _, *_ = _score(problem, T, opts)
+        T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
         if fit is not None and (best is None or matched > best[0]):
             best = (matched, name, T, fit, step)

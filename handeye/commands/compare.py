@@ -8,7 +8,10 @@ Example
 
 ``--model`` is a directory with ``translation.pt`` and ``orientation.pt`` (as
 ``handeye learned run`` writes per strategy). The learned ``T_base_cam`` of a
-camera pose is its frames' predictions averaged.
+camera pose is its frames' predictions averaged. The hybrid column is the
+markerless registration of the robot's surface to the pose's depth frames,
+started from that learned prediction (``handeye markerless``); ``--no-hybrid``
+leaves it out.
 """
 
 from __future__ import annotations
@@ -26,19 +29,31 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("dataset", type=Path)
     p.add_argument("--model", type=Path, required=True, help="directory with translation.pt and orientation.pt")
     p.add_argument("--split", default="test", choices=("test", "train", "all"))
+    p.add_argument("--no-hybrid", action="store_true", help="leave out the markerless hybrid column")
     p.set_defaults(run=run)
     return p
 
 
-def compare_table(pc: dict) -> str:
-    """Markdown table of :func:`learned.experiment.camera_predictions` output."""
-    lines = ["| camera | subset | learned vs classic (mm / deg) | learned vs truth | classic vs truth |",
-             "|---|---|---|---|---|"]
+def compare_table(pc: dict, hybrid=None) -> str:
+    """Markdown table of :func:`learned.experiment.camera_predictions` output.
+
+    With ``hybrid`` (a :class:`handeye.markerless.MarkerlessRun` of the same cameras), a column of the
+    learned start refined on the robot's surface, against the truth.
+    """
+    head = "| camera | subset | learned vs classic (mm / deg) | learned vs truth |"
+    rule = "|---|---|---|---|"
+    if hybrid is not None:
+        head, rule = head + " hybrid vs truth |", rule + "---|"
+    lines = [head + " classic vs truth |", rule + "---|"]
     for i, c in enumerate(pc["camera"]):
-        lines.append(f"| {c} | S{pc['region'][i] + 1} | {pc['learned_vs_label_mm'][i]:.2f} / "
-                     f"{pc['learned_vs_label_deg'][i]:.2f} | {pc['learned_vs_truth_mm'][i]:.2f} / "
-                     f"{pc['learned_vs_truth_deg'][i]:.2f} | {pc['label_vs_truth_mm'][i]:.3f} / "
-                     f"{pc['label_vs_truth_deg'][i]:.4f} |")
+        row = (f"| {c} | S{pc['region'][i] + 1} | {pc['learned_vs_label_mm'][i]:.2f} / "
+               f"{pc['learned_vs_label_deg'][i]:.2f} | {pc['learned_vs_truth_mm'][i]:.2f} / "
+               f"{pc['learned_vs_truth_deg'][i]:.2f} |")
+        if hybrid is not None:
+            res, err = hybrid.results.get(c), hybrid.errors.get(c)
+            row += (f" {err[1]:.3f} / {err[0]:.4f} |" if err else
+                    f" refused ({res.refused.split(':')[0]}) |" if res is not None and not res.ok else " - |")
+        lines.append(row + f" {pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f} |")
     return "\n".join(lines)
 
 
@@ -61,8 +76,18 @@ def run(args: argparse.Namespace) -> int:
     frames = load_frames(args.dataset, t_model.config.image_size, "classic", progress=False)
     cams = frames.cameras(None if args.split == "all" else args.split)
     pc = camera_predictions(t_model, q_model, frames, [int(c) for c in cams])
-    print(compare_table(pc))
+    hybrid = None
+    if not args.no_hybrid:
+        require_package("pinocchio", extra="sim", purpose="the robot model of the hybrid column")
+        from handeye.markerless import markerless_dataset
+
+        hybrid = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model)
+    print(compare_table(pc, hybrid))
     for key in ("learned_vs_label", "learned_vs_truth", "label_vs_truth"):
         print(f"median {key.replace('_', ' ')}: {np.median(pc[key + '_mm']):.2f} mm, "
               f"{np.median(pc[key + '_deg']):.3f} deg")
+    if hybrid is not None and hybrid.errors:
+        e = np.array(list(hybrid.errors.values()))
+        print(f"median hybrid vs truth: {np.median(e[:, 1]):.3f} mm, {np.median(e[:, 0]):.4f} deg "
+              f"({len(hybrid.errors)} of {len(hybrid.results)} accepted)")
     return 0

@@ -32,6 +32,8 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
     assert main(["compare", str(root), "--model", str(out / "reservoir")]) == 0
     text = capsys.readouterr().out
     assert "learned vs classic" in text and text.count("| S") == 2  # the two test camera poses
+    # the hybrid column: the learned start refined on the robot's surface, accepted on both test poses
+    assert "hybrid vs truth" in text and "median hybrid vs truth" in text and "(2 of 2 accepted)" in text
     # the classic label column is the labelling's error against truth
     from handeye.core.dataset import Dataset
 
