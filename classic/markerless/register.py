@@ -128,7 +128,7 @@ class MarkerlessOptions:
     model_floor_m: float = 0.0015
     coarse_windows_m: tuple = (0.3, 0.2, 0.12, 0.08, 0.05, 0.03, 0.02, 0.01)
     fine_iterations: int = 20
-    max_points: int = 40000
+    max_points: int = 20000
     max_model_points: int = 300000
     zbuffer_stride: int = 1
     seed: int = 0
@@ -268,14 +268,18 @@ class _Problem:
         as sparse as the model's samples; each visible point's pixel is where it projects in the image.
         """
         T_cam_base = invert_transform(T_base_cam)
-        sel = np.arange(len(self.s.frame)) if subset is None else subset
+        pts, nrm, frm = self.s.points_base, self.s.normals_base, self.s.frame
+        if subset is not None:
+            pts, nrm, frm = pts[subset], nrm[subset], frm[subset]
         stride = self.opts.zbuffer_stride * (1 if subset is None else 2)
-        p = self.s.points_base[sel] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
-        n = self.s.normals_base[sel] @ T_cam_base[:3, :3].T
+        # facing the camera, tested in the base frame (n . (p - c) < 0), before anything is transformed
+        front = np.flatnonzero(np.einsum("ij,ij->i", nrm, pts - T_base_cam[:3, 3]) < 0)
+        sel = front if subset is None else subset[front]
+        p = pts[front] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
         Ks = self.K.copy()
         Ks[:2] /= stride
         Ks[:2, 2] = (self.K[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
-        idx, _ = visible_points(p, n, self.s.frame[sel], Ks, -(-self.h // stride), -(-self.w // stride))
+        idx, _ = visible_points(p, None, frm[front], Ks, -(-self.h // stride), -(-self.w // stride))
         p = p[idx]
         uv = np.rint(project(p, self.K)).astype(np.int64)
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h)
@@ -308,10 +312,13 @@ class _Problem:
     # -- stage 3: coarse ICP in 3-D
 
     def coarse(self, T):
+        """3-D ICP of the moving pixels to the model, window shrinking; up to 3 matchings per window,
+        fewer once a matching moves the pose by less than a tenth of the window (the rotation taken at 1 m)."""
         for window in self.opts.coarse_windows_m:
             for _ in range(3):
                 p_base = self.mov_p @ T[:3, :3].T + T[:3, 3]
-                d, j = self.tree.query(np.c_[p_base, self.mov_frame * _FRAME_KEY_M], distance_upper_bound=window)
+                d, j = self.tree.query(np.c_[p_base, self.mov_frame * _FRAME_KEY_M], distance_upper_bound=window,
+                                       workers=-1)
                 ok = np.isfinite(d)
                 if ok.sum() < 50:
                     break
@@ -325,7 +332,10 @@ class _Problem:
                     break
                 fit = solve_point_to_plane(self.mov_p[sel], self.s.points_base[jj], self.s.normals_base[jj],
                                            T, scale_m=window / 3, loss="cauchy", iterations=2)
+                moved = pose_distance(T, fit.T_base_cam)
                 T = fit.T_base_cam
+                if np.radians(moved[0]) + moved[1] / 1e3 < 0.1 * window:
+                    break
         return T
 
     # -- stage 4: fine, projective
@@ -481,7 +491,7 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     elif rms_mm > opts.max_residual_ratio * expected_mm:
         refused = (f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth "
                    f"noise")
-    elif step > 1e-5:
+    elif step > 1e-4:
         refused = f"did not converge: last step {step:.2g} (rad + m)"
     return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag)
 
