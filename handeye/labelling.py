@@ -21,7 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.core.dataset import CAMERA_COLUMNS, LABEL_COLUMNS, Dataset, poses_to_columns, write_table
+from handeye.core.dataset import (
+    CAMERA_COLUMNS,
+    LABEL_COLUMNS,
+    MARKERLESS_COLUMNS,
+    Dataset,
+    camera_table_columns,
+    poses_to_columns,
+    write_table,
+)
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
 
@@ -171,13 +179,13 @@ def label_dataset(root: str | Path, workers: int = 2, method: str = "park", prog
             pool.join()
         if bar is not None:
             bar.close()
-    table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS}
+    table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS or k in MARKERLESS_COLUMNS}
     for col in LABEL_COLUMNS:
         table[col] = np.array([results[c][col] for c in range(len(ds))],
                               dtype=object if col == "label_status" else float)
     for col in ("label_views_used", "label_views_total"):
         table[col] = table[col].astype(int)
-    write_table(ds.cameras_path, table, CAMERA_COLUMNS + LABEL_COLUMNS)
+    write_table(ds.cameras_path, table, camera_table_columns(table))
     (ds.root / "labels.md").write_text(label_table_markdown(table) + "\n")
     if plot:
         plot_label_errors(table, ds.root / "label_errors.png")

@@ -27,7 +27,8 @@ from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError, HandEyeInputError, ShapeError
 from handeye.core.se3 import transform_from_pos_quat_xyzw
 
-__all__ = ["MarkerlessRun", "markerless_dataset", "calibrate_camera", "robot_surface_for", "read_start"]
+__all__ = ["MarkerlessRun", "markerless_dataset", "calibrate_camera", "robot_surface_for", "read_start",
+           "write_markerless_labels"]
 
 
 @dataclass
@@ -244,3 +245,44 @@ def markerless_dataset(root: str | Path, cameras: list[int] | None = None, model
         if labels is not None and np.all(np.isfinite(labels[c])) and np.all(np.isfinite(truth[c])):
             run.label_errors[c] = pose_distance(labels[c], truth[c])
     return run
+
+
+def write_markerless_labels(root: str | Path, run: MarkerlessRun) -> Path:
+    """Write the accepted results as the dataset's markerless labels (``cameras.csv``, other columns kept).
+
+    Cameras not in ``run`` keep the markerless label they had (or get none); a refused camera gets a NaN
+    pose and ``markerless_status`` ``refused: <reason>``.
+
+    Returns
+    -------
+    Path
+        The camera table written.
+    """
+    from handeye.core.dataset import (
+        MARKERLESS_COLUMNS,
+        camera_table_columns,
+        pose_columns,
+        poses_to_columns,
+        write_table,
+    )
+
+    ds = Dataset.open(root)
+    cams = dict(ds.cameras())
+    n = len(ds)
+    if "T_base_cam_markerless.x" not in cams:
+        for col in MARKERLESS_COLUMNS:
+            cams[col] = np.array([""] * n, dtype=object) if col == "markerless_status" else np.full(n, np.nan)
+    cols = {c: np.array(cams[c], dtype=object if c == "markerless_status" else float) for c in MARKERLESS_COLUMNS}
+    for c, res in run.results.items():
+        pose = poses_to_columns("T_base_cam_markerless", res.T_base_cam[None]) if res.ok else \
+            {k: [np.nan] for k in pose_columns("T_base_cam_markerless")}
+        for k, v in pose.items():
+            cols[k][c] = v[0]
+        cols["markerless_status"][c] = "ok" if res.ok else f"refused: {res.refused}"
+        cols["markerless_sigma_rot_deg"][c] = res.sigma["rotation_deg"] if res.ok else np.nan
+        cols["markerless_sigma_trans_mm"][c] = res.sigma["translation_mm"] if res.ok else np.nan
+        err = run.errors.get(c, (np.nan, np.nan))
+        cols["markerless_error_rot_deg"][c], cols["markerless_error_trans_mm"][c] = err
+    cams.update(cols)
+    write_table(ds.cameras_path, cams, camera_table_columns(cams))
+    return ds.cameras_path

@@ -19,7 +19,7 @@ from handeye.core.se3 import pos_quat_xyzw_from_transform
 
 __all__ = ["FrameSet", "load_frames", "pose_targets", "LABEL_SOURCES"]
 
-LABEL_SOURCES = ("classic", "truth")
+LABEL_SOURCES = ("classic", "truth", "markerless")
 
 
 @dataclass
@@ -106,8 +106,10 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
     image_size : (int, int)
         ``(width, height)`` the images are resized to (area average for colour, nearest for depth,
         so no depth is averaged with "no depth").
-    labels : {"classic", "truth"}
-        Which ``T_base_cam`` the targets are.
+    labels : {"classic", "truth", "markerless"}
+        Which ``T_base_cam`` the targets are. ``markerless`` is the board-free cell: the first
+        region's camera poses keep their classic label (the one board session of the cell), every
+        later pose takes its markerless label (``handeye markerless --write-labels``).
     cameras : list of int, optional
         Only these camera poses.
     progress : bool
@@ -133,6 +135,14 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         if failed:
             raise DatasetError(f"{ds.cameras_path}: camera poses {failed} have no classic label "
                                f"({cams['label_status'][failed[0]][:80]}); relabel, or train with labels='truth'")
+    elif labels == "markerless":
+        target = ds.markerless_labels().copy()
+        first = cams["region"] == 0
+        target[first] = ds.labels()[first]
+        missing = [c for c in range(len(ds)) if not np.isfinite(target[c]).all()]
+        if missing:
+            raise DatasetError(f"{ds.cameras_path}: camera poses {missing} have no label (markerless refused after "
+                               f"the first region, or no classic label in it)")
     else:
         target = truth
         if not np.isfinite(truth).all():

@@ -101,9 +101,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_detections(args: argparse.Namespace) -> int:
     from classic.vision.views import Views
-    from handeye.image_calibration import calibrate_from_views, pair_robot_poses
     from handeye.core.posefile import read_robot_poses
     from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
+    from handeye.image_calibration import calibrate_from_views, pair_robot_poses
 
     setup = normalize_setup(args.setup)
     views = Views.load(args.detections)

@@ -32,7 +32,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     r.add_argument("--data", type=Path, required=True, help="labelled dataset directory")
     r.add_argument("--preset", default="cpu", help="tiny, demo, cpu (default) or paper")
     r.add_argument("--strategies", default="batch,naive,reservoir,selection")
-    r.add_argument("--labels", default="classic", choices=("classic", "truth"), help="training targets")
+    r.add_argument("--labels", default="classic", choices=("classic", "truth", "markerless"),
+                   help="training targets; markerless: classic labels in the first region, the markerless "
+                        "labels after it (no board)")
     r.add_argument("--out", type=Path, required=True, help="run directory")
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--threads", type=int, default=None, help="torch CPU threads")

@@ -41,6 +41,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="folder for package:// mesh paths (repeatable)")
     p.add_argument("--depth-noise", type=float, default=0.001, help="depth sigma at 1 m, metres (default 0.001)")
     p.add_argument("-o", "--out", type=Path, help="write the results as JSON")
+    p.add_argument("--write-labels", action="store_true",
+                   help="write the results into the dataset's cameras.csv as markerless labels (for "
+                        "'handeye learned run --labels markerless')")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
     return p
@@ -53,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     require_package("pinocchio", extra="sim", purpose="the robot model")
     from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import write_json_atomic
-    from handeye.markerless import markerless_dataset, read_start
+    from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
 
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
@@ -66,4 +69,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         write_json_atomic(args.out, out.to_dict())
         print(f"written: {args.out}")
+    if args.write_labels:
+        print(f"written: {write_markerless_labels(args.dataset, out)} (markerless label columns)")
     return 0 if all(r.ok for r in out.results.values()) else 1

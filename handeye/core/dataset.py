@@ -42,7 +42,8 @@ from handeye.core.errors import DatasetError
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = [
-    "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "Dataset",
+    "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "MARKERLESS_COLUMNS",
+    "camera_table_columns", "Dataset",
     "pose_columns", "frame_columns", "poses_to_columns", "columns_to_poses", "read_table", "write_table", "shard_name",
     "write_manifest", "shard_is_complete", "write_json_atomic", "encode_depth", "decode_depth",
 ]
@@ -66,8 +67,21 @@ CAMERA_COLUMNS = ["camera_id", "region", "split", "azimuth_deg", "elevation_deg"
 LABEL_COLUMNS = [*pose_columns("T_base_cam_label"), "label_status", "label_views_used", "label_views_total",
                  "label_rms_px", "label_sigma_rot_deg", "label_sigma_trans_mm", "label_error_rot_deg",
                  "label_error_trans_mm"]
+#: Written by ``handeye markerless --write-labels``: the board-free label from the robot's surface.
+MARKERLESS_COLUMNS = [*pose_columns("T_base_cam_markerless"), "markerless_status", "markerless_sigma_rot_deg",
+                      "markerless_sigma_trans_mm", "markerless_error_rot_deg", "markerless_error_trans_mm"]
 _INT_COLUMNS = {"camera_id", "region", "frame", "label_views_used", "label_views_total"}
-_STR_COLUMNS = {"split", "recording", "rgb", "depth", "label_status"}
+_STR_COLUMNS = {"split", "recording", "rgb", "depth", "label_status", "markerless_status"}
+
+
+def camera_table_columns(table: dict) -> list[str]:
+    """The camera table's columns in order: placement and truth, then the label groups the table has."""
+    cols = list(CAMERA_COLUMNS)
+    if "T_base_cam_label.x" in table:
+        cols += LABEL_COLUMNS
+    if "T_base_cam_markerless.x" in table:
+        cols += MARKERLESS_COLUMNS
+    return cols
 
 
 def shard_name(camera_id: int) -> str:
@@ -351,8 +365,9 @@ class Dataset:
             if bad:
                 raise DatasetError(f"{self.cameras_path}: split {bad[0]!r} is not one of {SPLITS}")
             columns_to_poses(table, "T_base_cam_true", str(self.cameras_path))
-            if "T_base_cam_label.x" in table:
-                columns_to_poses(table, "T_base_cam_label", str(self.cameras_path))
+            for group in ("T_base_cam_label", "T_base_cam_markerless"):
+                if f"{group}.x" in table:
+                    columns_to_poses(table, group, str(self.cameras_path))
             self._cameras = table
         return self._cameras
 
@@ -420,6 +435,20 @@ class Dataset:
         if "T_base_cam_label.x" not in cams:
             raise DatasetError(f"{self.cameras_path}: no labels; run 'handeye label {self.root}' first")
         return columns_to_poses(cams, "T_base_cam_label", str(self.cameras_path))
+
+    def markerless_labels(self) -> np.ndarray:
+        """Markerless labels ``T_base_cam`` per camera pose, shape (N, 4, 4) (NaN where refused).
+
+        Raises
+        ------
+        DatasetError
+            When ``handeye markerless --write-labels`` has not been run on the dataset.
+        """
+        cams = self.cameras()
+        if "T_base_cam_markerless.x" not in cams:
+            raise DatasetError(f"{self.cameras_path}: no markerless labels; run 'handeye markerless {self.root} "
+                               f"--write-labels' first")
+        return columns_to_poses(cams, "T_base_cam_markerless", str(self.cameras_path))
 
     # -- images
 

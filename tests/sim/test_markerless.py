@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.tolerances import SIGMA_BOUND
+from tests.tolerances import FLOAT32_POSITION_MM, SIGMA_BOUND
 
 pytest.importorskip("pinocchio")
 
@@ -87,3 +87,28 @@ def test_bad_robot_and_dataset_inputs_are_named(small_copy, tmp_path):
     meta_path.write_text(json.dumps(meta))
     with pytest.raises(HandEyeInputError):
         markerless_dataset(small_copy, cameras=[0])
+
+
+def test_markerless_labels_feed_the_board_free_continual_run(small_copy):
+    """--write-labels fills cameras.csv; relabelling keeps them; labels='markerless' trains on them after region 0."""
+    pytest.importorskip("torch")
+    from handeye.core.dataset import Dataset
+    from handeye.labelling import label_dataset
+    from handeye.markerless import markerless_dataset, write_markerless_labels
+    from learned.data import load_frames
+
+    run = markerless_dataset(small_copy)
+    write_markerless_labels(small_copy, run)
+    label_dataset(small_copy, workers=1, progress=False)  # relabelling keeps the markerless columns
+    ds = Dataset.open(small_copy)
+    cams = ds.cameras()
+    assert list(cams["markerless_status"]) == ["ok"] * len(ds)
+    ml, truth, classic = ds.markerless_labels(), ds.truth(), ds.labels()
+    for c, res in run.results.items():
+        np.testing.assert_allclose(ml[c], res.T_base_cam, atol=1e-9)
+        assert cams["markerless_error_trans_mm"][c] == pytest.approx(run.errors[c][1])
+    frames = load_frames(small_copy, (32, 32), "markerless", progress=False)
+    for c in range(len(ds)):
+        k = np.flatnonzero(frames.camera == c)[0]
+        expected = classic[c] if cams["region"][c] == 0 else ml[c]
+        np.testing.assert_allclose(frames.t_base_cam_mm[k], expected[:3, 3] * 1e3, atol=FLOAT32_POSITION_MM)
