@@ -135,7 +135,8 @@ def main(argv=None):
     ap.add_argument("--split", default="test")
     ap.add_argument("--sensitivity", action="store_true")
     ap.add_argument("--basin-data", type=Path, help="dataset for the basin (all cameras)")
-    ap.add_argument("--basin-trials", type=int, default=24)
+    ap.add_argument("--basin-trials", type=int, default=200, help="trials per cell, centroid start beside")
+    ap.add_argument("--basin-trials-alone", type=int, default=50, help="trials per cell, the given start alone")
     ap.add_argument("--results", type=Path, default=Path("benchmarks/results/markerless.md"))
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
@@ -202,14 +203,14 @@ def main(argv=None):
         bsigma = bds.meta.get("recipe", {}).get("noise", {}).get("depth_sigma_m_at_1m", 0.001) or 0.001
         bopts = replace(opts, depth_sigma_m_at_1m=bsigma, zbuffer_stride=bstride)
         cells = [(50, 5), (100, 10), (200, 20), (300, 30)]
-        for centroid in (True, False):
+        for centroid, trials in ((True, args.basin_trials), (False, args.basin_trials_alone)):
             emit()
-            emit(f"## Basin: {bds.root.name}, {args.basin_trials} trials per cell over its {len(bds)} placements; "
+            emit(f"## Basin: {bds.root.name}, {trials} trials per cell over its {len(bds)} placements; "
                  f"{'centroid start tried beside the given one' if centroid else 'the given start alone'}")
             emit()
             emit("| start off by | success | wrong answer | refused |")
             emit("|---|---|---|---|")
-            for (mm, deg), (g, wr, rf, n) in basin(bds, bsurface, bopts, cells, args.basin_trials, centroid,
+            for (mm, deg), (g, wr, rf, n) in basin(bds, bsurface, bopts, cells, trials, centroid,
                                                    rng).items():
                 emit(f"| {mm} mm, {deg} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {rf} |")
     args.results.parent.mkdir(parents=True, exist_ok=True)

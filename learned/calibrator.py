@@ -20,19 +20,19 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
 from learned.data import FrameSet, concat
 from learned.experiment import Preset, average_quaternions, get_preset
 from learned.model import KINDS, CalibrationNet, ModelConfig
+from learned.safe_io import arrays_to_tensors, load_document, save_document, tensors_to_arrays
 from learned.strategies import per_camera_sample, random_fraction, sample_error
 from learned.trainer import TrainConfig, predict, train
 
 __all__ = ["ContinualCalibrator"]
 
-STATE_VERSION = 1
+STATE_VERSION = 2  # tensors and JSON (learned.safe_io); version 1 was pickled
 
 
 class ContinualCalibrator:
@@ -148,24 +148,27 @@ class ContinualCalibrator:
 
     def save(self, path: str | Path) -> None:
         """Weights, configs, buffers, history and the random state, in one file."""
-        doc = {"version": STATE_VERSION, "preset": self.preset.to_dict(), "history": self.history,
-               "sample_fraction": self.sample_fraction,
+        doc = {"preset": self.preset.to_dict(), "history": self.history, "sample_fraction": self.sample_fraction,
                "rng": json.dumps(self.rng.bit_generator.state),
-               "models": {k: {"config": m.config.to_dict(), "state_dict": m.state_dict()}
-                          for k, m in self.models.items()},
-               "memory": {k: (None if f is None else asdict(f)) for k, f in self.memory.items()}}
-        torch.save(doc, Path(path))
+               "configs": {k: m.config.to_dict() for k, m in self.models.items()}, "memory_other": {}}
+        for k, m in self.models.items():
+            doc[f"weights.{k}"] = dict(m.state_dict())
+        for k, f in self.memory.items():
+            if f is None:
+                doc["memory_other"][k] = None
+                continue
+            fields = asdict(f)
+            scalars = {"label_source": fields.pop("label_source"), "image_size": list(fields.pop("image_size"))}
+            tensors, other = arrays_to_tensors(fields)
+            doc[f"memory.{k}"] = tensors
+            doc["memory_other"][k] = {"scalars": scalars, "arrays": other}
+        save_document(path, "calibrator", STATE_VERSION, doc)
 
     @classmethod
     def load(cls, path: str | Path, preset: str | Preset | None = None) -> "ContinualCalibrator":
         """Restore a saved calibrator; with ``preset``, refuse a state saved with another one."""
         path = Path(path)
-        if not path.is_file():
-            raise HandEyeInputError(f"{path}: no saved calibrator")
-        doc = torch.load(path, map_location="cpu", weights_only=False)
-        if doc.get("version") != STATE_VERSION:
-            raise HandEyeInputError(f"{path}: calibrator state version {doc.get('version')!r}, expected "
-                                    f"{STATE_VERSION}")
+        doc = load_document(path, "calibrator", STATE_VERSION)
         saved = Preset.from_dict(doc["preset"])
         if preset is not None:
             want = get_preset(preset) if isinstance(preset, str) else preset
@@ -175,9 +178,16 @@ class ContinualCalibrator:
         cal = cls(saved, sample_fraction=doc["sample_fraction"])
         cal.rng.bit_generator.state = json.loads(doc["rng"])
         cal.history = doc["history"]
-        for k, m in doc["models"].items():
-            cal.models[k] = CalibrationNet(ModelConfig.from_dict(m["config"]))
-            cal.models[k].load_state_dict(m["state_dict"])
+        for k, config in doc["configs"].items():
+            cal.models[k] = CalibrationNet(ModelConfig.from_dict(config))
+            cal.models[k].load_state_dict(doc[f"weights.{k}"])
             cal.models[k].eval()
-        cal.memory = {k: (None if f is None else FrameSet(**f)) for k, f in doc["memory"].items()}
+        cal.memory = {}
+        for k, other in doc["memory_other"].items():
+            if other is None:
+                cal.memory[k] = None
+                continue
+            arrays = tensors_to_arrays(doc[f"memory.{k}"], other["arrays"])
+            cal.memory[k] = FrameSet(**arrays, label_source=other["scalars"]["label_source"],
+                                     image_size=tuple(other["scalars"]["image_size"]))
         return cal

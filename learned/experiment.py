@@ -23,6 +23,7 @@ from handeye.core.errors import HandEyeInputError
 from learned.data import FrameSet, load_frames
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
 from learned.model import KINDS, CalibrationNet, ModelConfig
+from learned.safe_io import load_document, save_document
 from learned.strategies import STRATEGIES, make_strategy
 from learned.trainer import TrainConfig, errors, predict
 
@@ -178,10 +179,14 @@ def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames:
     return out
 
 
+#: Model files: tensors and JSON only (:mod:`learned.safe_io`); version 1 files were pickled.
+MODEL_FILE_VERSION = 2
+
+
 def save_model(model: CalibrationNet, path: Path, meta: dict | None = None) -> None:
     """Weights with their config (and any metrics) in one file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({"config": model.config.to_dict(), "state_dict": model.state_dict(), "meta": meta or {}}, path)
+    save_document(path, "model", MODEL_FILE_VERSION,
+                  {"config": model.config.to_dict(), "state_dict": dict(model.state_dict()), "meta": meta or {}})
 
 
 def load_model(path: str | Path, expect: ModelConfig | None = None) -> CalibrationNet:
@@ -193,9 +198,7 @@ def load_model(path: str | Path, expect: ModelConfig | None = None) -> Calibrati
         Missing file, or a config other than ``expect`` (naming the fields that differ).
     """
     path = Path(path)
-    if not path.is_file():
-        raise HandEyeInputError(f"{path}: no saved model")
-    doc = torch.load(path, map_location="cpu", weights_only=False)
+    doc = load_document(path, "model", MODEL_FILE_VERSION)
     config = ModelConfig.from_dict(doc["config"])
     if expect is not None and config != expect:
         diff = [k for k in asdict(config) if getattr(config, k) != getattr(expect, k)]

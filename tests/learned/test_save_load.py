@@ -83,3 +83,34 @@ def test_calibrator_input_errors(frames, tmp_path):
     cal.save(tmp_path / "cell.pt")
     with pytest.raises(HandEyeInputError, match="saved with preset tiny"):
         ContinualCalibrator.load(tmp_path / "cell.pt", preset="demo")
+
+
+def test_files_are_read_without_pickle_and_foreign_files_are_refused(tmp_path):
+    """Saved files hold tensors and JSON only: a pickled (old or foreign) file is refused, never executed."""
+    import pickle
+
+    from learned.safe_io import SavedFileError
+
+    save_model(CalibrationNet(TINY.model_config("translation")), tmp_path / "m.pt")
+    torch.load(tmp_path / "m.pt", weights_only=True)  # loads under the safe loader
+
+    class Payload:  # what a malicious file would carry: code run on unpickling
+        def __reduce__(self):
+            return (open, (str(tmp_path / "pwned"), "w"))
+
+    with (tmp_path / "evil.pt").open("wb") as f:
+        pickle.dump({"config": {}, "state_dict": Payload()}, f, protocol=2)
+    with pytest.raises(SavedFileError, match="evil.pt: not a handeye model file"):
+        load_model(tmp_path / "evil.pt")
+    assert not (tmp_path / "pwned").exists()
+    # an old-format file (pickled dict, as version 1 wrote it) and a tensor file of someone else's
+    torch.save({"config": TINY.model_config("translation").to_dict(), "state_dict": {}, "meta": {"x": np.zeros(2)}},
+               tmp_path / "old.pt")
+    with pytest.raises(SavedFileError, match="old.pt"):
+        load_model(tmp_path / "old.pt")
+    torch.save({"weights": torch.zeros(3)}, tmp_path / "other.pt")
+    with pytest.raises(SavedFileError, match="other.pt: not a handeye model file"):
+        load_model(tmp_path / "other.pt")
+    (tmp_path / "garbage.pt").write_bytes(b"\x00\x01garbage")
+    with pytest.raises(SavedFileError, match="garbage.pt"):
+        ContinualCalibrator.load(tmp_path / "garbage.pt")
