@@ -17,7 +17,7 @@ from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.se3 import pos_quat_xyzw_from_transform
 
-__all__ = ["FrameSet", "load_frames", "pose_targets", "LABEL_SOURCES"]
+__all__ = ["FrameSet", "load_frames", "pose_targets", "with_keypoints", "LABEL_SOURCES"]
 
 LABEL_SOURCES = ("classic", "truth", "markerless")
 
@@ -42,6 +42,13 @@ class FrameSet:
     split : array of str, shape (N,)
     truth_t_base_cam_mm, truth_q_base_cam_xyzw : arrays, shapes (N, 3), (N, 4)
         The same for the truth (NaN when unknown), for validation.
+    joints : array of float32, shape (N, nq)
+        Recorded joint angles, radians.
+    intrinsics_norm : array of float32, shape (N, 4)
+        ``(fx / W, fy / H, (cx + 0.5) / W, (cy + 0.5) / H)`` of the native images (resolution-free).
+    keypoints_base : array of float32, shape (N, K, 3)
+        Points on the arm in the base frame (the keypoint model's, from forward kinematics: the front
+        fills them with :func:`with_keypoints`; K = 0 until then).
     label_source : str
     image_size : (int, int)
         ``(width, height)``.
@@ -59,6 +66,18 @@ class FrameSet:
     truth_q_base_cam_xyzw: np.ndarray
     label_source: str
     image_size: tuple
+    joints: np.ndarray | None = None
+    intrinsics_norm: np.ndarray | None = None
+    keypoints_base: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.camera)
+        if self.joints is None:
+            self.joints = np.zeros((n, 0), np.float32)
+        if self.intrinsics_norm is None:
+            self.intrinsics_norm = np.full((n, 4), np.nan, np.float32)
+        if self.keypoints_base is None:
+            self.keypoints_base = np.zeros((n, 0, 3), np.float32)
 
     def __len__(self) -> int:
         return len(self.camera)
@@ -153,7 +172,8 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
     rows = []
     for c in ids:
         t = ds.select(c, "data")
-        rows += [(c, t["rgb"][k], t["depth"][k], ds.poses(t, "T_base_ref")[k]) for k in range(len(t["frame"]))]
+        q = ds.joints(t)
+        rows += [(c, t["rgb"][k], t["depth"][k], ds.poses(t, "T_base_ref")[k], q[k]) for k in range(len(t["frame"]))]
     if not rows:
         raise DatasetError(f"{ds.root}: no data frames")
     w, h = image_size
@@ -167,7 +187,7 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         from tqdm import tqdm
 
         iterator = tqdm(rows, desc=f"load {ds.root.name}", unit="frame", file=sys.stderr)
-    for i, (c, rel_rgb, rel_depth, T_base_ref) in enumerate(iterator):
+    for i, (c, rel_rgb, rel_depth, T_base_ref, _) in enumerate(iterator):
         img = ds.rgb(c, rel_rgb)
         d = ds.depth_m(c, rel_depth)
         if native is None:
@@ -180,9 +200,30 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         t_m, q_xyzw = pos_quat_xyzw_from_transform(T_base_ref)
         pose_base_ref[i] = np.concatenate([t_m, q_xyzw])
     cam = np.array([r[0] for r in rows])
+    joints = np.array([r[4] for r in rows], dtype=np.float32)
+    intr = ds.meta["intrinsics"]
+    K, width, height = np.array(intr["K"], dtype=float), float(intr["width"]), float(intr["height"])
+    k_norm = np.array([K[0, 0] / width, K[1, 1] / height, (K[0, 2] + 0.5) / width, (K[1, 2] + 0.5) / height])
     return FrameSet(rgb, depth, pose_base_ref, t_all[cam].astype(np.float32), q_all[cam].astype(np.float32), cam,
                     cams["region"][cam], np.asarray(cams["split"][cam]).astype(str), tt_all[cam], tq_all[cam],
-                    labels, (w, h))
+                    labels, (w, h), joints=joints, intrinsics_norm=np.tile(k_norm.astype(np.float32), (n, 1)))
+
+
+def with_keypoints(frames: FrameSet, keypoints_base: np.ndarray) -> FrameSet:
+    """The frames with the keypoints' base-frame positions (from the robot's kinematics) filled in.
+
+    Parameters
+    ----------
+    frames : FrameSet
+    keypoints_base : array, shape (N, K, 3)
+        Metres, one row per frame (``sim.robot.Robot.keypoints_base(frames.joints)``).
+    """
+    kp = np.asarray(keypoints_base, dtype=np.float32)
+    if kp.ndim != 3 or kp.shape[0] != len(frames) or kp.shape[2] != 3:
+        raise HandEyeInputError(f"keypoints must be ({len(frames)}, K, 3), got {kp.shape}")
+    fields = {k: getattr(frames, k) for k in frames.__dataclass_fields__}
+    fields["keypoints_base"] = kp
+    return FrameSet(**fields)
 
 
 def concat(parts: list[FrameSet]) -> FrameSet:

@@ -22,12 +22,13 @@ import torch
 from handeye.core.errors import HandEyeInputError
 from learned.data import FrameSet, load_frames
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
-from learned.model import KINDS, CalibrationNet, ModelConfig
+from learned.model import KINDS, CalibrationNet, ModelConfig, make_network
 from learned.safe_io import load_document, save_document
 from learned.strategies import STRATEGIES, make_strategy
 from learned.trainer import TrainConfig, errors, predict
 
-__all__ = ["Preset", "PRESETS", "run_experiment", "camera_predictions", "save_model", "load_model"]
+__all__ = ["Preset", "PRESETS", "FAMILIES", "run_experiment", "camera_predictions", "keypoint_camera_predictions",
+           "save_model", "load_model"]
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,10 @@ class Preset:
     threshold_deg: float = 4.0
     repeats: int = 3
 
-    def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0)) -> ModelConfig:
+    def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
+        if kind == "keypoints":  # fully convolutional: the width of the encoders' second layer, no head
+            return ModelConfig(kind, tuple(self.image_size), (int(self.channels[min(1, len(self.channels) - 1)]),),
+                               (), n_keypoints=int(n_keypoints))
         return ModelConfig(kind, tuple(self.image_size), tuple(self.channels), tuple(self.hidden),
                            translation_offset_mm=tuple(float(v) for v in offset_mm))
 
@@ -117,9 +121,13 @@ def time_steps(frames: FrameSet) -> list[list[int]]:
     return steps
 
 
-def _subset_error(model: CalibrationNet, frames: FrameSet, region: int) -> float:
+def _subset_error(model: CalibrationNet, frames: FrameSet, region: int):
+    """Mean test error of a region: a float, or ``[mm, deg]`` for the keypoint model."""
     idx = np.flatnonzero((frames.region == region) & (frames.split == "test"))
-    return float(np.mean(errors(model, frames, idx))) if len(idx) else float("nan")
+    if not len(idx):
+        return float("nan") if model.config.kind != "keypoints" else np.full(2, np.nan)
+    e = errors(model, frames, idx)
+    return float(np.mean(e)) if e.ndim == 1 else e.mean(axis=0)
 
 
 def average_quaternions(q_xyzw: np.ndarray) -> np.ndarray:
@@ -144,6 +152,43 @@ def camera_pose_prediction(t_model: CalibrationNet, q_model: CalibrationNet, fra
     if len(idx) == 0:
         raise HandEyeInputError(f"no frames of camera {camera}")
     return predict(t_model, frames, idx).mean(axis=0), average_quaternions(predict(q_model, frames, idx))
+
+
+def keypoint_camera_predictions(model, frames: FrameSet, cameras: list[int]) -> dict:
+    """As :func:`camera_predictions`, for the keypoint model: one pose per camera from all its frames' keypoints.
+
+    The pose is the robust (Cauchy IRLS) 3-D to 3-D fit of every frame's predicted keypoints to their
+    base-frame positions (:func:`learned.keypoints.camera_pose`); the per-frame columns use each frame's
+    own fit.
+    """
+    from learned.keypoints import camera_pose, frame_poses, pose_errors
+
+    out = {k: [] for k in ("camera", "region", "learned_vs_label_mm", "learned_vs_label_deg", "learned_vs_truth_mm",
+                           "learned_vs_truth_deg", "label_vs_truth_mm", "label_vs_truth_deg",
+                           "per_frame_vs_label_mm", "per_frame_vs_label_deg")}
+    for c in cameras:
+        idx = np.flatnonzero(frames.camera == c)
+        pred = predict(model, frames, idx)
+        T, _ = camera_pose(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
+        k = idx[:1]
+        lab_t, lab_q = frames.t_base_cam_mm[k], frames.q_base_cam_xyzw[k]
+        tru_t, tru_q = frames.truth_t_base_cam_mm[k], frames.truth_q_base_cam_xyzw[k]
+        e_lab = pose_errors(T[None], lab_t, lab_q)
+        e_tru = pose_errors(T[None], tru_t, tru_q)
+        T_frames = frame_poses(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
+        ok = np.isfinite(T_frames).all(axis=(1, 2))
+        e_frames = pose_errors(T_frames[ok], frames.t_base_cam_mm[idx][ok], frames.q_base_cam_xyzw[idx][ok])
+        out["camera"].append(int(c))
+        out["region"].append(int(frames.region[idx[0]]))
+        out["learned_vs_label_mm"].append(float(e_lab[0][0]))
+        out["learned_vs_label_deg"].append(float(e_lab[1][0]))
+        out["learned_vs_truth_mm"].append(float(e_tru[0][0]))
+        out["learned_vs_truth_deg"].append(float(e_tru[1][0]))
+        out["label_vs_truth_mm"].append(float(translation_errors_mm(lab_t, tru_t)[0]))
+        out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q, tru_q)[0]))
+        out["per_frame_vs_label_mm"].append(float(np.mean(e_frames[0])) if ok.any() else float("nan"))
+        out["per_frame_vs_label_deg"].append(float(np.mean(e_frames[1])) if ok.any() else float("nan"))
+    return out
 
 
 def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
@@ -204,7 +249,7 @@ def load_model(path: str | Path, expect: ModelConfig | None = None) -> Calibrati
         diff = [k for k in asdict(config) if getattr(config, k) != getattr(expect, k)]
         what = ", ".join(f"{k}: saved {getattr(config, k)}, expected {getattr(expect, k)}" for k in diff)
         raise HandEyeInputError(f"{path}: saved with another config ({what})")
-    model = CalibrationNet(config)
+    model = make_network(config)
     model.load_state_dict(doc["state_dict"])
     model.eval()
     return model
@@ -225,9 +270,26 @@ class RunRecord:
     wall_s: float = 0.0
 
 
+FAMILIES = ("regression", "keypoints")
+
+
+def _split_keypoint_record(rec: "RunRecord") -> list:
+    """The keypoint model's record as the tables' two rows: translation (mm) and orientation (deg) errors.
+
+    One network gives both, so both rows carry the same samples, buffer and wall time.
+    """
+    out = []
+    for col, network in enumerate(("translation", "orientation")):
+        r = RunRecord(rec.strategy, network, rec.repeat, [[float(np.ravel(e)[col]) if np.ndim(e) else float(e)
+                                                          for e in row] for row in rec.matrix],
+                      rec.processed, rec.stored, rec.evaluated, list(rec.skipped), rec.wall_s)
+        out.append(r)
+    return out
+
+
 def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", strategies=("batch", "naive",
                    "reservoir", "selection"), out: str | Path | None = None, labels: str = "classic", seed: int = 0,
-                   progress: bool = True, threads: int | None = None) -> dict:
+                   progress: bool = True, threads: int | None = None, family: str = "regression") -> dict:
     """Run the protocol; write ``results.json`` and the last repeat's networks under ``out``.
 
     Parameters
@@ -243,6 +305,10 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
     progress : bool
     threads : int, optional
         torch CPU threads.
+    family : {"regression", "keypoints"}
+        The paper's two networks (translation, orientation), or the equivariant keypoint model
+        (:mod:`learned.keypoints`; the frames must carry ``keypoints_base``). The keypoint model is one
+        network whose poses give both the translation and the orientation rows of every table.
 
     Returns
     -------
@@ -250,6 +316,8 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
         The results (as written to ``results.json``).
     """
     preset = get_preset(preset) if isinstance(preset, str) else preset
+    if family not in FAMILIES:
+        raise HandEyeInputError(f"unknown model family {family!r}: use {', '.join(FAMILIES)}")
     strategies = list(strategies)
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
@@ -266,13 +334,19 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
     offset_mm = frames.t_base_cam_mm[np.isin(frames.camera, steps[0])].mean(axis=0)
     records, validation = [], {}
     out = Path(out) if out is not None else None
+    kinds = KINDS if family == "regression" else ("keypoints",)
+    n_keypoints = frames.keypoints_base.shape[1]
+    if family == "keypoints" and n_keypoints < 3:
+        raise HandEyeInputError("the keypoint model needs the keypoints' base-frame positions in the frames "
+                                "(learned.data.with_keypoints; 'handeye learned run --family keypoints' fills them)")
     for si, name in enumerate(strategies):
-        for ki, kind in enumerate(KINDS):
+        for ki, kind in enumerate(kinds):
             for rep in range(preset.repeats):
                 t0 = time.perf_counter()
                 rng = np.random.default_rng([seed, rep, si, ki])
                 first, later = preset.train_configs(name)
-                strat = make_strategy(name, preset.model_config(kind, offset_mm), first, later, rng, progress,
+                strat = make_strategy(name, preset.model_config(kind, offset_mm, n_keypoints), first, later, rng,
+                                      progress,
                                       c1=preset.c1, c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
                                       threshold_deg=preset.threshold_deg)
                 rec = RunRecord(name, kind, rep)
@@ -282,27 +356,38 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
                     rec.matrix.append([_subset_error(strat.model, frames, r) if trained else float("nan")
                                        for r in regions])
                     if progress:
-                        row = " ".join(f"S{r + 1} {e:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
+                        row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
                         print(f"{name:9s} {kind:11s} repeat {rep + 1} step {k + 1}: {row}", file=sys.stderr)
                 rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
                 rec.skipped = list(strat.skipped)
                 rec.wall_s = time.perf_counter() - t0
-                records.append(rec)
+                records += _split_keypoint_record(rec) if kind == "keypoints" else [rec]
                 if rep == preset.repeats - 1:
                     validation.setdefault(name, {})[kind] = strat.model
                     if out is not None:
                         save_model(strat.model, out / name / f"{kind}.pt",
                                    {"preset": preset.name, "labels": labels, "seed": seed})
-    per_camera = {name: camera_predictions(m["translation"], m["orientation"], frames, test_cams)
-                  for name, m in validation.items()}
-    results = {"preset": preset.to_dict(), "labels": labels, "seed": seed, "regions": regions,
+    if family == "keypoints":
+        per_camera = {name: keypoint_camera_predictions(m["keypoints"], frames, test_cams)
+                      for name, m in validation.items()}
+    else:
+        per_camera = {name: camera_predictions(m["translation"], m["orientation"], frames, test_cams)
+                      for name, m in validation.items()}
+    test_idx = np.flatnonzero(frames.split == "test")
+    if family == "keypoints":
+        summary = {}
+        for name, m in validation.items():
+            e = errors(m["keypoints"], frames, test_idx)
+            summary[name] = {"translation": summarize(e[:, 0]), "orientation": summarize(e[:, 1])}
+    else:
+        summary = {name: {kind: summarize(errors(validation[name][kind], frames, test_idx)) for kind in KINDS}
+                   for name in validation}
+    results = {"preset": preset.to_dict(), "labels": labels, "seed": seed, "family": family, "regions": regions,
                "steps": steps, "test_cameras": test_cams, "strategies": strategies,
                "runs": [asdict(r) for r in records], "per_camera": per_camera,
                "test_frames_per_region": {int(r): int(np.sum((frames.region == r) & (frames.split == "test")))
                                           for r in regions},
-               "summary": {name: {kind: summarize(errors(validation[name][kind], frames,
-                                                         np.flatnonzero(frames.split == "test")))
-                                  for kind in KINDS} for name in validation}}
+               "summary": summary}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "results.json").write_text(json.dumps(results, indent=1))

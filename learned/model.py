@@ -18,9 +18,11 @@ from torch import nn
 
 from learned.quaternion import quaternion_from_10
 
-__all__ = ["ModelConfig", "CalibrationNet", "KINDS"]
+__all__ = ["ModelConfig", "CalibrationNet", "KINDS", "make_network"]
 
 KINDS = ("translation", "orientation")
+#: Every network kind: the paper's two, and the equivariant keypoint model (:mod:`learned.keypoints`).
+ALL_KINDS = KINDS + ("keypoints",)
 
 
 @dataclass(frozen=True)
@@ -29,7 +31,7 @@ class ModelConfig:
 
     Attributes
     ----------
-    kind : {"translation", "orientation"}
+    kind : {"translation", "orientation", "keypoints"}
     image_size : (int, int)
         ``(width, height)`` of the inputs.
     channels : tuple of int
@@ -43,6 +45,8 @@ class ModelConfig:
         Usually the mean camera position of the first time step's training data.
     depth_scale_m : float
         Depth is divided by this before the encoder.
+    n_keypoints : int
+        Keypoints of the ``keypoints`` kind (0 for the others).
     """
 
     kind: str
@@ -52,10 +56,18 @@ class ModelConfig:
     translation_scale_mm: float = 500.0
     translation_offset_mm: tuple = (0.0, 0.0, 0.0)
     depth_scale_m: float = 3.0
+    n_keypoints: int = 0
 
     def __post_init__(self):
-        if self.kind not in KINDS:
-            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if self.kind not in ALL_KINDS:
+            raise ValueError(f"kind must be one of {ALL_KINDS}, got {self.kind!r}")
+        if self.kind == "keypoints":
+            if self.n_keypoints < 3:
+                raise ValueError(f"the keypoint model needs at least 3 keypoints, got {self.n_keypoints}")
+            w, h = self.image_size
+            if w % 4 or h % 4:
+                raise ValueError(f"image size {w}x{h} must be divisible by 4 for the keypoint model")
+            return
         w, h = self.image_size
         stride = 2 ** len(self.channels)
         if w % stride or h % stride:
@@ -123,3 +135,12 @@ class CalibrationNet(nn.Module):
         if self.config.kind == "translation":
             return out * self.config.translation_scale_mm + out.new_tensor(self.config.translation_offset_mm)
         return quaternion_from_10(out)
+
+
+def make_network(config: ModelConfig) -> nn.Module:
+    """The network of a config: :class:`CalibrationNet` or :class:`learned.keypoints.KeypointNet`."""
+    if config.kind == "keypoints":
+        from learned.keypoints import KeypointNet
+
+        return KeypointNet(config)
+    return CalibrationNet(config)

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from learned.data import FrameSet
-from learned.model import CalibrationNet, ModelConfig
+from learned.model import CalibrationNet, ModelConfig, make_network
 from learned.trainer import TrainConfig, default_device, errors, train
 
 __all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy", "random_fraction",
@@ -52,10 +52,15 @@ def per_camera_sample(index: np.ndarray, camera: np.ndarray, c1: int, rng: np.ra
 
 
 def sample_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, fraction: float,
-                 rng: np.random.Generator) -> tuple[float, int]:
-    """Algorithm 2's novelty measure: mean error (mm or deg) of a random ``fraction`` of ``index``, and its size."""
+                 rng: np.random.Generator):
+    """Algorithm 2's novelty measure: mean error of a random ``fraction`` of ``index``, and the sample's size.
+
+    The mean is mm or deg (a float) for the paper's networks, and ``(mm, deg)`` (an array) for the
+    keypoint model, whose one network gives both.
+    """
     sample = random_fraction(index, fraction, rng)
-    return float(np.mean(errors(model, frames, sample))), len(sample)
+    e = errors(model, frames, sample)
+    return (float(np.mean(e)) if e.ndim == 1 else e.mean(axis=0)), len(sample)
 
 
 @dataclass
@@ -97,7 +102,7 @@ class Strategy:
     name = "base"
 
     def __post_init__(self):
-        self.model = CalibrationNet(self.config).to(default_device())
+        self.model = make_network(self.config).to(default_device())
 
     @property
     def stored(self) -> int:
@@ -127,7 +132,7 @@ class Batch(Strategy):
     def step(self, step, cameras, frames, last):
         self.seen += list(cameras)
         if last:
-            self.model = CalibrationNet(self.config).to(default_device())
+            self.model = make_network(self.config).to(default_device())
             self._train(frames, self._frames_of(frames, self.seen), 0)
         self.trained_on.append(list(self.seen) if last else [])
 
@@ -184,14 +189,20 @@ class Selection(Reservoir):
     name = "selection"
 
     @property
-    def threshold(self) -> float:
+    def threshold(self):
+        if self.config.kind == "keypoints":
+            return np.array([self.threshold_mm, self.threshold_deg])
         return self.threshold_mm if self.config.kind == "translation" else self.threshold_deg
 
-    def is_novel(self, frames: FrameSet, camera: int) -> tuple[bool, float]:
-        """Mean error of the current network on a random sample of the pose's frames, against the threshold."""
+    def is_novel(self, frames: FrameSet, camera: int):
+        """Mean error of the current network on a random sample of the pose's frames, against the threshold.
+
+        The keypoint model's pose is novel when either its translation or its rotation error is above its
+        threshold.
+        """
         mean, n = sample_error(self.model, frames, self._frames_of(frames, [camera]), self.sample_fraction, self.rng)
         self.evaluated += n
-        return mean > self.threshold, mean
+        return bool(np.any(np.asarray(mean) > self.threshold)), mean
 
     def step(self, step, cameras, frames, last):
         if step == 0:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from handeye.core.errors import HandEyeInputError
 from learned.data import FrameSet
 from learned.losses import chordal_loss, translation_loss
 from learned.metrics import rotation_errors_deg, translation_errors_mm
@@ -49,9 +50,25 @@ def _tensors(frames: FrameSet, index: np.ndarray, device: torch.device):
             torch.from_numpy(frames.pose_base_ref[index]).to(device))
 
 
+def _keypoint_targets(frames: FrameSet, index: np.ndarray, against: str = "label") -> np.ndarray:
+    from learned.keypoints import keypoint_targets
+
+    if frames.keypoints_base.shape[1] == 0:
+        raise HandEyeInputError("the keypoint model needs the keypoints' base-frame positions (learned.data."
+                                "with_keypoints; 'handeye learned run --family keypoints' fills them)")
+    t, q = ((frames.t_base_cam_mm, frames.q_base_cam_xyzw) if against == "label" else
+            (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw))
+    return keypoint_targets(frames.keypoints_base[index], t[index], q[index], frames.intrinsics_norm[index])
+
+
 def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> torch.Tensor:
     device = _device(model)
     out = model(*_tensors(frames, index, device))
+    if model.config.kind == "keypoints":
+        from learned.keypoints import keypoint_loss
+
+        target = torch.from_numpy(_keypoint_targets(frames, index).astype(np.float32)).to(device)
+        return keypoint_loss(out, target, model.config.image_size)
     if model.config.kind == "translation":
         return translation_loss(out, torch.from_numpy(frames.t_base_cam_mm[index]).to(device))
     return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device))
@@ -116,17 +133,40 @@ def predict(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = 
     device = _device(model)
     out = [model(*_tensors(frames, index[s:s + batch_size], device)).cpu().numpy()
            for s in range(0, len(index), batch_size)]
+    if model.config.kind == "keypoints":
+        return np.concatenate(out) if out else np.zeros((0, model.config.n_keypoints, 3))
     width = 3 if model.config.kind == "translation" else 4
     return np.concatenate(out) if out else np.zeros((0, width))
 
 
 def errors(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None,
            against: str = "label") -> np.ndarray:
-    """Per-frame error of a network, mm or degrees, against the training targets or the truth."""
+    """Per-frame error of a network, mm or degrees, against the training targets or the truth.
+
+    Shape (N,), or (N, 2) for the keypoint model: translation mm and rotation deg of each frame's
+    own pose (:func:`learned.keypoints.frame_poses`).
+    """
     index = np.arange(len(frames)) if index is None else np.asarray(index)
     pred = predict(model, frames, index)
+    if model.config.kind == "keypoints":
+        return np.column_stack(keypoint_pose_errors(pred, frames, index, against))
     if model.config.kind == "translation":
         t_mm = frames.t_base_cam_mm if against == "label" else frames.truth_t_base_cam_mm
         return translation_errors_mm(pred, t_mm[index])
     q_xyzw = frames.q_base_cam_xyzw if against == "label" else frames.truth_q_base_cam_xyzw
     return rotation_errors_deg(pred, q_xyzw[index])
+
+
+def keypoint_pose_errors(pred: np.ndarray, frames: FrameSet, index: np.ndarray, against: str = "label"
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Translation (mm) and rotation (deg) errors of the per-frame poses solved from predicted keypoints."""
+    from learned.keypoints import frame_poses, pose_errors
+
+    T = frame_poses(pred, frames.keypoints_base[index], frames.intrinsics_norm[index])
+    t, q = ((frames.t_base_cam_mm, frames.q_base_cam_xyzw) if against == "label" else
+            (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw))
+    bad = ~np.isfinite(T).all(axis=(1, 2))
+    T[bad] = np.eye(4)
+    e_t, e_r = pose_errors(T, t[index], q[index])
+    e_t[bad], e_r[bad] = np.inf, 180.0
+    return e_t, e_r

@@ -81,6 +81,37 @@ class Robot:
             out[k] = self.data.oMf[self.ee_frame].homogeneous
         return out.reshape(q.shape[:-1] + (4, 4))
 
+    @property
+    def keypoint_names(self) -> list[str]:
+        """Names of :meth:`keypoints_base`: every joint's origin, then the flange and the reference point."""
+        return [str(self.model.names[j]) for j in range(1, self.model.njoints)] + ["flange", "ref"]
+
+    def keypoints_base(self, q: np.ndarray) -> np.ndarray:
+        """Points on the arm known from the joints: joint origins, flange, reference point, base frame.
+
+        What the learned keypoint model finds in the image (``learned.keypoints``).
+
+        Parameters
+        ----------
+        q : array, shape (..., nq)
+
+        Returns
+        -------
+        p_base : array, shape (..., nq + 2, 3)
+            Metres.
+        """
+        pin = self.pin
+        q = np.asarray(q, dtype=float)
+        flat = q.reshape(-1, self.nq)
+        out = np.empty((len(flat), self.model.njoints + 1, 3))
+        for k, qk in enumerate(flat):
+            pin.framesForwardKinematics(self.model, self.data, qk)
+            out[k, :-2] = [self.data.oMi[j].translation for j in range(1, self.model.njoints)]
+            T_base_ee = self.data.oMf[self.ee_frame].homogeneous
+            out[k, -2] = T_base_ee[:3, 3]
+            out[k, -1] = (T_base_ee @ self.T_ee_ref)[:3, 3]
+        return out.reshape(q.shape[:-1] + out.shape[1:])
+
     def fk_ref(self, q: np.ndarray) -> np.ndarray:
         """Reference-point poses ``T_base_ref = T_base_ee @ T_ee_ref``, shape (..., 4, 4)."""
         return self.fk(q) @ self.T_ee_ref

@@ -35,12 +35,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from classic.markerless.depth import backproject, moving_mask, static_depth
 from classic.markerless.point_to_plane import solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
+from handeye.core.rigid import rigid_transform
 from handeye.core.se3 import invert_transform, make_transform, so3_log
 from handeye.core.validation import check_transforms
 
@@ -211,16 +211,6 @@ def _sigma_z(z, opts):
     return opts.depth_sigma_m_at_1m * z**2
 
 
-def _kabsch(p_from, p_to, w=None):
-    """Rigid T with ``p_to ~ R p_from + t`` (weighted), shape (4, 4)."""
-    w = np.ones(len(p_from)) if w is None else w
-    c_from = (w[:, None] * p_from).sum(0) / w.sum()
-    c_to = (w[:, None] * p_to).sum(0) / w.sum()
-    rot, _ = Rotation.align_vectors(p_to - c_to, p_from - c_from, weights=w)
-    R = rot.as_matrix()
-    return make_transform(R, c_to - R @ c_from)
-
-
 class _Problem:
     """Everything the stages share for one camera placement."""
 
@@ -306,7 +296,7 @@ class _Problem:
             ok = use & (n_mod >= 10)
             if ok.sum() < 3:
                 return T
-            T = _kabsch(c_obs[ok], c_mod[ok], counts[ok])
+            T = rigid_transform(c_obs[ok], c_mod[ok], counts[ok])
         return T
 
     # -- stage 3: coarse ICP in 3-D

@@ -35,6 +35,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     r.add_argument("--labels", default="classic", choices=("classic", "truth", "markerless"),
                    help="training targets; markerless: classic labels in the first region, the markerless "
                         "labels after it (no board)")
+    r.add_argument("--family", default="regression", choices=("regression", "keypoints"),
+                   help="regression: the paper's two networks (default); keypoints: the equivariant model that "
+                        "finds the arm's joints in the image and solves the camera pose")
     r.add_argument("--out", type=Path, required=True, help="run directory")
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--threads", type=int, default=None, help="torch CPU threads")
@@ -51,11 +54,19 @@ def run_run(args: argparse.Namespace) -> int:
     from handeye.core.optional import require_package
 
     require_package("torch", extra="learned", purpose="the learned calibration")
-    from learned.experiment import run_experiment
+    from learned.experiment import get_preset, run_experiment
     from learned.report import findings
 
-    results = run_experiment(args.data, args.preset, [s.strip() for s in args.strategies.split(",")], args.out,
-                             args.labels, args.seed, progress=not args.quiet, threads=args.threads)
+    data = args.data
+    if args.family == "keypoints":
+        require_package("pinocchio", extra="sim", purpose="the arm's keypoints from its kinematics")
+        from handeye.learned_frames import load_keypoint_frames
+
+        data = load_keypoint_frames(args.data, get_preset(args.preset).image_size, args.labels,
+                                    progress=not args.quiet)
+    results = run_experiment(data, args.preset, [s.strip() for s in args.strategies.split(",")], args.out,
+                             args.labels, args.seed, progress=not args.quiet, threads=args.threads,
+                             family=args.family)
     for line in findings(results):
         print(line)
     print(f"written: {args.out / 'results.json'}; next: handeye learned report {args.out}")

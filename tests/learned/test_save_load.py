@@ -114,3 +114,19 @@ def test_files_are_read_without_pickle_and_foreign_files_are_refused(tmp_path):
     (tmp_path / "garbage.pt").write_bytes(b"\x00\x01garbage")
     with pytest.raises(SavedFileError, match="garbage.pt"):
         ContinualCalibrator.load(tmp_path / "garbage.pt")
+
+
+def test_keypoint_model_reloads_to_identical_predictions(tmp_path):
+    from learned.data import with_keypoints
+    from learned.experiment import Preset
+    from learned.model import make_network
+
+    frames = make_frames(np.random.default_rng(0), frames_per_camera=3)
+    frames = with_keypoints(frames, np.random.default_rng(1).uniform(-0.5, 0.5, (len(frames), 4, 3)))
+    config = Preset("kp", (32, 32), (4, 8)).model_config("keypoints", n_keypoints=4)
+    model = make_network(config)
+    train(model, frames, np.arange(len(frames)), TrainConfig(epochs=1, batch_size=8), np.random.default_rng(2))
+    save_model(model, tmp_path / "kp.pt")
+    again = load_model(tmp_path / "kp.pt", expect=config)
+    np.testing.assert_array_equal(predict(model, frames), predict(again, frames))
+    assert predict(again, frames).shape == (len(frames), 4, 3)

@@ -89,3 +89,27 @@ def test_batch_trains_from_scratch_on_everything_at_the_last_step(frames):
     strat, steps = _run("batch", frames)
     assert strat.trained_on[:2] == [[], []] and sorted(strat.trained_on[2]) == sorted(c for s in steps for c in s)
     assert strat.processed == FIRST.epochs * 9 * FRAMES_PER_CAMERA
+
+
+def test_counts_hold_for_the_keypoint_model(frames):
+    """Reservoir and selection on the keypoint model: the same buffer arithmetic as on the paper's networks."""
+    from learned.data import with_keypoints
+
+    from dataclasses import replace
+
+    kp = np.random.default_rng(3).uniform(-0.5, 0.5, size=(len(frames), 5, 3)).astype(np.float32)
+    kframes = replace(with_keypoints(frames, kp), intrinsics_norm=np.tile([1.0, 1.0, 0.5, 0.5], (len(frames), 1)))
+    config = PRESET.model_config("keypoints", n_keypoints=5)
+    strat = make_strategy("reservoir", config, FIRST, LATER, np.random.default_rng(1), c1=4)
+    steps = time_steps(kframes)
+    for k, cams in enumerate(steps):
+        strat.step(k, cams, kframes, last=k == len(steps) - 1)
+    per_step = TRAIN_PER_REGION * FRAMES_PER_CAMERA
+    expected = FIRST.epochs * per_step + LATER.epochs * (per_step + 4 * TRAIN_PER_REGION) \
+        + LATER.epochs * (per_step + 8 * TRAIN_PER_REGION)
+    assert strat.processed == expected and strat.stored == 4 * 3 * TRAIN_PER_REGION
+    sel = make_strategy("selection", config, FIRST, LATER, np.random.default_rng(1), threshold_mm=1e9,
+                        threshold_deg=1e9)
+    for k, cams in enumerate(steps):
+        sel.step(k, cams, kframes, last=k == len(steps) - 1)
+    assert len(sel.skipped) == 2 * TRAIN_PER_REGION  # nothing is novel at infinite thresholds

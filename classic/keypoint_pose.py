@@ -1,0 +1,153 @@
+"""Camera pose from 3-D keypoints seen in many frames: robust closed form, then least squares with a sigma.
+
+Given camera-frame points ``p_cam`` (a detector's keypoints back-projected with depth) and their
+base-frame positions ``p_base`` (forward kinematics), find ``T_base_cam`` with
+``p_base ~ T_base_cam p_cam`` over all frames at once:
+
+1. RANSAC over minimal samples (three points, rigid closed form, :func:`handeye.core.rigid.rigid_transform`),
+   scored by the number of points within ``inlier_m``;
+2. IRLS with a Cauchy weight from that consensus (closed form each step);
+3. the covariance of ``(omega, v)`` (camera-frame right perturbation, as in
+   :mod:`classic.markerless.point_to_plane`), the sandwich estimate with one cluster per frame.
+
+Refuses (``refused`` names the reason) when fewer than ``min_inlier_fraction`` of the points, or
+fewer than six, agree: most keypoints wrong is not an answer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from handeye.core.errors import ShapeError
+from handeye.core.rigid import rigid_transform
+from handeye.core.se3 import hat
+
+__all__ = ["KeypointPoseResult", "solve_keypoint_pose"]
+
+
+@dataclass
+class KeypointPoseResult:
+    """``T_base_cam`` from keypoints, or a refusal.
+
+    Attributes
+    ----------
+    T_base_cam : array, shape (4, 4) or None
+    refused : str or None
+    sigma : dict
+        ``rotation_deg`` and ``translation_mm`` (RMS of the error norm).
+    covariance : array, shape (6, 6)
+    inliers : array of bool, shape (M,)
+    rms_mm : float
+        RMS 3-D residual of the inliers.
+    """
+
+    T_base_cam: np.ndarray | None
+    refused: str | None
+    sigma: dict
+    covariance: np.ndarray
+    inliers: np.ndarray
+    rms_mm: float
+
+    @property
+    def ok(self) -> bool:
+        return self.refused is None
+
+
+def _residuals(T, p_cam, p_base):
+    return p_cam @ T[:3, :3].T + T[:3, 3] - p_base
+
+
+def solve_keypoint_pose(p_cam: np.ndarray, p_base: np.ndarray, frame: np.ndarray | None = None,
+                        inlier_m: float = 0.03, min_inlier_fraction: float = 0.5, iterations: int = 200,
+                        rng: np.random.Generator | None = None) -> KeypointPoseResult:
+    """Robust ``T_base_cam`` from matched camera-frame and base-frame points.
+
+    Parameters
+    ----------
+    p_cam, p_base : array, shape (M, 3)
+        Metres. Rows with NaN are ignored.
+    frame : array of int, shape (M,), optional
+        Frame of each point (the covariance's clusters); one cluster per point when omitted.
+    inlier_m : float
+        RANSAC's consensus distance.
+    min_inlier_fraction : float
+    iterations : int
+        RANSAC samples.
+    rng : numpy.random.Generator, optional
+        Default ``default_rng(0)`` (deterministic).
+
+    Returns
+    -------
+    KeypointPoseResult
+    """
+    p_cam = np.asarray(p_cam, dtype=float)
+    p_base = np.asarray(p_base, dtype=float)
+    if p_cam.shape != p_base.shape or p_cam.ndim != 2 or p_cam.shape[1] != 3:
+        raise ShapeError(f"keypoints must both be (M, 3), got {p_cam.shape} and {p_base.shape}")
+    m = len(p_cam)
+    frame = np.arange(m) if frame is None else np.asarray(frame)
+    rng = np.random.default_rng(0) if rng is None else rng
+    valid = np.isfinite(p_cam).all(1) & np.isfinite(p_base).all(1)
+    idx = np.flatnonzero(valid)
+    nan6 = np.full((6, 6), np.nan)
+    empty_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
+    if len(idx) < 6:
+        return KeypointPoseResult(None, f"too few keypoints: {len(idx)} valid (at least 6 needed)", empty_sigma,
+                                  nan6, np.zeros(m, bool), np.nan)
+    best, best_count = None, -1
+    for _ in range(iterations):
+        s = rng.choice(idx, 3, replace=False)
+        T = rigid_transform(p_cam[s], p_base[s])
+        if not np.isfinite(T).all():
+            continue
+        count = int((np.linalg.norm(_residuals(T, p_cam[idx], p_base[idx]), axis=1) < inlier_m).sum())
+        if count > best_count:
+            best, best_count = T, count
+    inl = np.zeros(m, bool)
+    inl[idx] = np.linalg.norm(_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
+    T = rigid_transform(p_cam[inl], p_base[inl])
+    w = inl.astype(float)
+    for _ in range(10):
+        r = np.linalg.norm(_residuals(T, np.where(valid[:, None], p_cam, 0), np.where(valid[:, None], p_base, 0)),
+                           axis=1)
+        s = max(1.4826 * float(np.median(r[inl])), 1e-6)
+        w = valid / (1.0 + (r / (2 * s)) ** 2)
+        w[r > 3 * inlier_m] = 0.0
+        T = rigid_transform(np.where(valid[:, None], p_cam, 0), np.where(valid[:, None], p_base, 0), w)
+    r3 = _residuals(T, np.where(valid[:, None], p_cam, 0), np.where(valid[:, None], p_base, 0))
+    inl = valid & (np.linalg.norm(r3, axis=1) < inlier_m)
+    frac = inl.sum() / max(valid.sum(), 1)
+    rms_mm = float(np.sqrt(np.mean(np.sum(r3[inl] ** 2, axis=1))) * 1e3) if inl.any() else np.nan
+    cov = _covariance(T, p_cam, r3, w, inl, frame)
+    R = T[:3, :3]
+    sigma = {"rotation_deg": float(np.degrees(np.sqrt(np.trace(cov[:3, :3])))),
+             "translation_mm": float(np.sqrt(np.trace(R @ cov[3:, 3:] @ R.T)) * 1e3)}
+    refused = None
+    if inl.sum() < 6 or frac < min_inlier_fraction:
+        refused = (f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
+                   f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)")
+    return KeypointPoseResult(None if refused else T, refused, sigma, cov, inl, rms_mm)
+
+
+def _covariance(T, p_cam, r3, w, inl, frame):
+    """Sandwich covariance of the right perturbation (omega, v), clustered by frame (as point_to_plane)."""
+    R = T[:3, :3]
+    sel = np.flatnonzero(inl)
+    # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R
+    J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2)  # (n, 3, 6)
+    ws = w[sel][:, None, None]
+    H = np.einsum("nki,nkj->ij", J * ws, J)
+    H_inv = np.linalg.pinv(H)
+    g = np.einsum("nki,nk->ni", J * ws, r3[sel])
+    groups, where = np.unique(frame[sel], return_inverse=True)
+    scores = np.zeros((len(groups), 6))
+    np.add.at(scores, where, g)
+    k = len(groups)
+    dof = max(3 * len(sel) - 6, 1)
+    plain = H_inv * float(np.sum(w[sel] * np.sum(r3[sel] ** 2, axis=1)) / dof)
+    if k < 2:
+        return plain
+    sandwich = H_inv @ (scores.T @ scores * k / (k - 1)) @ H_inv
+    return sandwich if np.trace(sandwich) >= np.trace(plain) else plain

@@ -1,0 +1,182 @@
+"""The equivariant learned model: find points of the arm in the image, then solve the camera pose.
+
+The paper's networks regress ``T_base_cam`` from a whole image, a mapping that must be learned
+anew for every region of camera space. What an image shows directly is the robot in the camera's
+frame. :class:`KeypointNet` is fully convolutional (translation-equivariant): per keypoint (joint
+origins, flange, reference point) a heatmap whose soft-argmax is the keypoint's image position,
+and a depth map read at the same place (the sensor's depth plus a learned offset, since a joint's
+origin lies inside the link). The keypoints' base-frame positions are known from the joints
+(forward kinematics, supplied with the frames), so the camera pose follows in closed form: per
+frame (:func:`frame_poses`) and, robustly, across all frames of a camera placement
+(:func:`camera_pose`). Targets come from the label, the kinematics and the intrinsics: no new
+annotation.
+
+Image coordinates are normalised: ``x_n = (u + 0.5) / W``, ``y_n = (v + 0.5) / H`` for pixel
+``(u, v)`` of an image ``W`` wide and ``H`` high (OpenCV pixel centres at integers), so they do not
+depend on the resolution the network sees; ``intrinsics_norm = (fx / W, fy / H, (cx + 0.5) / W,
+(cy + 0.5) / H)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from handeye.core.rigid import rigid_transform
+from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
+from learned.metrics import rotation_errors_deg, translation_errors_mm
+
+__all__ = ["KeypointNet", "keypoint_targets", "backproject_keypoints", "frame_poses", "camera_pose", "keypoint_loss",
+           "pose_errors"]
+
+#: Depth error of 1 cm weighs as much as 1 pixel (at the network's input resolution) in the loss.
+DEPTH_WEIGHT_PER_M = 100.0
+
+
+def keypoint_targets(p_base: np.ndarray, t_base_cam_mm: np.ndarray, q_base_cam_xyzw: np.ndarray,
+                     intrinsics_norm: np.ndarray) -> np.ndarray:
+    """Where the keypoints are in the image, from a ``T_base_cam``: ``(x_n, y_n, z_m)``.
+
+    Parameters
+    ----------
+    p_base : array, shape (N, K, 3)
+        Keypoints in the base frame, metres.
+    t_base_cam_mm : array, shape (N, 3)
+    q_base_cam_xyzw : array, shape (N, 4)
+        ``T_base_cam`` of each frame (x, y, z, w quaternion).
+    intrinsics_norm : array, shape (N, 4)
+
+    Returns
+    -------
+    array, shape (N, K, 3)
+        Normalised image coordinates and the camera-frame depth (m).
+    """
+    R = matrix_from_quat_xyzw(np.asarray(q_base_cam_xyzw, dtype=float))
+    t = np.asarray(t_base_cam_mm, dtype=float) / 1000.0
+    p_cam = np.einsum("nji,nkj->nki", R, p_base - t[:, None, :])  # R^T (p - t)
+    z = p_cam[..., 2]
+    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[:, None, i] for i in range(4))
+    return np.stack([fx * p_cam[..., 0] / z + cx, fy * p_cam[..., 1] / z + cy, z], axis=-1)
+
+
+def backproject_keypoints(pred: np.ndarray, intrinsics_norm: np.ndarray) -> np.ndarray:
+    """Camera-frame points of predicted ``(x_n, y_n, z)``, shape (N, K, 3)."""
+    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[:, None, i] for i in range(4))
+    z = pred[..., 2]
+    return np.stack([(pred[..., 0] - cx) / fx * z, (pred[..., 1] - cy) / fy * z, z], axis=-1)
+
+
+def frame_poses(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray) -> np.ndarray:
+    """``T_base_cam`` of each frame from its own keypoints (3-D to 3-D, closed form), shape (N, 4, 4)."""
+    return rigid_transform(backproject_keypoints(pred, intrinsics_norm), p_base)
+
+
+def camera_pose(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray,
+                iterations: int = 10, floor_m: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+    """One ``T_base_cam`` from all frames of a camera placement: IRLS with a Cauchy weight.
+
+    Parameters
+    ----------
+    pred : array, shape (N, K, 3)
+    p_base : array, shape (N, K, 3)
+    intrinsics_norm : array, shape (N, 4)
+    iterations : int
+    floor_m : float
+        Smallest residual scale (keeps the weights from collapsing on a few points).
+
+    Returns
+    -------
+    T_base_cam : array, shape (4, 4)
+    weights : array, shape (N * K,)
+        Final weights (near 1 for keypoints that agree, near 0 for outliers).
+    """
+    p_cam = backproject_keypoints(pred, intrinsics_norm).reshape(-1, 3)
+    q = np.asarray(p_base, dtype=float).reshape(-1, 3)
+    ok = np.isfinite(p_cam).all(1) & (p_cam[:, 2] > 0)
+    w = ok.astype(float)
+    p_cam = np.where(ok[:, None], p_cam, 0.0)
+    T = rigid_transform(p_cam, q, w)
+    for _ in range(iterations):
+        r = np.linalg.norm(p_cam @ T[:3, :3].T + T[:3, 3] - q, axis=1)
+        s = max(1.4826 * float(np.median(r[ok])), floor_m)
+        w = ok / (1.0 + (r / (2.0 * s)) ** 2)
+        T = rigid_transform(p_cam, q, w)
+    return T, w
+
+
+def _block(c_in, c_out, stride=1, dilation=1):
+    return nn.Sequential(nn.Conv2d(c_in, c_out, 3, stride=stride, padding=dilation, dilation=dilation),
+                         nn.BatchNorm2d(c_out), nn.ReLU(inplace=True))
+
+
+class KeypointNet(nn.Module):
+    """Fully convolutional keypoint network: heatmaps and depths at half the input resolution.
+
+    Parameters
+    ----------
+    config : learned.model.ModelConfig
+        ``kind == "keypoints"``; ``channels[0]`` sets the width, ``n_keypoints`` the outputs,
+        ``depth_scale_m`` the depth normalisation.
+    """
+
+    def __init__(self, config):
+        super().__init__()
+        self.config = config
+        c = int(config.channels[0])
+        k = int(config.n_keypoints)
+        self.stem = nn.Sequential(_block(4, c), _block(c, 2 * c, stride=2), _block(2 * c, 2 * c))
+        self.deep = nn.Sequential(_block(2 * c, 4 * c, stride=2), _block(4 * c, 4 * c, dilation=2),
+                                  _block(4 * c, 4 * c, dilation=4), _block(4 * c, 4 * c, dilation=8))
+        self.fuse = _block(6 * c, 2 * c)
+        self.heat = nn.Conv2d(2 * c, k, 1)
+        self.depth = nn.Conv2d(2 * c, k, 1)
+
+    def forward(self, rgb: torch.Tensor, depth_m: torch.Tensor, ref: torch.Tensor | None = None) -> torch.Tensor:
+        """Keypoints ``(x_n, y_n, z_m)``, shape (B, K, 3); ``ref`` is ignored (kept for one call signature)."""
+        x = rgb.float() / 255.0 if rgb.dtype == torch.uint8 else rgb.float()
+        d = depth_m.float()
+        h = self.stem(torch.cat([x, d / self.config.depth_scale_m], dim=1))
+        g = F.interpolate(self.deep(h), size=h.shape[-2:], mode="bilinear", align_corners=False)
+        f = self.fuse(torch.cat([h, g], dim=1))
+        logits = self.heat(f)
+        b, k, hh, ww = logits.shape
+        prob = torch.softmax(logits.reshape(b, k, -1), dim=-1).reshape(b, k, hh, ww)
+        xs = (torch.arange(ww, device=f.device, dtype=f.dtype) + 0.5) / ww
+        ys = (torch.arange(hh, device=f.device, dtype=f.dtype) + 0.5) / hh
+        x_n = (prob.sum(2) * xs).sum(-1)
+        y_n = (prob.sum(3) * ys).sum(-1)
+        # the sensor's depth at half resolution (holes left out of the average), plus a learned offset
+        valid = (d > 0).float()
+        d_half = F.avg_pool2d(d, 2) / F.avg_pool2d(valid, 2).clamp_min(1e-6)
+        z_map = d_half + 0.1 * self.depth(f)
+        z = (prob * z_map).sum((-1, -2))
+        return torch.stack([x_n, y_n, z], dim=-1)
+
+
+def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -> torch.Tensor:
+    """L1 in input pixels plus depth (1 cm = 1 pixel), over the keypoints inside the image.
+
+    Parameters
+    ----------
+    pred, target : tensor, shape (B, K, 3)
+        ``(x_n, y_n, z_m)``.
+    image_size : (int, int)
+        ``(width, height)`` the network sees.
+    """
+    w, h = image_size
+    inside = ((target[..., 0] > 0) & (target[..., 0] < 1) & (target[..., 1] > 0) & (target[..., 1] < 1)
+              & (target[..., 2] > 0)).float()
+    err = ((pred[..., 0] - target[..., 0]).abs() * w + (pred[..., 1] - target[..., 1]).abs() * h
+           + (pred[..., 2] - target[..., 2]).abs() * DEPTH_WEIGHT_PER_M)
+    return (err * inside).sum() / inside.sum().clamp_min(1.0)
+
+
+def pose_errors(T_base_cam: np.ndarray, t_base_cam_mm: np.ndarray, q_base_cam_xyzw: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Translation (mm) and rotation (deg, eq. 2) errors of poses against targets, shape (N,) each."""
+    t_mm = T_base_cam[:, :3, 3] * 1000.0
+    q = quat_xyzw_from_matrix(T_base_cam[:, :3, :3])
+    return translation_errors_mm(t_mm, t_base_cam_mm), rotation_errors_deg(q, q_base_cam_xyzw)
+
