@@ -12,7 +12,8 @@ Run from the repository root, on datasets rendered with the default sensor noise
    time per placement (all frames at the dataset's resolution).
 2. Sensitivity (same placements, ``--sensitivity``): twice the depth noise (added to the
    recorded depth), a quarter of each frame's depth missing in random blocks, 10 frames
-   instead of all; accuracy and success rate per case.
+   instead of all, the left 40 % of every image blank (the arm partly out of view); accuracy
+   and success rate per case.
 3. Basin (``--basin-data``): starts perturbed from the truth by (mm, deg), success
    meaning an accepted answer within 1 mm / 0.1 deg; an accepted answer outside that is a
    wrong answer, counted apart from refusals. Once with the centroid start tried beside the
@@ -96,6 +97,15 @@ def missing_blocks(depth, q, rng, fraction=0.25, block=16):
             gone[r:r + block, c:c + block] = True
         depth[i][gone] = 0
     return depth, q
+
+
+def out_of_view(fraction=0.4):
+    """The left part of every image blank: the sensor's field of view cut, the arm partly outside it."""
+    def f(depth, q, rng):
+        depth = depth.copy()
+        depth[..., : int(fraction * depth.shape[-1])] = 0
+        return depth, q
+    return f
 
 
 def first_frames(k):
@@ -192,7 +202,8 @@ def main(argv=None):
         cases = [("twice the depth noise", double_noise(sigma_1m), opts.__class__(**{**opts.__dict__,
                   "depth_sigma_m_at_1m": 2 * sigma_1m})),
                  ("a quarter of the depth missing (16 px blocks)", missing_blocks, opts),
-                 ("10 frames", first_frames(10), opts)]
+                 ("10 frames", first_frames(10), opts),
+                 ("arm partly out of view (left 40 % of each image blank)", out_of_view(0.4), opts)]
         for name, f, o in cases:
             s = summarise(accuracy(ds, cams, surface, o, f, rng))
             emit(f"| {name} | {s['ok']}/{s['n']} | {s['good']}/{s['n']} | {s['median_mm']:.3f} | "

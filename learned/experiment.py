@@ -25,7 +25,7 @@ from learned.metrics import rotation_errors_deg, summarize, translation_errors_m
 from learned.model import KINDS, CalibrationNet, ModelConfig, make_network
 from learned.safe_io import load_document, save_document
 from learned.strategies import STRATEGIES, make_strategy
-from learned.trainer import TrainConfig, errors, predict
+from learned.trainer import TrainConfig, default_device, errors, predict
 
 __all__ = ["Preset", "PRESETS", "FAMILIES", "run_experiment", "camera_predictions", "keypoint_camera_predictions",
            "save_model", "load_model"]
@@ -50,6 +50,11 @@ class Preset:
     c3 : float
     threshold_mm, threshold_deg : float
         Novelty thresholds of camera-pose selection.
+    selection_replay : {"region", "all"}
+        What a novel pose's step replays (:class:`learned.strategies.Selection`).
+    keypoint_epochs : (int, int, int), optional
+        First, later and batch epochs of the keypoint model (it learns local features and costs
+        several times more per sample); the regression epochs when omitted.
     repeats : int
     """
 
@@ -67,19 +72,22 @@ class Preset:
     c3: float = 1.0
     threshold_mm: float = 3.0
     threshold_deg: float = 4.0
+    selection_replay: str = "region"
+    keypoint_epochs: tuple | None = None
     repeats: int = 3
 
     def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
-        if kind == "keypoints":  # fully convolutional: the width of the encoders' second layer, no head
-            return ModelConfig(kind, tuple(self.image_size), (int(self.channels[min(1, len(self.channels) - 1)]),),
-                               (), n_keypoints=int(n_keypoints))
+        if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
+            return ModelConfig(kind, tuple(self.image_size), (int(self.channels[0]),), (), n_keypoints=int(n_keypoints))
         return ModelConfig(kind, tuple(self.image_size), tuple(self.channels), tuple(self.hidden),
                            translation_offset_mm=tuple(float(v) for v in offset_mm))
 
-    def train_configs(self, strategy: str) -> tuple[TrainConfig, TrainConfig]:
-        first = TrainConfig(self.batch_epochs if strategy == "batch" else self.first_epochs, self.batch_size,
-                            self.learning_rate)
-        return first, TrainConfig(self.later_epochs, self.batch_size, self.learning_rate)
+    def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
+        first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
+        if kind == "keypoints" and self.keypoint_epochs:
+            first_e, later_e, batch_e = self.keypoint_epochs
+        first = TrainConfig(batch_e if strategy == "batch" else first_e, self.batch_size, self.learning_rate)
+        return first, TrainConfig(later_e, self.batch_size, self.learning_rate)
 
     def to_dict(self) -> dict:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
@@ -344,11 +352,11 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
             for rep in range(preset.repeats):
                 t0 = time.perf_counter()
                 rng = np.random.default_rng([seed, rep, si, ki])
-                first, later = preset.train_configs(name)
+                first, later = preset.train_configs(name, kind)
                 strat = make_strategy(name, preset.model_config(kind, offset_mm, n_keypoints), first, later, rng,
                                       progress,
                                       c1=preset.c1, c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
-                                      threshold_deg=preset.threshold_deg)
+                                      threshold_deg=preset.threshold_deg, replay_share=preset.selection_replay)
                 rec = RunRecord(name, kind, rep)
                 for k, cams in enumerate(steps):
                     strat.step(k, cams, frames, last=k == len(steps) - 1)
@@ -367,13 +375,22 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
                     if out is not None:
                         save_model(strat.model, out / name / f"{kind}.pt",
                                    {"preset": preset.name, "labels": labels, "seed": seed})
-    if family == "keypoints":
-        per_camera = {name: keypoint_camera_predictions(m["keypoints"], frames, test_cams)
-                      for name, m in validation.items()}
-    else:
-        per_camera = {name: camera_predictions(m["translation"], m["orientation"], frames, test_cams)
-                      for name, m in validation.items()}
+    per_camera, inference = {}, {}
     test_idx = np.flatnonzero(frames.split == "test")
+    for name, m in validation.items():
+        t0 = time.perf_counter()
+        for net in m.values():
+            predict(net, frames, test_idx)
+        per_frame_ms = (time.perf_counter() - t0) / max(len(test_idx), 1) * 1e3
+        t0 = time.perf_counter()
+        if family == "keypoints":
+            per_camera[name] = keypoint_camera_predictions(m["keypoints"], frames, test_cams)
+        else:
+            per_camera[name] = camera_predictions(m["translation"], m["orientation"], frames, test_cams)
+        inference[name] = {"per_frame_ms": per_frame_ms,
+                           "per_camera_ms": (time.perf_counter() - t0) / max(len(test_cams), 1) * 1e3,
+                           "frames_per_camera": len(test_idx) / max(len(test_cams), 1),
+                           "device": str(default_device()), "threads": torch.get_num_threads()}
     if family == "keypoints":
         summary = {}
         for name, m in validation.items():
@@ -387,7 +404,7 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
                "runs": [asdict(r) for r in records], "per_camera": per_camera,
                "test_frames_per_region": {int(r): int(np.sum((frames.region == r) & (frames.split == "test")))
                                           for r in regions},
-               "summary": summary}
+               "summary": summary, "inference": inference}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "results.json").write_text(json.dumps(results, indent=1))

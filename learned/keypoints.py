@@ -114,6 +114,11 @@ def _block(c_in, c_out, stride=1, dilation=1):
 class KeypointNet(nn.Module):
     """Fully convolutional keypoint network: heatmaps and depths at half the input resolution.
 
+    A stride-2 stem, a quarter-resolution trunk with dilated convolutions (the context that places a
+    joint's origin inside its link), upsampled and fused with the stem; 1x1 heads give per keypoint a
+    heatmap (soft-argmax: the position) and a depth offset. Nothing depends on absolute image position,
+    so the model is translation-equivariant.
+
     Parameters
     ----------
     config : learned.model.ModelConfig
@@ -126,12 +131,13 @@ class KeypointNet(nn.Module):
         self.config = config
         c = int(config.channels[0])
         k = int(config.n_keypoints)
-        self.stem = nn.Sequential(_block(4, c), _block(c, 2 * c, stride=2), _block(2 * c, 2 * c))
-        self.deep = nn.Sequential(_block(2 * c, 4 * c, stride=2), _block(4 * c, 4 * c, dilation=2),
-                                  _block(4 * c, 4 * c, dilation=4), _block(4 * c, 4 * c, dilation=8))
-        self.fuse = _block(6 * c, 2 * c)
-        self.heat = nn.Conv2d(2 * c, k, 1)
-        self.depth = nn.Conv2d(2 * c, k, 1)
+        self.stem = nn.Sequential(nn.Conv2d(4, c, 5, stride=2, padding=2), nn.BatchNorm2d(c), nn.ReLU(inplace=True),
+                                  _block(c, c))
+        self.deep = nn.Sequential(_block(c, 2 * c, stride=2), _block(2 * c, 2 * c, dilation=2),
+                                  _block(2 * c, 2 * c, dilation=4))
+        self.fuse = _block(3 * c, c)
+        self.heat = nn.Conv2d(c, k, 1)
+        self.depth = nn.Conv2d(c, k, 1)
 
     def forward(self, rgb: torch.Tensor, depth_m: torch.Tensor, ref: torch.Tensor | None = None) -> torch.Tensor:
         """Keypoints ``(x_n, y_n, z_m)``, shape (B, K, 3); ``ref`` is ignored (kept for one call signature)."""

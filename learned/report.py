@@ -90,7 +90,9 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     regions = results["regions"]
     subsets = [f"S{r + 1}" for r in regions]
     repeats = results["preset"]["repeats"]
-    md = [f"# Learned continual calibration: preset {results['preset']['name']}, labels {results['labels']}", "",
+    family = results.get("family", "regression")
+    md = [f"# Learned continual calibration: preset {results['preset']['name']}, labels {results['labels']}, "
+          f"model {family}", "",
           f"Mean test error per subset (mean ± std over {repeats} repeats where > 1); rows: time steps "
           "(after training on region k); batch trains from scratch on all training data at the last step.", ""]
     for net in ("translation", "orientation"):
@@ -144,8 +146,19 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
         w.writerow(["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"])
         w.writerows(compute_rows)
     # per camera pose validation
-    md += ["## Per test camera pose: learned vs classic label vs truth", "",
-           "Learned: the frame predictions of the pose averaged. mm / deg.", ""]
+    how = ("the keypoints of all the pose's frames fitted at once (robust 3-D to 3-D)" if family == "keypoints"
+           else "the frame predictions of the pose averaged")
+    md += ["## Per test camera pose: learned vs classic label vs truth", "", f"Learned: {how}. mm / deg.", "",
+           "| strategy | median vs truth | worst vs truth | label median vs truth | inference ms per frame | "
+           "ms per camera pose |", "|---|---|---|---|---|---|"]
+    for strategy, pc in results["per_camera"].items():
+        inf = results.get("inference", {}).get(strategy, {})
+        t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
+        lab_mm, lab_deg = np.asarray(pc["label_vs_truth_mm"]), np.asarray(pc["label_vs_truth_deg"])
+        md.append(f"| {strategy} | {np.median(t_mm):.2f} / {np.median(r_deg):.2f} | {t_mm.max():.2f} / "
+                  f"{r_deg.max():.2f} | {np.median(lab_mm):.3f} / {np.median(lab_deg):.4f} | "
+                  f"{inf.get('per_frame_ms', float('nan')):.1f} | {inf.get('per_camera_ms', float('nan')):.0f} |")
+    md.append("")
     with (run_dir / "per_camera.csv").open("w", newline="") as f:
         w = csv.writer(f)
         keys = None

@@ -77,12 +77,21 @@ def test_selection_skips_every_pose_below_a_huge_threshold(frames):
 def test_selection_trains_on_every_pose_above_a_zero_threshold(frames):
     strat, steps = _run("selection", frames, c1=4, threshold_mm=0.0)
     assert strat.skipped == []
-    # each later pose is its own time step: its frames plus the buffer so far (3 first-region poses, growing)
+    # each later pose is its own time step: its frames plus a third (1 / poses per region) of the buffer so far
+    # (3 first-region poses of c1 = 4 samples, growing by 4 per pose), so a region costs one reservoir step
+    expected = FIRST.epochs * TRAIN_PER_REGION * FRAMES_PER_CAMERA
+    for k in range(6):
+        expected += LATER.epochs * (FRAMES_PER_CAMERA + int(round(4 * (3 + k) / TRAIN_PER_REGION)))
+    assert strat.processed == expected
+    assert strat.trained_on[1:] == steps[1:]
+
+
+def test_selection_replaying_the_whole_buffer_per_pose(frames):
+    strat, steps = _run("selection", frames, c1=4, threshold_mm=0.0, replay_share="all")
     expected = FIRST.epochs * TRAIN_PER_REGION * FRAMES_PER_CAMERA
     for k in range(6):
         expected += LATER.epochs * (FRAMES_PER_CAMERA + 4 * (3 + k))
     assert strat.processed == expected
-    assert strat.trained_on[1:] == steps[1:]
 
 
 def test_batch_trains_from_scratch_on_everything_at_the_last_step(frames):
@@ -93,9 +102,9 @@ def test_batch_trains_from_scratch_on_everything_at_the_last_step(frames):
 
 def test_counts_hold_for_the_keypoint_model(frames):
     """Reservoir and selection on the keypoint model: the same buffer arithmetic as on the paper's networks."""
-    from learned.data import with_keypoints
-
     from dataclasses import replace
+
+    from learned.data import with_keypoints
 
     kp = np.random.default_rng(3).uniform(-0.5, 0.5, size=(len(frames), 5, 3)).astype(np.float32)
     kframes = replace(with_keypoints(frames, kp), intrinsics_norm=np.tile([1.0, 1.0, 0.5, 0.5], (len(frames), 1)))
