@@ -168,14 +168,32 @@ def calibrate_camera(ds: Dataset, camera_id: int, surface, starts: dict | None =
 
 
 def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
-    """The learned ``T_base_cam`` of each camera (``handeye learned run``'s saved networks)."""
-    from learned.data import load_frames
+    """The learned ``T_base_cam`` of each camera (``handeye learned run``'s saved networks).
+
+    A directory with ``keypoints.pt`` holds the keypoint model (its cross-frame fit is the start);
+    otherwise ``translation.pt`` and ``orientation.pt`` (the frames' predictions averaged).
+    """
     from learned.experiment import camera_pose_prediction, load_model
 
-    t_model = load_model(Path(model_dir) / "translation.pt")
-    q_model = load_model(Path(model_dir) / "orientation.pt")
-    frames = load_frames(ds_root, t_model.config.image_size, "truth", progress=False)
+    model_dir = Path(model_dir)
     out = {}
+    if (model_dir / "keypoints.pt").is_file():
+        from handeye.learned_frames import load_keypoint_frames
+        from learned.keypoints import camera_pose
+        from learned.trainer import predict
+
+        model = load_model(model_dir / "keypoints.pt")
+        frames = load_keypoint_frames(ds_root, model.config.image_size, "truth", progress=False)
+        for c in cameras:
+            idx = np.flatnonzero(frames.camera == c)
+            out[c], _ = camera_pose(predict(model, frames, idx), frames.keypoints_base[idx],
+                                    frames.intrinsics_norm[idx])
+        return out
+    from learned.data import load_frames
+
+    t_model = load_model(model_dir / "translation.pt")
+    q_model = load_model(model_dir / "orientation.pt")
+    frames = load_frames(ds_root, t_model.config.image_size, "truth", progress=False)
     for c in cameras:
         t_mm, q = camera_pose_prediction(t_model, q_model, frames, c)
         out[c] = transform_from_pos_quat_xyzw(t_mm / 1000.0, q)

@@ -7,8 +7,10 @@ Example
     handeye compare data/paper-sim --model runs/sim/reservoir
 
 ``--model`` is a directory with ``translation.pt`` and ``orientation.pt`` (as
-``handeye learned run`` writes per strategy). The learned ``T_base_cam`` of a
-camera pose is its frames' predictions averaged. The hybrid column is the
+``handeye learned run`` writes per strategy), or with ``keypoints.pt`` (``--family
+keypoints``). The learned ``T_base_cam`` of a camera pose is its frames'
+predictions averaged, or for the keypoint model one fit of all its frames'
+keypoints. The hybrid column is the
 markerless registration of the robot's surface to the pose's depth frames,
 started from that learned prediction (``handeye markerless``); ``--no-hybrid``
 leaves it out.
@@ -65,17 +67,26 @@ def run(args: argparse.Namespace) -> int:
 
     require_package("torch", extra="learned", purpose="the learned calibration")
     from learned.data import load_frames
-    from learned.experiment import camera_predictions, load_model
+    from learned.experiment import camera_predictions, keypoint_camera_predictions, load_model
 
-    t_model = load_model(args.model / "translation.pt")
-    q_model = load_model(args.model / "orientation.pt")
-    if t_model.config.image_size != q_model.config.image_size:
-        from handeye.core.errors import HandEyeInputError
+    if (args.model / "keypoints.pt").is_file():  # the equivariant keypoint model
+        require_package("pinocchio", extra="sim", purpose="the arm's keypoints from its kinematics")
+        from handeye.learned_frames import load_keypoint_frames
 
-        raise HandEyeInputError(f"{args.model}: the two networks take different image sizes")
-    frames = load_frames(args.dataset, t_model.config.image_size, "classic", progress=False)
-    cams = frames.cameras(None if args.split == "all" else args.split)
-    pc = camera_predictions(t_model, q_model, frames, [int(c) for c in cams])
+        model = load_model(args.model / "keypoints.pt")
+        frames = load_keypoint_frames(args.dataset, model.config.image_size, "classic", progress=False)
+        cams = frames.cameras(None if args.split == "all" else args.split)
+        pc = keypoint_camera_predictions(model, frames, [int(c) for c in cams])
+    else:
+        t_model = load_model(args.model / "translation.pt")
+        q_model = load_model(args.model / "orientation.pt")
+        if t_model.config.image_size != q_model.config.image_size:
+            from handeye.core.errors import HandEyeInputError
+
+            raise HandEyeInputError(f"{args.model}: the two networks take different image sizes")
+        frames = load_frames(args.dataset, t_model.config.image_size, "classic", progress=False)
+        cams = frames.cameras(None if args.split == "all" else args.split)
+        pc = camera_predictions(t_model, q_model, frames, [int(c) for c in cams])
     hybrid = None
     if not args.no_hybrid:
         require_package("pinocchio", extra="sim", purpose="the robot model of the hybrid column")
