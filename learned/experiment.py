@@ -107,7 +107,7 @@ PRESETS = {
                    batch_size=16, repeats=1),
     # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
     "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=30, later_epochs=15, batch_epochs=30,
-                  repeats=3),
+                  keypoint_epochs=(15, 8, 15), repeats=3),
     # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
     "paper": Preset("paper", (256, 256), (32, 64, 128, 128, 256, 256), (512, 256), first_epochs=50,
                     later_epochs=25, batch_epochs=50, repeats=3),
