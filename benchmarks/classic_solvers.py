@@ -167,7 +167,8 @@ def _time(fn, repeats):
 
 def speed(seed, repeats):
     print("\n## Speed: all motion pairs, median wall time of repeated calls (ms), same data for both")
-    print("handeye = classic.solve(T_base_ee, T_cam_target, setup, method): validation, pose pairs, closed form; opencv = cv2.calibrateHandEye /")
+    print("handeye = classic.solve(T_base_ee, T_cam_target, setup, method): validation, pose pairs, closed form; "
+          "opencv = cv2.calibrateHandEye /")
     print("cv2.calibrateRobotWorldHandEye on lists prepared outside the timing. ratio = opencv / handeye.\n")
     print("| poses | method | handeye ms | opencv ms | ratio |")
     print("|---|---|---|---|---|")
@@ -262,7 +263,8 @@ def main(argv=None):
     import scipy
 
     print("# handeye classic solvers benchmark")
-    print(f"command: python benchmarks/classic_solvers.py {' '.join(argv if argv is not None else sys.argv[1:])}".rstrip())
+    args_text = " ".join(argv if argv is not None else sys.argv[1:])
+    print(f"command: python benchmarks/classic_solvers.py {args_text}".rstrip())
     print(f"machine: {machine()}")
     print(f"python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
           f"opencv {cv2.__version__}; {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC")

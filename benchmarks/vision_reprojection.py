@@ -103,7 +103,8 @@ def main(argv=None):
     spec = BoardSpec(7, 5, 0.04, 0.03, "5X5_100")
     intr = default_intrinsics()
     print("# handeye vision benchmark: pose-based solvers vs corner reprojection refinement")
-    print(f"command: python benchmarks/vision_reprojection.py {' '.join(argv if argv is not None else sys.argv[1:])}".rstrip())
+    args_text = " ".join(argv if argv is not None else sys.argv[1:])
+    print(f"command: python benchmarks/vision_reprojection.py {args_text}".rstrip())
     print(f"machine: {machine()}")
     print(f"python {platform.python_version()}, numpy {np.__version__}, opencv {cv2.__version__}; "
           f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC")

@@ -6,7 +6,13 @@ import numpy as np
 
 from classic._linear import check_motions
 from classic.motions import Motions, motions_from_transforms
-from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, quat_multiply_wxyz, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
+from handeye.core.se3 import (
+    make_transform,
+    matrix_from_quat_xyzw,
+    quat_multiply_wxyz,
+    quat_wxyz_to_xyzw,
+    quat_xyzw_to_wxyz,
+)
 
 __all__ = ["daniilidis"]
 

@@ -47,7 +47,8 @@ class ImageCalibration:
         return self.reprojection.Y if self.reprojection is not None else self.pose_based.Y
 
 
-def pair_robot_poses(images: list[str], robot_images: list[str] | None, T_base_ee: np.ndarray, source: str) -> np.ndarray:
+def pair_robot_poses(images: list[str], robot_images: list[str] | None, T_base_ee: np.ndarray,
+                     source: str) -> np.ndarray:
     """Robot pose of each image: by the robot file's ``image`` column, or by order.
 
     Parameters

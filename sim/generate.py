@@ -28,8 +28,17 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.dataset import (
-    CAMERA_COLUMNS, FORMAT, FORMAT_VERSION, encode_depth, frame_columns, poses_to_columns, shard_is_complete,
-    shard_name, write_json_atomic, write_manifest, write_table,
+    CAMERA_COLUMNS,
+    FORMAT,
+    FORMAT_VERSION,
+    encode_depth,
+    frame_columns,
+    poses_to_columns,
+    shard_is_complete,
+    shard_name,
+    write_json_atomic,
+    write_manifest,
+    write_table,
 )
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.se3 import invert_transform

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from handeye.core.dataset import (
-    columns_to_poses, decode_depth, encode_depth, poses_to_columns, read_table, shard_is_complete, write_manifest,
+    columns_to_poses,
+    decode_depth,
+    encode_depth,
+    poses_to_columns,
+    read_table,
+    shard_is_complete,
+    write_manifest,
     write_table,
 )
 from handeye.core.errors import DatasetError

@@ -52,7 +52,8 @@ SCRIPT = textwrap.dedent(
         from handeye.core.metrics import pose_error
         rot, trans = pose_error(res.X, p.X_true)
         out["errors"].append([float(rot), float(trans), res.sigma["X_rotation_deg"], res.sigma["X_translation_mm"]])
-    out["after_calibrate"] = sorted(m for m in ("torch", "pinocchio", "pin", "pyrender", "trimesh", "cv2") if m in sys.modules)
+    heavy = ("torch", "pinocchio", "pin", "pyrender", "trimesh", "cv2")
+    out["after_calibrate"] = sorted(m for m in heavy if m in sys.modules)
     print(json.dumps(out))
     """
 )

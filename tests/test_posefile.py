@@ -7,13 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from handeye.core.errors import PoseFileError, QuaternionOrderError
 from handeye.checked_poses import load_poses
+from handeye.core.errors import PoseFileError, QuaternionOrderError
 from handeye.core.posefile import read_pose_file, write_pose_csv
 from handeye.core.se3 import pos_quat_xyzw_from_transform, quat_xyzw_to_wxyz, so3_log
 from handeye.core.synthetic import make_problem
 from tests.tolerances import EXACT
-
 
 
 @pytest.fixture

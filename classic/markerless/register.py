@@ -41,7 +41,7 @@ from classic.markerless.point_to_plane import solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
 from handeye.core.rigid import rigid_transform
-from handeye.core.se3 import invert_transform, make_transform, so3_log
+from handeye.core.se3 import invert_transform, so3_log
 from handeye.core.validation import check_transforms
 
 __all__ = ["RobotSurfaceFrames", "MarkerlessOptions", "MarkerlessResult", "register_robot", "RefusedError",

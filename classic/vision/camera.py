@@ -41,7 +41,8 @@ class CameraIntrinsics:
         self.dist = np.asarray(self.dist, dtype=float).ravel()
         if self.K.shape != (3, 3) or not np.isfinite(self.K).all():
             raise IntrinsicsError(f"K must be a finite 3x3 matrix, got shape {self.K.shape}")
-        if self.K[0, 0] <= 0 or self.K[1, 1] <= 0 or abs(self.K[2, 2] - 1) > 1e-9 or np.any(self.K[[1, 2, 2], [0, 0, 1]]):
+        K = self.K
+        if K[0, 0] <= 0 or K[1, 1] <= 0 or abs(K[2, 2] - 1) > 1e-9 or np.any(K[[1, 2, 2], [0, 0, 1]]):
             raise IntrinsicsError(f"K is not a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]]: {self.K.tolist()}")
         if self.dist.size not in (4, 5, 8, 12, 14) or not np.isfinite(self.dist).all():
             raise IntrinsicsError(f"distortion must hold 4, 5, 8, 12 or 14 finite coefficients, got {self.dist.size}")

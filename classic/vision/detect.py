@@ -92,7 +92,8 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
     n_markers = 0 if marker_ids is None else len(marker_ids)
     if ids is None or len(ids) == 0:
         if n_markers == 0:
-            reason = f"board not found: no marker of dictionary {spec.dictionary} (wrong dictionary, or board not in view)"
+            reason = (f"board not found: no marker of dictionary {spec.dictionary} (wrong dictionary, or board not "
+                      "in view)")
         else:
             reason = (f"{n_markers} markers found but no ChArUco corner could be interpolated: too little of the board "
                       f"in view, or the spec does not match the board ({spec.squares_x}x{spec.squares_y} squares; "
@@ -158,7 +159,8 @@ def estimate_pose(det: Detection, spec: BoardSpec, intr: CameraIntrinsics, limit
     if count > 1 and errors[order[1]] < lim["ambiguity_ratio"] * max(errors[best], 1e-12):
         return ViewPose(None, float(errors[best]), n,
                         f"ambiguous pose: two poses fit within {lim['ambiguity_ratio']}x "
-                        f"({errors[best]:.2f} and {errors[order[1]]:.2f} px RMS); tilt the board more or see more of it")
+                        f"({errors[best]:.2f} and {errors[order[1]]:.2f} px RMS); tilt the board more or see more "
+                        "of it")
     rvec, tvec = cv2.solvePnPRefineLM(obj, img, intr.K, intr.dist, rvecs[best].copy(), tvecs[best].copy())
     T = make_transform(so3_exp(rvec.ravel()), tvec.ravel())
     rms = float(np.sqrt(np.mean(np.sum((project_points(obj, T, intr) - img) ** 2, axis=1))))

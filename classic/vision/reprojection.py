@@ -181,7 +181,8 @@ def refine_reprojection(
     X, Y, intr = unpack(sol.x)
     r = residuals(sol.x).reshape(-1, 2)
     sq = np.sum(r**2, axis=1)
-    per_view = np.sqrt(np.bincount(view, weights=sq, minlength=n_views) / np.maximum(np.bincount(view, minlength=n_views), 1))
+    counts = np.bincount(view, minlength=n_views)
+    per_view = np.sqrt(np.bincount(view, weights=sq, minlength=n_views) / np.maximum(counts, 1))
     has = np.bincount(view, minlength=n_views) > 0
     med = float(np.median(per_view[has]))
     outliers = [int(k) for k in np.flatnonzero(has & (per_view > max(OUTLIER_VIEW_FACTOR * med, 1.0)))]

@@ -63,8 +63,8 @@ def render_view(
     gv = np.arange(0, H * s + step, step)
     guu, gvv = np.meshgrid((gu + 0.5) / s - 0.5, (gv + 0.5) / s - 0.5)
     pts = np.stack([guu.ravel(), gvv.ravel()], axis=1).reshape(-1, 1, 2)
-    coarse = cv2.undistortPointsIter(pts, intr.K, intr.dist, None, None,
-                                     (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)).reshape(len(gv), len(gu), 2)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
+    coarse = cv2.undistortPointsIter(pts, intr.K, intr.dist, None, None, criteria).reshape(len(gv), len(gu), 2)
     fine_u = (np.arange(W * s) / step).astype(np.float32)
     fine_v = (np.arange(H * s) / step).astype(np.float32)
     mu, mv = np.meshgrid(fine_u, fine_v)

@@ -53,8 +53,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--pairs", default="all", choices=["all", "consecutive"], help="motion pairs for AX=XB methods")
     p.add_argument("--no-refine", action="store_true", help="skip the Levenberg-Marquardt refinement")
     p.add_argument("--robust", action="store_true", help="flag gross outlier poses and refine with a robust loss")
-    p.add_argument("--loss", choices=["linear", "huber", "cauchy"], help="refinement loss (default linear, cauchy if --robust)")
-    p.add_argument("--units", choices=["m", "mm"], help="translation units of the file (default m, or the JSON's 'units')")
+    p.add_argument("--loss", choices=["linear", "huber", "cauchy"],
+                   help="refinement loss (default linear, cauchy if --robust)")
+    p.add_argument("--units", choices=["m", "mm"],
+                   help="translation units of the file (default m, or the JSON's 'units')")
     p.add_argument("--quat-order", choices=["xyzw", "wxyz"],
                    help="order of positional quaternions (JSON lists, CSV .q0-.q3 columns); default xyzw")
     p.add_argument("--truth", type=Path, help="JSON with the true X (and Y) by frame name: prints the error")

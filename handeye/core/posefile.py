@@ -35,7 +35,13 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
-from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform, quat_wxyz_to_xyzw, so3_exp
+from handeye.core.se3 import (
+    make_transform,
+    matrix_from_quat_xyzw,
+    pos_quat_xyzw_from_transform,
+    quat_wxyz_to_xyzw,
+    so3_exp,
+)
 
 __all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "RobotPoses", "read_pose_file", "read_robot_poses", "write_pose_csv"]
 
@@ -178,7 +184,8 @@ def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, .
             for k, pose in enumerate(doc["poses"]):
                 if not isinstance(pose, dict) or name not in pose:
                     raise PoseFileError(f"{path}, poses[{k}]: missing {name}")
-                Ts.append(_pose_from_json(pose[name], quat_orders[name], UNIT_SCALE[unit], f"{path}, poses[{k}].{name}"))
+                where = f"{path}, poses[{k}].{name}"
+                Ts.append(_pose_from_json(pose[name], quat_orders[name], UNIT_SCALE[unit], where))
             out[name] = np.array(Ts).reshape(-1, 4, 4)
         return out, list(range(len(doc["poses"]))), {n: "json" for n in names}
     raw, rows, kinds = _read_csv(path, names)
@@ -188,7 +195,8 @@ def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, .
     out = {"image": raw["image"]} if "image" in raw else {}
     for name in names:
         out[name] = _to_transforms(
-            raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit], lambda ln, n=name: f"{path}, line {ln}, {n}", rows
+            raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit],
+            lambda ln, n=name: f"{path}, line {ln}, {n}", rows
         )
     return out, rows, kinds
 

@@ -23,18 +23,18 @@ import pytest
 
 cv2 = pytest.importorskip("cv2")
 
-import classic
-from handeye.core.metrics import rotation_error_deg
-from handeye.core.se3 import (
+import classic  # noqa: E402
+from handeye.core.metrics import rotation_error_deg  # noqa: E402
+from handeye.core.se3 import (  # noqa: E402
     hat,
     invert_transform,
     make_transform,
     quat_xyzw_from_matrix,
     rotation_angle,
 )
-from handeye.core.setups import robot_side_poses
-from handeye.core.synthetic import make_problem
-from tests.tolerances import (
+from handeye.core.setups import robot_side_poses  # noqa: E402
+from handeye.core.synthetic import make_problem  # noqa: E402
+from tests.tolerances import (  # noqa: E402
     DANIILIDIS_MAX_PAIR_ANGLE_DEG,
     DEG,
     MM,

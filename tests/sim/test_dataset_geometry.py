@@ -11,8 +11,8 @@ import pytest
 
 from handeye.core.dataset import Dataset
 from handeye.core.se3 import invert_transform
-from tests.sim._geometry import assert_sphere_rendered
 from tests.conftest import MARKER_RADIUS_M
+from tests.sim._geometry import assert_sphere_rendered
 from tests.tolerances import DEPTH_M, DEPTH_QUANTUM_M
 
 

@@ -103,7 +103,7 @@ def test_markerless_labels_feed_the_board_free_continual_run(small_copy):
     ds = Dataset.open(small_copy)
     cams = ds.cameras()
     assert list(cams["markerless_status"]) == ["ok"] * len(ds)
-    ml, truth, classic = ds.markerless_labels(), ds.truth(), ds.labels()
+    ml, classic = ds.markerless_labels(), ds.labels()
     for c, res in run.results.items():
         np.testing.assert_allclose(ml[c], res.T_base_cam, atol=1e-9)
         assert cams["markerless_error_trans_mm"][c] == pytest.approx(run.errors[c][1])

@@ -7,11 +7,16 @@ import pytest
 
 pytest.importorskip("pinocchio")
 
+from classic.vision.board import BoardSpec  # noqa: E402
 from handeye.core.se3 import invert_transform, rotation_angle  # noqa: E402
 from sim.cameras import get_preset, place_cameras  # noqa: E402
-from classic.vision.board import BoardSpec  # noqa: E402
 from sim.recording import (  # noqa: E402
-    DEFAULT_BOARD, board_mount, camera_matrix, in_image, sample_calibration_view, sample_data_configuration,
+    DEFAULT_BOARD,
+    board_mount,
+    camera_matrix,
+    in_image,
+    sample_calibration_view,
+    sample_data_configuration,
 )
 from sim.robot import load_robot  # noqa: E402
 from tests.tolerances import EXACT  # noqa: E402

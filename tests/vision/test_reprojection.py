@@ -7,8 +7,8 @@ import pytest
 
 import classic
 from classic.vision import CameraIntrinsics, Detection, estimate_pose, refine_reprojection
-from classic.vision.reprojection import OUTLIER_VIEW_FACTOR, project
 from classic.vision.detect import project_points
+from classic.vision.reprojection import OUTLIER_VIEW_FACTOR, project
 from handeye.core.synthetic import make_problem, perturb
 from tests.tolerances import (
     ESTIMATED_SIGMA_BOUND,
