@@ -108,6 +108,9 @@ class MarkerlessOptions:
         Inlier RMS residual at most this times the expected noise plus the model floor.
     model_floor_m : float
         Residual the model itself leaves (mesh detail, unmodelled cables), metres.
+    model_radius_m : float
+        Radius of the robot's thinnest rounded links (the UR's are 4 cm and more): with the pixel
+        footprint it bounds the model's sampling bias, a term of the reported sigma.
     coarse_windows_m : tuple of float
         Match windows of the coarse stage, widest first.
     fine_iterations : int
@@ -126,6 +129,7 @@ class MarkerlessOptions:
     min_matched_fraction: float = 0.6
     max_residual_ratio: float = 3.0
     model_floor_m: float = 0.0015
+    model_radius_m: float = 0.04
     coarse_windows_m: tuple = (0.3, 0.2, 0.12, 0.08, 0.05, 0.03, 0.02, 0.01)
     fine_iterations: int = 20
     max_points: int = 20000
@@ -148,7 +152,9 @@ class MarkerlessResult:
     covariance : array, shape (6, 6)
         Of the camera's rotation (rad, camera frame) and position (m, camera frame).
     sigma : dict
-        ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate.
+        ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, the noise the
+        frame-clustered covariance sees and the model's sampling bias bound (``diagnostics``
+        ``sigma_noise`` and ``sigma_sampling``) in quadrature.
     residual_mm_per_frame : array, shape (N,)
         RMS point-to-plane residual of the matched points of each frame.
     matched_fraction : float
@@ -388,6 +394,9 @@ class _Problem:
             return T, None, np.inf, 0.0
         fit, _ = self._fit(T, idx, f, q, close)
         step = max(step, fit.step_norm)
+        matched_q = q[close]
+        self.final_geometry = (float(np.median(matched_q[:, 2])),
+                               float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))))
         within_1cm = has_depth & (np.abs(q[:, 2] - (self.s.points_base[idx] - fit.T_base_cam[:3, 3])
                                          @ fit.T_base_cam[:3, 2]) < 0.01)
         matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
@@ -470,10 +479,21 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     expected_mm = float(np.hypot(_sigma_z(z_med, opts), opts.model_floor_m) * 1e3)
     cov = fit.covariance
     R = T[:3, :3]
-    sigma = {"rotation_deg": float(np.degrees(np.sqrt(np.trace(cov[:3, :3])))),
-             "translation_mm": float(np.sqrt(np.trace(R @ cov[3:, 3:] @ R.T)) * 1e3)}
+    noise_deg = float(np.degrees(np.sqrt(np.trace(cov[:3, :3]))))
+    noise_mm = float(np.sqrt(np.trace(R @ cov[3:, 3:] @ R.T)) * 1e3)
+    # what all frames share and the covariance cannot see: a model point stands for the surface up to half a
+    # pixel off its ray, off the tangent plane by at most F^2 / (8 r) on a link of radius r; taken as a uniform
+    # error (std = bound / sqrt 3) in translation, and over the matched points' spread in rotation
+    z_med, lever_m = problem.final_geometry
+    footprint_m = z_med / max(K[0, 0], K[1, 1])
+    sampling_mm = footprint_m**2 / (8 * opts.model_radius_m) / np.sqrt(3) * 1e3
+    sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
+    sigma = {"rotation_deg": float(np.hypot(noise_deg, sampling_deg)),
+             "translation_mm": float(np.hypot(noise_mm, sampling_mm))}
     diag.update({"inlier_rms_mm": rms_mm, "expected_rms_mm": expected_mm, "last_step": float(step),
-                 "matched_points": int(inl.sum())})
+                 "matched_points": int(inl.sum()),
+                 "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm},
+                 "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)}})
     refused = None
     if matched < opts.min_matched_fraction:
         refused = (f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
