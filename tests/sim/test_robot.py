@@ -71,3 +71,21 @@ def test_meshes_exist(robot):
 def test_unknown_robot():
     with pytest.raises(HandEyeInputError, match="ur5"):
         load_robot("ur10e")
+
+
+def test_any_urdf_by_path_gives_the_same_robot():
+    """load_robot_urdf (a user's URDF with meshes) on the UR5's own file: the same kinematics and meshes."""
+    from pathlib import Path
+
+    import example_robot_data as erd
+
+    from sim.robot import load_robot, load_robot_urdf
+
+    loader = erd.robots_loader.UR5Loader()
+    urdf = Path(loader.df_path)
+    share = Path(loader.model_path).resolve().parents[1]  # its meshes are package://example-robot-data/robots/...
+    mine, theirs = load_robot_urdf(urdf, [share]), load_robot("ur5")
+    q = np.random.default_rng(0).uniform(-2, 2, size=(5, 6))
+    np.testing.assert_allclose(mine.fk(q), theirs.fk(q), atol=1e-12)
+    np.testing.assert_allclose(mine.keypoints_base(q), theirs.keypoints_base(q), atol=1e-12)
+    assert [Path(p).name for _, p, _ in mine.link_poses(q[0])] == [Path(p).name for _, p, _ in theirs.link_poses(q[0])]
