@@ -94,7 +94,7 @@ def moving_mask(depth_m: np.ndarray, static_m: np.ndarray, min_gap_m: float) -> 
     depth_m : array, shape (N, H, W)
     static_m : array, shape (H, W)
         From :func:`static_depth`.
-    min_gap_m : float
+    min_gap_m : float or array, shape (N, H, W)
         Several depth-noise sigmas; pixels where the static depth is unknown count as moving
         when the frame has depth there.
 

@@ -225,10 +225,9 @@ class _Problem:
         self.n, self.h, self.w = depth_m.shape
         self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth
         static = static_depth(depth_m)
+        # moved there: nearer than the static depth by 2 cm or six depth-noise sigmas, whichever is larger
         z = np.where(depth_m > 0, depth_m, 1.0)
-        self.moving = moving_mask(depth_m, static, 0.0)
-        self.moving &= depth_m < static - np.maximum(0.02, 6 * _sigma_z(z, opts))
-        self.moving |= (depth_m > 0) & (static <= 0)
+        self.moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * _sigma_z(z, opts)))
         f, r, c = np.nonzero(self.moving)
         self.n_moving = len(f)
         rng = np.random.default_rng(opts.seed)
