@@ -146,7 +146,9 @@ def main(argv=None):
     ap.add_argument("--sensitivity", action="store_true")
     ap.add_argument("--basin-data", type=Path, help="dataset for the basin (all cameras)")
     ap.add_argument("--basin-trials", type=int, default=200, help="trials per cell, centroid start beside")
-    ap.add_argument("--basin-trials-alone", type=int, default=50, help="trials per cell, the given start alone")
+    ap.add_argument("--basin-trials-alone", type=int, default=50,
+                    help="trials per cell, the given start alone (0: skip)")
+    ap.add_argument("--basin-cells", default="50:5,100:10,200:20,300:30", help="start offsets, mm:deg, comma-separated")
     ap.add_argument("--results", type=Path, default=Path("benchmarks/results/markerless.md"))
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
@@ -213,8 +215,10 @@ def main(argv=None):
         bsurface, bstride = robot_surface_for(bds)
         bsigma = bds.meta.get("recipe", {}).get("noise", {}).get("depth_sigma_m_at_1m", 0.001) or 0.001
         bopts = replace(opts, depth_sigma_m_at_1m=bsigma, zbuffer_stride=bstride)
-        cells = [(50, 5), (100, 10), (200, 20), (300, 30)]
+        cells = [tuple(int(v) for v in c.split(":")) for c in args.basin_cells.split(",")]
         for centroid, trials in ((True, args.basin_trials), (False, args.basin_trials_alone)):
+            if trials <= 0:
+                continue
             emit()
             emit(f"## Basin: {bds.root.name}, {trials} trials per cell over its {len(bds)} placements; "
                  f"{'centroid start tried beside the given one' if centroid else 'the given start alone'}")
