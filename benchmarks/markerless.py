@@ -37,8 +37,9 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._machine import machine  # noqa: E402
-from classic.markerless import MarkerlessOptions, pose_distance, register_robot  # noqa: E402
+from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.se3 import make_transform, so3_exp  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 
@@ -64,7 +65,7 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None):
         res = register_robot(depth, K, surface.posed(q), options=opts)
         dt = time.perf_counter() - t0
         if res.ok:
-            rot, tr = pose_distance(res.T_base_cam, truth[c])
+            rot, tr = pose_error(res.T_base_cam, truth[c])
             rows.append(("ok", rot, tr, res.sigma["rotation_deg"], res.sigma["translation_mm"], dt))
         else:
             rows.append(("refused", np.nan, np.nan, np.nan, np.nan, dt))
@@ -130,7 +131,7 @@ def basin(ds, surface, opts, cells, trials, centroid, rng):
             if not res.ok:
                 refused += 1
                 continue
-            rot, tr = pose_distance(res.T_base_cam, truth[c])
+            rot, tr = pose_error(res.T_base_cam, truth[c])
             if rot <= SUCCESS_DEG and tr <= SUCCESS_MM:
                 good += 1
             else:
@@ -174,7 +175,7 @@ def main(argv=None):
     emit()
     rows = accuracy(ds, cams, surface, opts)
     truth, labels = ds.truth(), ds.labels()
-    lab = np.array([pose_distance(labels[c], truth[c]) for c in cams])
+    lab = np.array([pose_error(labels[c], truth[c]) for c in cams])
     emit("| camera | hybrid vs truth mm / deg | predicted sigma mm / deg | classic label vs truth mm / deg | s |")
     emit("|---|---|---|---|---|")
     for c, r, (ld, lm) in zip(cams, rows, lab):

@@ -24,7 +24,7 @@ import numpy as np
 
 from classic.motions import Motions, motions_from_poses
 from classic.pairs import pair_indices
-from classic.ransac import pose_distance_m
+from classic.ransac import pose_error_m
 from classic.residuals import pose_residuals
 from classic.shah import _shah
 from handeye.core.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
@@ -150,7 +150,7 @@ def quick_fit_residuals(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: 
     except np.linalg.LinAlgError:
         return np.inf, 180.0
     r_rot, _ = pose_residuals(A, T_cam_target, X_cam, Y_target)
-    d = pose_distance_m(A, T_cam_target, X_cam, Y_target)
+    d = pose_error_m(A, T_cam_target, X_cam, Y_target)
     return float(np.median(d)), float(np.degrees(np.median(np.linalg.norm(r_rot, axis=1))))
 
 

@@ -19,7 +19,7 @@ from classic.residuals import pose_residuals
 from classic.shah import _shah
 from handeye.core.errors import DegenerateMotionError
 
-__all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers", "pose_distance_m"]
+__all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers", "pose_error_m"]
 
 #: Poses with a residual above this multiple of the median residual are outliers.
 INLIER_FACTOR = 3.0
@@ -44,7 +44,7 @@ class RansacResult:
     iterations: int
 
 
-def pose_distance_m(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray, L: float | None = None) -> np.ndarray:
+def pose_error_m(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray, L: float | None = None) -> np.ndarray:
     """Per-pose residual ``d_i = sqrt(|r_trans|^2 + (L r_angle)^2)`` in metres.
 
     Parameters
@@ -103,16 +103,16 @@ def lmeds_inliers(
             X, Y = _solve(A[idx], B[idx])
         except np.linalg.LinAlgError:
             continue
-        med = float(np.median(pose_distance_m(A, B, X, Y, L)))
+        med = float(np.median(pose_error_m(A, B, X, Y, L)))
         if med < best_med:
             best, best_med = (X, Y), med
     if best is None:
         raise DegenerateMotionError("no triple of poses gave a solution: the motions are degenerate")
-    d = pose_distance_m(A, B, *best, L)
+    d = pose_error_m(A, B, *best, L)
     inliers = d <= INLIER_FACTOR * np.median(d)
     # refit on the inliers, then re-flag against the better fit
     X, Y = _solve(A[inliers], B[inliers])
-    d = pose_distance_m(A, B, X, Y, L)
+    d = pose_error_m(A, B, X, Y, L)
     med = float(np.median(d))
     inliers = d <= INLIER_FACTOR * med
     return RansacResult(inliers=inliers, residual_m=d, median_residual_m=med, iterations=iterations)

@@ -22,9 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from classic.markerless import MarkerlessOptions, MarkerlessResult, pose_distance, register_robot
+from classic.markerless import MarkerlessOptions, MarkerlessResult, register_robot
 from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError, HandEyeInputError, ShapeError
+from handeye.core.metrics import pose_error
 from handeye.core.se3 import transform_from_pos_quat_xyzw
 
 __all__ = ["MarkerlessRun", "markerless_dataset", "calibrate_camera", "robot_surface_for", "read_start",
@@ -259,9 +260,9 @@ def markerless_dataset(root: str | Path, cameras: list[int] | None = None, model
         run.results[c] = res
         run.starts[c] = starts
         if res.ok and np.all(np.isfinite(truth[c])):
-            run.errors[c] = pose_distance(res.T_base_cam, truth[c])
+            run.errors[c] = tuple(float(x) for x in pose_error(res.T_base_cam, truth[c]))
         if labels is not None and np.all(np.isfinite(labels[c])) and np.all(np.isfinite(truth[c])):
-            run.label_errors[c] = pose_distance(labels[c], truth[c])
+            run.label_errors[c] = tuple(float(x) for x in pose_error(labels[c], truth[c]))
     return run
 
 

@@ -15,11 +15,10 @@ from classic.markerless.register import (
     MarkerlessResult,
     RefusedError,
     RobotSurfaceFrames,
-    pose_distance,
     register_robot,
 )
 from classic.markerless.visibility import visible_points
 
 __all__ = ["register_robot", "RobotSurfaceFrames", "MarkerlessOptions", "MarkerlessResult", "RefusedError",
-           "pose_distance", "solve_point_to_plane", "PlaneFit", "backproject", "static_depth", "moving_mask",
+           "solve_point_to_plane", "PlaneFit", "backproject", "static_depth", "moving_mask",
            "visible_points"]

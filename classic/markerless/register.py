@@ -40,12 +40,12 @@ from classic.markerless.depth import backproject, moving_mask, static_depth
 from classic.markerless.point_to_plane import solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
+from handeye.core.metrics import pose_error
 from handeye.core.rigid import rigid_transform
-from handeye.core.se3 import invert_transform, so3_log
+from handeye.core.se3 import invert_transform
 from handeye.core.validation import check_transforms
 
-__all__ = ["RobotSurfaceFrames", "MarkerlessOptions", "MarkerlessResult", "register_robot", "RefusedError",
-           "pose_distance"]
+__all__ = ["RobotSurfaceFrames", "MarkerlessOptions", "MarkerlessResult", "register_robot", "RefusedError"]
 
 _FRAME_KEY_M = 1000.0  # frames kept apart in the KD-tree by this offset on a 4th coordinate
 
@@ -327,7 +327,7 @@ class _Problem:
                     break
                 fit = solve_point_to_plane(self.mov_p[sel], self.s.points_base[jj], self.s.normals_base[jj],
                                            T, scale_m=window / 3, loss="cauchy", iterations=2)
-                moved = pose_distance(T, fit.T_base_cam)
+                moved = pose_error(T, fit.T_base_cam)
                 T = fit.T_base_cam
                 if np.radians(moved[0]) + moved[1] / 1e3 < 0.1 * window:
                     break
@@ -503,9 +503,3 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     elif step > 1e-4:
         refused = f"did not converge: last step {step:.2g} (rad + m)"
     return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag)
-
-
-def pose_distance(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
-    """Rotation (deg) and translation (mm) between two poses."""
-    D = invert_transform(T_a) @ T_b
-    return float(np.degrees(np.linalg.norm(so3_log(D[:3, :3])))), float(np.linalg.norm(D[:3, 3]) * 1e3)

@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, pose_distance, register_robot
+from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, register_robot
 from classic.markerless.depth import pixel_rays
 from handeye.core.errors import NonFiniteError, ShapeError
+from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
 from tests.tolerances import SIGMA_BOUND
 
@@ -89,7 +90,7 @@ def test_recovers_the_camera_pose_without_a_start(scene):
     depth, surface, T_true = scene
     res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M))
     assert res.ok, res.refused
-    rot_deg, trans_mm = pose_distance(res.T_base_cam, T_true)
+    rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
     bias_mm, bias_deg = _bias_bounds(depth)
     assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
     assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
@@ -100,7 +101,7 @@ def test_noiseless_depth_gives_the_truth_to_the_sampling_bias():
     depth, surface, T_true = _scene(np.random.default_rng(1), noise=False)
     res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M))
     assert res.ok, res.refused
-    rot_deg, trans_mm = pose_distance(res.T_base_cam, T_true)
+    rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
     bias_mm, bias_deg = _bias_bounds(depth)
     assert trans_mm <= bias_mm and rot_deg <= bias_deg
 
@@ -116,7 +117,7 @@ def test_converges_from_given_starts(scene, rng, trans_m, angle_deg, centroid):
                                      trans_m * direction / np.linalg.norm(direction))
         res = register_robot(depth, K, surface, starts={"user": T0}, centroid_start=centroid)
         assert res.ok, res.refused
-        rot_deg, trans_mm = pose_distance(res.T_base_cam, T_true)
+        rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
         assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
         assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
 
@@ -129,7 +130,7 @@ def test_a_start_outside_the_basin_is_refused_not_answered(scene):
         T0 = T_true @ make_transform(so3_exp(np.radians(angle) * np.array([1.0, 0, 0])), [offset, 0, 0])
         res = register_robot(depth, K, surface, starts={"user": T0}, centroid_start=False)
         if res.ok:  # an answer is only acceptable if it is right
-            rot_deg, trans_mm = pose_distance(res.T_base_cam, T_true)
+            rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
             assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
         else:
             assert res.T_base_cam is None
