@@ -59,6 +59,37 @@ def compare_table(pc: dict, hybrid=None) -> str:
     return "\n".join(lines)
 
 
+def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
+    """Per camera, the classic cross-frame keypoint solve (:func:`classic.keypoint_pose.solve_keypoint_pose`):
+    its pose against the truth, its sigma, the keypoints that agree, or its refusal."""
+    import numpy as np
+
+    from classic.keypoint_pose import solve_keypoint_pose
+    from handeye.core.metrics import pose_error
+    from handeye.core.se3 import transform_from_pos_quat_xyzw
+    from learned.keypoints import backproject_keypoints
+    from learned.trainer import predict
+
+    lines = ["| camera | keypoint solve vs truth (mm / deg) | sigma (mm / deg) | keypoints agreeing |",
+             "|---|---|---|---|"]
+    for c in cameras:
+        idx = np.flatnonzero(frames.camera == c)
+        pred = predict(model, frames, idx)
+        p_cam = backproject_keypoints(pred, frames.intrinsics_norm[idx]).reshape(-1, 3)
+        k = pred.shape[1]
+        res = solve_keypoint_pose(p_cam, frames.keypoints_base[idx].reshape(-1, 3), np.repeat(np.arange(len(idx)), k),
+                                  inlier_m=0.1)
+        if not res.ok:
+            lines.append(f"| {c} | refused: {res.refused} | - | - |")
+            continue
+        truth = transform_from_pos_quat_xyzw(frames.truth_t_base_cam_mm[idx[0]] / 1000.0,
+                                             frames.truth_q_base_cam_xyzw[idx[0]])
+        deg, mm = pose_error(res.T_base_cam, truth)
+        lines.append(f"| {c} | {mm:.1f} / {deg:.2f} | {res.sigma['translation_mm']:.1f} / "
+                     f"{res.sigma['rotation_deg']:.2f} | {int(res.inliers.sum())} of {len(res.inliers)} |")
+    return "\n".join(lines)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the command."""
     import numpy as np
@@ -77,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
         frames = load_keypoint_frames(args.dataset, model.config.image_size, "classic", progress=False)
         cams = frames.cameras(None if args.split == "all" else args.split)
         pc = keypoint_camera_predictions(model, frames, [int(c) for c in cams])
+        print(keypoint_solve_table(model, frames, [int(c) for c in cams]))
     else:
         t_model = load_model(args.model / "translation.pt")
         q_model = load_model(args.model / "orientation.pt")
