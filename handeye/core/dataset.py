@@ -452,9 +452,23 @@ class Dataset:
 
     # -- images
 
+    def image_path(self, camera_id: int, relpath: str) -> Path:
+        """The file of an image cell, refused when it leaves the camera's shard (``../``, an absolute path).
+
+        Raises
+        ------
+        DatasetError
+            Naming the table and the path.
+        """
+        shard = self.shard_dir(camera_id)
+        path = shard / relpath
+        if Path(relpath).is_absolute() or not path.resolve().is_relative_to(shard.resolve()):
+            raise DatasetError(f"{shard / 'frames.csv'}: image path {relpath!r} leaves the shard {shard}")
+        return path
+
     def rgb(self, camera_id: int, relpath: str) -> np.ndarray:
         """Colour image of a frame (its ``rgb`` cell), uint8 (H, W, 3)."""
-        img = _read_png(self.shard_dir(camera_id) / relpath)
+        img = _read_png(self.image_path(camera_id, relpath))
         if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
             raise DatasetError(f"{self.shard_dir(camera_id) / relpath}: expected 8-bit RGB, got {img.dtype} "
                                f"{img.shape}")
@@ -462,7 +476,7 @@ class Dataset:
 
     def depth_m(self, camera_id: int, relpath: str) -> np.ndarray:
         """Depth image of a frame (its ``depth`` cell) in metres, float32 (H, W), 0 = no depth."""
-        units = _read_png(self.shard_dir(camera_id) / relpath)
+        units = _read_png(self.image_path(camera_id, relpath))
         if units.ndim != 2 or units.dtype not in (np.uint16, np.int32):
             raise DatasetError(f"{self.shard_dir(camera_id) / relpath}: expected a 16-bit depth PNG, got "
                                f"{units.dtype} {units.shape}")
@@ -475,7 +489,7 @@ class Dataset:
             t = self.frames(c)
             if images:
                 for rel in list(t["rgb"]) + [d for d in t["depth"] if d]:
-                    if not (self.shard_dir(c) / rel).is_file():
+                    if not self.image_path(c, rel).is_file():
                         raise DatasetError(f"{self.shard_dir(c) / rel}: image missing")
 
     def complete_shards(self) -> list[int]:

@@ -145,6 +145,28 @@ def test_a_missing_image_names_the_file(small_copy):
         ds.depth_m(3, "depth/data_001.png")
 
 
+def test_an_image_path_leaving_the_shard_is_refused(small_copy):
+    """A ``../`` path in frames.csv, even with a manifest that agrees with the table, is never followed."""
+    from handeye.core.dataset import write_manifest
+
+    shard = small_copy / shard_name(1)
+    table = (shard / "frames.csv").read_text().splitlines()
+    header = table[0].split(",")
+    row = table[1].split(",")
+    row[header.index("rgb")] = "../" + shard_name(0) + "/" + row[header.index("rgb")]
+    (shard / "frames.csv").write_text("\n".join([table[0], ",".join(row), *table[2:]]) + "\n")
+    manifest = json.loads((shard / "manifest.json").read_text())
+    write_manifest(shard, 1, manifest["frames"])  # the manifest now agrees with the edited table
+    ds = Dataset.open(small_copy)
+    rel = ds.frames(1)["rgb"][0]
+    with pytest.raises(DatasetError, match="leaves the shard"):
+        ds.rgb(1, rel)
+    with pytest.raises(DatasetError, match="leaves the shard"):
+        ds.validate(images=True)
+    with pytest.raises(DatasetError, match="leaves the shard"):
+        ds.depth_m(1, "/etc/passwd")
+
+
 def test_meta_errors(small_copy, tmp_path):
     with pytest.raises(DatasetError, match="no such dataset directory"):
         Dataset.open(tmp_path / "nothing")
