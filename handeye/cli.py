@@ -48,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
     except (HandEyeInputError, MissingDependencyError) as exc:
         print(f"handeye {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the output was piped into a reader that stopped (``| head``): not an error of ours
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

@@ -119,3 +119,29 @@ def test_missing_file_and_bad_json(tmp_path):
     path.write_text(json.dumps({"poses": [{"T_base_ee": {"matrix": np.eye(4).tolist()}}]}))
     with pytest.raises(PoseFileError, match=r"poses\[0\]: missing T_cam_target"):
         read_pose_file(path)
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"\x00\x01\x02binary\xff\xfe", "a binary file, not a text pose file"),
+    (b"T_base_ee.x\n\xe9\xe9\n", "not UTF-8 text"),
+])
+def test_unreadable_pose_files_give_one_named_line(tmp_path, content, message):
+    from handeye.cli import main
+
+    path = tmp_path / "poses.csv"
+    path.write_bytes(content)
+    with pytest.raises(PoseFileError, match=f"poses.csv: {message}"):
+        read_pose_file(path)
+    assert main(["calibrate", str(path), "--setup", "eye-to-hand"]) == 2
+
+
+def test_a_directory_and_a_huge_file_are_named(tmp_path, monkeypatch):
+    import handeye.core.posefile as posefile
+
+    with pytest.raises(PoseFileError, match="is a directory, not a pose file"):
+        read_pose_file(tmp_path)
+    big = tmp_path / "big.csv"
+    big.write_text("x" * 2048)
+    monkeypatch.setattr(posefile, "MAX_POSE_FILE_BYTES", 1024)
+    with pytest.raises(PoseFileError, match="big.csv: 2,048 bytes, too large for a pose file"):
+        read_pose_file(big)

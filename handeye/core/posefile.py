@@ -28,6 +28,7 @@ unit is reported with its row. A quaternion-order mistake is caught by
 from __future__ import annotations
 
 import csv
+import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,13 +81,46 @@ def _check_unit(q: np.ndarray, where: str) -> None:
         raise PoseFileError(f"{where}: quaternion {np.round(q, 4).tolist()} has norm {norm:.4f}, not 1")
 
 
+#: A pose file larger than this is refused before it is read (a few thousand poses take kilobytes).
+MAX_POSE_FILE_BYTES = 64 * 1024 * 1024
+
+
+def _check_file(path: Path) -> None:
+    """One line for each way a path is not a readable pose file."""
+    if path.is_dir():
+        raise PoseFileError(f"{path}: is a directory, not a pose file")
+    if not path.exists():
+        raise PoseFileError(f"{path}: no such file")
+    if not path.is_file():
+        raise PoseFileError(f"{path}: not a regular file")
+    size = path.stat().st_size
+    if size > MAX_POSE_FILE_BYTES:
+        raise PoseFileError(f"{path}: {size:,} bytes, too large for a pose file (at most {MAX_POSE_FILE_BYTES:,})")
+
+
+def _read_text(path: Path) -> str:
+    """The file's text (UTF-8), or a :class:`PoseFileError` naming the file."""
+    _check_file(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise PoseFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if b"\x00" in raw:
+        raise PoseFileError(f"{path}: a binary file, not a text pose file (CSV or JSON)")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise PoseFileError(f"{path}: not UTF-8 text (byte {exc.start}); save the pose file as UTF-8") from None
+
+
 def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, list[int], dict]:
     """Raw columns per pose name ``(N, 6 or 7)``, the line numbers, and the rotation kind per name.
 
     An ``image`` column, if present, is returned under the key ``"image"`` of the first dict.
     """
-    with path.open(newline="") as f:
-        lines = [(i + 1, line) for i, line in enumerate(f) if line.strip() and not line.lstrip().startswith("#")]
+    text = _read_text(path)
+    lines = [(i + 1, line) for i, line in enumerate(io.StringIO(text, newline=""))
+             if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise PoseFileError(f"{path}: no header and no rows")
     header_line, header = lines[0][0], [h.strip() for h in next(csv.reader([lines[0][1]]))]
@@ -168,7 +202,7 @@ def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, .
     """Transforms of the pose names with the given quaternion order per name (and ``image`` if given)."""
     if path.suffix.lower() == ".json":
         try:
-            doc = json.loads(path.read_text())
+            doc = json.loads(_read_text(path))
         except json.JSONDecodeError as exc:
             raise PoseFileError(f"{path}: not valid JSON ({exc})") from None
         if not isinstance(doc, dict) or not isinstance(doc.get("poses"), list):
@@ -235,13 +269,12 @@ def read_pose_file(
         message names the file and the line or entry.
     """
     path = Path(path)
-    if not path.is_file():
-        raise PoseFileError(f"{path}: no such file")
+    _check_file(path)
     if quat_order is not None and quat_order not in QUAT_ORDERS:
         raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
     if path.suffix.lower() == ".json" and quat_order is None:
         try:
-            quat_order = json.loads(path.read_text()).get("quaternion_order")
+            quat_order = json.loads(_read_text(path)).get("quaternion_order")
         except (json.JSONDecodeError, AttributeError):
             quat_order = None
     order = quat_order or "xyzw"
@@ -294,8 +327,7 @@ def read_robot_poses(path: str | Path, quat_order: str | None = None, units: str
     PoseFileError
     """
     path = Path(path)
-    if not path.is_file():
-        raise PoseFileError(f"{path}: no such file")
+    _check_file(path)
     order = quat_order or "xyzw"
     if order not in QUAT_ORDERS:
         raise PoseFileError(f"quaternion order {order!r} not understood; use one of {QUAT_ORDERS}")
