@@ -31,6 +31,7 @@ from handeye.core.dataset import (
     CAMERA_COLUMNS,
     FORMAT,
     FORMAT_VERSION,
+    dataset_lock,
     encode_depth,
     frame_columns,
     poses_to_columns,
@@ -377,41 +378,42 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
         raise HandEyeInputError(f"workers must be >= 1, got {workers}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m)
-    _check_or_write_meta(out, meta)
-    if not (out / "cameras.csv").exists():
-        write_table(out / "cameras.csv", _camera_table(place_cameras(preset, np.random.default_rng(seed))),
-                    CAMERA_COLUMNS)
-    report = GenerationReport(out)
-    pending = []
-    for c in range(preset.n_cameras):
-        shard = out / shard_name(c)
-        if shard_is_complete(shard)[0]:
-            report.skipped.append(c)
-            continue
-        if shard.exists() or shard.with_name(shard.name + ".partial").exists():
-            report.regenerated.append(c)
-        pending.append(c)
-    bar = None
-    if progress and pending:
-        from tqdm import tqdm
+    with dataset_lock(out, "handeye sim generate"):
+        meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m)
+        _check_or_write_meta(out, meta)
+        if not (out / "cameras.csv").exists():
+            write_table(out / "cameras.csv", _camera_table(place_cameras(preset, np.random.default_rng(seed))),
+                        CAMERA_COLUMNS)
+        report = GenerationReport(out)
+        pending = []
+        for c in range(preset.n_cameras):
+            shard = out / shard_name(c)
+            if shard_is_complete(shard)[0]:
+                report.skipped.append(c)
+                continue
+            if shard.exists() or shard.with_name(shard.name + ".partial").exists():
+                report.regenerated.append(c)
+            pending.append(c)
+        bar = None
+        if progress and pending:
+            from tqdm import tqdm
 
-        bar = tqdm(total=len(pending), desc=f"render {out.name}", unit="camera", file=sys.stderr)
-    if pending:
-        # always in worker processes, even one: pyrender's EGL teardown (eglTerminate) breaks any other
-        # context of the process, so the caller's process never holds one
-        pool = multiprocessing.get_context("spawn").Pool(min(workers, len(pending)), _init_worker, (meta,))
-        try:
-            for c, n in pool.imap_unordered(_work, [(c, str(out)) for c in pending]):
-                report.rendered.append(c)
-                report.frames += n
+            bar = tqdm(total=len(pending), desc=f"render {out.name}", unit="camera", file=sys.stderr)
+        if pending:
+            # always in worker processes, even one: pyrender's EGL teardown (eglTerminate) breaks any other
+            # context of the process, so the caller's process never holds one
+            pool = multiprocessing.get_context("spawn").Pool(min(workers, len(pending)), _init_worker, (meta,))
+            try:
+                for c, n in pool.imap_unordered(_work, [(c, str(out)) for c in pending]):
+                    report.rendered.append(c)
+                    report.frames += n
+                    if bar is not None:
+                        bar.update(1)
+            finally:
+                pool.close()
+                pool.join()
                 if bar is not None:
-                    bar.update(1)
-        finally:
-            pool.close()
-            pool.join()
-            if bar is not None:
-                bar.close()
-    report.rendered.sort()
-    report.wall_s = time.perf_counter() - t0
-    return report
+                    bar.close()
+        report.rendered.sort()
+        report.wall_s = time.perf_counter() - t0
+        return report

@@ -30,6 +30,7 @@ the calibration images and flange poses and the data images with joint angles,
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
@@ -45,7 +46,7 @@ __all__ = [
     "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "MARKERLESS_COLUMNS",
     "camera_table_columns", "Dataset",
     "pose_columns", "frame_columns", "poses_to_columns", "columns_to_poses", "read_table", "write_table", "shard_name",
-    "write_manifest", "shard_is_complete", "write_json_atomic", "encode_depth", "decode_depth",
+    "write_manifest", "shard_is_complete", "write_json_atomic", "encode_depth", "decode_depth", "dataset_lock",
 ]
 
 FORMAT = "handeye-dataset"
@@ -264,6 +265,42 @@ def _read_png(path: Path) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ manifests
+
+
+@contextlib.contextmanager
+def dataset_lock(root: str | Path, what: str):
+    """Hold the dataset directory's write lock (``root/.lock``) for the duration, or refuse at once.
+
+    Two writers on one dataset (two ``handeye sim generate`` runs on one ``--out``, a labelling during a
+    generation) would interleave shards and tables; the second is refused with a clear message instead.
+    The lock is an advisory ``flock``: released by the system when the process ends, however it ends.
+
+    Raises
+    ------
+    DatasetError
+        When another process holds the lock.
+    """
+    import fcntl
+
+    path = Path(root) / ".lock"
+    with path.open("a+") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            raise DatasetError(f"{root}: {holder} is writing this dataset; wait for it to finish, or use another "
+                               f"directory (lock {path})") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{what} (pid {os.getpid()})")
+        f.flush()
+        try:
+            yield
+        finally:
+            f.seek(0)
+            f.truncate()
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def write_manifest(shard_dir: Path, camera_id: int, n_frames: dict) -> None:

@@ -207,3 +207,17 @@ def test_cli_label_and_show(small_copy, tmp_path, capsys):
     assert "other options" in capsys.readouterr().err
     assert main(["sim", "generate", "--out", str(small_copy), "--quiet"]) == 0
     assert "kept 6 complete" in capsys.readouterr().out
+
+
+def test_a_second_writer_on_one_dataset_is_refused(tmp_path):
+    """Two generators on one output folder: the second is refused at once, naming the first; nothing is written."""
+    from handeye.core.dataset import dataset_lock
+    from sim.generate import generate
+
+    with dataset_lock(tmp_path, "handeye sim generate (test holder)"):
+        refused = r"handeye sim generate \(test holder\) \(pid \d+\) is writing this dataset"
+        with pytest.raises(DatasetError, match=refused):
+            generate(tmp_path, "small", workers=1, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".lock"]
+    with dataset_lock(tmp_path, "again"):  # released: the next writer gets it
+        pass
