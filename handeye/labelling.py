@@ -27,6 +27,7 @@ from handeye.core.dataset import (
     MARKERLESS_COLUMNS,
     Dataset,
     camera_table_columns,
+    dataset_lock,
     poses_to_columns,
     write_table,
 )
@@ -185,7 +186,8 @@ def label_dataset(root: str | Path, workers: int = 2, method: str = "park", prog
                               dtype=object if col == "label_status" else float)
     for col in ("label_views_used", "label_views_total"):
         table[col] = table[col].astype(int)
-    write_table(ds.cameras_path, table, camera_table_columns(table))
+    with dataset_lock(ds.root, "handeye label"):
+        write_table(ds.cameras_path, table, camera_table_columns(table))
     (ds.root / "labels.md").write_text(label_table_markdown(table) + "\n")
     if plot:
         plot_label_errors(table, ds.root / "label_errors.png")

@@ -280,6 +280,7 @@ def write_markerless_labels(root: str | Path, run: MarkerlessRun) -> Path:
     from handeye.core.dataset import (
         MARKERLESS_COLUMNS,
         camera_table_columns,
+        dataset_lock,
         pose_columns,
         poses_to_columns,
         write_table,
@@ -303,5 +304,6 @@ def write_markerless_labels(root: str | Path, run: MarkerlessRun) -> Path:
         err = run.errors.get(c, (np.nan, np.nan))
         cols["markerless_error_rot_deg"][c], cols["markerless_error_trans_mm"][c] = err
     cams.update(cols)
-    write_table(ds.cameras_path, cams, camera_table_columns(cams))
+    with dataset_lock(ds.root, "handeye markerless --write-labels"):
+        write_table(ds.cameras_path, cams, camera_table_columns(cams))
     return ds.cameras_path
