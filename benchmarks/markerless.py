@@ -202,8 +202,7 @@ def main(argv=None):
         emit()
         emit("| case | accepted | within 1 mm / 0.1 deg | median mm | median deg | worst mm | worst deg | median s |")
         emit("|---|---|---|---|---|---|---|---|")
-        cases = [("twice the depth noise", double_noise(sigma_1m), opts.__class__(**{**opts.__dict__,
-                  "depth_sigma_m_at_1m": 2 * sigma_1m})),
+        cases = [("twice the depth noise", double_noise(sigma_1m), replace(opts, depth_sigma_m_at_1m=2 * sigma_1m)),
                  ("a quarter of the depth missing (16 px blocks)", missing_blocks, opts),
                  ("10 frames", first_frames(10), opts),
                  ("arm partly out of view (left 40 % of each image blank)", out_of_view(0.4), opts)]

@@ -6,9 +6,10 @@ base-frame positions ``p_base`` (forward kinematics), find ``T_base_cam`` with
 
 1. RANSAC over minimal samples (three points, rigid closed form, :func:`handeye.core.rigid.rigid_transform`),
    scored by the number of points within ``inlier_m``;
-2. IRLS with a Cauchy weight from that consensus (closed form each step);
+2. IRLS with a Cauchy weight from that consensus (:func:`handeye.core.rigid.robust_rigid_transform`);
 3. the covariance of ``(omega, v)`` (camera-frame right perturbation, as in
-   :mod:`classic.markerless.point_to_plane`), the sandwich estimate with one cluster per frame.
+   :mod:`classic.markerless.point_to_plane`), :func:`classic.clustered_covariance.clustered_covariance`
+   with one cluster per frame.
 
 Refuses (``refused`` names the reason) when fewer than ``min_inlier_fraction`` of the points, or
 fewer than six, agree: most keypoints wrong is not an answer.
@@ -20,8 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from classic.clustered_covariance import clustered_covariance, pose_sigma
 from handeye.core.errors import ShapeError
-from handeye.core.rigid import rigid_transform
+from handeye.core.rigid import rigid_transform, robust_rigid_transform
 from handeye.core.se3 import hat
 
 __all__ = ["KeypointPoseResult", "solve_keypoint_pose"]
@@ -105,49 +107,21 @@ def solve_keypoint_pose(p_cam: np.ndarray, p_base: np.ndarray, frame: np.ndarray
         count = int((np.linalg.norm(_residuals(T, p_cam[idx], p_base[idx]), axis=1) < inlier_m).sum())
         if count > best_count:
             best, best_count = T, count
-    inl = np.zeros(m, bool)
-    inl[idx] = np.linalg.norm(_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
-    T = rigid_transform(p_cam[inl], p_base[inl])
-    w = inl.astype(float)
-    for _ in range(10):
-        r = np.linalg.norm(_residuals(T, np.where(valid[:, None], p_cam, 0), np.where(valid[:, None], p_base, 0)),
-                           axis=1)
-        s = max(1.4826 * float(np.median(r[inl])), 1e-6)
-        w = valid / (1.0 + (r / (2 * s)) ** 2)
-        w[r > 3 * inlier_m] = 0.0
-        T = rigid_transform(np.where(valid[:, None], p_cam, 0), np.where(valid[:, None], p_base, 0), w)
-    r3 = _residuals(T, np.where(valid[:, None], p_cam, 0), np.where(valid[:, None], p_base, 0))
+    w0 = np.zeros(m)
+    w0[idx] = np.linalg.norm(_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
+    T, w = robust_rigid_transform(p_cam, p_base, w0, floor_m=1e-6)
+    r3 = _residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
     inl = valid & (np.linalg.norm(r3, axis=1) < inlier_m)
     frac = inl.sum() / max(valid.sum(), 1)
     rms_mm = float(np.sqrt(np.mean(np.sum(r3[inl] ** 2, axis=1))) * 1e3) if inl.any() else np.nan
-    cov = _covariance(T, p_cam, r3, w, inl, frame)
+    sel = np.flatnonzero(inl)
+    # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R; three residual rows per point
     R = T[:3, :3]
-    sigma = {"rotation_deg": float(np.degrees(np.sqrt(np.trace(cov[:3, :3])))),
-             "translation_mm": float(np.sqrt(np.trace(R @ cov[3:, 3:] @ R.T)) * 1e3)}
+    J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
+    cov = clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
+    sigma = pose_sigma(cov, R)
     refused = None
     if inl.sum() < 6 or frac < min_inlier_fraction:
         refused = (f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
                    f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)")
     return KeypointPoseResult(None if refused else T, refused, sigma, cov, inl, rms_mm)
-
-
-def _covariance(T, p_cam, r3, w, inl, frame):
-    """Sandwich covariance of the right perturbation (omega, v), clustered by frame (as point_to_plane)."""
-    R = T[:3, :3]
-    sel = np.flatnonzero(inl)
-    # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R
-    J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2)  # (n, 3, 6)
-    ws = w[sel][:, None, None]
-    H = np.einsum("nki,nkj->ij", J * ws, J)
-    H_inv = np.linalg.pinv(H)
-    g = np.einsum("nki,nk->ni", J * ws, r3[sel])
-    groups, where = np.unique(frame[sel], return_inverse=True)
-    scores = np.zeros((len(groups), 6))
-    np.add.at(scores, where, g)
-    k = len(groups)
-    dof = max(3 * len(sel) - 6, 1)
-    plain = H_inv * float(np.sum(w[sel] * np.sum(r3[sel] ** 2, axis=1)) / dof)
-    if k < 2:
-        return plain
-    sandwich = H_inv @ (scores.T @ scores * k / (k - 1)) @ H_inv
-    return sandwich if np.trace(sandwich) >= np.trace(plain) else plain

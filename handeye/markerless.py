@@ -89,13 +89,10 @@ def robot_surface_for(ds: Dataset, urdf: str | Path | None = None, package_dirs=
     The spacing is 0.7 of the pixel footprint at 0.8 m times the stride; the stride is 1 up to
     160 pixels of width and 2 beyond (the fine stage then uses a quarter of the pixels).
     """
-    from sim.robot import load_robot, load_robot_urdf
+    from handeye.robot_model import dataset_robot
     from sim.surface import RobotSurface, spacing_for_camera
 
-    robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot(ds.meta["robot"])
-    if robot.nq != ds.meta["n_joints"]:
-        raise ShapeError(f"{ds.root / 'meta.json'}: {ds.meta['n_joints']} joints, the robot model "
-                         f"{robot.name} has {robot.nq}")
+    robot = dataset_robot(ds, urdf, package_dirs, ee_frame)
     K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     width = int(ds.meta["intrinsics"]["width"])
     stride = zbuffer_stride or (1 if width <= 160 else 2)
@@ -184,7 +181,7 @@ def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
         from learned.trainer import predict
 
         model = load_model(model_dir / "keypoints.pt")
-        frames = load_keypoint_frames(ds_root, model.config.image_size, "truth", progress=False)
+        frames = load_keypoint_frames(ds_root, model.config.image_size, "none", progress=False)
         for c in cameras:
             idx = np.flatnonzero(frames.camera == c)
             out[c], _ = camera_pose(predict(model, frames, idx), frames.keypoints_base[idx],
@@ -194,7 +191,7 @@ def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
 
     t_model = load_model(model_dir / "translation.pt")
     q_model = load_model(model_dir / "orientation.pt")
-    frames = load_frames(ds_root, t_model.config.image_size, "truth", progress=False)
+    frames = load_frames(ds_root, t_model.config.image_size, "none", progress=False)
     for c in cameras:
         t_mm, q = camera_pose_prediction(t_model, q_model, frames, c)
         out[c] = transform_from_pos_quat_xyzw(t_mm / 1000.0, q)

@@ -7,6 +7,7 @@ classic label by default (as the paper trains on Tsai's labels), or the truth.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +20,7 @@ from handeye.core.se3 import pos_quat_xyzw_from_transform
 
 __all__ = ["FrameSet", "load_frames", "pose_targets", "with_keypoints", "LABEL_SOURCES"]
 
-LABEL_SOURCES = ("classic", "truth", "markerless")
+LABEL_SOURCES = ("classic", "truth", "markerless", "none")
 
 
 @dataclass
@@ -128,7 +129,8 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
     labels : {"classic", "truth", "markerless"}
         Which ``T_base_cam`` the targets are. ``markerless`` is the board-free cell: the first
         region's camera poses keep their classic label (the one board session of the cell), every
-        later pose takes its markerless label (``handeye markerless --write-labels``).
+        later pose takes its markerless label (``handeye markerless --write-labels``). ``none``: no
+        targets (NaN), for prediction on a dataset with neither labels nor truth (a real cell).
     cameras : list of int, optional
         Only these camera poses.
     progress : bool
@@ -162,6 +164,8 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         if missing:
             raise DatasetError(f"{ds.cameras_path}: camera poses {missing} have no label (markerless refused after "
                                f"the first region, or no classic label in it)")
+    elif labels == "none":
+        target = np.full_like(truth, np.nan)
     else:
         target = truth
         if not np.isfinite(truth).all():
@@ -221,9 +225,7 @@ def with_keypoints(frames: FrameSet, keypoints_base: np.ndarray) -> FrameSet:
     kp = np.asarray(keypoints_base, dtype=np.float32)
     if kp.ndim != 3 or kp.shape[0] != len(frames) or kp.shape[2] != 3:
         raise HandEyeInputError(f"keypoints must be ({len(frames)}, K, 3), got {kp.shape}")
-    fields = {k: getattr(frames, k) for k in frames.__dataclass_fields__}
-    fields["keypoints_base"] = kp
-    return FrameSet(**fields)
+    return dataclasses.replace(frames, keypoints_base=kp)
 
 
 def concat(parts: list[FrameSet]) -> FrameSet:

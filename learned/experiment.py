@@ -162,41 +162,52 @@ def camera_pose_prediction(t_model: CalibrationNet, q_model: CalibrationNet, fra
     return predict(t_model, frames, idx).mean(axis=0), average_quaternions(predict(q_model, frames, idx))
 
 
-def keypoint_camera_predictions(model, frames: FrameSet, cameras: list[int]) -> dict:
-    """As :func:`camera_predictions`, for the keypoint model: one pose per camera from all its frames' keypoints.
-
-    The pose is the robust (Cauchy IRLS) 3-D to 3-D fit of every frame's predicted keypoints to their
-    base-frame positions (:func:`learned.keypoints.camera_pose`); the per-frame columns use each frame's
-    own fit.
-    """
-    from learned.keypoints import camera_pose, frame_poses, pose_errors
-
+def _per_camera_rows(frames: FrameSet, cameras: list[int], predict_camera) -> dict:
+    """The per-camera comparison table, whatever the model: ``predict_camera(idx)`` gives the pose's
+    ``(t_mm (3,), q_xyzw (4,))`` and its frames' own ``(t_mm (n, 3), q_xyzw (n, 4))``."""
     out = {k: [] for k in ("camera", "region", "learned_vs_label_mm", "learned_vs_label_deg", "learned_vs_truth_mm",
                            "learned_vs_truth_deg", "label_vs_truth_mm", "label_vs_truth_deg",
                            "per_frame_vs_label_mm", "per_frame_vs_label_deg")}
     for c in cameras:
         idx = np.flatnonzero(frames.camera == c)
-        pred = predict(model, frames, idx)
-        T, _ = camera_pose(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
-        k = idx[:1]
+        (t, q), (t_frames, q_frames) = predict_camera(idx)
+        k = idx[0]
         lab_t, lab_q = frames.t_base_cam_mm[k], frames.q_base_cam_xyzw[k]
         tru_t, tru_q = frames.truth_t_base_cam_mm[k], frames.truth_q_base_cam_xyzw[k]
-        e_lab = pose_errors(T[None], lab_t, lab_q)
-        e_tru = pose_errors(T[None], tru_t, tru_q)
-        T_frames = frame_poses(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
-        ok = np.isfinite(T_frames).all(axis=(1, 2))
-        e_frames = pose_errors(T_frames[ok], frames.t_base_cam_mm[idx][ok], frames.q_base_cam_xyzw[idx][ok])
         out["camera"].append(int(c))
-        out["region"].append(int(frames.region[idx[0]]))
-        out["learned_vs_label_mm"].append(float(e_lab[0][0]))
-        out["learned_vs_label_deg"].append(float(e_lab[1][0]))
-        out["learned_vs_truth_mm"].append(float(e_tru[0][0]))
-        out["learned_vs_truth_deg"].append(float(e_tru[1][0]))
-        out["label_vs_truth_mm"].append(float(translation_errors_mm(lab_t, tru_t)[0]))
-        out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q, tru_q)[0]))
-        out["per_frame_vs_label_mm"].append(float(np.mean(e_frames[0])) if ok.any() else float("nan"))
-        out["per_frame_vs_label_deg"].append(float(np.mean(e_frames[1])) if ok.any() else float("nan"))
+        out["region"].append(int(frames.region[k]))
+        for name, (ref_t, ref_q) in (("learned_vs_label", (lab_t, lab_q)), ("learned_vs_truth", (tru_t, tru_q))):
+            out[f"{name}_mm"].append(float(translation_errors_mm(t, ref_t)))
+            out[f"{name}_deg"].append(float(rotation_errors_deg(q[None], ref_q[None])[0]))
+        out["label_vs_truth_mm"].append(float(translation_errors_mm(lab_t, tru_t)))
+        out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q[None], tru_q[None])[0]))
+        n = len(t_frames)
+        out["per_frame_vs_label_mm"].append(
+            float(np.mean(translation_errors_mm(t_frames, np.broadcast_to(lab_t, (n, 3))))) if n else float("nan"))
+        out["per_frame_vs_label_deg"].append(
+            float(np.mean(rotation_errors_deg(q_frames, np.broadcast_to(lab_q, (n, 4))))) if n else float("nan"))
     return out
+
+
+def keypoint_camera_predictions(model, frames: FrameSet, cameras: list[int]) -> dict:
+    """As :func:`camera_predictions`, for the keypoint model: one pose per camera from all its frames' keypoints.
+
+    The pose is the robust 3-D to 3-D fit of every frame's predicted keypoints to their base-frame
+    positions (:func:`learned.keypoints.camera_pose`); the per-frame columns use each frame's own fit
+    (frames with fewer than three usable keypoints left out).
+    """
+    from handeye.core.se3 import quat_xyzw_from_matrix
+    from learned.keypoints import camera_pose, frame_poses
+
+    def predict_camera(idx):
+        pred = predict(model, frames, idx)
+        T, _ = camera_pose(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
+        T_frames = frame_poses(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
+        T_frames = T_frames[np.isfinite(T_frames).all(axis=(1, 2))]
+        return ((T[:3, 3] * 1000.0, quat_xyzw_from_matrix(T[:3, :3])),
+                (T_frames[:, :3, 3] * 1000.0, quat_xyzw_from_matrix(T_frames[:, :3, :3])))
+
+    return _per_camera_rows(frames, cameras, predict_camera)
 
 
 def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
@@ -209,27 +220,11 @@ def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames:
         Lists per camera: ``camera``, ``region``, ``learned_vs_label_mm/deg``, ``learned_vs_truth_mm/deg``,
         ``label_vs_truth_mm/deg``, ``per_frame_vs_label_mm/deg`` (mean over the pose's frames).
     """
-    out = {k: [] for k in ("camera", "region", "learned_vs_label_mm", "learned_vs_label_deg", "learned_vs_truth_mm",
-                           "learned_vs_truth_deg", "label_vs_truth_mm", "label_vs_truth_deg",
-                           "per_frame_vs_label_mm", "per_frame_vs_label_deg")}
-    for c in cameras:
-        idx = np.flatnonzero(frames.camera == c)
-        t = predict(t_model, frames, idx)
-        q = predict(q_model, frames, idx)
-        t_mean, q_mean = t.mean(axis=0), average_quaternions(q)
-        lab_t, lab_q = frames.t_base_cam_mm[idx[0]], frames.q_base_cam_xyzw[idx[0]]
-        tru_t, tru_q = frames.truth_t_base_cam_mm[idx[0]], frames.truth_q_base_cam_xyzw[idx[0]]
-        out["camera"].append(int(c))
-        out["region"].append(int(frames.region[idx[0]]))
-        out["learned_vs_label_mm"].append(float(translation_errors_mm(t_mean, lab_t)))
-        out["learned_vs_label_deg"].append(float(rotation_errors_deg(q_mean[None], lab_q[None])[0]))
-        out["learned_vs_truth_mm"].append(float(translation_errors_mm(t_mean, tru_t)))
-        out["learned_vs_truth_deg"].append(float(rotation_errors_deg(q_mean[None], tru_q[None])[0]))
-        out["label_vs_truth_mm"].append(float(translation_errors_mm(lab_t, tru_t)))
-        out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q[None], tru_q[None])[0]))
-        out["per_frame_vs_label_mm"].append(float(np.mean(translation_errors_mm(t, frames.t_base_cam_mm[idx]))))
-        out["per_frame_vs_label_deg"].append(float(np.mean(rotation_errors_deg(q, frames.q_base_cam_xyzw[idx]))))
-    return out
+    def predict_camera(idx):
+        t, q = predict(t_model, frames, idx), predict(q_model, frames, idx)
+        return (t.mean(axis=0), average_quaternions(q)), (t, q)
+
+    return _per_camera_rows(frames, cameras, predict_camera)
 
 
 #: Model files: tensors and JSON only (:mod:`learned.safe_io`); version 1 files were pickled.

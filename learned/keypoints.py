@@ -24,8 +24,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from handeye.core.pnp import refine_pnp
-from handeye.core.rigid import rigid_transform
+from handeye.core.rigid import rigid_transform, robust_rigid_transform
 from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 
@@ -75,15 +74,8 @@ def frame_poses(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarra
 
 
 def camera_pose(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray,
-                iterations: int = 10, floor_m: float = 0.005, reprojection: bool = False
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """One ``T_base_cam`` from all frames of a camera placement: robust 3-D to 3-D fit (IRLS, Cauchy weight).
-
-    With ``reprojection`` the pose is then refined on the image positions alone
-    (:func:`handeye.core.pnp.refine_pnp`, all frames at once). Off by default: measured on
-    ``paper-sim`` (64x64 keypoint model) it tripled the error (98 against 28 mm median), since the
-    image positions alone leave the distance along the optical axis to a few pixels of spread, where
-    the sensor's depth pins it.
+                iterations: int = 10, floor_m: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+    """One ``T_base_cam`` from all frames of a camera placement: a robust 3-D to 3-D fit of every keypoint.
 
     Parameters
     ----------
@@ -101,35 +93,9 @@ def camera_pose(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarra
         Final weights (near 1 for keypoints that agree, near 0 for outliers).
     """
     p_cam = backproject_keypoints(pred, intrinsics_norm).reshape(-1, 3)
-    q = np.asarray(p_base, dtype=float).reshape(-1, 3)
-    ok = np.isfinite(p_cam).all(1) & (p_cam[:, 2] > 0)
-    w = ok.astype(float)
-    p_cam = np.where(ok[:, None], p_cam, 0.0)
-    T = rigid_transform(p_cam, q, w)
-    for _ in range(iterations):
-        r = np.linalg.norm(p_cam @ T[:3, :3].T + T[:3, 3] - q, axis=1)
-        s = max(1.4826 * float(np.median(r[ok])), floor_m)
-        w = ok / (1.0 + (r / (2.0 * s)) ** 2)
-        T = rigid_transform(p_cam, q, w)
-    if reprojection:
-        k = np.repeat(np.asarray(intrinsics_norm, dtype=float), pred.shape[1], axis=0)
-        x = pred.reshape(-1, 3)[:, :2]
-        T_pnp, w_pnp = refine_pnp(T, q, x, k)
-        # keep the refinement only where it fits the image positions better (a bad start can run away)
-        if np.isfinite(T_pnp).all() and _median_reprojection(T_pnp, q, x, k) < _median_reprojection(T, q, x, k):
-            T, w = T_pnp, w_pnp
-    return T, w
-
-
-def _median_reprojection(T_base_cam, p_base, x, k):
-    R, t = T_base_cam[:3, :3], T_base_cam[:3, 3]
-    pc = (p_base - t) @ R
-    z = pc[:, 2]
-    if np.median(z) <= 0:
-        return np.inf
-    zs = np.where(z > 1e-6, z, np.nan)
-    r = np.hypot(k[:, 0] * pc[:, 0] / zs + k[:, 2] - x[:, 0], k[:, 1] * pc[:, 1] / zs + k[:, 3] - x[:, 1])
-    return float(np.nanmedian(r)) if np.isfinite(r).any() else np.inf
+    p_cam[~(p_cam[:, 2] > 0)] = np.nan  # behind the camera: no measurement
+    return robust_rigid_transform(p_cam, np.asarray(p_base, dtype=float).reshape(-1, 3), iterations=iterations,
+                                  floor_m=floor_m)
 
 
 def _block(c_in, c_out, stride=1, dilation=1):

@@ -202,13 +202,17 @@ def load_robot(name: str, T_ee_ref: np.ndarray | None = None) -> Robot:
     erd = require_package("example_robot_data", extra="sim", purpose="the UR robot description")
     # the loader classes, not erd.load(name): example-robot-data-loaders 5.0 maps "ur3" to the UR5 loader
     wrapper = getattr(erd.robots_loader, _LOADERS[name])().robot
-    model = wrapper.model
-    robot = Robot(name, model, model.createData(), wrapper.visual_model, model.getFrameId("tool0"))
+    return _robot(name, wrapper.model, wrapper.visual_model, "tool0", T_ee_ref)
+
+
+def _robot(name: str, model, visual_model, ee_frame: str, T_ee_ref: np.ndarray | None) -> Robot:
+    """A :class:`Robot` with its shoulder (second joint's origin) and reach measured with all joints at zero."""
+    robot = Robot(name, model, model.createData(), visual_model, model.getFrameId(ee_frame))
     if T_ee_ref is not None:
         robot.T_ee_ref = np.asarray(T_ee_ref, dtype=float)
     q_stretched = np.zeros(robot.nq)
     robot.pin.forwardKinematics(model, robot.data, q_stretched)
-    robot.shoulder_m = robot.data.oMi[2].translation.copy()
+    robot.shoulder_m = robot.data.oMi[min(2, model.njoints - 1)].translation.copy()
     robot.reach_m = float(np.linalg.norm(robot.fk(q_stretched)[:3, 3] - robot.shoulder_m))
     return robot
 
@@ -250,7 +254,4 @@ def load_robot_urdf(urdf_path, package_dirs=(), ee_frame: str = "tool0", T_ee_re
             raise HandEyeInputError(f"{path}: mesh of {g.name} not found: {g.meshPath}")
     if not model.existFrame(ee_frame):
         raise HandEyeInputError(f"{path}: no frame {ee_frame!r} (the flange); pass ee_frame")
-    robot = Robot(path.stem, model, model.createData(), visual, model.getFrameId(ee_frame))
-    if T_ee_ref is not None:
-        robot.T_ee_ref = np.asarray(T_ee_ref, dtype=float)
-    return robot
+    return _robot(path.stem, model, visual, ee_frame, T_ee_ref)

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from classic.clustered_covariance import clustered_covariance
 from classic.refine import robust_weights
 from handeye.core.se3 import make_transform, so3_exp
 
@@ -63,7 +64,7 @@ class PlaneFit:
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
-    """``T exp(xi)`` with ``xi = (omega, v)`` (first-order coupling of v, exact rotation)."""
+    """``T @ [exp(omega) | v]``: the right perturbation of the parametrisation above, ``xi = (omega, v)``."""
     return T @ make_transform(so3_exp(xi[:3]), xi[3:])
 
 
@@ -116,24 +117,4 @@ def solve_point_to_plane(p_cam: np.ndarray, m_base: np.ndarray, n_base: np.ndarr
     r, J = _linearise(p_cam, m_base, n_base, T)
     w = robust_weights(np.abs(r) / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
-    return PlaneFit(T, _covariance(r, J, w, group), r, w, groups, steps, step_norm)
-
-
-def _covariance(r, J, w, group):
-    Jw = J * w[:, None]
-    H = Jw.T @ J
-    H_inv = np.linalg.pinv(H)
-    dof = max(float(w.sum()) - 6.0, 1.0)
-    plain = H_inv * float((w * r**2).sum() / dof)
-    if group is None:
-        return plain
-    groups = np.unique(group)
-    if len(groups) < 2:
-        return plain
-    scores = np.zeros((len(groups), 6))
-    np.add.at(scores, np.searchsorted(groups, group), Jw * r[:, None])
-    k = len(groups)
-    meat = scores.T @ scores * k / (k - 1)
-    sandwich = H_inv @ meat @ H_inv
-    # the larger of the two, per direction: never below what the pixels' own noise implies
-    return sandwich if np.trace(sandwich) >= np.trace(plain) else plain
+    return PlaneFit(T, clustered_covariance(J, r, w, group), r, w, groups, steps, step_norm)

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
+from classic.clustered_covariance import pose_sigma
 from classic.markerless.depth import backproject, moving_mask, static_depth
 from classic.markerless.point_to_plane import solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
@@ -198,10 +199,11 @@ class MarkerlessResult:
         return out
 
 
-def _check_inputs(depth_m, K, surface, n_frames):
+def _check_inputs(depth_m, K, surface):
     depth_m = np.asarray(depth_m, dtype=float)
     if depth_m.ndim != 3:
         raise ShapeError(f"depth must be (N frames, H, W), got shape {depth_m.shape}")
+    n_frames = len(depth_m)
     bad = ~np.isfinite(depth_m).reshape(len(depth_m), -1).all(axis=1)
     if bad.any():
         raise NonFiniteError(f"depth of frame {int(np.flatnonzero(bad)[0])} has NaN or inf (use 0 for no depth)")
@@ -234,7 +236,7 @@ class _Problem:
         if len(f) > opts.max_points:
             keep = np.sort(rng.choice(len(f), opts.max_points, replace=False))
             f, r, c = f[keep], r[keep], c[keep]
-        self.mov_frame, self.mov_p = f, self.P[f, r, c]
+        self.moving_frame, self.moving_p_cam = f, self.P[f, r, c]
         # parts that move between frames: RMS spread of each part's centroid over the frames
         n_parts, n_fr = int(surface.part.max()) + 1, int(surface.frame.max()) + 1
         key = surface.part * n_fr + surface.frame
@@ -274,7 +276,7 @@ class _Problem:
         Ks = self.K.copy()
         Ks[:2] /= stride
         Ks[:2, 2] = (self.K[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
-        idx, _ = visible_points(p, None, frm[front], Ks, -(-self.h // stride), -(-self.w // stride))
+        idx = visible_points(p, None, frm[front], Ks, -(-self.h // stride), -(-self.w // stride))
         p = p[idx]
         uv = np.rint(project(p, self.K)).astype(np.int64)
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h)
@@ -289,7 +291,7 @@ class _Problem:
             return sums / count[:, None], count
 
     def centroid_start(self, iterations=4):
-        c_obs, counts = self._centroids(self.mov_frame, self.mov_p)
+        c_obs, counts = self._centroids(self.moving_frame, self.moving_p_cam)
         use = counts >= 20
         if use.sum() < 3:
             return None
@@ -311,8 +313,8 @@ class _Problem:
         fewer once a matching moves the pose by less than a tenth of the window (the rotation taken at 1 m)."""
         for window in self.opts.coarse_windows_m:
             for _ in range(3):
-                p_base = self.mov_p @ T[:3, :3].T + T[:3, 3]
-                d, j = self.tree.query(np.c_[p_base, self.mov_frame * _FRAME_KEY_M], distance_upper_bound=window,
+                p_base = self.moving_p_cam @ T[:3, :3].T + T[:3, 3]
+                d, j = self.tree.query(np.c_[p_base, self.moving_frame * _FRAME_KEY_M], distance_upper_bound=window,
                                        workers=-1)
                 ok = np.isfinite(d)
                 if ok.sum() < 50:
@@ -325,7 +327,7 @@ class _Problem:
                 jj = jj[towards]
                 if len(sel) < 50:
                     break
-                fit = solve_point_to_plane(self.mov_p[sel], self.s.points_base[jj], self.s.normals_base[jj],
+                fit = solve_point_to_plane(self.moving_p_cam[sel], self.s.points_base[jj], self.s.normals_base[jj],
                                            T, scale_m=window / 3, loss="cauchy", iterations=2)
                 moved = pose_error(T, fit.T_base_cam)
                 T = fit.T_base_cam
@@ -432,29 +434,27 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
         Depth not (N, H, W), NaN in a frame (named), a bad K, surface frames out of range.
     """
     opts = options or MarkerlessOptions()
-    depth_m = np.asarray(depth_m, dtype=float)
-    depth_m, K = _check_inputs(depth_m, K, surface, len(depth_m) if depth_m.ndim == 3 else 0)
+    depth_m, K = _check_inputs(depth_m, K, surface)
     starts = dict(starts or {})
     for name, T in starts.items():
         check_transforms(T, f"start {name!r}")
     n = len(depth_m)
-    empty = MarkerlessResult(None, None, np.full((6, 6), np.nan), {"rotation_deg": np.nan, "translation_mm": np.nan},
-                             np.full(n, np.nan), 0.0, "", {})
+
+    def refuse(reason):  # no pose, no sigma: only the reason and what was seen
+        nan_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
+        return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
+
     problem = _Problem(depth_m, K, surface, opts)
     diag = {"frames": n, "moving_pixels": int(problem.n_moving), "starts": {}}
     if problem.n_moving < opts.min_moving_pixels:
-        empty.refused = (f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "
-                         f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?")
-        empty.diagnostics = diag
-        return empty
+        return refuse(f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "
+                      f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?")
     if centroid_start:
         T0 = problem.centroid_start()
         if T0 is not None:
             starts["centroids"] = T0
     if not starts:
-        empty.refused = "no start: the moving pixels of too few frames to align centroids, and none was given"
-        empty.diagnostics = diag
-        return empty
+        return refuse("no start: the moving pixels of too few frames to align centroids, and none was given")
     best = None
     for name, T_start in starts.items():
         T = problem.coarse(np.asarray(T_start, dtype=float))
@@ -465,9 +465,7 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
         if fit is not None and matched >= opts.min_matched_fraction + 0.15:
             break  # a clear success: the other starts cannot do better than the noise
     if best is None:
-        empty.refused = "did not converge: no start kept enough matched points"
-        empty.diagnostics = diag
-        return empty
+        return refuse("did not converge: no start kept enough matched points")
     matched, name, T, fit, step = best
     inl = fit.weights > 0.5
     group = fit.group
@@ -478,8 +476,8 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     expected_mm = float(np.hypot(_sigma_z(z_med, opts), opts.model_floor_m) * 1e3)
     cov = fit.covariance
     R = T[:3, :3]
-    noise_deg = float(np.degrees(np.sqrt(np.trace(cov[:3, :3]))))
-    noise_mm = float(np.sqrt(np.trace(R @ cov[3:, 3:] @ R.T)) * 1e3)
+    noise = pose_sigma(cov, R)
+    noise_deg, noise_mm = noise["rotation_deg"], noise["translation_mm"]
     # what all frames share and the covariance cannot see: a model point stands for the surface up to half a
     # pixel off its ray, off the tangent plane by at most F^2 / (8 r) on a link of radius r; taken as a uniform
     # error (std = bound / sqrt 3) in translation, and over the matched points' spread in rotation

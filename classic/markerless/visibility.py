@@ -25,7 +25,7 @@ def project(p_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
 
 
 def visible_points(p_cam: np.ndarray, n_cam: np.ndarray, frame: np.ndarray, K: np.ndarray, height: int, width: int,
-                   znear_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+                   znear_m: float = 0.05) -> np.ndarray:
     """The nearest front-facing model point in every pixel of every frame.
 
     Parameters
@@ -45,8 +45,6 @@ def visible_points(p_cam: np.ndarray, n_cam: np.ndarray, frame: np.ndarray, K: n
     -------
     index : array of int, shape (V,)
         Indices into the M points of the visible ones (one per covered pixel).
-    pixel : array of int, shape (V, 2)
-        Their pixel ``(row, column)``.
     """
     front = p_cam[:, 2] > znear_m
     if n_cam is not None:
@@ -62,5 +60,4 @@ def visible_points(p_cam: np.ndarray, n_cam: np.ndarray, frame: np.ndarray, K: n
     key_sorted = key[order]
     first = np.ones(len(order), dtype=bool)
     first[1:] = key_sorted[1:] != key_sorted[:-1]
-    keep = order[first]
-    return idx[keep], uv[keep][:, ::-1]
+    return idx[order[first]]

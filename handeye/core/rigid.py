@@ -3,8 +3,10 @@
 .. math:: \\min_{R, t} \\sum_i w_i \\| R p_i + t - q_i \\|^2
 
 solved in closed form from the weighted cross-covariance (Arun et al. 1987, with Umeyama's
-reflection fix). Used by the markerless start (centroids), the keypoint model's per-frame poses
-and the cross-frame keypoint solve.
+reflection fix). Written here rather than with ``scipy.spatial.transform.Rotation.align_vectors``
+because it is batched (one fit per frame in one call) and takes NaN rows as missing. Used by the
+markerless start (centroids), the keypoint model's per-frame poses and, robustly
+(:func:`robust_rigid_transform`), by the cross-frame keypoint solves of ``learned`` and ``classic``.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 
 from handeye.core.errors import ShapeError
 
-__all__ = ["rigid_transform"]
+__all__ = ["rigid_transform", "robust_rigid_transform"]
 
 
 def rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
@@ -62,3 +64,40 @@ def rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | 
     too_few = (w > 0).sum(-1) < 3
     T[too_few] = np.nan
     return T
+
+
+def robust_rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | None = None,
+                           iterations: int = 10, floor_m: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`rigid_transform` with iteratively reweighted Cauchy weights on the residual distances.
+
+    The scale is 1.4826 times the median residual of the points in play (at least ``floor_m``), the
+    weight ``1 / (1 + (r / 2s)^2)``.
+
+    Parameters
+    ----------
+    p_from, p_to : array, shape (M, 3)
+    weights : array, shape (M,), optional
+        Start weights (0 leaves a point out throughout); all ones by default.
+    iterations : int
+    floor_m : float
+
+    Returns
+    -------
+    T : array, shape (4, 4)
+    weights : array, shape (M,)
+        The final weights.
+    """
+    p_from = np.asarray(p_from, dtype=float)
+    p_to = np.asarray(p_to, dtype=float)
+    ok = np.isfinite(p_from).all(-1) & np.isfinite(p_to).all(-1)
+    w0 = ok.astype(float) if weights is None else np.where(ok, np.asarray(weights, dtype=float), 0.0)
+    w = w0
+    T = rigid_transform(p_from, p_to, w)
+    for _ in range(iterations):
+        if not np.isfinite(T).all():
+            break
+        r = np.linalg.norm(np.nan_to_num(p_from) @ T[:3, :3].T + T[:3, 3] - np.nan_to_num(p_to), axis=-1)
+        s = max(1.4826 * float(np.median(r[w0 > 0])), floor_m)
+        w = w0 / (1.0 + (r / (2.0 * s)) ** 2)
+        T = rigid_transform(p_from, p_to, w)
+    return T, w

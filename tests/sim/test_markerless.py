@@ -85,7 +85,7 @@ def test_bad_robot_and_dataset_inputs_are_named(small_copy, tmp_path):
     meta["intrinsics"]["width"] //= 2
     meta["n_joints"] = 7
     meta_path.write_text(json.dumps(meta))
-    with pytest.raises(HandEyeInputError):
+    with pytest.raises(ShapeError, match="7 joints, the robot model ur5 has 6"):
         markerless_dataset(small_copy, cameras=[0])
 
 
