@@ -34,12 +34,13 @@ transforms), :mod:`~handeye.core.validation`, :mod:`~handeye.core.errors`,
 :mod:`~handeye.core.synthetic` (problems with known truth),
 :mod:`~handeye.core.posefile` (CSV/JSON pose files),
 :mod:`~handeye.core.dataset`, :mod:`~handeye.core.optional`,
-:mod:`~handeye.core.conventions`, :mod:`~handeye.core.rigid`,
-:mod:`~handeye.core.pnp`. Front: :mod:`~handeye.cli`,
+:mod:`~handeye.core.conventions`, :mod:`~handeye.core.rigid`.
+Front: :mod:`~handeye.cli`,
 :mod:`~handeye.labelling`, :mod:`~handeye.image_calibration`,
 :mod:`~handeye.checked_poses`, :mod:`~handeye.contact_sheet`,
 :mod:`~handeye.markerless` (the board-free hybrid),
-:mod:`~handeye.learned_frames` (frames with the arm's keypoints).
+:mod:`~handeye.learned_frames` (frames with the arm's keypoints),
+:mod:`~handeye.robot_model` (a dataset's robot).
 """
 
 __version__ = "0.1.0"

@@ -13,8 +13,8 @@ modules beside it); ``tests/test_layers.py`` enforces it.
 * :mod:`handeye.core.posefile`: CSV/JSON pose files;
 * :mod:`handeye.core.dataset`: the labelled RGB-D dataset format;
 * :mod:`handeye.core.synthetic`: hand-eye problems with known truth;
-* :mod:`handeye.core.rigid` and :mod:`handeye.core.pnp`: a rigid fit of matched points and the
-  PnP refinement, shared by ``classic`` and ``learned``;
+* :mod:`handeye.core.rigid`: the rigid fit of matched points, plain and robust, shared by
+  ``classic`` and ``learned``;
 * :mod:`handeye.core.conventions`: the conventions page;
 * :mod:`handeye.core.optional`: the helper that names the extra to install.
 """
