@@ -14,7 +14,12 @@ Plain solvers
 Front
     :func:`calibrate` takes ``T_base_ee`` and ``T_cam_target`` for either
     setup and returns a :class:`CalibrationResult` with the estimate by frame
-    name, residuals, covariance and diagnostics.
+    name, residuals, covariance and diagnostics. The refinement is maximum
+    likelihood under a :class:`NoiseModel` (camera and robot noise, anisotropic,
+    joint noise through :func:`joint_noise_covariance`); ``estimate_scale=True``
+    adds a metric scale of the camera translations. :func:`calibrate_stream`
+    takes a robot pose stream and camera poses at other times and also
+    estimates the time offset between them.
 
 Example
 -------
@@ -32,17 +37,21 @@ from classic.daniilidis import daniilidis
 from classic.diagnostics import MotionDiagnostics, check_consistency, diagnose_motion
 from classic.horaud import horaud
 from classic.li import li
+from classic.noise_model import NoiseModel, joint_noise_covariance
 from classic.pairs import motion_pairs, pair_indices
 from classic.park import park
 from classic.ransac import lmeds_inliers
 from classic.refine import refine_xy
 from classic.result import CalibrationResult, PoseResiduals
+from classic.robot_stream import RobotStream
 from classic.shah import shah
+from classic.time_offset import calibrate_stream
 from classic.tsai import tsai
 
 __all__ = [
     "tsai", "park", "horaud", "andreff", "daniilidis", "shah", "li",
-    "calibrate", "solve", "initial_estimate", "motion_pairs", "pair_indices",
+    "calibrate", "calibrate_stream", "solve", "NoiseModel", "joint_noise_covariance", "RobotStream",
+    "initial_estimate", "motion_pairs", "pair_indices",
     "refine_xy", "lmeds_inliers", "diagnose_motion", "check_consistency",
     "CalibrationResult", "PoseResiduals", "MotionDiagnostics",
     "METHODS", "AXXB_METHODS", "AXYB_METHODS", "DEFAULT_METHOD",

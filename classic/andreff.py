@@ -11,7 +11,7 @@ from handeye.core.se3 import make_transform
 __all__ = ["andreff"]
 
 
-def andreff(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+def andreff(A: np.ndarray, B: np.ndarray, translation: str = "resolve") -> np.ndarray:
     r"""Solve ``A_k X = X B_k`` by Andreff, Horaud and Espiau (1999).
 
     Rotation and translation in one linear least-squares system (row-major
@@ -23,8 +23,10 @@ def andreff(A: np.ndarray, B: np.ndarray) -> np.ndarray:
         \begin{bmatrix} \mathrm{vec}(R_X) \\ t_X \end{bmatrix}
         = \begin{bmatrix} 0 \\ t_A \end{bmatrix},
 
-    then ``R_X`` is projected on SO(3); ``t_X`` is the one of the joint solve,
-    as in the paper and OpenCV's ``CALIB_HAND_EYE_ANDREFF``.
+    then ``R_X`` is projected on SO(3). The joint solve's ``t_X`` (the paper's and OpenCV's
+    ``CALIB_HAND_EYE_ANDREFF``) absorbs the rotation's error before projection and is several times
+    worse than solving the translation again once the rotation is fixed,
+    ``(R_A - I) t_X = R_X t_B - t_A`` (least squares): that is the default.
 
     Parameters
     ----------
@@ -32,6 +34,8 @@ def andreff(A: np.ndarray, B: np.ndarray) -> np.ndarray:
         Robot motions.
     B : array, shape (K, 4, 4)
         Camera motions.
+    translation : {"resolve", "joint"}
+        Solve ``t_X`` again after the rotation (default), or keep the joint solve's (OpenCV's).
 
     Returns
     -------
@@ -42,7 +46,9 @@ def andreff(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     N. Andreff, R. Horaud, B. Espiau, "On-line hand-eye calibration", 3DIM 1999.
     """
     A, B = check_motions(A, B, 2, "andreff")
-    return _andreff_finish(_andreff_stats(motions_from_transforms(A, B)))
+    if translation not in ("resolve", "joint"):
+        raise ValueError(f"translation must be 'resolve' or 'joint', got {translation!r}")
+    return _andreff_finish(_andreff_stats(motions_from_transforms(A, B)), resolve=translation == "resolve")
 
 
 def _andreff_stats(m: Motions) -> dict:
@@ -63,7 +69,7 @@ def _andreff_stats(m: Motions) -> dict:
     }
 
 
-def _andreff_finish(st: dict) -> np.ndarray:
+def _andreff_finish(st: dict, resolve: bool = True) -> np.ndarray:
     K = st["n"]
     I3 = np.eye(3)
     kron_sum = st["RA_RB"].reshape(3, 3, 3, 3).transpose(0, 2, 1, 3).reshape(9, 9)
@@ -77,4 +83,10 @@ def _andreff_finish(st: dict) -> np.ndarray:
     G[9:, 9:] = 2.0 * K * I3 - S - S.T
     rhs = np.concatenate([st["tA_tB"].reshape(9), st["sum_t_A"] - st["sum_RAt_tA"]])
     x = np.linalg.lstsq(G, rhs, rcond=None)[0]
-    return make_transform(normalize_rotation(x[:9].reshape(3, 3)), x[9:])
+    R_X = normalize_rotation(x[:9].reshape(3, 3))
+    if not resolve:
+        return make_transform(R_X, x[9:])
+    # sum_k (I - R_A)^T (t_A - R_X t_B), with R_X fixed: the translation rows' normal equations
+    RAt_RX_tB = np.einsum("bc,cba->a", R_X, st["tB_RA"])  # sum_k R_A^T R_X t_B
+    rhs_t = st["sum_t_A"] - st["sum_RAt_tA"] - R_X @ st["sum_t_B"] + RAt_RX_tB
+    return make_transform(R_X, np.linalg.lstsq(G[9:, 9:], rhs_t, rcond=None)[0])

@@ -5,11 +5,20 @@ from __future__ import annotations
 import numpy as np
 
 from classic.andreff import _andreff_finish, _andreff_stats
+from classic.contamination import (
+    MAX_SHIFT_SIGMA,
+    check_contamination,
+    pair_consensus_suspects,
+    refuse_shift,
+    suspect_poses,
+    x_shift_sigma,
+)
 from classic.daniilidis import _daniilidis_finish, _daniilidis_stats
 from classic.diagnostics import check_consistency, diagnose_motion
 from classic.horaud import _horaud_finish, _horaud_stats
 from classic.li import _li
-from classic.motions import accumulate, iter_motions
+from classic.motions import accumulate, iter_motions, motions_from_poses
+from classic.noise_model import NoiseModel, as_noise_model
 from classic.pairs import PAIRINGS, pair_indices
 from classic.park import _park_finish, _park_stats
 from classic.ransac import lmeds_inliers
@@ -17,6 +26,7 @@ from classic.refine import LOSSES, refine_xy
 from classic.residuals import estimate_target_pose, pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
 from classic.shah import _shah
+from classic.starts import START_CANDIDATES, best_start, scaled_start
 from classic.tsai import _tsai_finish, _tsai_stats
 from handeye.core.errors import HandEyeInputError, TooFewPosesError
 from handeye.core.setups import normalize_setup, robot_side_poses
@@ -33,12 +43,14 @@ AXXB_METHODS = {
     "daniilidis": (_daniilidis_stats, _daniilidis_finish),
 }
 AXYB_METHODS = {"shah": _shah, "li": _li}
-METHODS = tuple(AXXB_METHODS) + tuple(AXYB_METHODS)
+#: ``auto``: the best of :data:`classic.starts.START_CANDIDATES` (Park and Shah) by pose residual.
+METHODS = ("auto",) + tuple(AXXB_METHODS) + tuple(AXYB_METHODS)
 #: Closed form used to start the refinement by default (see the benchmark in the README).
-DEFAULT_METHOD = "park"
+DEFAULT_METHOD = "auto"
 
 
-def initial_estimate(A: np.ndarray, B: np.ndarray, method: str, pairs: str = "all") -> tuple[np.ndarray, np.ndarray]:
+def initial_estimate(A: np.ndarray, B: np.ndarray, method: str, pairs: str = "all", motions=None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form ``(X, Y)`` of ``A_i Y = X B_i`` by a named method.
 
     Parameters
@@ -48,18 +60,24 @@ def initial_estimate(A: np.ndarray, B: np.ndarray, method: str, pairs: str = "al
     B : array, shape (N, 4, 4)
         ``T_cam_target``.
     method : str
-        One of :data:`METHODS`.
+        One of :data:`METHODS`; ``auto`` picks the candidate with the lowest pose residual.
     pairs : {"all", "consecutive"}
         Motion pairs for the AX=XB methods.
+    motions : classic.motions.Motions, optional
+        Those pairs' motions when already computed.
 
     Returns
     -------
     X, Y : array, shape (4, 4)
         Camera pose and target pose.
     """
+    if method == "auto":
+        _, X, Y = best_start(A, B, lambda a, b, m: initial_estimate(a, b, m, pairs, motions), START_CANDIDATES)
+        return X, Y
     if method in AXXB_METHODS:
         stats, finish = AXXB_METHODS[method]
-        X = finish(accumulate(stats, iter_motions(A, B, *pair_indices(len(A), pairs))))
+        chunks = [motions] if motions is not None else iter_motions(A, B, *pair_indices(len(A), pairs))
+        X = finish(accumulate(stats, chunks))
         return X, estimate_target_pose(A, B, X)
     if method in AXYB_METHODS:
         Y_target, X_cam = AXYB_METHODS[method](A, B)
@@ -109,6 +127,29 @@ def solve(
     return initial_estimate(robot_side_poses(T_base_ee, setup), T_cam_target, method, pairs)
 
 
+def _check_pair_consensus(A, B, X, model, setup, pairs) -> None:
+    """Refuse when poses that break the motion pairs' invariants move the least-squares X by several sigma."""
+    suspects = pair_consensus_suspects(A, B, pairs)
+    keep = np.ones(len(A), dtype=bool)
+    keep[suspects] = False
+    if len(suspects) == 0 or keep.sum() < MIN_POSES:
+        return
+    X0, Y0 = best_start(A[keep], B[keep], initial_estimate, START_CANDIDATES)[1:]
+    clean = refine_xy(A[keep], B[keep], X0, Y0, noise=_subset_model(model, keep), setup=setup)
+    shift = x_shift_sigma(X, clean.X, clean.covariance)
+    if shift > MAX_SHIFT_SIGMA:
+        refuse_shift(suspects, shift, len(A))
+
+
+def _subset_model(model, keep):
+    if model is None:
+        return None
+    cam = None if model.camera_covariance is None else np.asarray(model.camera_covariance)[keep]
+    rob = None if model.robot_covariance is None else np.asarray(model.robot_covariance)[keep]
+    return NoiseModel(model.camera_rot_rad, model.camera_trans_m, model.robot_rot_rad, model.robot_trans_m, cam, rob,
+                      model.name, model.scale_to_residuals)
+
+
 def calibrate(
     T_base_ee: np.ndarray,
     T_cam_target: np.ndarray,
@@ -118,9 +159,10 @@ def calibrate(
     refine: bool = True,
     robust: bool = False,
     loss: str | None = None,
-    noise: tuple[float, float] | None = None,
+    noise: tuple[float, float] | NoiseModel | None = None,
     check: bool = True,
     rng: np.random.Generator | None = None,
+    estimate_scale: bool = False,
 ) -> CalibrationResult:
     """Hand-eye calibration from paired robot and target poses.
 
@@ -133,8 +175,10 @@ def calibrate(
     pose); check that robot and camera motions are consistent and that the
     rotations determine X (raises on degenerate motion, warns on weak motion);
     optionally flag gross outliers by least-median sampling; solve in closed
-    form by ``method``; refine X and Y jointly by Levenberg-Marquardt on the
-    pose residuals; report per-pose residuals and the covariance.
+    form by ``method`` (by default the better of Park and Shah); refine X and Y
+    jointly by maximum likelihood under the noise model (:mod:`classic.refine`);
+    refuse a non-robust fit that outlier poses pulled off
+    (:mod:`classic.contamination`); report per-pose residuals and the covariance.
 
     Parameters
     ----------
@@ -144,25 +188,34 @@ def calibrate(
         Target (board) poses in the camera's optical frame, metres.
     setup : {"eye_to_hand", "eye_in_hand"}
     method : str
-        Closed form: ``tsai``, ``park`` (default), ``horaud``, ``andreff``,
-        ``daniilidis`` (AX=XB on motion pairs) or ``shah``, ``li`` (AX=YB on poses).
+        Closed form: ``auto`` (default: the better of ``park`` and ``shah``),
+        ``tsai``, ``park``, ``horaud``, ``andreff``, ``daniilidis`` (AX=XB on
+        motion pairs) or ``shah``, ``li`` (AX=YB on poses).
     pairs : {"all", "consecutive"}
         Motion pairs for the AX=XB methods.
     refine : bool
-        Refine by Levenberg-Marquardt (default). Without it the closed form is
-        returned and the covariance is evaluated at it.
+        Refine (default). Without it the closed form is returned and the
+        covariance is evaluated at it.
     robust : bool
         Flag gross outliers by least-median sampling, fit on the inliers, and
-        refine with a Cauchy loss (unless ``loss`` says otherwise).
+        refine with a Cauchy loss (unless ``loss`` says otherwise). With neither
+        this nor a robust ``loss``, a set with gross outliers is refused
+        (:class:`ContaminatedPosesError`).
     loss : {"linear", "huber", "cauchy"}, optional
         Loss of the refinement; default ``linear``, or ``cauchy`` when robust.
-    noise : (float, float), optional
-        Per-axis camera noise ``(rad, m)``; estimated from the residuals when omitted.
+    noise : (float, float) or NoiseModel, optional
+        Per-axis camera noise ``(rad, m)``, or a :class:`classic.noise_model.NoiseModel`
+        with camera and robot noise (anisotropic, per pose, joint noise through the
+        robot's Jacobian); default: camera-only, both scales estimated from the residuals.
     check : bool
-        Run the consistency and motion checks (default). Turn off only for
-        data you have checked otherwise.
+        Run the consistency, motion and contamination checks (default). Turn off
+        only for data you have checked otherwise.
     rng : numpy.random.Generator, optional
         For the robust sampling; default seeded, so results are reproducible.
+    estimate_scale : bool
+        Also estimate a metric scale of the camera translations (monocular SLAM
+        poses): ``t_cam_target <- s t_cam_target``; ``s`` and its sigma are in
+        ``diagnostics["scale"]``. Starts from :func:`classic.starts.scaled_start`.
 
     Returns
     -------
@@ -172,7 +225,7 @@ def calibrate(
     ------
     ShapeError, NonFiniteError, NotARotationError, LengthMismatchError,
     TooFewPosesError, DuplicatePoseError, UnitsError, InconsistentPosesError,
-    DegenerateMotionError
+    DegenerateMotionError, ContaminatedPosesError
         All subclasses of :class:`ValueError`.
 
     Examples
@@ -191,6 +244,7 @@ def calibrate(
     loss = loss or ("cauchy" if robust else "linear")
     if loss not in LOSSES:
         raise HandEyeInputError(f"unknown loss {loss!r}: use one of {LOSSES}")
+    model = as_noise_model(noise)
     T_base_ee, T_cam_target = _validated(T_base_ee, T_cam_target)
     diagnostics: dict = {}
     A = robot_side_poses(T_base_ee, setup)
@@ -208,30 +262,73 @@ def calibrate(
         diagnostics["lmeds_median_residual_mm"] = 1000 * found.median_residual_m
     # motion first: on degenerate motion a closed-form fit is ill-posed, and the fit-based consistency test
     # would blame the pairing for what is a lack of rotation
-    motion = diagnose_motion(T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check)
-    if check:
-        diagnostics["consistency"] = check_consistency(T_base_ee[inliers], T_cam_target[inliers], setup, pairs)
+    A_in, B_in = A[inliers], B[inliers]
+    motions = motions_from_poses(A_in, B_in, *pair_indices(len(A_in), pairs))  # once, for the checks and the start
+    motion = diagnose_motion(T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check,
+                             motions=motions)
+    if check and not estimate_scale:  # the consistency fit assumes metric camera poses
+        diagnostics["consistency"] = check_consistency(T_base_ee[inliers], T_cam_target[inliers], setup, pairs,
+                                                       motions=motions)
     diagnostics["motion"] = motion.to_dict()
 
-    X, Y = initial_estimate(A[inliers], B[inliers], method, pairs)
-    name = ("ransac+" if robust else "") + method
-    ref = refine_xy(A[inliers], B[inliers], X, Y, loss=loss, noise=noise, max_iterations=50 if refine else 0)
+    scale0 = 1.0
+    if estimate_scale:
+        X, Y, scale0 = scaled_start(A_in, B_in, pairs)
+        name = "park+scale"
+    elif method == "auto":
+        start, X, Y = best_start(A_in, B_in, lambda a, b, m: initial_estimate(a, b, m, pairs, motions),
+                                 START_CANDIDATES)
+        name = f"auto({start})"
+    else:
+        X, Y = initial_estimate(A_in, B_in, method, pairs, motions)
+        name = method
+    name = ("ransac+" if robust else "") + name
+    ref = refine_xy(A_in, B_in, X, Y, loss=loss, noise=_subset_model(model, inliers),
+                    max_iterations=50 if refine else 0, setup=setup,
+                    estimate_scale=estimate_scale and refine, scale0=scale0)
+    if refine and robust:
+        # the robust loss's own outliers join the sampling's, and the inliers are refit by least squares:
+        # a Cauchy loss down-weights good poses a little too, which costs efficiency
+        bad, _ = suspect_poses(ref.whitened)
+        if len(bad) and len(A_in) - len(bad) >= MIN_POSES:
+            idx = np.flatnonzero(inliers)
+            inliers[idx[bad]] = False
+            diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
+            A_in, B_in = A[inliers], B[inliers]
+        ref = refine_xy(A_in, B_in, ref.X, ref.Y, loss="linear", noise=_subset_model(model, inliers),
+                        setup=setup, estimate_scale=estimate_scale, scale0=ref.scale)
     if refine:
         X, Y = ref.X, ref.Y
-        name += "+lm"
+        name += "+ml" if model is not None and model.has_robot_noise else "+lm"
+        if check and loss == "linear":  # a robust loss handles outliers; least squares must not hide them
+            B_fit = B_in.copy()
+            B_fit[:, :3, 3] *= ref.scale
+            check_contamination(ref.whitened, np.concatenate(pose_residuals(A_in, B_fit, X, Y), axis=1), ref.jacobian)
+            if not estimate_scale:
+                _check_pair_consensus(A_in, B_in, X, model, setup, pairs)
     diagnostics["noise_estimate"] = {
         "rotation_deg": float(np.degrees(ref.sigma_rot_rad)),
         "translation_mm": 1000 * ref.sigma_trans_m,
-        "given": noise is not None,
+        "given": model is not None,
     }
+    diagnostics["noise_model"] = ref.noise_model
     diagnostics["refinement"] = {
         "loss": loss,
+        "then": "least squares on the inliers" if refine and robust else None,
         "iterations": ref.iterations,
         "converged": bool(ref.converged),
         "cost_initial": ref.cost_initial,
         "cost_final": ref.cost_final,
+        "variance_factor": ref.variance_factor,
     }
-    r_rot, r_trans = pose_residuals(A, B, X, Y)
+    scale = ref.scale if estimate_scale else 1.0
+    if estimate_scale:
+        diagnostics["scale"] = {"value": ref.scale, "sigma": ref.scale_sigma}
+    B_eval = B
+    if scale != 1.0:
+        B_eval = B.copy()
+        B_eval[:, :3, 3] *= scale
+    r_rot, r_trans = pose_residuals(A, B_eval, X, Y)
     residuals = PoseResiduals(
         rotation_deg=np.degrees(np.linalg.norm(r_rot, axis=1)),
         translation_mm=1000 * np.linalg.norm(r_trans, axis=1),

@@ -173,7 +173,8 @@ def fit_residual_m(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str) 
     return quick_fit_residuals(T_base_ee, T_cam_target, setup)[0]
 
 
-def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all") -> dict:
+def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all",
+                      motions: Motions | None = None) -> dict:
     """Refuse pose sets that no hand-eye transform explains, naming the likely mistake.
 
     Two tests. Rotation angles of paired motions must agree (``A_ij X = X B_ij``
@@ -188,6 +189,8 @@ def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: st
     T_base_ee, T_cam_target : array, shape (N, 4, 4)
     setup : {"eye_to_hand", "eye_in_hand"}
     pairs : {"all", "consecutive"}
+    motions : Motions, optional
+        The pose pairs' motions when already computed.
 
     Returns
     -------
@@ -198,7 +201,8 @@ def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: st
     ------
     InconsistentPosesError
     """
-    mismatch, typical = angle_mismatch_deg(_motions(T_base_ee, T_cam_target, setup, pairs))
+    m = motions if motions is not None else _motions(T_base_ee, T_cam_target, setup, pairs)
+    mismatch, typical = angle_mismatch_deg(m)
     if _is_inconsistent(mismatch, typical):
         raise InconsistentPosesError(
             f"robot and camera motions disagree: the rotation angles of paired motions differ by "
@@ -245,7 +249,8 @@ def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: st
 
 
 def diagnose_motion(
-    T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all", raise_on_degenerate: bool = True
+    T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all", raise_on_degenerate: bool = True,
+    motions: Motions | None = None,
 ) -> MotionDiagnostics:
     """Measure how well a pose set determines X; warn on weak data, refuse degenerate data.
 
@@ -256,6 +261,8 @@ def diagnose_motion(
     pairs : {"all", "consecutive"}
     raise_on_degenerate : bool
         Raise :class:`DegenerateMotionError` when X is not determined.
+    motions : Motions, optional
+        The pose pairs' motions when already computed (``A_j A_i^-1``, ``B_j B_i^-1`` for ``pairs``).
 
     Returns
     -------
@@ -271,7 +278,7 @@ def diagnose_motion(
     WeakMotionWarning
         When the set is poorly conditioned (few poses, small or near-parallel rotations).
     """
-    m = _motions(T_base_ee, T_cam_target, setup, pairs)
+    m = motions if motions is not None else _motions(T_base_ee, T_cam_target, setup, pairs)
     angles = _angles(m.q_A)
     P = 2.0 * m.q_A[:, :3]
     eigval, eigvec = np.linalg.eigh(P.T @ P)

@@ -1,20 +1,27 @@
-"""Levenberg-Marquardt refinement of X and Y on SE(3) over pose residuals.
+"""Maximum-likelihood refinement of X and Y on SE(3) over pose residuals.
 
 Minimises, over the camera pose X and the target pose Y of ``A_i Y = X B_i``,
 
-.. math:: \\sum_i \\rho\\Big(\\Big|\\frac{\\log(\\hat R_i^T R_{B_i})}{\\sigma_r}\\Big|^2
-          + \\Big|\\frac{t_{B_i} - \\hat t_i}{\\sigma_t}\\Big|^2\\Big),
-          \\qquad \\hat B_i = X^{-1} A_i Y,
+.. math:: \\sum_i \\rho\\big(\\| W_i\\, r_i(X, Y) \\|^2\\big), \\qquad
+          r_i = \\big[\\log(\\hat R_i^T R_{B_i}),\\ t_{B_i} - \\hat t_i\\big], \\quad \\hat B_i = X^{-1} A_i Y,
 
-the maximum-likelihood estimate under the camera-noise model of
-:mod:`handeye.core.synthetic` (``rho`` the identity, or Huber / Cauchy for robust
-fits). ``sigma_r`` (rad) and ``sigma_t`` (m) are given, or estimated from the
-residuals and re-estimated once after convergence.
+with ``W_i^T W_i = S_i^-1`` the inverse of the residual's covariance under the noise model
+(:mod:`classic.noise_model`: camera and robot noise, anisotropic, per pose, the lever arm). With
+Gaussian noise this is the maximum-likelihood estimate to first order. ``S_i`` depends on X and Y
+(through the lever arm), so it is evaluated at the estimate and the fit repeated until it settles.
+When no noise model is given, the camera-only model is used with one rotation and one translation
+scale estimated from the residuals (robustly first, then re-estimated at the optimum, corrected for
+each residual's leverage; :func:`_scales`).
 
-Parametrisation: ``R_X <- so3_exp(w_X) R_X`` and ``t_X <- t_X + v_X`` (same
-for Y), so the covariance's blocks read directly as rotation error (rad, in
-the frame X is expressed in) and translation error (m). Parameter order:
-``[w_X, v_X, w_Y, v_Y]``.
+Optional extra parameters: a metric scale ``s`` of the camera translations (``t_B <- s t_B``, for
+monocular SLAM poses) and a time offset of the camera stream against the robot stream
+(:class:`classic.robot_stream.RobotStream`: the robot poses are interpolated at the camera times
+plus the offset).
+
+Parametrisation: ``R_X <- so3_exp(w_X) R_X`` and ``t_X <- t_X + v_X`` (same for Y), so the
+covariance's blocks read directly as rotation error (rad, in the frame X is expressed in) and
+translation error (m). Parameter order: ``[w_X, v_X, w_Y, v_Y, (s), (dt)]``. The optimiser and the
+covariance are :mod:`classic.least_squares`.
 """
 
 from __future__ import annotations
@@ -23,15 +30,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from classic.least_squares import covariance_from_jacobian, fit_least_squares, loss_weights
+from classic.noise_model import (
+    NoiseModel,
+    as_noise_model,
+    residual_covariances,
+    right_jacobian_inverse,
+    robot_residual_jacobian,
+    whitening,
+)
 from classic.residuals import pose_residuals
 from handeye.core.se3 import hat, make_transform, so3_exp, so3_log
+from handeye.core.setups import robot_side_poses
 
-__all__ = ["LOSSES", "Refinement", "refine_xy", "robust_weights"]
+__all__ = ["LOSSES", "Refinement", "refine_xy", "ROBUST_SCALE", "cramer_rao_bound"]
 
 LOSSES = ("linear", "huber", "cauchy")
-#: Scale of the robust losses on the normalised 6-D pose residual (about the 95 % point of chi with 6 dof).
-ROBUST_SCALE = 3.5
-_CHI2_3_MEDIAN = 2.3660
+#: Where the robust losses bend, on each whitened residual component (unit variance when the model fits).
+ROBUST_SCALE = 2.5
+_CHI2_3_MEDIAN = 2.36597
+_CHI2_6_MEDIAN = 5.34812
+#: Outer passes at most (noise scales and S_i re-evaluated at the estimate each pass).
+_PASSES = 4
 
 
 @dataclass
@@ -44,13 +64,26 @@ class Refinement:
     covariance : array, shape (12, 12)
         Of ``[w_X, v_X, w_Y, v_Y]`` (rad, m).
     sigma_rot_rad, sigma_trans_m : float
-        The noise scales used (given or estimated).
+        Camera-noise scales used, RMS over the three axes (estimated, or the given model's camera part).
     weights : array, shape (N,)
-        Final robust weights per pose (all 1 for the linear loss).
+        Final robust weight per pose (mean over its six residuals; all 1 for the linear loss).
     iterations : int
+        Residual evaluations of the optimiser, over all passes.
     cost_initial, cost_final : float
-        Sum of squared normalised residuals at the start and the end (with the final scales).
+        Sum of squared whitened residuals at the start and the end (with the final noise model).
     converged : bool
+    noise_model : dict
+        Which model was used (:meth:`classic.noise_model.NoiseModel.describe`) and whether estimated.
+    variance_factor : float
+        ``cost_final / (6 N - P)``: 1 when the given model matches the residuals.
+    scale, scale_sigma : float
+        Metric scale of the camera translations and its sigma (1 and 0 when not estimated).
+    time_offset_s, time_offset_sigma_s : float
+        Camera-stream time offset and its sigma (0 and 0 when not estimated).
+    whitened : array, shape (N, 6)
+        Final whitened residuals per pose (unit variance per component under the model).
+    jacobian : array, shape (6N, P)
+        Whitened Jacobian at the estimate (``[w_X, v_X, w_Y, v_Y, (s), (dt)]``).
     """
 
     X: np.ndarray
@@ -63,28 +96,14 @@ class Refinement:
     cost_initial: float
     cost_final: float
     converged: bool
-
-
-def robust_weights(d: np.ndarray, loss: str, scale: float = ROBUST_SCALE) -> np.ndarray:
-    """IRLS weights of normalised residual norms ``d`` for a loss.
-
-    Parameters
-    ----------
-    d : array, shape (N,)
-    loss : {"linear", "huber", "cauchy"}
-    scale : float
-
-    Returns
-    -------
-    w : array, shape (N,)
-    """
-    if loss == "linear":
-        return np.ones_like(d)
-    if loss == "huber":
-        return np.where(d <= scale, 1.0, scale / np.maximum(d, 1e-300))
-    if loss == "cauchy":
-        return 1.0 / (1.0 + (d / scale) ** 2)
-    raise ValueError(f"unknown loss {loss!r}: use one of {LOSSES}")
+    noise_model: dict
+    variance_factor: float = 1.0
+    scale: float = 1.0
+    scale_sigma: float = 0.0
+    time_offset_s: float = 0.0
+    time_offset_sigma_s: float = 0.0
+    whitened: np.ndarray | None = None
+    jacobian: np.ndarray | None = None
 
 
 def _apply(T: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -95,36 +114,44 @@ def _update(X, Y, delta):
     return _apply(X, delta[0:3], delta[3:6]), _apply(Y, delta[6:9], delta[9:12])
 
 
-def _scales(r_rot, r_trans, w, robust: bool, n_params: int = 12) -> tuple[float, float]:
-    """Noise scales per axis from residuals: robust (median) or weighted RMS with dof correction."""
-    if robust:
-        s_r = np.sqrt(np.median(np.sum(r_rot**2, axis=1)) / _CHI2_3_MEDIAN)
-        s_t = np.sqrt(np.median(np.sum(r_trans**2, axis=1)) / _CHI2_3_MEDIAN)
-    else:
-        n = w.sum()
-        dof = max(6.0 * n - n_params, 1.0) / (6.0 * n)
-        s_r = np.sqrt(np.sum(w * np.sum(r_rot**2, axis=1)) / (3.0 * n) / dof)
-        s_t = np.sqrt(np.sum(w * np.sum(r_trans**2, axis=1)) / (3.0 * n) / dof)
-    return max(float(s_r), 1e-12), max(float(s_t), 1e-12)
+def _scales(r_rot, r_trans, w, robust: bool, n_params: int = 12, leverage=None) -> tuple[float, float]:
+    """Camera-noise scales, one for rotation and one for translation, from the residuals.
+
+    Robust: the median of the squared norms over the chi-square(3) median. Otherwise the weighted
+    mean square, each residual corrected for what the fit absorbed (``r / sqrt(1 - h)`` with ``h``
+    the hat matrix's diagonal, ``leverage`` (N, 6)), or with a global degrees-of-freedom factor when
+    no leverage is given. Per-axis scales were tried and dropped: estimated together with the fit
+    they ran away on a dozen poses (an axis the fit follows closely gets a smaller scale, hence more
+    weight); anisotropic noise is stated in a :class:`classic.noise_model.NoiseModel` instead (from
+    the corners when images are available: :mod:`classic.vision.pose_covariance`).
+    """
+    w = np.ones(len(r_rot)) if w is None else np.asarray(w, dtype=float)
+    out = []
+    for k, r in enumerate((np.asarray(r_rot), np.asarray(r_trans))):
+        if leverage is not None:
+            r = r / np.sqrt(np.clip(1.0 - np.asarray(leverage)[:, 3 * k:3 * k + 3], 1e-6, None))
+        z2 = np.sum(r**2, axis=1)
+        if robust:
+            level = np.sqrt(np.median(z2) / _CHI2_3_MEDIAN)
+        else:
+            n = w.sum()
+            dof = 1.0 if leverage is not None else max(6.0 * n - n_params, 1.0) / (6.0 * n)
+            level = np.sqrt(np.sum(w * z2) / (3.0 * n) / dof)
+        out.append(max(float(level), 1e-12))
+    return out[0], out[1]
 
 
-def _normalised(A, B, X, Y, s_r, s_t):
-    r_rot, r_trans = pose_residuals(A, B, X, Y)
-    return np.concatenate([r_rot / s_r, r_trans / s_t], axis=1)  # (N, 6)
+def _camera_model(s_r: float, s_t: float) -> NoiseModel:
+    return NoiseModel(camera_rot_rad=s_r, camera_trans_m=s_t, name="camera, estimated")
 
 
 def _left_jacobian_inverse(r: np.ndarray) -> np.ndarray:
     """``J_l(r)^-1`` of SO(3): ``log(exp(-d) exp(r)) = r - J_l(r)^-1 d`` to first order. Shape (N, 3, 3)."""
-    theta = np.linalg.norm(r, axis=1)[:, None, None]
-    K = hat(r)
-    small = theta < 1e-6
-    th = np.where(small, 1.0, theta)
-    c = np.where(small, 1.0 / 12.0, 1.0 / th**2 - (1.0 + np.cos(th)) / (2.0 * th * np.sin(th)))
-    return np.eye(3) - 0.5 * K + c * (K @ K)
+    return right_jacobian_inverse(-np.asarray(r))  # J_l(r) = J_r(-r)
 
 
-def _jacobian(A, B, X, Y, s_r, s_t):
-    """Analytic Jacobian of the normalised residuals w.r.t. ``[w_X, v_X, w_Y, v_Y]``, shape (6N, 12).
+def _raw_jacobian(A, B, X, Y):
+    """Analytic Jacobian of the raw residuals w.r.t. ``[w_X, v_X, w_Y, v_Y]``, shape (N, 6, 12).
 
     With ``P_i = X^-1 A_i Y`` and ``w_i = R_A t_Y + t_A - t_X`` (so ``t_P = R_X^T w_i``):
     ``d r_rot / d w_X = Jl^-1 R_P^T R_X^T``, ``d r_rot / d w_Y = -Jl^-1 R_Y^T``,
@@ -136,14 +163,26 @@ def _jacobian(A, B, X, Y, s_r, s_t):
     r_rot = so3_log(np.swapaxes(R_P, 1, 2) @ B[:, :3, :3])
     Jinv = _left_jacobian_inverse(r_rot)
     w = R_A @ t_Y + t_A - t_X
-    n = len(A)
-    J = np.zeros((n, 6, 12))
-    J[:, :3, 0:3] = Jinv @ np.swapaxes(R_P, 1, 2) @ R_X.T / s_r
-    J[:, :3, 6:9] = -(Jinv @ R_Y.T) / s_r
-    J[:, 3:, 0:3] = -(R_X.T @ hat(w)) / s_t
-    J[:, 3:, 3:6] = R_X.T / s_t
-    J[:, 3:, 9:12] = -(R_X.T @ R_A) / s_t
-    return J.reshape(6 * n, 12)
+    J = np.zeros((len(A), 6, 12))
+    J[:, :3, 0:3] = Jinv @ np.swapaxes(R_P, 1, 2) @ R_X.T
+    J[:, :3, 6:9] = -(Jinv @ R_Y.T)
+    J[:, 3:, 0:3] = -(R_X.T @ hat(w))
+    J[:, 3:, 3:6] = R_X.T
+    J[:, 3:, 9:12] = -(R_X.T @ R_A)
+    return J
+
+
+def _jacobian(A, B, X, Y, s_r=1.0, s_t=1.0):
+    """Jacobian of the residuals scaled by ``(s_r, s_t)`` (the camera-only model), shape (6N, 12)."""
+    J = _raw_jacobian(A, B, X, Y)
+    J[:, :3] /= s_r
+    J[:, 3:] /= s_t
+    return J.reshape(-1, 12)
+
+
+def _normalised(A, B, X, Y, s_r, s_t):
+    r_rot, r_trans = pose_residuals(A, B, X, Y)
+    return np.concatenate([r_rot / s_r, r_trans / s_t], axis=1)  # (N, 6)
 
 
 def _jacobian_numeric(A, B, X, Y, s_r, s_t, h=1e-7):
@@ -158,42 +197,54 @@ def _jacobian_numeric(A, B, X, Y, s_r, s_t, h=1e-7):
     return np.stack(cols, axis=1)  # (6N, 12)
 
 
-def _lm(A, B, X, Y, s_r, s_t, loss, max_iterations, tol):
-    lam = 1e-3
-    r = _normalised(A, B, X, Y, s_r, s_t)
-    w = robust_weights(np.linalg.norm(r, axis=1), loss)
-    cost = float(np.sum(w * np.sum(r**2, axis=1)))
-    converged = False
-    it = 0
-    for it in range(1, max_iterations + 1):
-        J = _jacobian(A, B, X, Y, s_r, s_t)
-        sw = np.repeat(np.sqrt(w), 6)
-        Jw = J * sw[:, None]
-        rw = r.reshape(-1) * sw
-        H = Jw.T @ Jw
-        g = Jw.T @ rw
-        improved = False
-        while lam < 1e12:
-            delta = np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-12), -g)
-            X_new, Y_new = _update(X, Y, delta)
-            r_new = _normalised(A, B, X_new, Y_new, s_r, s_t)
-            cost_new = float(np.sum(w * np.sum(r_new**2, axis=1)))
-            if cost_new <= cost:
-                improved = True
-                break
-            lam *= 10.0
-        if not improved:
-            converged = True
-            break
-        rel = (cost - cost_new) / max(cost, 1e-300)
-        X, Y, r = X_new, Y_new, r_new
-        lam = max(lam / 10.0, 1e-12)
-        w = robust_weights(np.linalg.norm(r, axis=1), loss)
-        cost = float(np.sum(w * np.sum(r**2, axis=1)))
-        if rel < tol or np.abs(delta).max() < 1e-14:
-            converged = True
-            break
-    return X, Y, w, it, converged
+class _Problem:
+    """The residuals and Jacobian of one pass, about a base point ``(X, Y, s, dt)`` with fixed ``W_i``."""
+
+    def __init__(self, A_of, B, setup, X, Y, s, dt, W, with_scale, with_offset):
+        self.A_of, self.B, self.setup = A_of, B, setup
+        self.X, self.Y, self.s, self.dt, self.W = X, Y, s, dt, W
+        self.with_scale, self.with_offset = with_scale, with_offset
+        self.n_params = 12 + int(with_scale) + int(with_offset)
+
+    def unpack(self, delta):
+        X, Y = _update(self.X, self.Y, delta)
+        k = 12
+        s = self.s
+        if self.with_scale:
+            s = self.s + delta[k]
+            k += 1
+        dt = self.dt + delta[k] if self.with_offset else self.dt
+        return X, Y, s, dt
+
+    def _B(self, s):
+        if s == 1.0:
+            return self.B
+        B = self.B.copy()
+        B[:, :3, 3] *= s
+        return B
+
+    def raw(self, delta):
+        X, Y, s, dt = self.unpack(delta)
+        A, _ = self.A_of(dt)
+        r_rot, r_t = pose_residuals(A, self._B(s), X, Y)
+        return np.concatenate([r_rot, r_t], axis=1)
+
+    def fun(self, delta):
+        return np.einsum("nij,nj->ni", self.W, self.raw(delta)).ravel()
+
+    def jac(self, delta):
+        X, Y, s, dt = self.unpack(delta)
+        A, rate = self.A_of(dt)
+        J = _raw_jacobian(A, self._B(s), X, Y)
+        cols = [J]
+        if self.with_scale:
+            c = np.zeros((len(A), 6, 1))
+            c[:, 3:, 0] = self.B[:, :3, 3]
+            cols.append(c)
+        if self.with_offset:
+            cols.append((robot_residual_jacobian(A, X, Y, self.setup, self._B(s)) @ rate[:, :, None]))
+        J = np.concatenate(cols, axis=2)
+        return np.einsum("nij,njk->nik", self.W, J).reshape(-1, self.n_params)
 
 
 def refine_xy(
@@ -202,27 +253,51 @@ def refine_xy(
     X0: np.ndarray,
     Y0: np.ndarray,
     loss: str = "linear",
-    noise: tuple[float, float] | None = None,
+    noise=None,
     max_iterations: int = 50,
     tol: float = 1e-12,
+    setup: str = "eye_to_hand",
+    estimate_scale: bool = False,
+    scale0: float = 1.0,
+    stream=None,
+    camera_times_s: np.ndarray | None = None,
+    time_offset0_s: float = 0.0,
 ) -> Refinement:
-    """Refine ``A_i Y = X B_i`` by Levenberg-Marquardt from ``(X0, Y0)``.
+    """Refine ``A_i Y = X B_i`` by weighted nonlinear least squares from ``(X0, Y0)``.
 
     Parameters
     ----------
     A : array, shape (N, 4, 4)
-        Robot-side poses (``T_base_ee`` eye-to-hand, ``T_ee_base`` eye-in-hand).
+        Robot-side poses (``T_base_ee`` eye-to-hand, ``T_ee_base`` eye-in-hand); ignored when
+        ``stream`` is given.
     B : array, shape (N, 4, 4)
         ``T_cam_target``.
     X0, Y0 : array, shape (4, 4)
         Initial camera and target poses.
     loss : {"linear", "huber", "cauchy"}
-    noise : (float, float), optional
-        Per-axis camera noise ``(sigma_rot_rad, sigma_trans_m)``; estimated
-        from the residuals when omitted.
+        On each whitened residual component, bending at :data:`ROBUST_SCALE`.
+    noise : None, (float, float) or NoiseModel
+        None: camera-only noise with its two scales estimated from the residuals; a pair: camera-only
+        per-axis ``(sigma_rot_rad, sigma_trans_m)``; a :class:`classic.noise_model.NoiseModel`:
+        camera and robot noise as stated.
     max_iterations : int
+        Bounds the optimiser's residual evaluations per pass (3x this); 0 keeps ``(X0, Y0)`` and
+        evaluates the covariance there.
     tol : float
-        Relative cost decrease below which iterations stop.
+        scipy's tolerances.
+    setup : {"eye_to_hand", "eye_in_hand"}
+        Needed for the robot-noise part of the model and for ``stream``.
+    estimate_scale : bool
+        Also estimate a metric scale ``s`` of the camera translations (``t_B <- s t_B``).
+    scale0 : float
+        Its start.
+    stream : classic.robot_stream.RobotStream, optional
+        Robot poses ``T_base_ee`` over time: the robot side is interpolated at ``camera_times_s``
+        plus a time offset, which is estimated.
+    camera_times_s : array, shape (N,), optional
+        Times of the camera poses ``B`` (with ``stream``).
+    time_offset0_s : float
+        Start of the offset (robot time = camera time + offset).
 
     Returns
     -------
@@ -231,36 +306,152 @@ def refine_xy(
     if loss not in LOSSES:
         raise ValueError(f"unknown loss {loss!r}: use one of {LOSSES}")
     robust = loss != "linear"
-    r_rot, r_trans = pose_residuals(A, B, X0, Y0)
-    if noise is None:
-        s_r, s_t = _scales(r_rot, r_trans, np.ones(len(A)), robust=True)
+    model = as_noise_model(noise)
+    estimated = model is None
+    B = np.asarray(B, dtype=float)
+    with_offset = stream is not None
+    if with_offset:
+        times = np.asarray(camera_times_s, dtype=float)
+
+        def A_of(dt):
+            T, rate = stream.at(times + dt)
+            if setup == "eye_to_hand":
+                return T, rate
+            return robot_side_poses(T, setup), rate
     else:
-        s_r, s_t = float(noise[0]), float(noise[1])
-    X, Y, w, it1, conv = _lm(A, B, X0, Y0, s_r, s_t, loss, max_iterations, tol)
-    it2 = 0
-    if noise is None:
-        # the scales fix the weighting of rotation against translation: re-estimate once at the optimum
-        r_rot, r_trans = pose_residuals(A, B, X, Y)
-        s_r, s_t = _scales(r_rot, r_trans, w, robust=robust)
-        X, Y, w, it2, conv = _lm(A, B, X, Y, s_r, s_t, loss, max_iterations, tol)
-        if not robust:
-            r_rot, r_trans = pose_residuals(A, B, X, Y)
-            s_r, s_t = _scales(r_rot, r_trans, w, robust=False)
-    r0 = _normalised(A, B, X0, Y0, s_r, s_t)
-    r1 = _normalised(A, B, X, Y, s_r, s_t)
-    J = _jacobian(A, B, X, Y, s_r, s_t)
-    sw = np.repeat(np.sqrt(w), 6)
-    Jw = J * sw[:, None]
-    covariance = np.linalg.pinv(Jw.T @ Jw)
+        A_fixed = np.asarray(A, dtype=float)
+        zero_rate = np.zeros((len(A_fixed), 6))
+
+        def A_of(dt):
+            return A_fixed, zero_rate
+
+    X, Y, s, dt = X0, Y0, float(scale0), float(time_offset0_s)
+    factor = 1.0  # common variance factor of a model given up to scale (scale_to_residuals)
+    if estimated:
+        A_now, _ = A_of(dt)
+        s_r, s_t = _scales(*pose_residuals(A_now, _scaled(B, s), X, Y), None, robust=True)
+        model = _camera_model(s_r, s_t)
+    n = len(B)
+    weights_pose = np.ones(n)
+    evaluations = 0
+    converged = True
+    passes = _PASSES if max_iterations > 0 else 1
+    for p in range(passes):
+        A_now, _ = A_of(dt)
+        W = whitening(factor * residual_covariances(model, A_now, _scaled(B, s), X, Y, setup))
+        prob = _Problem(A_of, B, setup, X, Y, s, dt, W, estimate_scale, with_offset)
+        fit = fit_least_squares(prob.fun, prob.jac, prob.n_params, loss=loss, loss_scale=ROBUST_SCALE,
+                                max_evaluations=3 * max_iterations, tol=tol)
+        evaluations += fit.evaluations if max_iterations > 0 else 0
+        converged = fit.converged
+        X_new, Y_new, s, dt = prob.unpack(fit.x)
+        moved = float(np.abs(fit.x).max())
+        X, Y = X_new, Y_new
+        weights_pose = fit.weights.reshape(n, 6).mean(axis=1)
+        if estimated:
+            A_now, _ = A_of(dt)
+            r_rot, r_t = pose_residuals(A_now, _scaled(B, s), X, Y)
+            old = (model.camera_rot_rad, model.camera_trans_m)
+            Jw = fit.jacobian * np.sqrt(fit.weights)[:, None]
+            hat = np.einsum("ij,ij->i", Jw @ np.linalg.pinv(Jw.T @ Jw), Jw).reshape(n, 6)
+            s_r, s_t = _scales(r_rot, r_t, weights_pose, robust=robust, n_params=prob.n_params, leverage=hat)
+            model = _camera_model(s_r, s_t)
+            changed = max(abs(s_r / old[0] - 1.0), abs(s_t / old[1] - 1.0))
+        elif model.scale_to_residuals:
+            d2 = np.sum(fit.residuals.reshape(n, 6) ** 2, axis=1)
+            if robust:
+                new = factor * float(np.median(d2)) / _CHI2_6_MEDIAN
+            else:
+                new = factor * float(np.sum(weights_pose * d2)) / max(6.0 * weights_pose.sum() - prob.n_params, 1.0)
+            new = max(new, 1e-300)
+            changed, factor = abs(new / factor - 1.0), new
+        else:  # a given model: S_i depends on X and Y through the robot's part, so evaluate it once more
+            changed = 1.0 if (p == 0 and model.has_robot_noise) else 0.0
+        # a 1 % change of the noise scales moves the estimate by a small fraction of its sigma
+        if changed < 1e-2 or moved < 1e-12:
+            break
+    # final evaluation at the estimate with the final model: covariance and costs
+    A_now, _ = A_of(dt)
+    W = whitening(factor * residual_covariances(model, A_now, _scaled(B, s), X, Y, setup))
+    prob = _Problem(A_of, B, setup, X, Y, s, dt, W, estimate_scale, with_offset)
+    zero = np.zeros(prob.n_params)
+    r_final = prob.fun(zero)
+    J = prob.jac(zero)
+    w_res = loss_weights(r_final, loss, ROBUST_SCALE)
+    cov_full = covariance_from_jacobian(J, w_res)
+    # the start's cost under the final noise model
+    start = _Problem(A_of, B, setup, X0, Y0, float(scale0), float(time_offset0_s), W, estimate_scale, with_offset)
+    cost_initial = float(np.sum(start.fun(np.zeros(prob.n_params)) ** 2))
+    k = 12
+    scale_sigma = offset_sigma = 0.0
+    if estimate_scale:
+        scale_sigma = float(np.sqrt(cov_full[k, k]))
+        k += 1
+    if with_offset:
+        offset_sigma = float(np.sqrt(cov_full[k, k]))
+    cam = factor * model.camera(n).mean(axis=0)
+    cost_final = float(r_final @ r_final)
+    described = model.describe()
+    described["estimated"] = bool(estimated)
+    if model.scale_to_residuals:
+        described["variance_factor_applied"] = factor
     return Refinement(
         X=X,
         Y=Y,
-        covariance=covariance,
-        sigma_rot_rad=s_r,
-        sigma_trans_m=s_t,
-        weights=w,
-        iterations=it1 + it2,
-        cost_initial=float(np.sum(r0**2)),
-        cost_final=float(np.sum(r1**2)),
-        converged=conv,
+        covariance=cov_full[:12, :12],
+        sigma_rot_rad=float(np.sqrt(np.trace(cam[:3, :3]) / 3.0)),
+        sigma_trans_m=float(np.sqrt(np.trace(cam[3:, 3:]) / 3.0)),
+        weights=weights_pose,
+        iterations=evaluations,
+        cost_initial=cost_initial,
+        cost_final=cost_final,
+        converged=bool(converged),
+        noise_model=described,
+        variance_factor=cost_final / max(6 * n - prob.n_params, 1),
+        scale=float(s),
+        scale_sigma=scale_sigma,
+        time_offset_s=float(dt),
+        time_offset_sigma_s=offset_sigma,
+        whitened=r_final.reshape(n, 6),
+        jacobian=J,
     )
+
+
+def _scaled(B: np.ndarray, s: float) -> np.ndarray:
+    if s == 1.0:
+        return B
+    out = B.copy()
+    out[:, :3, 3] *= s
+    return out
+
+
+def cramer_rao_bound(A: np.ndarray, X: np.ndarray, Y: np.ndarray, noise, setup: str = "eye_to_hand") -> np.ndarray:
+    """The Cramér–Rao bound of ``[w_X, v_X, w_Y, v_Y]`` at the truth, for a pose set and a noise model.
+
+    The inverse of the Fisher information ``sum_i J_i^T S_i^-1 J_i`` (first order, Gaussian noise),
+    with ``J_i`` the residual's Jacobian and ``S_i`` its covariance under the model, both at the
+    truth. No unbiased estimator does better on average; it also tells, before recording, what a
+    planned set of poses can give.
+
+    Parameters
+    ----------
+    A : array, shape (N, 4, 4)
+        Robot-side poses (true).
+    X, Y : array, shape (4, 4)
+        True camera and target poses.
+    noise : (float, float) or NoiseModel
+    setup : {"eye_to_hand", "eye_in_hand"}
+
+    Returns
+    -------
+    array, shape (12, 12)
+        Covariance bound (rad, m); ``classic.least_squares.sigma_of_blocks`` gives its magnitudes.
+    """
+    model = as_noise_model(noise)
+    if model is None:
+        raise ValueError("the bound needs a noise model")
+    A = np.asarray(A, dtype=float)
+    B = np.linalg.inv(X) @ A @ Y
+    W = whitening(residual_covariances(model, A, B, X, Y, setup))
+    J = np.einsum("nij,njk->nik", W, _raw_jacobian(A, B, X, Y)).reshape(-1, 12)
+    return covariance_from_jacobian(J)

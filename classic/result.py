@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from classic.least_squares import sigma_of_blocks
 from handeye.core.se3 import pos_quat_xyzw_from_transform
 from handeye.core.setups import UNKNOWN_NAMES
 
@@ -107,14 +108,7 @@ class CalibrationResult:
             ``X_rotation_deg``, ``X_translation_mm``, ``Y_rotation_deg``,
             ``Y_translation_mm``: ``sqrt(trace)`` of each covariance block.
         """
-        C = self.covariance
-        tr = [np.trace(C[k : k + 3, k : k + 3]) for k in (0, 3, 6, 9)]
-        return {
-            "X_rotation_deg": float(np.degrees(np.sqrt(tr[0]))),
-            "X_translation_mm": float(1000 * np.sqrt(tr[1])),
-            "Y_rotation_deg": float(np.degrees(np.sqrt(tr[2]))),
-            "Y_translation_mm": float(1000 * np.sqrt(tr[3])),
-        }
+        return sigma_of_blocks(self.covariance)
 
     def to_dict(self) -> dict:
         """JSON-serialisable summary: poses by frame name, residuals, sigma, diagnostics.

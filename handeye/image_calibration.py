@@ -119,12 +119,24 @@ def calibrate_from_views(
     ImageCalibration
     """
     import classic
+    from classic.vision.pose_covariance import pose_covariances
     from classic.vision.reprojection import refine_reprojection
 
     accepted = [k for k, v in enumerate(views.views) if v.pose.ok]
     rejected = {v.image: v.pose.reason for v in views.views if not v.pose.ok}
     T_cam_target = np.array([views.views[k].pose.T_cam_target for k in accepted]).reshape(-1, 4, 4)
-    res = classic.calibrate(T_base_ee[accepted], T_cam_target, setup=setup, method=method, robust=robust)
+    # each PnP pose weighed by its own covariance from its corners (poor along the optical axis); the
+    # common scale is left to the residuals, since the robot's noise adds to the camera's
+    covs, _ = pose_covariances(T_cam_target, [views.views[k].detection.ids for k in accepted],
+                               [views.views[k].detection.corners_px for k in accepted], views.spec, views.intrinsics)
+    noise = classic.NoiseModel(camera_covariance=covs, name="camera, PnP covariance from the corners",
+                               scale_to_residuals=True)
+    # with the reprojection refinement to follow, the pose-based fit is its start: a robust loss keeps a
+    # view whose PnP pose is off (a grazing board) from pulling it, and the corners then weigh every view
+    # for what it holds; without it the pose-based fit is the result, and least squares refuses outliers
+    loss = "cauchy" if (reprojection or robust) else "linear"
+    res = classic.calibrate(T_base_ee[accepted], T_cam_target, setup=setup, method=method, robust=robust,
+                            noise=noise, loss=loss)
     images = [views.views[k].image for k in accepted]
     rep = None
     if reprojection:

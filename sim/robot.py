@@ -170,6 +170,33 @@ class Robot:
             q = pin.integrate(self.model, q, dq)
         return None
 
+    def pose_jacobians(self, q: np.ndarray) -> np.ndarray:
+        """How joint errors move the flange pose, in the robot-noise convention of :mod:`classic.noise_model`.
+
+        Rows ``[w, n]``: a flange rotation ``R <- R exp(w)`` (flange frame) and translation
+        ``t <- t + n`` (base frame) per radian of each joint; pinocchio's frame Jacobian in the
+        ``LOCAL`` frame, its linear rows turned into the base frame. Feed it to
+        :func:`classic.noise_model.joint_noise_covariance` with the encoders' noise.
+
+        Parameters
+        ----------
+        q : array, shape (N, nq)
+
+        Returns
+        -------
+        array, shape (N, 6, nq)
+        """
+        pin = self.pin
+        flat = np.asarray(q, dtype=float).reshape(-1, self.nq)
+        out = np.empty((len(flat), 6, self.nq))
+        for k, qk in enumerate(flat):
+            pin.framesForwardKinematics(self.model, self.data, qk)
+            R = self.data.oMf[self.ee_frame].rotation.copy()
+            J = pin.computeFrameJacobian(self.model, self.data, qk, self.ee_frame, pin.LOCAL)  # [v; omega], local
+            out[k, :3] = J[3:]
+            out[k, 3:] = R @ J[:3]
+        return out
+
     def pose_error(self, q: np.ndarray, T_base_ee: np.ndarray) -> tuple[float, float]:
         """Rotation (rad) and translation (m) error of ``fk(q)`` against a flange pose."""
         D = invert_transform(self.fk(q)) @ T_base_ee

@@ -86,3 +86,25 @@ def test_units_option(tmp_path, units):
     assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--units", units, "-o", str(out)]) == 0
     X = np.array(json.loads(out.read_text())["T_base_cam"]["matrix"])
     np.testing.assert_allclose(X, p.X_true, atol=EXACT)
+
+
+def test_contaminated_file_refused_then_robust_and_noise_model_options(tmp_path, capsys):
+    """Gross outliers without --robust: exit 2 naming the poses; --camera-noise/--robot-noise: the ML model is used."""
+    p = make_problem(16, "eye_to_hand", np.random.default_rng(5), camera_noise=(0.1, 1.0), robot_noise=(0.02, 0.1),
+                     outlier_fraction=0.15)
+    path = tmp_path / "poses.csv"
+    write_pose_csv(path, p.T_base_ee, p.T_cam_target)
+    assert main(["calibrate", str(path), "--setup", "eye-to-hand"]) == 2
+    err = capsys.readouterr().err
+    assert "--robust" in err and "Traceback" not in err  # refused (by the consistency or the contamination check)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--robust", "--camera-noise", "0.1", "1", "1", "1",
+                 "--robot-noise", "0.02", "0.1", "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "noise model: given on the command line" in printed and "variance factor" in printed
+    result = json.loads(out.read_text())
+    assert result["diagnostics"]["noise_model"]["robot_translation_mm"] == pytest.approx([0.1, 0.1, 0.1])
+    rot, trans = pose_error(np.array(result["T_base_cam"]["matrix"]), p.X_true)
+    assert rot < 4 * result["sigma"]["X_rotation_deg"] and trans < 4 * result["sigma"]["X_translation_mm"]
+    assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--robot-noise", "0.02", "0.1"]) == 2
+    assert "--camera-noise" in capsys.readouterr().err

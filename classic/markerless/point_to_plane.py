@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from classic.clustered_covariance import clustered_covariance
-from classic.refine import robust_weights
+from classic.least_squares import loss_weights
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = ["PlaneFit", "solve_point_to_plane", "apply_right"]
@@ -106,7 +106,7 @@ def solve_point_to_plane(p_cam: np.ndarray, m_base: np.ndarray, n_base: np.ndarr
     step_norm, steps = np.inf, 0
     for steps in range(1, iterations + 1):
         r, J = _linearise(p_cam, m_base, n_base, T)
-        w = robust_weights(np.abs(r) / scale_m, loss, 1.0)
+        w = loss_weights(r / scale_m, loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
         xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(6), g)
@@ -115,6 +115,6 @@ def solve_point_to_plane(p_cam: np.ndarray, m_base: np.ndarray, n_base: np.ndarr
         if step_norm < tol:
             break
     r, J = _linearise(p_cam, m_base, n_base, T)
-    w = robust_weights(np.abs(r) / scale_m, loss, 1.0)
+    w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     return PlaneFit(T, clustered_covariance(J, r, w, group), r, w, groups, steps, step_norm)

@@ -21,12 +21,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
+from classic.least_squares import covariance_from_jacobian, fit_least_squares, sigma_of_blocks
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
 from handeye.core.errors import HandEyeInputError
-from handeye.core.se3 import invert_transform, make_transform, so3_exp
+from handeye.core.se3 import hat, invert_transform, make_transform, so3_exp
 from handeye.core.setups import normalize_setup, robot_side_poses
 
 __all__ = ["ReprojectionResult", "OUTLIER_VIEW_FACTOR", "project", "refine_reprojection"]
@@ -91,6 +91,70 @@ def project(p_cam: np.ndarray, fx: float, fy: float, cx: float, cy: float, dist:
     xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
     yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
     return np.column_stack([fx * xd + cx, fy * yd + cy])
+
+
+def _reprojection_jacobian(A: np.ndarray, X: np.ndarray, Y: np.ndarray, p_target: np.ndarray, intr: np.ndarray,
+                           with_intrinsics: bool) -> np.ndarray:
+    """Analytic Jacobian of the corners' pixels w.r.t. ``[w_X, v_X, w_Y, v_Y, (fx, fy, cx, cy, k1, k2, p1, p2, k3)]``.
+
+    ``p_cam = R_X^T (q - t_X)`` with ``q = R_A (R_Y p + t_Y) + t_A``; increments ``R <- exp(w) R``,
+    ``t <- t + v``: ``dp/dw_X = R_X^T [q - t_X]x``, ``dp/dv_X = -R_X^T``, ``dp/dw_Y = -R_X^T R_A [R_Y p]x``,
+    ``dp/dv_Y = R_X^T R_A``; then the pinhole and OpenCV's ``(k1, k2, p1, p2, k3)`` distortion.
+
+    Parameters
+    ----------
+    A : array, shape (M, 4, 4)
+        Robot-side pose of each corner's view.
+    X, Y : array, shape (4, 4)
+    p_target : array, shape (M, 3)
+    intr : array, shape (9,)
+    with_intrinsics : bool
+
+    Returns
+    -------
+    array, shape (2M, 12 or 21)
+        Rows ``u_0, v_0, u_1, ...``.
+    """
+    R_X, t_X, R_Y, t_Y = X[:3, :3], X[:3, 3], Y[:3, :3], Y[:3, 3]
+    R_A, t_A = A[:, :3, :3], A[:, :3, 3]
+    Ryp = p_target @ R_Y.T
+    q = np.einsum("mab,mb->ma", R_A, Ryp + t_Y) + t_A
+    p = (q - t_X) @ R_X  # R_X^T (q - t_X), row-wise
+    m = len(p)
+    dp = np.zeros((m, 3, 12))
+    dp[:, :, 0:3] = R_X.T @ hat(q - t_X)
+    dp[:, :, 3:6] = -R_X.T
+    RxRa = R_X.T @ R_A
+    dp[:, :, 6:9] = -(RxRa @ hat(Ryp))
+    dp[:, :, 9:12] = RxRa
+    fx, fy, cx, cy, k1, k2, p1, p2, k3 = intr
+    Z = p[:, 2]
+    x, y = p[:, 0] / Z, p[:, 1] / Z
+    dxy = np.zeros((m, 2, 3))
+    dxy[:, 0, 0] = dxy[:, 1, 1] = 1.0 / Z
+    dxy[:, 0, 2] = -x / Z
+    dxy[:, 1, 2] = -y / Z
+    r2 = x * x + y * y
+    radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    dradial = k1 + 2 * k2 * r2 + 3 * k3 * r2 * r2
+    dd = np.empty((m, 2, 2))  # d(xd, yd) / d(x, y)
+    dd[:, 0, 0] = radial + 2 * x * x * dradial + 2 * p1 * y + 6 * p2 * x
+    dd[:, 0, 1] = 2 * x * y * dradial + 2 * p1 * x + 2 * p2 * y
+    dd[:, 1, 0] = 2 * x * y * dradial + 2 * p1 * x + 2 * p2 * y
+    dd[:, 1, 1] = radial + 2 * y * y * dradial + 6 * p1 * y + 2 * p2 * x
+    duv = np.array([fx, fy])[None, :, None] * dd  # (m, 2, 2)
+    J = (duv @ dxy @ dp).reshape(2 * m, 12)
+    if not with_intrinsics:
+        return J
+    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    Ji = np.zeros((m, 2, 9))
+    Ji[:, 0, 0], Ji[:, 1, 1], Ji[:, 0, 2], Ji[:, 1, 3] = xd, yd, 1.0, 1.0
+    for col, r_pow in ((4, r2), (5, r2 * r2), (8, r2**3)):  # k1, k2, k3
+        Ji[:, 0, col], Ji[:, 1, col] = fx * x * r_pow, fy * y * r_pow
+    Ji[:, 0, 6], Ji[:, 1, 6] = fx * 2 * x * y, fy * (r2 + 2 * y * y)  # p1
+    Ji[:, 0, 7], Ji[:, 1, 7] = fx * (r2 + 2 * x * x), fy * 2 * x * y  # p2
+    return np.concatenate([J, Ji.reshape(2 * m, 9)], axis=1)
 
 
 def _pose(T0: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -175,11 +239,15 @@ def refine_reprojection(
         p_cam = np.einsum("mab,mb->ma", R, p_target) + t
         return (project(p_cam, *intr[:4], intr[4:9]) - uv).ravel()
 
+    def jacobian(params):
+        X, Y, intr = unpack(params)
+        return _reprojection_jacobian(A[view], X, Y, p_target, intr, refine_intrinsics)
+
     n_params = 12 + (9 if refine_intrinsics else 0)
-    sol = least_squares(residuals, np.zeros(n_params), method="trf", loss=loss, f_scale=loss_scale_px,
-                        x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
-    X, Y, intr = unpack(sol.x)
-    r = residuals(sol.x).reshape(-1, 2)
+    fit = fit_least_squares(residuals, jacobian, n_params, loss=loss, loss_scale=loss_scale_px,
+                            max_evaluations=200, tol=1e-12)
+    X, Y, intr = unpack(fit.x)
+    r = fit.residuals.reshape(-1, 2)
     sq = np.sum(r**2, axis=1)
     counts = np.bincount(view, minlength=n_views)
     per_view = np.sqrt(np.bincount(view, weights=sq, minlength=n_views) / np.maximum(counts, 1))
@@ -191,13 +259,8 @@ def refine_reprojection(
     else:
         # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
         s2 = float(np.median(sq)) / 1.3863
-    J = sol.jac
-    cov = s2 * np.linalg.pinv(J.T @ J)
-    tr = [np.trace(cov[k : k + 3, k : k + 3]) for k in (0, 3, 6, 9)]
-    sigma = {
-        "X_rotation_deg": float(np.degrees(np.sqrt(tr[0]))), "X_translation_mm": float(1000 * np.sqrt(tr[1])),
-        "Y_rotation_deg": float(np.degrees(np.sqrt(tr[2]))), "Y_translation_mm": float(1000 * np.sqrt(tr[3])),
-    }
+    cov = covariance_from_jacobian(fit.jacobian, fit.weights, s2)
+    sigma = sigma_of_blocks(cov)
     K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
     return ReprojectionResult(
         X, Y, CameraIntrinsics(K, intr[4:9], intrinsics.width, intrinsics.height),

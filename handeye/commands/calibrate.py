@@ -18,6 +18,12 @@ takes the views accepted by ``handeye detect``, solves on their PnP poses,
 then refines X and Y on the corners' reprojection error (``--refine-intrinsics``
 to refine K and distortion too) and reports the pixel RMS per view, flagging
 outlier views.
+
+The pose-file refinement is maximum likelihood under a noise model: by default
+camera noise only, its two scales estimated from the residuals; with
+``--camera-noise DEG MM [MM MM]`` and ``--robot-noise DEG MM`` under both (PnP
+poses: give the optical axis its own, larger, millimetres). A pose set with gross
+outliers is refused with the poses named unless ``--robust``.
 """
 
 from __future__ import annotations
@@ -51,10 +57,19 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="eye-to-hand: static camera, target on the flange; eye-in-hand: camera on the flange")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"closed form (default {DEFAULT_METHOD})")
     p.add_argument("--pairs", default="all", choices=["all", "consecutive"], help="motion pairs for AX=XB methods")
-    p.add_argument("--no-refine", action="store_true", help="skip the Levenberg-Marquardt refinement")
+    p.add_argument("--no-refine", action="store_true",
+                   help="skip the refinement (maximum likelihood under the noise model)")
     p.add_argument("--robust", action="store_true", help="flag gross outlier poses and refine with a robust loss")
     p.add_argument("--loss", choices=["linear", "huber", "cauchy"],
                    help="refinement loss (default linear, cauchy if --robust)")
+    p.add_argument("--camera-noise", nargs="+", type=float, metavar="V",
+                   help="camera pose noise per axis: DEG MM, or DEG MM_X MM_Y MM_Z (PnP: worse along the optical "
+                        "axis, z); with --robot-noise the refinement is maximum likelihood under both (default: "
+                        "camera-only, estimated from the residuals)")
+    p.add_argument("--robot-noise", nargs=2, type=float, metavar=("DEG", "MM"),
+                   help="robot flange pose noise per axis (the arm's repeatability)")
+    p.add_argument("--estimate-scale", action="store_true",
+                   help="also estimate a metric scale of the camera translations (monocular SLAM poses)")
     p.add_argument("--units", choices=["m", "mm"],
                    help="translation units of the file (default m, or the JSON's 'units')")
     p.add_argument("--quat-order", choices=["xyzw", "wxyz"],
@@ -153,6 +168,40 @@ def _run_detections(args: argparse.Namespace) -> int:
     return 0
 
 
+def _noise_model(args: argparse.Namespace):
+    """The NoiseModel of --camera-noise / --robot-noise, or None (estimated)."""
+    import numpy as np
+
+    import classic
+    from handeye.core.errors import HandEyeInputError
+
+    if args.camera_noise is None and args.robot_noise is None:
+        return None
+    if args.camera_noise is None:
+        raise HandEyeInputError("--robot-noise needs --camera-noise too (the camera's noise is never zero)")
+    cam = args.camera_noise
+    if len(cam) not in (2, 4):
+        raise HandEyeInputError(f"--camera-noise takes DEG MM or DEG MM_X MM_Y MM_Z, got {len(cam)} numbers")
+    trans = np.array(cam[1:]) / 1000.0
+    robot = args.robot_noise or (0.0, 0.0)
+    return classic.NoiseModel(np.radians(cam[0]), trans if len(trans) == 3 else float(trans[0]),
+                              np.radians(robot[0]), robot[1] / 1000.0, name="given on the command line")
+
+
+def _describe_noise(d: dict) -> str:
+    if d.get("estimated"):
+        return (f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, "
+                f"{d['camera_translation_mm'][0]:.3f} mm per axis)")
+    parts = [d["name"]]
+    if "camera_rotation_deg" in d:
+        parts.append("camera " + ", ".join(f"{v:.4g}" for v in d["camera_rotation_deg"]) + " deg / "
+                     + ", ".join(f"{v:.4g}" for v in d["camera_translation_mm"]) + " mm")
+    if "robot_rotation_deg" in d:
+        parts.append("robot " + ", ".join(f"{v:.4g}" for v in d["robot_rotation_deg"]) + " deg / "
+                     + ", ".join(f"{v:.4g}" for v in d["robot_translation_mm"]) + " mm")
+    return "; ".join(parts)
+
+
 def _run_poses(args: argparse.Namespace) -> int:
     import classic
     from handeye.checked_poses import load_poses
@@ -163,7 +212,8 @@ def _run_poses(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup=setup, method=args.method,
-                                pairs=args.pairs, refine=not args.no_refine, robust=args.robust, loss=args.loss)
+                                pairs=args.pairs, refine=not args.no_refine, robust=args.robust, loss=args.loss,
+                                noise=_noise_model(args), estimate_scale=args.estimate_scale)
     out = sys.stderr if args.output is not None and str(args.output) == "-" else sys.stdout
     x_name, y_name = UNKNOWN_NAMES[setup]
     sig = res.sigma
@@ -178,6 +228,14 @@ def _run_poses(args: argparse.Namespace) -> int:
     ]
     if res.diagnostics.get("outliers"):
         lines.append(f"  outlier poses (excluded): {res.diagnostics['outliers']}")
+    lines.append(f"  noise model: {_describe_noise(res.diagnostics['noise_model'])}")
+    if not res.diagnostics["noise_model"].get("estimated"):
+        vf = res.diagnostics["refinement"]["variance_factor"]
+        lines.append(f"    residuals / model: variance factor {vf:.2f} (1 when the stated noise fits the data; the "
+                     "sigmas above assume the stated noise)")
+    if "scale" in res.diagnostics:
+        sc = res.diagnostics["scale"]
+        lines.append(f"  camera translation scale: {sc['value']:.6f} +- {sc['sigma']:.6f}")
     motion = res.diagnostics["motion"]
     lines.append(f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
                  f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg")

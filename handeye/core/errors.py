@@ -50,6 +50,13 @@ class QuaternionOrderError(HandEyeInputError):
     """Quaternions seem to be given in the other component order (xyzw vs wxyz)."""
 
 
+class ContaminatedPosesError(HandEyeInputError):
+    """Some poses disagree with the rest far beyond the noise: a least-squares fit would be pulled off.
+
+    The message names the poses. Remove them, or calibrate with ``robust=True`` (``--robust``).
+    """
+
+
 class InconsistentPosesError(HandEyeInputError):
     """Robot and camera motions disagree in a way no hand-eye transform can explain.
 

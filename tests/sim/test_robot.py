@@ -89,3 +89,22 @@ def test_any_urdf_by_path_gives_the_same_robot():
     np.testing.assert_allclose(mine.fk(q), theirs.fk(q), atol=1e-12)
     np.testing.assert_allclose(mine.keypoints_base(q), theirs.keypoints_base(q), atol=1e-12)
     assert [Path(p).name for _, p, _ in mine.link_poses(q[0])] == [Path(p).name for _, p, _ in theirs.link_poses(q[0])]
+
+
+def test_pose_jacobians_are_the_flange_pose_derivatives(robot):
+    """Rows [w (flange frame), n (base frame)] per joint: what classic.noise_model's robot noise means."""
+    from handeye.core.se3 import so3_log
+    from tests.tolerances import JACOBIAN_RTOL
+
+    q = np.array([[0.3, -1.2, 1.5, -1.8, -1.57, 0.4], [1.0, -0.5, 0.7, 0.2, 1.1, -2.0]])
+    J = robot.pose_jacobians(q)
+    h = 1e-6
+    for k, qk in enumerate(q):
+        T = robot.fk(qk)
+        for j in range(robot.nq):
+            e = np.zeros(robot.nq)
+            e[j] = h
+            Tp, Tm = robot.fk(qk + e), robot.fk(qk - e)
+            w = (so3_log(T[:3, :3].T @ Tp[:3, :3]) - so3_log(T[:3, :3].T @ Tm[:3, :3])) / (2 * h)
+            n = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+            np.testing.assert_allclose(J[k, :, j], np.concatenate([w, n]), atol=JACOBIAN_RTOL)

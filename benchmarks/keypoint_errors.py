@@ -1,0 +1,205 @@
+"""Benchmark: where the keypoint model's pose error comes from, its pixel positions or its depths.
+
+Run from the repository root, on a dataset and a keypoint model trained on it::
+
+    python benchmarks/keypoint_errors.py --data data/paper-sim-noisy --model runs/kp-cpu/batch/keypoints.pt \\
+        --out benchmarks/results/keypoint_errors_cpu_paper-sim.md
+
+The model (:mod:`learned.keypoints`) predicts per keypoint (the robot's joint origins, then the
+flange, then the reference point) a normalised image position and a depth on every test frame;
+the targets are the keypoints projected with the true ``T_base_cam``. Reported:
+
+1. Per keypoint, over the test frames where its target lies in the image: median pixel error
+   at the dataset's native resolution and at the network's input resolution, the same as mm
+   across the line of sight (at the keypoint's true depth), and the median signed (predicted
+   minus true) and absolute depth error.
+2. Per camera placement (all its test frames, :func:`learned.keypoints.camera_pose`), the pose
+   error against the truth, median and worst over the test placements, from the predicted
+   keypoints, from the true pixel positions with the predicted depths, and from the predicted
+   pixel positions with the true depths.
+3. A short interpretation generated from these numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from benchmarks._machine import machine  # noqa: E402
+from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.learned_frames import load_keypoint_frames  # noqa: E402
+from handeye.robot_model import dataset_robot  # noqa: E402
+from learned.experiment import load_model  # noqa: E402
+from learned.keypoints import camera_pose, keypoint_targets, pose_errors  # noqa: E402
+from learned.trainer import predict  # noqa: E402
+
+
+def keypoint_stats(pred, tgt, intrinsics_norm, native, network):
+    """Per-keypoint medians over the frames where the target lies in the image.
+
+    Parameters
+    ----------
+    pred, tgt : array, shape (N, K, 3)
+        Predicted and true ``(x_n, y_n, z_m)``.
+    intrinsics_norm : array, shape (N, 4)
+    native, network : (int, int)
+        ``(width, height)`` of the dataset's images and of the network's input.
+
+    Returns
+    -------
+    dict of str to array, shape (K,)
+        ``in_view`` (fraction), ``px_native``, ``px_network``, ``lateral_mm``, ``dz_mm`` (signed),
+        ``abs_dz_mm``, each a median.
+    """
+    dx, dy = pred[..., 0] - tgt[..., 0], pred[..., 1] - tgt[..., 1]
+    inside = (tgt[..., 0] > 0) & (tgt[..., 0] < 1) & (tgt[..., 1] > 0) & (tgt[..., 1] < 1) & (tgt[..., 2] > 0)
+    fx, fy = intrinsics_norm[:, None, 0], intrinsics_norm[:, None, 1]
+    per = {"px_native": np.hypot(dx * native[0], dy * native[1]),
+           "px_network": np.hypot(dx * network[0], dy * network[1]),
+           "lateral_mm": np.hypot(dx / fx, dy / fy) * tgt[..., 2] * 1000.0,
+           "dz_mm": (pred[..., 2] - tgt[..., 2]) * 1000.0}
+    per["abs_dz_mm"] = np.abs(per["dz_mm"])
+    out = {k: np.array([np.median(v[inside[:, j], j]) if inside[:, j].any() else np.nan for j in range(v.shape[1])])
+           for k, v in per.items()}
+    out["all"] = {k: np.median(v[inside]) for k, v in per.items()}
+    out["in_view"] = inside.mean(0)
+    return out
+
+
+def placement_errors(kp, frames, index):
+    """Pose error of each camera placement from keypoints ``kp`` of the frames at ``index``.
+
+    Returns
+    -------
+    array, shape (P, 2)
+        Translation mm and rotation deg per placement, in the order of ``np.unique(frames.camera[index])``.
+    """
+    rows = []
+    for c in np.unique(frames.camera[index]):
+        m = frames.camera[index] == c
+        T, _ = camera_pose(kp[m], frames.keypoints_base[index][m].astype(float), frames.intrinsics_norm[index][m])
+        i0 = index[m][0]
+        et, er = pose_errors(T[None], frames.truth_t_base_cam_mm[[i0]], frames.truth_q_base_cam_xyzw[[i0]])
+        rows.append((et[0], er[0]))
+    return np.array(rows)
+
+
+def interpretation(variants, stats, names):
+    """One paragraph reading the tables: which error, pixels or depth, the pose error comes from.
+
+    Parameters
+    ----------
+    variants : dict of str to array, shape (P, 2)
+        ``"pred"``, ``"true_px"`` (true pixels, predicted depth), ``"true_z"`` (predicted pixels, true depth).
+    stats : dict
+        :func:`keypoint_stats`.
+    names : list of str
+    """
+    p, a, b = (np.median(variants[k][:, 0]) for k in ("pred", "true_px", "true_z"))
+    pr = np.median(variants["pred"][:, 1])
+    text = (f"Per placement the predicted keypoints give a median error of {p:.1f} mm / {pr:.2f} deg. "
+            f"With the true pixel positions (so only the depth error left) it is {a:.1f} mm ({a / p:.0%} of it); "
+            f"with the true depths (only the pixel error left) {b:.1f} mm ({b / p:.0%}). ")
+    if abs(a - b) < 0.1 * p:
+        text += "Pixel and depth errors contribute about equally"
+    else:
+        text += f"The {'pixel' if a < b else 'depth'} error is the larger source"
+    if min(a, b) > 0.5 * p:
+        text += f", but removing it alone still leaves {min(a, b) / p:.0%} of the error: both matter. "
+    else:
+        text += ". "
+    al = stats["all"]
+    text += (f"Over all keypoints in view, the median pixel error ({al['px_native']:.1f} native px) amounts to "
+             f"{al['lateral_mm']:.1f} mm across the line of sight, against {al['abs_dz_mm']:.1f} mm along it "
+             f"(median signed depth error {al['dz_mm']:+.1f} mm). ")
+    jp, jz = int(np.nanargmax(stats["px_native"])), int(np.nanargmax(stats["abs_dz_mm"]))
+    text += (f"The largest pixel error is at {names[jp]} ({stats['px_native'][jp]:.1f} px), the largest depth error "
+             f"at {names[jz]} ({stats['abs_dz_mm'][jz]:.1f} mm).")
+    return text
+
+
+def main(argv=None):
+    """Command line: ``--data``, ``--model``, ``--split``, ``--out``."""
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", type=Path, required=True, help="dataset the model was trained on")
+    ap.add_argument("--model", type=Path, required=True, help="keypoint model (keypoints.pt)")
+    ap.add_argument("--split", default="test", help="frames to evaluate (default test)")
+    ap.add_argument("--out", type=Path, help="also write the report here")
+    args = ap.parse_args(argv)
+    lines = []
+
+    def emit(s=""):
+        print(s, flush=True)
+        lines.append(s)
+
+    emit(f"# Keypoint model errors: pixels against depth ({args.model}, {args.data.name})")
+    emit()
+    emit(f"command: python benchmarks/keypoint_errors.py {' '.join(argv if argv is not None else sys.argv[1:])}")
+    emit(f"machine: {machine()}")
+    emit(f"date: {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
+    emit()
+    model = load_model(args.model)
+    if model.config.kind != "keypoints":
+        ap.error(f"{args.model}: a {model.config.kind} model, not a keypoint model")
+    ds = Dataset.open(args.data)
+    native = (int(ds.meta["intrinsics"]["width"]), int(ds.meta["intrinsics"]["height"]))
+    network = tuple(int(v) for v in model.config.image_size)
+    names = list(dataset_robot(ds).keypoint_names)
+    frames = load_keypoint_frames(args.data, network, progress=False)
+    index = np.flatnonzero(frames.split == args.split)
+    pred = predict(model, frames, index)
+    tgt = keypoint_targets(frames.keypoints_base[index].astype(float), frames.truth_t_base_cam_mm[index],
+                           frames.truth_q_base_cam_xyzw[index], frames.intrinsics_norm[index])
+    if len(names) != pred.shape[1]:
+        names = [f"keypoint {j}" for j in range(pred.shape[1])]
+    stats = keypoint_stats(pred, tgt, frames.intrinsics_norm[index], native, network)
+    n_cams = len(np.unique(frames.camera[index]))
+
+    emit(f"## Per keypoint: {len(index)} {args.split} frames of {n_cams} placements, native {native[0]}x{native[1]}, "
+         f"network input {network[0]}x{network[1]}")
+    emit()
+    emit("Medians over the frames where the keypoint's true position lies in the image; depth error is predicted "
+         "minus true; lateral mm is the pixel error at the keypoint's true depth.")
+    emit()
+    emit("| keypoint | in view | px (native) | px (network) | lateral mm | depth mm (signed) | depth mm (abs) |")
+    emit("|---|---|---|---|---|---|---|")
+    for j, name in enumerate(names):
+        emit(f"| {name} | {stats['in_view'][j]:.0%} | {stats['px_native'][j]:.2f} | {stats['px_network'][j]:.2f} | "
+             f"{stats['lateral_mm'][j]:.1f} | {stats['dz_mm'][j]:+.1f} | {stats['abs_dz_mm'][j]:.1f} |")
+    al = stats["all"]
+    emit(f"| all | {stats['in_view'].mean():.0%} | {al['px_native']:.2f} | {al['px_network']:.2f} | "
+         f"{al['lateral_mm']:.1f} | {al['dz_mm']:+.1f} | {al['abs_dz_mm']:.1f} |")
+    emit()
+
+    variants = {"pred": pred,
+                "true_px": np.concatenate([tgt[..., :2], pred[..., 2:]], axis=-1),
+                "true_z": np.concatenate([pred[..., :2], tgt[..., 2:]], axis=-1)}
+    labels = {"pred": "predicted keypoints", "true_px": "true pixels + predicted depth",
+              "true_z": "predicted pixels + true depth"}
+    errs = {k: placement_errors(v, frames, index) for k, v in variants.items()}
+    emit(f"## Per placement: pose from all {args.split} frames of each of the {n_cams} placements")
+    emit()
+    emit("| keypoints | median mm | median deg | worst mm | worst deg |")
+    emit("|---|---|---|---|---|")
+    for k, e in errs.items():
+        emit(f"| {labels[k]} | {np.median(e[:, 0]):.2f} | {np.median(e[:, 1]):.3f} | {e[:, 0].max():.2f} | "
+             f"{e[:, 1].max():.3f} |")
+    emit()
+    emit("## Interpretation")
+    emit()
+    emit(interpretation(errs, stats, names))
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text("\n".join(lines) + "\n")
+        print(f"written: {args.out}")
+
+
+if __name__ == "__main__":
+    main()

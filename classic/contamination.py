@@ -1,0 +1,225 @@
+"""Refuse a least-squares fit that outlier poses have pulled off, naming them.
+
+After a non-robust fit, each pose's whitened residual ``d_i^2 = |W_i r_i|^2`` is chi-square with 6
+degrees of freedom when the noise model holds (up to one common factor, estimated robustly from the
+median so that the outliers cannot set it). A pose beyond the ``1 - alpha / N`` quantile (Bonferroni
+over the N poses: a clean pose set is flagged with probability about ``alpha``) is suspect. Real
+camera poses have heavier tails than any Gaussian model (a PnP pose of a grazing board), and a mildly
+wrong pose barely moves the fit, so a suspect pose only refuses the fit when leaving it out would move
+``X`` by more than :data:`MAX_SHIFT_SIGMA` of its own sigma (the linearised leave-one-out shift, Cook's
+distance restricted to ``X``): then the answer would be several sigma off, and it is refused with the
+poses named rather than returned as if it were fine.
+
+A set so contaminated that the fit itself is wrecked leaves no pose looking odd against it. The
+pair-consensus test (:func:`pair_consensus_suspects`) needs no fit: every motion pair must keep its
+rotation angle and its screw displacement (``t . axis``) from robot to camera, whatever X is; a
+grossly wrong pose breaks nearly every pair it is in, a good pose only the few it shares with bad
+ones. The front refits without the suspects and refuses when the two answers differ by more than
+:data:`MAX_SHIFT_SIGMA` (:func:`x_shift_sigma`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import chi2
+
+from classic.motions import motions_from_poses
+from classic.pairs import pair_indices
+from handeye.core.errors import ContaminatedPosesError
+from handeye.core.se3 import so3_log
+
+__all__ = ["CONTAMINATION_ALPHA", "RESIDUAL_FLOOR", "MAX_SHIFT_SIGMA", "PAIR_SUSPECT_FACTOR", "leave_one_out_shift",
+           "suspect_poses", "check_contamination", "pair_consensus_suspects", "x_shift_sigma", "refuse_shift"]
+
+#: Probability of refusing a clean pose set.
+CONTAMINATION_ALPHA = 1e-3
+#: Residuals below 1 micrometre and 1 microradian are rounding, not outliers (exact data).
+RESIDUAL_FLOOR = 1e-6
+#: A suspect pose refuses the fit when leaving it out moves X by more than this many of its sigmas.
+MAX_SHIFT_SIGMA = 5.0
+_DOF = 6
+
+
+def suspect_poses(whitened: np.ndarray, alpha: float = CONTAMINATION_ALPHA) -> tuple[np.ndarray, np.ndarray]:
+    """Poses whose whitened residual is beyond the chi-square quantile, and every pose's sigma.
+
+    Parameters
+    ----------
+    whitened : array, shape (N, 6)
+    alpha : float
+
+    Returns
+    -------
+    suspects : array of int
+        Indices, largest residual first.
+    n_sigma : array, shape (N,)
+        ``sqrt(d_i^2 / s^2)`` with the robust common factor ``s^2``.
+    """
+    d2 = np.sum(np.asarray(whitened, dtype=float) ** 2, axis=1)
+    n = len(d2)
+    s2 = max(float(np.median(d2)) / chi2.median(_DOF), 1e-300)
+    z = d2 / s2
+    limit = chi2.ppf(1.0 - alpha / max(n, 1), _DOF)
+    bad = np.flatnonzero(z > limit)
+    return bad[np.argsort(-z[bad])], np.sqrt(z)
+
+
+def leave_one_out_shift(jacobian: np.ndarray, whitened: np.ndarray, pose: int, variance: float = 1.0) -> float:
+    """How far, in sigmas of ``X``, the fit moves when one pose is left out (first order).
+
+    Parameters
+    ----------
+    jacobian : array, shape (6N, P)
+        Whitened Jacobian at the fit (X's six parameters first).
+    whitened : array, shape (N, 6)
+    pose : int
+    variance : float
+        Common variance factor of the whitened residuals.
+
+    Returns
+    -------
+    float
+        ``sqrt(d^T C_X^-1 d)`` with ``d`` the shift of ``[w_X, v_X]`` and ``C_X`` its covariance.
+    """
+    J = np.asarray(jacobian, dtype=float)
+    rows = slice(6 * pose, 6 * pose + 6)
+    H = J.T @ J
+    Ji = J[rows]
+    shift = np.linalg.lstsq(H - Ji.T @ Ji, Ji.T @ np.asarray(whitened, dtype=float)[pose], rcond=None)[0][:6]
+    C_X = variance * np.linalg.pinv(H)[:6, :6]
+    return float(np.sqrt(max(shift @ np.linalg.lstsq(C_X, shift, rcond=None)[0], 0.0)))
+
+
+#: A pose is a pair-consensus suspect when its median pair mismatch exceeds this multiple of the typical one.
+PAIR_SUSPECT_FACTOR = 4.0
+#: Partners per pose in the pair-consensus test of a large set (all pairs up to 2x this + 1 poses).
+PAIR_PARTNERS = 24
+#: Motion angle below which a pair's screw axis is too ill-defined for its displacement to count.
+_SCREW_MIN_ANGLE_RAD = np.radians(5.0)
+
+
+def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all") -> np.ndarray:
+    """Poses that break the invariants of most motion pairs they are in.
+
+    Per pair, the mismatch of rotation angles and of screw displacements between the robot's and
+    the camera's motion, each over its median over all pairs; per pose, the median over its pairs.
+
+    Parameters
+    ----------
+    A, B : array, shape (N, 4, 4)
+        Robot-side poses and ``T_cam_target``.
+    pairs : {"all", "consecutive"}
+        "consecutive" pairs give each pose at most two pairs: too few for a median, so all are used.
+
+    Returns
+    -------
+    array of int
+        Suspect poses (may be empty).
+    """
+    n = len(A)
+    if n <= 2 * PAIR_PARTNERS + 1:
+        i, j = pair_indices(n, "all")
+    else:  # each pose with PAIR_PARTNERS others spread over the set: enough for a median, linear in N
+        offsets = np.unique(np.linspace(1, n - 1, PAIR_PARTNERS).astype(int))
+        k = np.repeat(np.arange(n), len(offsets))
+        other = (k + np.tile(offsets, n)) % n
+        ij = np.unique(np.sort(np.column_stack([k, other]), axis=1), axis=0)
+        i, j = ij[:, 0], ij[:, 1]
+    m = motions_from_poses(A, B, i, j)
+    ang = []
+    disp = []
+    for q, t in ((m.q_A, m.t_A), (m.q_B, m.t_B)):
+        s = np.linalg.norm(q[:, :3], axis=1)
+        ang.append(2.0 * np.arctan2(s, np.abs(q[:, 3])))
+        axis = q[:, :3] * np.sign(q[:, 3:4] + (q[:, 3:4] == 0)) / np.maximum(s, 1e-300)[:, None]
+        disp.append(np.sum(axis * t, axis=1))
+    d_ang = np.abs(ang[0] - ang[1])
+    screw = (ang[0] > _SCREW_MIN_ANGLE_RAD) & (ang[1] > _SCREW_MIN_ANGLE_RAD)
+    d_disp = np.where(screw, np.abs(disp[0] - disp[1]), 0.0)
+    score = d_ang / max(float(np.median(d_ang)), 1e-12)
+    if screw.any():
+        score = score + d_disp / max(float(np.median(d_disp[screw])), 1e-12)
+    # per pose, the median over its pairs: sort the scores of the pairs listed under both their poses
+    pose = np.concatenate([i, j])
+    sc = np.concatenate([score, score])
+    order = np.lexsort((sc, pose))
+    pose, sc = pose[order], sc[order]
+    start = np.searchsorted(pose, np.arange(n))
+    count = np.bincount(pose, minlength=n)
+    lo = start + (count - 1) // 2
+    hi = start + count // 2
+    per_pose = 0.5 * (sc[lo] + sc[hi])
+    return np.flatnonzero(per_pose > PAIR_SUSPECT_FACTOR * np.median(per_pose))
+
+
+def x_shift_sigma(X: np.ndarray, X_ref: np.ndarray, covariance_ref: np.ndarray) -> float:
+    """How many sigmas of ``X_ref`` lie between ``X`` and ``X_ref``: Mahalanobis distance of ``[w, v]``.
+
+    Parameters
+    ----------
+    X, X_ref : array, shape (4, 4)
+    covariance_ref : array, shape (>= 6, >= 6)
+        ``X_ref``'s covariance, ``[w_X, v_X]`` first.
+
+    Returns
+    -------
+    float
+    """
+    d = np.concatenate([so3_log(X[:3, :3] @ X_ref[:3, :3].T), X[:3, 3] - X_ref[:3, 3]])
+    return float(np.sqrt(max(d @ np.linalg.lstsq(covariance_ref[:6, :6], d, rcond=None)[0], 0.0)))
+
+
+def refuse_shift(suspects: np.ndarray, shift_sigma: float, n: int) -> None:
+    """Raise :class:`ContaminatedPosesError` for poses whose removal moves X by ``shift_sigma``."""
+    shown = ", ".join(str(int(k)) for k in suspects[:12]) + (f" and {len(suspects) - 12} more" if len(suspects) > 12
+                                                              else "")
+    raise ContaminatedPosesError(
+        f"{len(suspects)} of {n} poses break the robot-camera consistency of most motion pairs they are in "
+        f"(poses {shown}), and leaving them out moves the answer by {shift_sigma:.1f} sigma. A least-squares fit is "
+        "pulled off by them, so none is returned. Check those poses (a bad board detection, a mis-paired row), "
+        "remove them, or calibrate with robust=True (CLI: --robust) to fit without them."
+    )
+
+
+def check_contamination(whitened: np.ndarray, raw: np.ndarray | None = None, jacobian: np.ndarray | None = None,
+                        alpha: float = CONTAMINATION_ALPHA) -> None:
+    """Raise :class:`ContaminatedPosesError` when a pose is a gross outlier (see the module).
+
+    Parameters
+    ----------
+    whitened : array, shape (N, 6)
+        Whitened residuals of a non-robust fit (:attr:`classic.refine.Refinement.whitened`).
+    raw : array, shape (N, 6), optional
+        The same residuals in rad and m: a pose is only refused when its residual exceeds
+        :data:`RESIDUAL_FLOOR` (on exact data the whitened residuals are rounding noise).
+    jacobian : array, shape (6N, P), optional
+        Whitened Jacobian at the fit: a suspect pose then only refuses the fit when leaving it out
+        moves X by more than :data:`MAX_SHIFT_SIGMA` (without it every suspect refuses).
+    alpha : float
+    """
+    bad, n_sigma = suspect_poses(whitened, alpha)
+    if raw is not None and len(bad):
+        r = np.asarray(raw, dtype=float)[bad]
+        big = (np.linalg.norm(r[:, :3], axis=1) > RESIDUAL_FLOOR) | (np.linalg.norm(r[:, 3:], axis=1) > RESIDUAL_FLOOR)
+        bad = bad[big]
+    if len(bad) == 0:
+        return
+    shifts = np.full(len(n_sigma), np.inf)
+    if jacobian is not None:
+        d2 = np.sum(np.asarray(whitened, dtype=float) ** 2, axis=1)
+        variance = max(float(np.median(d2)) / chi2.median(_DOF), 1e-300)
+        for i in bad:
+            shifts[i] = leave_one_out_shift(jacobian, whitened, int(i), variance)
+        bad = bad[shifts[bad] > MAX_SHIFT_SIGMA]
+        if len(bad) == 0:
+            return
+    shown = ", ".join(f"{int(i)} ({n_sigma[i]:.1f} sigma" + (f", moves X by {shifts[i]:.1f} sigma)"
+                                                             if np.isfinite(shifts[i]) else ")") for i in bad[:8])
+    more = f" and {len(bad) - 8} more" if len(bad) > 8 else ""
+    typical = float(np.median(n_sigma))
+    raise ContaminatedPosesError(
+        f"{len(bad)} of {len(n_sigma)} poses disagree with the rest far beyond the noise (typical residual "
+        f"{typical:.1f} sigma): pose {shown}{more}. A least-squares fit is pulled off by them, so none is "
+        "returned. Check those poses (a bad board detection, a robot pose recorded before the arm settled), "
+        "remove them, or calibrate with robust=True (CLI: --robust) to fit without them."
+    )
