@@ -26,7 +26,6 @@ result (counted apart); a "wrong" answer is one returned more than 5 bound-sigma
 from __future__ import annotations
 
 import argparse
-import datetime
 import os
 import sys
 import time
@@ -37,8 +36,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import classic  # noqa: E402
-from benchmarks._machine import machine  # noqa: E402
 from benchmarks._opencv import CV_AXXB, CV_AXYB, cv2  # noqa: E402
+from benchmarks._report import Report  # noqa: E402
 from classic.refine import cramer_rao_bound, refine_xy  # noqa: E402
 from handeye.core.errors import HandEyeInputError, WeakMotionWarning  # noqa: E402
 from handeye.core.se3 import invert_transform, make_transform, so3_exp, so3_log  # noqa: E402
@@ -277,20 +276,15 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--kinds", nargs="+", default=KINDS, choices=KINDS, help="noise models (default all)")
     ap.add_argument("--skip-extras", action="store_true", help="skip the scale, time-offset and speed sections")
+    ap.add_argument("--speed-only", action="store_true", help="only the speed section (run it on a quiet machine)")
     ap.add_argument("--out", help="also write the report to this file")
     args = ap.parse_args(argv)
-    lines = []
-
-    def say(s=""):
-        print(s, flush=True)
-        lines.append(s)
-
-    cmd = "python benchmarks/classic_ml.py" + "".join(f" {a}" for a in (argv if argv is not None else sys.argv[1:]))
-    say("# Maximum-likelihood classic refinement: efficiency, OpenCV, scale and time offset")
-    say(f"command: {cmd}")
-    say(f"machine: {machine()}")
-    say(f"numpy {np.__version__}, opencv {cv2.__version__}; {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
-    say()
+    report = Report("Maximum-likelihood classic refinement: efficiency, OpenCV, scale and time offset",
+                    "benchmarks/classic_ml.py", argv, f"numpy {np.__version__}, opencv {cv2.__version__}")
+    say = report.say
+    if args.speed_only:
+        _speed_table(say)
+        return report.write(args.out)
     results = {}
     for kind in args.kinds:
         for n in POSE_COUNTS:
@@ -357,7 +351,7 @@ def main(argv=None) -> int:
             f"{_fmt(r[ML]['median'])} | {ok} |")
     say()
     if args.skip_extras:
-        return _write(args, lines)
+        return report.write(args.out)
     print("scale and time offset ...", file=sys.stderr, flush=True)
     sc = coverage_scale(args.coverage_trials, args.seed)
     to = coverage_time_offset(max(args.coverage_trials // 5, 20), args.seed)
@@ -370,6 +364,11 @@ def main(argv=None) -> int:
     say(f"| time offset (180 camera poses, robot 125 Hz) | {max(args.coverage_trials // 5, 20)} | "
         f"{100 * to['coverage']:.1f} % | {to['rms_z']:.3f} | {to['median_abs_error_ms']:.3f} ms |")
     say()
+    _speed_table(say)
+    return report.write(args.out)
+
+
+def _speed_table(say) -> None:
     say("## Speed (median of 20 calls, ms)")
     say()
     say("| what | handeye ms | opencv ms | ratio |")
@@ -377,15 +376,6 @@ def main(argv=None) -> int:
     for what, ours, theirs in speed(20):
         say(f"| {what} | {ours:.2f} | {'-' if theirs is None else f'{theirs:.2f}'} | "
             f"{'-' if theirs is None else f'{theirs / ours:.1f}x'} |")
-    return _write(args, lines)
-
-
-def _write(args, lines) -> int:
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write("\n".join(lines) + "\n")
-        print(f"written: {args.out}", file=sys.stderr)
-    return 0
 
 
 if __name__ == "__main__":

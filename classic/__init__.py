@@ -40,8 +40,9 @@ from classic.li import li
 from classic.noise_model import NoiseModel, joint_noise_covariance
 from classic.pairs import motion_pairs, pair_indices
 from classic.park import park
+from classic.planning import PosePlan, plan_poses
 from classic.ransac import lmeds_inliers
-from classic.refine import refine_xy
+from classic.refine import cramer_rao_bound, refine_xy
 from classic.result import CalibrationResult, PoseResiduals
 from classic.robot_stream import RobotStream
 from classic.shah import shah
@@ -52,7 +53,7 @@ __all__ = [
     "tsai", "park", "horaud", "andreff", "daniilidis", "shah", "li",
     "calibrate", "calibrate_stream", "solve", "NoiseModel", "joint_noise_covariance", "RobotStream",
     "initial_estimate", "motion_pairs", "pair_indices",
-    "refine_xy", "lmeds_inliers", "diagnose_motion", "check_consistency",
+    "refine_xy", "cramer_rao_bound", "plan_poses", "PosePlan", "lmeds_inliers", "diagnose_motion", "check_consistency",
     "CalibrationResult", "PoseResiduals", "MotionDiagnostics",
     "METHODS", "AXXB_METHODS", "AXYB_METHODS", "DEFAULT_METHOD",
 ]

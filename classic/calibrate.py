@@ -127,9 +127,9 @@ def solve(
     return initial_estimate(robot_side_poses(T_base_ee, setup), T_cam_target, method, pairs)
 
 
-def _check_pair_consensus(A, B, X, model, setup, pairs) -> None:
+def _check_pair_consensus(A, B, X, model, setup, pairs, motions) -> None:
     """Refuse when poses that break the motion pairs' invariants move the least-squares X by several sigma."""
-    suspects = pair_consensus_suspects(A, B, pairs)
+    suspects = pair_consensus_suspects(A, B, pairs, motions if pairs == "all" else None)
     keep = np.ones(len(A), dtype=bool)
     keep[suspects] = False
     if len(suspects) == 0 or keep.sum() < MIN_POSES:
@@ -305,7 +305,7 @@ def calibrate(
             B_fit[:, :3, 3] *= ref.scale
             check_contamination(ref.whitened, np.concatenate(pose_residuals(A_in, B_fit, X, Y), axis=1), ref.jacobian)
             if not estimate_scale:
-                _check_pair_consensus(A_in, B_in, X, model, setup, pairs)
+                _check_pair_consensus(A_in, B_in, X, model, setup, pairs, motions)
     diagnostics["noise_estimate"] = {
         "rotation_deg": float(np.degrees(ref.sigma_rot_rad)),
         "translation_mm": 1000 * ref.sigma_trans_m,

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2
 
-from classic.motions import motions_from_poses
+from classic.motions import Motions, motions_from_poses
 from classic.pairs import pair_indices
 from handeye.core.errors import ContaminatedPosesError
 from handeye.core.se3 import so3_log
@@ -98,7 +98,7 @@ PAIR_PARTNERS = 24
 _SCREW_MIN_ANGLE_RAD = np.radians(5.0)
 
 
-def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all") -> np.ndarray:
+def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", motions_all=None) -> np.ndarray:
     """Poses that break the invariants of most motion pairs they are in.
 
     Per pair, the mismatch of rotation angles and of screw displacements between the robot's and
@@ -110,6 +110,8 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all") ->
         Robot-side poses and ``T_cam_target``.
     pairs : {"all", "consecutive"}
         "consecutive" pairs give each pose at most two pairs: too few for a median, so all are used.
+    motions_all : classic.motions.Motions, optional
+        The motions of all pairs, in ``pair_indices(n, "all")`` order, when already computed.
 
     Returns
     -------
@@ -125,7 +127,11 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all") ->
         other = (k + np.tile(offsets, n)) % n
         ij = np.unique(np.sort(np.column_stack([k, other]), axis=1), axis=0)
         i, j = ij[:, 0], ij[:, 1]
-    m = motions_from_poses(A, B, i, j)
+    if motions_all is not None and len(motions_all) == n * (n - 1) // 2:
+        idx = i * n - i * (i + 1) // 2 + (j - i - 1)  # position of (i, j) in numpy's triu order
+        m = Motions(motions_all.q_A[idx], motions_all.t_A[idx], motions_all.q_B[idx], motions_all.t_B[idx])
+    else:
+        m = motions_from_poses(A, B, i, j)
     ang = []
     disp = []
     for q, t in ((m.q_A, m.t_A), (m.q_B, m.t_B)):

@@ -43,7 +43,7 @@ from classic.residuals import pose_residuals
 from handeye.core.se3 import hat, make_transform, so3_exp, so3_log
 from handeye.core.setups import robot_side_poses
 
-__all__ = ["LOSSES", "Refinement", "refine_xy", "ROBUST_SCALE", "cramer_rao_bound"]
+__all__ = ["LOSSES", "Refinement", "refine_xy", "ROBUST_SCALE", "cramer_rao_bound", "pose_residual_jacobian"]
 
 LOSSES = ("linear", "huber", "cauchy")
 #: Where the robust losses bend, on each whitened residual component (unit variance when the model fits).
@@ -150,7 +150,7 @@ def _left_jacobian_inverse(r: np.ndarray) -> np.ndarray:
     return right_jacobian_inverse(-np.asarray(r))  # J_l(r) = J_r(-r)
 
 
-def _raw_jacobian(A, B, X, Y):
+def pose_residual_jacobian(A, B, X, Y):
     """Analytic Jacobian of the raw residuals w.r.t. ``[w_X, v_X, w_Y, v_Y]``, shape (N, 6, 12).
 
     With ``P_i = X^-1 A_i Y`` and ``w_i = R_A t_Y + t_A - t_X`` (so ``t_P = R_X^T w_i``):
@@ -174,7 +174,7 @@ def _raw_jacobian(A, B, X, Y):
 
 def _jacobian(A, B, X, Y, s_r=1.0, s_t=1.0):
     """Jacobian of the residuals scaled by ``(s_r, s_t)`` (the camera-only model), shape (6N, 12)."""
-    J = _raw_jacobian(A, B, X, Y)
+    J = pose_residual_jacobian(A, B, X, Y)
     J[:, :3] /= s_r
     J[:, 3:] /= s_t
     return J.reshape(-1, 12)
@@ -235,7 +235,7 @@ class _Problem:
     def jac(self, delta):
         X, Y, s, dt = self.unpack(delta)
         A, rate = self.A_of(dt)
-        J = _raw_jacobian(A, self._B(s), X, Y)
+        J = pose_residual_jacobian(A, self._B(s), X, Y)
         cols = [J]
         if self.with_scale:
             c = np.zeros((len(A), 6, 1))
@@ -453,5 +453,5 @@ def cramer_rao_bound(A: np.ndarray, X: np.ndarray, Y: np.ndarray, noise, setup: 
     A = np.asarray(A, dtype=float)
     B = np.linalg.inv(X) @ A @ Y
     W = whitening(residual_covariances(model, A, B, X, Y, setup))
-    J = np.einsum("nij,njk->nik", W, _raw_jacobian(A, B, X, Y)).reshape(-1, 12)
+    J = np.einsum("nij,njk->nik", W, pose_residual_jacobian(A, B, X, Y)).reshape(-1, 12)
     return covariance_from_jacobian(J)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from handeye.core.errors import PoseFileError, QuaternionOrderError
-from handeye.core.posefile import POSE_NAMES, QUAT_ORDERS, PoseSet, read_pose_file
+from handeye.core.posefile import POSE_NAMES, QUAT_ORDERS, YAML_SUFFIXES, PoseSet, read_pose_file
 
 __all__ = ["FIT_RATIO", "load_poses"]
 
@@ -24,7 +24,9 @@ def load_poses(path: str | Path, setup: str, quat_order: str | None = None, unit
     Relative rotation angles cannot reveal a permuted quaternion order (they
     depend only on ``|q_i . q_j|``), so the file is fitted by a closed form
     as read and with the other order for the robot poses, the camera poses, or
-    both; if one of those fits ten times better, the order is wrong.
+    both; if one of those fits ten times better, the order is wrong. easy_handeye
+    YAML sample lists (``.yaml``, ``.yml``) name their quaternion components, so
+    they are read for the setup without that test.
 
     Parameters
     ----------
@@ -43,6 +45,8 @@ def load_poses(path: str | Path, setup: str, quat_order: str | None = None, unit
     """
     from classic.diagnostics import fit_residual_m
 
+    if Path(path).suffix.lower() in YAML_SUFFIXES:  # easy_handeye: quaternions named x, y, z, w; no order to test
+        return read_pose_file(path, units=units, setup=setup)
     poses = read_pose_file(path, quat_order=quat_order, units=units)
     given = fit_residual_m(poses.T_base_ee, poses.T_cam_target, setup)
     if given <= 1e-6:

@@ -17,6 +17,7 @@ __all__ = ["main", "build_parser"]
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command registered."""
     from handeye.commands import (
+        bag_poses,
         board,
         calibrate,
         compare,
@@ -26,13 +27,15 @@ def build_parser() -> argparse.ArgumentParser:
         label,
         learned,
         markerless,
+        plan,
         show,
         sim,
     )
 
     parser = argparse.ArgumentParser(prog="handeye", description="Robot hand-eye calibration toolkit.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (calibrate, board, detect, intrinsics, sim, label, show, learned, compare, markerless, demo):
+    for module in (calibrate, board, detect, intrinsics, sim, label, show, learned, compare, markerless, demo,
+                   bag_poses, plan):
         module.add_parser(sub)
     return parser
 

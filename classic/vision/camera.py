@@ -53,7 +53,13 @@ class CameraIntrinsics:
                 "distortion_model": "opencv (k1, k2, p1, p2, k3)"}
 
     def save(self, path: str | Path) -> None:
-        """Write as JSON."""
+        """Write as JSON, or as OpenCV FileStorage YAML when the name ends in ``.yaml``/``.yml`` (what :meth:`load`
+        reads back from such a name)."""
+        if Path(path).suffix.lower() in (".yaml", ".yml"):
+            from classic.vision.camera_yaml import write_opencv_yaml
+
+            write_opencv_yaml(path, self)
+            return
         Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
 
     @classmethod
@@ -64,14 +70,20 @@ class CameraIntrinsics:
 
     @classmethod
     def load(cls, path: str | Path) -> "CameraIntrinsics":
-        """Read intrinsics written by :meth:`save`.
+        """Read intrinsics written by :meth:`save`, or a ROS camera_info / OpenCV YAML file (``.yaml``, ``.yml``).
+
+        YAML formats: :mod:`classic.vision.camera_yaml`.
 
         Raises
         ------
         IntrinsicsError
-            Naming the file.
+            Naming the file (and, for YAML, the line).
         """
         path = Path(path)
+        if path.suffix.lower() in (".yaml", ".yml"):
+            from classic.vision.camera_yaml import load_intrinsics_yaml
+
+            return load_intrinsics_yaml(path)
         try:
             return cls.from_dict(json.loads(path.read_text()))
         except FileNotFoundError:

@@ -19,6 +19,14 @@ then refines X and Y on the corners' reprojection error (``--refine-intrinsics``
 to refine K and distortion too) and reports the pixel RMS per view, flagging
 outlier views.
 
+The pose file may also be an easy_handeye / easy_handeye2 sample list
+(``.yaml``, ``.yml``, ``.samples``; :mod:`handeye.core.easy_handeye`), read for
+``--setup``. After a successful calibration the camera pose can be written for
+ROS (:mod:`handeye.ros_exports`)::
+
+    handeye calibrate my_eob_calib.samples --setup eye-to-hand --frames base_link camera_color_optical_frame \\
+        --export-easy-handeye my_eob_calib.calib --export-launch handeye_tf.launch.py --export-urdf camera_joint.urdf
+
 The pose-file refinement is maximum likelihood under a noise model: by default
 camera noise only, its two scales estimated from the residuals; with
 ``--camera-noise DEG MM [MM MM]`` and ``--robot-noise DEG MM`` under both (PnP
@@ -36,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.noise_args import add_noise_arguments, describe_noise, noise_model_from_args
+
 __all__ = ["add_parser", "run"]
 
 
@@ -45,7 +55,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
     p = sub.add_parser("calibrate", help="hand-eye calibration from a pose file, or from board detections",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("poses", type=Path, nargs="?", help="pose file: CSV or JSON of T_base_ee and T_cam_target")
+    p.add_argument("poses", type=Path, nargs="?",
+                   help="pose file: CSV or JSON of T_base_ee and T_cam_target, or an easy_handeye sample list "
+                        "(.yaml, .yml, .samples)")
     p.add_argument("--detections", type=Path, help="detections.json from 'handeye detect' (instead of a pose file)")
     p.add_argument("--robot-poses", type=Path,
                    help="with --detections: CSV/JSON of T_base_ee per image (an 'image' column pairs them by name)")
@@ -62,20 +74,23 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--robust", action="store_true", help="flag gross outlier poses and refine with a robust loss")
     p.add_argument("--loss", choices=["linear", "huber", "cauchy"],
                    help="refinement loss (default linear, cauchy if --robust)")
-    p.add_argument("--camera-noise", nargs="+", type=float, metavar="V",
-                   help="camera pose noise per axis: DEG MM, or DEG MM_X MM_Y MM_Z (PnP: worse along the optical "
-                        "axis, z); with --robot-noise the refinement is maximum likelihood under both (default: "
-                        "camera-only, estimated from the residuals)")
-    p.add_argument("--robot-noise", nargs=2, type=float, metavar=("DEG", "MM"),
-                   help="robot flange pose noise per axis (the arm's repeatability)")
+    add_noise_arguments(p, "with --robot-noise the refinement is maximum likelihood under both (default: "
+                           "camera-only, estimated from the residuals)")
     p.add_argument("--estimate-scale", action="store_true",
                    help="also estimate a metric scale of the camera translations (monocular SLAM poses)")
     p.add_argument("--units", choices=["m", "mm"],
-                   help="translation units of the file (default m, or the JSON's 'units')")
+                   help="translation units of the file, for every pose (default m, or the JSON's 'units'; mm for "
+                        "poses in KUKA .a .b .c, Fanuc .w .p .r or ABB .q1-.q4 columns)")
     p.add_argument("--quat-order", choices=["xyzw", "wxyz"],
                    help="order of positional quaternions (JSON lists, CSV .q0-.q3 columns); default xyzw")
     p.add_argument("--truth", type=Path, help="JSON with the true X (and Y) by frame name: prints the error")
     p.add_argument("-o", "--output", type=Path, help="write the result as JSON here ('-' for stdout)")
+    p.add_argument("--report", type=Path, metavar="DIR",
+                   help="write an HTML report (index.html and its PNGs) into DIR: residuals, frames in 3-D, motion, "
+                        "a hold-out check, reprojection overlays with --detections (needs matplotlib)")
+    from handeye.ros_exports import add_export_arguments
+
+    add_export_arguments(p)
     p.set_defaults(run=run)
     return p
 
@@ -106,7 +121,9 @@ def _fmt_pose(name: str, T: np.ndarray) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     from handeye.core.errors import HandEyeInputError
+    from handeye.ros_exports import check_export_arguments
 
+    check_export_arguments(args)
     if args.detections is not None or args.robot_poses is not None:
         if args.poses is not None or args.detections is None or args.robot_poses is None:
             raise HandEyeInputError("give either a pose file, or --detections with --robot-poses")
@@ -121,6 +138,7 @@ def _run_detections(args: argparse.Namespace) -> int:
     from handeye.core.posefile import read_robot_poses
     from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
     from handeye.image_calibration import calibrate_from_views, pair_robot_poses
+    from handeye.ros_exports import write_exports
 
     setup = normalize_setup(args.setup)
     views = Views.load(args.detections)
@@ -147,6 +165,7 @@ def _run_detections(args: argparse.Namespace) -> int:
             flag = "  <- outlier" if k in rep.outlier_views else ""
             lines.append(f"    {image}: {rms:.3f} px{flag}")
     lines += _truth_lines(args.truth, ((x_name, out.X), (y_name, out.Y)))
+    lines += write_exports(args, setup, out.X)
     print("\n".join(lines))
     if args.output is not None:
         doc = res.to_dict()
@@ -165,47 +184,18 @@ def _run_detections(args: argparse.Namespace) -> int:
         else:
             args.output.write_text(text + "\n")
             print(f"  written: {args.output}")
+    if args.report is not None:
+        from handeye.report.from_command import report_images
+
+        print(f"  report: {report_images(args, views, T_base_ee, out)}")
     return 0
-
-
-def _noise_model(args: argparse.Namespace):
-    """The NoiseModel of --camera-noise / --robot-noise, or None (estimated)."""
-    import numpy as np
-
-    import classic
-    from handeye.core.errors import HandEyeInputError
-
-    if args.camera_noise is None and args.robot_noise is None:
-        return None
-    if args.camera_noise is None:
-        raise HandEyeInputError("--robot-noise needs --camera-noise too (the camera's noise is never zero)")
-    cam = args.camera_noise
-    if len(cam) not in (2, 4):
-        raise HandEyeInputError(f"--camera-noise takes DEG MM or DEG MM_X MM_Y MM_Z, got {len(cam)} numbers")
-    trans = np.array(cam[1:]) / 1000.0
-    robot = args.robot_noise or (0.0, 0.0)
-    return classic.NoiseModel(np.radians(cam[0]), trans if len(trans) == 3 else float(trans[0]),
-                              np.radians(robot[0]), robot[1] / 1000.0, name="given on the command line")
-
-
-def _describe_noise(d: dict) -> str:
-    if d.get("estimated"):
-        return (f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, "
-                f"{d['camera_translation_mm'][0]:.3f} mm per axis)")
-    parts = [d["name"]]
-    if "camera_rotation_deg" in d:
-        parts.append("camera " + ", ".join(f"{v:.4g}" for v in d["camera_rotation_deg"]) + " deg / "
-                     + ", ".join(f"{v:.4g}" for v in d["camera_translation_mm"]) + " mm")
-    if "robot_rotation_deg" in d:
-        parts.append("robot " + ", ".join(f"{v:.4g}" for v in d["robot_rotation_deg"]) + " deg / "
-                     + ", ".join(f"{v:.4g}" for v in d["robot_translation_mm"]) + " mm")
-    return "; ".join(parts)
 
 
 def _run_poses(args: argparse.Namespace) -> int:
     import classic
     from handeye.checked_poses import load_poses
     from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
+    from handeye.ros_exports import write_exports
 
     setup = normalize_setup(args.setup)
     poses = load_poses(args.poses, setup, quat_order=args.quat_order, units=args.units)
@@ -213,7 +203,7 @@ def _run_poses(args: argparse.Namespace) -> int:
         warnings.simplefilter("always")
         res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup=setup, method=args.method,
                                 pairs=args.pairs, refine=not args.no_refine, robust=args.robust, loss=args.loss,
-                                noise=_noise_model(args), estimate_scale=args.estimate_scale)
+                                noise=noise_model_from_args(args), estimate_scale=args.estimate_scale)
     out = sys.stderr if args.output is not None and str(args.output) == "-" else sys.stdout
     x_name, y_name = UNKNOWN_NAMES[setup]
     sig = res.sigma
@@ -228,7 +218,7 @@ def _run_poses(args: argparse.Namespace) -> int:
     ]
     if res.diagnostics.get("outliers"):
         lines.append(f"  outlier poses (excluded): {res.diagnostics['outliers']}")
-    lines.append(f"  noise model: {_describe_noise(res.diagnostics['noise_model'])}")
+    lines.append(f"  noise model: {describe_noise(res.diagnostics['noise_model'])}")
     if not res.diagnostics["noise_model"].get("estimated"):
         vf = res.diagnostics["refinement"]["variance_factor"]
         lines.append(f"    residuals / model: variance factor {vf:.2f} (1 when the stated noise fits the data; the "
@@ -242,6 +232,7 @@ def _run_poses(args: argparse.Namespace) -> int:
     for w in caught:
         lines.append(f"  warning: {w.message}")
     lines += _truth_lines(args.truth, ((x_name, res.X), (y_name, res.Y)))
+    lines += write_exports(args, setup, res.X, poses.frames)
     print("\n".join(lines), file=out)
     if args.output is not None:
         text = json.dumps(res.to_dict(), indent=2)
@@ -250,4 +241,10 @@ def _run_poses(args: argparse.Namespace) -> int:
         else:
             args.output.write_text(text + "\n")
             print(f"  written: {args.output}", file=out)
+    if args.report is not None:
+        from handeye.report.from_command import report_poses
+
+        page = report_poses(args, poses.T_base_ee, poses.T_cam_target, res, noise_model_from_args(args),
+                            [str(w.message) for w in caught])
+        print(f"  report: {page}", file=out)
     return 0

@@ -6,6 +6,9 @@ Example
 
     handeye detect images/ --board board.json [--intrinsics camera.json] -o detections.json
 
+``--intrinsics`` also takes a ROS ``camera_info`` or an OpenCV FileStorage YAML
+file (``.yaml``, ``.yml``; :mod:`classic.vision.camera_yaml`).
+
 writes ``detections.json`` (corners, poses, reasons; what ``handeye
 calibrate --detections`` reads) and ``detections.csv`` (one row per image:
 corners found, RMS reprojection error in pixels, ``T_cam_target`` or the
@@ -28,7 +31,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("images", type=Path, help="folder of PNG/JPEG images")
     p.add_argument("--board", type=Path, required=True, help="board spec written by 'handeye board'")
-    p.add_argument("--intrinsics", type=Path, help="camera.json; calibrated from the images when omitted")
+    p.add_argument("--intrinsics", type=Path,
+                   help="camera.json, or a ROS camera_info / OpenCV FileStorage .yaml; calibrated from the images "
+                        "when omitted")
     p.add_argument("-o", "--output", type=Path, default=Path("detections.json"))
     p.set_defaults(run=run)
     return p

@@ -10,7 +10,12 @@ modules beside it); ``tests/test_layers.py`` enforces it.
   ``ValueError`` subclasses and the checks that raise them;
 * :mod:`handeye.core.metrics`: errors in degrees and millimetres;
 * :mod:`handeye.core.setups`: eye-to-hand and eye-in-hand by name;
-* :mod:`handeye.core.posefile`: CSV/JSON pose files;
+* :mod:`handeye.core.posefile`: CSV/JSON pose files (with KUKA, Fanuc and ABB
+  rotation columns, :mod:`handeye.core.robot_angles`);
+* ROS files (PyYAML for YAML, ``handeye[ros]``): :mod:`handeye.core.easy_handeye`
+  (easy_handeye sample lists and calibrations), :mod:`handeye.core.ros_launch`
+  (a static-transform launch file), :mod:`handeye.core.urdf_joint` (a URDF joint),
+  :mod:`handeye.core.yamlfile` (YAML with line numbers);
 * :mod:`handeye.core.dataset`: the labelled RGB-D dataset format;
 * :mod:`handeye.core.synthetic`: hand-eye problems with known truth;
 * :mod:`handeye.core.rigid`: the rigid fit of matched points, plain and robust, shared by

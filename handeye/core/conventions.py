@@ -55,6 +55,30 @@ A tf ``lookupTransform(target_frame="a", source_frame="b")`` returns
 ROS camera *body* frames (x forward, z up) differ from the optical frame
 used here by a fixed rotation; use the ``*_optical_frame``.
 
+easy_handeye samples hold the robot transform as ``T_base_ee`` (eye-in-hand)
+but ``T_ee_base`` (eye-on-base, our eye-to-hand), and the tracking transform
+as ``T_cam_target``; its calibration ``transform`` is our ``X``
+(:mod:`handeye.core.easy_handeye`). tf2_ros ``static_transform_publisher
+--x .. --qw .. --frame-id a --child-frame-id b`` publishes ``T_a_b``.
+
+Robot controllers and URDF
+--------------------------
+Euler angles are one family, ``R = Rz(gamma) Ry(beta) Rx(alpha)``, listed in
+different orders (:mod:`handeye.core.robot_angles`, tested against scipy):
+
+* KUKA ``A, B, C`` (degrees): ``R = Rz(A) Ry(B) Rx(C)``, scipy
+  ``Rotation.from_euler("ZYX", [A, B, C], degrees=True)`` (intrinsic);
+* Fanuc ``W, P, R`` (degrees, fixed axes): ``R = Rz(R) Ry(P) Rx(W)``, scipy
+  ``Rotation.from_euler("xyz", [W, P, R], degrees=True)`` (extrinsic); so
+  Fanuc ``(W, P, R)`` is KUKA ``(C, B, A)``;
+* URDF ``<origin rpy="r p y">`` (radians, fixed axes): ``R = Rz(y) Ry(p) Rx(r)``,
+  scipy ``Rotation.from_euler("xyz", [r, p, y])``; ``xyz`` is the translation
+  of ``T_parent_child`` in metres;
+* ABB ``q1, q2, q3, q4``: a quaternion with the scalar first, ``(w, x, y, z)``.
+
+These controllers report millimetres: pose-file columns in these forms are read
+in millimetres unless ``--units`` says otherwise (:mod:`handeye.core.posefile`).
+
 pyrender / OpenGL
 -----------------
 An OpenGL camera looks down its -z axis with y up. The pose of the OpenCV

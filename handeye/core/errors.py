@@ -73,6 +73,26 @@ class DatasetError(HandEyeInputError):
     """A dataset directory is incomplete or corrupt; the message names the file (and row)."""
 
 
+class BagError(HandEyeInputError):
+    """A ROS bag cannot give what was asked of it; the message names the bag (and topic or frame)."""
+
+
+class NotABagError(BagError):
+    """The path is not a readable ROS 2 bag (a rosbag2 directory with ``metadata.yaml``)."""
+
+
+class BagTopicError(BagError):
+    """A topic is missing from the bag, or holds a message type that cannot be read; the bag's topics are listed."""
+
+
+class FramesNotConnectedError(BagError):
+    """Two tf frames are not connected in the bag's tf tree; the frames reachable from the first are listed."""
+
+
+class NoPairsError(BagError):
+    """No camera sample has a robot pose within the time tolerance."""
+
+
 class WeakMotionWarning(UserWarning):
     """The motion set is poorly conditioned: the estimate will be noisy."""
 

@@ -11,6 +11,19 @@ order), ``.q0, .q1, .q2, .q3`` (a quaternion in the order given by
 ``quat_order``), or ``.rx, .ry, .rz`` (a rotation vector in radians, as UR
 controllers report). ``<name>`` is ``T_base_ee`` and ``T_cam_target``.
 
+Robot controllers' own columns, named after the convention (matrices in
+:mod:`handeye.core.robot_angles`, checked there against scipy):
+
+* KUKA ``.a, .b, .c``: degrees, ``R = Rz(A) Ry(B) Rx(C)`` (``from_euler("ZYX", [A, B, C])``);
+* Fanuc ``.w, .p, .r``: degrees, fixed axes, ``R = Rz(R) Ry(P) Rx(W)`` (``from_euler("xyz", [W, P, R])``);
+* ABB ``.q1, .q2, .q3, .q4``: a quaternion, scalar first ``(w, x, y, z)``.
+
+These controllers report millimetres and degrees, so a pose given in these
+columns is read in millimetres unless ``units`` is given (``--units``, which
+then applies to every pose of the file); the angles are always degrees. A
+column of such angles all within +-pi is refused as radians. A header that
+matches two rotation forms for one pose is refused as ambiguous.
+
 JSON::
 
     {"units": "m", "quaternion_order": "xyzw",
@@ -20,8 +33,13 @@ JSON::
 each pose given as ``matrix`` (4x4), ``translation`` + ``quaternion`` (order
 ``quaternion_order``) or ``translation`` + ``rotvec`` (radians).
 
-Units: metres by default; ``units="mm"`` converts. A quaternion that is not
-unit is reported with its row. A quaternion-order mistake is caught by
+YAML (``.yaml``, ``.yml``, ``.samples``): an easy_handeye (ROS 1) or
+easy_handeye2 (ROS 2) sample list, read by :mod:`handeye.core.easy_handeye`;
+its robot transforms depend on the setup, so give ``setup``.
+
+Units: metres by default (millimetres for the robot controllers' columns);
+``units="mm"`` converts. A quaternion that is not unit is reported with its
+row. A quaternion-order mistake is caught by
 :func:`handeye.checked_poses.load_poses`, which needs the solvers.
 """
 
@@ -36,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
+from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
 from handeye.core.se3 import (
     make_transform,
     matrix_from_quat_xyzw,
@@ -44,11 +63,16 @@ from handeye.core.se3 import (
     so3_exp,
 )
 
-__all__ = ["POSE_NAMES", "QUAT_ORDERS", "PoseSet", "RobotPoses", "read_pose_file", "read_robot_poses", "write_pose_csv"]
+__all__ = ["POSE_NAMES", "QUAT_ORDERS", "ROBOT_CONTROLLER_UNITS", "YAML_SUFFIXES", "PoseSet", "RobotPoses",
+           "read_pose_file", "read_robot_poses", "write_pose_csv"]
 
 POSE_NAMES = ("T_base_ee", "T_cam_target")
 QUAT_ORDERS = ("xyzw", "wxyz")
 UNIT_SCALE = {"m": 1.0, "mm": 1e-3}
+#: Rotation columns of robot controllers, and the translation unit those controllers report with them.
+ROBOT_CONTROLLER_UNITS = {"kuka_abc": "mm", "fanuc_wpr": "mm", "abb_quat": "mm"}
+#: Suffixes of easy_handeye sample lists (YAML; easy_handeye2 saves `<name>.samples`).
+YAML_SUFFIXES = (".yaml", ".yml", ".samples")
 _QUAT_NORM_TOL = 1e-3
 
 
@@ -62,13 +86,17 @@ class PoseSet:
     T_cam_target : array, shape (N, 4, 4)
     source : str
     rows : list of int
-        The file's row (CSV line number, or JSON list index) of each pose, for messages.
+        The file's row (CSV line number, YAML line number, or JSON list index) of each pose, for messages.
+    frames : dict
+        Frame names the file gives, by the project's name (``base``, ``ee``, ``cam``, ``target``); empty
+        when it gives none (easy_handeye2 sample files may).
     """
 
     T_base_ee: np.ndarray
     T_cam_target: np.ndarray
     source: str
     rows: list = field(default_factory=list)
+    frames: dict = field(default_factory=dict)
 
 
 def _quat(values: np.ndarray, order: str) -> np.ndarray:
@@ -136,15 +164,23 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
             "quat_named": [f"{name}.q{c}" for c in "xyzw"],
             "quat_positional": [f"{name}.q{k}" for k in range(4)],
             "rotvec": [f"{name}.r{c}" for c in "xyz"],
+            "kuka_abc": [f"{name}.{c}" for c in "abc"],
+            "fanuc_wpr": [f"{name}.{c}" for c in "wpr"],
+            "abb_quat": [f"{name}.q{k}" for k in range(1, 5)],
         }
         missing = [c for c in xyz if c not in col]
-        kind = next((k for k, cols in options.items() if all(c in col for c in cols)), None)
-        if missing or kind is None:
+        found = [k for k, cols in options.items() if all(c in col for c in cols)]
+        if missing or not found:
             raise PoseFileError(
                 f"{path}, header (line {header_line}): columns for {name} not found; need {', '.join(xyz)} and "
-                f"one of: {', '.join(options['quat_named'])} | {', '.join(options['quat_positional'])} | "
-                f"{', '.join(options['rotvec'])}. Header is: {', '.join(header)}"
+                f"one of: {' | '.join(', '.join(cols) for cols in options.values())}. Header is: {', '.join(header)}"
             )
+        if len(found) > 1:
+            raise PoseFileError(
+                f"{path}, header (line {header_line}): columns for {name} give {len(found)} rotations ("
+                f"{' and '.join(', '.join(options[k]) for k in found)}); keep the columns of one"
+            )
+        kind = found[0]
         cols = xyz + options[kind]
         values = np.empty((len(table), len(cols)))
         for r, (line_no, row) in enumerate(zip(rows, table)):
@@ -162,12 +198,38 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
     return raw, rows, kinds
 
 
+#: Euler-angle columns of robot controllers (degrees) and their rotation matrices.
+_EULER_KINDS = {"kuka_abc": (".a .b .c", matrix_from_kuka_abc), "fanuc_wpr": (".w .p .r", matrix_from_fanuc_wpr)}
+
+
+def _euler_rotations(angles_deg: np.ndarray, kind: str, where, rows) -> np.ndarray:
+    """Rotations ``(N, 3, 3)`` of controller Euler angles in degrees, refusing non-finite angles and radians."""
+    columns, to_matrix = _EULER_KINDS[kind]
+    for r, row in enumerate(angles_deg):
+        if not np.isfinite(row).all():
+            raise PoseFileError(f"{where(rows[r])}: angles {columns} = {row.tolist()} are not finite")
+    if len(angles_deg) >= 3 and 0 < np.abs(angles_deg).max() <= np.pi:
+        raise PoseFileError(
+            f"{where(rows[0])} and every other row: all angles {columns} are within +-{np.pi:.4f}; they look like "
+            f"radians, but these columns are degrees (as the controller reports them): convert them, or give a "
+            f"rotation vector in radians (.rx .ry .rz)"
+        )
+    return to_matrix(angles_deg)
+
+
 def _to_transforms(values: np.ndarray, kind: str, quat_order: str, scale: float, where, rows) -> np.ndarray:
     t = values[:, :3] * scale
     rot = values[:, 3:]
     if kind == "rotvec":
         return make_transform(so3_exp(rot), t)
-    q = rot if kind == "quat_named" else _quat(rot, quat_order)
+    if kind in _EULER_KINDS:
+        return make_transform(_euler_rotations(rot, kind, where, rows), t)
+    if kind == "quat_named":
+        q = rot
+    elif kind == "abb_quat":
+        q = quat_wxyz_to_xyzw(rot)  # ABB q1..q4 = (w, x, y, z)
+    else:
+        q = _quat(rot, quat_order)
     for r, qi in enumerate(q):
         _check_unit(qi, where(rows[r]))
     return make_transform(matrix_from_quat_xyzw(q), t)
@@ -223,11 +285,11 @@ def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, .
             out[name] = np.array(Ts).reshape(-1, 4, 4)
         return out, list(range(len(doc["poses"]))), {n: "json" for n in names}
     raw, rows, kinds = _read_csv(path, names)
-    unit = units or "m"
-    if unit not in UNIT_SCALE:
-        raise PoseFileError(f"units {unit!r} not understood; use 'm' or 'mm'")
+    if units is not None and units not in UNIT_SCALE:
+        raise PoseFileError(f"units {units!r} not understood; use 'm' or 'mm'")
     out = {"image": raw["image"]} if "image" in raw else {}
     for name in names:
+        unit = units or ROBOT_CONTROLLER_UNITS.get(kinds[name], "m")
         out[name] = _to_transforms(
             raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit],
             lambda ln, n=name: f"{path}, line {ln}, {n}", rows
@@ -240,13 +302,14 @@ def read_pose_file(
     quat_order: str | None = None,
     units: str | None = None,
     swap_order_of: tuple[str, ...] = (),
+    setup: str | None = None,
 ) -> PoseSet:
-    """Read paired ``T_base_ee`` and ``T_cam_target`` from a CSV or JSON file.
+    """Read paired ``T_base_ee`` and ``T_cam_target`` from a CSV, JSON or easy_handeye YAML file.
 
     Parameters
     ----------
     path : str or Path
-        ``.csv`` or ``.json`` (format in this module's docstring).
+        ``.csv``, ``.json``, or ``.yaml``/``.yml``/``.samples`` (formats in this module's docstring).
     quat_order : {"xyzw", "wxyz"}, optional
         Order of positional quaternions (JSON ``quaternion`` lists, CSV
         ``.q0 .. .q3`` columns). Overrides the JSON's ``quaternion_order``;
@@ -257,6 +320,10 @@ def read_pose_file(
         Pose names (from :data:`POSE_NAMES`) whose positional quaternions are
         read in the other order: how :func:`handeye.checked_poses.load_poses`
         tests for an order mistake.
+    setup : {"eye_to_hand", "eye_in_hand"}, optional
+        For YAML sample files only: easy_handeye records ``T_ee_base`` as the
+        robot transform of an eye-on-base (eye-to-hand) calibration and
+        ``T_base_ee`` for eye-in-hand (:mod:`handeye.core.easy_handeye`).
 
     Returns
     -------
@@ -270,6 +337,10 @@ def read_pose_file(
     """
     path = Path(path)
     _check_file(path)
+    if path.suffix.lower() in YAML_SUFFIXES:
+        from handeye.core.easy_handeye import read_easy_handeye_samples
+
+        return read_easy_handeye_samples(path, setup=setup, units=units)
     if quat_order is not None and quat_order not in QUAT_ORDERS:
         raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
     if path.suffix.lower() == ".json" and quat_order is None:

@@ -1,0 +1,45 @@
+"""The printed report of a benchmark: a header with the command, the machine and the versions, then lines."""
+
+from __future__ import annotations
+
+import datetime
+import sys
+
+from benchmarks._machine import machine
+
+
+class Report:
+    """Lines printed as they come and kept, for ``--out``.
+
+    Parameters
+    ----------
+    title : str
+    script : str
+        The script's path from the repository root, e.g. ``benchmarks/plan_poses.py``.
+    argv : list of str or None
+        The arguments as given (``sys.argv[1:]`` when None), so the header repeats the command.
+    versions : str
+        Library versions, e.g. ``"numpy 2.4.6"``.
+    """
+
+    def __init__(self, title: str, script: str, argv, versions: str):
+        self.lines: list[str] = []
+        args = argv if argv is not None else sys.argv[1:]
+        self.say(f"# {title}")
+        self.say("command: python " + script + "".join(f" {a}" for a in args))
+        self.say(f"machine: {machine()}")
+        self.say(f"{versions}; {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
+        self.say()
+
+    def say(self, s: str = "") -> None:
+        """Print a line and keep it."""
+        print(s, flush=True)
+        self.lines.append(s)
+
+    def write(self, out: str | None) -> int:
+        """Write the kept lines to ``out`` when given; returns 0 (the scripts' exit status)."""
+        if out:
+            with open(out, "w") as f:
+                f.write("\n".join(self.lines) + "\n")
+            print(f"written: {out}", file=sys.stderr)
+        return 0

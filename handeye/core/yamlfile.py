@@ -1,0 +1,133 @@
+"""YAML read with the line of every key and item, so that a message can name the line.
+
+Needs PyYAML (``pip install "handeye[ros]"``), imported when a file is read.
+Mappings come back as :class:`YamlMap` (a ``dict``) and sequences as
+:class:`YamlList` (a ``list``), each knowing its own line and the line of each
+key or item; scalars are plain Python values (YAML's safe schema: no tags that
+build objects). A duplicate key is refused, as the YAML specification says.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from handeye.core.errors import PoseFileError
+from handeye.core.optional import require_package
+
+__all__ = ["YamlList", "YamlMap", "line_of", "load_yaml"]
+
+
+class YamlMap(dict):
+    """A YAML mapping: a ``dict`` with ``line`` (1-based, its first key) and ``key_lines`` (key -> line)."""
+
+    line: int = 0
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.key_lines: dict = {}
+
+
+class YamlList(list):
+    """A YAML sequence: a ``list`` with ``line`` (1-based) and ``item_lines`` (the line of each item)."""
+
+    line: int = 0
+
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.item_lines: list = []
+
+
+def line_of(container, key=None) -> int:
+    """The 1-based line of ``container[key]`` (a key of a mapping, an index of a sequence), else of the container.
+
+    Returns 0 for a plain value (no line known).
+    """
+    if isinstance(container, YamlMap) and key in container.key_lines:
+        return container.key_lines[key]
+    if isinstance(container, YamlList) and isinstance(key, int) and 0 <= key < len(container.item_lines):
+        return container.item_lines[key]
+    return int(getattr(container, "line", 0))
+
+
+def _loader(yaml):
+    """A safe loader class that builds :class:`YamlMap` and :class:`YamlList`."""
+
+    class LineLoader(yaml.SafeLoader):
+        pass
+
+    def mapping(loader, node):
+        loader.flatten_mapping(node)
+        out = YamlMap()
+        out.line = node.start_mark.line + 1
+        for key_node, value_node in node.value:
+            key = loader.construct_object(key_node, deep=True)
+            try:
+                duplicate = key in out
+            except TypeError:
+                raise yaml.constructor.ConstructorError(None, None, "a key that is not a plain value",
+                                                        key_node.start_mark) from None
+            if duplicate:
+                raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+            out[key] = loader.construct_object(value_node, deep=True)
+            out.key_lines[key] = key_node.start_mark.line + 1
+        return out
+
+    def sequence(loader, node):
+        out = YamlList(loader.construct_object(child, deep=True) for child in node.value)
+        out.line = node.start_mark.line + 1
+        out.item_lines = [child.start_mark.line + 1 for child in node.value]
+        return out
+
+    LineLoader.add_constructor("tag:yaml.org,2002:map", mapping)
+    LineLoader.add_constructor("tag:yaml.org,2002:seq", sequence)
+    return LineLoader
+
+
+def load_yaml(path: str | Path, error: type[Exception] = PoseFileError):
+    """Read one YAML document, with lines.
+
+    Parameters
+    ----------
+    path : str or Path
+    error : exception class
+        Raised with a message naming the file (and the line) when the file is
+        missing, not text, not YAML, or holds more than one document.
+
+    Returns
+    -------
+    YamlMap, YamlList or a plain value
+        The document (an empty file gives ``None``).
+
+    Raises
+    ------
+    error
+    MissingDependencyError
+        PyYAML is not installed.
+    """
+    from handeye.core.posefile import MAX_POSE_FILE_BYTES
+
+    yaml = require_package("yaml", extra="ros", purpose="reading YAML files")
+    path = Path(path)
+    if path.is_dir():
+        raise error(f"{path}: is a directory, not a YAML file")
+    if not path.is_file():
+        raise error(f"{path}: no such file")
+    if path.stat().st_size > MAX_POSE_FILE_BYTES:
+        raise error(f"{path}: {path.stat().st_size:,} bytes, too large (at most {MAX_POSE_FILE_BYTES:,})")
+    raw = path.read_bytes()
+    if b"\x00" in raw:
+        raise error(f"{path}: a binary file, not YAML text")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    try:
+        docs = [d for d in yaml.load_all(text, Loader=_loader(yaml)) if d is not None]
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+        where = f", line {mark.line + 1}" if mark is not None else ""
+        what = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise error(f"{path}{where}: not valid YAML ({what})") from None
+    if len(docs) > 1:
+        raise error(f"{path}: holds {len(docs)} YAML documents (separated by '---'); keep one")
+    return docs[0] if docs else None

@@ -1,0 +1,367 @@
+"""ROS 2 bags to arrays: the robot's pose from tf, the camera's marker poses or images, paired by time.
+
+Reads rosbag2 recordings (sqlite3 or MCAP storage) with the pure-Python ``rosbags`` package
+(``pip install "handeye[ros]"``), no ROS installation:
+
+* the robot: ``T_base_ee`` over time, the pose of the end frame (``tool0``) in the base frame
+  (``base_link``), chained through the tf tree of ``/tf`` and ``/tf_static``
+  (``tf2_msgs/msg/TFMessage``; :mod:`handeye.tf_tree`);
+* the camera: ``T_cam_target`` from a marker pose topic (``geometry_msgs/msg/PoseStamped``,
+  ``PoseWithCovarianceStamped`` or ``TransformStamped``: the target's pose in the camera's frame), or
+  images (``sensor_msgs/msg/Image``) as numpy arrays for the board detection.
+
+Times are header stamps (the sensor's time, not the recorder's), in seconds since the bag's start
+time, so that every stream read from one bag shares one clock. Pairing: :meth:`BagRecording.pair`
+(:func:`handeye.time_pairing.pair_by_time`); the raw streams go to :func:`classic.calibrate_stream`
+when the clocks disagree.
+
+Example
+-------
+::
+
+    rec = read_bag("recording", base_frame="base_link", ee_frame="tool0", marker_topic="/marker_pose")
+    pairs = rec.pair(tolerance_s=0.01)                 # pairs.kept, pairs.dropped
+    res = classic.calibrate(pairs.T_base_ee, pairs.T_cam_target, setup="eye_to_hand")
+    # clocks that disagree: the raw streams, and the offset estimated with X and Y
+    res = classic.calibrate_stream(rec.robot_times_s, rec.T_base_ee, rec.camera_times_s, rec.T_cam_target)
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from handeye.core.errors import BagError, BagTopicError, NotABagError
+from handeye.core.optional import require_package
+from handeye.core.se3 import transform_from_pos_quat_xyzw
+from handeye.tf_tree import QUAT_NORM_TOL, TfTree
+from handeye.time_pairing import PairedPoses, pair_by_time
+
+__all__ = ["POSE_TYPES", "IMAGE_ENCODINGS", "BagRecording", "BagImages", "read_bag", "read_images", "image_array"]
+
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped",
+              "geometry_msgs/msg/TransformStamped")
+IMAGE_TYPE = "sensor_msgs/msg/Image"
+#: ``sensor_msgs/Image`` encodings read: (channels, dtype, channel order).
+IMAGE_ENCODINGS = {
+    "mono8": (1, "u1", None), "8UC1": (1, "u1", None), "mono16": (1, "u2", None), "16UC1": (1, "u2", None),
+    "32FC1": (1, "f4", None), "rgb8": (3, "u1", "rgb"), "bgr8": (3, "u1", "bgr"), "8UC3": (3, "u1", "bgr"),
+    "rgba8": (4, "u1", "rgb"), "bgra8": (4, "u1", "bgr"),
+}
+
+
+@dataclass
+class BagRecording:
+    """The robot's and the camera's poses over time, read from one bag.
+
+    Attributes
+    ----------
+    bag : str
+    origin_ns : int
+        The bag's start time; every ``*_times_s`` is seconds since it.
+    robot_times_s : array, shape (M,)
+        Strictly increasing header stamps of the chain.
+    T_base_ee : array, shape (M, 4, 4)
+        Pose of ``ee_frame`` in ``base_frame``, metres.
+    frames : list of str
+        The tf path from the base frame to the end frame.
+    camera_times_s : array, shape (N,) or None
+        Header stamps of the marker poses, sorted.
+    T_cam_target : array, shape (N, 4, 4) or None
+        Pose of the marker in the camera (the message's ``header.frame_id``), metres.
+    camera_frame : str or None
+    marker_topic : str or None
+    """
+
+    bag: str
+    origin_ns: int
+    robot_times_s: np.ndarray
+    T_base_ee: np.ndarray
+    frames: list
+    camera_times_s: np.ndarray | None = None
+    T_cam_target: np.ndarray | None = None
+    camera_frame: str | None = None
+    marker_topic: str | None = None
+
+    def pair(self, tolerance_s: float, method: str = "interpolate") -> PairedPoses:
+        """Each marker pose with the robot pose at its stamp, within ``tolerance_s`` seconds.
+
+        Parameters
+        ----------
+        tolerance_s : float
+        method : {"interpolate", "nearest"}
+            See :mod:`handeye.time_pairing`.
+
+        Returns
+        -------
+        PairedPoses
+            ``T_base_ee`` and ``T_cam_target`` of shape (K, 4, 4), the dropped samples counted.
+
+        Raises
+        ------
+        NoPairsError
+            No marker pose has a robot pose within the tolerance.
+        """
+        if self.T_cam_target is None:
+            raise BagTopicError(f"{self.bag}: read without a marker topic: no camera poses to pair")
+        return pair_by_time(self.robot_times_s, self.T_base_ee, self.camera_times_s, self.T_cam_target,
+                            tolerance_s, method, source=f"{self.bag}, {self.marker_topic} with tf")
+
+
+@dataclass
+class BagImages:
+    """Images of one topic.
+
+    Attributes
+    ----------
+    times_s : array, shape (N,)
+        Header stamps, seconds since the bag's start time ``origin_ns``.
+    images : list of array
+        Each ``(H, W)`` (mono, depth) or ``(H, W, 3)`` uint8 in ``order``; alpha dropped.
+    encodings : list of str
+    frame_id : str
+    origin_ns : int
+    order : str
+        ``"bgr"`` (OpenCV's, what :func:`classic.vision.detect.detect_board` takes) or ``"rgb"``.
+    """
+
+    times_s: np.ndarray
+    images: list
+    encodings: list
+    frame_id: str
+    origin_ns: int
+    order: str
+
+
+def _bag_dir(path: Path) -> Path:
+    """The rosbag2 directory of a path, or :class:`NotABagError` saying what the path is instead."""
+    if not path.exists():
+        raise NotABagError(f"{path}: no such file or directory")
+    if path.is_file() and path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
+        return path.parent
+    if path.is_file() and path.suffix == ".bag":
+        raise NotABagError(f"{path}: a ROS 1 bag; this reads ROS 2 bags (convert it with rosbags-convert)")
+    if path.is_file() and path.suffix in (".db3", ".mcap"):
+        raise NotABagError(f"{path}: a {path.suffix} file without metadata.yaml beside it; a ROS 2 bag is the "
+                           "directory holding both (ros2 bag reindex writes a missing metadata.yaml)")
+    if not path.is_dir() or not (path / "metadata.yaml").is_file():
+        raise NotABagError(f"{path}: not a ROS 2 bag (a rosbag2 directory with metadata.yaml and .db3 or .mcap "
+                           "files)")
+    return path
+
+
+@contextmanager
+def _open(bag):
+    """An open ``rosbags.highlevel.AnyReader`` on the bag; reader errors become :class:`NotABagError`."""
+    require_package("rosbags", extra="ros", purpose="reading ROS 2 bags")
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
+
+    path = _bag_dir(Path(bag))
+    try:
+        reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+        reader.open()
+    except (AnyReaderError, OSError, KeyError, ValueError) as exc:
+        raise NotABagError(f"{path}: cannot be read as a ROS 2 bag ({exc})") from None
+    try:
+        yield reader
+    finally:
+        reader.close()
+
+
+def _connections(reader, bag, topic: str, types: tuple, required: bool = True) -> list:
+    """The topic's connections, checked to carry one of ``types``."""
+    conns = [c for c in reader.connections if c.topic == topic]
+    if not conns and required:
+        have = ", ".join(f"{c.topic} ({c.msgtype})" for c in sorted(reader.connections, key=lambda c: c.topic))
+        raise BagTopicError(f"{bag}: no topic {topic!r}; the bag has: {have or 'no topics'}")
+    wrong = sorted({c.msgtype for c in conns if c.msgtype not in types})
+    if wrong:
+        raise BagTopicError(f"{bag}: topic {topic!r} holds {', '.join(wrong)}; expected {' or '.join(types)}")
+    return conns
+
+
+def _messages(reader, bag, conns):
+    """``(connection, message)`` in bag order, deserialisation errors naming the topic."""
+    for conn, _, raw in reader.messages(connections=conns):
+        try:
+            yield conn, reader.deserialize(raw, conn.msgtype)
+        except Exception as exc:  # rosbags raises its own and struct errors on corrupt data
+            raise BagError(f"{bag}: a message on {conn.topic} cannot be decoded ({exc})") from None
+
+
+def _stamp_ns(header) -> int:
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+def _pose_of(msg, msgtype: str) -> tuple:
+    """Translation and (x, y, z, w) quaternion of a marker pose message."""
+    if msgtype.endswith("TransformStamped"):
+        t, q = msg.transform.translation, msg.transform.rotation
+    else:
+        pose = msg.pose.pose if msgtype.endswith("PoseWithCovarianceStamped") else msg.pose
+        t, q = pose.position, pose.orientation
+    return (t.x, t.y, t.z), (q.x, q.y, q.z, q.w)
+
+
+def read_bag(bag, base_frame: str, ee_frame: str, marker_topic: str | None = None, tf_topic: str = "/tf",
+             tf_static_topic: str = "/tf_static") -> BagRecording:
+    """Read the robot's pose from tf, and the marker poses if a topic is given, in one pass over the bag.
+
+    Parameters
+    ----------
+    bag : str or Path
+        A rosbag2 directory (or the ``.db3`` / ``.mcap`` file inside it).
+    base_frame, ee_frame : str
+        tf frames: the result is ``T_base_ee``, the pose of ``ee_frame`` in ``base_frame``.
+    marker_topic : str, optional
+        A ``PoseStamped``, ``PoseWithCovarianceStamped`` or ``TransformStamped`` topic: the target's
+        pose in the camera, ``T_cam_target``.
+    tf_topic, tf_static_topic : str
+        The tf topics (``/robot1/tf`` for a namespaced robot); the static one may be absent.
+
+    Returns
+    -------
+    BagRecording
+
+    Raises
+    ------
+    NotABagError
+        The path is not a readable ROS 2 bag.
+    BagTopicError
+        No ``tf_topic`` or ``marker_topic``, or one of another message type; the bag's topics are listed.
+    FramesNotConnectedError
+        The frames are not connected in the tf tree; the frames reachable from the base are listed.
+    BagError
+        Undecodable messages, a frame with two parents, a non-unit quaternion, a chain that never moves.
+    """
+    with _open(bag) as reader:
+        name = str(reader.paths[0])
+        static_conns = _connections(reader, name, tf_static_topic, (TF_TYPE,), required=False)
+        tf_conns = _connections(reader, name, tf_topic, (TF_TYPE,)) + static_conns
+        cam_conns = _connections(reader, name, marker_topic, POSE_TYPES) if marker_topic else []
+        tf = {"parents": [], "children": [], "stamps": [], "t": [], "q": [], "static": []}
+        cam = {"stamps": [], "t": [], "q": [], "frames": set()}
+        for conn, msg in _messages(reader, name, tf_conns + cam_conns):
+            if conn.topic == marker_topic:
+                t, q = _pose_of(msg, conn.msgtype)
+                cam["stamps"].append(_stamp_ns(msg.header))
+                cam["t"].append(t)
+                cam["q"].append(q)
+                cam["frames"].add(msg.header.frame_id.lstrip("/"))
+                continue
+            for tr in msg.transforms:
+                tf["parents"].append(tr.header.frame_id)
+                tf["children"].append(tr.child_frame_id)
+                tf["stamps"].append(_stamp_ns(tr.header))
+                r, p = tr.transform.rotation, tr.transform.translation
+                tf["t"].append((p.x, p.y, p.z))
+                tf["q"].append((r.x, r.y, r.z, r.w))
+                tf["static"].append(conn.topic == tf_static_topic)
+        origin = int(reader.start_time)
+    topics = tf_topic + (f" and {tf_static_topic}" if static_conns else "")
+    tree = TfTree.from_transforms(tf["parents"], tf["children"], tf["stamps"], tf["t"], tf["q"], tf["static"],
+                                  source=f"{name}, {topics}")
+    chain = tree.chain(base_frame, ee_frame)
+    rec = BagRecording(name, origin, (chain.stamps_ns - origin) * 1e-9, chain.T_base_ee, chain.frames)
+    if marker_topic:
+        if not cam["stamps"]:
+            raise BagTopicError(f"{name}: topic {marker_topic!r} has no messages")
+        stamps = np.asarray(cam["stamps"], dtype=np.int64)
+        q = np.asarray(cam["q"], dtype=float)
+        norm = np.linalg.norm(q, axis=1)
+        bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
+        if len(bad):
+            raise BagError(f"{name}, {marker_topic}: the message stamped {stamps[bad[0]]} ns has an orientation of "
+                           f"norm {norm[bad[0]]:.4g}, not 1 ({len(bad)} such messages)")
+        order = np.argsort(stamps, kind="stable")
+        rec.camera_times_s = (stamps[order] - origin) * 1e-9
+        rec.T_cam_target = transform_from_pos_quat_xyzw(np.asarray(cam["t"])[order], q[order])
+        rec.camera_frame = ", ".join(sorted(cam["frames"]))
+        rec.marker_topic = marker_topic
+    return rec
+
+
+def image_array(msg, order: str = "bgr") -> np.ndarray:
+    """A ``sensor_msgs/msg/Image`` as a numpy array.
+
+    Parameters
+    ----------
+    msg : sensor_msgs/msg/Image
+        As deserialised by rosbags (``height``, ``width``, ``encoding``, ``is_bigendian``, ``step``, ``data``).
+    order : {"bgr", "rgb"}
+        Channel order of colour images.
+
+    Returns
+    -------
+    image : array, shape (H, W) or (H, W, 3)
+        uint8 for 8-bit encodings (alpha dropped), uint16 for ``mono16``/``16UC1``, float32 for ``32FC1``.
+
+    Raises
+    ------
+    BagError
+        An encoding not in :data:`IMAGE_ENCODINGS`, or data shorter than ``height * step``.
+    """
+    if msg.encoding not in IMAGE_ENCODINGS:
+        raise BagError(f"image encoding {msg.encoding!r} is not read; supported: {', '.join(IMAGE_ENCODINGS)}")
+    channels, kind, native = IMAGE_ENCODINGS[msg.encoding]
+    dtype = np.dtype(kind).newbyteorder(">" if msg.is_bigendian else "<")
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    data = np.asarray(msg.data, dtype=np.uint8)
+    row = w * channels * dtype.itemsize
+    if step < row or data.size < h * step:
+        raise BagError(f"image {w}x{h} {msg.encoding}: {data.size} bytes with step {step}, need {h} rows of {row}")
+    rows = data[: h * step].reshape(h, step)[:, :row]
+    img = np.ascontiguousarray(rows).view(dtype).reshape(h, w, channels).astype(dtype.newbyteorder("="))
+    if channels == 1:
+        return img[..., 0]
+    img = img[..., :3]
+    return np.ascontiguousarray(img[..., ::-1] if native != order else img)
+
+
+def read_images(bag, topic: str, order: str = "bgr", every: int = 1) -> BagImages:
+    """The images of a ``sensor_msgs/msg/Image`` topic with their stamps.
+
+    Parameters
+    ----------
+    bag : str or Path
+    topic : str
+    order : {"bgr", "rgb"}
+    every : int
+        Keep every ``every``-th image (a long recording holds thousands).
+
+    Returns
+    -------
+    BagImages
+        Sorted by stamp.
+
+    Raises
+    ------
+    NotABagError, BagTopicError, BagError
+    """
+    if order not in ("bgr", "rgb") or every < 1:
+        raise BagError(f"order must be 'bgr' or 'rgb' and every >= 1, got {order!r}, {every!r}")
+    with _open(bag) as reader:
+        name = str(reader.paths[0])
+        conns = _connections(reader, name, topic, (IMAGE_TYPE,))
+        stamps, images, encodings, frames = [], [], [], set()
+        for k, (_, msg) in enumerate(_messages(reader, name, conns)):
+            if k % every:
+                continue
+            try:
+                images.append(image_array(msg, order))
+            except BagError as exc:
+                raise BagError(f"{name}, {topic}: {exc}") from None
+            stamps.append(_stamp_ns(msg.header))
+            encodings.append(msg.encoding)
+            frames.add(msg.header.frame_id.lstrip("/"))
+        origin = int(reader.start_time)
+    if not images:
+        raise BagTopicError(f"{name}: topic {topic!r} has no messages")
+    idx = np.argsort(np.asarray(stamps, dtype=np.int64), kind="stable")
+    return BagImages((np.asarray(stamps, dtype=np.int64)[idx] - origin) * 1e-9, [images[i] for i in idx],
+                     [encodings[i] for i in idx], ", ".join(sorted(frames)), origin, order)
