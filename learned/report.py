@@ -12,13 +12,13 @@
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
 from handeye.core.errors import HandEyeInputError
+from handeye.core.tables import markdown_table, write_csv
 
 __all__ = ["load_results", "write_report", "findings"]
 
@@ -98,84 +98,72 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     for net in ("translation", "orientation"):
         for strategy in results["strategies"]:
             mean, std = mean_matrix(results, strategy, net)
-            md += [f"## {strategy}, {net} ({UNIT[net]})", "", "| step | " + " | ".join(subsets) + " | mean |",
-                   "|---|" + "---|" * (len(subsets) + 1)]
-            rows = []
+            rows, md_rows = [], []
             for k in range(len(mean)):
                 cells = [_cell(mean[k, j], std[k, j], repeats) for j in range(len(subsets))]
                 avg = np.nanmean(mean[k]) if np.isfinite(mean[k]).any() else float("nan")
-                md.append(f"| T{k + 1} | " + " | ".join(cells) + f" | {_cell(avg, 0.0, 1)} |")
+                md_rows.append([f"T{k + 1}", *cells, _cell(avg, 0.0, 1)])
                 rows.append([k + 1, *mean[k], *std[k]])
+            md += [f"## {strategy}, {net} ({UNIT[net]})", ""] + markdown_table(["step", *subsets, "mean"], md_rows)
             md.append("")
-            with (run_dir / f"matrix_{strategy}_{net}.csv").open("w", newline="") as f:
-                w = csv.writer(f)
-                w.writerow(["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]])
-                w.writerows(rows)
+            write_csv(run_dir / f"matrix_{strategy}_{net}.csv",
+                      ["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]], rows)
     # final step against the baseline
     md += ["## Final step per test subset (tables 9-10)", ""]
     final_rows = []
     for net in ("translation", "orientation"):
-        md += [f"### {net} ({UNIT[net]})", "", "| strategy | " + " | ".join(subsets) + " | mean |",
-               "|---|" + "---|" * (len(subsets) + 1)]
+        md_rows = []
         for strategy in results["strategies"]:
             mean, std = mean_matrix(results, strategy, net)
-            md.append(f"| {strategy} | " + " | ".join(_cell(mean[-1, j], std[-1, j], repeats)
-                                                     for j in range(len(subsets))) + f" | {np.nanmean(mean[-1]):.2f} |")
+            md_rows.append([strategy, *[_cell(mean[-1, j], std[-1, j], repeats) for j in range(len(subsets))],
+                            f"{np.nanmean(mean[-1]):.2f}"])
             final_rows.append([net, strategy, *mean[-1], float(np.nanmean(mean[-1]))])
-        md.append("")
-    with (run_dir / "final_step.csv").open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["network", "strategy", *subsets, "mean"])
-        w.writerows(final_rows)
+        md += [f"### {net} ({UNIT[net]})", ""] + markdown_table(["strategy", *subsets, "mean"], md_rows) + [""]
+    write_csv(run_dir / "final_step.csv", ["network", "strategy", *subsets, "mean"], final_rows)
     # data and compute
-    md += ["## Data and compute (table 11)", "",
-           "| strategy | network | samples stored | samples processed | samples evaluated for novelty | wall time s | "
-           "camera poses skipped |", "|---|---|---|---|---|---|---|"]
-    compute_rows = []
+    compute_rows, md_rows = [], []
     for strategy in results["strategies"]:
         for net in ("translation", "orientation"):
             runs = _runs(results, strategy, net)
             vals = [np.mean([r[k] for r in runs]) for k in ("stored", "processed", "evaluated", "wall_s")]
             skipped = np.mean([len(r["skipped"]) for r in runs])
-            md.append(f"| {strategy} | {net} | {vals[0]:.0f} | {vals[1]:.0f} | {vals[2]:.0f} | {vals[3]:.0f} | "
-                      f"{skipped:.1f} |")
+            md_rows.append([strategy, net, *[f"{v:.0f}" for v in vals], f"{skipped:.1f}"])
             compute_rows.append([strategy, net, *vals, skipped])
-    md.append("")
-    with (run_dir / "compute.csv").open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"])
-        w.writerows(compute_rows)
+    md += ["## Data and compute (table 11)", ""] + markdown_table(
+        ["strategy", "network", "samples stored", "samples processed", "samples evaluated for novelty", "wall time s",
+         "camera poses skipped"], md_rows) + [""]
+    write_csv(run_dir / "compute.csv", ["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"],
+              compute_rows)
     # per camera pose validation
     how = ("the keypoints of all the pose's frames fitted at once (robust 3-D to 3-D)" if family == "keypoints"
            else "the frame predictions of the pose averaged")
-    md += ["## Per test camera pose: learned vs classic label vs truth", "", f"Learned: {how}. mm / deg.", "",
-           "| strategy | median vs truth | worst vs truth | label median vs truth | inference ms per frame | "
-           "ms per camera pose |", "|---|---|---|---|---|---|"]
+    md_rows = []
     for strategy, pc in results["per_camera"].items():
         inf = results.get("inference", {}).get(strategy, {})
         t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
         lab_mm, lab_deg = np.asarray(pc["label_vs_truth_mm"]), np.asarray(pc["label_vs_truth_deg"])
-        md.append(f"| {strategy} | {np.median(t_mm):.2f} / {np.median(r_deg):.2f} | {t_mm.max():.2f} / "
-                  f"{r_deg.max():.2f} | {np.median(lab_mm):.3f} / {np.median(lab_deg):.4f} | "
-                  f"{inf.get('per_frame_ms', float('nan')):.1f} | {inf.get('per_camera_ms', float('nan')):.0f} |")
-    md.append("")
-    with (run_dir / "per_camera.csv").open("w", newline="") as f:
-        w = csv.writer(f)
-        keys = None
-        for strategy, pc in results["per_camera"].items():
-            md += [f"### {strategy}", "", "| camera | subset | learned vs label | learned vs truth | label vs truth | "
-                   "per-frame vs label |", "|---|---|---|---|---|---|"]
-            for i, c in enumerate(pc["camera"]):
-                md.append(f"| {c} | S{pc['region'][i] + 1} | {pc['learned_vs_label_mm'][i]:.2f} / "
-                          f"{pc['learned_vs_label_deg'][i]:.2f} | {pc['learned_vs_truth_mm'][i]:.2f} / "
-                          f"{pc['learned_vs_truth_deg'][i]:.2f} | {pc['label_vs_truth_mm'][i]:.3f} / "
-                          f"{pc['label_vs_truth_deg'][i]:.4f} | {pc['per_frame_vs_label_mm'][i]:.2f} / "
-                          f"{pc['per_frame_vs_label_deg'][i]:.2f} |")
-                if keys is None:
-                    keys = list(pc)
-                    w.writerow(["strategy", *keys])
-                w.writerow([strategy, *[pc[k][i] for k in keys]])
-            md.append("")
+        md_rows.append([strategy, f"{np.median(t_mm):.2f} / {np.median(r_deg):.2f}",
+                        f"{t_mm.max():.2f} / {r_deg.max():.2f}", f"{np.median(lab_mm):.3f} / {np.median(lab_deg):.4f}",
+                        f"{inf.get('per_frame_ms', float('nan')):.1f}",
+                        f"{inf.get('per_camera_ms', float('nan')):.0f}"])
+    md += ["## Per test camera pose: learned vs classic label vs truth", "", f"Learned: {how}. mm / deg.", ""]
+    md += markdown_table(["strategy", "median vs truth", "worst vs truth", "label median vs truth",
+                          "inference ms per frame", "ms per camera pose"], md_rows) + [""]
+    keys, csv_rows = None, []
+    for strategy, pc in results["per_camera"].items():
+        md_rows = []
+        for i, c in enumerate(pc["camera"]):
+            md_rows.append([c, f"S{pc['region'][i] + 1}",
+                            f"{pc['learned_vs_label_mm'][i]:.2f} / {pc['learned_vs_label_deg'][i]:.2f}",
+                            f"{pc['learned_vs_truth_mm'][i]:.2f} / {pc['learned_vs_truth_deg'][i]:.2f}",
+                            f"{pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f}",
+                            f"{pc['per_frame_vs_label_mm'][i]:.2f} / {pc['per_frame_vs_label_deg'][i]:.2f}"])
+            keys = keys or list(pc)
+            csv_rows.append([strategy, *[pc[k][i] for k in keys]])
+        md += [f"### {strategy}", ""] + markdown_table(
+            ["camera", "subset", "learned vs label", "learned vs truth", "label vs truth", "per-frame vs label"],
+            md_rows) + [""]
+    write_csv(run_dir / "per_camera.csv", ["strategy", *(keys or [])], csv_rows)
     md += ["## The paper's findings on this run", ""] + [f"- {line}" for line in findings(results)] + [""]
     text = "\n".join(md)
     (run_dir / "report.md").write_text(text)

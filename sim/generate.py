@@ -1,7 +1,9 @@
 """Generate a dataset: per camera pose a calibration recording and a data recording, in shards.
 
-Each camera pose is one shard, rendered by one worker process into
-``cam_XXXX.partial`` and renamed when complete (:mod:`handeye.core.dataset`).
+Each camera pose is one shard, rendered by one worker process
+(:func:`handeye.core.pool.run_pool`) and written by
+:class:`handeye.core.shard_writer.ShardWriter` into ``cam_XXXX.partial``,
+renamed when complete (:mod:`handeye.core.dataset`).
 Everything a shard holds is drawn from ``default_rng([seed, camera_id])``, so
 a shard regenerated on resume is identical to the one a crash interrupted,
 whichever worker renders it. Resuming skips complete shards and regenerates
@@ -17,10 +19,7 @@ readings, as a controller reports them; the rendering uses the true joints).
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
-import shutil
-import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -32,17 +31,14 @@ from handeye.core.dataset import (
     FORMAT,
     FORMAT_VERSION,
     dataset_lock,
-    encode_depth,
-    frame_columns,
     poses_to_columns,
-    shard_is_complete,
-    shard_name,
     write_json_atomic,
-    write_manifest,
     write_table,
 )
 from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.pool import run_pool
 from handeye.core.se3 import invert_transform
+from handeye.core.shard_writer import ShardWriter
 from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
 
@@ -241,14 +237,10 @@ class _ShardRenderer:
 
     def render_shard(self, camera_id: int, out: Path) -> int:
         """Render one camera pose's shard into ``out`` atomically; returns the number of frames."""
-        from PIL import Image
+        with ShardWriter(out, camera_id, n_joints=self.robot.nq, depth_scale_m=DEPTH_SCALE_M) as shard:
+            return self._render_into(shard, camera_id)
 
-        final = out / shard_name(camera_id)
-        partial = final.with_name(final.name + ".partial")
-        if partial.exists():
-            shutil.rmtree(partial)
-        (partial / "rgb").mkdir(parents=True)
-        (partial / "depth").mkdir()
+    def _render_into(self, shard: ShardWriter, camera_id: int) -> int:
         rng = np.random.default_rng([self.meta["recipe"]["seed"], camera_id])
         noise_rng = np.random.default_rng([self.meta["recipe"]["seed"], camera_id, 1])
         T_base_cam = self.cams.T_base_cam[camera_id]
@@ -264,8 +256,7 @@ class _ShardRenderer:
                 rgb, depth = renderer.render(view.q, T_base_cam)
                 if not self._board_visible(depth, T_base_cam, view.T_base_target):
                     continue  # the arm hides part of the board: draw another view
-                rel = f"rgb/calibration_{n:03d}.png"
-                Image.fromarray(self._noisy_rgb(rgb, noise_rng)).save(partial / rel, compress_level=1)
+                rel = shard.write_rgb(f"calibration_{n:03d}", self._noisy_rgb(rgb, noise_rng))
                 rows.append(("calibration", view.q, rel, ""))
                 n += 1
             counts["calibration"] = n
@@ -274,10 +265,8 @@ class _ShardRenderer:
             for k in range(self.preset.configurations):
                 q = sample_data_configuration(self.robot, T_base_cam, self.K_data, self.size_data, rng)
                 rgb, depth = renderer.render(q, T_base_cam)
-                rel_rgb, rel_depth = f"rgb/data_{k:03d}.png", f"depth/data_{k:03d}.png"
-                Image.fromarray(self._noisy_rgb(rgb, noise_rng)).save(partial / rel_rgb, compress_level=1)
-                units = encode_depth(self._noisy_depth(depth, noise_rng), DEPTH_SCALE_M)
-                Image.fromarray(units).save(partial / rel_depth, compress_level=1)
+                rel_rgb = shard.write_rgb(f"data_{k:03d}", self._noisy_rgb(rgb, noise_rng))
+                rel_depth = shard.write_depth(f"data_{k:03d}", self._noisy_depth(depth, noise_rng))
                 rows.append(("data", q, rel_rgb, rel_depth))
             counts["data"] = self.preset.configurations
         q_rec = np.array([self._recorded_joints(r[1], noise_rng) for r in rows]).reshape(-1, self.robot.nq)
@@ -292,11 +281,7 @@ class _ShardRenderer:
         T_base_ee = self.robot.fk(q_rec)
         table.update(poses_to_columns("T_base_ee", T_base_ee))
         table.update(poses_to_columns("T_base_ref", T_base_ee @ self.robot.T_ee_ref))
-        write_table(partial / "frames.csv", table, frame_columns(self.robot.nq))
-        write_manifest(partial, camera_id, counts)
-        if final.exists():
-            shutil.rmtree(final)
-        os.replace(partial, final)
+        shard.write_frames(table, counts)
         return len(rows)
 
 
@@ -312,6 +297,11 @@ def _init_worker(meta: dict) -> None:
 def _work(args) -> tuple[int, int]:
     camera_id, out = args
     return camera_id, _WORKER.render_shard(camera_id, Path(out))
+
+
+def _describe(args) -> str:
+    camera_id, out = args
+    return f"render camera {camera_id} of {out}"
 
 
 # ------------------------------------------------------------------ driver
@@ -387,33 +377,20 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
         report = GenerationReport(out)
         pending = []
         for c in range(preset.n_cameras):
-            shard = out / shard_name(c)
-            if shard_is_complete(shard)[0]:
+            shard = ShardWriter(out, c)
+            if shard.complete:
                 report.skipped.append(c)
                 continue
-            if shard.exists() or shard.with_name(shard.name + ".partial").exists():
+            if shard.final.exists() or shard.partial.exists():
                 report.regenerated.append(c)
             pending.append(c)
-        bar = None
-        if progress and pending:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(pending), desc=f"render {out.name}", unit="camera", file=sys.stderr)
-        if pending:
-            # always in worker processes, even one: pyrender's EGL teardown (eglTerminate) breaks any other
-            # context of the process, so the caller's process never holds one
-            pool = multiprocessing.get_context("spawn").Pool(min(workers, len(pending)), _init_worker, (meta,))
-            try:
-                for c, n in pool.imap_unordered(_work, [(c, str(out)) for c in pending]):
-                    report.rendered.append(c)
-                    report.frames += n
-                    if bar is not None:
-                        bar.update(1)
-            finally:
-                pool.close()
-                pool.join()
-                if bar is not None:
-                    bar.close()
+        # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
+        # context of the process, so the caller's process never holds one
+        for c, n in run_pool(_work, [(c, str(out)) for c in pending], workers, progress, desc=f"render {out.name}",
+                             unit="camera", initializer=_init_worker, initargs=(meta,), isolate=True,
+                             describe=_describe):
+            report.rendered.append(c)
+            report.frames += n
         report.rendered.sort()
         report.wall_s = time.perf_counter() - t0
         return report

@@ -236,6 +236,12 @@ FLAT_CORNER_PX = 0.1
 #: independent signs, ~80 predicted sigma, would make that test vacuous).
 RENDER_BIAS_PX = 0.25
 
+#: Marker-grid corners (classic.vision.aruco_grid): a marker corner is a convex L, not a saddle, and
+#: cornerSubPix on a blurred L settles inside the marker, measured 0.15 to 0.3 px toward its centre on
+#: rendered views with ~5 px per bit cell (noise-free and at noise_gray 2). 0.4 px leaves a third on top;
+#: a corner snapped to an inner bit or the wrong corner is whole bit cells (>= 4 px) off.
+MARKER_CORNER_BIAS_PX = 0.4
+
 #: A detected corner vs its true projection: common bias <= RENDER_BIAS_PX per
 #: axis (sqrt(2) RENDER_BIAS_PX in 2-D) plus noise of per-axis sigma estimated
 #: from the view's RMS; the 2-D noise norm is Rayleigh, P(> 5 sigma) =

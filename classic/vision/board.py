@@ -1,4 +1,14 @@
-"""ChArUco board specification: the printable board and its corner coordinates."""
+"""Board specification: the kind of target, the printable board and its corner coordinates.
+
+Three kinds share one spec and one contract, corner ids and their target-frame coordinates
+(:meth:`BoardSpec.corners_target`), so PnP, intrinsics and the reprojection refinement take any of them:
+
+- ``"charuco"`` (default): ChArUco, ``legacy=True`` for OpenCV's pre-4.6 pattern (differs on boards
+  with an even number of rows);
+- ``"checkerboard"``: a plain chessboard; its two inner-corner counts must differ in parity, so
+  that a 180 degree turn of the board is told apart (:mod:`classic.vision.checkerboard`);
+- ``"aruco_grid"``: an ArUco or AprilTag marker grid (:mod:`classic.vision.aruco_grid`).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +21,10 @@ import numpy as np
 
 from handeye.core.errors import HandEyeInputError
 
-__all__ = ["BoardSpec", "BoardSpecError", "dictionary_id"]
+__all__ = ["BoardSpec", "BoardSpecError", "KINDS", "dictionary_id"]
+
+#: Board kinds; ``"aruco-grid"`` is accepted for ``"aruco_grid"``.
+KINDS = ("charuco", "checkerboard", "aruco_grid")
 
 
 class BoardSpecError(HandEyeInputError):
@@ -19,7 +32,7 @@ class BoardSpecError(HandEyeInputError):
 
 
 def dictionary_id(name: str) -> int:
-    """OpenCV's constant of an ArUco dictionary: ``"5X5_100"``, ``"DICT_5X5_100"``, any case.
+    """OpenCV's constant of an ArUco or AprilTag dictionary: ``"5X5_100"``, ``"DICT_APRILTAG_36h11"``, any case.
 
     Parameters
     ----------
@@ -35,32 +48,45 @@ def dictionary_id(name: str) -> int:
     """
     key = str(name).upper()
     key = key if key.startswith("DICT_") else "DICT_" + key
-    if not hasattr(cv2.aruco, key):
-        known = sorted(k[5:] for k in dir(cv2.aruco) if k.startswith("DICT_") and "APRILTAG" not in k)
+    names = {k.upper(): k for k in dir(cv2.aruco) if k.startswith("DICT_") and isinstance(getattr(cv2.aruco, k), int)}
+    if key not in names:
+        known = sorted({k[5:] for k in names})
         raise BoardSpecError(f"unknown ArUco dictionary {name!r}; known: {', '.join(known)}")
-    return int(getattr(cv2.aruco, key))
+    return int(getattr(cv2.aruco, names[key]))
+
+
+def _dictionary_size(name: str) -> int:
+    return int(cv2.aruco.getPredefinedDictionary(dictionary_id(name)).bytesList.shape[0])
 
 
 @dataclass(frozen=True)
 class BoardSpec:
-    """A ChArUco board: squares, their size, the markers' size and dictionary.
+    """A calibration board: its kind, squares (or markers), their size and the markers' dictionary.
 
     Attributes
     ----------
     squares_x, squares_y : int
-        Number of squares along x (columns) and y (rows).
+        Squares along x (columns) and y (rows); for ``"aruco_grid"`` markers along x and y.
     square_length_m : float
-        Side of a chessboard square, metres.
+        Side of a chessboard square, metres; for ``"aruco_grid"`` the marker pitch (marker side plus
+        the gap between markers).
     marker_length_m : float
-        Side of an ArUco marker, metres (smaller than the square).
+        Side of an ArUco marker, metres (smaller than ``square_length_m``); unused by ``"checkerboard"``.
     dictionary : str
-        ArUco dictionary, e.g. ``"5X5_100"``.
+        ArUco or AprilTag dictionary, e.g. ``"5X5_100"``, ``"APRILTAG_36h11"``; unused by ``"checkerboard"``.
+    kind : {"charuco", "checkerboard", "aruco_grid"}
+    legacy : bool
+        ChArUco only: OpenCV's legacy pattern (``CharucoBoard.setLegacyPattern``).
 
     Examples
     --------
     >>> spec = BoardSpec(7, 5, 0.04, 0.03, "5X5_100")
     >>> spec.corners_target().shape
     (24, 3)
+    >>> BoardSpec.checkerboard(9, 6, 0.025).n_corners
+    40
+    >>> BoardSpec.aruco_grid(4, 3, 0.04, 0.01, "APRILTAG_36h11").n_corners
+    48
     """
 
     squares_x: int
@@ -68,51 +94,114 @@ class BoardSpec:
     square_length_m: float
     marker_length_m: float
     dictionary: str = "5X5_100"
+    kind: str = "charuco"
+    legacy: bool = False
 
     def __post_init__(self):
-        if int(self.squares_x) < 2 or int(self.squares_y) < 2:
-            raise BoardSpecError(f"a ChArUco board needs at least 2x2 squares, got {self.squares_x}x{self.squares_y}")
+        kind = str(self.kind).lower().replace("-", "_")
+        if kind not in KINDS:
+            raise BoardSpecError(f"unknown board kind {self.kind!r}; use one of {', '.join(KINDS)}")
+        object.__setattr__(self, "kind", kind)
+        if not isinstance(self.legacy, (bool, np.bool_)):
+            raise BoardSpecError(f"legacy must be true or false, got {self.legacy!r}")
+        if self.legacy and kind != "charuco":
+            raise BoardSpecError(f"legacy is a ChArUco pattern switch; a {kind} board has none")
+        name = {"charuco": "ChArUco board", "checkerboard": "checkerboard", "aruco_grid": "marker grid"}[kind]
+        least = 3 if kind == "checkerboard" else 2
+        if int(self.squares_x) < least or int(self.squares_y) < least:
+            raise BoardSpecError(
+                f"a {name} needs at least {least}x{least} squares, got {self.squares_x}x{self.squares_y}")
+        if not np.isfinite(self.square_length_m) or self.square_length_m <= 0:
+            raise BoardSpecError(f"square length {self.square_length_m} m must be positive")
+        if self.square_length_m > 1.0:
+            raise BoardSpecError(f"square length {self.square_length_m} m: lengths are in metres (millimetres given?)")
+        if kind == "checkerboard":
+            if (self.squares_x + self.squares_y) % 2 == 0:
+                raise BoardSpecError(
+                    f"a {self.squares_x}x{self.squares_y} checkerboard looks the same turned by 180 degrees, so its "
+                    "corner order is ambiguous; use one even and one odd square count (e.g. 10x7)")
+            return
         if not 0 < self.marker_length_m < self.square_length_m:
             raise BoardSpecError(
                 f"marker length {self.marker_length_m} m must be positive and smaller than the square length "
                 f"{self.square_length_m} m (swapped?)"
             )
-        if self.square_length_m > 1.0:
-            raise BoardSpecError(f"square length {self.square_length_m} m: lengths are in metres (millimetres given?)")
-        n_markers = (self.squares_x * self.squares_y) // 2
-        size = int(cv2.aruco.getPredefinedDictionary(dictionary_id(self.dictionary)).bytesList.shape[0])
+        n_markers = self.n_markers
+        size = _dictionary_size(self.dictionary)
         if n_markers > size:
-            raise BoardSpecError(f"a {self.squares_x}x{self.squares_y} board needs {n_markers} markers; "
+            raise BoardSpecError(f"a {self.squares_x}x{self.squares_y} {name} needs {n_markers} markers; "
                                  f"dictionary {self.dictionary} has {size}")
+
+    @classmethod
+    def checkerboard(cls, squares_x: int, squares_y: int, square_length_m: float) -> "BoardSpec":
+        """A plain chessboard of ``squares_x`` by ``squares_y`` squares (one count even, one odd)."""
+        return cls(squares_x, squares_y, square_length_m, 0.0, "", kind="checkerboard")
+
+    @classmethod
+    def aruco_grid(cls, markers_x: int, markers_y: int, marker_length_m: float, separation_m: float,
+                   dictionary: str = "APRILTAG_36h11") -> "BoardSpec":
+        """A grid of markers ``marker_length_m`` wide, ``separation_m`` apart (OpenCV's ``GridBoard``)."""
+        return cls(markers_x, markers_y, marker_length_m + separation_m, marker_length_m, dictionary,
+                   kind="aruco_grid")
+
+    @property
+    def n_markers(self) -> int:
+        """Markers on the board (0 for a checkerboard)."""
+        return {"charuco": (self.squares_x * self.squares_y) // 2, "checkerboard": 0,
+                "aruco_grid": self.squares_x * self.squares_y}[self.kind]
 
     @property
     def n_corners(self) -> int:
-        """Number of inner (ChArUco) corners."""
+        """Number of corner ids: inner corners, or 4 per marker of a marker grid."""
+        if self.kind == "aruco_grid":
+            return 4 * self.n_markers
         return (self.squares_x - 1) * (self.squares_y - 1)
 
     @property
     def size_m(self) -> tuple[float, float]:
-        """Board width and height in metres."""
-        return self.squares_x * self.square_length_m, self.squares_y * self.square_length_m
+        """Board width and height in metres (a marker grid: outer marker edge to outer marker edge)."""
+        gap = self.square_length_m - self.marker_length_m if self.kind == "aruco_grid" else 0.0
+        return self.squares_x * self.square_length_m - gap, self.squares_y * self.square_length_m - gap
 
     def corners_target(self) -> np.ndarray:
-        """Inner corners in the target frame, metres, in ChArUco id order.
+        """Corners in the target frame, metres, in id order.
 
         Returns
         -------
         p_target : array, shape (n_corners, 3)
-            Corner ``k = r (squares_x - 1) + c`` at ``((c + 1) L, (r + 1) L, 0)``.
+            ChArUco and checkerboard: inner corner ``k = r (squares_x - 1) + c`` at ``((c + 1) L, (r + 1) L, 0)``.
+            Marker grid: corner ``k = 4 i + j`` of marker ``i = r squares_x + c`` at ``(c L, r L, 0)`` plus
+            ``(0, 0), (m, 0), (m, m), (0, m)`` for ``j = 0..3`` (OpenCV's top-left, clockwise), ``L`` the pitch,
+            ``m`` the marker side.
         """
-        r, c = np.divmod(np.arange(self.n_corners), self.squares_x - 1)
         L = self.square_length_m
+        if self.kind == "aruco_grid":
+            i, j = np.divmod(np.arange(self.n_corners), 4)
+            r, c = np.divmod(i, self.squares_x)
+            m = self.marker_length_m
+            off = np.array([[0.0, 0.0], [m, 0.0], [m, m], [0.0, m]])[j]
+            return np.column_stack([c * L + off[:, 0], r * L + off[:, 1], np.zeros(self.n_corners)])
+        r, c = np.divmod(np.arange(self.n_corners), self.squares_x - 1)
         return np.column_stack([(c + 1) * L, (r + 1) * L, np.zeros(self.n_corners)])
 
     def cv_board(self):
-        """The OpenCV ``cv2.aruco.CharucoBoard``."""
+        """The OpenCV board: ``cv2.aruco.CharucoBoard`` or ``cv2.aruco.GridBoard``.
+
+        Raises
+        ------
+        BoardSpecError
+            For a checkerboard, which has no OpenCV board object.
+        """
+        if self.kind == "checkerboard":
+            raise BoardSpecError("a checkerboard has no OpenCV aruco board")
         d = cv2.aruco.getPredefinedDictionary(dictionary_id(self.dictionary))
-        return cv2.aruco.CharucoBoard(
-            (int(self.squares_x), int(self.squares_y)), float(self.square_length_m), float(self.marker_length_m), d
-        )
+        size = (int(self.squares_x), int(self.squares_y))
+        if self.kind == "aruco_grid":
+            gap = float(self.square_length_m - self.marker_length_m)
+            return cv2.aruco.GridBoard(size, float(self.marker_length_m), gap, d)
+        board = cv2.aruco.CharucoBoard(size, float(self.square_length_m), float(self.marker_length_m), d)
+        board.setLegacyPattern(bool(self.legacy))
+        return board
 
     def render(self, pixels_per_metre: float, margin_px: int = 0) -> np.ndarray:
         """Image of the board, one pixel per ``1 / pixels_per_metre`` metres.
@@ -128,10 +217,19 @@ class BoardSpec:
         -------
         image : array of uint8, shape (H, W)
             The board's top-left corner (target origin) is at pixel ``(margin_px, margin_px)``.
-            Each square is a whole number of pixels, :meth:`pixels_per_square` (rounded from
-            ``square_length_m * pixels_per_metre``), so the drawing is exact.
+            Each square (marker pitch) is a whole number of pixels, :meth:`pixels_per_square` (rounded from
+            ``square_length_m * pixels_per_metre``), so the drawing is exact; a marker grid's markers are
+            ``round(marker_length_m / square_length_m * pixels_per_square)`` pixels.
         """
         n = self.pixels_per_square(pixels_per_metre)
+        if self.kind == "checkerboard":
+            from classic.vision.checkerboard import render_checkerboard
+
+            return render_checkerboard(self.squares_x, self.squares_y, n, int(margin_px))
+        if self.kind == "aruco_grid":
+            from classic.vision.aruco_grid import render_grid
+
+            return render_grid(self, n, int(margin_px))
         w = self.squares_x * n + 2 * margin_px
         h = self.squares_y * n + 2 * margin_px
         return self.cv_board().generateImage((w, h), marginSize=int(margin_px), borderBits=1)
@@ -142,15 +240,17 @@ class BoardSpec:
 
     def to_dict(self) -> dict:
         """JSON-serialisable dictionary."""
-        return asdict(self)
+        out = asdict(self)
+        out["legacy"] = bool(out["legacy"])
+        return out
 
     def save(self, path: str | Path) -> None:
         """Write the spec as JSON."""
-        Path(path).write_text(json.dumps({"type": "charuco", **self.to_dict()}, indent=2) + "\n")
+        Path(path).write_text(json.dumps({"type": self.kind, **self.to_dict()}, indent=2) + "\n")
 
     @classmethod
     def load(cls, path: str | Path) -> "BoardSpec":
-        """Read a spec written by :meth:`save`.
+        """Read a spec written by :meth:`save` (a file without ``kind`` is a ChArUco board).
 
         Raises
         ------
@@ -164,12 +264,22 @@ class BoardSpec:
             raise BoardSpecError(f"{path}: no such board file") from None
         except json.JSONDecodeError as exc:
             raise BoardSpecError(f"{path}: not valid JSON ({exc})") from None
-        fields = ("squares_x", "squares_y", "square_length_m", "marker_length_m", "dictionary")
+        if not isinstance(doc, dict):
+            raise BoardSpecError(f"{path}: not a board spec (a JSON object is needed)")
+        kind = str(doc.get("kind", doc.get("type", "charuco"))).lower().replace("-", "_")
+        fields = ["squares_x", "squares_y", "square_length_m"]
+        if kind != "checkerboard":
+            fields += ["marker_length_m", "dictionary"]
         missing = [f for f in fields if f not in doc]
         if missing:
             raise BoardSpecError(f"{path}: missing {', '.join(missing)}")
+        legacy = doc.get("legacy", False)
+        if not isinstance(legacy, bool):
+            raise BoardSpecError(f"{path}: legacy must be true or false, got {legacy!r}")
         try:
             return cls(int(doc["squares_x"]), int(doc["squares_y"]), float(doc["square_length_m"]),
-                       float(doc["marker_length_m"]), str(doc["dictionary"]))
+                       float(doc.get("marker_length_m", 0.0)), str(doc.get("dictionary", "")), kind, legacy)
         except BoardSpecError as exc:
             raise BoardSpecError(f"{path}: {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise BoardSpecError(f"{path}: not a valid board spec ({exc})") from None

@@ -11,7 +11,8 @@ from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
 from handeye.core.se3 import make_transform, so3_exp
 
-__all__ = ["Detection", "ViewPose", "POSE_LIMITS", "detect_board", "estimate_pose", "project_points"]
+__all__ = ["Detection", "ViewPose", "POSE_LIMITS", "corners_collinear", "detect_board", "estimate_pose",
+           "project_points"]
 
 #: Acceptance limits of a view's pose.
 POSE_LIMITS = {
@@ -24,7 +25,7 @@ POSE_LIMITS = {
 
 @dataclass
 class Detection:
-    """ChArUco corners found in one image.
+    """Board corners found in one image.
 
     Attributes
     ----------
@@ -33,7 +34,7 @@ class Detection:
     corners_px : array, shape (M, 2)
         Sub-pixel corner positions, pixel centres at integers.
     n_markers : int
-        ArUco markers of the board's dictionary found.
+        ArUco markers of the board's dictionary found (0 for a checkerboard).
     image_size : (int, int)
         ``(width, height)``.
     reason : str or None
@@ -73,7 +74,8 @@ class ViewPose:
 
 
 def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
-    """Detect ChArUco corners (OpenCV's ``CharucoDetector``, sub-pixel).
+    """Detect the board's corners, sub-pixel: ChArUco (``CharucoDetector``), checkerboard
+    (:mod:`classic.vision.checkerboard`) or marker grid (:mod:`classic.vision.aruco_grid`).
 
     Parameters
     ----------
@@ -83,10 +85,21 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
     Returns
     -------
     Detection
-        With ``reason`` set when the board is not found.
+        Corner ids as :meth:`BoardSpec.corners_target` numbers them, with ``reason`` set when the board is
+        not found.
     """
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     size = (int(gray.shape[1]), int(gray.shape[0]))
+    if spec.kind == "checkerboard":
+        from classic.vision.checkerboard import detect_checkerboard
+
+        ids, corners, reason = detect_checkerboard(gray, spec.squares_x, spec.squares_y)
+        return Detection(ids, corners, 0, size, reason)
+    if spec.kind == "aruco_grid":
+        from classic.vision.aruco_grid import detect_grid
+
+        ids, corners, n_markers, reason = detect_grid(gray, spec)
+        return Detection(ids, corners, n_markers, size, reason)
     detector = cv2.aruco.CharucoDetector(spec.cv_board())
     corners, ids, _, marker_ids = detector.detectBoard(gray)
     n_markers = 0 if marker_ids is None else len(marker_ids)
@@ -97,9 +110,34 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
         else:
             reason = (f"{n_markers} markers found but no ChArUco corner could be interpolated: too little of the board "
                       f"in view, or the spec does not match the board ({spec.squares_x}x{spec.squares_y} squares; "
-                      "swapped?)")
+                      f"swapped?{' legacy pattern?' if spec.squares_y % 2 == 0 else ''})")
         return Detection(np.zeros(0, int), np.zeros((0, 2)), n_markers, size, reason)
     return Detection(ids.ravel().astype(int), corners.reshape(-1, 2).astype(float), n_markers, size)
+
+
+def corners_collinear(spec: BoardSpec, ids: np.ndarray) -> bool:
+    """Whether the corners ``ids`` lie on one line of the board, which leaves a pose undetermined.
+
+    ChArUco: OpenCV's ``testCharucoCornersCollinear``; other kinds: the second singular value of the
+    centred target coordinates is below ``1e-9`` of the square length.
+
+    Parameters
+    ----------
+    spec : BoardSpec
+    ids : array of int, shape (M,)
+
+    Returns
+    -------
+    bool
+    """
+    ids = np.asarray(ids, dtype=int).ravel()
+    if spec.kind == "charuco":
+        return bool(cv2.aruco.testCharucoCornersCollinear(spec.cv_board(), ids.reshape(-1, 1).astype(np.int32)))
+    if len(ids) < 3:
+        return True
+    xy = spec.corners_target()[ids, :2]
+    s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    return bool(s[1] <= 1e-9 * spec.square_length_m)
 
 
 def project_points(p_target: np.ndarray, T_cam_target: np.ndarray, intr: CameraIntrinsics) -> np.ndarray:
@@ -146,7 +184,7 @@ def estimate_pose(det: Detection, spec: BoardSpec, intr: CameraIntrinsics, limit
         return ViewPose(None, np.nan, n, det.reason)
     if n < lim["min_corners"]:
         return ViewPose(None, np.nan, n, f"too few corners: {n} < {lim['min_corners']}")
-    if bool(cv2.aruco.testCharucoCornersCollinear(spec.cv_board(), det.ids.reshape(-1, 1).astype(np.int32))):
+    if corners_collinear(spec, det.ids):
         return ViewPose(None, np.nan, n, f"the {n} corners found are collinear: the pose is undetermined")
     obj = spec.corners_target()[det.ids]
     img = det.corners_px

@@ -9,7 +9,7 @@ import numpy as np
 
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
-from classic.vision.detect import POSE_LIMITS, Detection
+from classic.vision.detect import POSE_LIMITS, Detection, corners_collinear
 from handeye.core.errors import HandEyeInputError
 
 __all__ = ["IntrinsicsResult", "calibrate_intrinsics"]
@@ -69,15 +69,12 @@ def calibrate_intrinsics(detections: list[Detection], spec: BoardSpec, min_views
     HandEyeInputError
         Too few usable views, or images of different sizes.
     """
-    board = spec.cv_board()
     sizes = {d.image_size for d in detections}
     if len(sizes) > 1:
         raise HandEyeInputError(f"images of different sizes {sorted(sizes)}: one camera's intrinsics need one size")
     used, obj, img = [], [], []
     for k, d in enumerate(detections):
-        if d.reason is None and len(d.ids) >= POSE_LIMITS["min_corners"] and not bool(
-            cv2.aruco.testCharucoCornersCollinear(board, d.ids.reshape(-1, 1).astype(np.int32))
-        ):
+        if d.reason is None and len(d.ids) >= POSE_LIMITS["min_corners"] and not corners_collinear(spec, d.ids):
             used.append(k)
             obj.append(spec.corners_target()[d.ids].astype(np.float32))
             img.append(d.corners_px.astype(np.float32))

@@ -40,7 +40,7 @@ def pose_covariances(T_cam_target: np.ndarray, corner_ids: list, corners_px: lis
     corners_px : list of V arrays, shape (M_i, 2)
     spec : BoardSpec
     intrinsics : CameraIntrinsics
-        ``(k1, k2, p1, p2, k3)`` distortion at most.
+        Any of OpenCV's distortion models (4, 5, 8, 12 or 14 coefficients).
     pixel_sigma : float, optional
         Corner noise per axis, pixels; pooled from the views' reprojection residuals when omitted.
 
@@ -54,11 +54,8 @@ def pose_covariances(T_cam_target: np.ndarray, corner_ids: list, corners_px: lis
     T = np.asarray(T_cam_target, dtype=float).reshape(-1, 4, 4)
     if not (len(T) == len(corner_ids) == len(corners_px)):
         raise HandEyeInputError(f"{len(T)} poses, {len(corner_ids)} id lists and {len(corners_px)} corner lists")
-    dist = np.zeros(5)
     d = np.asarray(intrinsics.dist, dtype=float).ravel()
-    if np.any(d[5:]):
-        raise HandEyeInputError("pose covariances model (k1, k2, p1, p2, k3) distortion only")
-    dist[: min(5, d.size)] = d[:5]
+    dist = d if np.any(d[5:]) else np.pad(d[:5], (0, max(0, 5 - d.size)))  # full models go to cv2.projectPoints
     K = intrinsics.K
     corners = spec.corners_target()
     h = 1e-6

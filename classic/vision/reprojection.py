@@ -14,6 +14,12 @@ what they hold.
 Parametrisation as in :mod:`classic.refine`: ``R <- so3_exp(w) R``,
 ``t <- t + v`` for X then Y, then ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)``
 when the intrinsics are refined.
+
+Distortion models: with OpenCV's ``(k1, k2, p1, p2, k3)`` (or fewer) the projection is
+:func:`project`'s own and the Jacobian analytic. With OpenCV's full models (rational: 8 coefficients,
+thin prism: 12, tilted: 14; any nonzero beyond the fifth) the projection is ``cv2.projectPoints``'s and
+the Jacobian finite differences (scipy's "2-point"); the coefficients beyond the fifth are then held
+fixed, also with ``refine_intrinsics=True``, which refines ``fx, fy, cx, cy, k1, k2, p1, p2, k3`` only.
 """
 
 from __future__ import annotations
@@ -69,21 +75,32 @@ class ReprojectionResult:
 
 
 def project(p_cam: np.ndarray, fx: float, fy: float, cx: float, cy: float, dist: np.ndarray) -> np.ndarray:
-    """OpenCV's pinhole projection with ``(k1, k2, p1, p2, k3)`` distortion.
+    """OpenCV's pinhole projection with its distortion.
+
+    ``(k1, k2, p1, p2, k3)`` (or fewer coefficients, or more with a zero tail) are projected here, in
+    closed form; a nonzero coefficient beyond the fifth (rational, thin prism, tilted models) hands the
+    projection to ``cv2.projectPoints``.
 
     Parameters
     ----------
     p_cam : array, shape (M, 3)
         Points in the camera frame, metres.
     fx, fy, cx, cy : float
-    dist : array, shape (5,)
+    dist : array, shape (4,), (5,), (8,), (12,) or (14,)
 
     Returns
     -------
     uv : array, shape (M, 2)
         Pixels, centres at integers.
     """
-    k1, k2, p1, p2, k3 = dist
+    dist = np.asarray(dist, dtype=float).ravel()
+    if np.any(dist[5:]):
+        import cv2
+
+        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        uv, _ = cv2.projectPoints(np.asarray(p_cam, dtype=float).reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
+        return uv.reshape(-1, 2)
+    k1, k2, p1, p2, k3 = np.pad(dist[:5], (0, max(0, 5 - dist.size)))
     x = p_cam[:, 0] / p_cam[:, 2]
     y = p_cam[:, 1] / p_cam[:, 2]
     r2 = x * x + y * y
@@ -190,7 +207,7 @@ def refine_reprojection(
         Initial camera and target poses, e.g. from :func:`classic.calibrate` on the PnP poses.
     setup : {"eye_to_hand", "eye_in_hand"}
     refine_intrinsics : bool
-        Also refine ``fx, fy, cx, cy`` and the five distortion coefficients.
+        Also refine ``fx, fy, cx, cy`` and the first five distortion coefficients (further ones stay fixed).
     loss : {"linear", "huber", "cauchy", "soft_l1"}
         scipy's loss on each pixel residual.
     loss_scale_px : float
@@ -219,9 +236,8 @@ def refine_reprojection(
     uv = np.concatenate([np.asarray(c, dtype=float).reshape(-1, 2) for c in corners_px])
     A = robot_side_poses(np.asarray(T_base_ee, dtype=float), setup)
     K0 = intrinsics.K
-    if np.any(intrinsics.dist[5:]):
-        raise HandEyeInputError("the reprojection refinement models (k1, k2, p1, p2, k3) distortion only; "
-                                f"got {intrinsics.dist.size} nonzero-tailed coefficients")
+    full_model = bool(np.any(intrinsics.dist[5:]))  # rational / thin prism / tilted: cv2.projectPoints, 2-point
+    tail = intrinsics.dist[5:] if full_model else np.zeros(0)
     d0 = np.zeros(5)
     d0[: min(5, intrinsics.dist.size)] = intrinsics.dist[:5]
     intr0 = np.array([K0[0, 0], K0[1, 1], K0[0, 2], K0[1, 2], *d0[:5]])
@@ -237,15 +253,15 @@ def refine_reprojection(
         T_cam_target = invert_transform(X) @ A @ Y  # (V, 4, 4)
         R, t = T_cam_target[view, :3, :3], T_cam_target[view, :3, 3]
         p_cam = np.einsum("mab,mb->ma", R, p_target) + t
-        return (project(p_cam, *intr[:4], intr[4:9]) - uv).ravel()
+        return (project(p_cam, *intr[:4], np.concatenate([intr[4:9], tail])) - uv).ravel()
 
     def jacobian(params):
         X, Y, intr = unpack(params)
         return _reprojection_jacobian(A[view], X, Y, p_target, intr, refine_intrinsics)
 
     n_params = 12 + (9 if refine_intrinsics else 0)
-    fit = fit_least_squares(residuals, jacobian, n_params, loss=loss, loss_scale=loss_scale_px,
-                            max_evaluations=200, tol=1e-12)
+    fit = fit_least_squares(residuals, "2-point" if full_model else jacobian, n_params, loss=loss,
+                            loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12)
     X, Y, intr = unpack(fit.x)
     r = fit.residuals.reshape(-1, 2)
     sq = np.sum(r**2, axis=1)
@@ -263,6 +279,6 @@ def refine_reprojection(
     sigma = sigma_of_blocks(cov)
     K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
     return ReprojectionResult(
-        X, Y, CameraIntrinsics(K, intr[4:9], intrinsics.width, intrinsics.height),
+        X, Y, CameraIntrinsics(K, np.concatenate([intr[4:9], tail]), intrinsics.width, intrinsics.height),
         float(np.sqrt(np.mean(sq))), per_view, outliers, cov, sigma,
     )

@@ -82,6 +82,11 @@ def render_view(
     depth = (T_cam_target @ np.column_stack([spec.corners_target(), np.ones(spec.n_corners)]).T)[2]
     nearest = depth[depth > 0].min() if np.any(depth > 0) else 1.0
     ppm = min(2.0 * s * intr.K[0, 0] / max(nearest, 0.05), 8000.0 / max(spec.size_m))
+    if spec.kind == "aruco_grid":  # a pitch whose markers are whole pixels too, so the texture's scale is exact
+        n0 = spec.pixels_per_square(ppm)
+        ratio = spec.marker_length_m / spec.square_length_m
+        n = next((n for n in range(n0, n0 + 1000) if abs(n * ratio - round(n * ratio)) < 1e-6), n0)
+        ppm = n / spec.square_length_m
     margin = 2
     tex = spec.render(ppm, margin_px=margin)
     ppm_x = (tex.shape[1] - 2 * margin) / spec.size_m[0]

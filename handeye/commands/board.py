@@ -1,10 +1,16 @@
-"""``handeye board``: a printable ChArUco board and its spec.
+"""``handeye board``: a printable board (ChArUco, checkerboard or ArUco/AprilTag grid) and its spec.
 
 Example
 -------
 ::
 
     handeye board --squares 7x5 --square 0.04 --marker 0.03 --dict 5X5_100 --dpi 300 -o board.png
+    handeye board --kind checkerboard --squares 10x7 --square 0.025 -o checker.png
+    handeye board --kind aruco-grid --squares 5x4 --square 0.05 --marker 0.04 --dictionary APRILTAG_36h11 -o grid.png
+    handeye board --legacy --squares 6x6 --square 0.04 --marker 0.03 -o legacy.png
+
+For ``aruco-grid``, ``--squares`` counts markers and ``--square`` is the marker pitch (marker plus gap).
+A checkerboard needs one even and one odd square count (its corner order is otherwise ambiguous).
 
 writes ``board.png`` (print it at 100 % scale, at the given dpi) and
 ``board.json`` (the spec every other command reads). Measure a printed square
@@ -26,10 +32,15 @@ def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
     p = sub.add_parser("board", help="write a printable ChArUco board (PNG) and its spec (JSON)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--squares", default="7x5", help="squares along x and y, e.g. 7x5")
-    p.add_argument("--square", type=float, default=0.04, help="square side in metres")
+    p.add_argument("--kind", default="charuco", choices=["charuco", "checkerboard", "aruco-grid"],
+                   help="board kind (default charuco)")
+    p.add_argument("--legacy", action="store_true", help="ChArUco: OpenCV's legacy pattern (setLegacyPattern)")
+    p.add_argument("--squares", default="7x5", help="squares (aruco-grid: markers) along x and y, e.g. 7x5")
+    p.add_argument("--square", type=float, default=0.04, help="square side (aruco-grid: marker pitch) in metres")
     p.add_argument("--marker", type=float, default=0.03, help="marker side in metres")
-    p.add_argument("--dict", default="5X5_100", help="ArUco dictionary, e.g. 5X5_100, 4X4_50, 6X6_250")
+    p.add_argument("--dict", "--dictionary", dest="dict", default=None,
+                   help="ArUco or AprilTag dictionary, e.g. 5X5_100, 4X4_50, APRILTAG_36h11 (default 5X5_100; "
+                        "APRILTAG_36h11 for aruco-grid)")
     p.add_argument("--dpi", type=float, default=300.0, help="printer resolution")
     p.add_argument("--margin", type=float, default=0.01, help="white margin around the board, metres")
     p.add_argument("-o", "--output", type=Path, default=Path("board.png"), help="PNG path; the spec goes beside it")
@@ -47,7 +58,12 @@ def run(args: argparse.Namespace) -> int:
         sx, sy = (int(v) for v in args.squares.lower().split("x"))
     except ValueError:
         raise BoardSpecError(f"--squares {args.squares!r}: expected COLUMNSxROWS, e.g. 7x5") from None
-    spec = BoardSpec(sx, sy, args.square, args.marker, args.dict)
+    kind = args.kind.replace("-", "_")
+    if kind == "checkerboard":
+        spec = BoardSpec.checkerboard(sx, sy, args.square)
+    else:
+        dictionary = args.dict or ("APRILTAG_36h11" if kind == "aruco_grid" else "5X5_100")
+        spec = BoardSpec(sx, sy, args.square, args.marker, dictionary, kind=kind, legacy=bool(args.legacy))
     ppm = args.dpi / INCH_M
     image = spec.render(ppm, margin_px=int(round(args.margin * ppm)))
     if not cv2.imwrite(str(args.output), image):
@@ -60,8 +76,10 @@ def run(args: argparse.Namespace) -> int:
     json_path = args.output.with_suffix(".json")
     spec.save(json_path)
     w_m, h_m = spec.size_m
-    print(f"board {sx}x{sy} squares of {1000 * args.square:.1f} mm, markers {1000 * args.marker:.1f} mm, "
-          f"dictionary {spec.dictionary}: {1000 * w_m:.0f} x {1000 * h_m:.0f} mm, {spec.n_corners} corners")
+    what = f"{spec.kind}{' (legacy)' if spec.legacy else ''} board {sx}x{sy} squares of {1000 * args.square:.1f} mm"
+    if spec.kind != "checkerboard":
+        what += f", markers {1000 * args.marker:.1f} mm, dictionary {spec.dictionary}"
+    print(f"{what}: {1000 * w_m:.0f} x {1000 * h_m:.0f} mm, {spec.n_corners} corners")
     print(f"  written: {args.output} ({image.shape[1]}x{image.shape[0]} px at {args.dpi:g} dpi; print at 100 %)")
     print(f"  written: {json_path}")
     return 0

@@ -42,21 +42,21 @@ def compare_table(pc: dict, hybrid=None) -> str:
     With ``hybrid`` (a :class:`handeye.markerless.MarkerlessRun` of the same cameras), a column of the
     learned start refined on the robot's surface, against the truth.
     """
-    head = "| camera | subset | learned vs classic (mm / deg) | learned vs truth |"
-    rule = "|---|---|---|---|"
-    if hybrid is not None:
-        head, rule = head + " hybrid vs truth |", rule + "---|"
-    lines = [head + " classic vs truth |", rule + "---|"]
+    from handeye.core.tables import markdown_table
+
+    headers = ["camera", "subset", "learned vs classic (mm / deg)", "learned vs truth"]
+    headers += ["hybrid vs truth"] if hybrid is not None else []
+    rows = []
     for i, c in enumerate(pc["camera"]):
-        row = (f"| {c} | S{pc['region'][i] + 1} | {pc['learned_vs_label_mm'][i]:.2f} / "
-               f"{pc['learned_vs_label_deg'][i]:.2f} | {pc['learned_vs_truth_mm'][i]:.2f} / "
-               f"{pc['learned_vs_truth_deg'][i]:.2f} |")
+        row = [c, f"S{pc['region'][i] + 1}",
+               f"{pc['learned_vs_label_mm'][i]:.2f} / {pc['learned_vs_label_deg'][i]:.2f}",
+               f"{pc['learned_vs_truth_mm'][i]:.2f} / {pc['learned_vs_truth_deg'][i]:.2f}"]
         if hybrid is not None:
             res, err = hybrid.results.get(c), hybrid.errors.get(c)
-            row += (f" {err[1]:.3f} / {err[0]:.4f} |" if err else
-                    f" refused ({res.refused.split(':')[0]}) |" if res is not None and not res.ok else " - |")
-        lines.append(row + f" {pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f} |")
-    return "\n".join(lines)
+            row.append(f"{err[1]:.3f} / {err[0]:.4f}" if err else
+                       f"refused ({res.refused.split(':')[0]})" if res is not None and not res.ok else "-")
+        rows.append(row + [f"{pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f}"])
+    return "\n".join(markdown_table(headers + ["classic vs truth"], rows))
 
 
 def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
@@ -67,11 +67,11 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     from classic.keypoint_pose import solve_keypoint_pose
     from handeye.core.metrics import pose_error
     from handeye.core.se3 import transform_from_pos_quat_xyzw
+    from handeye.core.tables import markdown_table
     from learned.keypoints import backproject_keypoints
     from learned.trainer import predict
 
-    lines = ["| camera | keypoint solve vs truth (mm / deg) | sigma (mm / deg) | keypoints agreeing |",
-             "|---|---|---|---|"]
+    rows = []
     for c in cameras:
         idx = np.flatnonzero(frames.camera == c)
         pred = predict(model, frames, idx)
@@ -80,14 +80,16 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
         res = solve_keypoint_pose(p_cam, frames.keypoints_base[idx].reshape(-1, 3), np.repeat(np.arange(len(idx)), k),
                                   inlier_m=0.1)
         if not res.ok:
-            lines.append(f"| {c} | refused: {res.refused} | - | - |")
+            rows.append([c, f"refused: {res.refused}", "-", "-"])
             continue
         truth = transform_from_pos_quat_xyzw(frames.truth_t_base_cam_mm[idx[0]] / 1000.0,
                                              frames.truth_q_base_cam_xyzw[idx[0]])
         deg, mm = pose_error(res.T_base_cam, truth)
-        lines.append(f"| {c} | {mm:.1f} / {deg:.2f} | {res.sigma['translation_mm']:.1f} / "
-                     f"{res.sigma['rotation_deg']:.2f} | {int(res.inliers.sum())} of {len(res.inliers)} |")
-    return "\n".join(lines)
+        rows.append([c, f"{mm:.1f} / {deg:.2f}",
+                     f"{res.sigma['translation_mm']:.1f} / {res.sigma['rotation_deg']:.2f}",
+                     f"{int(res.inliers.sum())} of {len(res.inliers)}"])
+    return "\n".join(markdown_table(["camera", "keypoint solve vs truth (mm / deg)", "sigma (mm / deg)",
+                                      "keypoints agreeing"], rows))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -17,7 +17,9 @@ with its tool, colour and depth; what the learned model trains on).
 
 A shard is complete when its ``manifest.json`` exists and every file it lists
 has the listed size; a shard is written into ``cam_XXXX.partial`` and renamed
-once complete, so a crash never leaves a shard that looks complete. Reading is
+once complete, so a crash never leaves a shard that looks complete. One writer
+does this, for the simulator and for real recordings alike:
+:class:`handeye.core.shard_writer.ShardWriter`. Reading is
 lazy (tables on first use, images on request) and validated, with errors
 (:class:`handeye.core.errors.DatasetError`) that name the file, row and column.
 
@@ -25,7 +27,9 @@ Filling it from a real robot: write ``meta.json`` (intrinsics from ``handeye
 intrinsics``, the board, ``depth.scale_m`` of your sensor), one ``cameras.csv``
 row per camera placement (truth columns empty), and per placement a shard with
 the calibration images and flange poses and the data images with joint angles,
-``T_base_ee`` and ``T_base_ref``; then run ``handeye label``.
+``T_base_ee`` and ``T_base_ref``, written with
+:class:`~handeye.core.shard_writer.ShardWriter` (an example in its module);
+then run ``handeye label``.
 """
 
 from __future__ import annotations

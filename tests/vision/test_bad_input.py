@@ -150,11 +150,12 @@ def test_refinement_with_no_views_raises_input_error():
         refine_reprojection(np.zeros((0, 4, 4)), [], [], SPEC, INTR, np.eye(4), np.eye(4))
 
 
-def test_refinement_refuses_distortion_it_does_not_model(small_problem):
+def test_refinement_takes_opencvs_full_distortion_models(small_problem):
+    # issue 12: rational (8) coefficients are projected by OpenCV, the tail held fixed (no longer refused)
     p, ids, uv = small_problem
     eight = CameraIntrinsics(INTR.K, np.r_[INTR.dist, 0.01, 0.0, 0.0], INTR.width, INTR.height)
-    with pytest.raises(HandEyeInputError, match="k1, k2, p1, p2, k3"):
-        refine_reprojection(p.T_base_ee, ids, uv, SPEC, eight, p.X_true, p.Y_true)
+    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, eight, p.X_true, p.Y_true, refine_intrinsics=True)
+    np.testing.assert_array_equal(res.intrinsics.dist[5:], eight.dist[5:])
     # eight coefficients whose tail is zero are the five-coefficient model
     zero_tail = CameraIntrinsics(INTR.K, np.r_[INTR.dist, 0.0, 0.0, 0.0], INTR.width, INTR.height)
     res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, zero_tail, p.X_true, p.Y_true)

@@ -1,0 +1,65 @@
+"""run_pool: results on one and on two processes, a worker's failure raised with its task named."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from handeye.core.pool import run_pool
+
+
+def _square(x):
+    return x * x
+
+
+def _pid(_):
+    return os.getpid()
+
+
+def _fail_on_three(x):
+    if x == 3:
+        raise ValueError("three is not allowed")
+    return x
+
+
+def _describe(x):
+    return f"number {x}"
+
+
+_INITIALISED = []
+
+
+def _init(tag):
+    _INITIALISED.append(tag)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_results_in_order_and_as_completed(workers):
+    tasks = list(range(7))
+    assert list(run_pool(_square, tasks, workers, progress=False, ordered=True)) == [x * x for x in tasks]
+    assert sorted(run_pool(_square, tasks, workers, progress=True, desc="squares")) == [x * x for x in tasks]
+    assert list(run_pool(_square, [], workers, progress=False)) == []
+
+
+def test_one_worker_runs_here_unless_isolated():
+    assert set(run_pool(_pid, range(3), 1, progress=False)) == {os.getpid()}
+    assert os.getpid() not in set(run_pool(_pid, range(3), 1, progress=False, isolate=True))
+    _INITIALISED.clear()
+    list(run_pool(_square, [1], 1, progress=False, initializer=_init, initargs=("here",)))
+    assert _INITIALISED == ["here"]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failure_is_raised_with_its_task_named(workers):
+    with pytest.raises(ValueError, match="three is not allowed") as info:
+        list(run_pool(_fail_on_three, range(6), workers, progress=False, describe=_describe))
+    assert "while running task number 3" in info.value.__notes__
+    with pytest.raises(ValueError) as info:
+        list(run_pool(_fail_on_three, [3], workers, progress=False))
+    assert "while running task 3" in info.value.__notes__
+
+
+def test_workers_must_be_positive():
+    with pytest.raises(ValueError, match="workers must be >= 1"):
+        list(run_pool(_square, [1], 0, progress=False))
