@@ -9,8 +9,15 @@
 Each network (translation, orientation) decides novelty on its own (the
 paper's thresholds per network: mean error of a 10 % sample above 3 mm or 4
 degrees) and keeps its own buffer of ``c1`` samples per camera pose it trained
-on. The buffer holds the samples themselves (images, reference poses,
-targets), so the calibrator needs no dataset to keep learning after a restart.
+on. The buffer (:class:`learned.replay.ReplayBuffer` with ``keep_samples``) holds
+the samples themselves (images, reference poses, targets), so the calibrator
+needs no dataset to keep learning after a restart; each update is
+:func:`learned.continual_step.continual_step`, the code the experiment's
+strategies run, replaying the whole buffer with the new pose's frames.
+
+The networks live on :func:`learned.trainer.default_device` (CUDA when
+available, else the CPU), as the experiment's do; a saved state loads on any
+device.
 """
 
 from __future__ import annotations
@@ -20,19 +27,22 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
-from learned.data import FrameSet, concat
-from learned.experiment import Preset, average_quaternions, get_preset
+from learned.continual_step import ReplayRule, continual_step
+from learned.data import FrameSet
+from learned.experiment import average_quaternions
 from learned.model import KINDS, CalibrationNet, ModelConfig
-from learned.safe_io import arrays_to_tensors, load_document, save_document, tensors_to_arrays
-from learned.strategies import per_camera_sample, random_fraction, sample_error
-from learned.trainer import TrainConfig, predict, train
+from learned.presets import Preset, get_preset
+from learned.replay import ReplayBuffer
+from learned.safe_io import load_document, save_document
+from learned.trainer import TrainConfig, default_device, predict, train
 
 __all__ = ["ContinualCalibrator"]
 
-STATE_VERSION = 2  # tensors and JSON (learned.safe_io); version 1 was pickled
+STATE_VERSION = 3  # tensors and JSON (learned.safe_io), buffers of learned.replay; 2 had bare FrameSets, 1 was pickled
 
 
 class ContinualCalibrator:
@@ -41,19 +51,29 @@ class ContinualCalibrator:
     Parameters
     ----------
     preset : str or Preset
-        Resolution, network size, epochs, c1, c3 and thresholds (:data:`learned.experiment.PRESETS`).
+        Resolution, network size, epochs, c1, c3 and thresholds (:data:`learned.presets.PRESETS`).
     seed : int
     sample_fraction : float
         Share of a new camera pose's frames evaluated to decide its novelty.
+    device : str or torch.device, optional
+        Where the networks train and predict; :func:`learned.trainer.default_device` (CUDA when
+        available) by default.
     """
 
-    def __init__(self, preset: str | Preset = "cpu", seed: int = 0, sample_fraction: float = 0.1):
+    def __init__(self, preset: str | Preset = "cpu", seed: int = 0, sample_fraction: float = 0.1,
+                 device: str | torch.device | None = None):
         self.preset = get_preset(preset) if isinstance(preset, str) else preset
         self.sample_fraction = sample_fraction
+        self.device = default_device() if device is None else torch.device(device)
         self.rng = np.random.default_rng(seed)
         self.models: dict[str, CalibrationNet] = {}
-        self.memory: dict[str, FrameSet | None] = {k: None for k in KINDS}
+        self.buffers = {k: ReplayBuffer(self.preset.c1, keep_samples=True) for k in KINDS}
         self.history: list[dict] = []
+
+    @property
+    def memory(self) -> dict[str, FrameSet | None]:
+        """Per network, the samples its buffer holds (None before the first call)."""
+        return {k: b.frames() for k, b in self.buffers.items()}
 
     @property
     def threshold(self) -> dict:
@@ -65,16 +85,10 @@ class ContinualCalibrator:
                                     f"takes {self.preset.image_size[0]}x{self.preset.image_size[1]}: load them at "
                                     "that size")
 
-    def _store(self, kind: str, frames: FrameSet) -> None:
-        keep = per_camera_sample(np.arange(len(frames)), frames.camera, self.preset.c1, self.rng)
-        self.memory[kind] = concat([self.memory[kind], frames.subset(np.concatenate(list(keep.values())))])
-
-    def _train(self, kind: str, frames: FrameSet, first: bool) -> int:
-        current = random_fraction(np.arange(len(frames)), self.preset.c3, self.rng)
-        data = concat([frames.subset(current), self.memory[kind]])
+    def _train_fn(self, kind: str, first: bool):
         epochs = self.preset.first_epochs if first else self.preset.later_epochs
         cfg = TrainConfig(epochs, self.preset.batch_size, self.preset.learning_rate)
-        return train(self.models[kind], data, np.arange(len(data)), cfg, self.rng)
+        return lambda data, index: train(self.models[kind], data, index, cfg, self.rng)
 
     def observe(self, frames: FrameSet) -> dict:
         """Take a new camera pose's frames (targets: its classic label); learn from them if they are novel.
@@ -93,22 +107,17 @@ class ContinualCalibrator:
         if first:
             offset_mm = frames.t_base_cam_mm.mean(axis=0)
             for kind in KINDS:
-                self.models[kind] = CalibrationNet(self.preset.model_config(kind, offset_mm))
+                self.models[kind] = CalibrationNet(self.preset.model_config(kind, offset_mm)).to(self.device)
         elif len(np.unique(frames.camera)) != 1:
             raise HandEyeInputError("after the first call, observe one camera pose at a time "
                                     f"(got cameras {np.unique(frames.camera).tolist()})")
         entry = {"cameras": [int(c) for c in np.unique(frames.camera)], "first": first}
+        rule = ReplayRule(None, self.preset.c3, 1.0)  # every past pose, all its stored samples
         for kind in KINDS:
-            mean_error = None
-            novel = True
-            if not first:
-                mean_error, _ = sample_error(self.models[kind], frames, np.arange(len(frames)), self.sample_fraction,
-                                             self.rng)
-                novel = mean_error > self.threshold[kind]
-            processed = self._train(kind, frames, first) if novel else 0
-            if novel:
-                self._store(kind, frames)
-            entry[kind] = {"novel": bool(novel), "sample_error": mean_error, "processed": int(processed)}
+            out = continual_step(self.models[kind], frames, np.arange(len(frames)), self.buffers[kind], self.rng,
+                                 rule, self._train_fn(kind, first), None if first else self.threshold[kind],
+                                 self.sample_fraction)
+            entry[kind] = {"novel": bool(out.novel), "sample_error": out.sample_error, "processed": out.processed}
         self.history.append(entry)
         return entry
 
@@ -147,26 +156,23 @@ class ContinualCalibrator:
         return make_transform(matrix_from_quat_xyzw(q_base_cam_xyzw), t_base_cam_mm / 1000.0)
 
     def save(self, path: str | Path) -> None:
-        """Weights, configs, buffers, history and the random state, in one file."""
+        """Weights, configs, buffers, history and the random state, in one file (tensors and JSON)."""
         doc = {"preset": self.preset.to_dict(), "history": self.history, "sample_fraction": self.sample_fraction,
                "rng": json.dumps(self.rng.bit_generator.state),
-               "configs": {k: m.config.to_dict() for k, m in self.models.items()}, "memory_other": {}}
+               "configs": {k: m.config.to_dict() for k, m in self.models.items()}, "buffers": {}}
         for k, m in self.models.items():
-            doc[f"weights.{k}"] = dict(m.state_dict())
-        for k, f in self.memory.items():
-            if f is None:
-                doc["memory_other"][k] = None
-                continue
-            fields = asdict(f)
-            scalars = {"label_source": fields.pop("label_source"), "image_size": list(fields.pop("image_size"))}
-            tensors, other = arrays_to_tensors(fields)
-            doc[f"memory.{k}"] = tensors
-            doc["memory_other"][k] = {"scalars": scalars, "arrays": other}
+            doc[f"weights.{k}"] = {n: t.cpu() for n, t in m.state_dict().items()}
+        for k, b in self.buffers.items():
+            state = b.state_dict()
+            doc["buffers"][k] = state["meta"]
+            doc[f"buffer.{k}"] = state["tensors"]
         save_document(path, "calibrator", STATE_VERSION, doc)
 
     @classmethod
-    def load(cls, path: str | Path, preset: str | Preset | None = None) -> "ContinualCalibrator":
-        """Restore a saved calibrator; with ``preset``, refuse a state saved with another one."""
+    def load(cls, path: str | Path, preset: str | Preset | None = None,
+             device: str | torch.device | None = None) -> "ContinualCalibrator":
+        """Restore a saved calibrator (onto ``device``, the default device by default); with ``preset``,
+        refuse a state saved with another one."""
         path = Path(path)
         doc = load_document(path, "calibrator", STATE_VERSION)
         saved = Preset.from_dict(doc["preset"])
@@ -175,19 +181,13 @@ class ContinualCalibrator:
             if want != saved:
                 diff = [k for k in asdict(saved) if getattr(saved, k) != getattr(want, k)]
                 raise HandEyeInputError(f"{path}: saved with preset {saved.name} (differs in {', '.join(diff)})")
-        cal = cls(saved, sample_fraction=doc["sample_fraction"])
+        cal = cls(saved, sample_fraction=doc["sample_fraction"], device=device)
         cal.rng.bit_generator.state = json.loads(doc["rng"])
         cal.history = doc["history"]
         for k, config in doc["configs"].items():
             cal.models[k] = CalibrationNet(ModelConfig.from_dict(config))
             cal.models[k].load_state_dict(doc[f"weights.{k}"])
-            cal.models[k].eval()
-        cal.memory = {}
-        for k, other in doc["memory_other"].items():
-            if other is None:
-                cal.memory[k] = None
-                continue
-            arrays = tensors_to_arrays(doc[f"memory.{k}"], other["arrays"])
-            cal.memory[k] = FrameSet(**arrays, label_source=other["scalars"]["label_source"],
-                                     image_size=tuple(other["scalars"]["image_size"]))
+            cal.models[k].to(cal.device).eval()
+        for k, meta in doc["buffers"].items():
+            cal.buffers[k].load_state_dict({"meta": meta, "tensors": doc.get(f"buffer.{k}")})
         return cal

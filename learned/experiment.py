@@ -20,104 +20,17 @@ import numpy as np
 import torch
 
 from handeye.core.errors import HandEyeInputError
+from learned.checkpoint import CHECKPOINT_NAME, fingerprint, load_checkpoint, remove_checkpoint, save_checkpoint
 from learned.data import FrameSet, load_frames
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
 from learned.model import KINDS, CalibrationNet, ModelConfig, make_network
+from learned.presets import PRESETS, Preset, get_preset
 from learned.safe_io import load_document, save_document
 from learned.strategies import STRATEGIES, make_strategy
-from learned.trainer import TrainConfig, default_device, errors, predict
+from learned.trainer import default_device, errors, predict
 
-__all__ = ["Preset", "PRESETS", "FAMILIES", "run_experiment", "camera_predictions", "keypoint_camera_predictions",
-           "save_model", "load_model"]
-
-
-@dataclass(frozen=True)
-class Preset:
-    """Resolution, network size, epochs and strategy parameters of an experiment.
-
-    Attributes
-    ----------
-    name : str
-    image_size : (int, int)
-    channels, hidden : tuple of int
-        See :class:`learned.model.ModelConfig`.
-    first_epochs, later_epochs, batch_epochs : int
-        Epochs of the first time step, of each later one, and of the batch baseline.
-    batch_size : int
-    learning_rate : float
-    c1 : int
-    c2 : int or None
-    c3 : float
-    threshold_mm, threshold_deg : float
-        Novelty thresholds of camera-pose selection.
-    selection_replay : {"region", "all"}
-        What a novel pose's step replays (:class:`learned.strategies.Selection`).
-    keypoint_epochs : (int, int, int), optional
-        First, later and batch epochs of the keypoint model (it learns local features and costs
-        several times more per sample); the regression epochs when omitted.
-    repeats : int
-    """
-
-    name: str
-    image_size: tuple = (64, 64)
-    channels: tuple = (16, 32, 64, 64)
-    hidden: tuple = (256, 128)
-    first_epochs: int = 20
-    later_epochs: int = 10
-    batch_epochs: int = 20
-    batch_size: int = 32
-    learning_rate: float = 1e-3
-    c1: int = 4
-    c2: int | None = None
-    c3: float = 1.0
-    threshold_mm: float = 3.0
-    threshold_deg: float = 4.0
-    selection_replay: str = "region"
-    keypoint_epochs: tuple | None = None
-    repeats: int = 3
-
-    def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
-        if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
-            return ModelConfig(kind, tuple(self.image_size), (int(self.channels[0]),), (), n_keypoints=int(n_keypoints))
-        return ModelConfig(kind, tuple(self.image_size), tuple(self.channels), tuple(self.hidden),
-                           translation_offset_mm=tuple(float(v) for v in offset_mm))
-
-    def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
-        first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
-        if kind == "keypoints" and self.keypoint_epochs:
-            first_e, later_e, batch_e = self.keypoint_epochs
-        first = TrainConfig(batch_e if strategy == "batch" else first_e, self.batch_size, self.learning_rate)
-        return first, TrainConfig(later_e, self.batch_size, self.learning_rate)
-
-    def to_dict(self) -> dict:
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
-
-    @classmethod
-    def from_dict(cls, doc: dict) -> "Preset":
-        """Inverse of :meth:`to_dict`."""
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
-
-
-PRESETS = {
-    # a test: seconds per strategy on 2 cores
-    "tiny": Preset("tiny", (32, 32), (8, 16, 32), (64, 32), first_epochs=6, later_epochs=4, batch_epochs=6,
-                   batch_size=16, repeats=1),
-    # the README's demo: a small dataset, a minute or two on 2 cores
-    "demo": Preset("demo", (32, 32), (8, 16, 32), (64, 32), first_epochs=30, later_epochs=15, batch_epochs=30,
-                   batch_size=16, repeats=1),
-    # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
-    "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=30, later_epochs=15, batch_epochs=30,
-                  keypoint_epochs=(15, 8, 15), repeats=3),
-    # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
-    "paper": Preset("paper", (256, 256), (32, 64, 128, 128, 256, 256), (512, 256), first_epochs=50,
-                    later_epochs=25, batch_epochs=50, repeats=3),
-}
-
-
-def get_preset(name: str) -> Preset:
-    if name not in PRESETS:
-        raise HandEyeInputError(f"unknown learned preset {name!r}: use {', '.join(PRESETS)}")
-    return PRESETS[name]
+__all__ = ["Preset", "PRESETS", "get_preset", "FAMILIES", "run_experiment", "camera_predictions",
+           "keypoint_camera_predictions", "save_model", "load_model"]
 
 
 def time_steps(frames: FrameSet) -> list[list[int]]:
@@ -127,6 +40,11 @@ def time_steps(frames: FrameSet) -> list[list[int]]:
         cams = np.unique(frames.camera[(frames.region == r) & (frames.split == "train")])
         steps.append([int(c) for c in cams])
     return steps
+
+
+def _json_error(e):
+    """A subset error as a JSON value: a float, or ``[mm, deg]`` (the keypoint model)."""
+    return float(e) if np.ndim(e) == 0 else [float(v) for v in np.ravel(e)]
 
 
 def _subset_error(model: CalibrationNet, frames: FrameSet, region: int):
@@ -292,8 +210,14 @@ def _split_keypoint_record(rec: "RunRecord") -> list:
 
 def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", strategies=("batch", "naive",
                    "reservoir", "selection"), out: str | Path | None = None, labels: str = "classic", seed: int = 0,
-                   progress: bool = True, threads: int | None = None, family: str = "regression") -> dict:
+                   progress: bool = True, threads: int | None = None, family: str = "regression",
+                   resume: bool = True) -> dict:
     """Run the protocol; write ``results.json`` and the last repeat's networks under ``out``.
+
+    With ``out``, a checkpoint (:mod:`learned.checkpoint`) is written after every time step of every
+    strategy, network and repeat, and removed when ``results.json`` is written; a run killed at any
+    point and started again with the same arguments resumes from it and ends with the results an
+    uninterrupted run gives (same seed and threads; wall times aside).
 
     Parameters
     ----------
@@ -312,6 +236,9 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
         The paper's two networks (translation, orientation), or the equivariant keypoint model
         (:mod:`learned.keypoints`; the frames must carry ``keypoints_base``). The keypoint model is one
         network whose poses give both the translation and the orientation rows of every table.
+    resume : bool
+        Resume from ``<out>/checkpoint.pt`` when there is one (one of another run is refused);
+        ``False`` discards it and starts over.
 
     Returns
     -------
@@ -335,41 +262,67 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
     test_cams = [int(c) for c in frames.cameras("test")]
     # the translation network's output offset: the first time step's mean camera position (known at step 1)
     offset_mm = frames.t_base_cam_mm[np.isin(frames.camera, steps[0])].mean(axis=0)
-    records, validation = [], {}
     out = Path(out) if out is not None else None
     kinds = KINDS if family == "regression" else ("keypoints",)
     n_keypoints = frames.keypoints_base.shape[1]
     if family == "keypoints" and n_keypoints < 3:
         raise HandEyeInputError("the keypoint model needs the keypoints' base-frame positions in the frames "
                                 "(learned.data.with_keypoints; 'handeye learned run --family keypoints' fills them)")
-    for si, name in enumerate(strategies):
-        for ki, kind in enumerate(kinds):
-            for rep in range(preset.repeats):
-                t0 = time.perf_counter()
-                rng = np.random.default_rng([seed, rep, si, ki])
-                first, later = preset.train_configs(name, kind)
-                strat = make_strategy(name, preset.model_config(kind, offset_mm, n_keypoints), first, later, rng,
-                                      progress,
-                                      c1=preset.c1, c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
-                                      threshold_deg=preset.threshold_deg, replay_share=preset.selection_replay)
-                rec = RunRecord(name, kind, rep)
-                for k, cams in enumerate(steps):
-                    strat.step(k, cams, frames, last=k == len(steps) - 1)
-                    trained = name != "batch" or k == len(steps) - 1
-                    rec.matrix.append([_subset_error(strat.model, frames, r) if trained else float("nan")
-                                       for r in regions])
-                    if progress:
-                        row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
-                        print(f"{name:9s} {kind:11s} repeat {rep + 1} step {k + 1}: {row}", file=sys.stderr)
-                rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
-                rec.skipped = list(strat.skipped)
-                rec.wall_s = time.perf_counter() - t0
-                records += _split_keypoint_record(rec) if kind == "keypoints" else [rec]
-                if rep == preset.repeats - 1:
-                    validation.setdefault(name, {})[kind] = strat.model
-                    if out is not None:
-                        save_model(strat.model, out / name / f"{kind}.pt",
-                                   {"preset": preset.name, "labels": labels, "seed": seed})
+    run = fingerprint(preset=preset.to_dict(), strategies=strategies, labels=labels, seed=seed, family=family,
+                      steps=steps, frames=len(frames), test_cameras=test_cams)
+    state = None
+    if out is not None:
+        if not resume:
+            remove_checkpoint(out)
+        state = load_checkpoint(out, run)
+    if state is not None and progress:
+        print(f"resuming from {out / CHECKPOINT_NAME}: {len(state['records'])} runs done", file=sys.stderr)
+    if state is None:
+        torch.manual_seed(seed)  # the first network's initial weights; torch seeds itself at random otherwise
+    units = [(si, name, ki, kind, rep) for si, name in enumerate(strategies) for ki, kind in enumerate(kinds)
+             for rep in range(preset.repeats)]
+    records = [RunRecord(**r) for r in state["records"]] if state else []
+    validation = {}
+    for u, (si, name, ki, kind, rep) in enumerate(units):
+        if rep == preset.repeats - 1 and state and u < state["unit"]:  # finished before: its network is on disk
+            validation.setdefault(name, {})[kind] = load_model(out / name / f"{kind}.pt").to(default_device())
+        if state and u < state["unit"]:
+            continue
+        if state and u == state["unit"]:  # as it was when the checkpoint was written (loading networks drew)
+            torch.set_rng_state(state["torch_rng"])
+        rng = np.random.default_rng([seed, rep, si, ki])
+        first, later = preset.train_configs(name, kind)
+        strat = make_strategy(name, preset.model_config(kind, offset_mm, n_keypoints), first, later, rng, progress,
+                              c1=preset.c1, c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
+                              threshold_deg=preset.threshold_deg, replay_share=preset.selection_replay)
+        rec, start = RunRecord(name, kind, rep), 0
+        if state and u == state["unit"] and state.get("strategy"):
+            strat.load_state_dict(state["strategy"])
+            torch.set_rng_state(state["torch_rng"])
+            rec, start = RunRecord(**state["partial"]), state["step"]
+        t0, spent = time.perf_counter(), rec.wall_s
+        for k in range(start, len(steps)):
+            strat.step(k, steps[k], frames, last=k == len(steps) - 1)
+            trained = name != "batch" or k == len(steps) - 1
+            rec.matrix.append([_json_error(_subset_error(strat.model, frames, r)) if trained else float("nan")
+                               for r in regions])
+            rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
+            rec.skipped, rec.wall_s = list(strat.skipped), spent + time.perf_counter() - t0
+            if progress:
+                row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
+                print(f"{name:9s} {kind:11s} repeat {rep + 1} step {k + 1}: {row}", file=sys.stderr)
+            if k < len(steps) - 1:
+                if out is not None:
+                    save_checkpoint(out, run, u, k + 1, [asdict(r) for r in records], asdict(rec), strat.state_dict())
+                continue
+            records += _split_keypoint_record(rec) if kind == "keypoints" else [rec]
+            if rep == preset.repeats - 1:
+                validation.setdefault(name, {})[kind] = strat.model
+                if out is not None:
+                    save_model(strat.model, out / name / f"{kind}.pt",
+                               {"preset": preset.name, "labels": labels, "seed": seed})
+            if out is not None:
+                save_checkpoint(out, run, u + 1, 0, [asdict(r) for r in records])
     per_camera, inference = {}, {}
     test_idx = np.flatnonzero(frames.split == "test")
     for name, m in validation.items():
@@ -403,4 +356,5 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "results.json").write_text(json.dumps(results, indent=1))
+        remove_checkpoint(out)
     return results

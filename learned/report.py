@@ -12,12 +12,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from handeye.core.errors import HandEyeInputError
+from handeye.core.jsonfile import read_json_file
 from handeye.core.tables import markdown_table, write_csv
 
 __all__ = ["load_results", "write_report", "findings"]
@@ -26,11 +26,14 @@ UNIT = {"translation": "mm", "orientation": "deg"}
 
 
 def load_results(run_dir: str | Path) -> dict:
-    """``results.json`` of a run directory, with a clear error when it is missing."""
+    """``results.json`` of a run directory, with a clear error when it is missing or not a results file."""
     path = Path(run_dir) / "results.json"
-    if not path.is_file():
+    if not path.exists():
         raise HandEyeInputError(f"{path}: missing; run 'handeye learned run ... --out {run_dir}' first")
-    return json.loads(path.read_text())
+    doc = read_json_file(path, HandEyeInputError, "run results file")
+    if not isinstance(doc, dict) or "runs" not in doc:
+        raise HandEyeInputError(f"{path}: not the results of 'handeye learned run' (no 'runs')")
+    return doc
 
 
 def _runs(results: dict, strategy: str, network: str) -> list[dict]:

@@ -24,50 +24,29 @@ the generator it is given.
   claim that selection processes less data implies. Replaying the whole buffer
   at every pose (``replay_share="all"``, this project's first version) made a
   region of 14 poses cost about five reservoir steps.
+
+The buffer is :class:`learned.replay.ReplayBuffer` (frame indices) and each step of reservoir and
+selection is :func:`learned.continual_step.continual_step`, the same code the online
+:class:`learned.calibrator.ContinualCalibrator` runs. Its draws take the new data's ``c3`` share
+before the replay's; this project's first selection drew the replay first, which only matters for
+``c3 < 1`` (no preset): the same seed then picks other, equally distributed, samples.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from learned.continual_step import ReplayRule, continual_step, sample_error
 from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig, make_network
-from learned.trainer import TrainConfig, default_device, errors, train
+from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
+from learned.trainer import TrainConfig, default_device, train
 
 __all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy", "random_fraction",
            "per_camera_sample", "sample_error"]
-
-
-def random_fraction(index: np.ndarray, fraction: float, rng: np.random.Generator) -> np.ndarray:
-    """A random share of ``index`` (at least one), sorted; all of it for ``fraction >= 1`` (no draw)."""
-    index = np.asarray(index)
-    if fraction >= 1.0:
-        return index
-    return np.sort(rng.choice(index, max(1, int(round(fraction * len(index)))), replace=False))
-
-
-def per_camera_sample(index: np.ndarray, camera: np.ndarray, c1: int, rng: np.random.Generator) -> dict:
-    """Class balance: up to ``c1`` random entries of ``index`` per camera pose (``camera[index]``), sorted."""
-    index = np.asarray(index)
-    out = {}
-    for c in np.unique(camera[index]):
-        idx = index[camera[index] == c]
-        out[int(c)] = np.sort(rng.choice(idx, min(c1, len(idx)), replace=False))
-    return out
-
-
-def sample_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, fraction: float,
-                 rng: np.random.Generator):
-    """Algorithm 2's novelty measure: mean error of a random ``fraction`` of ``index``, and the sample's size.
-
-    The mean is mm or deg (a float) for the paper's networks, and ``(mm, deg)`` (an array) for the
-    keypoint model, whose one network gives both.
-    """
-    sample = random_fraction(index, fraction, rng)
-    e = errors(model, frames, sample)
-    return (float(np.mean(e)) if e.ndim == 1 else e.mean(axis=0)), len(sample)
 
 
 @dataclass
@@ -83,8 +62,8 @@ class Strategy:
         Training of each later time step.
     rng : numpy.random.Generator
     model : CalibrationNet
-    buffer : dict
-        Camera id to stored frame indices.
+    buffer : ReplayBuffer
+        Camera id to stored frame indices (:mod:`learned.replay`; empty for batch and naive).
     processed : int
         Samples processed by training (epochs times training-set sizes).
     evaluated : int
@@ -101,7 +80,7 @@ class Strategy:
     rng: np.random.Generator
     progress: bool = False
     model: CalibrationNet = field(init=False)
-    buffer: dict = field(init=False, default_factory=dict)
+    buffer: ReplayBuffer = field(init=False)
     processed: int = field(init=False, default=0)
     evaluated: int = field(init=False, default=0)
     skipped: list = field(init=False, default_factory=list)
@@ -110,19 +89,46 @@ class Strategy:
 
     def __post_init__(self):
         self.model = make_network(self.config).to(default_device())
+        self.buffer = ReplayBuffer(getattr(self, "c1", 0))
 
     @property
     def stored(self) -> int:
         """Samples held in the buffer."""
-        return int(sum(len(v) for v in self.buffer.values()))
+        return self.buffer.size
+
+    #: Attributes beyond the model, buffer and generator that a checkpoint keeps (JSON values).
+    _counters = ("processed", "evaluated", "skipped", "trained_on")
+
+    def state_dict(self) -> dict:
+        """Everything a resumed run needs between time steps: weights, buffer, generator, counters.
+
+        Values are tensors, flat dicts of tensors or JSON values (:mod:`learned.safe_io`). Training
+        makes a fresh optimiser per call (:func:`learned.trainer.train`), so between steps there is no
+        optimiser state to keep.
+        """
+        buffer = self.buffer.state_dict()
+        return {"weights": dict(self.model.state_dict()), "buffer_tensors": buffer["tensors"],
+                "buffer": buffer["meta"], "rng": json.dumps(self.rng.bit_generator.state),
+                "counters": {k: getattr(self, k) for k in self._counters}}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Inverse of :meth:`state_dict`."""
+        self.model.load_state_dict(state["weights"])
+        self.model.eval()
+        self.buffer.load_state_dict({"meta": state["buffer"], "tensors": state.get("buffer_tensors")})
+        self.rng.bit_generator.state = json.loads(state["rng"])
+        for k, v in state["counters"].items():
+            setattr(self, k, v)
 
     def _frames_of(self, frames: FrameSet, cameras) -> np.ndarray:
         return np.flatnonzero(np.isin(frames.camera, list(cameras)) & (frames.split == "train"))
 
-    def _train(self, frames: FrameSet, index: np.ndarray, step: int) -> None:
+    def _train(self, frames: FrameSet, index: np.ndarray, step: int) -> int:
         cfg = self.first if step == 0 else self.later
-        self.processed += train(self.model, frames, index, cfg, self.rng, self.progress,
-                                desc=f"{self.name} {self.config.kind} step {step + 1}")
+        n = train(self.model, frames, index, cfg, self.rng, self.progress,
+                  desc=f"{self.name} {self.config.kind} step {step + 1}")
+        self.processed += n
+        return n
 
     def step(self, step: int, cameras: list, frames: FrameSet, last: bool) -> None:
         """Train for one time step (the training camera poses of one region)."""
@@ -135,6 +141,7 @@ class Batch(Strategy):
 
     seen: list = field(init=False, default_factory=list)
     name = "batch"
+    _counters = Strategy._counters + ("seen",)
 
     def step(self, step, cameras, frames, last):
         self.seen += list(cameras)
@@ -167,22 +174,15 @@ class Reservoir(Strategy):
     c3: float = 1.0
     name = "reservoir"
 
-    def _replay(self) -> np.ndarray:
-        past = list(self.buffer)
-        if self.c2 is not None and len(past) > self.c2:
-            past = list(self.rng.choice(past, self.c2, replace=False))
-        return np.concatenate([self.buffer[c] for c in past]) if past else np.zeros(0, int)
+    def _rule(self, share: float = 1.0) -> ReplayRule:
+        return ReplayRule(self.c2, self.c3, share)
 
-    def _current(self, frames, cameras) -> np.ndarray:
-        return random_fraction(self._frames_of(frames, cameras), self.c3, self.rng)
-
-    def _store(self, frames, cameras) -> None:
-        self.buffer.update(per_camera_sample(self._frames_of(frames, cameras), frames.camera, self.c1, self.rng))
+    def _train_fn(self, step: int):
+        return lambda data, index: self._train(data, index, step)
 
     def step(self, step, cameras, frames, last):
-        index = np.concatenate([self._current(frames, cameras), self._replay()])
-        self._train(frames, index, step)
-        self._store(frames, cameras)
+        continual_step(self.model, frames, self._frames_of(frames, cameras), self.buffer, self.rng, self._rule(),
+                       self._train_fn(step))
         self.trained_on.append(list(cameras))
 
 
@@ -215,19 +215,13 @@ class Selection(Reservoir):
     def step(self, step, cameras, frames, last):
         if step == 0:
             return super().step(step, cameras, frames, last)
+        share = 1.0 / len(cameras) if self.replay_share == "region" else 1.0
         novel = []
         for c in cameras:
-            is_novel, _ = self.is_novel(frames, c)
-            if not is_novel:
-                self.skipped.append(int(c))
-                continue
-            replay = self._replay()
-            if self.replay_share == "region" and len(replay):
-                replay = random_fraction(replay, max(1.0 / len(cameras), self.c1 / len(replay)), self.rng)
-            index = np.concatenate([self._current(frames, [c]), replay])
-            self._train(frames, index, step)
-            self._store(frames, [c])
-            novel.append(int(c))
+            outcome = continual_step(self.model, frames, self._frames_of(frames, [c]), self.buffer, self.rng,
+                                     self._rule(share), self._train_fn(step), self.threshold, self.sample_fraction)
+            self.evaluated += outcome.evaluated
+            (novel if outcome.novel else self.skipped).append(int(c))
         self.trained_on.append(novel)
 
 

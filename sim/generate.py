@@ -36,6 +36,7 @@ from handeye.core.dataset import (
     write_table,
 )
 from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.jsonfile import read_json_file
 from handeye.core.pool import run_pool
 from handeye.core.se3 import invert_transform
 from handeye.core.shard_writer import ShardWriter
@@ -310,10 +311,10 @@ def _describe(args) -> str:
 def _check_or_write_meta(out: Path, meta: dict) -> None:
     path = out / "meta.json"
     if path.exists():
-        try:
-            old = json.loads(path.read_text())
-        except json.JSONDecodeError as exc:
-            raise DatasetError(f"{path}: not valid JSON ({exc}); remove it or choose another --out") from None
+        old = read_json_file(path, DatasetError, "dataset meta file (remove it or choose another --out)")
+        if not isinstance(old, dict):
+            raise DatasetError(f"{path}: not a dataset meta file (a JSON object is needed); remove it or choose "
+                               "another --out")
         if old.get("recipe") != meta["recipe"] or old.get("recordings") != meta["recordings"]:
             recipe = old.get("recipe", {})
             differ = [k for k in meta["recipe"] if recipe.get(k) != meta["recipe"][k]]
@@ -367,6 +368,11 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
     if workers < 1:
         raise HandEyeInputError(f"workers must be >= 1, got {workers}")
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise DatasetError(f"{out}: exists and is not a directory; choose another --out")
+    blocking = next((p for p in out.parents if p.exists()), None)
+    if blocking is not None and not blocking.is_dir():
+        raise DatasetError(f"{out}: cannot be created, {blocking} is a file; choose another --out")
     out.mkdir(parents=True, exist_ok=True)
     with dataset_lock(out, "handeye sim generate"):
         meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m)

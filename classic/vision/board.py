@@ -258,12 +258,9 @@ class BoardSpec:
             Naming the file, if it is missing, not JSON, or not a valid spec.
         """
         path = Path(path)
-        try:
-            doc = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise BoardSpecError(f"{path}: no such board file") from None
-        except json.JSONDecodeError as exc:
-            raise BoardSpecError(f"{path}: not valid JSON ({exc})") from None
+        from handeye.core.jsonfile import read_json_file
+
+        doc = read_json_file(path, BoardSpecError, "board file")
         if not isinstance(doc, dict):
             raise BoardSpecError(f"{path}: not a board spec (a JSON object is needed)")
         kind = str(doc.get("kind", doc.get("type", "charuco"))).lower().replace("-", "_")

@@ -84,8 +84,11 @@ class CameraIntrinsics:
             from classic.vision.camera_yaml import load_intrinsics_yaml
 
             return load_intrinsics_yaml(path)
+        from handeye.core.jsonfile import read_json_file
+
+        doc = read_json_file(path, IntrinsicsError, "intrinsics file")
         try:
-            return cls.from_dict(json.loads(path.read_text()))
+            return cls.from_dict(doc)
         except FileNotFoundError:
             raise IntrinsicsError(f"{path}: no such intrinsics file") from None
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:

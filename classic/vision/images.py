@@ -37,7 +37,11 @@ def read_image(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise ImageError(f"{path}: no such image")
-    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    try:  # bytes decoded in memory: cv2.imread crashes on a file name that is not UTF-8
+        data = np.fromfile(path, dtype=np.uint8)
+    except OSError as exc:
+        raise ImageError(f"{path}: cannot read the image ({exc.strerror or exc})") from None
+    image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
     if image is None:
         raise ImageError(f"{path}: not a readable image (PNG, JPEG, BMP or TIFF expected)")
     return image

@@ -117,9 +117,11 @@ class Views:
         DetectionsFileError
             Naming the file.
         """
+        from handeye.core.jsonfile import read_json_file
+
         path = Path(path)
+        doc = read_json_file(path, DetectionsFileError, "detections file")
         try:
-            doc = json.loads(path.read_text())
             spec = BoardSpec(**doc["board"])
             intr = CameraIntrinsics.from_dict(doc["intrinsics"])
             views = []
@@ -168,12 +170,14 @@ def detect_folder(folder: str | Path, spec: BoardSpec, intrinsics: CameraIntrins
     folder = Path(folder)
     files = list_images(folder)
     detections = []
-    for k, f in enumerate(files):
+    try:
+        for k, f in enumerate(files):
+            if progress:
+                print(f"\rdetect [{k + 1}/{len(files)}] {f.name}", end="", file=sys.stderr, flush=True)
+            detections.append(detect_board(read_image(f), spec))
+    finally:  # end the progress line, also before an error's message
         if progress:
-            print(f"\rdetect [{k + 1}/{len(files)}] {f.name}", end="", file=sys.stderr, flush=True)
-        detections.append(detect_board(read_image(f), spec))
-    if progress:
-        print(file=sys.stderr)
+            print(file=sys.stderr)
     sizes = {d.image_size for d in detections}
     if len(sizes) > 1:
         raise HandEyeInputError(f"{folder}: images of different sizes {sorted(sizes)}; one camera per folder")

@@ -66,8 +66,20 @@ def run(args: argparse.Namespace) -> int:
         spec = BoardSpec(sx, sy, args.square, args.marker, dictionary, kind=kind, legacy=bool(args.legacy))
     ppm = args.dpi / INCH_M
     image = spec.render(ppm, margin_px=int(round(args.margin * ppm)))
-    if not cv2.imwrite(str(args.output), image):
-        raise BoardSpecError(f"{args.output}: could not write the image (folder missing? .png suffix?)")
+    try:  # encoded in memory: cv2.imwrite crashes on a file name that is not UTF-8
+        ok, png = cv2.imencode(args.output.suffix or ".png", image)
+    except cv2.error:
+        ok = False
+    if not ok:
+        raise BoardSpecError(f"{args.output}: cannot encode an image with suffix {args.output.suffix!r}; use .png")
+    if not args.output.parent.is_dir():
+        raise BoardSpecError(f"{args.output}: the folder {args.output.parent} does not exist")
+    if args.output.is_dir():
+        raise BoardSpecError(f"{args.output}: is a directory; give a .png file name")
+    try:
+        args.output.write_bytes(png.tobytes())
+    except OSError as exc:
+        raise BoardSpecError(f"{args.output}: cannot write the image ({exc.strerror or exc})") from None
     printed_square_m = spec.pixels_per_square(ppm) / ppm
     if abs(printed_square_m - spec.square_length_m) > 0.001 * spec.square_length_m:
         print(f"warning: at {args.dpi:g} dpi a square is {spec.pixels_per_square(ppm)} px = "

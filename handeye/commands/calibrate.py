@@ -101,7 +101,12 @@ def _truth_lines(path: Path | None, named: tuple) -> list[str]:
 
     if path is None:
         return []
-    truth = json.loads(path.read_text())
+    from handeye.core.errors import TruthFileError
+    from handeye.core.jsonfile import read_json_file
+
+    truth = read_json_file(path, TruthFileError, "truth file (JSON of 4x4 poses by frame name)")
+    if not isinstance(truth, dict):
+        raise TruthFileError(f"{path}: not a truth file (a JSON object of 4x4 poses by frame name is needed)")
     lines = []
     for name, T in named:
         if name in truth:

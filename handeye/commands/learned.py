@@ -11,6 +11,10 @@ Example
 time steps (one region each), evaluates every test subset after each step,
 and writes ``results.json`` and the networks (``<out>/<strategy>/*.pt``);
 ``report`` writes the tables (``report.md``, CSV) and figures (PNG).
+``run`` keeps ``<out>/checkpoint.pt`` after every time step: a run that was
+killed resumes when started again with the same arguments and ``--out``, and
+ends with the results of an uninterrupted run; ``--fresh`` discards the
+checkpoint and starts over.
 Presets: ``tiny`` (tests), ``demo``, ``cpu`` (the paper-sim protocol at reduced
 resolution on a CPU), ``paper`` (the paper's scale, for a GPU).
 """
@@ -42,6 +46,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     r.add_argument("--quiet", action="store_true")
+    r.add_argument("--fresh", action="store_true",
+                   help="discard <out>/checkpoint.pt of an earlier, unfinished run instead of resuming it")
     r.set_defaults(run=run_run)
     rep = lsub.add_parser("report", help="tables (markdown, CSV) and figures (PNG) of a run")
     rep.add_argument("run_dir", type=Path)
@@ -54,7 +60,8 @@ def run_run(args: argparse.Namespace) -> int:
     from handeye.core.optional import require_package
 
     require_package("torch", extra="learned", purpose="the learned calibration")
-    from learned.experiment import get_preset, run_experiment
+    from learned.experiment import run_experiment
+    from learned.presets import get_preset
     from learned.report import findings
 
     data = args.data
@@ -66,7 +73,7 @@ def run_run(args: argparse.Namespace) -> int:
                                     progress=not args.quiet)
     results = run_experiment(data, args.preset, [s.strip() for s in args.strategies.split(",")], args.out,
                              args.labels, args.seed, progress=not args.quiet, threads=args.threads,
-                             family=args.family)
+                             family=args.family, resume=not args.fresh)
     for line in findings(results):
         print(line)
     print(f"written: {args.out / 'results.json'}; next: handeye learned report {args.out}")

@@ -148,7 +148,8 @@ def _write_csv(path: Path, planned, command: str) -> None:
                   plan.sigma_rotation_deg[k + 1], plan.sigma_translation_mm[k + 1], plan.sigma_workspace_mm[k + 1],
                   gain[k]]
         lines.append(",".join([str(k + 1)] + [f"{v:.12g}" for v in values]))
-    path.write_text("\n".join(lines) + "\n")
+    # a file name that is not UTF-8 lands in the comment escaped, not as a crash after the file was opened
+    path.write_text("\n".join(lines) + "\n", errors="backslashreplace")
 
 
 def run(args: argparse.Namespace) -> int:

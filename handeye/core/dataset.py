@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import DatasetError
+from handeye.core.jsonfile import read_json_file
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = [
@@ -140,10 +141,15 @@ def _parse(value: str, column: str, path: Path, row: int):
     if value == "":
         return None if column in _INT_COLUMNS else np.nan
     try:
-        return int(value) if column in _INT_COLUMNS else float(value)
+        number = int(value) if column in _INT_COLUMNS else float(value)
     except ValueError:
         kind = "an integer" if column in _INT_COLUMNS else "a number"
         raise DatasetError(f"{path}: row {row} column {column}: {value!r} is not {kind}") from None
+    # write_table writes an unknown value as an empty cell, never nan or inf
+    if isinstance(number, float) and not np.isfinite(number):
+        raise DatasetError(f"{path}: row {row} column {column}: {value!r} is not finite (an unknown value is an "
+                           f"empty cell)")
+    return number
 
 
 def read_table(path: str | Path, required: list[str]) -> dict:
@@ -170,7 +176,7 @@ def read_table(path: str | Path, required: list[str]) -> dict:
     try:
         with path.open(newline="") as f:
             rows = list(csv.reader(f))
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # csv.Error: a NUL byte, a field over the size limit
         raise DatasetError(f"{path}: cannot read the table ({exc})") from None
     if not rows:
         raise DatasetError(f"{path}: empty table (no header)")
@@ -372,10 +378,7 @@ class Dataset:
         path = root / "meta.json"
         if not path.is_file():
             raise DatasetError(f"{path}: missing; not a handeye dataset (generate one with 'handeye sim generate')")
-        try:
-            meta = json.loads(path.read_text())
-        except json.JSONDecodeError as exc:
-            raise DatasetError(f"{path}: not valid JSON ({exc})") from None
+        meta = read_json_file(path, DatasetError, "dataset meta file")
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             found = meta.get("format") if isinstance(meta, dict) else None
             raise DatasetError(f"{path}: not a {FORMAT} meta file (format {found!r})")
@@ -443,6 +446,11 @@ class Dataset:
                 raise DatasetError(f"{path}: recording {bad[0]!r} is not one of {RECORDINGS}")
             for name in ("T_base_ee", "T_base_ref"):
                 columns_to_poses(table, name, str(path))
+            for r, cells in enumerate(zip(table["rgb"], table["depth"]), start=2):
+                for column, rel in zip(("rgb", "depth"), cells):
+                    if rel and (Path(rel).is_absolute() or ".." in Path(rel).parts):
+                        raise DatasetError(f"{path}: row {r} column {column}: image path {rel!r} leaves the shard "
+                                           f"{shard}")
             self._frames[camera_id] = table
         return self._frames[camera_id]
 

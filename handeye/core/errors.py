@@ -69,6 +69,10 @@ class PoseFileError(HandEyeInputError):
     """A pose file cannot be read; the message names the file and row."""
 
 
+class TruthFileError(HandEyeInputError):
+    """A truth file (JSON of true poses by frame name) cannot be read; the message names the file."""
+
+
 class DatasetError(HandEyeInputError):
     """A dataset directory is incomplete or corrupt; the message names the file (and row)."""
 

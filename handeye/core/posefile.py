@@ -155,7 +155,10 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
     col = {h: k for k, h in enumerate(header)}
     raw, kinds = {}, {}
     rows = [ln for ln, _ in lines[1:]]
-    table = list(csv.reader([text for _, text in lines[1:]]))
+    try:
+        table = list(csv.reader([text for _, text in lines[1:]]))
+    except csv.Error as exc:  # a field over the csv module's size limit
+        raise PoseFileError(f"{path}: not a CSV pose file ({exc})") from None
     if "image" in col:
         raw["image"] = [row[col["image"]].strip() if len(row) > col["image"] else "" for row in table]
     for name in names:
@@ -193,6 +196,10 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
                     raise PoseFileError(
                         f"{path}, line {line_no}, column {cname}: {row[col[cname]]!r} is not a number"
                     ) from None
+                if not np.isfinite(values[r, c]):
+                    raise PoseFileError(
+                        f"{path}, line {line_no}, column {cname}: {row[col[cname]].strip()!r} is not a finite number"
+                    )
         raw[name] = values
         kinds[name] = kind
     return raw, rows, kinds
@@ -238,6 +245,13 @@ def _to_transforms(values: np.ndarray, kind: str, quat_order: str, scale: float,
 def _pose_from_json(entry, quat_order: str, scale: float, where: str) -> np.ndarray:
     if not isinstance(entry, dict):
         raise PoseFileError(f"{where}: expected an object with 'matrix' or 'translation' + 'quaternion'/'rotvec'")
+    for key in ("matrix", "translation", "quaternion", "rotvec"):
+        try:
+            finite = key not in entry or np.isfinite(np.asarray(entry[key], dtype=float)).all()
+        except (TypeError, ValueError):
+            continue  # not numbers: reported below with the shape or the value
+        if not finite:
+            raise PoseFileError(f"{where}: '{key}' {entry[key]} holds NaN or infinity")
     try:
         if "matrix" in entry:
             T = np.asarray(entry["matrix"], dtype=float)
@@ -399,9 +413,14 @@ def read_robot_poses(path: str | Path, quat_order: str | None = None, units: str
     """
     path = Path(path)
     _check_file(path)
+    if path.suffix.lower() == ".json" and quat_order is None:  # the file's own order, as read_pose_file reads it
+        try:
+            quat_order = json.loads(_read_text(path)).get("quaternion_order")
+        except (json.JSONDecodeError, AttributeError):
+            quat_order = None
     order = quat_order or "xyzw"
     if order not in QUAT_ORDERS:
-        raise PoseFileError(f"quaternion order {order!r} not understood; use one of {QUAT_ORDERS}")
+        raise PoseFileError(f"{path}: quaternion order {order!r} not understood; use one of {QUAT_ORDERS}")
     names = ("T_base_ee",)
     out, rows, _ = _parse(path, {n: order for n in names}, units, names)
     return RobotPoses(out["T_base_ee"], out.get("image"), str(path), rows)
@@ -425,5 +444,5 @@ def write_pose_csv(path: str | Path, T_base_ee: np.ndarray, T_cam_target: np.nda
     t1, q1 = pos_quat_xyzw_from_transform(T_base_ee)
     t2, q2 = pos_quat_xyzw_from_transform(T_cam_target)
     for row in np.concatenate([t1, q1, t2, q2], axis=1):
-        lines.append(",".join(f"{v:.12g}" for v in row))
+        lines.append(",".join(f"{v:.17g}" for v in row))  # 17 digits: a float64 reads back exactly
     Path(path).write_text("\n".join(lines) + "\n")

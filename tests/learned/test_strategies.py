@@ -7,7 +7,8 @@ import pytest
 
 pytest.importorskip("torch")
 
-from learned.experiment import Preset, time_steps  # noqa: E402
+from learned.experiment import time_steps  # noqa: E402
+from learned.presets import Preset  # noqa: E402
 from learned.strategies import make_strategy  # noqa: E402
 from learned.trainer import TrainConfig  # noqa: E402
 from tests.learned._synthetic import make_frames  # noqa: E402

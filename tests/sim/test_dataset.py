@@ -158,9 +158,11 @@ def test_an_image_path_leaving_the_shard_is_refused(small_copy):
     manifest = json.loads((shard / "manifest.json").read_text())
     write_manifest(shard, 1, manifest["frames"])  # the manifest now agrees with the edited table
     ds = Dataset.open(small_copy)
-    rel = ds.frames(1)["rgb"][0]
+    # refused where the table is read, naming the row and column, and again where an image is opened
+    with pytest.raises(DatasetError, match=r"row 2 column rgb: .* leaves the shard"):
+        ds.frames(1)
     with pytest.raises(DatasetError, match="leaves the shard"):
-        ds.rgb(1, rel)
+        ds.rgb(1, row[header.index("rgb")])
     with pytest.raises(DatasetError, match="leaves the shard"):
         ds.validate(images=True)
     with pytest.raises(DatasetError, match="leaves the shard"):

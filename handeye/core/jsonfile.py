@@ -1,0 +1,53 @@
+"""Read a user's JSON file, every way it can be unreadable reported as one named error naming the file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+__all__ = ["MAX_JSON_BYTES", "read_json_file"]
+
+#: A JSON file larger than this is refused before it is read (specs, detections and metadata take kilobytes).
+MAX_JSON_BYTES = 64 * 1024 * 1024
+
+
+def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON file"):
+    """The parsed document of ``path``, or ``error`` (a :class:`HandEyeInputError` subclass) naming the file.
+
+    Parameters
+    ----------
+    path : str or Path
+    error : type
+        The exception raised, e.g. :class:`handeye.core.errors.DatasetError`.
+    what : str
+        What the file should be, for the message ("board file", "detections file").
+
+    Raises
+    ------
+    error
+        A directory, no such file, over :data:`MAX_JSON_BYTES`, unreadable, not UTF-8, not JSON.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise error(f"{path}: is a directory, not a {what}")
+    if not path.exists():
+        raise error(f"{path}: no such {what}")
+    if not path.is_file():
+        raise error(f"{path}: not a regular file, not a {what}")
+    size = path.stat().st_size
+    if size > MAX_JSON_BYTES:
+        raise error(f"{path}: {size:,} bytes, too large for a {what} (at most {MAX_JSON_BYTES:,})")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not UTF-8 text (byte {exc.start}), not a {what}") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise error(f"{path}: not valid JSON ({exc}), not a {what}") from None
+    except RecursionError:
+        raise error(f"{path}: JSON nested too deeply, not a {what}") from None

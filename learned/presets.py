@@ -1,0 +1,106 @@
+"""Experiment presets: resolution, network size, epochs and strategy parameters, by name.
+
+A configuration module: :mod:`learned.experiment` (the protocol), :mod:`learned.calibrator` and the
+command line read their presets from here. ``from learned.experiment import Preset, PRESETS`` still
+works (re-exported there for compatibility).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from handeye.core.errors import HandEyeInputError
+from learned.model import ModelConfig
+from learned.trainer import TrainConfig
+
+__all__ = ["Preset", "PRESETS", "get_preset"]
+
+
+@dataclass(frozen=True)
+class Preset:
+    """Resolution, network size, epochs and strategy parameters of an experiment.
+
+    Attributes
+    ----------
+    name : str
+    image_size : (int, int)
+    channels, hidden : tuple of int
+        See :class:`learned.model.ModelConfig`.
+    first_epochs, later_epochs, batch_epochs : int
+        Epochs of the first time step, of each later one, and of the batch baseline.
+    batch_size : int
+    learning_rate : float
+    c1 : int
+    c2 : int or None
+    c3 : float
+    threshold_mm, threshold_deg : float
+        Novelty thresholds of camera-pose selection.
+    selection_replay : {"region", "all"}
+        What a novel pose's step replays (:class:`learned.strategies.Selection`).
+    keypoint_epochs : (int, int, int), optional
+        First, later and batch epochs of the keypoint model (it learns local features and costs
+        several times more per sample); the regression epochs when omitted.
+    repeats : int
+    """
+
+    name: str
+    image_size: tuple = (64, 64)
+    channels: tuple = (16, 32, 64, 64)
+    hidden: tuple = (256, 128)
+    first_epochs: int = 20
+    later_epochs: int = 10
+    batch_epochs: int = 20
+    batch_size: int = 32
+    learning_rate: float = 1e-3
+    c1: int = 4
+    c2: int | None = None
+    c3: float = 1.0
+    threshold_mm: float = 3.0
+    threshold_deg: float = 4.0
+    selection_replay: str = "region"
+    keypoint_epochs: tuple | None = None
+    repeats: int = 3
+
+    def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
+        if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
+            return ModelConfig(kind, tuple(self.image_size), (int(self.channels[0]),), (), n_keypoints=int(n_keypoints))
+        return ModelConfig(kind, tuple(self.image_size), tuple(self.channels), tuple(self.hidden),
+                           translation_offset_mm=tuple(float(v) for v in offset_mm))
+
+    def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
+        first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
+        if kind == "keypoints" and self.keypoint_epochs:
+            first_e, later_e, batch_e = self.keypoint_epochs
+        first = TrainConfig(batch_e if strategy == "batch" else first_e, self.batch_size, self.learning_rate)
+        return first, TrainConfig(later_e, self.batch_size, self.learning_rate)
+
+    def to_dict(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "Preset":
+        """Inverse of :meth:`to_dict`."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+
+
+PRESETS = {
+    # a test: seconds per strategy on 2 cores
+    "tiny": Preset("tiny", (32, 32), (8, 16, 32), (64, 32), first_epochs=6, later_epochs=4, batch_epochs=6,
+                   batch_size=16, repeats=1),
+    # the README's demo: a small dataset, a minute or two on 2 cores
+    "demo": Preset("demo", (32, 32), (8, 16, 32), (64, 32), first_epochs=30, later_epochs=15, batch_epochs=30,
+                   batch_size=16, repeats=1),
+    # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
+    "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=30, later_epochs=15, batch_epochs=30,
+                  keypoint_epochs=(15, 8, 15), repeats=3),
+    # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
+    "paper": Preset("paper", (256, 256), (32, 64, 128, 128, 256, 256), (512, 256), first_epochs=50,
+                    later_epochs=25, batch_epochs=50, repeats=3),
+}
+
+
+def get_preset(name: str) -> Preset:
+    """The preset called ``name``; an unknown name is refused with the known ones."""
+    if name not in PRESETS:
+        raise HandEyeInputError(f"unknown learned preset {name!r}: use {', '.join(PRESETS)}")
+    return PRESETS[name]
