@@ -89,11 +89,20 @@ def cell_problem(kind: str, n: int, rng: np.random.Generator) -> dict:
         q_meas = q + rng.normal(scale=0.02 * DEG, size=q.shape)
         robot_cov = joint_noise_covariance(robot.pose_jacobians(q_meas), 0.02 * DEG)
         model = NoiseModel(0.05 * DEG, 0.5 * MM, robot_covariance=robot_cov, name="joints, given")
-        true_model = NoiseModel(0.05 * DEG, 0.5 * MM,
-                                robot_covariance=joint_noise_covariance(robot.pose_jacobians(q), 0.02 * DEG))
+        true_model = NoiseModel(
+            0.05 * DEG, 0.5 * MM, robot_covariance=joint_noise_covariance(robot.pose_jacobians(q), 0.02 * DEG)
+        )
         B = perturb_cov(B_true, rng, model.camera(n))
-        return dict(T_base_ee_true=T_base_ee, T_base_ee=robot.fk(q_meas), B=B, X=X, Y=Y, model=model,
-                    true_model=true_model, inliers=np.ones(n, bool))
+        return dict(
+            T_base_ee_true=T_base_ee,
+            T_base_ee=robot.fk(q_meas),
+            B=B,
+            X=X,
+            Y=Y,
+            model=model,
+            true_model=true_model,
+            inliers=np.ones(n, bool),
+        )
     p = make_problem(n, SETUP, rng)
     X, Y = p.X_true, p.Y_true
     if kind in ("isotropic", "outliers"):
@@ -114,8 +123,9 @@ def cell_problem(kind: str, n: int, rng: np.random.Generator) -> dict:
         shifts = rng.normal(size=(k, 3))
         shifts *= (rng.uniform(0.05, 0.3, k) / np.linalg.norm(shifts, axis=1))[:, None]
         B[idx] = make_transform(so3_exp(axes * rng.uniform(10, 90, k)[:, None] * DEG), shifts) @ B[idx]
-    return dict(T_base_ee_true=p.T_base_ee, T_base_ee=T_base_ee, B=B, X=X, Y=Y, model=model, true_model=model,
-                inliers=inliers)
+    return dict(
+        T_base_ee_true=p.T_base_ee, T_base_ee=T_base_ee, B=B, X=X, Y=Y, model=model, true_model=model, inliers=inliers
+    )
 
 
 def _opencv(method: str, T_base_ee: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -125,8 +135,9 @@ def _opencv(method: str, T_base_ee: np.ndarray, B: np.ndarray) -> np.ndarray:
         R, t = cv2.calibrateHandEye(*opencv_hand_eye_args(T_base_ee, B, SETUP), method=CV_AXXB[method])
     else:
         A = robot_side_poses(T_base_ee, SETUP)
-        _, _, R, t = cv2.calibrateRobotWorldHandEye([*A[:, :3, :3]], [*A[:, :3, 3:]], [*B[:, :3, :3]],
-                                                    [*B[:, :3, 3:]], method=CV_AXYB[method])
+        _, _, R, t = cv2.calibrateRobotWorldHandEye(
+            [*A[:, :3, :3]], [*A[:, :3, 3:]], [*B[:, :3, :3]], [*B[:, :3, 3:]], method=CV_AXYB[method]
+        )
     return make_transform(R, np.asarray(t).ravel())
 
 
@@ -169,8 +180,9 @@ def run_cell(kind: str, n: int, trials: int, seed: int) -> dict:
         A_true = robot_side_poses(prob["T_base_ee_true"][keep], SETUP)
         model = prob["true_model"]
         if model.robot_covariance is not None:
-            model = classic.NoiseModel(model.camera_rot_rad, model.camera_trans_m,
-                                       robot_covariance=model.robot_covariance[keep])
+            model = classic.NoiseModel(
+                model.camera_rot_rad, model.camera_trans_m, robot_covariance=model.robot_covariance[keep]
+            )
         C = cramer_rao_bound(A_true, prob["X"], prob["Y"], model, SETUP)
         crb.append([np.trace(C[0:3, 0:3]), np.trace(C[3:6, 3:6])])
         with warnings.catch_warnings():
@@ -184,9 +196,11 @@ def run_cell(kind: str, n: int, trials: int, seed: int) -> dict:
     out = {"bound": bound, "refused": refused}
     for name in NAMES:
         e = np.array(errs[name]).reshape(-1, 2)
-        out[name] = {"median": np.median(e, axis=0) if len(e) else np.full(2, np.nan),
-                     "rms": np.sqrt(np.mean(e**2, axis=0)) if len(e) else np.full(2, np.nan),
-                     "wrong": int(np.sum(np.any(e > WRONG_SIGMAS * bound, axis=1)))}
+        out[name] = {
+            "median": np.median(e, axis=0) if len(e) else np.full(2, np.nan),
+            "rms": np.sqrt(np.mean(e**2, axis=0)) if len(e) else np.full(2, np.nan),
+            "wrong": int(np.sum(np.any(e > WRONG_SIGMAS * bound, axis=1))),
+        }
     return out
 
 
@@ -204,8 +218,11 @@ def coverage_scale(trials: int, seed: int) -> dict:
         z.append((est["value"] - s) / est["sigma"])
         err.append(abs(est["value"] / s - 1))
     z = np.array(z)
-    return {"coverage": float(np.mean(np.abs(z) <= 1)), "median_rel_error": float(np.median(err)),
-            "rms_z": float(np.sqrt(np.mean(z**2)))}
+    return {
+        "coverage": float(np.mean(np.abs(z) <= 1)),
+        "median_rel_error": float(np.median(err)),
+        "rms_z": float(np.sqrt(np.mean(z**2))),
+    }
 
 
 def _trajectory(rng: np.random.Generator, duration_s: float, rate_hz: float):
@@ -234,8 +251,11 @@ def coverage_time_offset(trials: int, seed: int) -> dict:
         z.append((d["value_s"] - offset) / d["sigma_s"])
         err.append(abs(d["value_s"] - offset))
     z = np.array(z)
-    return {"coverage": float(np.mean(np.abs(z) <= 1)), "median_abs_error_ms": 1000 * float(np.median(err)),
-            "rms_z": float(np.sqrt(np.mean(z**2)))}
+    return {
+        "coverage": float(np.mean(np.abs(z) <= 1)),
+        "median_abs_error_ms": 1000 * float(np.median(err)),
+        "rms_z": float(np.sqrt(np.mean(z**2))),
+    }
 
 
 def _median_ms(fn, repeats: int) -> float:
@@ -251,8 +271,13 @@ def _median_ms(fn, repeats: int) -> float:
 def speed(repeats: int) -> list:
     rng = np.random.default_rng(7)
     p = make_problem(200, SETUP, rng, camera_noise=(0.1, 1.0), robot_noise=(0.01, 0.2))
-    rows = [("calibrate() default at 200 poses (checks, two closed forms, ML refinement, covariance)",
-             _median_ms(lambda: classic.calibrate(p.T_base_ee, p.T_cam_target, SETUP), repeats), None)]
+    rows = [
+        (
+            "calibrate() default at 200 poses (checks, two closed forms, ML refinement, covariance)",
+            _median_ms(lambda: classic.calibrate(p.T_base_ee, p.T_cam_target, SETUP), repeats),
+            None,
+        )
+    ]
     from handeye.core.conventions import opencv_hand_eye_args
 
     args = opencv_hand_eye_args(p.T_base_ee, p.T_cam_target, SETUP)
@@ -279,8 +304,12 @@ def main(argv=None) -> int:
     ap.add_argument("--speed-only", action="store_true", help="only the speed section (run it on a quiet machine)")
     ap.add_argument("--out", help="also write the report to this file")
     args = ap.parse_args(argv)
-    report = Report("Maximum-likelihood classic refinement: efficiency, OpenCV, scale and time offset",
-                    "benchmarks/classic_ml.py", argv, f"numpy {np.__version__}, opencv {cv2.__version__}")
+    report = Report(
+        "Maximum-likelihood classic refinement: efficiency, OpenCV, scale and time offset",
+        "benchmarks/classic_ml.py",
+        argv,
+        f"numpy {np.__version__}, opencv {cv2.__version__}",
+    )
     say = report.say
     if args.speed_only:
         _speed_table(say)
@@ -306,11 +335,15 @@ def main(argv=None) -> int:
             row.append(txt)
         say(f"| {name} | " + " | ".join(row) + " |")
     say()
-    say(f"## Efficiency: RMS error / Cramér–Rao bound (target <= 1.05); answers more than {WRONG_SIGMAS:g} "
-        "bound-sigmas off")
+    say(
+        f"## Efficiency: RMS error / Cramér–Rao bound (target <= 1.05); answers more than {WRONG_SIGMAS:g} "
+        "bound-sigmas off"
+    )
     say()
-    say("| cell | bound deg / mm | ML given: rot / trans | default (robust in the outlier cells): rot / trans | "
-        "refused (default, robust, ML) | wrong (default, robust, ML, shah+LM, best OpenCV) | ML target |")
+    say(
+        "| cell | bound deg / mm | ML given: rot / trans | default (robust in the outlier cells): rot / trans | "
+        "refused (default, robust, ML) | wrong (default, robust, ML, shah+LM, best OpenCV) | ML target |"
+    )
     say("|---|---|---|---|---|---|---|")
 
     def eff(x):
@@ -324,15 +357,19 @@ def main(argv=None) -> int:
         cv_wrong = min(r[f"opencv {m}"]["wrong"] for m in (*CV_AXXB, *CV_AXYB))
         ok = "met" if np.all(e_ml <= 1.05) else "missed"
         robust_cells = (f"{r['refused'][ROBUST]}", f"{r[ROBUST]['wrong']}") if c[0] == "outliers" else ("-", "-")
-        say(f"| {c[0]} {c[1]} | {_fmt(b)} | {eff(e_ml)} | {eff(ours['rms'] / b)} | "
+        say(
+            f"| {c[0]} {c[1]} | {_fmt(b)} | {eff(e_ml)} | {eff(ours['rms'] / b)} | "
             f"{r['refused'][DEFAULT]}, {robust_cells[0]}, {r['refused'][ML]} | {r[DEFAULT]['wrong']}, "
-            f"{robust_cells[1]}, {r[ML]['wrong']}, {r[SHAH_LM]['wrong']}, {cv_wrong} | {ok} |")
+            f"{robust_cells[1]}, {r[ML]['wrong']}, {r[SHAH_LM]['wrong']}, {cv_wrong} | {ok} |"
+        )
     say()
     say("## Lowest median error per cell, against Shah + LM and every OpenCV method")
     say()
-    say("Target: this project's default (noise estimated from the residuals) has the lowest median rotation and "
+    say(
+        "Target: this project's default (noise estimated from the residuals) has the lowest median rotation and "
         "translation error. In the outlier cells the default refuses (a result, counted above) and `robust=True` is "
-        "compared instead. The ML row knows the noise model the others do not, so it is shown, not compared.")
+        "compared instead. The ML row knows the noise model the others do not, so it is shown, not compared."
+    )
     say()
     say("| cell | ours median deg / mm | best other rotation | best other translation | ML given median | target |")
     say("|---|---|---|---|---|---|")
@@ -344,11 +381,16 @@ def main(argv=None) -> int:
         best_t = min(others, key=lambda m: r[m]["median"][1])
         med = r[ours]["median"]
         ok_r, ok_t = med[0] <= r[best_r]["median"][0], med[1] <= r[best_t]["median"][1]
-        ok = "met" if ok_r and ok_t else ("missed in " + " and ".join(n for n, o in (("rotation", ok_r),
-                                                                                     ("translation", ok_t)) if not o))
-        say(f"| {c[0]} {c[1]} | {_fmt(med)} ({ours.removeprefix('handeye ')}) | {best_r}: "
+        ok = (
+            "met"
+            if ok_r and ok_t
+            else ("missed in " + " and ".join(n for n, o in (("rotation", ok_r), ("translation", ok_t)) if not o))
+        )
+        say(
+            f"| {c[0]} {c[1]} | {_fmt(med)} ({ours.removeprefix('handeye ')}) | {best_r}: "
             f"{np.degrees(r[best_r]['median'][0]):.4f} | {best_t}: {1000 * r[best_t]['median'][1]:.3f} | "
-            f"{_fmt(r[ML]['median'])} | {ok} |")
+            f"{_fmt(r[ML]['median'])} | {ok} |"
+        )
     say()
     if args.skip_extras:
         return report.write(args.out)
@@ -359,10 +401,14 @@ def main(argv=None) -> int:
     say()
     say("| parameter | trials | coverage | RMS of error / sigma | median error |")
     say("|---|---|---|---|---|")
-    say(f"| metric scale (20 poses) | {args.coverage_trials} | {100 * sc['coverage']:.1f} % | {sc['rms_z']:.3f} | "
-        f"{100 * sc['median_rel_error']:.3f} % |")
-    say(f"| time offset (180 camera poses, robot 125 Hz) | {max(args.coverage_trials // 5, 20)} | "
-        f"{100 * to['coverage']:.1f} % | {to['rms_z']:.3f} | {to['median_abs_error_ms']:.3f} ms |")
+    say(
+        f"| metric scale (20 poses) | {args.coverage_trials} | {100 * sc['coverage']:.1f} % | {sc['rms_z']:.3f} | "
+        f"{100 * sc['median_rel_error']:.3f} % |"
+    )
+    say(
+        f"| time offset (180 camera poses, robot 125 Hz) | {max(args.coverage_trials // 5, 20)} | "
+        f"{100 * to['coverage']:.1f} % | {to['rms_z']:.3f} | {to['median_abs_error_ms']:.3f} ms |"
+    )
     say()
     _speed_table(say)
     return report.write(args.out)
@@ -374,8 +420,10 @@ def _speed_table(say) -> None:
     say("| what | handeye ms | opencv ms | ratio |")
     say("|---|---|---|---|")
     for what, ours, theirs in speed(20):
-        say(f"| {what} | {ours:.2f} | {'-' if theirs is None else f'{theirs:.2f}'} | "
-            f"{'-' if theirs is None else f'{theirs / ours:.1f}x'} |")
+        say(
+            f"| {what} | {ours:.2f} | {'-' if theirs is None else f'{theirs:.2f}'} | "
+            f"{'-' if theirs is None else f'{theirs / ours:.1f}x'} |"
+        )
 
 
 if __name__ == "__main__":

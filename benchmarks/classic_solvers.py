@@ -49,7 +49,6 @@ CLOSED_FORMS = [m for m in classic.METHODS if m != "auto"]
 ROBUST = "handeye robust (LMedS + cauchy, then least squares on the inliers)"
 
 
-
 def opencv_inputs(T_base_ee, T_cam_target):
     """Lists of rotations and translations in OpenCV's eye-to-hand slots (handeye.core.conventions)."""
     A = robot_side_poses(T_base_ee, SETUP)
@@ -109,8 +108,10 @@ def accuracy(trials, seed):
             cell = {k: stats(v) for k, v in errs.items()}
             table[(cam, n)] = cell
             sigmas[(cam, n)] = (np.sqrt(np.mean(np.square(pred), axis=0)), np.sqrt(np.mean(np.square(actual), axis=0)))
-            best_cv = min(cell[f"opencv {m}"][0][0] for m in CLOSED_FORMS), min(
-                cell[f"opencv {m}"][0][1] for m in CLOSED_FORMS)
+            best_cv = (
+                min(cell[f"opencv {m}"][0][0] for m in CLOSED_FORMS),
+                min(cell[f"opencv {m}"][0][1] for m in CLOSED_FORMS),
+            )
             ok = cell[DEFAULT][0][0] <= best_cv[0] and cell[DEFAULT][0][1] <= best_cv[1]
             passes.append(((cam, n), ok, cell[DEFAULT][0], best_cv))
     return names, table, sigmas, passes
@@ -135,8 +136,10 @@ def print_accuracy(names, table, passes, trials):
     print("| camera noise | poses | default median rot / trans | best OpenCV median rot / trans | target |")
     print("|---|---|---|---|---|")
     for (cam, n), ok, d, b in passes:
-        print(f"| {cam[0]} deg / {cam[1]} mm | {n} | {d[0]:.4f} deg / {d[1]:.3f} mm | {b[0]:.4f} deg / {b[1]:.3f} mm "
-              f"| {'met' if ok else 'MISSED'} |")
+        print(
+            f"| {cam[0]} deg / {cam[1]} mm | {n} | {d[0]:.4f} deg / {d[1]:.3f} mm | {b[0]:.4f} deg / {b[1]:.3f} mm "
+            f"| {'met' if ok else 'MISSED'} |"
+        )
 
 
 def _time(fn, repeats):
@@ -151,8 +154,10 @@ def _time(fn, repeats):
 
 def speed(seed, repeats):
     print("\n## Speed: all motion pairs, median wall time of repeated calls (ms), same data for both")
-    print("handeye = classic.solve(T_base_ee, T_cam_target, setup, method): validation, pose pairs, closed form; "
-          "opencv = cv2.calibrateHandEye /")
+    print(
+        "handeye = classic.solve(T_base_ee, T_cam_target, setup, method): validation, pose pairs, closed form; "
+        "opencv = cv2.calibrateHandEye /"
+    )
     print("cv2.calibrateRobotWorldHandEye on lists prepared outside the timing. ratio = opencv / handeye.\n")
     print("| poses | method | handeye ms | opencv ms | ratio |")
     print("|---|---|---|---|---|")
@@ -161,6 +166,7 @@ def speed(seed, repeats):
         p = problem(n, CAMERA_NOISES[0], np.random.default_rng(seed))
         inputs = opencv_inputs(p.T_base_ee, p.T_cam_target)
         for m in CLOSED_FORMS:
+
             def ours(m=m):
                 return classic.solve(p.T_base_ee, p.T_cam_target, SETUP, m)
 
@@ -170,19 +176,22 @@ def speed(seed, repeats):
             rows.append((n, m, t_ours, t_cv))
             print(f"| {n} | {m} | {1000 * t_ours:.3f} | {1000 * t_cv:.3f} | {t_cv / t_ours:.1f}x |")
         t_full = _time(lambda: classic.calibrate(p.T_base_ee, p.T_cam_target, setup=SETUP), max(3, repeats // 4))
-        print(f"| {n} | full calibrate() default (checks + {classic.DEFAULT_METHOD} start + refinement + covariance) "
-              f"| {1000 * t_full:.3f} | - | - |")
+        print(
+            f"| {n} | full calibrate() default (checks + {classic.DEFAULT_METHOD} start + refinement + covariance) "
+            f"| {1000 * t_full:.3f} | - | - |"
+        )
     at200 = [(m, c / o) for n, m, o, c in rows if n == 200 and m in CV_AXXB]
     worst = min(at200, key=lambda r: r[1])
-    print(f"\nTarget: at 200 poses at least 10x faster than OpenCV's same AX=XB method. "
-          f"Slowest ratio: {worst[0]} {worst[1]:.1f}x -> {'met' if worst[1] >= 10 else 'MISSED'}")
+    print(
+        f"\nTarget: at 200 poses at least 10x faster than OpenCV's same AX=XB method. "
+        f"Slowest ratio: {worst[0]} {worst[1]:.1f}x -> {'met' if worst[1] >= 10 else 'MISSED'}"
+    )
 
 
 def outliers(trials, seed):
     n, cam = 20, CAMERA_NOISES[0]
     print(f"\n## Outliers: {n} poses, camera noise {cam[0]} deg / {cam[1]} mm, a fraction of camera poses replaced by")
-    print("gross errors (rotated 10-90 deg, moved 5-30 cm). Median X error over "
-          f"{trials} trials: rot deg / trans mm\n")
+    print(f"gross errors (rotated 10-90 deg, moved 5-30 cm). Median X error over {trials} trials: rot deg / trans mm\n")
     methods = {
         ROBUST: lambda p: classic.calibrate(p.T_base_ee, p.T_cam_target, setup=SETUP, robust=True).X,
         DEFAULT: lambda p: classic.calibrate(p.T_base_ee, p.T_cam_target, setup=SETUP).X,
@@ -224,15 +233,19 @@ def outliers(trials, seed):
 def uncertainty(sigmas, trials):
     print("\n## Uncertainty: predicted 1-sigma of X (RMS over trials of sqrt(trace) of the covariance blocks) against")
     print(f"the Monte Carlo RMS error of the default method, {trials} trials per cell\n")
-    print("| camera noise | poses | predicted rot deg | actual rot deg | ratio | predicted trans mm | actual trans mm "
-          "| ratio |")
+    print(
+        "| camera noise | poses | predicted rot deg | actual rot deg | ratio | predicted trans mm | actual trans mm "
+        "| ratio |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     worst = 0.0
     for (cam, n), (pred, act) in sigmas.items():
         ratios = pred / act
         worst = max(worst, float(np.max(np.abs(ratios - 1))))
-        print(f"| {cam[0]} deg / {cam[1]} mm | {n} | {pred[0]:.4f} | {act[0]:.4f} | {ratios[0]:.2f} | {pred[1]:.3f} "
-              f"| {act[1]:.3f} | {ratios[1]:.2f} |")
+        print(
+            f"| {cam[0]} deg / {cam[1]} mm | {n} | {pred[0]:.4f} | {act[0]:.4f} | {ratios[0]:.2f} | {pred[1]:.3f} "
+            f"| {act[1]:.3f} | {ratios[1]:.2f} |"
+        )
     print(f"\nTarget: within 30 %. Worst deviation {100 * worst:.0f} % -> {'met' if worst <= 0.3 else 'MISSED'}")
 
 
@@ -249,8 +262,10 @@ def main(argv=None):
     args_text = " ".join(argv if argv is not None else sys.argv[1:])
     print(f"command: python benchmarks/classic_solvers.py {args_text}".rstrip())
     print(f"machine: {machine()}")
-    print(f"python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
-          f"opencv {cv2.__version__}; {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC")
+    print(
+        f"python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
+        f"opencv {cv2.__version__}; {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC"
+    )
     t0 = time.perf_counter()
     if args.only in (None, "accuracy"):
         names, table, sigmas, passes = accuracy(args.trials, args.seed)

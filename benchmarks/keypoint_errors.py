@@ -61,13 +61,17 @@ def keypoint_stats(pred, tgt, intrinsics_norm, native, network):
     dx, dy = pred[..., 0] - tgt[..., 0], pred[..., 1] - tgt[..., 1]
     inside = (tgt[..., 0] > 0) & (tgt[..., 0] < 1) & (tgt[..., 1] > 0) & (tgt[..., 1] < 1) & (tgt[..., 2] > 0)
     fx, fy = intrinsics_norm[:, None, 0], intrinsics_norm[:, None, 1]
-    per = {"px_native": np.hypot(dx * native[0], dy * native[1]),
-           "px_network": np.hypot(dx * network[0], dy * network[1]),
-           "lateral_mm": np.hypot(dx / fx, dy / fy) * tgt[..., 2] * 1000.0,
-           "dz_mm": (pred[..., 2] - tgt[..., 2]) * 1000.0}
+    per = {
+        "px_native": np.hypot(dx * native[0], dy * native[1]),
+        "px_network": np.hypot(dx * network[0], dy * network[1]),
+        "lateral_mm": np.hypot(dx / fx, dy / fy) * tgt[..., 2] * 1000.0,
+        "dz_mm": (pred[..., 2] - tgt[..., 2]) * 1000.0,
+    }
     per["abs_dz_mm"] = np.abs(per["dz_mm"])
-    out = {k: np.array([np.median(v[inside[:, j], j]) if inside[:, j].any() else np.nan for j in range(v.shape[1])])
-           for k, v in per.items()}
+    out = {
+        k: np.array([np.median(v[inside[:, j], j]) if inside[:, j].any() else np.nan for j in range(v.shape[1])])
+        for k, v in per.items()
+    }
     out["all"] = {k: np.median(v[inside]) for k, v in per.items()}
     out["in_view"] = inside.mean(0)
     return out
@@ -104,9 +108,11 @@ def interpretation(variants, stats, names):
     """
     p, a, b = (np.median(variants[k][:, 0]) for k in ("pred", "true_px", "true_z"))
     pr = np.median(variants["pred"][:, 1])
-    text = (f"Per placement the predicted keypoints give a median error of {p:.1f} mm / {pr:.2f} deg. "
-            f"With the true pixel positions (so only the depth error left) it is {a:.1f} mm ({a / p:.0%} of it); "
-            f"with the true depths (only the pixel error left) {b:.1f} mm ({b / p:.0%}). ")
+    text = (
+        f"Per placement the predicted keypoints give a median error of {p:.1f} mm / {pr:.2f} deg. "
+        f"With the true pixel positions (so only the depth error left) it is {a:.1f} mm ({a / p:.0%} of it); "
+        f"with the true depths (only the pixel error left) {b:.1f} mm ({b / p:.0%}). "
+    )
     if abs(a - b) < 0.1 * p:
         text += "Pixel and depth errors contribute about equally"
     else:
@@ -116,12 +122,16 @@ def interpretation(variants, stats, names):
     else:
         text += ". "
     al = stats["all"]
-    text += (f"Over all keypoints in view, the median pixel error ({al['px_native']:.1f} native px) amounts to "
-             f"{al['lateral_mm']:.1f} mm across the line of sight, against {al['abs_dz_mm']:.1f} mm along it "
-             f"(median signed depth error {al['dz_mm']:+.1f} mm). ")
+    text += (
+        f"Over all keypoints in view, the median pixel error ({al['px_native']:.1f} native px) amounts to "
+        f"{al['lateral_mm']:.1f} mm across the line of sight, against {al['abs_dz_mm']:.1f} mm along it "
+        f"(median signed depth error {al['dz_mm']:+.1f} mm). "
+    )
     jp, jz = int(np.nanargmax(stats["px_native"])), int(np.nanargmax(stats["abs_dz_mm"]))
-    text += (f"The largest pixel error is at {names[jp]} ({stats['px_native'][jp]:.1f} px), the largest depth error "
-             f"at {names[jz]} ({stats['abs_dz_mm'][jz]:.1f} mm).")
+    text += (
+        f"The largest pixel error is at {names[jp]} ({stats['px_native'][jp]:.1f} px), the largest depth error "
+        f"at {names[jz]} ({stats['abs_dz_mm'][jz]:.1f} mm)."
+    )
     return text
 
 
@@ -155,42 +165,61 @@ def main(argv=None):
     frames = load_keypoint_frames(args.data, network, progress=False)
     index = np.flatnonzero(frames.split == args.split)
     pred = predict(model, frames, index)
-    tgt = keypoint_targets(frames.keypoints_base[index].astype(float), frames.truth_t_base_cam_mm[index],
-                           frames.truth_q_base_cam_xyzw[index], frames.intrinsics_norm[index])
+    tgt = keypoint_targets(
+        frames.keypoints_base[index].astype(float),
+        frames.truth_t_base_cam_mm[index],
+        frames.truth_q_base_cam_xyzw[index],
+        frames.intrinsics_norm[index],
+    )
     if len(names) != pred.shape[1]:
         names = [f"keypoint {j}" for j in range(pred.shape[1])]
     stats = keypoint_stats(pred, tgt, frames.intrinsics_norm[index], native, network)
     n_cams = len(np.unique(frames.camera[index]))
 
-    emit(f"## Per keypoint: {len(index)} {args.split} frames of {n_cams} placements, native {native[0]}x{native[1]}, "
-         f"network input {network[0]}x{network[1]}")
+    emit(
+        f"## Per keypoint: {len(index)} {args.split} frames of {n_cams} placements, native {native[0]}x{native[1]}, "
+        f"network input {network[0]}x{network[1]}"
+    )
     emit()
-    emit("Medians over the frames where the keypoint's true position lies in the image; depth error is predicted "
-         "minus true; lateral mm is the pixel error at the keypoint's true depth.")
+    emit(
+        "Medians over the frames where the keypoint's true position lies in the image; depth error is predicted "
+        "minus true; lateral mm is the pixel error at the keypoint's true depth."
+    )
     emit()
     emit("| keypoint | in view | px (native) | px (network) | lateral mm | depth mm (signed) | depth mm (abs) |")
     emit("|---|---|---|---|---|---|---|")
     for j, name in enumerate(names):
-        emit(f"| {name} | {stats['in_view'][j]:.0%} | {stats['px_native'][j]:.2f} | {stats['px_network'][j]:.2f} | "
-             f"{stats['lateral_mm'][j]:.1f} | {stats['dz_mm'][j]:+.1f} | {stats['abs_dz_mm'][j]:.1f} |")
+        emit(
+            f"| {name} | {stats['in_view'][j]:.0%} | {stats['px_native'][j]:.2f} | {stats['px_network'][j]:.2f} | "
+            f"{stats['lateral_mm'][j]:.1f} | {stats['dz_mm'][j]:+.1f} | {stats['abs_dz_mm'][j]:.1f} |"
+        )
     al = stats["all"]
-    emit(f"| all | {stats['in_view'].mean():.0%} | {al['px_native']:.2f} | {al['px_network']:.2f} | "
-         f"{al['lateral_mm']:.1f} | {al['dz_mm']:+.1f} | {al['abs_dz_mm']:.1f} |")
+    emit(
+        f"| all | {stats['in_view'].mean():.0%} | {al['px_native']:.2f} | {al['px_network']:.2f} | "
+        f"{al['lateral_mm']:.1f} | {al['dz_mm']:+.1f} | {al['abs_dz_mm']:.1f} |"
+    )
     emit()
 
-    variants = {"pred": pred,
-                "true_px": np.concatenate([tgt[..., :2], pred[..., 2:]], axis=-1),
-                "true_z": np.concatenate([pred[..., :2], tgt[..., 2:]], axis=-1)}
-    labels = {"pred": "predicted keypoints", "true_px": "true pixels + predicted depth",
-              "true_z": "predicted pixels + true depth"}
+    variants = {
+        "pred": pred,
+        "true_px": np.concatenate([tgt[..., :2], pred[..., 2:]], axis=-1),
+        "true_z": np.concatenate([pred[..., :2], tgt[..., 2:]], axis=-1),
+    }
+    labels = {
+        "pred": "predicted keypoints",
+        "true_px": "true pixels + predicted depth",
+        "true_z": "predicted pixels + true depth",
+    }
     errs = {k: placement_errors(v, frames, index) for k, v in variants.items()}
     emit(f"## Per placement: pose from all {args.split} frames of each of the {n_cams} placements")
     emit()
     emit("| keypoints | median mm | median deg | worst mm | worst deg |")
     emit("|---|---|---|---|---|")
     for k, e in errs.items():
-        emit(f"| {labels[k]} | {np.median(e[:, 0]):.2f} | {np.median(e[:, 1]):.3f} | {e[:, 0].max():.2f} | "
-             f"{e[:, 1].max():.3f} |")
+        emit(
+            f"| {labels[k]} | {np.median(e[:, 0]):.2f} | {np.median(e[:, 1]):.3f} | {e[:, 0].max():.2f} | "
+            f"{e[:, 1].max():.3f} |"
+        )
     emit()
     emit("## Interpretation")
     emit()

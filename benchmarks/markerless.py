@@ -76,15 +76,23 @@ def summarise(rows):
     ok = [r for r in rows if r[0] == "ok"]
     e = np.array([[r[1], r[2]] for r in ok]) if ok else np.full((1, 2), np.nan)
     good = sum(1 for r in ok if r[1] <= SUCCESS_DEG and r[2] <= SUCCESS_MM)
-    return {"n": len(rows), "ok": len(ok), "good": good, "median_mm": np.median(e[:, 1]),
-            "median_deg": np.median(e[:, 0]), "worst_mm": np.max(e[:, 1]),
-            "worst_deg": np.max(e[:, 0]), "seconds": np.median([r[5] for r in rows])}
+    return {
+        "n": len(rows),
+        "ok": len(ok),
+        "good": good,
+        "median_mm": np.median(e[:, 1]),
+        "median_deg": np.median(e[:, 0]),
+        "worst_mm": np.max(e[:, 1]),
+        "worst_deg": np.max(e[:, 0]),
+        "seconds": np.median([r[5] for r in rows]),
+    }
 
 
 def double_noise(sigma_1m):
     def f(depth, q, rng):
         z = depth + rng.normal(size=depth.shape) * sigma_1m * depth**2
         return np.where(depth > 0, np.maximum(z, 0), 0), q
+
     return f
 
 
@@ -95,17 +103,19 @@ def missing_blocks(depth, q, rng, fraction=0.25, block=16):
         gone = np.zeros((h, w), bool)
         while gone.mean() < fraction:
             r, c = rng.integers(0, h - block), rng.integers(0, w - block)
-            gone[r:r + block, c:c + block] = True
+            gone[r : r + block, c : c + block] = True
         depth[i][gone] = 0
     return depth, q
 
 
 def out_of_view(fraction=0.4):
     """The left part of every image blank: the sensor's field of view cut, the arm partly outside it."""
+
     def f(depth, q, rng):
         depth = depth.copy()
         depth[..., : int(fraction * depth.shape[-1])] = 0
         return depth, q
+
     return f
 
 
@@ -125,8 +135,10 @@ def basin(ds, surface, opts, cells, trials, centroid, rng):
         for k in range(trials):
             c = cams[k % len(cams)]
             axis, direction = rng.normal(size=3), rng.normal(size=3)
-            T0 = truth[c] @ make_transform(so3_exp(np.radians(deg) * axis / np.linalg.norm(axis)),
-                                           mm / 1000 * direction / np.linalg.norm(direction))
+            T0 = truth[c] @ make_transform(
+                so3_exp(np.radians(deg) * axis / np.linalg.norm(axis)),
+                mm / 1000 * direction / np.linalg.norm(direction),
+            )
             res = register_robot(data[c][0], K, posed[c], starts={"user": T0}, options=opts, centroid_start=centroid)
             if not res.ok:
                 refused += 1
@@ -147,14 +159,19 @@ def main(argv=None):
     ap.add_argument("--sensitivity", action="store_true")
     ap.add_argument("--basin-data", type=Path, help="dataset for the basin (all cameras)")
     ap.add_argument("--basin-trials", type=int, default=200, help="trials per cell, centroid start beside")
-    ap.add_argument("--basin-trials-alone", type=int, default=50,
-                    help="trials per cell, the given start alone (0: skip)")
+    ap.add_argument(
+        "--basin-trials-alone", type=int, default=50, help="trials per cell, the given start alone (0: skip)"
+    )
     ap.add_argument("--basin-cells", default="50:5,100:10,200:20,300:30", help="start offsets, mm:deg, comma-separated")
     ap.add_argument("--results", type=Path, default=Path("benchmarks/results/markerless.md"))
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
-    lines = [f"command: python benchmarks/markerless.py {' '.join(argv if argv is not None else sys.argv[1:])}",
-             f"machine: {machine()}", f"date: {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC", ""]
+    lines = [
+        f"command: python benchmarks/markerless.py {' '.join(argv if argv is not None else sys.argv[1:])}",
+        f"machine: {machine()}",
+        f"date: {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC",
+        "",
+    ]
 
     def emit(s=""):
         print(s, flush=True)
@@ -170,8 +187,10 @@ def main(argv=None):
     cams = [c for c in range(len(ds)) if args.split == "all" or cams_table["split"][c] == args.split]
     w, h = ds.meta["intrinsics"]["width"], ds.meta["intrinsics"]["height"]
     n_frames = len(ds.select(cams[0], "data")["depth"])
-    emit(f"## Accuracy: {ds.root.name}, {len(cams)} {args.split} camera placements, {n_frames} frames at {w}x{h}, "
-         f"depth noise {sigma_1m * 1e3:g} mm at 1 m, no start given")
+    emit(
+        f"## Accuracy: {ds.root.name}, {len(cams)} {args.split} camera placements, {n_frames} frames at {w}x{h}, "
+        f"depth noise {sigma_1m * 1e3:g} mm at 1 m, no start given"
+    )
     emit()
     rows = accuracy(ds, cams, surface, opts)
     truth, labels = ds.truth(), ds.labels()
@@ -186,30 +205,41 @@ def main(argv=None):
     emit()
     emit("| method | accepted | median mm | median deg | worst mm | worst deg | median s per placement |")
     emit("|---|---|---|---|---|---|---|")
-    emit(f"| markerless (no start) | {s['ok']}/{s['n']} | {s['median_mm']:.3f} | {s['median_deg']:.4f} | "
-         f"{s['worst_mm']:.3f} | {s['worst_deg']:.4f} | {s['seconds']:.1f} |")
-    emit(f"| classic ChArUco label | {len(lab)}/{len(lab)} | {np.median(lab[:, 1]):.3f} | {np.median(lab[:, 0]):.4f} | "
-         f"{lab[:, 1].max():.3f} | {lab[:, 0].max():.4f} | - |")
+    emit(
+        f"| markerless (no start) | {s['ok']}/{s['n']} | {s['median_mm']:.3f} | {s['median_deg']:.4f} | "
+        f"{s['worst_mm']:.3f} | {s['worst_deg']:.4f} | {s['seconds']:.1f} |"
+    )
+    emit(
+        f"| classic ChArUco label | {len(lab)}/{len(lab)} | {np.median(lab[:, 1]):.3f} | {np.median(lab[:, 0]):.4f} | "
+        f"{lab[:, 1].max():.3f} | {lab[:, 0].max():.4f} | - |"
+    )
     ok = [r for r in rows if r[0] == "ok"]
     if ok:
         e = np.array([[r[1], r[2], r[3], r[4]] for r in ok])
         emit()
-        emit(f"RMS error / RMS predicted sigma: translation {np.sqrt(np.mean(e[:, 1]**2) / np.mean(e[:, 3]**2)):.2f}, "
-             f"rotation {np.sqrt(np.mean(e[:, 0]**2) / np.mean(e[:, 2]**2)):.2f}")
+        emit(
+            "RMS error / RMS predicted sigma: translation "
+            f"{np.sqrt(np.mean(e[:, 1] ** 2) / np.mean(e[:, 3] ** 2)):.2f}, "
+            f"rotation {np.sqrt(np.mean(e[:, 0] ** 2) / np.mean(e[:, 2] ** 2)):.2f}"
+        )
     if args.sensitivity:
         emit()
         emit("## Sensitivity (same placements)")
         emit()
         emit("| case | accepted | within 1 mm / 0.1 deg | median mm | median deg | worst mm | worst deg | median s |")
         emit("|---|---|---|---|---|---|---|---|")
-        cases = [("twice the depth noise", double_noise(sigma_1m), replace(opts, depth_sigma_m_at_1m=2 * sigma_1m)),
-                 ("a quarter of the depth missing (16 px blocks)", missing_blocks, opts),
-                 ("10 frames", first_frames(10), opts),
-                 ("arm partly out of view (left 40 % of each image blank)", out_of_view(0.4), opts)]
+        cases = [
+            ("twice the depth noise", double_noise(sigma_1m), replace(opts, depth_sigma_m_at_1m=2 * sigma_1m)),
+            ("a quarter of the depth missing (16 px blocks)", missing_blocks, opts),
+            ("10 frames", first_frames(10), opts),
+            ("arm partly out of view (left 40 % of each image blank)", out_of_view(0.4), opts),
+        ]
         for name, f, o in cases:
             s = summarise(accuracy(ds, cams, surface, o, f, rng))
-            emit(f"| {name} | {s['ok']}/{s['n']} | {s['good']}/{s['n']} | {s['median_mm']:.3f} | "
-                 f"{s['median_deg']:.4f} | {s['worst_mm']:.3f} | {s['worst_deg']:.4f} | {s['seconds']:.1f} |")
+            emit(
+                f"| {name} | {s['ok']}/{s['n']} | {s['good']}/{s['n']} | {s['median_mm']:.3f} | "
+                f"{s['median_deg']:.4f} | {s['worst_mm']:.3f} | {s['worst_deg']:.4f} | {s['seconds']:.1f} |"
+            )
     if args.basin_data:
         bds = Dataset.open(args.basin_data)
         bsurface, bstride = robot_surface_for(bds)
@@ -220,13 +250,14 @@ def main(argv=None):
             if trials <= 0:
                 continue
             emit()
-            emit(f"## Basin: {bds.root.name}, {trials} trials per cell over its {len(bds)} placements; "
-                 f"{'centroid start tried beside the given one' if centroid else 'the given start alone'}")
+            emit(
+                f"## Basin: {bds.root.name}, {trials} trials per cell over its {len(bds)} placements; "
+                f"{'centroid start tried beside the given one' if centroid else 'the given start alone'}"
+            )
             emit()
             emit("| start off by | success | wrong answer | refused |")
             emit("|---|---|---|---|")
-            for (mm, deg), (g, wr, rf, n) in basin(bds, bsurface, bopts, cells, trials, centroid,
-                                                   rng).items():
+            for (mm, deg), (g, wr, rf, n) in basin(bds, bsurface, bopts, cells, trials, centroid, rng).items():
                 emit(f"| {mm} mm, {deg} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {rf} |")
     args.results.parent.mkdir(parents=True, exist_ok=True)
     args.results.write_text("\n".join(lines) + "\n")

@@ -89,8 +89,10 @@ def _cell(rng: np.random.Generator) -> dict:
     X_true = camera_looking_at(position, look_at)
     Y0 = target_on_flange()
     axis = rng.normal(size=3)
-    Y_true = make_transform(Y0[:3, :3] @ so3_exp(axis / np.linalg.norm(axis) * np.radians(rng.uniform(0, 5))),
-                            Y0[:3, 3] + rng.uniform(-0.01, 0.01, 3))
+    Y_true = make_transform(
+        Y0[:3, :3] @ so3_exp(axis / np.linalg.norm(axis) * np.radians(rng.uniform(0, 5))),
+        Y0[:3, 3] + rng.uniform(-0.01, 0.01, 3),
+    )
     return {"X": X_true, "Y": Y_true, "camera_guess": position + rng.uniform(-0.03, 0.03, 3)}
 
 
@@ -134,8 +136,11 @@ def trial(seed: int) -> dict:
         out["in_view"].append(float(np.mean(target_in_view(truth_views, limits))))
         for kind, idx in chosen.items():
             s = predicted_sigmas(np.einsum("nji,njk->ik", G[idx], G[idx]), M)
-            out["predicted"][(kind, n)] = {"rot": s["X_rotation_deg"], "trans": s["X_translation_mm"],
-                                           "ws": s["X_workspace_mm"]}
+            out["predicted"][(kind, n)] = {
+                "rot": s["X_rotation_deg"],
+                "trans": s["X_translation_mm"],
+                "ws": s["X_workspace_mm"],
+            }
             err = _errors(cands.T_base_ee[idx], cell, p_cam, rng)
             if err is None:
                 out["refused"] += 1
@@ -146,7 +151,7 @@ def trial(seed: int) -> dict:
 
 def _rms(values) -> float:
     v = np.asarray(list(values), dtype=float)
-    return float(np.sqrt(np.mean(v ** 2))) if len(v) else float("nan")
+    return float(np.sqrt(np.mean(v**2))) if len(v) else float("nan")
 
 
 def main(argv=None) -> int:
@@ -156,20 +161,28 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1), help="processes (default 2)")
     ap.add_argument("--out", help="also write the report to this file")
     args = ap.parse_args(argv)
-    report = Report("Pose planning: planned against random poses from the same candidates", "benchmarks/plan_poses.py",
-                    argv, f"numpy {np.__version__}")
+    report = Report(
+        "Pose planning: planned against random poses from the same candidates",
+        "benchmarks/plan_poses.py",
+        argv,
+        f"numpy {np.__version__}",
+    )
     say = report.say
     seeds = [args.seed * 100003 + k for k in range(args.trials)]
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         results = list(pool.map(trial, seeds))
     used = [r for r in results if not r.get("skipped")]
     median = np.median([r["candidates"] for r in results])
-    say(f"UR5 eye-to-hand, {len(used)} of {len(results)} cells used (the others had fewer than {max(POSE_COUNTS)} "
+    say(
+        f"UR5 eye-to-hand, {len(used)} of {len(results)} cells used (the others had fewer than {max(POSE_COUNTS)} "
         f"reachable candidates); reachable candidates per cell: median {median:.0f} of 1500 sampled; noise camera "
-        "0.1 deg / 1 mm, robot 0.01 deg / 0.2 mm per axis; calibrate() told the noise model")
-    say(f"calibrations refused: {sum(r['refused'] for r in used)} of {len(used) * len(POSE_COUNTS) * len(KINDS)}; "
+        "0.1 deg / 1 mm, robot 0.01 deg / 0.2 mm per axis; calibrate() told the noise model"
+    )
+    say(
+        f"calibrations refused: {sum(r['refused'] for r in used)} of {len(used) * len(POSE_COUNTS) * len(KINDS)}; "
         f"planned views still in the field of view under the true X: "
-        f"{100 * np.mean([v for r in used for v in r['in_view']]):.1f} %")
+        f"{100 * np.mean([v for r in used for v in r['in_view']]):.1f} %"
+    )
     say()
     say("RMS over the cells, rotation deg / translation mm / workspace mm (the planner's criterion):")
     say()
@@ -182,8 +195,12 @@ def main(argv=None) -> int:
             for kind in KINDS:
                 vals = [_rms(r[which][(kind, n)][q] for r in used if (kind, n) in r[which]) for q in QUANTITIES]
                 table[(which, kind, n)] = vals
-        for which, kind in (("predicted", "planned"), ("predicted", "random"), ("actual", "planned"),
-                            ("actual", "random")):
+        for which, kind in (
+            ("predicted", "planned"),
+            ("predicted", "random"),
+            ("actual", "planned"),
+            ("actual", "random"),
+        ):
             v = table[(which, kind, n)]
             row.append(f"{v[0]:.4f} / {v[1]:.3f} / {v[2]:.3f}")
         say(f"| {n} | " + " | ".join(row) + " |")
@@ -194,9 +211,11 @@ def main(argv=None) -> int:
         first = min(reach) if reach else None
         both = [n for n in POSE_COUNTS if all(table[(which, "planned", n)][k] <= ref[k] for k in range(3))]
         verdict = "met" if first is not None and first <= 8 else "not met"
-        say(f"target ({which}): planned poses reach the random 15-pose workspace sigma ({ref[2]:.3f} mm) with at "
+        say(
+            f"target ({which}): planned poses reach the random 15-pose workspace sigma ({ref[2]:.3f} mm) with at "
             f"most 8 -> {verdict} (first at {first if first else '> 15'} of {POSE_COUNTS}); rotation, translation and "
-            f"workspace all at or below random-15 from {min(both) if both else '> 15'} poses")
+            f"workspace all at or below random-15 from {min(both) if both else '> 15'} poses"
+        )
     report.write(args.out)
     return 0
 

@@ -78,8 +78,9 @@ def _python() -> str:
 
 def _handeye(argv: list, cwd: Path | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONWARNINGS="ignore")
-    return subprocess.run([_python(), "-m", "handeye.cli", *argv], cwd=cwd or ROOT, env=env, capture_output=True,
-                          timeout=timeout)
+    return subprocess.run(
+        [_python(), "-m", "handeye.cli", *argv], cwd=cwd or ROOT, env=env, capture_output=True, timeout=timeout
+    )
 
 
 def build_good_inputs(work: Path) -> dict:
@@ -97,13 +98,25 @@ def build_good_inputs(work: Path) -> dict:
     make_image_dataset(rec, 8, "eye_to_hand", rng=np.random.default_rng(1))
     good.update(images=rec / "images", board=rec / "board.json", camera=rec / "camera.json", robot=rec / "robot.csv")
     good["detections"] = rec / "detections.json"
-    r = _handeye(["detect", str(good["images"]), "--board", str(good["board"]), "--intrinsics", str(good["camera"]),
-                  "-o", str(good["detections"])])
+    r = _handeye(
+        [
+            "detect",
+            str(good["images"]),
+            "--board",
+            str(good["board"]),
+            "--intrinsics",
+            str(good["camera"]),
+            "-o",
+            str(good["detections"]),
+        ]
+    )
     if r.returncode != 0:
         raise RuntimeError(f"detect on the good recording failed: {r.stderr.decode()}")
     data = work / "good" / "small"
-    for argv in (["sim", "generate", "--preset", "small", "--out", str(data), "--quiet"],
-                 ["label", str(data), "--quiet"]):
+    for argv in (
+        ["sim", "generate", "--preset", "small", "--out", str(data), "--quiet"],
+        ["label", str(data), "--quiet"],
+    ):
         r = _handeye(argv)
         if r.returncode != 0:
             raise RuntimeError(f"{' '.join(argv)} failed: {r.stderr.decode()}")
@@ -181,17 +194,26 @@ def _set_cell(text: str, row: int, column: str, value: str) -> str:
 
 def file_cases(mk: Maker, good: Path, suffix: str) -> list[tuple[str, Path, list[str], bool, str]]:
     """(what, path, name tokens, legit, skip) for the bad inputs every file argument gets."""
-    out = [("binary garbage", mk.garbage(suffix), ["garbage"], False, ""),
-           ("empty file", mk.empty(suffix), ["empty"], False, ""),
-           ("directory", mk.directory(suffix), ["adir"], False, ""),
-           ("100 MB file", mk.big(suffix), ["big"], False, "")]
+    out = [
+        ("binary garbage", mk.garbage(suffix), ["garbage"], False, ""),
+        ("empty file", mk.empty(suffix), ["empty"], False, ""),
+        ("directory", mk.directory(suffix), ["adir"], False, ""),
+        ("100 MB file", mk.big(suffix), ["big"], False, ""),
+    ]
     if IS_ROOT:
         out.append(("no read permission", mk.folder() / f"noperm{suffix}", ["noperm"], False, "not testable as root"))
     else:
         out.append(("no read permission", mk.noperm(good), ["noperm"], False, ""))
     out.append(("non-UTF-8 name, valid content", mk.copy(good, b"name_\xff" + suffix.encode()), ["name_"], True, ""))
-    out.append(("unicode name, valid content", mk.copy(good, "p\u00f3s\u00e9_\u6570\u636e" + suffix),
-                ["p\u00f3s\u00e9_"], True, ""))
+    out.append(
+        (
+            "unicode name, valid content",
+            mk.copy(good, "p\u00f3s\u00e9_\u6570\u636e" + suffix),
+            ["p\u00f3s\u00e9_"],
+            True,
+            "",
+        )
+    )
     return out
 
 
@@ -199,17 +221,42 @@ def pose_file_cases(mk: Maker, good: Path) -> list:
     """The generic file cases plus the pose-file grammar's own: NaN, inf, truncated rows, bad JSON."""
     out = file_cases(mk, good, ".csv")
     out += [
-        ("NaN in a pose file", mk.text_edit(good, "nan.csv", lambda t: _set_cell(t, 3, "T_base_ee.x", "nan")),
-         ["nan.csv"], False, ""),
-        ("inf in a pose file", mk.text_edit(good, "inf.csv", lambda t: _set_cell(t, 5, "T_cam_target.qw", "inf")),
-         ["inf.csv"], False, ""),
-        ("-inf translation", mk.text_edit(good, "minf.csv", lambda t: _set_cell(t, 0, "T_cam_target.z", "-inf")),
-         ["minf.csv"], False, ""),
+        (
+            "NaN in a pose file",
+            mk.text_edit(good, "nan.csv", lambda t: _set_cell(t, 3, "T_base_ee.x", "nan")),
+            ["nan.csv"],
+            False,
+            "",
+        ),
+        (
+            "inf in a pose file",
+            mk.text_edit(good, "inf.csv", lambda t: _set_cell(t, 5, "T_cam_target.qw", "inf")),
+            ["inf.csv"],
+            False,
+            "",
+        ),
+        (
+            "-inf translation",
+            mk.text_edit(good, "minf.csv", lambda t: _set_cell(t, 0, "T_cam_target.z", "-inf")),
+            ["minf.csv"],
+            False,
+            "",
+        ),
         ("truncated last row", mk.text_edit(good, "trunc.csv", lambda t: t[: len(t) - 40]), ["trunc.csv"], False, ""),
-        ("not a number", mk.text_edit(good, "word.csv", lambda t: _set_cell(t, 2, "T_base_ee.y", "abc")),
-         ["word.csv"], False, ""),
-        ("header only", mk.text_edit(good, "header.csv", lambda t: "\n".join(t.splitlines()[:2]) + "\n"),
-         ["header.csv"], False, ""),
+        (
+            "not a number",
+            mk.text_edit(good, "word.csv", lambda t: _set_cell(t, 2, "T_base_ee.y", "abc")),
+            ["word.csv"],
+            False,
+            "",
+        ),
+        (
+            "header only",
+            mk.text_edit(good, "header.csv", lambda t: "\n".join(t.splitlines()[:2]) + "\n"),
+            ["header.csv"],
+            False,
+            "",
+        ),
         ("binary garbage .json", mk.garbage(".json"), ["garbage"], False, ""),
         ("JSON NaN matrix", _json_pose_file(mk, "nan.json", float("nan")), ["nan.json"], False, ""),
         ("JSON inf translation", _json_pose_file(mk, "inf.json", float("inf")), ["inf.json"], False, ""),
@@ -222,8 +269,10 @@ def _json_pose_file(mk: Maker, name: str, bad: float) -> Path:
     from handeye.core.synthetic import make_problem
 
     p = make_problem(6, "eye_to_hand", np.random.default_rng(3))
-    poses = [{"T_base_ee": {"matrix": a.tolist()}, "T_cam_target": {"matrix": b.tolist()}}
-             for a, b in zip(p.T_base_ee, p.T_cam_target)]
+    poses = [
+        {"T_base_ee": {"matrix": a.tolist()}, "T_cam_target": {"matrix": b.tolist()}}
+        for a, b in zip(p.T_base_ee, p.T_cam_target)
+    ]
     if np.isnan(bad):
         poses[2]["T_base_ee"]["matrix"][0][1] = bad
     else:
@@ -242,9 +291,11 @@ def _rewrite_manifest(shard: Path) -> None:
 
 def dataset_cases(mk: Maker, good: Path) -> list:
     """Damaged copies of the labelled dataset (shard damage with the manifest rewritten to match)."""
-    out = [("binary garbage instead of a folder", mk.garbage(""), ["garbage"], False, ""),
-           ("empty folder", mk.directory(""), ["adir"], False, ""),
-           ("empty file instead of a folder", mk.empty(""), ["empty"], False, "")]
+    out = [
+        ("binary garbage instead of a folder", mk.garbage(""), ["garbage"], False, ""),
+        ("empty folder", mk.directory(""), ["adir"], False, ""),
+        ("empty file instead of a folder", mk.empty(""), ["empty"], False, ""),
+    ]
 
     def damaged(what: str, edit, token: str, manifest: bool = True):
         root = mk.copy(good, "data")
@@ -263,6 +314,7 @@ def dataset_cases(mk: Maker, good: Path) -> list:
         def edit(root, shard):
             p = (root if table == "cameras.csv" else shard) / table
             p.write_text(_set_cell(p.read_text(), row, column, value))
+
         return edit
 
     def replace(table: str, data: bytes | None):
@@ -273,6 +325,7 @@ def dataset_cases(mk: Maker, good: Path) -> list:
                     f.truncate(MB100)
             else:
                 p.write_bytes(data)
+
         return edit
 
     garbage = np.random.default_rng(5).integers(0, 256, 4096, dtype=np.uint8).tobytes()
@@ -289,13 +342,15 @@ def dataset_cases(mk: Maker, good: Path) -> list:
     damaged("frames.csv inf in q0", cell("frames.csv", 1, "q0", "inf"), "frames.csv")
     damaged("frames.csv NaN in data q2", cell("frames.csv", 12, "q2", "nan"), "frames.csv")
     damaged("frames.csv ../ image path", cell("frames.csv", 0, "rgb", "../../../meta.json"), "frames.csv")
-    damaged("frames.csv ../ data image path", cell("frames.csv", 12, "rgb", "../cam_0001/rgb/data_000.png"),
-            "frames.csv")
+    damaged(
+        "frames.csv ../ data image path", cell("frames.csv", 12, "rgb", "../cam_0001/rgb/data_000.png"), "frames.csv"
+    )
     damaged("truncated PNG (manifest rewritten)", trunc_png, ".png")
     damaged("truncated PNG (manifest stale)", trunc_png, ".png", manifest=False)
     out.append(("non-UTF-8 folder name, valid content", mk.copy(good, b"data_\xff"), ["data_"], True, ""))
-    out.append(("unicode folder name, valid content", mk.copy(good, "d\u00e4t\u00e4_\u6570"), ["d\u00e4t\u00e4_"],
-                True, ""))
+    out.append(
+        ("unicode folder name, valid content", mk.copy(good, "d\u00e4t\u00e4_\u6570"), ["d\u00e4t\u00e4_"], True, "")
+    )
     return out
 
 
@@ -319,15 +374,16 @@ def image_folder_cases(mk: Maker, good_images: Path) -> list:
         with sorted(d.glob("*.png"))[3].open("r+b") as f:
             f.truncate(MB100)
 
-    return [("file instead of a folder", mk.garbage(""), ["garbage"], False, ""),
-            ("empty folder", mk.directory(""), ["adir"], False, ""),
-            ("a truncated PNG", folder_with("trunc", trunc), [".png"], False, ""),
-            ("a garbage PNG", folder_with("garbage", garbage_png), [".png"], False, ""),
-            ("an empty PNG", folder_with("empty", empty_png), [".png"], False, ""),
-            ("a 100 MB PNG", folder_with("big", big_png), [".png"], False, ""),
-            ("non-UTF-8 folder name, valid images", mk.copy(good_images, b"imgs_\xff"), ["imgs_"], True, ""),
-            ("unicode folder name, valid images", mk.copy(good_images, "b\u00eflder_\u56fe"), ["b\u00eflder_"],
-             True, "")]
+    return [
+        ("file instead of a folder", mk.garbage(""), ["garbage"], False, ""),
+        ("empty folder", mk.directory(""), ["adir"], False, ""),
+        ("a truncated PNG", folder_with("trunc", trunc), [".png"], False, ""),
+        ("a garbage PNG", folder_with("garbage", garbage_png), [".png"], False, ""),
+        ("an empty PNG", folder_with("empty", empty_png), [".png"], False, ""),
+        ("a 100 MB PNG", folder_with("big", big_png), [".png"], False, ""),
+        ("non-UTF-8 folder name, valid images", mk.copy(good_images, b"imgs_\xff"), ["imgs_"], True, ""),
+        ("unicode folder name, valid images", mk.copy(good_images, "b\u00eflder_\u56fe"), ["b\u00eflder_"], True, ""),
+    ]
 
 
 # ------------------------------------------------------------------ the cases
@@ -343,93 +399,201 @@ def build_cases(work: Path, good: dict, quick: bool) -> list[Case]:
             cases.append(Case(command, what, argv_of(path, out_dir), names, out_dir, legit, skip, timeout_s))
 
     pose_items = pose_file_cases(mk, good["poses"])
-    add("calibrate POSES", pose_items,
-        lambda p, o: ["calibrate", p, "--setup", "eye-to-hand", "-o", o / "result.json"])
-    add("calibrate --truth", file_cases(mk, good["board"], ".json"),
-        lambda p, o: ["calibrate", good["poses"], "--setup", "eye-to-hand", "--truth", p, "-o", o / "result.json"])
+    add("calibrate POSES", pose_items, lambda p, o: ["calibrate", p, "--setup", "eye-to-hand", "-o", o / "result.json"])
+    add(
+        "calibrate --truth",
+        file_cases(mk, good["board"], ".json"),
+        lambda p, o: ["calibrate", good["poses"], "--setup", "eye-to-hand", "--truth", p, "-o", o / "result.json"],
+    )
     det_items = file_cases(mk, good["detections"], ".json")
-    add("calibrate --detections", det_items,
-        lambda p, o: ["calibrate", "--detections", p, "--robot-poses", good["robot"], "--setup", "eye-to-hand",
-                      "-o", o / "result.json"])
+    add(
+        "calibrate --detections",
+        det_items,
+        lambda p, o: [
+            "calibrate",
+            "--detections",
+            p,
+            "--robot-poses",
+            good["robot"],
+            "--setup",
+            "eye-to-hand",
+            "-o",
+            o / "result.json",
+        ],
+    )
     robot_items = file_cases(mk, good["robot"], ".csv") + [
-        ("NaN in robot poses", mk.text_edit(good["robot"], "nan.csv", lambda t: _set_cell(t, 1, "T_base_ee.x", "nan")),
-         ["nan.csv"], False, ""),
-        ("inf in robot poses", mk.text_edit(good["robot"], "inf.csv", lambda t: _set_cell(t, 2, "T_base_ee.qz", "inf")),
-         ["inf.csv"], False, ""),
-        ("image column names a missing file", mk.text_edit(
-            good["robot"], "img.csv", lambda t: _set_cell(t, 0, "image", "../../etc/passwd")), ["img.csv"], False, "")]
-    add("calibrate --robot-poses", robot_items,
-        lambda p, o: ["calibrate", "--detections", good["detections"], "--robot-poses", p, "--setup", "eye-to-hand",
-                      "-o", o / "result.json"])
-    add("plan POSES", pose_items, lambda p, o: ["plan", p, "--setup", "eye-to-hand", "--candidates", "200",
-                                                  "-o", o / "plan.csv"])
+        (
+            "NaN in robot poses",
+            mk.text_edit(good["robot"], "nan.csv", lambda t: _set_cell(t, 1, "T_base_ee.x", "nan")),
+            ["nan.csv"],
+            False,
+            "",
+        ),
+        (
+            "inf in robot poses",
+            mk.text_edit(good["robot"], "inf.csv", lambda t: _set_cell(t, 2, "T_base_ee.qz", "inf")),
+            ["inf.csv"],
+            False,
+            "",
+        ),
+        (
+            "image column names a missing file",
+            mk.text_edit(good["robot"], "img.csv", lambda t: _set_cell(t, 0, "image", "../../etc/passwd")),
+            ["img.csv"],
+            False,
+            "",
+        ),
+    ]
+    add(
+        "calibrate --robot-poses",
+        robot_items,
+        lambda p, o: [
+            "calibrate",
+            "--detections",
+            good["detections"],
+            "--robot-poses",
+            p,
+            "--setup",
+            "eye-to-hand",
+            "-o",
+            o / "result.json",
+        ],
+    )
+    add(
+        "plan POSES",
+        pose_items,
+        lambda p, o: ["plan", p, "--setup", "eye-to-hand", "--candidates", "200", "-o", o / "plan.csv"],
+    )
     img_items = image_folder_cases(mk, good["images"])
     board_items = file_cases(mk, good["board"], ".json")
-    add("detect IMAGES", img_items,
-        lambda p, o: ["detect", p, "--board", good["board"], "--intrinsics", good["camera"], "-o", o / "det.json"])
-    add("detect --board", board_items,
-        lambda p, o: ["detect", good["images"], "--board", p, "--intrinsics", good["camera"], "-o", o / "det.json"])
-    add("detect --intrinsics", file_cases(mk, good["camera"], ".json"),
-        lambda p, o: ["detect", good["images"], "--board", good["board"], "--intrinsics", p, "-o", o / "det.json"])
-    add("intrinsics IMAGES", img_items,
-        lambda p, o: ["intrinsics", p, "--board", good["board"], "-o", o / "camera.json"])
-    add("intrinsics --board", board_items,
-        lambda p, o: ["intrinsics", good["images"], "--board", p, "-o", o / "camera.json"])
+    add(
+        "detect IMAGES",
+        img_items,
+        lambda p, o: ["detect", p, "--board", good["board"], "--intrinsics", good["camera"], "-o", o / "det.json"],
+    )
+    add(
+        "detect --board",
+        board_items,
+        lambda p, o: ["detect", good["images"], "--board", p, "--intrinsics", good["camera"], "-o", o / "det.json"],
+    )
+    add(
+        "detect --intrinsics",
+        file_cases(mk, good["camera"], ".json"),
+        lambda p, o: ["detect", good["images"], "--board", good["board"], "--intrinsics", p, "-o", o / "det.json"],
+    )
+    add(
+        "intrinsics IMAGES",
+        img_items,
+        lambda p, o: ["intrinsics", p, "--board", good["board"], "-o", o / "camera.json"],
+    )
+    add(
+        "intrinsics --board",
+        board_items,
+        lambda p, o: ["intrinsics", good["images"], "--board", p, "-o", o / "camera.json"],
+    )
 
     # board: where the output goes
     f = mk.garbage("")
-    board_out = [("output folder missing", mk.folder() / "missing" / "b.png", ["b.png"], False, ""),
-                 ("output is a directory", mk.directory(".png"), ["adir"], False, ""),
-                 ("output under a file", f / "b.png", ["b.png"], False, ""),
-                 ("output suffix not an image", mk.folder() / "b.txt", ["b.txt"], False, ""),
-                 ("non-UTF-8 output name", Path(os.fsdecode(os.fsencode(mk.folder()) + b"/b_\xff.png")), ["b_"],
-                  True, ""),
-                 ("unicode output name", mk.folder() / "b\u00f6ard_\u677f.png", ["b\u00f6ard_"], True, "")]
+    board_out = [
+        ("output folder missing", mk.folder() / "missing" / "b.png", ["b.png"], False, ""),
+        ("output is a directory", mk.directory(".png"), ["adir"], False, ""),
+        ("output under a file", f / "b.png", ["b.png"], False, ""),
+        ("output suffix not an image", mk.folder() / "b.txt", ["b.txt"], False, ""),
+        ("non-UTF-8 output name", Path(os.fsdecode(os.fsencode(mk.folder()) + b"/b_\xff.png")), ["b_"], True, ""),
+        ("unicode output name", mk.folder() / "b\u00f6ard_\u677f.png", ["b\u00f6ard_"], True, ""),
+    ]
     add("board -o", board_out, lambda p, o: ["board", "-o", p])
 
     # sim generate: a bad --out
-    sim_out = [("--out is a file", mk.garbage(""), ["garbage"], False, ""),
-               ("--out under a file", mk.garbage("") / "data", ["garbage"], False, ""),
-               ("--out holds a garbage meta.json", _garbage_meta(mk), ["meta.json"], False, ""),
-               ("--out holds an empty meta.json", _garbage_meta(mk, b""), ["meta.json"], False, "")]
+    sim_out = [
+        ("--out is a file", mk.garbage(""), ["garbage"], False, ""),
+        ("--out under a file", mk.garbage("") / "data", ["garbage"], False, ""),
+        ("--out holds a garbage meta.json", _garbage_meta(mk), ["meta.json"], False, ""),
+        ("--out holds an empty meta.json", _garbage_meta(mk, b""), ["meta.json"], False, ""),
+    ]
     add("sim generate --out", sim_out, lambda p, o: ["sim", "generate", "--preset", "small", "--out", p, "--quiet"])
 
     data_items = dataset_cases(mk, good["dataset"])
     # label writes into the dataset: its own copies
-    label_items = [(w, mk.copy(p, "data") if p.is_dir() and p.name == "data" else p, n, legit, s)
-                   for w, p, n, legit, s in data_items]
+    label_items = [
+        (w, mk.copy(p, "data") if p.is_dir() and p.name == "data" else p, n, legit, s)
+        for w, p, n, legit, s in data_items
+    ]
     add("label DATASET", label_items, lambda p, o: ["label", p, "--quiet", "--workers", "1"])
     add("show DATASET", data_items, lambda p, o: ["show", p, "--camera", "0", "-o", o / "cam0.png"])
     start = work / "good" / "start.json"
     cams = json.loads((good["dataset"] / "meta.json").read_text())
     start.write_text(json.dumps({"T_base_cam": np.eye(4).tolist()}))
-    add("markerless DATASET", data_items if not quick else data_items[:4],
-        lambda p, o: ["markerless", p, "--camera", "0", "--quiet", "-o", o / "m.json"], timeout_s=180)
+    add(
+        "markerless DATASET",
+        data_items if not quick else data_items[:4],
+        lambda p, o: ["markerless", p, "--camera", "0", "--quiet", "-o", o / "m.json"],
+        timeout_s=180,
+    )
     del cams
-    add("markerless --start", file_cases(mk, start, ".json"),
+    add(
+        "markerless --start",
+        file_cases(mk, start, ".json"),
         lambda p, o: ["markerless", good["dataset"], "--camera", "0", "--start", p, "--quiet", "-o", o / "m.json"],
-        timeout_s=180)
-    model_items = [("model folder empty", mk.directory(""), ["adir"], False, ""),
-                   ("model is a file", mk.garbage(""), ["garbage"], False, ""),
-                   ("model files binary garbage", _garbage_model(mk), ["translation.pt"], False, "")]
+        timeout_s=180,
+    )
+    model_items = [
+        ("model folder empty", mk.directory(""), ["adir"], False, ""),
+        ("model is a file", mk.garbage(""), ["garbage"], False, ""),
+        ("model files binary garbage", _garbage_model(mk), ["translation.pt"], False, ""),
+    ]
     add("compare --model", model_items, lambda p, o: ["compare", good["dataset"], "--model", p, "--no-hybrid"])
 
-    bag_items = [("binary garbage", mk.garbage(""), ["garbage"], False, ""),
-                 ("empty folder", mk.directory(""), ["adir"], False, ""),
-                 ("100 MB file", mk.big(".mcap"), ["big"], False, ""),
-                 ("metadata.yaml binary garbage", _garbage_bag(mk, None), ["metadata.yaml", "/bag"], False, ""),
-                 ("metadata.yaml empty", _garbage_bag(mk, b""), ["metadata.yaml", "/bag"], False, "")]
-    add("bag-poses BAG", bag_items, lambda p, o: ["bag-poses", p, "--base", "base_link", "--ee", "tool0",
-                                                  "--marker-topic", "/marker", "-o", o / "poses.csv"])
+    bag_items = [
+        ("binary garbage", mk.garbage(""), ["garbage"], False, ""),
+        ("empty folder", mk.directory(""), ["adir"], False, ""),
+        ("100 MB file", mk.big(".mcap"), ["big"], False, ""),
+        ("metadata.yaml binary garbage", _garbage_bag(mk, None), ["metadata.yaml", "/bag"], False, ""),
+        ("metadata.yaml empty", _garbage_bag(mk, b""), ["metadata.yaml", "/bag"], False, ""),
+    ]
+    add(
+        "bag-poses BAG",
+        bag_items,
+        lambda p, o: [
+            "bag-poses",
+            p,
+            "--base",
+            "base_link",
+            "--ee",
+            "tool0",
+            "--marker-topic",
+            "/marker",
+            "-o",
+            o / "poses.csv",
+        ],
+    )
 
-    learned_data = data_items[:3] + [x for x in data_items if x[0] in ("meta.json binary garbage",
-                                                                         "cameras.csv binary garbage")]
-    add("learned run --data", learned_data,
-        lambda p, o: ["learned", "run", "--data", p, "--preset", "tiny", "--strategies", "naive", "--quiet",
-                      "--out", o / "run"], timeout_s=180)
-    run_items = [("run dir empty", mk.directory(""), ["adir"], False, ""),
-                 ("run dir is a file", mk.garbage(""), ["garbage"], False, ""),
-                 ("results.json binary garbage", _garbage_run(mk), ["results.json"], False, "")]
+    learned_data = data_items[:3] + [
+        x for x in data_items if x[0] in ("meta.json binary garbage", "cameras.csv binary garbage")
+    ]
+    add(
+        "learned run --data",
+        learned_data,
+        lambda p, o: [
+            "learned",
+            "run",
+            "--data",
+            p,
+            "--preset",
+            "tiny",
+            "--strategies",
+            "naive",
+            "--quiet",
+            "--out",
+            o / "run",
+        ],
+        timeout_s=180,
+    )
+    run_items = [
+        ("run dir empty", mk.directory(""), ["adir"], False, ""),
+        ("run dir is a file", mk.garbage(""), ["garbage"], False, ""),
+        ("results.json binary garbage", _garbage_run(mk), ["results.json"], False, ""),
+    ]
     add("learned report RUN", run_items, lambda p, o: ["learned", "report", p])
     return cases
 
@@ -437,8 +601,9 @@ def build_cases(work: Path, good: dict, quick: bool) -> list[Case]:
 def _garbage_meta(mk: Maker, data: bytes | None = None) -> Path:
     d = mk.folder() / "out"
     d.mkdir()
-    (d / "meta.json").write_bytes(np.random.default_rng(7).integers(0, 256, 2048, np.uint8).tobytes()
-                                  if data is None else data)
+    (d / "meta.json").write_bytes(
+        np.random.default_rng(7).integers(0, 256, 2048, np.uint8).tobytes() if data is None else data
+    )
     return d
 
 
@@ -453,8 +618,9 @@ def _garbage_model(mk: Maker) -> Path:
 def _garbage_bag(mk: Maker, data: bytes | None) -> Path:
     d = mk.folder() / "bag"
     d.mkdir()
-    (d / "metadata.yaml").write_bytes(np.random.default_rng(9).integers(0, 256, 2048, np.uint8).tobytes()
-                                      if data is None else data)
+    (d / "metadata.yaml").write_bytes(
+        np.random.default_rng(9).integers(0, 256, 2048, np.uint8).tobytes() if data is None else data
+    )
     return d
 
 
@@ -487,8 +653,9 @@ def run_case(case: Case) -> Case:
     case.rc = r.returncode
     case.stderr = r.stderr.decode("utf-8", "replace")
     if r.returncode != 0:
-        case.leftovers = sorted(str(p.relative_to(case.out_dir)) for p in set(case.out_dir.rglob("*")) - before
-                                if p.is_file())
+        case.leftovers = sorted(
+            str(p.relative_to(case.out_dir)) for p in set(case.out_dir.rglob("*")) - before if p.is_file()
+        )
     # progress lines (redrawn with a carriage return) are not messages
     lines = [ln for ln in case.stderr.split("\n") if ln.strip() and not ln.startswith("\r")]
     if "Traceback" in case.stderr:
@@ -496,8 +663,7 @@ def run_case(case: Case) -> Case:
     elif r.returncode == 0:
         case.outcome = "ok" if case.legit else "accepted"
     elif r.returncode == 2:
-        clear = (len(lines) == 1 and lines[0].startswith("handeye ")
-                 and any(n in lines[0] for n in case.names))
+        clear = len(lines) == 1 and lines[0].startswith("handeye ") and any(n in lines[0] for n in case.names)
         case.outcome = "clear" if clear else "unclear"
     else:
         case.outcome = "other"
@@ -524,8 +690,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import numpy
 
-    rep = Report("Reliability: every command on bad input", "benchmarks/reliability.py", argv,
-                 f"numpy {numpy.__version__}; python {sys.version.split()[0]}")
+    rep = Report(
+        "Reliability: every command on bad input",
+        "benchmarks/reliability.py",
+        argv,
+        f"numpy {numpy.__version__}; python {sys.version.split()[0]}",
+    )
     work = Path(tempfile.mkdtemp(prefix="handeye-reliability-"))
     t0 = time.perf_counter()
     try:
@@ -534,11 +704,15 @@ def main(argv: list[str] | None = None) -> int:
         with ThreadPoolExecutor(args.workers) as pool:
             done = list(pool.map(run_case, cases))
         wall = time.perf_counter() - t0
-        rep.say(f"{len(done)} command lines, {wall:.0f} s; running as root: {'yes' if IS_ROOT else 'no'} "
-                f"(no read permission {'not testable' if IS_ROOT else 'tested'})")
-        rep.say("clear: exit 2, one stderr line 'handeye ...' naming the file; unclear: exit 2 otherwise; "
-                "accepted: exit 0 on a bad input; ok: exit 0 on valid content under an unusual name (right); "
-                "leftovers: a failed run left a file in its output folder")
+        rep.say(
+            f"{len(done)} command lines, {wall:.0f} s; running as root: {'yes' if IS_ROOT else 'no'} "
+            f"(no read permission {'not testable' if IS_ROOT else 'tested'})"
+        )
+        rep.say(
+            "clear: exit 2, one stderr line 'handeye ...' naming the file; unclear: exit 2 otherwise; "
+            "accepted: exit 0 on a bad input; ok: exit 0 on valid content under an unusual name (right); "
+            "leftovers: a failed run left a file in its output folder"
+        )
         rep.say()
         rep.say("| command | inputs tried | " + " | ".join(COLUMNS) + " | leftovers |")
         rep.say("|---" * (len(COLUMNS) + 3) + "|")
@@ -551,11 +725,16 @@ def main(argv: list[str] | None = None) -> int:
                 totals[k] += counts[k]
             left = sum(bool(c.leftovers) for c in mine)
             rep.say(f"| {command} | {len(mine)} | " + " | ".join(str(counts[k]) for k in COLUMNS) + f" | {left} |")
-        rep.say(f"| **all** | {len(done)} | " + " | ".join(str(totals[k]) for k in COLUMNS)
-                + f" | {sum(bool(c.leftovers) for c in done)} |")
-        for title, keep in (("Tracebacks", ("traceback",)), ("Unclear, other exit status, timeouts",
-                                                             ("unclear", "other", "timeout")),
-                            ("Bad inputs accepted", ("accepted",))):
+        rep.say(
+            f"| **all** | {len(done)} | "
+            + " | ".join(str(totals[k]) for k in COLUMNS)
+            + f" | {sum(bool(c.leftovers) for c in done)} |"
+        )
+        for title, keep in (
+            ("Tracebacks", ("traceback",)),
+            ("Unclear, other exit status, timeouts", ("unclear", "other", "timeout")),
+            ("Bad inputs accepted", ("accepted",)),
+        ):
             rep.say()
             rep.say(f"## {title}")
             rep.say()
@@ -578,8 +757,11 @@ def main(argv: list[str] | None = None) -> int:
         rep.say("## Every case")
         rep.say()
         for c in done:
-            rep.say(f"- {c.command} | {c.what} | {c.outcome}" + (f" ({c.skip})" if c.skip else "")
-                    + (f" | exit {c.rc}" if c.rc is not None else ""))
+            rep.say(
+                f"- {c.command} | {c.what} | {c.outcome}"
+                + (f" ({c.skip})" if c.skip else "")
+                + (f" | exit {c.rc}" if c.rc is not None else "")
+            )
     finally:
         if args.keep:
             print(f"kept: {work}", file=sys.stderr)

@@ -92,8 +92,10 @@ class PeakMemory:
 def label_row(name: str, table: dict) -> str:
     ok = np.array([s == "ok" for s in table["label_status"]])
     rot, trans = table["label_error_rot_deg"][ok], table["label_error_trans_mm"][ok]
-    return (f"| {name} | {ok.sum()}/{len(ok)} | {np.median(rot):.4f} | {np.median(trans):.3f} | {np.max(rot):.4f} | "
-            f"{np.max(trans):.3f} | {np.median(table['label_rms_px'][ok]):.3f} |")
+    return (
+        f"| {name} | {ok.sum()}/{len(ok)} | {np.median(rot):.4f} | {np.median(trans):.3f} | {np.max(rot):.4f} | "
+        f"{np.max(trans):.3f} | {np.median(table['label_rms_px'][ok]):.3f} |"
+    )
 
 
 def main() -> None:
@@ -104,8 +106,12 @@ def main() -> None:
     parser.add_argument("--no-noise-table", action="store_true")
     args = parser.parse_args()
     preset = get_preset(args.preset)
-    lines = [f"# Simulator benchmark: `python benchmarks/sim_generation.py --preset {args.preset}`", "",
-             f"{datetime.date.today()}, {machine()}, {args.workers} worker processes", ""]
+    lines = [
+        f"# Simulator benchmark: `python benchmarks/sim_generation.py --preset {args.preset}`",
+        "",
+        f"{datetime.date.today()}, {machine()}, {args.workers} worker processes",
+        "",
+    ]
 
     out = args.out / args.preset
     shutil.rmtree(out, ignore_errors=True)
@@ -113,26 +119,35 @@ def main() -> None:
         report = generate(out, preset, seed=0, workers=args.workers)
     n_data = preset.n_cameras * preset.configurations
     n_cal = report.frames - n_data
-    lines += ["## Generation", "",
-              "| camera poses | data frames | calibration frames | wall time | frames/s | "
-              "peak memory (all processes) |",
-              "|---|---|---|---|---|---|",
-              f"| {preset.n_cameras} | {n_data} at {preset.image_size[0]}x{preset.image_size[1]} | {n_cal} at "
-              f"{preset.calibration_image_size[0]}x{preset.calibration_image_size[1]} | {report.wall_s:.0f} s "
-              f"({report.wall_s / 60:.1f} min) | {report.frames / report.wall_s:.1f} | "
-              f"{mem.peak_bytes / 2**30:.2f} GiB |", ""]
+    lines += [
+        "## Generation",
+        "",
+        "| camera poses | data frames | calibration frames | wall time | frames/s | peak memory (all processes) |",
+        "|---|---|---|---|---|---|",
+        f"| {preset.n_cameras} | {n_data} at {preset.image_size[0]}x{preset.image_size[1]} | {n_cal} at "
+        f"{preset.calibration_image_size[0]}x{preset.calibration_image_size[1]} | {report.wall_s:.0f} s "
+        f"({report.wall_s / 60:.1f} min) | {report.frames / report.wall_s:.1f} | "
+        f"{mem.peak_bytes / 2**30:.2f} GiB |",
+        "",
+    ]
     print("\n".join(lines), flush=True)
 
     labels = label_dataset(out, workers=args.workers, progress=True)
-    header = ["| noise (pixel grey levels, joint deg) | labelled | median deg | median mm | worst deg | worst mm | "
-              "median RMS px |", "|---|---|---|---|---|---|---|"]
+    header = [
+        "| noise (pixel grey levels, joint deg) | labelled | median deg | median mm | worst deg | worst mm | "
+        "median RMS px |",
+        "|---|---|---|---|---|---|---|",
+    ]
     rows = [label_row("none", labels.table)]
     section = ["## Labels against truth", "", f"Labelling took {labels.wall_s:.0f} s.", ""] + header + rows
     print("\n".join(section), flush=True)
     if not args.no_noise_table:
-        settings = [("pixel 2", NoiseModel(pixel_sigma=2.0)), ("joints 0.01 deg", NoiseModel(joint_sigma_deg=0.01)),
-                    ("default: pixel 2, depth 1 mm at 1 m, joints 0.01 deg", DEFAULT_NOISE),
-                    ("2x default", NoiseModel(4.0, 0.002, 0.02))]
+        settings = [
+            ("pixel 2", NoiseModel(pixel_sigma=2.0)),
+            ("joints 0.01 deg", NoiseModel(joint_sigma_deg=0.01)),
+            ("default: pixel 2, depth 1 mm at 1 m, joints 0.01 deg", DEFAULT_NOISE),
+            ("2x default", NoiseModel(4.0, 0.002, 0.02)),
+        ]
         for name, noise in settings:
             noisy = args.out / f"{args.preset}-noise"
             shutil.rmtree(noisy, ignore_errors=True)
@@ -140,8 +155,16 @@ def main() -> None:
             rows.append(label_row(name, label_dataset(noisy, workers=args.workers).table))
             print(rows[-1], flush=True)
             shutil.rmtree(noisy, ignore_errors=True)
-    lines += ["## Labels against truth (calibration recordings; noisy rows rendered again with that noise)", "",
-              f"Labelling the noiseless dataset took {labels.wall_s:.0f} s.", ""] + header + rows
+    lines += (
+        [
+            "## Labels against truth (calibration recordings; noisy rows rendered again with that noise)",
+            "",
+            f"Labelling the noiseless dataset took {labels.wall_s:.0f} s.",
+            "",
+        ]
+        + header
+        + rows
+    )
     text = "\n".join(lines) + "\n"
     print(text)
     results = Path(__file__).parent / "results" / f"sim_generation_{args.preset}.md"

@@ -82,8 +82,9 @@ def hand_eye(spec, intr, seed: int) -> tuple[float, float] | None:
     if ok.sum() < 4:
         return None
     try:
-        cal = classic.calibrate(p.T_base_ee[ok], np.stack([v.T_cam_target for v in poses if v.ok]), setup=SETUP,
-                                loss="cauchy")
+        cal = classic.calibrate(
+            p.T_base_ee[ok], np.stack([v.T_cam_target for v in poses if v.ok]), setup=SETUP, loss="cauchy"
+        )
     except ValueError:
         return None
     ids = [d.ids if d.reason is None else np.zeros(0, int) for d in dets]
@@ -101,15 +102,23 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     import cv2
 
-    report = Report("Calibration targets: detection and hand-eye error from rendered views", "benchmarks/targets.py",
-                    argv, f"numpy {np.__version__}, opencv {cv2.__version__}")
+    report = Report(
+        "Calibration targets: detection and hand-eye error from rendered views",
+        "benchmarks/targets.py",
+        argv,
+        f"numpy {np.__version__}, opencv {cv2.__version__}",
+    )
     say = report.say
     intr = default_intrinsics()
-    say(f"{intr.width}x{intr.height} px, noise {NOISE_GREY} grey levels; hand-eye: {SETUP}, {VIEWS} views per "
-        f"recording, pose-based start then the reprojection refinement")
+    say(
+        f"{intr.width}x{intr.height} px, noise {NOISE_GREY} grey levels; hand-eye: {SETUP}, {VIEWS} views per "
+        f"recording, pose-based start then the reprojection refinement"
+    )
     say()
-    say("| target | views detected | median corner error px | recordings calibrated | X error median deg / mm | "
-        "X error worst deg / mm |")
+    say(
+        "| target | views detected | median corner error px | recordings calibrated | X error median deg / mm | "
+        "X error worst deg / mm |"
+    )
     say("|---|---|---|---|---|---|")
     for k, (name, spec) in enumerate(TARGETS.items()):
         print(f"{name} ...", file=sys.stderr, flush=True)
@@ -118,8 +127,10 @@ def main(argv=None) -> int:
         done = np.array([e for e in errs if e is not None]).reshape(-1, 2)
         med = np.median(done, axis=0) if len(done) else np.full(2, np.nan)
         worst = done.max(axis=0) if len(done) else np.full(2, np.nan)
-        say(f"| {name} | {100 * rate:.0f} % of {args.views} | {px:.3f} | {len(done)} of {args.recordings} | "
-            f"{med[0]:.4f} / {med[1]:.3f} | {worst[0]:.4f} / {worst[1]:.3f} |")
+        say(
+            f"| {name} | {100 * rate:.0f} % of {args.views} | {px:.3f} | {len(done)} of {args.recordings} | "
+            f"{med[0]:.4f} / {med[1]:.3f} | {worst[0]:.4f} / {worst[1]:.3f} |"
+        )
     return report.write(args.out)
 
 

@@ -92,8 +92,13 @@ def trial(n_views, noise_px, spec, intr, rng):
     }
     R, t = cv2.calibrateHandEye(*opencv_hand_eye_args(robot, poses, SETUP), method=cv2.CALIB_HAND_EYE_PARK)
     out[METHODS[3]] = make_transform(R, t.ravel())
-    _, _, R, t = cv2.calibrateRobotWorldHandEye([*A[:, :3, :3]], [*A[:, :3, 3:]], [*poses[:, :3, :3]],
-                                                [*poses[:, :3, 3:]], method=cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH)
+    _, _, R, t = cv2.calibrateRobotWorldHandEye(
+        [*A[:, :3, :3]],
+        [*A[:, :3, 3:]],
+        [*poses[:, :3, :3]],
+        [*poses[:, :3, 3:]],
+        method=cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH,
+    )
     out[METHODS[4]] = make_transform(R, t.ravel())
     out[METHODS[5]] = refine_reprojection(robot, ids, corners, spec, intr, res.X, res.Y, setup=SETUP).X
     return {k: pose_error(X, X_true) for k, X in out.items()}, len(poses)
@@ -110,8 +115,10 @@ def main(argv=None):
     args_text = " ".join(argv if argv is not None else sys.argv[1:])
     print(f"command: python benchmarks/vision_reprojection.py {args_text}".rstrip())
     print(f"machine: {machine()}")
-    print(f"python {platform.python_version()}, numpy {np.__version__}, opencv {cv2.__version__}; "
-          f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC")
+    print(
+        f"python {platform.python_version()}, numpy {np.__version__}, opencv {cv2.__version__}; "
+        f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC"
+    )
     print(f"\nMedian error of X = T_base_cam over {args.trials} trials: rotation deg / translation mm\n")
     print("| corner noise px | views | " + " | ".join(METHODS) + " | most accurate |")
     print("|---|---|" + "---|" * len(METHODS) + "---|")
@@ -141,8 +148,10 @@ def main(argv=None):
             verdict = f"rot: {best_rot}; trans: {best_trans}"
             print(f"| {noise} | {n} ({np.mean(used):.1f} with a pose) | {cells} | {verdict} |")
     verdict = "met" if all_ok else "MISSED"
-    print("\nTarget: the reprojection refinement and the pose-based maximum likelihood with the PnP covariances (the "
-          f"two first-order equivalent estimators) are the two most accurate in every row -> {verdict}")
+    print(
+        "\nTarget: the reprojection refinement and the pose-based maximum likelihood with the PnP covariances (the "
+        f"two first-order equivalent estimators) are the two most accurate in every row -> {verdict}"
+    )
     print(f"\ntotal benchmark time {time.perf_counter() - t0:.0f} s")
 
 

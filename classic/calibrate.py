@@ -49,8 +49,9 @@ METHODS = ("auto",) + tuple(AXXB_METHODS) + tuple(AXYB_METHODS)
 DEFAULT_METHOD = "auto"
 
 
-def initial_estimate(A: np.ndarray, B: np.ndarray, method: str, pairs: str = "all", motions=None
-                     ) -> tuple[np.ndarray, np.ndarray]:
+def initial_estimate(
+    A: np.ndarray, B: np.ndarray, method: str, pairs: str = "all", motions=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form ``(X, Y)`` of ``A_i Y = X B_i`` by a named method.
 
     Parameters
@@ -97,7 +98,10 @@ def _validated(T_base_ee, T_cam_target):
 
 
 def solve(
-    T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str = "eye_to_hand", method: str = DEFAULT_METHOD,
+    T_base_ee: np.ndarray,
+    T_cam_target: np.ndarray,
+    setup: str = "eye_to_hand",
+    method: str = DEFAULT_METHOD,
     pairs: str = "all",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form hand-eye solution from absolute poses: the analogue of ``cv2.calibrateHandEye``.
@@ -146,8 +150,16 @@ def _subset_model(model, keep):
         return None
     cam = None if model.camera_covariance is None else np.asarray(model.camera_covariance)[keep]
     rob = None if model.robot_covariance is None else np.asarray(model.robot_covariance)[keep]
-    return NoiseModel(model.camera_rot_rad, model.camera_trans_m, model.robot_rot_rad, model.robot_trans_m, cam, rob,
-                      model.name, model.scale_to_residuals)
+    return NoiseModel(
+        model.camera_rot_rad,
+        model.camera_trans_m,
+        model.robot_rot_rad,
+        model.robot_trans_m,
+        cam,
+        rob,
+        model.name,
+        model.scale_to_residuals,
+    )
 
 
 def calibrate(
@@ -264,11 +276,13 @@ def calibrate(
     # would blame the pairing for what is a lack of rotation
     A_in, B_in = A[inliers], B[inliers]
     motions = motions_from_poses(A_in, B_in, *pair_indices(len(A_in), pairs))  # once, for the checks and the start
-    motion = diagnose_motion(T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check,
-                             motions=motions)
+    motion = diagnose_motion(
+        T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check, motions=motions
+    )
     if check and not estimate_scale:  # the consistency fit assumes metric camera poses
-        diagnostics["consistency"] = check_consistency(T_base_ee[inliers], T_cam_target[inliers], setup, pairs,
-                                                       motions=motions)
+        diagnostics["consistency"] = check_consistency(
+            T_base_ee[inliers], T_cam_target[inliers], setup, pairs, motions=motions
+        )
     diagnostics["motion"] = motion.to_dict()
 
     scale0 = 1.0
@@ -276,16 +290,26 @@ def calibrate(
         X, Y, scale0 = scaled_start(A_in, B_in, pairs)
         name = "park+scale"
     elif method == "auto":
-        start, X, Y = best_start(A_in, B_in, lambda a, b, m: initial_estimate(a, b, m, pairs, motions),
-                                 START_CANDIDATES)
+        start, X, Y = best_start(
+            A_in, B_in, lambda a, b, m: initial_estimate(a, b, m, pairs, motions), START_CANDIDATES
+        )
         name = f"auto({start})"
     else:
         X, Y = initial_estimate(A_in, B_in, method, pairs, motions)
         name = method
     name = ("ransac+" if robust else "") + name
-    ref = refine_xy(A_in, B_in, X, Y, loss=loss, noise=_subset_model(model, inliers),
-                    max_iterations=50 if refine else 0, setup=setup,
-                    estimate_scale=estimate_scale and refine, scale0=scale0)
+    ref = refine_xy(
+        A_in,
+        B_in,
+        X,
+        Y,
+        loss=loss,
+        noise=_subset_model(model, inliers),
+        max_iterations=50 if refine else 0,
+        setup=setup,
+        estimate_scale=estimate_scale and refine,
+        scale0=scale0,
+    )
     if refine and robust:
         # the robust loss's own outliers join the sampling's, and the inliers are refit by least squares:
         # a Cauchy loss down-weights good poses a little too, which costs efficiency
@@ -295,8 +319,17 @@ def calibrate(
             inliers[idx[bad]] = False
             diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
             A_in, B_in = A[inliers], B[inliers]
-        ref = refine_xy(A_in, B_in, ref.X, ref.Y, loss="linear", noise=_subset_model(model, inliers),
-                        setup=setup, estimate_scale=estimate_scale, scale0=ref.scale)
+        ref = refine_xy(
+            A_in,
+            B_in,
+            ref.X,
+            ref.Y,
+            loss="linear",
+            noise=_subset_model(model, inliers),
+            setup=setup,
+            estimate_scale=estimate_scale,
+            scale0=ref.scale,
+        )
     if refine:
         X, Y = ref.X, ref.Y
         name += "+ml" if model is not None and model.has_robot_noise else "+lm"

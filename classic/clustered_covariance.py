@@ -18,8 +18,7 @@ import numpy as np
 __all__ = ["clustered_covariance", "pose_sigma"]
 
 
-def clustered_covariance(J: np.ndarray, r: np.ndarray, w: np.ndarray, group: np.ndarray | None = None
-                         ) -> np.ndarray:
+def clustered_covariance(J: np.ndarray, r: np.ndarray, w: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
     """Covariance of the parameters of a weighted least-squares fit, clustered by group.
 
     Parameters
@@ -68,5 +67,7 @@ def pose_sigma(covariance: np.ndarray, R_base_cam: np.ndarray) -> dict:
     dict
         ``rotation_deg``, ``translation_mm``.
     """
-    return {"rotation_deg": float(np.degrees(np.sqrt(np.trace(covariance[:3, :3])))),
-            "translation_mm": float(np.sqrt(np.trace(R_base_cam @ covariance[3:, 3:] @ R_base_cam.T)) * 1e3)}
+    return {
+        "rotation_deg": float(np.degrees(np.sqrt(np.trace(covariance[:3, :3])))),
+        "translation_mm": float(np.sqrt(np.trace(R_base_cam @ covariance[3:, 3:] @ R_base_cam.T)) * 1e3),
+    }

@@ -28,8 +28,18 @@ from classic.pairs import pair_indices
 from handeye.core.errors import ContaminatedPosesError
 from handeye.core.se3 import so3_log
 
-__all__ = ["CONTAMINATION_ALPHA", "RESIDUAL_FLOOR", "MAX_SHIFT_SIGMA", "PAIR_SUSPECT_FACTOR", "leave_one_out_shift",
-           "suspect_poses", "check_contamination", "pair_consensus_suspects", "x_shift_sigma", "refuse_shift"]
+__all__ = [
+    "CONTAMINATION_ALPHA",
+    "RESIDUAL_FLOOR",
+    "MAX_SHIFT_SIGMA",
+    "PAIR_SUSPECT_FACTOR",
+    "leave_one_out_shift",
+    "suspect_poses",
+    "check_contamination",
+    "pair_consensus_suspects",
+    "x_shift_sigma",
+    "refuse_shift",
+]
 
 #: Probability of refusing a clean pose set.
 CONTAMINATION_ALPHA = 1e-3
@@ -177,8 +187,9 @@ def x_shift_sigma(X: np.ndarray, X_ref: np.ndarray, covariance_ref: np.ndarray) 
 
 def refuse_shift(suspects: np.ndarray, shift_sigma: float, n: int) -> None:
     """Raise :class:`ContaminatedPosesError` for poses whose removal moves X by ``shift_sigma``."""
-    shown = ", ".join(str(int(k)) for k in suspects[:12]) + (f" and {len(suspects) - 12} more" if len(suspects) > 12
-                                                              else "")
+    shown = ", ".join(str(int(k)) for k in suspects[:12]) + (
+        f" and {len(suspects) - 12} more" if len(suspects) > 12 else ""
+    )
     raise ContaminatedPosesError(
         f"{len(suspects)} of {n} poses break the robot-camera consistency of most motion pairs they are in "
         f"(poses {shown}), and leaving them out moves the answer by {shift_sigma:.1f} sigma. A least-squares fit is "
@@ -187,8 +198,12 @@ def refuse_shift(suspects: np.ndarray, shift_sigma: float, n: int) -> None:
     )
 
 
-def check_contamination(whitened: np.ndarray, raw: np.ndarray | None = None, jacobian: np.ndarray | None = None,
-                        alpha: float = CONTAMINATION_ALPHA) -> None:
+def check_contamination(
+    whitened: np.ndarray,
+    raw: np.ndarray | None = None,
+    jacobian: np.ndarray | None = None,
+    alpha: float = CONTAMINATION_ALPHA,
+) -> None:
     """Raise :class:`ContaminatedPosesError` when a pose is a gross outlier (see the module).
 
     Parameters
@@ -219,8 +234,11 @@ def check_contamination(whitened: np.ndarray, raw: np.ndarray | None = None, jac
         bad = bad[shifts[bad] > MAX_SHIFT_SIGMA]
         if len(bad) == 0:
             return
-    shown = ", ".join(f"{int(i)} ({n_sigma[i]:.1f} sigma" + (f", moves X by {shifts[i]:.1f} sigma)"
-                                                             if np.isfinite(shifts[i]) else ")") for i in bad[:8])
+    shown = ", ".join(
+        f"{int(i)} ({n_sigma[i]:.1f} sigma"
+        + (f", moves X by {shifts[i]:.1f} sigma)" if np.isfinite(shifts[i]) else ")")
+        for i in bad[:8]
+    )
     more = f" and {len(bad) - 8} more" if len(bad) > 8 else ""
     typical = float(np.median(n_sigma))
     raise ContaminatedPosesError(

@@ -173,8 +173,9 @@ def fit_residual_m(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str) 
     return quick_fit_residuals(T_base_ee, T_cam_target, setup)[0]
 
 
-def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all",
-                      motions: Motions | None = None) -> dict:
+def check_consistency(
+    T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all", motions: Motions | None = None
+) -> dict:
     """Refuse pose sets that no hand-eye transform explains, naming the likely mistake.
 
     Two tests. Rotation angles of paired motions must agree (``A_ij X = X B_ij``
@@ -249,7 +250,11 @@ def check_consistency(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: st
 
 
 def diagnose_motion(
-    T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str, pairs: str = "all", raise_on_degenerate: bool = True,
+    T_base_ee: np.ndarray,
+    T_cam_target: np.ndarray,
+    setup: str,
+    pairs: str = "all",
+    raise_on_degenerate: bool = True,
     motions: Motions | None = None,
 ) -> MotionDiagnostics:
     """Measure how well a pose set determines X; warn on weak data, refuse degenerate data.

@@ -61,9 +61,15 @@ def _residuals(T, p_cam, p_base):
     return p_cam @ T[:3, :3].T + T[:3, 3] - p_base
 
 
-def solve_keypoint_pose(p_cam: np.ndarray, p_base: np.ndarray, frame: np.ndarray | None = None,
-                        inlier_m: float = 0.03, min_inlier_fraction: float = 0.5, iterations: int = 200,
-                        rng: np.random.Generator | None = None) -> KeypointPoseResult:
+def solve_keypoint_pose(
+    p_cam: np.ndarray,
+    p_base: np.ndarray,
+    frame: np.ndarray | None = None,
+    inlier_m: float = 0.03,
+    min_inlier_fraction: float = 0.5,
+    iterations: int = 200,
+    rng: np.random.Generator | None = None,
+) -> KeypointPoseResult:
     """Robust ``T_base_cam`` from matched camera-frame and base-frame points.
 
     Parameters
@@ -96,8 +102,14 @@ def solve_keypoint_pose(p_cam: np.ndarray, p_base: np.ndarray, frame: np.ndarray
     nan6 = np.full((6, 6), np.nan)
     empty_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
     if len(idx) < 6:
-        return KeypointPoseResult(None, f"too few keypoints: {len(idx)} valid (at least 6 needed)", empty_sigma,
-                                  nan6, np.zeros(m, bool), np.nan)
+        return KeypointPoseResult(
+            None,
+            f"too few keypoints: {len(idx)} valid (at least 6 needed)",
+            empty_sigma,
+            nan6,
+            np.zeros(m, bool),
+            np.nan,
+        )
     best, best_count = None, -1
     for _ in range(iterations):
         s = rng.choice(idx, 3, replace=False)
@@ -122,6 +134,8 @@ def solve_keypoint_pose(p_cam: np.ndarray, p_base: np.ndarray, frame: np.ndarray
     sigma = pose_sigma(cov, R)
     refused = None
     if inl.sum() < 6 or frac < min_inlier_fraction:
-        refused = (f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
-                   f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)")
+        refused = (
+            f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
+            f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)"
+        )
     return KeypointPoseResult(None if refused else T, refused, sigma, cov, inl, rms_mm)

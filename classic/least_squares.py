@@ -19,8 +19,14 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import least_squares
 
-__all__ = ["LOSSES", "LeastSquaresFit", "fit_least_squares", "covariance_from_jacobian", "loss_weights",
-           "sigma_of_blocks"]
+__all__ = [
+    "LOSSES",
+    "LeastSquaresFit",
+    "fit_least_squares",
+    "covariance_from_jacobian",
+    "loss_weights",
+    "sigma_of_blocks",
+]
 
 #: Losses on the (whitened) residuals, as scipy names them.
 LOSSES = ("linear", "huber", "cauchy", "soft_l1")
@@ -84,9 +90,15 @@ def loss_weights(r: np.ndarray, loss: str, scale: float = 1.0) -> np.ndarray:
     raise ValueError(f"unknown loss {loss!r}: use one of {LOSSES}")
 
 
-def fit_least_squares(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray] | str,
-                      n_params: int, loss: str = "linear", loss_scale: float = 1.0, max_evaluations: int = 100,
-                      tol: float = 1e-12) -> LeastSquaresFit:
+def fit_least_squares(
+    fun: Callable[[np.ndarray], np.ndarray],
+    jac: Callable[[np.ndarray], np.ndarray] | str,
+    n_params: int,
+    loss: str = "linear",
+    loss_scale: float = 1.0,
+    max_evaluations: int = 100,
+    tol: float = 1e-12,
+) -> LeastSquaresFit:
     """Minimise ``sum rho(fun(x)^2)`` from ``x = 0``.
 
     Parameters
@@ -119,12 +131,31 @@ def fit_least_squares(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np
     # MINPACK's Levenberg-Marquardt (QR) for least squares, several times faster than the trust-region
     # reflective method on these small dense problems; the latter where a robust loss needs it
     method = "lm" if loss == "linear" and r0.size >= n_params else "trf"
-    sol = least_squares(fun, x0, jac=jac, method=method, loss=loss, f_scale=loss_scale, x_scale="jac",
-                        xtol=tol, ftol=tol, gtol=tol, max_nfev=max(max_evaluations, n_params + 1))
+    sol = least_squares(
+        fun,
+        x0,
+        jac=jac,
+        method=method,
+        loss=loss,
+        f_scale=loss_scale,
+        x_scale="jac",
+        xtol=tol,
+        ftol=tol,
+        gtol=tol,
+        max_nfev=max(max_evaluations, n_params + 1),
+    )
     r = np.asarray(fun(sol.x), dtype=float)
     J = np.asarray(jac(sol.x)) if callable(jac) else np.asarray(sol.jac)
-    return LeastSquaresFit(sol.x, r, J, loss_weights(r, loss, loss_scale), float(r0 @ r0), float(r @ r),
-                           int(sol.nfev), bool(sol.status > 0))
+    return LeastSquaresFit(
+        sol.x,
+        r,
+        J,
+        loss_weights(r, loss, loss_scale),
+        float(r0 @ r0),
+        float(r @ r),
+        int(sol.nfev),
+        bool(sol.status > 0),
+    )
 
 
 def _numeric_jacobian(fun, x, r, h=1e-7):
@@ -169,8 +200,10 @@ def sigma_of_blocks(covariance: np.ndarray) -> dict:
     dict
         ``X_rotation_deg``, ``X_translation_mm``, ``Y_rotation_deg``, ``Y_translation_mm``.
     """
-    tr = [float(np.trace(covariance[k:k + 3, k:k + 3])) for k in (0, 3, 6, 9)]
+    tr = [float(np.trace(covariance[k : k + 3, k : k + 3])) for k in (0, 3, 6, 9)]
     return {
-        "X_rotation_deg": float(np.degrees(np.sqrt(tr[0]))), "X_translation_mm": 1000 * float(np.sqrt(tr[1])),
-        "Y_rotation_deg": float(np.degrees(np.sqrt(tr[2]))), "Y_translation_mm": 1000 * float(np.sqrt(tr[3])),
+        "X_rotation_deg": float(np.degrees(np.sqrt(tr[0]))),
+        "X_translation_mm": 1000 * float(np.sqrt(tr[1])),
+        "Y_rotation_deg": float(np.degrees(np.sqrt(tr[2]))),
+        "Y_translation_mm": 1000 * float(np.sqrt(tr[3])),
     }

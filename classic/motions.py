@@ -19,7 +19,6 @@ from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 __all__ = ["Motions", "motions_from_transforms", "motions_from_poses", "iter_motions", "accumulate"]
 
 
-
 @dataclass
 class Motions:
     """Paired motions ``A_k X = X B_k``.
@@ -88,8 +87,9 @@ def _relative(q: np.ndarray, t: np.ndarray, i: np.ndarray, j: np.ndarray) -> tup
     ux, uy, uz = y * c - z * b, z * a - x * c, x * b - y * a
     vx, vy, vz = y * uz - z * uy, z * ux - x * uz, x * uy - y * ux
     tj = tT[:, j]
-    t_ij = np.stack([tj[0] - a - 2 * (w * ux + vx), tj[1] - b - 2 * (w * uy + vy), tj[2] - c - 2 * (w * uz + vz)],
-                    axis=1)
+    t_ij = np.stack(
+        [tj[0] - a - 2 * (w * ux + vx), tj[1] - b - 2 * (w * uy + vy), tj[2] - c - 2 * (w * uz + vz)], axis=1
+    )
     return np.stack([x, y, z, w], axis=1), t_ij
 
 

@@ -30,8 +30,16 @@ import numpy as np
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import hat, so3_log
 
-__all__ = ["NoiseModel", "as_noise_model", "camera_residual_jacobian", "robot_residual_jacobian",
-           "residual_covariances", "whitening", "joint_noise_covariance", "right_jacobian_inverse"]
+__all__ = [
+    "NoiseModel",
+    "as_noise_model",
+    "camera_residual_jacobian",
+    "robot_residual_jacobian",
+    "residual_covariances",
+    "whitening",
+    "joint_noise_covariance",
+    "right_jacobian_inverse",
+]
 
 
 def _per_axis(value, name: str) -> np.ndarray:
@@ -75,24 +83,34 @@ class NoiseModel:
         """Camera covariance per pose, shape (n, 6, 6)."""
         if self.camera_covariance is not None:
             return _checked_stack(self.camera_covariance, n, "camera_covariance")
-        d = np.concatenate([_per_axis(self.camera_rot_rad, "camera_rot_rad"),
-                            _per_axis(self.camera_trans_m, "camera_trans_m")]) ** 2
+        d = (
+            np.concatenate(
+                [_per_axis(self.camera_rot_rad, "camera_rot_rad"), _per_axis(self.camera_trans_m, "camera_trans_m")]
+            )
+            ** 2
+        )
         return np.broadcast_to(np.diag(d), (n, 6, 6))
 
     def robot(self, n: int) -> np.ndarray:
         """Robot covariance per pose, shape (n, 6, 6)."""
         if self.robot_covariance is not None:
             return _checked_stack(self.robot_covariance, n, "robot_covariance")
-        d = np.concatenate([_per_axis(self.robot_rot_rad, "robot_rot_rad"),
-                            _per_axis(self.robot_trans_m, "robot_trans_m")]) ** 2
+        d = (
+            np.concatenate(
+                [_per_axis(self.robot_rot_rad, "robot_rot_rad"), _per_axis(self.robot_trans_m, "robot_trans_m")]
+            )
+            ** 2
+        )
         return np.broadcast_to(np.diag(d), (n, 6, 6))
 
     @property
     def has_robot_noise(self) -> bool:
         if self.robot_covariance is not None:
             return bool(np.any(np.asarray(self.robot_covariance) != 0))
-        return bool(np.any(_per_axis(self.robot_rot_rad, "robot_rot_rad"))
-                    or np.any(_per_axis(self.robot_trans_m, "robot_trans_m")))
+        return bool(
+            np.any(_per_axis(self.robot_rot_rad, "robot_rot_rad"))
+            or np.any(_per_axis(self.robot_trans_m, "robot_trans_m"))
+        )
 
     def describe(self) -> dict:
         """JSON-ready summary (deg, mm) for a result's diagnostics."""
@@ -150,8 +168,9 @@ def camera_residual_jacobian(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.
     return J
 
 
-def robot_residual_jacobian(A: np.ndarray, X: np.ndarray, Y: np.ndarray, setup: str, B: np.ndarray | None = None
-                            ) -> np.ndarray:
+def robot_residual_jacobian(
+    A: np.ndarray, X: np.ndarray, Y: np.ndarray, setup: str, B: np.ndarray | None = None
+) -> np.ndarray:
     """``d r_i / d e_rob``: the residual's response to robot noise ``[w, n]`` on ``T_base_ee``, shape (N, 6, 6).
 
     Eye-to-hand (``A = T_base_ee``): ``d r_rot/dw = -R_Y^T``, ``d r_t/dw = R_X^T R_A [t_Y]x`` (the lever
@@ -180,8 +199,9 @@ def robot_residual_jacobian(A: np.ndarray, X: np.ndarray, Y: np.ndarray, setup: 
     return J
 
 
-def residual_covariances(model: NoiseModel, A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray,
-                         setup: str) -> np.ndarray:
+def residual_covariances(
+    model: NoiseModel, A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray, setup: str
+) -> np.ndarray:
     """``S_i``, the covariance of each pose residual at ``(X, Y)`` under ``model``, shape (N, 6, 6)."""
     n = len(A)
     Jc = camera_residual_jacobian(A, B, X, Y)
@@ -204,8 +224,10 @@ def whitening(S: np.ndarray) -> np.ndarray:
     try:
         L = np.linalg.cholesky(S)
     except np.linalg.LinAlgError:
-        raise HandEyeInputError("the noise model gives a residual covariance that is not positive definite: "
-                                "every residual direction needs some noise (camera or robot)") from None
+        raise HandEyeInputError(
+            "the noise model gives a residual covariance that is not positive definite: "
+            "every residual direction needs some noise (camera or robot)"
+        ) from None
     return np.linalg.inv(L)
 
 
@@ -228,4 +250,3 @@ def joint_noise_covariance(jacobians: np.ndarray, sigma_joint_rad) -> np.ndarray
         raise HandEyeInputError(f"joint Jacobians must have shape (N, 6, nq), got {Jq.shape}")
     s2 = np.broadcast_to(np.asarray(sigma_joint_rad, dtype=float), (Jq.shape[2],)) ** 2
     return (Jq * s2) @ np.swapaxes(Jq, 1, 2)
-

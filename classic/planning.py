@@ -55,8 +55,16 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import hat
 from handeye.core.setups import normalize_setup
 
-__all__ = ["DEFAULT_MIN_GAIN", "PRIOR_SIGMA_ROT_RAD", "PRIOR_SIGMA_TRANS_M", "PosePlan", "pose_information",
-           "workspace_weight", "predicted_sigmas", "plan_poses"]
+__all__ = [
+    "DEFAULT_MIN_GAIN",
+    "PRIOR_SIGMA_ROT_RAD",
+    "PRIOR_SIGMA_TRANS_M",
+    "PosePlan",
+    "pose_information",
+    "workspace_weight",
+    "predicted_sigmas",
+    "plan_poses",
+]
 
 #: A pose that shrinks the predicted workspace sigma of X by less than this is not worth recording.
 DEFAULT_MIN_GAIN = 0.05
@@ -125,7 +133,7 @@ def workspace_weight(X: np.ndarray, p_cam: np.ndarray) -> np.ndarray:
 
 
 def _prior() -> np.ndarray:
-    d = np.tile(np.r_[np.full(3, PRIOR_SIGMA_ROT_RAD ** -2), np.full(3, PRIOR_SIGMA_TRANS_M ** -2)], 2)
+    d = np.tile(np.r_[np.full(3, PRIOR_SIGMA_ROT_RAD**-2), np.full(3, PRIOR_SIGMA_TRANS_M**-2)], 2)
     return np.diag(d)
 
 
@@ -159,8 +167,11 @@ def predicted_sigmas(F: np.ndarray, M: np.ndarray) -> dict:
         return {"X_rotation_deg": np.inf, "X_translation_mm": np.inf, "X_workspace_mm": np.inf}
     C = np.linalg.inv(F)
     s = sigma_of_blocks(C)
-    return {"X_rotation_deg": s["X_rotation_deg"], "X_translation_mm": s["X_translation_mm"],
-            "X_workspace_mm": 1000.0 * float(np.sqrt(max(np.trace(M @ C[:6, :6]), 0.0)))}
+    return {
+        "X_rotation_deg": s["X_rotation_deg"],
+        "X_translation_mm": s["X_translation_mm"],
+        "X_workspace_mm": 1000.0 * float(np.sqrt(max(np.trace(M @ C[:6, :6]), 0.0))),
+    }
 
 
 @dataclass
@@ -209,16 +220,22 @@ def _reductions(G: np.ndarray, C: np.ndarray, M: np.ndarray) -> np.ndarray:
 
 def _advice(reason: str, next_gain: float, min_gain: float, determined: bool) -> str:
     if reason == STOP_EXHAUSTED:
-        return ("stop: no candidate pose left adds information (candidates exhausted); sample more candidates "
-                "or widen the workspace")
+        return (
+            "stop: no candidate pose left adds information (candidates exhausted); sample more candidates "
+            "or widen the workspace"
+        )
     if reason == STOP_SMALL_GAIN:
-        return (f"stop: one more pose would shrink the predicted sigma by only {100 * next_gain:.1f} % "
-                f"(threshold {100 * min_gain:.0f} %): more poses will no longer help")
+        return (
+            f"stop: one more pose would shrink the predicted sigma by only {100 * next_gain:.1f} % "
+            f"(threshold {100 * min_gain:.0f} %): more poses will no longer help"
+        )
     if not determined:
         return "keep going: these poses do not determine X yet"
     if next_gain < min_gain:
-        return (f"enough: the next best pose would shrink the predicted sigma by only {100 * next_gain:.1f} % "
-                f"(< {100 * min_gain:.0f} %): more poses will no longer help")
+        return (
+            f"enough: the next best pose would shrink the predicted sigma by only {100 * next_gain:.1f} % "
+            f"(< {100 * min_gain:.0f} %): more poses will no longer help"
+        )
     return f"more poses still help: the next best pose would shrink the predicted sigma by {100 * next_gain:.1f} %"
 
 
@@ -357,8 +374,11 @@ def plan_poses(
     if workspace_cam is None:
         workspace_cam = views if len(views) else np.zeros((1, 3))
     workspace_cam = np.asarray(workspace_cam, dtype=float).reshape(-1, 3)
-    design = _Design(np.einsum("nji,njk->ik", G_rec, G_rec), pose_information(A_candidates, X, Y, noise, setup),
-                     workspace_weight(X, workspace_cam))
+    design = _Design(
+        np.einsum("nji,njk->ik", G_rec, G_rec),
+        pose_information(A_candidates, X, Y, noise, setup),
+        workspace_weight(X, workspace_cam),
+    )
     available = np.ones(len(A_candidates), dtype=bool)
     first = None
     if len(G_rec) == 0 and len(views):

@@ -129,7 +129,7 @@ def _scales(r_rot, r_trans, w, robust: bool, n_params: int = 12, leverage=None) 
     out = []
     for k, r in enumerate((np.asarray(r_rot), np.asarray(r_trans))):
         if leverage is not None:
-            r = r / np.sqrt(np.clip(1.0 - np.asarray(leverage)[:, 3 * k:3 * k + 3], 1e-6, None))
+            r = r / np.sqrt(np.clip(1.0 - np.asarray(leverage)[:, 3 * k : 3 * k + 3], 1e-6, None))
         z2 = np.sum(r**2, axis=1)
         if robust:
             level = np.sqrt(np.median(z2) / _CHI2_3_MEDIAN)
@@ -340,8 +340,15 @@ def refine_xy(
         A_now, _ = A_of(dt)
         W = whitening(factor * residual_covariances(model, A_now, _scaled(B, s), X, Y, setup))
         prob = _Problem(A_of, B, setup, X, Y, s, dt, W, estimate_scale, with_offset)
-        fit = fit_least_squares(prob.fun, prob.jac, prob.n_params, loss=loss, loss_scale=ROBUST_SCALE,
-                                max_evaluations=3 * max_iterations, tol=tol)
+        fit = fit_least_squares(
+            prob.fun,
+            prob.jac,
+            prob.n_params,
+            loss=loss,
+            loss_scale=ROBUST_SCALE,
+            max_evaluations=3 * max_iterations,
+            tol=tol,
+        )
         evaluations += fit.evaluations if max_iterations > 0 else 0
         converged = fit.converged
         X_new, Y_new, s, dt = prob.unpack(fit.x)

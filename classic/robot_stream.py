@@ -67,8 +67,10 @@ class RobotStream:
         t = self.times_s
         if np.any(q < t[0]) or np.any(q > t[-1]):
             bad = q[(q < t[0]) | (q > t[-1])]
-            raise HandEyeInputError(f"time {bad[0]:.6f} s is outside the robot recording [{t[0]:.6f}, {t[-1]:.6f}] s; "
-                                    "trim the camera poses to the robot's time span (or reduce the offset)")
+            raise HandEyeInputError(
+                f"time {bad[0]:.6f} s is outside the robot recording [{t[0]:.6f}, {t[-1]:.6f}] s; "
+                "trim the camera poses to the robot's time span (or reduce the offset)"
+            )
         k = np.clip(np.searchsorted(t, q, side="right") - 1, 0, len(t) - 2)
         tau = q - t[k]
         R = self.T_base_ee[k, :3, :3] @ so3_exp(self._omega[k] * tau[:, None])

@@ -80,8 +80,10 @@ def scaled_start(A: np.ndarray, B: np.ndarray, pairs: str = "all") -> tuple[np.n
     sol = np.linalg.lstsq(M, -m.t_A.reshape(-1), rcond=None)[0]
     s = float(sol[3])
     if not np.isfinite(s) or s <= 0:
-        raise DegenerateMotionError(f"the camera translations' scale came out {s:.3g}: the motions do not fix it "
-                                    "(more translation of the camera between poses is needed)")
+        raise DegenerateMotionError(
+            f"the camera translations' scale came out {s:.3g}: the motions do not fix it "
+            "(more translation of the camera between poses is needed)"
+        )
     X = make_transform(R_X, sol[:3])
     Bs = B.copy()
     Bs[:, :3, 3] *= s

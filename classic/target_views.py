@@ -65,8 +65,9 @@ class ViewLimits:
 
     def __post_init__(self):
         if not 0.0 < self.min_distance_m < self.max_distance_m:
-            raise HandEyeInputError(f"view distances must satisfy 0 < min < max, got {self.min_distance_m} and "
-                                    f"{self.max_distance_m} m")
+            raise HandEyeInputError(
+                f"view distances must satisfy 0 < min < max, got {self.min_distance_m} and {self.max_distance_m} m"
+            )
         for name in ("half_fov_x_deg", "half_fov_y_deg"):
             if not 0.0 < getattr(self, name) < 89.0:
                 raise HandEyeInputError(f"{name} must lie in (0, 89) degrees, got {getattr(self, name)}")

@@ -112,24 +112,36 @@ def calibrate_stream(
         if best is None or cost < best[0]:
             best = (cost, dt, X, Y)
     if best is None:
-        raise DegenerateMotionError("no offset in the searched range gives a closed-form solution: more rotation "
-                                    "between the camera poses is needed")
+        raise DegenerateMotionError(
+            "no offset in the searched range gives a closed-form solution: more rotation "
+            "between the camera poses is needed"
+        )
     _, dt0, X0, Y0 = best
-    ref = refine_xy(None, B, X0, Y0, loss=loss, noise=noise, setup=setup, stream=stream, camera_times_s=t_cam,
-                    time_offset0_s=dt0)
+    ref = refine_xy(
+        None, B, X0, Y0, loss=loss, noise=noise, setup=setup, stream=stream, camera_times_s=t_cam, time_offset0_s=dt0
+    )
     A = robot_side_poses(stream.at(t_cam + ref.time_offset_s)[0], setup)
     r_rot, r_trans = pose_residuals(A, B, ref.X, ref.Y)
     if check and loss == "linear":
         check_contamination(ref.whitened, np.concatenate([r_rot, r_trans], axis=1), ref.jacobian)
     diagnostics = {
-        "time_offset": {"value_s": ref.time_offset_s, "sigma_s": ref.time_offset_sigma_s,
-                        "grid_step_s": float(grid[1] - grid[0]) if len(grid) > 1 else 0.0,
-                        "poses_used": [int(i) for i in used]},
+        "time_offset": {
+            "value_s": ref.time_offset_s,
+            "sigma_s": ref.time_offset_sigma_s,
+            "grid_step_s": float(grid[1] - grid[0]) if len(grid) > 1 else 0.0,
+            "poses_used": [int(i) for i in used],
+        },
         "noise_model": ref.noise_model,
-        "refinement": {"loss": loss, "iterations": ref.iterations, "converged": ref.converged,
-                       "cost_initial": ref.cost_initial, "cost_final": ref.cost_final,
-                       "variance_factor": ref.variance_factor},
+        "refinement": {
+            "loss": loss,
+            "iterations": ref.iterations,
+            "converged": ref.converged,
+            "cost_initial": ref.cost_initial,
+            "cost_final": ref.cost_final,
+            "variance_factor": ref.variance_factor,
+        },
     }
-    residuals = PoseResiduals(np.degrees(np.linalg.norm(r_rot, axis=1)), 1000 * np.linalg.norm(r_trans, axis=1),
-                              np.ones(len(B), dtype=bool))
+    residuals = PoseResiduals(
+        np.degrees(np.linalg.norm(r_rot, axis=1)), 1000 * np.linalg.norm(r_trans, axis=1), np.ones(len(B), dtype=bool)
+    )
     return CalibrationResult(setup, f"{method}+offset+lm", ref.X, ref.Y, residuals, ref.covariance, diagnostics)

@@ -49,8 +49,14 @@ def _tsai_stats(m: Motions) -> dict:
     s = 2.0 * (m.q_A[:, :3] + m.q_B[:, :3])
     d = 2.0 * (m.q_B[:, :3] - m.q_A[:, :3])
     # normal equations of [s]x x = d: sum [s]x^T [s]x = sum(|s|^2) I - s^T s, sum [s]x^T d = -sum s x d
-    s_x_d = np.stack([s[:, 1] * d[:, 2] - s[:, 2] * d[:, 1], s[:, 2] * d[:, 0] - s[:, 0] * d[:, 2],
-                      s[:, 0] * d[:, 1] - s[:, 1] * d[:, 0]], axis=1)
+    s_x_d = np.stack(
+        [
+            s[:, 1] * d[:, 2] - s[:, 2] * d[:, 1],
+            s[:, 2] * d[:, 0] - s[:, 0] * d[:, 2],
+            s[:, 0] * d[:, 1] - s[:, 1] * d[:, 0],
+        ],
+        axis=1,
+    )
     sTs = s.T @ s
     return {"G": np.trace(sTs) * np.eye(3) - sTs, "rhs": -(np.ones(len(m)) @ s_x_d), **translation_stats(m)}
 

@@ -44,10 +44,19 @@ def load_poses(path: str | Path, setup: str, quat_order: str | None = None, unit
     PoseFileError, QuaternionOrderError
     """
     from classic.diagnostics import fit_residual_m
+    from handeye.core.validation import MIN_POSES
 
     if Path(path).suffix.lower() in YAML_SUFFIXES:  # easy_handeye: quaternions named x, y, z, w; no order to test
-        return read_pose_file(path, units=units, setup=setup)
-    poses = read_pose_file(path, quat_order=quat_order, units=units)
+        poses = read_pose_file(path, units=units, setup=setup)
+    else:
+        poses = read_pose_file(path, quat_order=quat_order, units=units)
+    if len(poses.T_base_ee) < MIN_POSES:
+        raise PoseFileError(
+            f"{path}: {len(poses.T_base_ee)} pose pair(s); a hand-eye calibration needs at least {MIN_POSES} "
+            "(10 to 20 well spread ones is typical)"
+        )
+    if Path(path).suffix.lower() in YAML_SUFFIXES:
+        return poses
     given = fit_residual_m(poses.T_base_ee, poses.T_cam_target, setup)
     if given <= 1e-6:
         return poses

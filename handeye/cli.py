@@ -34,8 +34,21 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser = argparse.ArgumentParser(prog="handeye", description="Robot hand-eye calibration toolkit.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (calibrate, board, detect, intrinsics, sim, label, show, learned, compare, markerless, demo,
-                   bag_poses, plan):
+    for module in (
+        calibrate,
+        board,
+        detect,
+        intrinsics,
+        sim,
+        label,
+        show,
+        learned,
+        compare,
+        markerless,
+        demo,
+        bag_poses,
+        plan,
+    ):
         module.add_parser(sub)
     return parser
 

@@ -25,8 +25,10 @@ def _label_text(ds: Dataset, camera_id: int) -> tuple[str, np.ndarray | None]:
     status = cams["label_status"][camera_id]
     if status != "ok":
         return head + f"; labelling {status[:80]}", None
-    text = head + (f"; label from {cams['label_views_used'][camera_id]}/{cams['label_views_total'][camera_id]} "
-                   f"views, RMS {cams['label_rms_px'][camera_id]:.2f} px")
+    text = head + (
+        f"; label from {cams['label_views_used'][camera_id]}/{cams['label_views_total'][camera_id]} "
+        f"views, RMS {cams['label_rms_px'][camera_id]:.2f} px"
+    )
     if np.isfinite(T_base_cam_true).all():
         rot, trans = pose_error(T_base_cam_label, T_base_cam_true)
         text += f"; label vs truth {float(rot):.4f} deg / {float(trans):.3f} mm"

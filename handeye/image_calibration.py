@@ -47,8 +47,9 @@ class ImageCalibration:
         return self.reprojection.Y if self.reprojection is not None else self.pose_based.Y
 
 
-def pair_robot_poses(images: list[str], robot_images: list[str] | None, T_base_ee: np.ndarray,
-                     source: str) -> np.ndarray:
+def pair_robot_poses(
+    images: list[str], robot_images: list[str] | None, T_base_ee: np.ndarray, source: str
+) -> np.ndarray:
     """Robot pose of each image: by the robot file's ``image`` column, or by order.
 
     Parameters
@@ -83,8 +84,9 @@ def pair_robot_poses(images: list[str], robot_images: list[str] | None, T_base_e
         index[name] = k
     missing = [im for im in images if im not in index]
     if missing:
-        raise PoseFileError(f"{source}: no robot pose for image(s) {', '.join(missing[:5])}"
-                            + (" ..." if len(missing) > 5 else ""))
+        raise PoseFileError(
+            f"{source}: no robot pose for image(s) {', '.join(missing[:5])}" + (" ..." if len(missing) > 5 else "")
+        )
     return T_base_ee[[index[im] for im in images]]
 
 
@@ -127,24 +129,37 @@ def calibrate_from_views(
     T_cam_target = np.array([views.views[k].pose.T_cam_target for k in accepted]).reshape(-1, 4, 4)
     # each PnP pose weighed by its own covariance from its corners (poor along the optical axis); the
     # common scale is left to the residuals, since the robot's noise adds to the camera's
-    covs, _ = pose_covariances(T_cam_target, [views.views[k].detection.ids for k in accepted],
-                               [views.views[k].detection.corners_px for k in accepted], views.spec, views.intrinsics)
-    noise = classic.NoiseModel(camera_covariance=covs, name="camera, PnP covariance from the corners",
-                               scale_to_residuals=True)
+    covs, _ = pose_covariances(
+        T_cam_target,
+        [views.views[k].detection.ids for k in accepted],
+        [views.views[k].detection.corners_px for k in accepted],
+        views.spec,
+        views.intrinsics,
+    )
+    noise = classic.NoiseModel(
+        camera_covariance=covs, name="camera, PnP covariance from the corners", scale_to_residuals=True
+    )
     # with the reprojection refinement to follow, the pose-based fit is its start: a robust loss keeps a
     # view whose PnP pose is off (a grazing board) from pulling it, and the corners then weigh every view
     # for what it holds; without it the pose-based fit is the result, and least squares refuses outliers
     loss = "cauchy" if (reprojection or robust) else "linear"
-    res = classic.calibrate(T_base_ee[accepted], T_cam_target, setup=setup, method=method, robust=robust,
-                            noise=noise, loss=loss)
+    res = classic.calibrate(
+        T_base_ee[accepted], T_cam_target, setup=setup, method=method, robust=robust, noise=noise, loss=loss
+    )
     images = [views.views[k].image for k in accepted]
     rep = None
     if reprojection:
         keep = [k for k, ok in zip(accepted, res.residuals.inliers) if ok]
         rep = refine_reprojection(
-            T_base_ee[keep], [views.views[k].detection.ids for k in keep],
-            [views.views[k].detection.corners_px for k in keep], views.spec, views.intrinsics, res.X, res.Y,
-            setup=setup, refine_intrinsics=refine_intrinsics,
+            T_base_ee[keep],
+            [views.views[k].detection.ids for k in keep],
+            [views.views[k].detection.corners_px for k in keep],
+            views.spec,
+            views.intrinsics,
+            res.X,
+            res.Y,
+            setup=setup,
+            refine_intrinsics=refine_intrinsics,
         )
         images = [views.views[k].image for k in keep]
     return ImageCalibration(res, rep, images, rejected)

@@ -34,8 +34,7 @@ from handeye.core.metrics import pose_error
 from handeye.core.pool import run_pool
 from handeye.core.tables import markdown_table
 
-__all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown",
-           "plot_label_errors"]
+__all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown", "plot_label_errors"]
 
 
 def _board_and_intrinsics(ds: Dataset):
@@ -81,16 +80,25 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dic
     try:
         if n == 0:
             raise HandEyeInputError("no calibration recording")
-        cal = calibrate_from_views(Views(views, spec, intr, ds.shard_dir(camera_id), "recorded"),
-                                   ds.poses(rows, "T_base_ee"), "eye_to_hand", method=method)
+        cal = calibrate_from_views(
+            Views(views, spec, intr, ds.shard_dir(camera_id), "recorded"),
+            ds.poses(rows, "T_base_ee"),
+            "eye_to_hand",
+            method=method,
+        )
     except HandEyeInputError as exc:
         out["label_status"] = f"failed: {exc}".replace("\n", " ")
         return out, None
     out.update(poses_to_columns("T_base_cam_label", cal.X))
     out = {k: (v[0] if isinstance(v, np.ndarray) else v) for k, v in out.items()}
     rep = cal.reprojection
-    out.update(label_status="ok", label_views_used=len(cal.images), label_rms_px=rep.rms_px,
-               label_sigma_rot_deg=rep.sigma["X_rotation_deg"], label_sigma_trans_mm=rep.sigma["X_translation_mm"])
+    out.update(
+        label_status="ok",
+        label_views_used=len(cal.images),
+        label_rms_px=rep.rms_px,
+        label_sigma_rot_deg=rep.sigma["X_rotation_deg"],
+        label_sigma_trans_mm=rep.sigma["X_translation_mm"],
+    )
     T_base_cam_true = ds.truth()[camera_id]
     if np.isfinite(T_base_cam_true).all():
         rot, trans = pose_error(cal.X, T_base_cam_true)
@@ -132,8 +140,9 @@ def _describe(args) -> str:
     return f"label camera {camera_id} of {root}"
 
 
-def label_dataset(root: str | Path, workers: int = 2, method: str = "park", progress: bool = True,
-                  plot: bool = True) -> LabelReport:
+def label_dataset(
+    root: str | Path, workers: int = 2, method: str = "park", progress: bool = True, plot: bool = True
+) -> LabelReport:
     """Label every camera pose of a dataset and write the labels, a report and a plot.
 
     Parameters
@@ -162,12 +171,14 @@ def label_dataset(root: str | Path, workers: int = 2, method: str = "park", prog
     for c in range(len(ds)):
         ds.frames(c)  # validate every shard up front: fail before an hour of work, not after
     jobs = [(str(ds.root), c, method) for c in range(len(ds))]
-    results = dict(run_pool(_label_one, jobs, workers, progress, desc=f"label {ds.root.name}", unit="camera",
-                            describe=_describe))
+    results = dict(
+        run_pool(_label_one, jobs, workers, progress, desc=f"label {ds.root.name}", unit="camera", describe=_describe)
+    )
     table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS or k in MARKERLESS_COLUMNS}
     for col in LABEL_COLUMNS:
-        table[col] = np.array([results[c][col] for c in range(len(ds))],
-                              dtype=object if col == "label_status" else float)
+        table[col] = np.array(
+            [results[c][col] for c in range(len(ds))], dtype=object if col == "label_status" else float
+        )
     for col in ("label_views_used", "label_views_total"):
         table[col] = table[col].astype(int)
     with dataset_lock(ds.root, "handeye label"):
@@ -184,8 +195,10 @@ def label_summary(table: dict) -> str:
     text = f"{ok.sum()} of {len(ok)} camera poses labelled"
     rot, trans = table["label_error_rot_deg"][ok], table["label_error_trans_mm"][ok]
     if np.isfinite(rot).any():
-        text += (f"; label error against truth: median {np.nanmedian(rot):.4f} deg / {np.nanmedian(trans):.3f} mm, "
-                 f"worst {np.nanmax(rot):.4f} deg / {np.nanmax(trans):.3f} mm")
+        text += (
+            f"; label error against truth: median {np.nanmedian(rot):.4f} deg / {np.nanmedian(trans):.3f} mm, "
+            f"worst {np.nanmax(rot):.4f} deg / {np.nanmax(trans):.3f} mm"
+        )
     failed = [(int(c), s) for c, s in zip(table["camera_id"], table["label_status"]) if s != "ok"]
     for c, s in failed:
         text += f"\ncamera {c}: {s}"
@@ -194,19 +207,42 @@ def label_summary(table: dict) -> str:
 
 def label_table_markdown(table: dict) -> str:
     """Per camera pose: split, region, views used, RMS, predicted sigma and error against truth."""
+
     def f(x, d):
         return "" if not np.isfinite(x) else f"{x:.{d}f}"
 
     rows = []
     for i in range(len(table["camera_id"])):
         status = table["label_status"][i]
-        rows.append([table["camera_id"][i], table["region"][i], table["split"][i],
-                     f"{table['label_views_used'][i]}/{table['label_views_total'][i]}", f(table["label_rms_px"][i], 3),
-                     f(table["label_sigma_rot_deg"][i], 4), f(table["label_sigma_trans_mm"][i], 3),
-                     f(table["label_error_rot_deg"][i], 4), f(table["label_error_trans_mm"][i], 3),
-                     status if status == "ok" else status[:60]])
-    lines = markdown_table(["camera", "region", "split", "views used", "RMS px", "sigma deg", "sigma mm", "error deg",
-                            "error mm", "status"], rows)
+        rows.append(
+            [
+                table["camera_id"][i],
+                table["region"][i],
+                table["split"][i],
+                f"{table['label_views_used'][i]}/{table['label_views_total'][i]}",
+                f(table["label_rms_px"][i], 3),
+                f(table["label_sigma_rot_deg"][i], 4),
+                f(table["label_sigma_trans_mm"][i], 3),
+                f(table["label_error_rot_deg"][i], 4),
+                f(table["label_error_trans_mm"][i], 3),
+                status if status == "ok" else status[:60],
+            ]
+        )
+    lines = markdown_table(
+        [
+            "camera",
+            "region",
+            "split",
+            "views used",
+            "RMS px",
+            "sigma deg",
+            "sigma mm",
+            "error deg",
+            "error mm",
+            "status",
+        ],
+        rows,
+    )
     return "\n".join(lines) + "\n\n" + label_summary(table)
 
 
@@ -220,8 +256,10 @@ def plot_label_errors(table: dict, path: str | Path) -> None:
     ids = np.asarray(table["camera_id"])
     colours = plt.get_cmap("tab10")(np.asarray(table["region"]) % 10)
     fig, axes = plt.subplots(2, 1, figsize=(max(6.0, 0.12 * len(ids) + 2), 5.5), sharex=True)
-    for ax, err, sig, unit in ((axes[0], "label_error_rot_deg", "label_sigma_rot_deg", "deg"),
-                               (axes[1], "label_error_trans_mm", "label_sigma_trans_mm", "mm")):
+    for ax, err, sig, unit in (
+        (axes[0], "label_error_rot_deg", "label_sigma_rot_deg", "deg"),
+        (axes[1], "label_error_trans_mm", "label_sigma_trans_mm", "mm"),
+    ):
         ax.bar(ids, np.nan_to_num(table[err]), color=colours, width=0.8)
         ax.plot(ids, 3 * np.asarray(table[sig]), "k_", markersize=8, label="predicted 3 sigma")
         ax.set_ylabel(f"label error ({unit})")

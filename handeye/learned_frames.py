@@ -16,8 +16,14 @@ from handeye.robot_model import dataset_robot
 __all__ = ["load_keypoint_frames"]
 
 
-def load_keypoint_frames(root: str | Path, image_size: tuple, labels: str = "classic", progress: bool = True,
-                         urdf: str | Path | None = None, package_dirs=()):
+def load_keypoint_frames(
+    root: str | Path,
+    image_size: tuple,
+    labels: str = "classic",
+    progress: bool = True,
+    urdf: str | Path | None = None,
+    package_dirs=(),
+):
     """:func:`learned.data.load_frames` with ``keypoints_base`` filled (joint origins, flange, reference point)."""
     from learned.data import load_frames, with_keypoints
 

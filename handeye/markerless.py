@@ -29,8 +29,14 @@ from handeye.core.metrics import pose_error
 from handeye.core.se3 import transform_from_pos_quat_xyzw
 from handeye.core.tables import markdown_table
 
-__all__ = ["MarkerlessRun", "markerless_dataset", "calibrate_camera", "robot_surface_for", "read_start",
-           "write_markerless_labels"]
+__all__ = [
+    "MarkerlessRun",
+    "markerless_dataset",
+    "calibrate_camera",
+    "robot_surface_for",
+    "read_start",
+    "write_markerless_labels",
+]
 
 
 @dataclass
@@ -74,17 +80,42 @@ class MarkerlessRun:
         for c, r in self.results.items():
             err = self.errors.get(c)
             lab = self.label_errors.get(c)
-            rows.append([c, "ok" if r.ok else "refused: " + r.refused, r.start or "-",
-                         f"{err[1]:.3f} / {err[0]:.4f}" if err else "-",
-                         f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f}",
-                         f"{r.matched_fraction:.2f}",
-                         f"{lab[1]:.3f} / {lab[0]:.4f}" if lab else "-", f"{self.seconds[c]:.1f}"])
-        return "\n".join(markdown_table(["camera", "status", "start", "hybrid vs truth (mm / deg)", "sigma (mm / deg)",
-                                          "matched", "classic label vs truth", "s"], rows))
+            rows.append(
+                [
+                    c,
+                    "ok" if r.ok else "refused: " + r.refused,
+                    r.start or "-",
+                    f"{err[1]:.3f} / {err[0]:.4f}" if err else "-",
+                    f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f}",
+                    f"{r.matched_fraction:.2f}",
+                    f"{lab[1]:.3f} / {lab[0]:.4f}" if lab else "-",
+                    f"{self.seconds[c]:.1f}",
+                ]
+            )
+        return "\n".join(
+            markdown_table(
+                [
+                    "camera",
+                    "status",
+                    "start",
+                    "hybrid vs truth (mm / deg)",
+                    "sigma (mm / deg)",
+                    "matched",
+                    "classic label vs truth",
+                    "s",
+                ],
+                rows,
+            )
+        )
 
 
-def robot_surface_for(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), ee_frame: str = "tool0",
-                      zbuffer_stride: int | None = None):
+def robot_surface_for(
+    ds: Dataset,
+    urdf: str | Path | None = None,
+    package_dirs=(),
+    ee_frame: str = "tool0",
+    zbuffer_stride: int | None = None,
+):
     """The robot surface sampler for a dataset's camera, and the z-buffer stride it was sampled for.
 
     The spacing is 0.7 of the pixel footprint at 0.8 m times the stride; the stride is 1 up to
@@ -122,19 +153,27 @@ def read_start(path: str | Path) -> np.ndarray:
     doc = doc.get("T_base_cam", doc) if isinstance(doc, dict) else doc
     try:
         if isinstance(doc, dict):
-            T = transform_from_pos_quat_xyzw(np.array(doc["translation_m"], dtype=float),
-                                             np.array(doc["quaternion_xyzw"], dtype=float))
+            T = transform_from_pos_quat_xyzw(
+                np.array(doc["translation_m"], dtype=float), np.array(doc["quaternion_xyzw"], dtype=float)
+            )
         else:
             T = np.array(doc, dtype=float)
     except (KeyError, TypeError, ValueError):
-        raise HandEyeInputError(f"{path}: expected {{\"T_base_cam\": 4x4 matrix}} or {{\"translation_m\": [x, y, z], "
-                                f"\"quaternion_xyzw\": [x, y, z, w]}}") from None
+        raise HandEyeInputError(
+            f'{path}: expected {{"T_base_cam": 4x4 matrix}} or {{"translation_m": [x, y, z], '
+            f'"quaternion_xyzw": [x, y, z, w]}}'
+        ) from None
     return check_transforms(T, f"{path}: T_base_cam")[0]
 
 
-def calibrate_camera(ds: Dataset, camera_id: int, surface, starts: dict | None = None,
-                     options: MarkerlessOptions | None = None, frames: slice | np.ndarray | None = None
-                     ) -> MarkerlessResult:
+def calibrate_camera(
+    ds: Dataset,
+    camera_id: int,
+    surface,
+    starts: dict | None = None,
+    options: MarkerlessOptions | None = None,
+    frames: slice | np.ndarray | None = None,
+) -> MarkerlessResult:
     """Markerless ``T_base_cam`` of one camera placement from its data recording.
 
     Parameters
@@ -161,8 +200,10 @@ def calibrate_camera(ds: Dataset, camera_id: int, surface, starts: dict | None =
     K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     w, h = int(ds.meta["intrinsics"]["width"]), int(ds.meta["intrinsics"]["height"])
     if depth.shape[1:] != (h, w):
-        raise ShapeError(f"{ds.shard_dir(camera_id) / rel[0]}: depth is {depth.shape[2]}x{depth.shape[1]}, the "
-                         f"intrinsics in meta.json are for {w}x{h}")
+        raise ShapeError(
+            f"{ds.shard_dir(camera_id) / rel[0]}: depth is {depth.shape[2]}x{depth.shape[1]}, the "
+            f"intrinsics in meta.json are for {w}x{h}"
+        )
     return register_robot(depth, K, surface.posed(q), starts=starts, options=options)
 
 
@@ -185,8 +226,9 @@ def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
         frames = load_keypoint_frames(ds_root, model.config.image_size, "none", progress=False)
         for c in cameras:
             idx = np.flatnonzero(frames.camera == c)
-            out[c], _ = camera_pose(predict(model, frames, idx), frames.keypoints_base[idx],
-                                    frames.intrinsics_norm[idx])
+            out[c], _ = camera_pose(
+                predict(model, frames, idx), frames.keypoints_base[idx], frames.intrinsics_norm[idx]
+            )
         return out
     from learned.data import load_frames
 
@@ -199,10 +241,17 @@ def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
     return out
 
 
-def markerless_dataset(root: str | Path, cameras: list[int] | None = None, model_dir: str | Path | None = None,
-                       T_base_cam_start: np.ndarray | None = None, urdf: str | Path | None = None,
-                       package_dirs=(), options: MarkerlessOptions | None = None, progress: bool = False,
-                       frames=None) -> MarkerlessRun:
+def markerless_dataset(
+    root: str | Path,
+    cameras: list[int] | None = None,
+    model_dir: str | Path | None = None,
+    T_base_cam_start: np.ndarray | None = None,
+    urdf: str | Path | None = None,
+    package_dirs=(),
+    options: MarkerlessOptions | None = None,
+    progress: bool = False,
+    frames=None,
+) -> MarkerlessRun:
     """Markerless calibration of camera placements of a dataset.
 
     Parameters
@@ -292,8 +341,11 @@ def write_markerless_labels(root: str | Path, run: MarkerlessRun) -> Path:
             cams[col] = np.array([""] * n, dtype=object) if col == "markerless_status" else np.full(n, np.nan)
     cols = {c: np.array(cams[c], dtype=object if c == "markerless_status" else float) for c in MARKERLESS_COLUMNS}
     for c, res in run.results.items():
-        pose = poses_to_columns("T_base_cam_markerless", res.T_base_cam[None]) if res.ok else \
-            {k: [np.nan] for k in pose_columns("T_base_cam_markerless")}
+        pose = (
+            poses_to_columns("T_base_cam_markerless", res.T_base_cam[None])
+            if res.ok
+            else {k: [np.nan] for k in pose_columns("T_base_cam_markerless")}
+        )
         for k, v in pose.items():
             cols[k][c] = v[0]
         cols["markerless_status"][c] = "ok" if res.ok else f"refused: {res.refused}"

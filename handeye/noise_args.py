@@ -16,11 +16,21 @@ def add_noise_arguments(p: argparse.ArgumentParser, default_help: str) -> None:
     default_help : str
         What the command assumes when neither is given.
     """
-    p.add_argument("--camera-noise", nargs="+", type=float, metavar="V",
-                   help="camera pose noise per axis: DEG MM, or DEG MM_X MM_Y MM_Z (PnP: worse along the optical "
-                        f"axis, z); {default_help}")
-    p.add_argument("--robot-noise", nargs=2, type=float, metavar=("DEG", "MM"),
-                   help="robot flange pose noise per axis (the arm's repeatability)")
+    p.add_argument(
+        "--camera-noise",
+        nargs="+",
+        type=float,
+        metavar="V",
+        help="camera pose noise per axis: DEG MM, or DEG MM_X MM_Y MM_Z (PnP: worse along the optical "
+        f"axis, z); {default_help}",
+    )
+    p.add_argument(
+        "--robot-noise",
+        nargs=2,
+        type=float,
+        metavar=("DEG", "MM"),
+        help="robot flange pose noise per axis (the arm's repeatability)",
+    )
 
 
 def noise_model_from_args(args: argparse.Namespace):
@@ -45,20 +55,37 @@ def noise_model_from_args(args: argparse.Namespace):
         raise HandEyeInputError(f"--camera-noise takes DEG MM or DEG MM_X MM_Y MM_Z, got {len(cam)} numbers")
     trans = np.array(cam[1:]) / 1000.0
     robot = args.robot_noise or (0.0, 0.0)
-    return classic.NoiseModel(np.radians(cam[0]), trans if len(trans) == 3 else float(trans[0]),
-                              np.radians(robot[0]), robot[1] / 1000.0, name="given on the command line")
+    return classic.NoiseModel(
+        np.radians(cam[0]),
+        trans if len(trans) == 3 else float(trans[0]),
+        np.radians(robot[0]),
+        robot[1] / 1000.0,
+        name="given on the command line",
+    )
 
 
 def describe_noise(d: dict) -> str:
     """One line for a result's ``diagnostics["noise_model"]``."""
     if d.get("estimated"):
-        return (f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, "
-                f"{d['camera_translation_mm'][0]:.3f} mm per axis)")
+        return (
+            f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, "
+            f"{d['camera_translation_mm'][0]:.3f} mm per axis)"
+        )
     parts = [d["name"]]
     if "camera_rotation_deg" in d:
-        parts.append("camera " + ", ".join(f"{v:.4g}" for v in d["camera_rotation_deg"]) + " deg / "
-                     + ", ".join(f"{v:.4g}" for v in d["camera_translation_mm"]) + " mm")
+        parts.append(
+            "camera "
+            + ", ".join(f"{v:.4g}" for v in d["camera_rotation_deg"])
+            + " deg / "
+            + ", ".join(f"{v:.4g}" for v in d["camera_translation_mm"])
+            + " mm"
+        )
     if "robot_rotation_deg" in d:
-        parts.append("robot " + ", ".join(f"{v:.4g}" for v in d["robot_rotation_deg"]) + " deg / "
-                     + ", ".join(f"{v:.4g}" for v in d["robot_translation_mm"]) + " mm")
+        parts.append(
+            "robot "
+            + ", ".join(f"{v:.4g}" for v in d["robot_rotation_deg"])
+            + " deg / "
+            + ", ".join(f"{v:.4g}" for v in d["robot_translation_mm"])
+            + " mm"
+        )
     return "; ".join(parts)

@@ -36,14 +36,30 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import invert_transform, make_transform, project_to_so3
 from handeye.core.setups import normalize_setup, robot_side_poses
 
-__all__ = ["DEFAULT_NOISE", "Unknowns", "Candidates", "PlannedPoses", "camera_looking_at", "target_on_flange",
-           "camera_on_flange", "target_on_table", "unknowns_for_plan", "view_distances", "limits_for",
-           "sample_candidates", "plan_next_poses"]
+__all__ = [
+    "DEFAULT_NOISE",
+    "Unknowns",
+    "Candidates",
+    "PlannedPoses",
+    "camera_looking_at",
+    "target_on_flange",
+    "camera_on_flange",
+    "target_on_table",
+    "unknowns_for_plan",
+    "view_distances",
+    "limits_for",
+    "sample_candidates",
+    "plan_next_poses",
+]
 
 #: The noise a plan assumes unless told: a good camera's PnP pose and a UR arm's repeatability, per axis.
-DEFAULT_NOISE = NoiseModel(camera_rot_rad=np.radians(0.1), camera_trans_m=1e-3, robot_rot_rad=np.radians(0.01),
-                           robot_trans_m=0.2e-3, name="planning default (camera 0.1 deg / 1 mm, robot 0.01 deg / "
-                           "0.2 mm per axis)")
+DEFAULT_NOISE = NoiseModel(
+    camera_rot_rad=np.radians(0.1),
+    camera_trans_m=1e-3,
+    robot_rot_rad=np.radians(0.01),
+    robot_trans_m=0.2e-3,
+    name="planning default (camera 0.1 deg / 1 mm, robot 0.01 deg / 0.2 mm per axis)",
+)
 #: Default point the eye-to-hand camera looks at: this far from the base towards the camera, this high (m).
 LOOK_AT_REACH_M, LOOK_AT_HEIGHT_M = 0.35, 0.3
 #: Default target offset on the flange (eye-to-hand) and camera offset on the flange (eye-in-hand), metres.
@@ -166,8 +182,9 @@ def _mean_pose(T: np.ndarray) -> np.ndarray:
     return make_transform(project_to_so3(T[:, :3, :3].sum(axis=0)), T[:, :3, 3].mean(axis=0))
 
 
-def unknowns_for_plan(setup: str, T_base_ee: np.ndarray, T_cam_target: np.ndarray, camera_guess=None,
-                      target_guess=None, look_at=None) -> Unknowns:
+def unknowns_for_plan(
+    setup: str, T_base_ee: np.ndarray, T_cam_target: np.ndarray, camera_guess=None, target_guess=None, look_at=None
+) -> Unknowns:
     """X and Y for the planner: calibrated from the recorded poses when they determine X, else guessed.
 
     Parameters
@@ -215,16 +232,23 @@ def unknowns_for_plan(setup: str, T_base_ee: np.ndarray, T_cam_target: np.ndarra
         X = camera_looking_at(camera_guess, look_at)
         d = float(np.linalg.norm(_look_at_point(camera_guess, look_at) - np.asarray(camera_guess, dtype=float)))
         if n:  # Y_i = A_i^-1 X B_i
-            return Unknowns(X, _mean_pose(invert_transform(A) @ X @ T_cam_target),
-                            f"{why}; camera guess, target fitted to the recorded poses", d)
+            return Unknowns(
+                X,
+                _mean_pose(invert_transform(A) @ X @ T_cam_target),
+                f"{why}; camera guess, target fitted to the recorded poses",
+                d,
+            )
         Y = target_on_flange(DEFAULT_TARGET_ON_FLANGE_M if target_guess is None else target_guess)
         return Unknowns(X, Y, f"{why}; camera guess and target on the flange", d)
     if target_guess is None:
         raise HandEyeInputError(f"{why}: give --target-guess X Y Z (the target's centre in the base frame, m)")
     Y = target_on_table(target_guess)
     if n:  # X_i = A_i Y B_i^-1
-        return Unknowns(_mean_pose(A @ Y @ invert_transform(T_cam_target)), Y,
-                        f"{why}; target guess, camera fitted to the recorded poses")
+        return Unknowns(
+            _mean_pose(A @ Y @ invert_transform(T_cam_target)),
+            Y,
+            f"{why}; target guess, camera fitted to the recorded poses",
+        )
     X = camera_on_flange(DEFAULT_CAMERA_ON_FLANGE_M if camera_guess is None else camera_guess)
     return Unknowns(X, Y, f"{why}; target guess and camera on the flange")
 
@@ -277,9 +301,12 @@ def limits_for(limits: ViewLimits, unknowns: Unknowns, margin_deg: float = GUESS
     if not unknowns.guessed or margin_deg <= 0:
         return limits
     shrink = min(margin_deg, 0.8 * min(limits.half_fov_x_deg, limits.half_fov_y_deg))
-    return replace(limits, half_fov_x_deg=limits.half_fov_x_deg - shrink,
-                   half_fov_y_deg=limits.half_fov_y_deg - shrink,
-                   max_tilt_deg=max(limits.max_tilt_deg - margin_deg, 0.0))
+    return replace(
+        limits,
+        half_fov_x_deg=limits.half_fov_x_deg - shrink,
+        half_fov_y_deg=limits.half_fov_y_deg - shrink,
+        max_tilt_deg=max(limits.max_tilt_deg - margin_deg, 0.0),
+    )
 
 
 @dataclass
@@ -331,8 +358,15 @@ def _reach(robot, T_base_ee: np.ndarray, T_base_target: np.ndarray | None, min_h
     return None
 
 
-def sample_candidates(setup: str, unknowns: Unknowns, rng: np.random.Generator, n_views: int = 1500,
-                      limits: ViewLimits = ViewLimits(), robot=None, min_height_m: float = MIN_HEIGHT_M) -> Candidates:
+def sample_candidates(
+    setup: str,
+    unknowns: Unknowns,
+    rng: np.random.Generator,
+    n_views: int = 1500,
+    limits: ViewLimits = ViewLimits(),
+    robot=None,
+    min_height_m: float = MIN_HEIGHT_M,
+) -> Candidates:
     """Flange poses that put the target in the camera's view, reachable by the robot when one is given.
 
     Parameters
@@ -399,9 +433,16 @@ class PlannedPoses:
     n_recorded: int
 
 
-def plan_next_poses(setup: str, T_base_ee: np.ndarray, T_cam_target: np.ndarray, unknowns: Unknowns,
-                    candidates: Candidates, n: int = 8, noise: NoiseModel | None = None,
-                    min_gain: float = DEFAULT_MIN_GAIN) -> PlannedPoses:
+def plan_next_poses(
+    setup: str,
+    T_base_ee: np.ndarray,
+    T_cam_target: np.ndarray,
+    unknowns: Unknowns,
+    candidates: Candidates,
+    n: int = 8,
+    noise: NoiseModel | None = None,
+    min_gain: float = DEFAULT_MIN_GAIN,
+) -> PlannedPoses:
     """The next poses to record: :func:`classic.planning.plan_poses` on the candidates.
 
     Parameters
@@ -425,14 +466,31 @@ def plan_next_poses(setup: str, T_base_ee: np.ndarray, T_cam_target: np.ndarray,
     setup = normalize_setup(setup)
     noise = DEFAULT_NOISE if noise is None else noise
     if len(candidates) == 0:
-        raise HandEyeInputError(f"none of the {candidates.n_sampled} sampled views is reachable by the "
-                                f"{candidates.robot}: check the guesses (is the camera looking at the robot's "
-                                "workspace?) and the view distances")
+        raise HandEyeInputError(
+            f"none of the {candidates.n_sampled} sampled views is reachable by the "
+            f"{candidates.robot}: check the guesses (is the camera looking at the robot's "
+            "workspace?) and the view distances"
+        )
     A_recorded = robot_side_poses(np.asarray(T_base_ee, dtype=float).reshape(-1, 4, 4), setup)
-    plan = plan_poses(A_recorded, robot_side_poses(candidates.T_base_ee, setup), unknowns.X, unknowns.Y, noise,
-                      setup, n=n, min_gain=min_gain)
+    plan = plan_poses(
+        A_recorded,
+        robot_side_poses(candidates.T_base_ee, setup),
+        unknowns.X,
+        unknowns.Y,
+        noise,
+        setup,
+        n=n,
+        min_gain=min_gain,
+    )
     idx = plan.chosen
     q = None if candidates.q is None else candidates.q[idx]
-    return PlannedPoses(plan, candidates.T_base_ee[idx], views_of(candidates.T_base_ee[idx], unknowns.X, unknowns.Y,
-                                                                  setup), q, unknowns, candidates, noise,
-                        len(A_recorded))
+    return PlannedPoses(
+        plan,
+        candidates.T_base_ee[idx],
+        views_of(candidates.T_base_ee[idx], unknowns.X, unknowns.Y, setup),
+        q,
+        unknowns,
+        candidates,
+        noise,
+        len(A_recorded),
+    )

@@ -25,6 +25,7 @@ def dataset_robot(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), 
 
     robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot(ds.meta["robot"])
     if robot.nq != ds.meta["n_joints"]:
-        raise ShapeError(f"{ds.root / 'meta.json'}: {ds.meta['n_joints']} joints, the robot model {robot.name} has "
-                         f"{robot.nq}")
+        raise ShapeError(
+            f"{ds.root / 'meta.json'}: {ds.meta['n_joints']} joints, the robot model {robot.name} has {robot.nq}"
+        )
     return robot

@@ -43,14 +43,24 @@ from handeye.time_pairing import PairedPoses, pair_by_time
 __all__ = ["POSE_TYPES", "IMAGE_ENCODINGS", "BagRecording", "BagImages", "read_bag", "read_images", "image_array"]
 
 TF_TYPE = "tf2_msgs/msg/TFMessage"
-POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped",
-              "geometry_msgs/msg/TransformStamped")
+POSE_TYPES = (
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "geometry_msgs/msg/TransformStamped",
+)
 IMAGE_TYPE = "sensor_msgs/msg/Image"
 #: ``sensor_msgs/Image`` encodings read: (channels, dtype, channel order).
 IMAGE_ENCODINGS = {
-    "mono8": (1, "u1", None), "8UC1": (1, "u1", None), "mono16": (1, "u2", None), "16UC1": (1, "u2", None),
-    "32FC1": (1, "f4", None), "rgb8": (3, "u1", "rgb"), "bgr8": (3, "u1", "bgr"), "8UC3": (3, "u1", "bgr"),
-    "rgba8": (4, "u1", "rgb"), "bgra8": (4, "u1", "bgr"),
+    "mono8": (1, "u1", None),
+    "8UC1": (1, "u1", None),
+    "mono16": (1, "u2", None),
+    "16UC1": (1, "u2", None),
+    "32FC1": (1, "f4", None),
+    "rgb8": (3, "u1", "rgb"),
+    "bgr8": (3, "u1", "bgr"),
+    "8UC3": (3, "u1", "bgr"),
+    "rgba8": (4, "u1", "rgb"),
+    "bgra8": (4, "u1", "bgr"),
 }
 
 
@@ -108,8 +118,15 @@ class BagRecording:
         """
         if self.T_cam_target is None:
             raise BagTopicError(f"{self.bag}: read without a marker topic: no camera poses to pair")
-        return pair_by_time(self.robot_times_s, self.T_base_ee, self.camera_times_s, self.T_cam_target,
-                            tolerance_s, method, source=f"{self.bag}, {self.marker_topic} with tf")
+        return pair_by_time(
+            self.robot_times_s,
+            self.T_base_ee,
+            self.camera_times_s,
+            self.T_cam_target,
+            tolerance_s,
+            method,
+            source=f"{self.bag}, {self.marker_topic} with tf",
+        )
 
 
 @dataclass
@@ -146,11 +163,12 @@ def _bag_dir(path: Path) -> Path:
     if path.is_file() and path.suffix == ".bag":
         raise NotABagError(f"{path}: a ROS 1 bag; this reads ROS 2 bags (convert it with rosbags-convert)")
     if path.is_file() and path.suffix in (".db3", ".mcap"):
-        raise NotABagError(f"{path}: a {path.suffix} file without metadata.yaml beside it; a ROS 2 bag is the "
-                           "directory holding both (ros2 bag reindex writes a missing metadata.yaml)")
+        raise NotABagError(
+            f"{path}: a {path.suffix} file without metadata.yaml beside it; a ROS 2 bag is the "
+            "directory holding both (ros2 bag reindex writes a missing metadata.yaml)"
+        )
     if not path.is_dir() or not (path / "metadata.yaml").is_file():
-        raise NotABagError(f"{path}: not a ROS 2 bag (a rosbag2 directory with metadata.yaml and .db3 or .mcap "
-                           "files)")
+        raise NotABagError(f"{path}: not a ROS 2 bag (a rosbag2 directory with metadata.yaml and .db3 or .mcap files)")
     return path
 
 
@@ -208,8 +226,14 @@ def _pose_of(msg, msgtype: str) -> tuple:
     return (t.x, t.y, t.z), (q.x, q.y, q.z, q.w)
 
 
-def read_bag(bag, base_frame: str, ee_frame: str, marker_topic: str | None = None, tf_topic: str = "/tf",
-             tf_static_topic: str = "/tf_static") -> BagRecording:
+def read_bag(
+    bag,
+    base_frame: str,
+    ee_frame: str,
+    marker_topic: str | None = None,
+    tf_topic: str = "/tf",
+    tf_static_topic: str = "/tf_static",
+) -> BagRecording:
     """Read the robot's pose from tf, and the marker poses if a topic is given, in one pass over the bag.
 
     Parameters
@@ -264,8 +288,9 @@ def read_bag(bag, base_frame: str, ee_frame: str, marker_topic: str | None = Non
                 tf["static"].append(conn.topic == tf_static_topic)
         origin = int(reader.start_time)
     topics = tf_topic + (f" and {tf_static_topic}" if static_conns else "")
-    tree = TfTree.from_transforms(tf["parents"], tf["children"], tf["stamps"], tf["t"], tf["q"], tf["static"],
-                                  source=f"{name}, {topics}")
+    tree = TfTree.from_transforms(
+        tf["parents"], tf["children"], tf["stamps"], tf["t"], tf["q"], tf["static"], source=f"{name}, {topics}"
+    )
     chain = tree.chain(base_frame, ee_frame)
     rec = BagRecording(name, origin, (chain.stamps_ns - origin) * 1e-9, chain.T_base_ee, chain.frames)
     if marker_topic:
@@ -276,8 +301,10 @@ def read_bag(bag, base_frame: str, ee_frame: str, marker_topic: str | None = Non
         norm = np.linalg.norm(q, axis=1)
         bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
         if len(bad):
-            raise BagError(f"{name}, {marker_topic}: the message stamped {stamps[bad[0]]} ns has an orientation of "
-                           f"norm {norm[bad[0]]:.4g}, not 1 ({len(bad)} such messages)")
+            raise BagError(
+                f"{name}, {marker_topic}: the message stamped {stamps[bad[0]]} ns has an orientation of "
+                f"norm {norm[bad[0]]:.4g}, not 1 ({len(bad)} such messages)"
+            )
         order = np.argsort(stamps, kind="stable")
         rec.camera_times_s = (stamps[order] - origin) * 1e-9
         rec.T_cam_target = transform_from_pos_quat_xyzw(np.asarray(cam["t"])[order], q[order])
@@ -363,5 +390,11 @@ def read_images(bag, topic: str, order: str = "bgr", every: int = 1) -> BagImage
     if not images:
         raise BagTopicError(f"{name}: topic {topic!r} has no messages")
     idx = np.argsort(np.asarray(stamps, dtype=np.int64), kind="stable")
-    return BagImages((np.asarray(stamps, dtype=np.int64)[idx] - origin) * 1e-9, [images[i] for i in idx],
-                     [encodings[i] for i in idx], ", ".join(sorted(frames)), origin, order)
+    return BagImages(
+        (np.asarray(stamps, dtype=np.int64)[idx] - origin) * 1e-9,
+        [images[i] for i in idx],
+        [encodings[i] for i in idx],
+        ", ".join(sorted(frames)),
+        origin,
+        order,
+    )

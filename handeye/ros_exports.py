@@ -30,17 +30,33 @@ _EXPORTS = ("export_easy_handeye", "export_launch", "export_urdf")
 
 def add_export_arguments(p: argparse.ArgumentParser) -> None:
     """Register ``--export-easy-handeye``, ``--export-launch``, ``--export-urdf`` and ``--frames``."""
-    p.add_argument("--export-easy-handeye", type=Path, metavar="PATH",
-                   help="write the camera pose as an easy_handeye2 calibration (YAML; easy_handeye2 publishes "
-                        "~/.ros2/easy_handeye2/calibrations/NAME.calib with publish.launch.py name:=NAME)")
-    p.add_argument("--export-launch", type=Path, metavar="PATH",
-                   help="write a ROS 2 launch file (NAME.launch.py) publishing the camera pose as a static tf")
-    p.add_argument("--export-urdf", type=Path, metavar="PATH",
-                   help="write the camera pose as a fixed URDF <joint> (xyz, rpy) to paste into the cell's URDF")
-    p.add_argument("--frames", nargs=2, metavar=("PARENT", "CHILD"),
-                   help="tf/URDF names of the exported transform's frames: the robot base (eye-to-hand) or flange "
-                        "(eye-in-hand), and the camera; default those of an easy_handeye2 sample file, else "
-                        "'base' or 'ee', and 'cam'")
+    p.add_argument(
+        "--export-easy-handeye",
+        type=Path,
+        metavar="PATH",
+        help="write the camera pose as an easy_handeye2 calibration (YAML; easy_handeye2 publishes "
+        "~/.ros2/easy_handeye2/calibrations/NAME.calib with publish.launch.py name:=NAME)",
+    )
+    p.add_argument(
+        "--export-launch",
+        type=Path,
+        metavar="PATH",
+        help="write a ROS 2 launch file (NAME.launch.py) publishing the camera pose as a static tf",
+    )
+    p.add_argument(
+        "--export-urdf",
+        type=Path,
+        metavar="PATH",
+        help="write the camera pose as a fixed URDF <joint> (xyz, rpy) to paste into the cell's URDF",
+    )
+    p.add_argument(
+        "--frames",
+        nargs=2,
+        metavar=("PARENT", "CHILD"),
+        help="tf/URDF names of the exported transform's frames: the robot base (eye-to-hand) or flange "
+        "(eye-in-hand), and the camera; default those of an easy_handeye2 sample file, else "
+        "'base' or 'ee', and 'cam'",
+    )
 
 
 def check_export_arguments(args: argparse.Namespace) -> None:
@@ -58,8 +74,10 @@ def check_export_arguments(args: argparse.Namespace) -> None:
     paths = [getattr(args, name, None) for name in _EXPORTS]
     if getattr(args, "frames", None) is not None:
         if not any(paths):
-            raise HandEyeInputError("--frames names the frames of an export: give --export-easy-handeye, "
-                                    "--export-launch or --export-urdf too")
+            raise HandEyeInputError(
+                "--frames names the frames of an export: give --export-easy-handeye, "
+                "--export-launch or --export-urdf too"
+            )
         for name in args.frames:
             check_frame_name(name)
     for path in paths:

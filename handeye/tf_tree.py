@@ -117,8 +117,9 @@ class TfTree:
         self.source = source
 
     @classmethod
-    def from_transforms(cls, parents, children, stamps_ns, translations, quats_xyzw, static,
-                        source: str = "tf") -> TfTree:
+    def from_transforms(
+        cls, parents, children, stamps_ns, translations, quats_xyzw, static, source: str = "tf"
+    ) -> TfTree:
         """Build the tree from published transforms, in any order.
 
         Parameters
@@ -153,15 +154,19 @@ class TfTree:
         bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
         if len(bad):
             i = bad[0]
-            raise BagError(f"{source}: transform {parents[i]} -> {children[i]} at stamp {stamps[i]} ns has a "
-                           f"quaternion of norm {norm[i]:.4g}, not 1 ({len(bad)} such transforms)")
+            raise BagError(
+                f"{source}: transform {parents[i]} -> {children[i]} at stamp {stamps[i]} ns has a "
+                f"quaternion of norm {norm[i]:.4g}, not 1 ({len(bad)} such transforms)"
+            )
         by_child = defaultdict(list)
         parent_of = {}
         for k, (parent, child) in enumerate(zip(parents, children)):
             parent, child = parent.lstrip("/"), child.lstrip("/")
             if parent_of.setdefault(child, parent) != parent:
-                raise BagError(f"{source}: frame {child!r} has two parents, {parent_of[child]!r} and {parent!r}; "
-                               "a tf tree gives each frame one parent")
+                raise BagError(
+                    f"{source}: frame {child!r} has two parents, {parent_of[child]!r} and {parent!r}; "
+                    "a tf tree gives each frame one parent"
+                )
             by_child[child].append(k)
         edges = {}
         for child, idx in by_child.items():
@@ -171,8 +176,13 @@ class TfTree:
             use = use[np.argsort(stamps[use], kind="stable")]
             last = np.append(stamps[use][1:] != stamps[use][:-1], True)  # the last sample of each stamp
             use = use[last]
-            edges[child] = TfEdge(parent_of[child], child, stamps[use],
-                                  transform_from_pos_quat_xyzw(t[use], q[use]), static=not len(moving))
+            edges[child] = TfEdge(
+                parent_of[child],
+                child,
+                stamps[use],
+                transform_from_pos_quat_xyzw(t[use], q[use]),
+                static=not len(moving),
+            )
         return cls(edges, source)
 
     def frames(self) -> list:
@@ -236,10 +246,14 @@ class TfTree:
         reach = self.reachable_from(base)
         if ee not in reach:
             missing = [f for f in (base, ee) if f not in frames]
-            what = (f"frame {' and '.join(map(repr, missing))} not in the tf tree" if missing
-                    else f"frames {base!r} and {ee!r} are not connected in the tf tree")
-            near = (f"frames reachable from {base!r}: {', '.join(reach)}" if reach
-                    else f"all frames: {', '.join(frames)}")
+            what = (
+                f"frame {' and '.join(map(repr, missing))} not in the tf tree"
+                if missing
+                else f"frames {base!r} and {ee!r} are not connected in the tf tree"
+            )
+            near = (
+                f"frames reachable from {base!r}: {', '.join(reach)}" if reach else f"all frames: {', '.join(frames)}"
+            )
             raise FramesNotConnectedError(f"{self.source}: {what}; {near}")
         up_base, up_ee = self._up(base), self._up(ee)
         common = next(f for f in up_ee if f in set(up_base))
@@ -247,15 +261,18 @@ class TfTree:
         path = up_base + up_ee[-2::-1]
         moving = [self.edges[f] for f in up_base[:-1] + up_ee[:-1] if not self.edges[f].static]
         if not moving:
-            raise BagError(f"{self.source}: the chain {' -> '.join(path)} holds only static transforms: "
-                           "the robot does not move in this recording")
+            raise BagError(
+                f"{self.source}: the chain {' -> '.join(path)} holds only static transforms: "
+                "the robot does not move in this recording"
+            )
         start = max(int(e.stamps_ns[0]) for e in moving)
         stop = min(int(e.stamps_ns[-1]) for e in moving)
         stamps = np.unique(np.concatenate([e.stamps_ns for e in moving]))
         stamps = stamps[(stamps >= start) & (stamps <= stop)]
         if not len(stamps):
             spans = "; ".join(f"{e.parent} -> {e.child}: {e.stamps_ns[0]}..{e.stamps_ns[-1]} ns" for e in moving)
-            raise BagError(f"{self.source}: the moving transforms of {' -> '.join(path)} never cover a common "
-                           f"time ({spans})")
+            raise BagError(
+                f"{self.source}: the moving transforms of {' -> '.join(path)} never cover a common time ({spans})"
+            )
         T = invert_transform(self._pose_in_ancestor(up_base, stamps)) @ self._pose_in_ancestor(up_ee, stamps)
         return TfChain(stamps, T, path)

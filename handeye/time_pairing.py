@@ -66,9 +66,15 @@ class PairedPoses:
         return len(self.dropped_index)
 
 
-def pair_by_time(robot_times_s: np.ndarray, T_base_ee: np.ndarray, camera_times_s: np.ndarray,
-                 T_cam_target: np.ndarray, tolerance_s: float, method: str = "interpolate",
-                 source: str = "") -> PairedPoses:
+def pair_by_time(
+    robot_times_s: np.ndarray,
+    T_base_ee: np.ndarray,
+    camera_times_s: np.ndarray,
+    T_cam_target: np.ndarray,
+    tolerance_s: float,
+    method: str = "interpolate",
+    source: str = "",
+) -> PairedPoses:
     """Pair every camera sample with the robot pose at its time (module docstring).
 
     Parameters
@@ -108,11 +114,14 @@ def pair_by_time(robot_times_s: np.ndarray, T_base_ee: np.ndarray, camera_times_
     if not (np.isfinite(tolerance_s) and tolerance_s >= 0):
         raise HandEyeInputError(f"the time tolerance must be finite and >= 0 s, got {tolerance_s!r}")
     if A.shape != (len(t_r), 4, 4) or B.shape != (len(t_c), 4, 4):
-        raise HandEyeInputError(f"{where}{len(t_r)} robot times need poses of shape ({len(t_r)}, 4, 4), got "
-                                f"{A.shape}; {len(t_c)} camera times need ({len(t_c)}, 4, 4), got {B.shape}")
+        raise HandEyeInputError(
+            f"{where}{len(t_r)} robot times need poses of shape ({len(t_r)}, 4, 4), got "
+            f"{A.shape}; {len(t_c)} camera times need ({len(t_c)}, 4, 4), got {B.shape}"
+        )
     if not len(t_r) or not np.all(np.isfinite(t_r)) or np.any(np.diff(t_r) <= 0) or not np.all(np.isfinite(t_c)):
-        raise HandEyeInputError(f"{where}robot times must be finite and strictly increasing (at least one), "
-                                "camera times finite")
+        raise HandEyeInputError(
+            f"{where}robot times must be finite and strictly increasing (at least one), camera times finite"
+        )
     k = np.searchsorted(t_r, t_c)  # t_r[k - 1] < t_c <= t_r[k]
     hi = np.minimum(k, len(t_r) - 1)
     lo = np.maximum(k - 1, 0)

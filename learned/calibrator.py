@@ -60,8 +60,13 @@ class ContinualCalibrator:
         available) by default.
     """
 
-    def __init__(self, preset: str | Preset = "cpu", seed: int = 0, sample_fraction: float = 0.1,
-                 device: str | torch.device | None = None):
+    def __init__(
+        self,
+        preset: str | Preset = "cpu",
+        seed: int = 0,
+        sample_fraction: float = 0.1,
+        device: str | torch.device | None = None,
+    ):
         self.preset = get_preset(preset) if isinstance(preset, str) else preset
         self.sample_fraction = sample_fraction
         self.device = default_device() if device is None else torch.device(device)
@@ -81,9 +86,11 @@ class ContinualCalibrator:
 
     def _check(self, frames: FrameSet) -> None:
         if tuple(frames.image_size) != tuple(self.preset.image_size):
-            raise HandEyeInputError(f"frames are {frames.image_size[0]}x{frames.image_size[1]}, this calibrator "
-                                    f"takes {self.preset.image_size[0]}x{self.preset.image_size[1]}: load them at "
-                                    "that size")
+            raise HandEyeInputError(
+                f"frames are {frames.image_size[0]}x{frames.image_size[1]}, this calibrator "
+                f"takes {self.preset.image_size[0]}x{self.preset.image_size[1]}: load them at "
+                "that size"
+            )
 
     def _train_fn(self, kind: str, first: bool):
         epochs = self.preset.first_epochs if first else self.preset.later_epochs
@@ -109,14 +116,24 @@ class ContinualCalibrator:
             for kind in KINDS:
                 self.models[kind] = CalibrationNet(self.preset.model_config(kind, offset_mm)).to(self.device)
         elif len(np.unique(frames.camera)) != 1:
-            raise HandEyeInputError("after the first call, observe one camera pose at a time "
-                                    f"(got cameras {np.unique(frames.camera).tolist()})")
+            raise HandEyeInputError(
+                "after the first call, observe one camera pose at a time "
+                f"(got cameras {np.unique(frames.camera).tolist()})"
+            )
         entry = {"cameras": [int(c) for c in np.unique(frames.camera)], "first": first}
         rule = ReplayRule(None, self.preset.c3, 1.0)  # every past pose, all its stored samples
         for kind in KINDS:
-            out = continual_step(self.models[kind], frames, np.arange(len(frames)), self.buffers[kind], self.rng,
-                                 rule, self._train_fn(kind, first), None if first else self.threshold[kind],
-                                 self.sample_fraction)
+            out = continual_step(
+                self.models[kind],
+                frames,
+                np.arange(len(frames)),
+                self.buffers[kind],
+                self.rng,
+                rule,
+                self._train_fn(kind, first),
+                None if first else self.threshold[kind],
+                self.sample_fraction,
+            )
             entry[kind] = {"novel": bool(out.novel), "sample_error": out.sample_error, "processed": out.processed}
         self.history.append(entry)
         return entry
@@ -139,27 +156,46 @@ class ContinualCalibrator:
             raise HandEyeInputError("the calibrator has not been trained: call observe() first")
         rgb = np.asarray(rgb)
         if rgb.ndim == 3:
-            rgb, depth_m, pose_base_ref = (rgb.transpose(2, 0, 1)[None], np.asarray(depth_m)[None, None],
-                                           np.asarray(pose_base_ref)[None])
+            rgb, depth_m, pose_base_ref = (
+                rgb.transpose(2, 0, 1)[None],
+                np.asarray(depth_m)[None, None],
+                np.asarray(pose_base_ref)[None],
+            )
         n = len(rgb)
         w, h = self.preset.image_size
         if rgb.shape[1:] != (3, h, w) or np.asarray(depth_m).shape[1:] != (1, h, w):
-            raise HandEyeInputError(f"images must be {w}x{h} (rgb (N, 3, {h}, {w}), depth (N, 1, {h}, {w})), got "
-                                    f"{rgb.shape} and {np.asarray(depth_m).shape}")
-        frames = FrameSet(rgb.astype(np.uint8), np.asarray(depth_m, np.float16),
-                          np.asarray(pose_base_ref, np.float32),
-                          np.zeros((n, 3), np.float32), np.zeros((n, 4), np.float32), np.zeros(n, int),
-                          np.zeros(n, int), np.array(["test"] * n), np.full((n, 3), np.nan), np.full((n, 4), np.nan),
-                          "none", (w, h))
+            raise HandEyeInputError(
+                f"images must be {w}x{h} (rgb (N, 3, {h}, {w}), depth (N, 1, {h}, {w})), got "
+                f"{rgb.shape} and {np.asarray(depth_m).shape}"
+            )
+        frames = FrameSet(
+            rgb.astype(np.uint8),
+            np.asarray(depth_m, np.float16),
+            np.asarray(pose_base_ref, np.float32),
+            np.zeros((n, 3), np.float32),
+            np.zeros((n, 4), np.float32),
+            np.zeros(n, int),
+            np.zeros(n, int),
+            np.array(["test"] * n),
+            np.full((n, 3), np.nan),
+            np.full((n, 4), np.nan),
+            "none",
+            (w, h),
+        )
         t_base_cam_mm = predict(self.models["translation"], frames).mean(axis=0)
         q_base_cam_xyzw = average_quaternions(predict(self.models["orientation"], frames))
         return make_transform(matrix_from_quat_xyzw(q_base_cam_xyzw), t_base_cam_mm / 1000.0)
 
     def save(self, path: str | Path) -> None:
         """Weights, configs, buffers, history and the random state, in one file (tensors and JSON)."""
-        doc = {"preset": self.preset.to_dict(), "history": self.history, "sample_fraction": self.sample_fraction,
-               "rng": json.dumps(self.rng.bit_generator.state),
-               "configs": {k: m.config.to_dict() for k, m in self.models.items()}, "buffers": {}}
+        doc = {
+            "preset": self.preset.to_dict(),
+            "history": self.history,
+            "sample_fraction": self.sample_fraction,
+            "rng": json.dumps(self.rng.bit_generator.state),
+            "configs": {k: m.config.to_dict() for k, m in self.models.items()},
+            "buffers": {},
+        }
         for k, m in self.models.items():
             doc[f"weights.{k}"] = {n: t.cpu() for n, t in m.state_dict().items()}
         for k, b in self.buffers.items():
@@ -169,8 +205,9 @@ class ContinualCalibrator:
         save_document(path, "calibrator", STATE_VERSION, doc)
 
     @classmethod
-    def load(cls, path: str | Path, preset: str | Preset | None = None,
-             device: str | torch.device | None = None) -> "ContinualCalibrator":
+    def load(
+        cls, path: str | Path, preset: str | Preset | None = None, device: str | torch.device | None = None
+    ) -> "ContinualCalibrator":
         """Restore a saved calibrator (onto ``device``, the default device by default); with ``preset``,
         refuse a state saved with another one."""
         path = Path(path)

@@ -29,8 +29,9 @@ def fingerprint(**what) -> dict:
     return json.loads(json.dumps(what))
 
 
-def save_checkpoint(out: Path, run: dict, unit: int, step: int, records: list, partial: dict | None = None,
-                    strategy: dict | None = None) -> None:
+def save_checkpoint(
+    out: Path, run: dict, unit: int, step: int, records: list, partial: dict | None = None, strategy: dict | None = None
+) -> None:
     """Write ``<out>/checkpoint.pt`` atomically.
 
     Parameters
@@ -47,8 +48,14 @@ def save_checkpoint(out: Path, run: dict, unit: int, step: int, records: list, p
     strategy : dict, optional
         :meth:`learned.strategies.Strategy.state_dict` (mid-unit only).
     """
-    doc = {"run": run, "unit": int(unit), "step": int(step), "records": records, "partial": partial,
-           "torch_rng": torch.get_rng_state()}
+    doc = {
+        "run": run,
+        "unit": int(unit),
+        "step": int(step),
+        "records": records,
+        "partial": partial,
+        "torch_rng": torch.get_rng_state(),
+    }
     if strategy is not None:
         doc["strategy"] = {k: v for k, v in strategy.items() if k not in ("weights", "buffer_tensors")}
         doc["strategy.weights"] = {k: v.detach().cpu() for k, v in strategy["weights"].items()}
@@ -76,11 +83,16 @@ def load_checkpoint(out: Path, run: dict) -> dict | None:
     doc = load_document(path, "checkpoint", CHECKPOINT_VERSION)
     if doc["run"] != run:
         diff = sorted(k for k in set(run) | set(doc["run"]) if run.get(k) != doc["run"].get(k))
-        raise HandEyeInputError(f"{path}: a checkpoint of another run (differs in {', '.join(diff)}); use another "
-                                "--out, or --fresh to discard it")
+        raise HandEyeInputError(
+            f"{path}: a checkpoint of another run (differs in {', '.join(diff)}); use another "
+            "--out, or --fresh to discard it"
+        )
     if "strategy" in doc:
-        doc["strategy"] = dict(doc["strategy"], weights=doc.pop("strategy.weights"),
-                               buffer_tensors=doc.pop("strategy.buffer_tensors", None) or {})
+        doc["strategy"] = dict(
+            doc["strategy"],
+            weights=doc.pop("strategy.weights"),
+            buffer_tensors=doc.pop("strategy.buffer_tensors", None) or {},
+        )
     return doc
 
 

@@ -60,8 +60,7 @@ class StepOutcome:
     processed: int
 
 
-def sample_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, fraction: float,
-                 rng: np.random.Generator):
+def sample_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, fraction: float, rng: np.random.Generator):
     """Algorithm 2's novelty measure: mean error of a random ``fraction`` of ``index``, and the sample's size.
 
     The mean is mm or deg (a float) for the paper's networks, and ``(mm, deg)`` (an array) for the
@@ -72,8 +71,9 @@ def sample_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, fra
     return (float(np.mean(e)) if e.ndim == 1 else e.mean(axis=0)), len(sample)
 
 
-def training_set(frames: FrameSet, current: np.ndarray, buffer: ReplayBuffer, rng: np.random.Generator,
-                 rule: ReplayRule) -> tuple[FrameSet, np.ndarray]:
+def training_set(
+    frames: FrameSet, current: np.ndarray, buffer: ReplayBuffer, rng: np.random.Generator, rule: ReplayRule
+) -> tuple[FrameSet, np.ndarray]:
     """The new frames' ``c3`` share followed by the replay: ``(frames, index)`` to train on.
 
     With an index buffer the result indexes ``frames``; with a sample buffer it is a new FrameSet
@@ -84,17 +84,28 @@ def training_set(frames: FrameSet, current: np.ndarray, buffer: ReplayBuffer, rn
     n = 0 if replay is None else len(replay)
     if rule.share < 1.0 and n:
         fraction = max(rule.share, buffer.per_class / n)
-        replay = (replay.subset(random_fraction(np.arange(n), fraction, rng)) if buffer.keep_samples
-                  else random_fraction(replay, fraction, rng))
+        replay = (
+            replay.subset(random_fraction(np.arange(n), fraction, rng))
+            if buffer.keep_samples
+            else random_fraction(replay, fraction, rng)
+        )
     if buffer.keep_samples:
         data = concat([frames.subset(cur), replay])
         return data, np.arange(len(data))
     return frames, np.concatenate([cur, replay])
 
 
-def continual_step(model: CalibrationNet, frames: FrameSet, current: np.ndarray, buffer: ReplayBuffer,
-                   rng: np.random.Generator, rule: ReplayRule, train_fn: Callable[[FrameSet, np.ndarray], int],
-                   threshold=None, sample_fraction: float = 0.1) -> StepOutcome:
+def continual_step(
+    model: CalibrationNet,
+    frames: FrameSet,
+    current: np.ndarray,
+    buffer: ReplayBuffer,
+    rng: np.random.Generator,
+    rule: ReplayRule,
+    train_fn: Callable[[FrameSet, np.ndarray], int],
+    threshold=None,
+    sample_fraction: float = 0.1,
+) -> StepOutcome:
     """Algorithm 2's step (Algorithm 1's with ``threshold=None``) on the new frames ``current``.
 
     Parameters

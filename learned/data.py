@@ -116,8 +116,13 @@ def _resize(image: np.ndarray, size: tuple, nearest: bool) -> np.ndarray:
     return np.array(Image.fromarray(image).resize(size, resample))
 
 
-def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels: str = "classic",
-                cameras: list[int] | None = None, progress: bool = True) -> FrameSet:
+def load_frames(
+    root: str | Path,
+    image_size: tuple[int, int] = (64, 64),
+    labels: str = "classic",
+    cameras: list[int] | None = None,
+    progress: bool = True,
+) -> FrameSet:
     """Read the data recordings of a labelled dataset at a given image size.
 
     Parameters
@@ -154,16 +159,20 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         target = ds.labels()
         failed = [c for c in range(len(ds)) if cams["label_status"][c] != "ok"]
         if failed:
-            raise DatasetError(f"{ds.cameras_path}: camera poses {failed} have no classic label "
-                               f"({cams['label_status'][failed[0]][:80]}); relabel, or train with labels='truth'")
+            raise DatasetError(
+                f"{ds.cameras_path}: camera poses {failed} have no classic label "
+                f"({cams['label_status'][failed[0]][:80]}); relabel, or train with labels='truth'"
+            )
     elif labels == "markerless":
         target = ds.markerless_labels().copy()
         first = cams["region"] == 0
         target[first] = ds.labels()[first]
         missing = [c for c in range(len(ds)) if not np.isfinite(target[c]).all()]
         if missing:
-            raise DatasetError(f"{ds.cameras_path}: camera poses {missing} have no label (markerless refused after "
-                               f"the first region, or no classic label in it)")
+            raise DatasetError(
+                f"{ds.cameras_path}: camera poses {missing} have no label (markerless refused after "
+                f"the first region, or no classic label in it)"
+            )
     elif labels == "none":
         target = np.full_like(truth, np.nan)
     else:
@@ -197,8 +206,10 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
         if native is None:
             native = img.shape[:2]
         if img.shape[:2] != native or d.shape != native:
-            raise DatasetError(f"{ds.shard_dir(c) / rel_rgb}: image size {img.shape[1]}x{img.shape[0]} (depth "
-                               f"{d.shape[1]}x{d.shape[0]}), other frames are {native[1]}x{native[0]}")
+            raise DatasetError(
+                f"{ds.shard_dir(c) / rel_rgb}: image size {img.shape[1]}x{img.shape[0]} (depth "
+                f"{d.shape[1]}x{d.shape[0]}), other frames are {native[1]}x{native[0]}"
+            )
         rgb[i] = _resize(img, (w, h), nearest=False).transpose(2, 0, 1)
         depth[i, 0] = _resize(d, (w, h), nearest=True)
         t_m, q_xyzw = pos_quat_xyzw_from_transform(T_base_ref)
@@ -208,9 +219,22 @@ def load_frames(root: str | Path, image_size: tuple[int, int] = (64, 64), labels
     intr = ds.meta["intrinsics"]
     K, width, height = np.array(intr["K"], dtype=float), float(intr["width"]), float(intr["height"])
     k_norm = np.array([K[0, 0] / width, K[1, 1] / height, (K[0, 2] + 0.5) / width, (K[1, 2] + 0.5) / height])
-    return FrameSet(rgb, depth, pose_base_ref, t_all[cam].astype(np.float32), q_all[cam].astype(np.float32), cam,
-                    cams["region"][cam], np.asarray(cams["split"][cam]).astype(str), tt_all[cam], tq_all[cam],
-                    labels, (w, h), joints=joints, intrinsics_norm=np.tile(k_norm.astype(np.float32), (n, 1)))
+    return FrameSet(
+        rgb,
+        depth,
+        pose_base_ref,
+        t_all[cam].astype(np.float32),
+        q_all[cam].astype(np.float32),
+        cam,
+        cams["region"][cam],
+        np.asarray(cams["split"][cam]).astype(str),
+        tt_all[cam],
+        tq_all[cam],
+        labels,
+        (w, h),
+        joints=joints,
+        intrinsics_norm=np.tile(k_norm.astype(np.float32), (n, 1)),
+    )
 
 
 def with_keypoints(frames: FrameSet, keypoints_base: np.ndarray) -> FrameSet:
@@ -237,5 +261,8 @@ def concat(parts: list[FrameSet]) -> FrameSet:
     if len(sizes) > 1:
         raise HandEyeInputError(f"frames of different image sizes {sorted(sizes)}")
     fields = [k for k in FrameSet.__dataclass_fields__ if k not in ("label_source", "image_size")]
-    return FrameSet(**{k: np.concatenate([getattr(p, k) for p in parts]) for k in fields},
-                    label_source=parts[0].label_source, image_size=parts[0].image_size)
+    return FrameSet(
+        **{k: np.concatenate([getattr(p, k) for p in parts]) for k in fields},
+        label_source=parts[0].label_source,
+        image_size=parts[0].image_size,
+    )

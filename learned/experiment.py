@@ -29,8 +29,17 @@ from learned.safe_io import load_document, save_document
 from learned.strategies import STRATEGIES, make_strategy
 from learned.trainer import default_device, errors, predict
 
-__all__ = ["Preset", "PRESETS", "get_preset", "FAMILIES", "run_experiment", "camera_predictions",
-           "keypoint_camera_predictions", "save_model", "load_model"]
+__all__ = [
+    "Preset",
+    "PRESETS",
+    "get_preset",
+    "FAMILIES",
+    "run_experiment",
+    "camera_predictions",
+    "keypoint_camera_predictions",
+    "save_model",
+    "load_model",
+]
 
 
 def time_steps(frames: FrameSet) -> list[list[int]]:
@@ -63,8 +72,9 @@ def average_quaternions(q_xyzw: np.ndarray) -> np.ndarray:
     return m if m[3] >= 0 else -m
 
 
-def camera_pose_prediction(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
-                           camera: int) -> tuple[np.ndarray, np.ndarray]:
+def camera_pose_prediction(
+    t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet, camera: int
+) -> tuple[np.ndarray, np.ndarray]:
     """The learned ``T_base_cam`` of one camera pose: its frames' predictions averaged.
 
     Returns
@@ -83,9 +93,21 @@ def camera_pose_prediction(t_model: CalibrationNet, q_model: CalibrationNet, fra
 def _per_camera_rows(frames: FrameSet, cameras: list[int], predict_camera) -> dict:
     """The per-camera comparison table, whatever the model: ``predict_camera(idx)`` gives the pose's
     ``(t_mm (3,), q_xyzw (4,))`` and its frames' own ``(t_mm (n, 3), q_xyzw (n, 4))``."""
-    out = {k: [] for k in ("camera", "region", "learned_vs_label_mm", "learned_vs_label_deg", "learned_vs_truth_mm",
-                           "learned_vs_truth_deg", "label_vs_truth_mm", "label_vs_truth_deg",
-                           "per_frame_vs_label_mm", "per_frame_vs_label_deg")}
+    out = {
+        k: []
+        for k in (
+            "camera",
+            "region",
+            "learned_vs_label_mm",
+            "learned_vs_label_deg",
+            "learned_vs_truth_mm",
+            "learned_vs_truth_deg",
+            "label_vs_truth_mm",
+            "label_vs_truth_deg",
+            "per_frame_vs_label_mm",
+            "per_frame_vs_label_deg",
+        )
+    }
     for c in cameras:
         idx = np.flatnonzero(frames.camera == c)
         (t, q), (t_frames, q_frames) = predict_camera(idx)
@@ -101,9 +123,11 @@ def _per_camera_rows(frames: FrameSet, cameras: list[int], predict_camera) -> di
         out["label_vs_truth_deg"].append(float(rotation_errors_deg(lab_q[None], tru_q[None])[0]))
         n = len(t_frames)
         out["per_frame_vs_label_mm"].append(
-            float(np.mean(translation_errors_mm(t_frames, np.broadcast_to(lab_t, (n, 3))))) if n else float("nan"))
+            float(np.mean(translation_errors_mm(t_frames, np.broadcast_to(lab_t, (n, 3))))) if n else float("nan")
+        )
         out["per_frame_vs_label_deg"].append(
-            float(np.mean(rotation_errors_deg(q_frames, np.broadcast_to(lab_q, (n, 4))))) if n else float("nan"))
+            float(np.mean(rotation_errors_deg(q_frames, np.broadcast_to(lab_q, (n, 4))))) if n else float("nan")
+        )
     return out
 
 
@@ -122,14 +146,15 @@ def keypoint_camera_predictions(model, frames: FrameSet, cameras: list[int]) -> 
         T, _ = camera_pose(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
         T_frames = frame_poses(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
         T_frames = T_frames[np.isfinite(T_frames).all(axis=(1, 2))]
-        return ((T[:3, 3] * 1000.0, quat_xyzw_from_matrix(T[:3, :3])),
-                (T_frames[:, :3, 3] * 1000.0, quat_xyzw_from_matrix(T_frames[:, :3, :3])))
+        return (
+            (T[:3, 3] * 1000.0, quat_xyzw_from_matrix(T[:3, :3])),
+            (T_frames[:, :3, 3] * 1000.0, quat_xyzw_from_matrix(T_frames[:, :3, :3])),
+        )
 
     return _per_camera_rows(frames, cameras, predict_camera)
 
 
-def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet,
-                       cameras: list[int]) -> dict:
+def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames: FrameSet, cameras: list[int]) -> dict:
     """Per camera pose: the learned ``T_base_cam`` (frame predictions averaged) against label and truth.
 
     Returns
@@ -138,6 +163,7 @@ def camera_predictions(t_model: CalibrationNet, q_model: CalibrationNet, frames:
         Lists per camera: ``camera``, ``region``, ``learned_vs_label_mm/deg``, ``learned_vs_truth_mm/deg``,
         ``label_vs_truth_mm/deg``, ``per_frame_vs_label_mm/deg`` (mean over the pose's frames).
     """
+
     def predict_camera(idx):
         t, q = predict(t_model, frames, idx), predict(q_model, frames, idx)
         return (t.mean(axis=0), average_quaternions(q)), (t, q)
@@ -151,8 +177,12 @@ MODEL_FILE_VERSION = 2
 
 def save_model(model: CalibrationNet, path: Path, meta: dict | None = None) -> None:
     """Weights with their config (and any metrics) in one file."""
-    save_document(path, "model", MODEL_FILE_VERSION,
-                  {"config": model.config.to_dict(), "state_dict": dict(model.state_dict()), "meta": meta or {}})
+    save_document(
+        path,
+        "model",
+        MODEL_FILE_VERSION,
+        {"config": model.config.to_dict(), "state_dict": dict(model.state_dict()), "meta": meta or {}},
+    )
 
 
 def load_model(path: str | Path, expect: ModelConfig | None = None) -> CalibrationNet:
@@ -201,17 +231,33 @@ def _split_keypoint_record(rec: "RunRecord") -> list:
     """
     out = []
     for col, network in enumerate(("translation", "orientation")):
-        r = RunRecord(rec.strategy, network, rec.repeat, [[float(np.ravel(e)[col]) if np.ndim(e) else float(e)
-                                                          for e in row] for row in rec.matrix],
-                      rec.processed, rec.stored, rec.evaluated, list(rec.skipped), rec.wall_s)
+        r = RunRecord(
+            rec.strategy,
+            network,
+            rec.repeat,
+            [[float(np.ravel(e)[col]) if np.ndim(e) else float(e) for e in row] for row in rec.matrix],
+            rec.processed,
+            rec.stored,
+            rec.evaluated,
+            list(rec.skipped),
+            rec.wall_s,
+        )
         out.append(r)
     return out
 
 
-def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", strategies=("batch", "naive",
-                   "reservoir", "selection"), out: str | Path | None = None, labels: str = "classic", seed: int = 0,
-                   progress: bool = True, threads: int | None = None, family: str = "regression",
-                   resume: bool = True) -> dict:
+def run_experiment(
+    data: str | Path | FrameSet,
+    preset: str | Preset = "cpu",
+    strategies=("batch", "naive", "reservoir", "selection"),
+    out: str | Path | None = None,
+    labels: str = "classic",
+    seed: int = 0,
+    progress: bool = True,
+    threads: int | None = None,
+    family: str = "regression",
+    resume: bool = True,
+) -> dict:
     """Run the protocol; write ``results.json`` and the last repeat's networks under ``out``.
 
     With ``out``, a checkpoint (:mod:`learned.checkpoint`) is written after every time step of every
@@ -266,10 +312,20 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
     kinds = KINDS if family == "regression" else ("keypoints",)
     n_keypoints = frames.keypoints_base.shape[1]
     if family == "keypoints" and n_keypoints < 3:
-        raise HandEyeInputError("the keypoint model needs the keypoints' base-frame positions in the frames "
-                                "(learned.data.with_keypoints; 'handeye learned run --family keypoints' fills them)")
-    run = fingerprint(preset=preset.to_dict(), strategies=strategies, labels=labels, seed=seed, family=family,
-                      steps=steps, frames=len(frames), test_cameras=test_cams)
+        raise HandEyeInputError(
+            "the keypoint model needs the keypoints' base-frame positions in the frames "
+            "(learned.data.with_keypoints; 'handeye learned run --family keypoints' fills them)"
+        )
+    run = fingerprint(
+        preset=preset.to_dict(),
+        strategies=strategies,
+        labels=labels,
+        seed=seed,
+        family=family,
+        steps=steps,
+        frames=len(frames),
+        test_cameras=test_cams,
+    )
     state = None
     if out is not None:
         if not resume:
@@ -279,8 +335,12 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
         print(f"resuming from {out / CHECKPOINT_NAME}: {len(state['records'])} runs done", file=sys.stderr)
     if state is None:
         torch.manual_seed(seed)  # the first network's initial weights; torch seeds itself at random otherwise
-    units = [(si, name, ki, kind, rep) for si, name in enumerate(strategies) for ki, kind in enumerate(kinds)
-             for rep in range(preset.repeats)]
+    units = [
+        (si, name, ki, kind, rep)
+        for si, name in enumerate(strategies)
+        for ki, kind in enumerate(kinds)
+        for rep in range(preset.repeats)
+    ]
     records = [RunRecord(**r) for r in state["records"]] if state else []
     validation = {}
     for u, (si, name, ki, kind, rep) in enumerate(units):
@@ -292,9 +352,20 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
             torch.set_rng_state(state["torch_rng"])
         rng = np.random.default_rng([seed, rep, si, ki])
         first, later = preset.train_configs(name, kind)
-        strat = make_strategy(name, preset.model_config(kind, offset_mm, n_keypoints), first, later, rng, progress,
-                              c1=preset.c1, c2=preset.c2, c3=preset.c3, threshold_mm=preset.threshold_mm,
-                              threshold_deg=preset.threshold_deg, replay_share=preset.selection_replay)
+        strat = make_strategy(
+            name,
+            preset.model_config(kind, offset_mm, n_keypoints),
+            first,
+            later,
+            rng,
+            progress,
+            c1=preset.c1,
+            c2=preset.c2,
+            c3=preset.c3,
+            threshold_mm=preset.threshold_mm,
+            threshold_deg=preset.threshold_deg,
+            replay_share=preset.selection_replay,
+        )
         rec, start = RunRecord(name, kind, rep), 0
         if state and u == state["unit"] and state.get("strategy"):
             strat.load_state_dict(state["strategy"])
@@ -304,8 +375,9 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
         for k in range(start, len(steps)):
             strat.step(k, steps[k], frames, last=k == len(steps) - 1)
             trained = name != "batch" or k == len(steps) - 1
-            rec.matrix.append([_json_error(_subset_error(strat.model, frames, r)) if trained else float("nan")
-                               for r in regions])
+            rec.matrix.append(
+                [_json_error(_subset_error(strat.model, frames, r)) if trained else float("nan") for r in regions]
+            )
             rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
             rec.skipped, rec.wall_s = list(strat.skipped), spent + time.perf_counter() - t0
             if progress:
@@ -319,8 +391,9 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
             if rep == preset.repeats - 1:
                 validation.setdefault(name, {})[kind] = strat.model
                 if out is not None:
-                    save_model(strat.model, out / name / f"{kind}.pt",
-                               {"preset": preset.name, "labels": labels, "seed": seed})
+                    save_model(
+                        strat.model, out / name / f"{kind}.pt", {"preset": preset.name, "labels": labels, "seed": seed}
+                    )
             if out is not None:
                 save_checkpoint(out, run, u + 1, 0, [asdict(r) for r in records])
     per_camera, inference = {}, {}
@@ -335,24 +408,40 @@ def run_experiment(data: str | Path | FrameSet, preset: str | Preset = "cpu", st
             per_camera[name] = keypoint_camera_predictions(m["keypoints"], frames, test_cams)
         else:
             per_camera[name] = camera_predictions(m["translation"], m["orientation"], frames, test_cams)
-        inference[name] = {"per_frame_ms": per_frame_ms,
-                           "per_camera_ms": (time.perf_counter() - t0) / max(len(test_cams), 1) * 1e3,
-                           "frames_per_camera": len(test_idx) / max(len(test_cams), 1),
-                           "device": str(default_device()), "threads": torch.get_num_threads()}
+        inference[name] = {
+            "per_frame_ms": per_frame_ms,
+            "per_camera_ms": (time.perf_counter() - t0) / max(len(test_cams), 1) * 1e3,
+            "frames_per_camera": len(test_idx) / max(len(test_cams), 1),
+            "device": str(default_device()),
+            "threads": torch.get_num_threads(),
+        }
     if family == "keypoints":
         summary = {}
         for name, m in validation.items():
             e = errors(m["keypoints"], frames, test_idx)
             summary[name] = {"translation": summarize(e[:, 0]), "orientation": summarize(e[:, 1])}
     else:
-        summary = {name: {kind: summarize(errors(validation[name][kind], frames, test_idx)) for kind in KINDS}
-                   for name in validation}
-    results = {"preset": preset.to_dict(), "labels": labels, "seed": seed, "family": family, "regions": regions,
-               "steps": steps, "test_cameras": test_cams, "strategies": strategies,
-               "runs": [asdict(r) for r in records], "per_camera": per_camera,
-               "test_frames_per_region": {int(r): int(np.sum((frames.region == r) & (frames.split == "test")))
-                                          for r in regions},
-               "summary": summary, "inference": inference}
+        summary = {
+            name: {kind: summarize(errors(validation[name][kind], frames, test_idx)) for kind in KINDS}
+            for name in validation
+        }
+    results = {
+        "preset": preset.to_dict(),
+        "labels": labels,
+        "seed": seed,
+        "family": family,
+        "regions": regions,
+        "steps": steps,
+        "test_cameras": test_cams,
+        "strategies": strategies,
+        "runs": [asdict(r) for r in records],
+        "per_camera": per_camera,
+        "test_frames_per_region": {
+            int(r): int(np.sum((frames.region == r) & (frames.split == "test"))) for r in regions
+        },
+        "summary": summary,
+        "inference": inference,
+    }
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "results.json").write_text(json.dumps(results, indent=1))

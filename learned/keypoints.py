@@ -28,15 +28,23 @@ from handeye.core.rigid import rigid_transform, robust_rigid_transform
 from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 
-__all__ = ["KeypointNet", "keypoint_targets", "backproject_keypoints", "frame_poses", "camera_pose", "keypoint_loss",
-           "pose_errors"]
+__all__ = [
+    "KeypointNet",
+    "keypoint_targets",
+    "backproject_keypoints",
+    "frame_poses",
+    "camera_pose",
+    "keypoint_loss",
+    "pose_errors",
+]
 
 #: Depth error of 1 cm weighs as much as 1 pixel (at the network's input resolution) in the loss.
 DEPTH_WEIGHT_PER_M = 100.0
 
 
-def keypoint_targets(p_base: np.ndarray, t_base_cam_mm: np.ndarray, q_base_cam_xyzw: np.ndarray,
-                     intrinsics_norm: np.ndarray) -> np.ndarray:
+def keypoint_targets(
+    p_base: np.ndarray, t_base_cam_mm: np.ndarray, q_base_cam_xyzw: np.ndarray, intrinsics_norm: np.ndarray
+) -> np.ndarray:
     """Where the keypoints are in the image, from a ``T_base_cam``: ``(x_n, y_n, z_m)``.
 
     Parameters
@@ -73,8 +81,9 @@ def frame_poses(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarra
     return rigid_transform(backproject_keypoints(pred, intrinsics_norm), p_base)
 
 
-def camera_pose(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray,
-                iterations: int = 10, floor_m: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+def camera_pose(
+    pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray, iterations: int = 10, floor_m: float = 0.005
+) -> tuple[np.ndarray, np.ndarray]:
     """One ``T_base_cam`` from all frames of a camera placement: a robust 3-D to 3-D fit of every keypoint.
 
     Parameters
@@ -94,13 +103,17 @@ def camera_pose(pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarra
     """
     p_cam = backproject_keypoints(pred, intrinsics_norm).reshape(-1, 3)
     p_cam[~(p_cam[:, 2] > 0)] = np.nan  # behind the camera: no measurement
-    return robust_rigid_transform(p_cam, np.asarray(p_base, dtype=float).reshape(-1, 3), iterations=iterations,
-                                  floor_m=floor_m)
+    return robust_rigid_transform(
+        p_cam, np.asarray(p_base, dtype=float).reshape(-1, 3), iterations=iterations, floor_m=floor_m
+    )
 
 
 def _block(c_in, c_out, stride=1, dilation=1):
-    return nn.Sequential(nn.Conv2d(c_in, c_out, 3, stride=stride, padding=dilation, dilation=dilation),
-                         nn.BatchNorm2d(c_out), nn.ReLU(inplace=True))
+    return nn.Sequential(
+        nn.Conv2d(c_in, c_out, 3, stride=stride, padding=dilation, dilation=dilation),
+        nn.BatchNorm2d(c_out),
+        nn.ReLU(inplace=True),
+    )
 
 
 class KeypointNet(nn.Module):
@@ -123,10 +136,12 @@ class KeypointNet(nn.Module):
         self.config = config
         c = int(config.channels[0])
         k = int(config.n_keypoints)
-        self.stem = nn.Sequential(nn.Conv2d(4, c, 5, stride=2, padding=2), nn.BatchNorm2d(c), nn.ReLU(inplace=True),
-                                  _block(c, c))
-        self.deep = nn.Sequential(_block(c, 2 * c, stride=2), _block(2 * c, 2 * c, dilation=2),
-                                  _block(2 * c, 2 * c, dilation=4))
+        self.stem = nn.Sequential(
+            nn.Conv2d(4, c, 5, stride=2, padding=2), nn.BatchNorm2d(c), nn.ReLU(inplace=True), _block(c, c)
+        )
+        self.deep = nn.Sequential(
+            _block(c, 2 * c, stride=2), _block(2 * c, 2 * c, dilation=2), _block(2 * c, 2 * c, dilation=4)
+        )
         self.fuse = _block(3 * c, c)
         self.heat = nn.Conv2d(c, k, 1)
         self.depth = nn.Conv2d(c, k, 1)
@@ -164,17 +179,21 @@ def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -
         ``(width, height)`` the network sees.
     """
     w, h = image_size
-    inside = ((target[..., 0] > 0) & (target[..., 0] < 1) & (target[..., 1] > 0) & (target[..., 1] < 1)
-              & (target[..., 2] > 0)).float()
-    err = ((pred[..., 0] - target[..., 0]).abs() * w + (pred[..., 1] - target[..., 1]).abs() * h
-           + (pred[..., 2] - target[..., 2]).abs() * DEPTH_WEIGHT_PER_M)
+    inside = (
+        (target[..., 0] > 0) & (target[..., 0] < 1) & (target[..., 1] > 0) & (target[..., 1] < 1) & (target[..., 2] > 0)
+    ).float()
+    err = (
+        (pred[..., 0] - target[..., 0]).abs() * w
+        + (pred[..., 1] - target[..., 1]).abs() * h
+        + (pred[..., 2] - target[..., 2]).abs() * DEPTH_WEIGHT_PER_M
+    )
     return (err * inside).sum() / inside.sum().clamp_min(1.0)
 
 
-def pose_errors(T_base_cam: np.ndarray, t_base_cam_mm: np.ndarray, q_base_cam_xyzw: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+def pose_errors(
+    T_base_cam: np.ndarray, t_base_cam_mm: np.ndarray, q_base_cam_xyzw: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Translation (mm) and rotation (deg, eq. 2) errors of poses against targets, shape (N,) each."""
     t_mm = T_base_cam[:, :3, 3] * 1000.0
     q = quat_xyzw_from_matrix(T_base_cam[:, :3, :3])
     return translation_errors_mm(t_mm, t_base_cam_mm), rotation_errors_deg(q, q_base_cam_xyzw)
-

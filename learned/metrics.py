@@ -37,5 +37,9 @@ def summarize(errors: np.ndarray) -> dict:
     e = np.asarray(errors, dtype=float)
     if e.size == 0:
         return {"mean": float("nan"), "median": float("nan"), "rmse": float("nan"), "n": 0}
-    return {"mean": float(e.mean()), "median": float(np.median(e)), "rmse": float(np.sqrt(np.mean(e**2))),
-            "n": int(e.size)}
+    return {
+        "mean": float(e.mean()),
+        "median": float(np.median(e)),
+        "rmse": float(np.sqrt(np.mean(e**2))),
+        "n": int(e.size),
+    }

@@ -84,8 +84,11 @@ class ModelConfig:
 def _encoder(in_channels: int, channels: tuple) -> nn.Sequential:
     layers, c = [], in_channels
     for k, out in enumerate(channels):
-        layers += [nn.Conv2d(c, out, kernel_size=5 if k == 0 else 3, stride=2, padding=2 if k == 0 else 1),
-                   nn.BatchNorm2d(out), nn.ReLU(inplace=True)]
+        layers += [
+            nn.Conv2d(c, out, kernel_size=5 if k == 0 else 3, stride=2, padding=2 if k == 0 else 1),
+            nn.BatchNorm2d(out),
+            nn.ReLU(inplace=True),
+        ]
         c = out
     return nn.Sequential(*layers, nn.Flatten())
 

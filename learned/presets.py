@@ -64,8 +64,13 @@ class Preset:
     def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
         if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
             return ModelConfig(kind, tuple(self.image_size), (int(self.channels[0]),), (), n_keypoints=int(n_keypoints))
-        return ModelConfig(kind, tuple(self.image_size), tuple(self.channels), tuple(self.hidden),
-                           translation_offset_mm=tuple(float(v) for v in offset_mm))
+        return ModelConfig(
+            kind,
+            tuple(self.image_size),
+            tuple(self.channels),
+            tuple(self.hidden),
+            translation_offset_mm=tuple(float(v) for v in offset_mm),
+        )
 
     def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
         first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
@@ -85,17 +90,52 @@ class Preset:
 
 PRESETS = {
     # a test: seconds per strategy on 2 cores
-    "tiny": Preset("tiny", (32, 32), (8, 16, 32), (64, 32), first_epochs=6, later_epochs=4, batch_epochs=6,
-                   batch_size=16, repeats=1),
+    "tiny": Preset(
+        "tiny",
+        (32, 32),
+        (8, 16, 32),
+        (64, 32),
+        first_epochs=6,
+        later_epochs=4,
+        batch_epochs=6,
+        batch_size=16,
+        repeats=1,
+    ),
     # the README's demo: a small dataset, a minute or two on 2 cores
-    "demo": Preset("demo", (32, 32), (8, 16, 32), (64, 32), first_epochs=30, later_epochs=15, batch_epochs=30,
-                   batch_size=16, repeats=1),
+    "demo": Preset(
+        "demo",
+        (32, 32),
+        (8, 16, 32),
+        (64, 32),
+        first_epochs=30,
+        later_epochs=15,
+        batch_epochs=30,
+        batch_size=16,
+        repeats=1,
+    ),
     # the paper-sim protocol at reduced resolution and width, all strategies and both networks on a 2-core CPU
-    "cpu": Preset("cpu", (64, 64), (8, 16, 32, 32), (128, 64), first_epochs=30, later_epochs=15, batch_epochs=30,
-                  keypoint_epochs=(15, 8, 15), repeats=3),
+    "cpu": Preset(
+        "cpu",
+        (64, 64),
+        (8, 16, 32, 32),
+        (128, 64),
+        first_epochs=30,
+        later_epochs=15,
+        batch_epochs=30,
+        keypoint_epochs=(15, 8, 15),
+        repeats=3,
+    ),
     # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
-    "paper": Preset("paper", (256, 256), (32, 64, 128, 128, 256, 256), (512, 256), first_epochs=50,
-                    later_epochs=25, batch_epochs=50, repeats=3),
+    "paper": Preset(
+        "paper",
+        (256, 256),
+        (32, 64, 128, 128, 256, 256),
+        (512, 256),
+        first_epochs=50,
+        later_epochs=25,
+        batch_epochs=50,
+        repeats=3,
+    ),
 }
 
 

@@ -152,8 +152,14 @@ class ReplayBuffer(Mapping):
 
     def state_dict(self) -> dict:
         """Tensors (under ``"tensors"``: a flat dict) and JSON values (under ``"meta"``), for safe_io."""
-        meta = {"per_class": self.per_class, "max_size": self.max_size, "keep_samples": self.keep_samples,
-                "order": list(self._items), "seen": {str(c): n for c, n in self._seen.items()}, "other": {}}
+        meta = {
+            "per_class": self.per_class,
+            "max_size": self.max_size,
+            "keep_samples": self.keep_samples,
+            "order": list(self._items),
+            "seen": {str(c): n for c, n in self._seen.items()},
+            "other": {},
+        }
         tensors = {}
         for c, item in self._items.items():
             if not self.keep_samples:
@@ -178,6 +184,8 @@ class ReplayBuffer(Mapping):
                 continue
             own = {k.split(".", 1)[1]: v for k, v in tensors.items() if k.split(".", 1)[0] == str(c)}
             other = meta["other"][str(c)]
-            self._items[int(c)] = FrameSet(**tensors_to_arrays(own, other["arrays"]),
-                                           label_source=other["scalars"]["label_source"],
-                                           image_size=tuple(other["scalars"]["image_size"]))
+            self._items[int(c)] = FrameSet(
+                **tensors_to_arrays(own, other["arrays"]),
+                label_source=other["scalars"]["label_source"],
+                image_size=tuple(other["scalars"]["image_size"]),
+            )

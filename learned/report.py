@@ -61,16 +61,20 @@ def findings(results: dict) -> list[str]:
         if "naive" in strategies:
             m, _ = mean_matrix(results, "naive", net)
             ok = m[-1, 0] >= 2 * m[0, 0]
-            lines.append(f"{net}: naive forgets S1: {m[0, 0]:.2f} {u} after step 1, {m[-1, 0]:.2f} {u} at the last "
-                         f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): "
-                         f"{'reproduced' if ok else 'NOT reproduced'}")
+            lines.append(
+                f"{net}: naive forgets S1: {m[0, 0]:.2f} {u} after step 1, {m[-1, 0]:.2f} {u} at the last "
+                f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): "
+                f"{'reproduced' if ok else 'NOT reproduced'}"
+            )
         if "reservoir" in strategies and "batch" in strategies:
             r, _ = mean_matrix(results, "reservoir", net)
             b, _ = mean_matrix(results, "batch", net)
             ratio = np.nanmean(r[-1]) / np.nanmean(b[-1])
-            lines.append(f"{net}: reservoir ends at {np.nanmean(r[-1]):.2f} {u} mean over subsets, batch baseline "
-                         f"{np.nanmean(b[-1]):.2f} {u} ({ratio:.2f}x; finding needs <= 1.5x): "
-                         f"{'reproduced' if ratio <= 1.5 else 'NOT reproduced'}")
+            lines.append(
+                f"{net}: reservoir ends at {np.nanmean(r[-1]):.2f} {u} mean over subsets, batch baseline "
+                f"{np.nanmean(b[-1]):.2f} {u} ({ratio:.2f}x; finding needs <= 1.5x): "
+                f"{'reproduced' if ratio <= 1.5 else 'NOT reproduced'}"
+            )
         if "selection" in strategies and "reservoir" in strategies:
             s = _runs(results, "selection", net)
             r = _runs(results, "reservoir", net)
@@ -79,10 +83,12 @@ def findings(results: dict) -> list[str]:
             es = np.nanmean(mean_matrix(results, "selection", net)[0][-1])
             er = np.nanmean(mean_matrix(results, "reservoir", net)[0][-1])
             ok = skipped > 0 and proc_s < proc_r
-            lines.append(f"{net}: selection skipped {skipped:.1f} camera poses, processed {proc_s:.0f} samples against "
-                         f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} "
-                         f"{u}: "
-                         f"{'reproduced' if ok else 'NOT reproduced'} (skips and less data)")
+            lines.append(
+                f"{net}: selection skipped {skipped:.1f} camera poses, processed {proc_s:.0f} samples against "
+                f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} "
+                f"{u}: "
+                f"{'reproduced' if ok else 'NOT reproduced'} (skips and less data)"
+            )
     return lines
 
 
@@ -94,10 +100,14 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     subsets = [f"S{r + 1}" for r in regions]
     repeats = results["preset"]["repeats"]
     family = results.get("family", "regression")
-    md = [f"# Learned continual calibration: preset {results['preset']['name']}, labels {results['labels']}, "
-          f"model {family}", "",
-          f"Mean test error per subset (mean ± std over {repeats} repeats where > 1); rows: time steps "
-          "(after training on region k); batch trains from scratch on all training data at the last step.", ""]
+    md = [
+        f"# Learned continual calibration: preset {results['preset']['name']}, labels {results['labels']}, "
+        f"model {family}",
+        "",
+        f"Mean test error per subset (mean ± std over {repeats} repeats where > 1); rows: time steps "
+        "(after training on region k); batch trains from scratch on all training data at the last step.",
+        "",
+    ]
     for net in ("translation", "orientation"):
         for strategy in results["strategies"]:
             mean, std = mean_matrix(results, strategy, net)
@@ -109,8 +119,11 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
                 rows.append([k + 1, *mean[k], *std[k]])
             md += [f"## {strategy}, {net} ({UNIT[net]})", ""] + markdown_table(["step", *subsets, "mean"], md_rows)
             md.append("")
-            write_csv(run_dir / f"matrix_{strategy}_{net}.csv",
-                      ["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]], rows)
+            write_csv(
+                run_dir / f"matrix_{strategy}_{net}.csv",
+                ["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]],
+                rows,
+            )
     # final step against the baseline
     md += ["## Final step per test subset (tables 9-10)", ""]
     final_rows = []
@@ -118,8 +131,13 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
         md_rows = []
         for strategy in results["strategies"]:
             mean, std = mean_matrix(results, strategy, net)
-            md_rows.append([strategy, *[_cell(mean[-1, j], std[-1, j], repeats) for j in range(len(subsets))],
-                            f"{np.nanmean(mean[-1]):.2f}"])
+            md_rows.append(
+                [
+                    strategy,
+                    *[_cell(mean[-1, j], std[-1, j], repeats) for j in range(len(subsets))],
+                    f"{np.nanmean(mean[-1]):.2f}",
+                ]
+            )
             final_rows.append([net, strategy, *mean[-1], float(np.nanmean(mean[-1]))])
         md += [f"### {net} ({UNIT[net]})", ""] + markdown_table(["strategy", *subsets, "mean"], md_rows) + [""]
     write_csv(run_dir / "final_step.csv", ["network", "strategy", *subsets, "mean"], final_rows)
@@ -132,40 +150,84 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
             skipped = np.mean([len(r["skipped"]) for r in runs])
             md_rows.append([strategy, net, *[f"{v:.0f}" for v in vals], f"{skipped:.1f}"])
             compute_rows.append([strategy, net, *vals, skipped])
-    md += ["## Data and compute (table 11)", ""] + markdown_table(
-        ["strategy", "network", "samples stored", "samples processed", "samples evaluated for novelty", "wall time s",
-         "camera poses skipped"], md_rows) + [""]
-    write_csv(run_dir / "compute.csv", ["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"],
-              compute_rows)
+    md += (
+        ["## Data and compute (table 11)", ""]
+        + markdown_table(
+            [
+                "strategy",
+                "network",
+                "samples stored",
+                "samples processed",
+                "samples evaluated for novelty",
+                "wall time s",
+                "camera poses skipped",
+            ],
+            md_rows,
+        )
+        + [""]
+    )
+    write_csv(
+        run_dir / "compute.csv",
+        ["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"],
+        compute_rows,
+    )
     # per camera pose validation
-    how = ("the keypoints of all the pose's frames fitted at once (robust 3-D to 3-D)" if family == "keypoints"
-           else "the frame predictions of the pose averaged")
+    how = (
+        "the keypoints of all the pose's frames fitted at once (robust 3-D to 3-D)"
+        if family == "keypoints"
+        else "the frame predictions of the pose averaged"
+    )
     md_rows = []
     for strategy, pc in results["per_camera"].items():
         inf = results.get("inference", {}).get(strategy, {})
         t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
         lab_mm, lab_deg = np.asarray(pc["label_vs_truth_mm"]), np.asarray(pc["label_vs_truth_deg"])
-        md_rows.append([strategy, f"{np.median(t_mm):.2f} / {np.median(r_deg):.2f}",
-                        f"{t_mm.max():.2f} / {r_deg.max():.2f}", f"{np.median(lab_mm):.3f} / {np.median(lab_deg):.4f}",
-                        f"{inf.get('per_frame_ms', float('nan')):.1f}",
-                        f"{inf.get('per_camera_ms', float('nan')):.0f}"])
+        md_rows.append(
+            [
+                strategy,
+                f"{np.median(t_mm):.2f} / {np.median(r_deg):.2f}",
+                f"{t_mm.max():.2f} / {r_deg.max():.2f}",
+                f"{np.median(lab_mm):.3f} / {np.median(lab_deg):.4f}",
+                f"{inf.get('per_frame_ms', float('nan')):.1f}",
+                f"{inf.get('per_camera_ms', float('nan')):.0f}",
+            ]
+        )
     md += ["## Per test camera pose: learned vs classic label vs truth", "", f"Learned: {how}. mm / deg.", ""]
-    md += markdown_table(["strategy", "median vs truth", "worst vs truth", "label median vs truth",
-                          "inference ms per frame", "ms per camera pose"], md_rows) + [""]
+    md += markdown_table(
+        [
+            "strategy",
+            "median vs truth",
+            "worst vs truth",
+            "label median vs truth",
+            "inference ms per frame",
+            "ms per camera pose",
+        ],
+        md_rows,
+    ) + [""]
     keys, csv_rows = None, []
     for strategy, pc in results["per_camera"].items():
         md_rows = []
         for i, c in enumerate(pc["camera"]):
-            md_rows.append([c, f"S{pc['region'][i] + 1}",
-                            f"{pc['learned_vs_label_mm'][i]:.2f} / {pc['learned_vs_label_deg'][i]:.2f}",
-                            f"{pc['learned_vs_truth_mm'][i]:.2f} / {pc['learned_vs_truth_deg'][i]:.2f}",
-                            f"{pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f}",
-                            f"{pc['per_frame_vs_label_mm'][i]:.2f} / {pc['per_frame_vs_label_deg'][i]:.2f}"])
+            md_rows.append(
+                [
+                    c,
+                    f"S{pc['region'][i] + 1}",
+                    f"{pc['learned_vs_label_mm'][i]:.2f} / {pc['learned_vs_label_deg'][i]:.2f}",
+                    f"{pc['learned_vs_truth_mm'][i]:.2f} / {pc['learned_vs_truth_deg'][i]:.2f}",
+                    f"{pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f}",
+                    f"{pc['per_frame_vs_label_mm'][i]:.2f} / {pc['per_frame_vs_label_deg'][i]:.2f}",
+                ]
+            )
             keys = keys or list(pc)
             csv_rows.append([strategy, *[pc[k][i] for k in keys]])
-        md += [f"### {strategy}", ""] + markdown_table(
-            ["camera", "subset", "learned vs label", "learned vs truth", "label vs truth", "per-frame vs label"],
-            md_rows) + [""]
+        md += (
+            [f"### {strategy}", ""]
+            + markdown_table(
+                ["camera", "subset", "learned vs label", "learned vs truth", "label vs truth", "per-frame vs label"],
+                md_rows,
+            )
+            + [""]
+        )
     write_csv(run_dir / "per_camera.csv", ["strategy", *(keys or [])], csv_rows)
     md += ["## The paper's findings on this run", ""] + [f"- {line}" for line in findings(results)] + [""]
     text = "\n".join(md)

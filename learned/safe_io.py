@@ -41,8 +41,12 @@ def save_document(path: str | Path, kind: str, version: int, doc: dict) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tensors = {k: v for k, v in doc.items() if isinstance(v, torch.Tensor) or
-               (isinstance(v, dict) and v and all(isinstance(x, torch.Tensor) for x in v.values()))}
+    tensors = {
+        k: v
+        for k, v in doc.items()
+        if isinstance(v, torch.Tensor)
+        or (isinstance(v, dict) and v and all(isinstance(x, torch.Tensor) for x in v.values()))
+    }
     rest = {k: v for k, v in doc.items() if k not in tensors}
     out = {"format": MAGIC, "kind": kind, "version": int(version), "json": json.dumps(rest), "tensors": tensors}
     tmp = path.with_name(path.name + ".tmp")
@@ -59,8 +63,10 @@ def load_document(path: str | Path, kind: str, version: int) -> dict:
         raw = torch.load(path, map_location="cpu", weights_only=True)
     except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError, OSError, AttributeError) as exc:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise SavedFileError(f"{path}: not a handeye {kind} file, or one written by an older handeye with pickle "
-                             f"(refused: it could run code when opened); retrain it ({first[:120]})") from None
+        raise SavedFileError(
+            f"{path}: not a handeye {kind} file, or one written by an older handeye with pickle "
+            f"(refused: it could run code when opened); retrain it ({first[:120]})"
+        ) from None
     if not isinstance(raw, dict) or raw.get("format") != MAGIC or raw.get("kind") != kind:
         raise SavedFileError(f"{path}: not a handeye {kind} file")
     if raw.get("version") != version:

@@ -45,8 +45,18 @@ from learned.model import CalibrationNet, ModelConfig, make_network
 from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
 from learned.trainer import TrainConfig, default_device, train
 
-__all__ = ["Strategy", "Batch", "Naive", "Reservoir", "Selection", "STRATEGIES", "make_strategy", "random_fraction",
-           "per_camera_sample", "sample_error"]
+__all__ = [
+    "Strategy",
+    "Batch",
+    "Naive",
+    "Reservoir",
+    "Selection",
+    "STRATEGIES",
+    "make_strategy",
+    "random_fraction",
+    "per_camera_sample",
+    "sample_error",
+]
 
 
 @dataclass
@@ -107,9 +117,13 @@ class Strategy:
         optimiser state to keep.
         """
         buffer = self.buffer.state_dict()
-        return {"weights": dict(self.model.state_dict()), "buffer_tensors": buffer["tensors"],
-                "buffer": buffer["meta"], "rng": json.dumps(self.rng.bit_generator.state),
-                "counters": {k: getattr(self, k) for k in self._counters}}
+        return {
+            "weights": dict(self.model.state_dict()),
+            "buffer_tensors": buffer["tensors"],
+            "buffer": buffer["meta"],
+            "rng": json.dumps(self.rng.bit_generator.state),
+            "counters": {k: getattr(self, k) for k in self._counters},
+        }
 
     def load_state_dict(self, state: dict) -> None:
         """Inverse of :meth:`state_dict`."""
@@ -125,8 +139,15 @@ class Strategy:
 
     def _train(self, frames: FrameSet, index: np.ndarray, step: int) -> int:
         cfg = self.first if step == 0 else self.later
-        n = train(self.model, frames, index, cfg, self.rng, self.progress,
-                  desc=f"{self.name} {self.config.kind} step {step + 1}")
+        n = train(
+            self.model,
+            frames,
+            index,
+            cfg,
+            self.rng,
+            self.progress,
+            desc=f"{self.name} {self.config.kind} step {step + 1}",
+        )
         self.processed += n
         return n
 
@@ -181,8 +202,15 @@ class Reservoir(Strategy):
         return lambda data, index: self._train(data, index, step)
 
     def step(self, step, cameras, frames, last):
-        continual_step(self.model, frames, self._frames_of(frames, cameras), self.buffer, self.rng, self._rule(),
-                       self._train_fn(step))
+        continual_step(
+            self.model,
+            frames,
+            self._frames_of(frames, cameras),
+            self.buffer,
+            self.rng,
+            self._rule(),
+            self._train_fn(step),
+        )
         self.trained_on.append(list(cameras))
 
 
@@ -218,8 +246,17 @@ class Selection(Reservoir):
         share = 1.0 / len(cameras) if self.replay_share == "region" else 1.0
         novel = []
         for c in cameras:
-            outcome = continual_step(self.model, frames, self._frames_of(frames, [c]), self.buffer, self.rng,
-                                     self._rule(share), self._train_fn(step), self.threshold, self.sample_fraction)
+            outcome = continual_step(
+                self.model,
+                frames,
+                self._frames_of(frames, [c]),
+                self.buffer,
+                self.rng,
+                self._rule(share),
+                self._train_fn(step),
+                self.threshold,
+                self.sample_fraction,
+            )
             self.evaluated += outcome.evaluated
             (novel if outcome.novel else self.skipped).append(int(c))
         self.trained_on.append(novel)
@@ -228,8 +265,15 @@ class Selection(Reservoir):
 STRATEGIES = {"batch": Batch, "naive": Naive, "reservoir": Reservoir, "selection": Selection}
 
 
-def make_strategy(name: str, config: ModelConfig, first: TrainConfig, later: TrainConfig, rng: np.random.Generator,
-                  progress: bool = False, **params) -> Strategy:
+def make_strategy(
+    name: str,
+    config: ModelConfig,
+    first: TrainConfig,
+    later: TrainConfig,
+    rng: np.random.Generator,
+    progress: bool = False,
+    **params,
+) -> Strategy:
     """A strategy by name; ``params`` are its own (c1, c2, c3, thresholds), ignored by those without them."""
     if name not in STRATEGIES:
         raise ValueError(f"unknown strategy {name!r}: use {', '.join(STRATEGIES)}")

@@ -45,19 +45,26 @@ def _device(model: CalibrationNet) -> torch.device:
 
 
 def _tensors(frames: FrameSet, index: np.ndarray, device: torch.device):
-    return (torch.from_numpy(frames.rgb[index]).to(device),
-            torch.from_numpy(frames.depth_m[index].astype(np.float32)).to(device),
-            torch.from_numpy(frames.pose_base_ref[index]).to(device))
+    return (
+        torch.from_numpy(frames.rgb[index]).to(device),
+        torch.from_numpy(frames.depth_m[index].astype(np.float32)).to(device),
+        torch.from_numpy(frames.pose_base_ref[index]).to(device),
+    )
 
 
 def _keypoint_targets(frames: FrameSet, index: np.ndarray, against: str = "label") -> np.ndarray:
     from learned.keypoints import keypoint_targets
 
     if frames.keypoints_base.shape[1] == 0:
-        raise HandEyeInputError("the keypoint model needs the keypoints' base-frame positions (learned.data."
-                                "with_keypoints; 'handeye learned run --family keypoints' fills them)")
-    t, q = ((frames.t_base_cam_mm, frames.q_base_cam_xyzw) if against == "label" else
-            (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw))
+        raise HandEyeInputError(
+            "the keypoint model needs the keypoints' base-frame positions (learned.data."
+            "with_keypoints; 'handeye learned run --family keypoints' fills them)"
+        )
+    t, q = (
+        (frames.t_base_cam_mm, frames.q_base_cam_xyzw)
+        if against == "label"
+        else (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw)
+    )
     return keypoint_targets(frames.keypoints_base[index], t[index], q[index], frames.intrinsics_norm[index])
 
 
@@ -74,8 +81,15 @@ def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> torch.T
     return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device))
 
 
-def train(model: CalibrationNet, frames: FrameSet, index: np.ndarray, config: TrainConfig,
-          rng: np.random.Generator, progress: bool = False, desc: str = "train") -> int:
+def train(
+    model: CalibrationNet,
+    frames: FrameSet,
+    index: np.ndarray,
+    config: TrainConfig,
+    rng: np.random.Generator,
+    progress: bool = False,
+    desc: str = "train",
+) -> int:
     """Train on the frames at ``index`` (a fresh Adam per call); returns the samples processed.
 
     Parameters
@@ -108,7 +122,7 @@ def train(model: CalibrationNet, frames: FrameSet, index: np.ndarray, config: Tr
     for _ in range(config.epochs):
         order = rng.permutation(index)
         for start in range(0, len(order), config.batch_size):
-            batch = np.sort(order[start:start + config.batch_size])
+            batch = np.sort(order[start : start + config.batch_size])
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             optimizer.zero_grad()
@@ -125,22 +139,26 @@ def train(model: CalibrationNet, frames: FrameSet, index: np.ndarray, config: Tr
 
 
 @torch.no_grad()
-def predict(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None,
-            batch_size: int = 256) -> np.ndarray:
+def predict(
+    model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None, batch_size: int = 256
+) -> np.ndarray:
     """Predictions for the frames at ``index`` (all by default): (N, 3) mm or (N, 4) quaternions."""
     index = np.arange(len(frames)) if index is None else np.asarray(index)
     model.eval()
     device = _device(model)
-    out = [model(*_tensors(frames, index[s:s + batch_size], device)).cpu().numpy()
-           for s in range(0, len(index), batch_size)]
+    out = [
+        model(*_tensors(frames, index[s : s + batch_size], device)).cpu().numpy()
+        for s in range(0, len(index), batch_size)
+    ]
     if model.config.kind == "keypoints":
         return np.concatenate(out) if out else np.zeros((0, model.config.n_keypoints, 3))
     width = 3 if model.config.kind == "translation" else 4
     return np.concatenate(out) if out else np.zeros((0, width))
 
 
-def errors(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None,
-           against: str = "label") -> np.ndarray:
+def errors(
+    model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = None, against: str = "label"
+) -> np.ndarray:
     """Per-frame error of a network, mm or degrees, against the training targets or the truth.
 
     Shape (N,), or (N, 2) for the keypoint model: translation mm and rotation deg of each frame's
@@ -157,14 +175,18 @@ def errors(model: CalibrationNet, frames: FrameSet, index: np.ndarray | None = N
     return rotation_errors_deg(pred, q_xyzw[index])
 
 
-def keypoint_pose_errors(pred: np.ndarray, frames: FrameSet, index: np.ndarray, against: str = "label"
-                         ) -> tuple[np.ndarray, np.ndarray]:
+def keypoint_pose_errors(
+    pred: np.ndarray, frames: FrameSet, index: np.ndarray, against: str = "label"
+) -> tuple[np.ndarray, np.ndarray]:
     """Translation (mm) and rotation (deg) errors of the per-frame poses solved from predicted keypoints."""
     from learned.keypoints import frame_poses, pose_errors
 
     T = frame_poses(pred, frames.keypoints_base[index], frames.intrinsics_norm[index])
-    t, q = ((frames.t_base_cam_mm, frames.q_base_cam_xyzw) if against == "label" else
-            (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw))
+    t, q = (
+        (frames.t_base_cam_mm, frames.q_base_cam_xyzw)
+        if against == "label"
+        else (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw)
+    )
     bad = ~np.isfinite(T).all(axis=(1, 2))
     T[bad] = np.eye(4)
     e_t, e_r = pose_errors(T, t[index], q[index])

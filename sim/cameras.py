@@ -72,6 +72,7 @@ class CameraPreset:
     @classmethod
     def from_dict(cls, doc: dict) -> "CameraPreset":
         """Inverse of ``dataclasses.asdict`` after a JSON round trip (lists back to tuples)."""
+
         def as_tuple(v):
             return tuple(as_tuple(x) for x in v) if isinstance(v, list) else v
 
@@ -94,16 +95,42 @@ PRESETS = {
     # the paper's real rig: 24 poses on three sides of the table (front, side at 90 deg, back at 180 deg),
     # 19 train + 5 test in all, 100 configurations, UR3
     "paper-real": CameraPreset(
-        "paper-real", "ur3", ((-30.0, 30.0), (60.0, 120.0), (150.0, 210.0)), (6, 7, 6), (2, 1, 2), 100,
-        radius_m=(0.9, 1.2), elevation_deg=(25.0, 45.0), look_at_m=(0.0, 0.0, 0.2),
+        "paper-real",
+        "ur3",
+        ((-30.0, 30.0), (60.0, 120.0), (150.0, 210.0)),
+        (6, 7, 6),
+        (2, 1, 2),
+        100,
+        radius_m=(0.9, 1.2),
+        elevation_deg=(25.0, 45.0),
+        look_at_m=(0.0, 0.0, 0.2),
     ),
     # the README's demo: 2 regions of 4 train + 1 test, 20 configurations, small images
-    "demo": CameraPreset("demo", "ur5", ((0.0, 30.0), (30.0, 60.0)), (6, 6), (1, 1), 20, calibration_views=10,
-                         radius_m=(1.4, 1.6), elevation_deg=(30.0, 40.0), image_size=(128, 128),
-                         calibration_image_size=(480, 480)),
+    "demo": CameraPreset(
+        "demo",
+        "ur5",
+        ((0.0, 30.0), (30.0, 60.0)),
+        (6, 6),
+        (1, 1),
+        20,
+        calibration_views=10,
+        radius_m=(1.4, 1.6),
+        elevation_deg=(30.0, 40.0),
+        image_size=(128, 128),
+        calibration_image_size=(480, 480),
+    ),
     # for tests and CI: 2 regions of 2 train + 1 test, 6 configurations
-    "small": CameraPreset("small", "ur5", _sectors(2), (2, 2), (1, 1), 6, calibration_views=10,
-                          image_size=(128, 128), calibration_image_size=(480, 480)),
+    "small": CameraPreset(
+        "small",
+        "ur5",
+        _sectors(2),
+        (2, 2),
+        (1, 1),
+        6,
+        calibration_views=10,
+        image_size=(128, 128),
+        calibration_image_size=(480, 480),
+    ),
 }
 
 
@@ -212,5 +239,12 @@ def place_cameras(preset: CameraPreset, rng: np.random.Generator) -> CameraSet:
         az_all.append(az)
         el_all.append(el)
         r_all.append(r)
-    return CameraSet(np.concatenate(T), np.concatenate(region), np.concatenate(split), np.concatenate(az_all),
-                     np.concatenate(el_all), np.concatenate(r_all), {"preset": preset.name})
+    return CameraSet(
+        np.concatenate(T),
+        np.concatenate(region),
+        np.concatenate(split),
+        np.concatenate(az_all),
+        np.concatenate(el_all),
+        np.concatenate(r_all),
+        {"preset": preset.name},
+    )

@@ -111,15 +111,22 @@ class GenerationReport:
 
     def summary(self) -> str:
         fps = self.frames / self.wall_s if self.wall_s > 0 else float("nan")
-        text = (f"{self.out}: rendered {len(self.rendered)} camera poses ({self.frames} frames, {self.wall_s:.1f} s, "
-                f"{fps:.1f} frames/s), kept {len(self.skipped)} complete")
+        text = (
+            f"{self.out}: rendered {len(self.rendered)} camera poses ({self.frames} frames, {self.wall_s:.1f} s, "
+            f"{fps:.1f} frames/s), kept {len(self.skipped)} complete"
+        )
         if self.regenerated:
             text += f", regenerated half-written {self.regenerated}"
         return text
 
 
-def dataset_meta(preset: CameraPreset, seed: int, noise: NoiseModel, recordings: tuple[str, ...],
-                 marker_radius_m: float | None = None) -> dict:
+def dataset_meta(
+    preset: CameraPreset,
+    seed: int,
+    noise: NoiseModel,
+    recordings: tuple[str, ...],
+    marker_radius_m: float | None = None,
+) -> dict:
     """The ``meta.json`` of a simulated dataset (everything needed to regenerate it).
 
     Parameters
@@ -153,24 +160,39 @@ def dataset_meta(preset: CameraPreset, seed: int, noise: NoiseModel, recordings:
         "T_ee_ref": robot.T_ee_ref.tolist(),
         "intrinsics": intrinsics(preset.image_size),
         "calibration_intrinsics": intrinsics(preset.calibration_image_size),
-        "depth": {"format": "png16", "scale_m": DEPTH_SCALE_M, "invalid": 0,
-                  "quantity": "z coordinate in the camera frame (not the ray length)"},
+        "depth": {
+            "format": "png16",
+            "scale_m": DEPTH_SCALE_M,
+            "invalid": 0,
+            "quantity": "z coordinate in the camera frame (not the ray length)",
+        },
         "board": dict(DEFAULT_BOARD),
         "T_ee_target_true": board_mount(BoardSpec(**DEFAULT_BOARD).size_m).tolist(),
         "cameras": preset.n_cameras,
         "regions": len(preset.region_azimuths_deg),
         "recordings": list(recordings),
         "conventions": "T_a_b maps frame b to frame a; metres, radians; quaternions x,y,z,w; camera frame OpenCV "
-                       "(x right, y down, z forward); eye-to-hand: label X = T_base_cam",
-        "recipe": {"generator": "handeye sim generate", "preset": asdict(preset), "seed": int(seed),
-                   "noise": asdict(noise), "marker_radius_m": marker_radius_m},
+        "(x right, y down, z forward); eye-to-hand: label X = T_base_cam",
+        "recipe": {
+            "generator": "handeye sim generate",
+            "preset": asdict(preset),
+            "seed": int(seed),
+            "noise": asdict(noise),
+            "marker_radius_m": marker_radius_m,
+        },
     }
     return json.loads(json.dumps(meta))  # as it reads back from the file (tuples become lists)
 
 
 def _camera_table(cams) -> dict:
-    table = {"camera_id": np.arange(len(cams)), "region": cams.region, "split": cams.split,
-             "azimuth_deg": cams.azimuth_deg, "elevation_deg": cams.elevation_deg, "radius_m": cams.radius_m}
+    table = {
+        "camera_id": np.arange(len(cams)),
+        "region": cams.region,
+        "split": cams.split,
+        "azimuth_deg": cams.azimuth_deg,
+        "elevation_deg": cams.elevation_deg,
+        "radius_m": cams.radius_m,
+    }
     table.update(poses_to_columns("T_base_cam_true", cams.T_base_cam))
     return table
 
@@ -203,11 +225,18 @@ class _ShardRenderer:
         marker = recipe.get("marker_radius_m")
         self.renderers = {}
         if "data" in meta["recordings"]:
-            self.renderers["data"] = Renderer(self.robot, self.K_data, *self.size_data, marker_radius_m=marker,
-                                              robot_visible=marker is None, gripper=marker is None)
+            self.renderers["data"] = Renderer(
+                self.robot,
+                self.K_data,
+                *self.size_data,
+                marker_radius_m=marker,
+                robot_visible=marker is None,
+                gripper=marker is None,
+            )
         if "calibration" in meta["recordings"]:
-            self.renderers["calibration"] = Renderer(self.robot, self.K_cal, *self.size_cal, gripper=False,
-                                                     board=(self.spec, self.T_ee_target))
+            self.renderers["calibration"] = Renderer(
+                self.robot, self.K_cal, *self.size_cal, gripper=False, board=(self.spec, self.T_ee_target)
+            )
 
     def _board_visible(self, depth_m: np.ndarray, T_base_cam: np.ndarray, T_base_target: np.ndarray) -> bool:
         """Whether the rendered depth shows the board (not the arm) at every projected corner."""
@@ -252,8 +281,9 @@ class _ShardRenderer:
             n, tries = 0, 0
             while n < self.preset.calibration_views and tries < 4 * self.preset.calibration_views:
                 tries += 1
-                view = sample_calibration_view(self.robot, T_base_cam, self.K_cal, self.size_cal, self.T_ee_target,
-                                               self.spec.size_m, rng)
+                view = sample_calibration_view(
+                    self.robot, T_base_cam, self.K_cal, self.size_cal, self.T_ee_target, self.spec.size_m, rng
+                )
                 rgb, depth = renderer.render(view.q, T_base_cam)
                 if not self._board_visible(depth, T_base_cam, view.T_base_target):
                     continue  # the arm hides part of the board: draw another view
@@ -271,12 +301,15 @@ class _ShardRenderer:
                 rows.append(("data", q, rel_rgb, rel_depth))
             counts["data"] = self.preset.configurations
         q_rec = np.array([self._recorded_joints(r[1], noise_rng) for r in rows]).reshape(-1, self.robot.nq)
-        table = {"frame": np.arange(len(rows)), "camera_id": np.full(len(rows), camera_id),
-                 "region": np.full(len(rows), self.cams.region[camera_id]),
-                 "split": np.array([self.cams.split[camera_id]] * len(rows), dtype=object),
-                 "recording": np.array([r[0] for r in rows], dtype=object),
-                 "rgb": np.array([r[2] for r in rows], dtype=object),
-                 "depth": np.array([r[3] for r in rows], dtype=object)}
+        table = {
+            "frame": np.arange(len(rows)),
+            "camera_id": np.full(len(rows), camera_id),
+            "region": np.full(len(rows), self.cams.region[camera_id]),
+            "split": np.array([self.cams.split[camera_id]] * len(rows), dtype=object),
+            "recording": np.array([r[0] for r in rows], dtype=object),
+            "rgb": np.array([r[2] for r in rows], dtype=object),
+            "depth": np.array([r[3] for r in rows], dtype=object),
+        }
         for j in range(self.robot.nq):
             table[f"q{j}"] = q_rec[:, j]
         T_base_ee = self.robot.fk(q_rec)
@@ -313,8 +346,9 @@ def _check_or_write_meta(out: Path, meta: dict) -> None:
     if path.exists():
         old = read_json_file(path, DatasetError, "dataset meta file (remove it or choose another --out)")
         if not isinstance(old, dict):
-            raise DatasetError(f"{path}: not a dataset meta file (a JSON object is needed); remove it or choose "
-                               "another --out")
+            raise DatasetError(
+                f"{path}: not a dataset meta file (a JSON object is needed); remove it or choose another --out"
+            )
         if old.get("recipe") != meta["recipe"] or old.get("recordings") != meta["recordings"]:
             recipe = old.get("recipe", {})
             differ = [k for k in meta["recipe"] if recipe.get(k) != meta["recipe"][k]]
@@ -323,14 +357,22 @@ def _check_or_write_meta(out: Path, meta: dict) -> None:
             raise DatasetError(
                 f"{path}: {out} holds a dataset generated with other options (preset "
                 f"{recipe.get('preset', {}).get('name')!r}, seed {recipe.get('seed')!r}; differing: "
-                f"{', '.join(differ)}); resume it with the same options or choose another --out")
+                f"{', '.join(differ)}); resume it with the same options or choose another --out"
+            )
         return
     write_json_atomic(path, meta)
 
 
-def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 0, noise: NoiseModel | None = None,
-             workers: int = 2, recordings: tuple[str, ...] = ("calibration", "data"),
-             marker_radius_m: float | None = None, progress: bool = True) -> GenerationReport:
+def generate(
+    out: str | Path,
+    preset: str | CameraPreset = "small",
+    seed: int = 0,
+    noise: NoiseModel | None = None,
+    workers: int = 2,
+    recordings: tuple[str, ...] = ("calibration", "data"),
+    marker_radius_m: float | None = None,
+    progress: bool = True,
+) -> GenerationReport:
     """Render a dataset (or resume one): one shard per camera pose, on ``workers`` processes.
 
     Parameters
@@ -378,8 +420,9 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
         meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m)
         _check_or_write_meta(out, meta)
         if not (out / "cameras.csv").exists():
-            write_table(out / "cameras.csv", _camera_table(place_cameras(preset, np.random.default_rng(seed))),
-                        CAMERA_COLUMNS)
+            write_table(
+                out / "cameras.csv", _camera_table(place_cameras(preset, np.random.default_rng(seed))), CAMERA_COLUMNS
+            )
         report = GenerationReport(out)
         pending = []
         for c in range(preset.n_cameras):
@@ -392,9 +435,18 @@ def generate(out: str | Path, preset: str | CameraPreset = "small", seed: int = 
             pending.append(c)
         # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
         # context of the process, so the caller's process never holds one
-        for c, n in run_pool(_work, [(c, str(out)) for c in pending], workers, progress, desc=f"render {out.name}",
-                             unit="camera", initializer=_init_worker, initargs=(meta,), isolate=True,
-                             describe=_describe):
+        for c, n in run_pool(
+            _work,
+            [(c, str(out)) for c in pending],
+            workers,
+            progress,
+            desc=f"render {out.name}",
+            unit="camera",
+            initializer=_init_worker,
+            initargs=(meta,),
+            isolate=True,
+            describe=_describe,
+        ):
             report.rendered.append(c)
             report.frames += n
         report.rendered.sort()

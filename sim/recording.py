@@ -21,20 +21,29 @@ import numpy as np
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import invert_transform, make_transform, so3_exp
 
-__all__ = ["DEFAULT_BOARD", "board_mount", "camera_matrix", "CalibrationView", "sample_calibration_view",
-           "sample_data_configuration", "in_image"]
+__all__ = [
+    "DEFAULT_BOARD",
+    "board_mount",
+    "camera_matrix",
+    "CalibrationView",
+    "sample_calibration_view",
+    "sample_data_configuration",
+    "in_image",
+]
 
 #: The calibration board: 7 x 5 squares of 6 cm (42 x 30 cm), 4.5 cm markers of ArUco 4x4.
 DEFAULT_BOARD = dict(squares_x=7, squares_y=5, square_length_m=0.06, marker_length_m=0.045, dictionary="4X4_50")
 #: Gap between the flange face and the board's printed face, metres.
 BOARD_STANDOFF_M = 0.01
 #: Home configurations the inverse kinematics starts from (elbow up, wrist down or out), radians.
-IK_SEEDS = np.array([
-    [0.0, -1.3, 1.6, -1.9, -1.57, 0.0],
-    [0.0, -1.0, 1.2, -0.2, 1.57, 0.0],
-    [0.0, -1.8, 1.9, -1.6, -1.57, 0.0],
-    [0.0, -1.2, 1.4, 0.9, 1.57, 0.0],
-])
+IK_SEEDS = np.array(
+    [
+        [0.0, -1.3, 1.6, -1.9, -1.57, 0.0],
+        [0.0, -1.0, 1.2, -0.2, 1.57, 0.0],
+        [0.0, -1.8, 1.9, -1.6, -1.57, 0.0],
+        [0.0, -1.2, 1.4, 0.9, 1.57, 0.0],
+    ]
+)
 
 
 def board_mount(size_m: tuple[float, float], standoff_m: float = BOARD_STANDOFF_M) -> np.ndarray:
@@ -96,8 +105,13 @@ def in_image(p_cam: np.ndarray, K: np.ndarray, width: int, height: int, margin_p
     with np.errstate(divide="ignore", invalid="ignore"):
         u = K[0, 0] * p_cam[:, 0] / z + K[0, 2]
         v = K[1, 1] * p_cam[:, 1] / z + K[1, 2]
-    return (z > 0.05) & (u >= margin_px - 0.5) & (u <= width - 0.5 - margin_px) & (v >= margin_px - 0.5) & (
-        v <= height - 0.5 - margin_px)
+    return (
+        (z > 0.05)
+        & (u >= margin_px - 0.5)
+        & (u <= width - 0.5 - margin_px)
+        & (v >= margin_px - 0.5)
+        & (v <= height - 0.5 - margin_px)
+    )
 
 
 def _above_floor(robot, q: np.ndarray, min_z_m: float) -> bool:
@@ -117,9 +131,16 @@ class CalibrationView:
     T_base_target: np.ndarray
 
 
-def sample_calibration_view(robot, T_base_cam: np.ndarray, K: np.ndarray, size: tuple[int, int],
-                            T_ee_target: np.ndarray, board_size_m: tuple[float, float], rng: np.random.Generator,
-                            max_tries: int = 200) -> CalibrationView:
+def sample_calibration_view(
+    robot,
+    T_base_cam: np.ndarray,
+    K: np.ndarray,
+    size: tuple[int, int],
+    T_ee_target: np.ndarray,
+    board_size_m: tuple[float, float],
+    rng: np.random.Generator,
+    max_tries: int = 200,
+) -> CalibrationView:
     """Draw a reachable board pose in front of the camera, fully in the image.
 
     Parameters
@@ -179,12 +200,14 @@ def sample_calibration_view(robot, T_base_cam: np.ndarray, K: np.ndarray, size: 
             q = robot.ik(T_base_ee, q0, tol=1e-9)
             if q is not None and _above_floor(robot, q, 0.05):
                 return CalibrationView(q, robot.fk(q), T_base_target)
-    raise HandEyeInputError(f"no reachable board pose in front of the camera at {np.round(cam, 2).tolist()} in "
-                            f"{max_tries} draws")
+    raise HandEyeInputError(
+        f"no reachable board pose in front of the camera at {np.round(cam, 2).tolist()} in {max_tries} draws"
+    )
 
 
-def sample_data_configuration(robot, T_base_cam: np.ndarray, K: np.ndarray, size: tuple[int, int],
-                              rng: np.random.Generator, max_tries: int = 500) -> np.ndarray:
+def sample_data_configuration(
+    robot, T_base_cam: np.ndarray, K: np.ndarray, size: tuple[int, int], rng: np.random.Generator, max_tries: int = 500
+) -> np.ndarray:
     """Draw joint angles over the workspace: arm above the floor, tool in the image.
 
     Parameters
@@ -202,8 +225,16 @@ def sample_data_configuration(robot, T_base_cam: np.ndarray, K: np.ndarray, size
     """
     T_cam_base = invert_transform(T_base_cam)
     for _ in range(max_tries):
-        q = np.array([rng.uniform(-np.pi, np.pi), rng.uniform(-2.4, -0.6), rng.uniform(-2.4, 2.4),
-                      rng.uniform(-np.pi, np.pi), rng.uniform(-np.pi, np.pi), rng.uniform(-np.pi, np.pi)])
+        q = np.array(
+            [
+                rng.uniform(-np.pi, np.pi),
+                rng.uniform(-2.4, -0.6),
+                rng.uniform(-2.4, 2.4),
+                rng.uniform(-np.pi, np.pi),
+                rng.uniform(-np.pi, np.pi),
+                rng.uniform(-np.pi, np.pi),
+            ]
+        )
         if not _above_floor(robot, q, 0.08):
             continue
         p_ref = (T_cam_base @ robot.fk_ref(q))[:3, 3]

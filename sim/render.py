@@ -75,8 +75,18 @@ class Renderer:
         Draw the robot's links.
     """
 
-    def __init__(self, robot, K, width, height, environment=True, gripper=True, board=None, marker_radius_m=None,
-                 robot_visible=True):
+    def __init__(
+        self,
+        robot,
+        K,
+        width,
+        height,
+        environment=True,
+        gripper=True,
+        board=None,
+        marker_radius_m=None,
+        robot_visible=True,
+    ):
         os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
         self.pyrender = require_package("pyrender", extra="sim", purpose="rendering")
         pr = self.pyrender
@@ -99,14 +109,17 @@ class Renderer:
             board_node = self.scene.add(_matte(pr.Mesh.from_trimesh(board_mesh(spec, T_ee_target))))
             self.ee_nodes.append((board_node, np.eye(4)))
         if marker_radius_m is not None:
-            self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(marker_mesh(marker_radius_m), smooth=False)),
-                                  np.eye(4)))
+            self.ee_nodes.append(
+                (self.scene.add(pr.Mesh.from_trimesh(marker_mesh(marker_radius_m), smooth=False)), np.eye(4))
+            )
         cx, cy = gl_principal_point(K[0, 2], K[1, 2])
         camera = pr.IntrinsicsCamera(fx=K[0, 0], fy=K[1, 1], cx=cx, cy=cy, znear=ZNEAR_M, zfar=ZFAR_M)
         self.camera_node = self.scene.add(camera)
         self.light_node = self.scene.add(pr.DirectionalLight(color=np.ones(3), intensity=3.0))
-        self.scene.add(pr.DirectionalLight(color=np.ones(3), intensity=1.5),
-                       pose=np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 2], [0, 0, 0, 1]], dtype=float))
+        self.scene.add(
+            pr.DirectionalLight(color=np.ones(3), intensity=1.5),
+            pose=np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 2], [0, 0, 0, 1]], dtype=float),
+        )
         self.renderer = pr.OffscreenRenderer(int(width), int(height))
 
     def render(self, q: np.ndarray, T_base_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -136,8 +136,14 @@ class Robot:
             out.append((g.name, g.meshPath, T @ S))
         return out
 
-    def ik(self, T_base_ee: np.ndarray, q0: np.ndarray, tol: float = 1e-10, max_iterations: int = 200,
-           damping: float = 1e-6) -> np.ndarray | None:
+    def ik(
+        self,
+        T_base_ee: np.ndarray,
+        q0: np.ndarray,
+        tol: float = 1e-10,
+        max_iterations: int = 200,
+        damping: float = 1e-6,
+    ) -> np.ndarray | None:
         """Joint angles reaching a flange pose (damped least squares on SE(3)), or None.
 
         Parameters
@@ -274,8 +280,9 @@ def load_robot_urdf(urdf_path, package_dirs=(), ee_frame: str = "tool0", T_ee_re
     try:
         model, _, visual = pin.buildModelsFromUrdf(str(path), [str(d) for d in package_dirs])
     except Exception as exc:  # pinocchio raises ValueError/RuntimeError with the parser's text
-        raise HandEyeInputError(f"{path}: cannot load the URDF ({str(exc).splitlines()[0] if str(exc) else exc})") \
-            from None
+        raise HandEyeInputError(
+            f"{path}: cannot load the URDF ({str(exc).splitlines()[0] if str(exc) else exc})"
+        ) from None
     for g in visual.geometryObjects:
         if not Path(g.meshPath).is_file():
             raise HandEyeInputError(f"{path}: mesh of {g.name} not found: {g.meshPath}")

@@ -69,8 +69,9 @@ def _textured_quad(width_m: float, height_m: float, image: np.ndarray, T: np.nda
     faces = np.array([[0, 1, 2], [0, 2, 3]])
     uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
     material = trimesh.visual.texture.SimpleMaterial(image=Image.fromarray(image))
-    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
-                           visual=trimesh.visual.TextureVisuals(uv=uv, material=material))
+    mesh = trimesh.Trimesh(
+        vertices=vertices, faces=faces, process=False, visual=trimesh.visual.TextureVisuals(uv=uv, material=material)
+    )
     mesh.apply_transform(T)
     return mesh
 

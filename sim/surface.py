@@ -93,5 +93,4 @@ class RobotSurface:
                 nrm.append(nk / np.linalg.norm(nk, axis=1, keepdims=True))
                 frame.append(np.full(len(p), i))
                 part.append(np.full(len(p), k))
-        return RobotSurfaceFrames(np.concatenate(pts), np.concatenate(nrm), np.concatenate(frame),
-                                  np.concatenate(part))
+        return RobotSurfaceFrames(np.concatenate(pts), np.concatenate(nrm), np.concatenate(frame), np.concatenate(part))

@@ -58,6 +58,5 @@ def marker_dataset(tmp_path_factory):
 
     preset = CameraPreset("marker", "ur5", ((0.0, 360.0),), (3,), (0,), 4, image_size=(320, 320))
     root = tmp_path_factory.mktemp("data") / "marker"
-    generate(root, preset, seed=3, workers=1, recordings=("data",), marker_radius_m=MARKER_RADIUS_M,
-             progress=False)
+    generate(root, preset, seed=3, workers=1, recordings=("data",), marker_radius_m=MARKER_RADIUS_M, progress=False)
     return root

@@ -74,8 +74,10 @@ def test_calibrate_non_finite_pose_cell_names_line_and_column(tmp_path, capsys, 
 
 def test_json_pose_file_with_nan_names_the_entry(tmp_path, capsys):
     p = make_problem(5, "eye_to_hand", np.random.default_rng(1))
-    poses = [{"T_base_ee": {"matrix": a.tolist()}, "T_cam_target": {"matrix": b.tolist()}}
-             for a, b in zip(p.T_base_ee, p.T_cam_target)]
+    poses = [
+        {"T_base_ee": {"matrix": a.tolist()}, "T_cam_target": {"matrix": b.tolist()}}
+        for a, b in zip(p.T_base_ee, p.T_cam_target)
+    ]
     poses[2]["T_base_ee"]["matrix"][0][1] = float("nan")
     path = tmp_path / "nan.json"
     path.write_text(json.dumps({"poses": poses}))
@@ -89,8 +91,11 @@ def test_robot_poses_json_reads_its_own_quaternion_order(tmp_path):
 
     q_wxyz = [np.cos(0.3), np.sin(0.3), 0.0, 0.0]
     path = tmp_path / "robot.json"
-    path.write_text(json.dumps({"quaternion_order": "wxyz",
-                                "poses": [{"T_base_ee": {"translation": [0, 0, 0], "quaternion": q_wxyz}}]}))
+    path.write_text(
+        json.dumps(
+            {"quaternion_order": "wxyz", "poses": [{"T_base_ee": {"translation": [0, 0, 0], "quaternion": q_wxyz}}]}
+        )
+    )
     R = read_robot_poses(path).T_base_ee[0, :3, :3]
     np.testing.assert_allclose(R[1:, 1:], [[np.cos(0.6), -np.sin(0.6)], [np.sin(0.6), np.cos(0.6)]], atol=1e-12)
 
@@ -103,8 +108,11 @@ def test_board_and_detections_and_intrinsics_files(tmp_path, name):
     from classic.vision.views import DetectionsFileError, Views
 
     bad = _bad_files(tmp_path)[name]
-    for load, error in ((BoardSpec.load, BoardSpecError), (CameraIntrinsics.load, IntrinsicsError),
-                        (Views.load, DetectionsFileError)):
+    for load, error in (
+        (BoardSpec.load, BoardSpecError),
+        (CameraIntrinsics.load, IntrinsicsError),
+        (Views.load, DetectionsFileError),
+    ):
         with pytest.raises(error, match=name):
             load(bad)
 
@@ -119,8 +127,9 @@ def test_board_output_with_a_suffix_opencv_cannot_write(tmp_path, capsys):
 
 def _subprocess(argv: list, cwd: Path) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([os.fsencode(sys.executable), b"-m", b"handeye.cli", *argv], cwd=cwd, env=env,
-                          capture_output=True, timeout=120)
+    return subprocess.run(
+        [os.fsencode(sys.executable), b"-m", b"handeye.cli", *argv], cwd=cwd, env=env, capture_output=True, timeout=120
+    )
 
 
 def test_board_and_images_under_a_non_utf8_name(tmp_path):
@@ -138,8 +147,9 @@ def test_plan_with_a_non_utf8_pose_file_name_leaves_a_whole_plan(tmp_path, poses
     name = os.fsencode(tmp_path) + b"/poses_\xff.csv"
     os.rename(poses_csv, os.fsdecode(name))
     out = tmp_path / "plan.csv"
-    r = _subprocess([b"plan", name, b"--setup", b"eye-to-hand", b"--candidates", b"100", b"-o", os.fsencode(out)],
-                    tmp_path)
+    r = _subprocess(
+        [b"plan", name, b"--setup", b"eye-to-hand", b"--candidates", b"100", b"-o", os.fsencode(out)], tmp_path
+    )
     assert r.returncode == 0 and b"Traceback" not in r.stderr, r.stderr.decode(errors="replace")
     assert out.read_text().count("\n") > 4
 
@@ -187,11 +197,14 @@ def _edit_frames(dataset: Path, row: int, column: str, value: str) -> None:
     write_manifest(shard, doc["camera_id"], doc["frames"])  # the table reader is tested, not the size check
 
 
-@pytest.mark.parametrize("column, value, expect", [
-    ("rgb", "../cam_0001/rgb/data_000.png", "leaves the shard"),
-    ("q0", "inf", "not finite"),
-    ("T_base_ee.x", "nan", "not finite"),
-])
+@pytest.mark.parametrize(
+    "column, value, expect",
+    [
+        ("rgb", "../cam_0001/rgb/data_000.png", "leaves the shard"),
+        ("q0", "inf", "not finite"),
+        ("T_base_ee.x", "nan", "not finite"),
+    ],
+)
 def test_frames_table_refuses_escaping_paths_and_non_finite_cells(dataset, capsys, column, value, expect):
     from handeye.core.dataset import Dataset, DatasetError
 
@@ -222,3 +235,17 @@ def test_learned_report_on_a_garbage_results_file_is_one_clear_line(tmp_path, ca
     assert main(["learned", "report", str(run)]) == 2
     err = capsys.readouterr().err
     assert "results.json" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_pose_file_with_too_few_poses_is_named(tmp_path, capsys):
+    from handeye.cli import main
+
+    path = tmp_path / "one.csv"
+    cols = [f"{n}.{c}" for n in ("T_base_ee", "T_cam_target") for c in ("x", "y", "z", "qx", "qy", "qz", "qw")]
+    path.write_text(",".join(cols) + "\n" + "0.1,0.2,0.3,0,0,0,1,0.1,0.2,0.5,0,0,0,1\n")
+    assert main(["calibrate", str(path), "--setup", "eye-to-hand"]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "at least 3" in err and len(err.strip().splitlines()) == 1
+    assert main(["plan", str(path), "--setup", "eye-to-hand"]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "--camera-guess" in err and len(err.strip().splitlines()) == 1

@@ -23,8 +23,18 @@ DATA = Path(__file__).resolve().parents[1] / "handeye" / "data"
 def test_example_file_recovers_its_truth(tmp_path, capsys):
     """The README's main job on the shipped example: the result is within 4 predicted sigmas of the truth."""
     out = tmp_path / "result.json"
-    rc = main(["calibrate", str(DATA / "example_eye_to_hand.csv"), "--setup", "eye-to-hand",
-               "--truth", str(DATA / "example_eye_to_hand_truth.json"), "-o", str(out)])
+    rc = main(
+        [
+            "calibrate",
+            str(DATA / "example_eye_to_hand.csv"),
+            "--setup",
+            "eye-to-hand",
+            "--truth",
+            str(DATA / "example_eye_to_hand_truth.json"),
+            "-o",
+            str(out),
+        ]
+    )
     assert rc == 0
     printed = capsys.readouterr().out
     assert "T_base_cam" in printed and "error vs truth T_base_cam" in printed
@@ -65,9 +75,20 @@ def test_bad_input_exits_2_with_a_message(tmp_path, capsys):
 def test_console_script_runs(tmp_path):
     """The installed entry point, as a user types it."""
     proc = subprocess.run(
-        [sys.executable, "-m", "handeye.cli", "calibrate", str(DATA / "example_eye_to_hand.csv"),
-         "--setup", "eye-to-hand", "-o", "-"],
-        capture_output=True, text=True, check=False,
+        [
+            sys.executable,
+            "-m",
+            "handeye.cli",
+            "calibrate",
+            str(DATA / "example_eye_to_hand.csv"),
+            "--setup",
+            "eye-to-hand",
+            "-o",
+            "-",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["setup"] == "eye_to_hand"
@@ -90,16 +111,42 @@ def test_units_option(tmp_path, units):
 
 def test_contaminated_file_refused_then_robust_and_noise_model_options(tmp_path, capsys):
     """Gross outliers without --robust: exit 2 naming the poses; --camera-noise/--robot-noise: the ML model is used."""
-    p = make_problem(16, "eye_to_hand", np.random.default_rng(5), camera_noise=(0.1, 1.0), robot_noise=(0.02, 0.1),
-                     outlier_fraction=0.15)
+    p = make_problem(
+        16,
+        "eye_to_hand",
+        np.random.default_rng(5),
+        camera_noise=(0.1, 1.0),
+        robot_noise=(0.02, 0.1),
+        outlier_fraction=0.15,
+    )
     path = tmp_path / "poses.csv"
     write_pose_csv(path, p.T_base_ee, p.T_cam_target)
     assert main(["calibrate", str(path), "--setup", "eye-to-hand"]) == 2
     err = capsys.readouterr().err
     assert "--robust" in err and "Traceback" not in err  # refused (by the consistency or the contamination check)
     out = tmp_path / "r.json"
-    assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--robust", "--camera-noise", "0.1", "1", "1", "1",
-                 "--robot-noise", "0.02", "0.1", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                str(path),
+                "--setup",
+                "eye-to-hand",
+                "--robust",
+                "--camera-noise",
+                "0.1",
+                "1",
+                "1",
+                "1",
+                "--robot-noise",
+                "0.02",
+                "0.1",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "noise model: given on the command line" in printed and "variance factor" in printed
     result = json.loads(out.read_text())

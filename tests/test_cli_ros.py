@@ -22,8 +22,14 @@ FRAMES = {"base": "base_link", "ee": "tool0", "cam": "camera_color_optical_frame
 
 
 def _exports(tmp_path: Path) -> list[str]:
-    return ["--export-easy-handeye", str(tmp_path / "my_calib.calib"), "--export-launch",
-            str(tmp_path / "handeye_tf.launch.py"), "--export-urdf", str(tmp_path / "camera_joint.urdf")]
+    return [
+        "--export-easy-handeye",
+        str(tmp_path / "my_calib.calib"),
+        "--export-launch",
+        str(tmp_path / "handeye_tf.launch.py"),
+        "--export-urdf",
+        str(tmp_path / "camera_joint.urdf"),
+    ]
 
 
 def _read_exports(tmp_path: Path):
@@ -58,8 +64,23 @@ def test_eye_in_hand_csv_with_named_frames(tmp_path):
     path = tmp_path / "poses.csv"
     write_pose_csv(path, p.T_base_ee, p.T_cam_target)
     out = tmp_path / "r.json"
-    assert main(["calibrate", str(path), "--setup", "eye-in-hand", "-o", str(out), "--frames", "tool0", "cam_optical",
-                 *_exports(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                str(path),
+                "--setup",
+                "eye-in-hand",
+                "-o",
+                str(out),
+                "--frames",
+                "tool0",
+                "cam_optical",
+                *_exports(tmp_path),
+            ]
+        )
+        == 0
+    )
     X = np.array(json.loads(out.read_text())["T_ee_cam"]["matrix"])
     calib, launch, urdf = _read_exports(tmp_path)
     assert calib.setup == "eye_in_hand" and (calib.parent_frame, calib.child_frame) == ("tool0", "cam_optical")
@@ -74,11 +95,36 @@ def test_export_arguments_are_checked_before_calibrating(tmp_path, capsys):
     write_pose_csv(path, p.T_base_ee, p.T_cam_target)
     assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--frames", "base", "cam"]) == 2
     assert "--frames names the frames of an export" in capsys.readouterr().err
-    assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--export-launch",
-                 str(tmp_path / "missing" / "t.launch.py")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                str(path),
+                "--setup",
+                "eye-to-hand",
+                "--export-launch",
+                str(tmp_path / "missing" / "t.launch.py"),
+            ]
+        )
+        == 2
+    )
     assert "does not exist" in capsys.readouterr().err
-    assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--frames", "base link", "cam",
-                 "--export-urdf", str(tmp_path / "j.urdf")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                str(path),
+                "--setup",
+                "eye-to-hand",
+                "--frames",
+                "base link",
+                "cam",
+                "--export-urdf",
+                str(tmp_path / "j.urdf"),
+            ]
+        )
+        == 2
+    )
     assert "frame name 'base link'" in capsys.readouterr().err
 
 
@@ -105,8 +151,21 @@ def test_detect_takes_yaml_intrinsics(tmp_path):
     results = []
     for name in ("camera.json", "camera.yaml"):
         out = tmp_path / f"det_{Path(name).suffix[1:]}.json"
-        assert main(["detect", str(tmp_path / "images"), "--board", str(tmp_path / "board.json"),
-                     "--intrinsics", str(tmp_path / name), "-o", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "detect",
+                    str(tmp_path / "images"),
+                    "--board",
+                    str(tmp_path / "board.json"),
+                    "--intrinsics",
+                    str(tmp_path / name),
+                    "-o",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         doc = json.loads(out.read_text())
         results.append((doc["intrinsics"], [v["T_cam_target"] for v in doc["views"]]))
     assert results[0] == results[1]

@@ -28,8 +28,26 @@ def dataset(tmp_path_factory):
 
 def test_board_command_writes_a_detectable_board(tmp_path, capsys):
     out = tmp_path / "board.png"
-    assert main(["board", "--squares", "6x4", "--square", "0.03", "--marker", "0.022", "--dict", "4X4_50",
-                 "--dpi", "200", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "board",
+                "--squares",
+                "6x4",
+                "--square",
+                "0.03",
+                "--marker",
+                "0.022",
+                "--dict",
+                "4X4_50",
+                "--dpi",
+                "200",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     spec = BoardSpec.load(tmp_path / "board.json")
     assert (spec.squares_x, spec.squares_y, spec.dictionary) == (6, 4, "4X4_50")
     from classic.vision.detect import detect_board
@@ -53,9 +71,25 @@ def test_detect_calibrate_from_images(dataset, tmp_path, capsys):
     doc = json.loads(det_path.read_text())
     assert len(doc["views"]) == N_VIEWS and all(not v["image"].startswith("/") for v in doc["views"])
     result = tmp_path / "result.json"
-    assert main(["calibrate", "--detections", str(det_path), "--robot-poses", str(dataset / "robot.csv"),
-                 "--setup", "eye-in-hand", "--refine-intrinsics", "--truth", str(dataset / "truth.json"),
-                 "-o", str(result)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--detections",
+                str(det_path),
+                "--robot-poses",
+                str(dataset / "robot.csv"),
+                "--setup",
+                "eye-in-hand",
+                "--refine-intrinsics",
+                "--truth",
+                str(dataset / "truth.json"),
+                "-o",
+                str(result),
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "refined on corner reprojection error" in printed and "px" in printed
     res = json.loads(result.read_text())["reprojection"]
@@ -68,19 +102,35 @@ def test_detect_calibrate_from_images(dataset, tmp_path, capsys):
 
 def test_images_and_poses_of_different_counts(dataset, tmp_path, capsys):
     det_path = tmp_path / "detections.json"
-    assert main(["detect", str(dataset / "images"), "--board", str(dataset / "board.json"),
-                 "--intrinsics", str(dataset / "camera.json"), "-o", str(det_path)]) == 0
+    assert (
+        main(
+            [
+                "detect",
+                str(dataset / "images"),
+                "--board",
+                str(dataset / "board.json"),
+                "--intrinsics",
+                str(dataset / "camera.json"),
+                "-o",
+                str(det_path),
+            ]
+        )
+        == 0
+    )
     lines = (dataset / "robot.csv").read_text().splitlines()
     no_names = tmp_path / "robot_unnamed.csv"
     no_names.write_text("\n".join(",".join(line.split(",")[1:]) for line in lines[:-2]) + "\n")
-    assert main(["calibrate", "--detections", str(det_path), "--robot-poses", str(no_names),
-                 "--setup", "eye-in-hand"]) == 2
+    assert (
+        main(["calibrate", "--detections", str(det_path), "--robot-poses", str(no_names), "--setup", "eye-in-hand"])
+        == 2
+    )
     err = capsys.readouterr().err
     assert f"{N_VIEWS} images but {N_VIEWS - 2} robot poses" in err and "robot_unnamed.csv" in err
     missing = tmp_path / "robot_missing.csv"
     missing.write_text("\n".join(lines[:-1]) + "\n")
-    assert main(["calibrate", "--detections", str(det_path), "--robot-poses", str(missing),
-                 "--setup", "eye-in-hand"]) == 2
+    assert (
+        main(["calibrate", "--detections", str(det_path), "--robot-poses", str(missing), "--setup", "eye-in-hand"]) == 2
+    )
     assert f"no robot pose for image(s) view_{N_VIEWS - 1:03d}.png" in capsys.readouterr().err
 
 
@@ -88,21 +138,60 @@ def test_wrong_board_and_unreadable_image(dataset, tmp_path, capsys):
     images = tmp_path / "images"
     shutil.copytree(dataset / "images", images)
     (images / "broken.png").write_bytes(b"not a png")
-    assert main(["detect", str(images), "--board", str(dataset / "board.json"),
-                 "--intrinsics", str(dataset / "camera.json"), "-o", str(tmp_path / "d.json")]) == 2
+    assert (
+        main(
+            [
+                "detect",
+                str(images),
+                "--board",
+                str(dataset / "board.json"),
+                "--intrinsics",
+                str(dataset / "camera.json"),
+                "-o",
+                str(tmp_path / "d.json"),
+            ]
+        )
+        == 2
+    )
     assert "broken.png" in capsys.readouterr().err
     (images / "broken.png").unlink()
     wrong = tmp_path / "wrong.json"
     BoardSpec(7, 5, 0.04, 0.03, "6X6_250").save(wrong)
-    assert main(["detect", str(images), "--board", str(wrong), "--intrinsics", str(dataset / "camera.json"),
-                 "-o", str(tmp_path / "d.json")]) == 2
+    assert (
+        main(
+            [
+                "detect",
+                str(images),
+                "--board",
+                str(wrong),
+                "--intrinsics",
+                str(dataset / "camera.json"),
+                "-o",
+                str(tmp_path / "d.json"),
+            ]
+        )
+        == 2
+    )
     assert "wrong.json" in capsys.readouterr().err
     rows = (tmp_path / "d.csv").read_text().splitlines()[1:]
     assert rows and all("board not found" in r for r in rows)
     swapped = tmp_path / "swapped.json"
     BoardSpec(5, 7, 0.04, 0.03, "5X5_100").save(swapped)
-    assert main(["detect", str(images), "--board", str(swapped), "--intrinsics", str(dataset / "camera.json"),
-                 "-o", str(tmp_path / "d.json")]) == 2
+    assert (
+        main(
+            [
+                "detect",
+                str(images),
+                "--board",
+                str(swapped),
+                "--intrinsics",
+                str(dataset / "camera.json"),
+                "-o",
+                str(tmp_path / "d.json"),
+            ]
+        )
+        == 2
+    )
     assert "swapped.json" in capsys.readouterr().err
     assert main(["detect", str(images), "--board", str(tmp_path / "nope.json"), "-o", str(tmp_path / "d.json")]) == 2
     assert "nope.json" in capsys.readouterr().err
@@ -116,6 +205,19 @@ def test_missing_intrinsics_where_needed(dataset, tmp_path, capsys):
         shutil.copy(dataset / "images" / name, images / name)
     assert main(["detect", str(images), "--board", str(dataset / "board.json"), "-o", str(tmp_path / "d.json")]) == 2
     assert "--intrinsics" in capsys.readouterr().err
-    assert main(["detect", str(images), "--board", str(dataset / "board.json"), "--intrinsics",
-                 str(tmp_path / "camera.json"), "-o", str(tmp_path / "d.json")]) == 2
+    assert (
+        main(
+            [
+                "detect",
+                str(images),
+                "--board",
+                str(dataset / "board.json"),
+                "--intrinsics",
+                str(tmp_path / "camera.json"),
+                "-o",
+                str(tmp_path / "d.json"),
+            ]
+        )
+        == 2
+    )
     assert "camera.json: no such intrinsics file" in capsys.readouterr().err

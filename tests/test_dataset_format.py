@@ -32,8 +32,11 @@ def test_pose_columns_round_trip(rng):
 
 def test_tables_round_trip_with_unknown_cells(tmp_path, rng):
     T = random_transforms(3, rng)
-    table = {"camera_id": np.arange(3), "split": np.array(["train", "test", "train"], dtype=object),
-             **poses_to_columns("T_base_cam_true", T)}
+    table = {
+        "camera_id": np.arange(3),
+        "split": np.array(["train", "test", "train"], dtype=object),
+        **poses_to_columns("T_base_cam_true", T),
+    }
     table["T_base_cam_true.x"][1] = np.nan  # unknown truth: an empty cell
     write_table(tmp_path / "t.csv", table)
     back = read_table(tmp_path / "t.csv", ["camera_id", "split"])

@@ -123,32 +123,49 @@ def _damaged(tmp_path, source: Path, old: str, new: str, count: int = 1) -> Path
     return path
 
 
-@pytest.mark.parametrize("source, old, new, message", [
-    (SAMPLES_ROS2, "x: 0.4\n", "x: abc\n", r"line 14: samples\[0\].robot.translation.x 'abc' is not a number"),
-    (SAMPLES_ROS2, "      w: 1.0\n", "", r"line 18: samples\[0\].robot.rotation.w missing"),
-    (SAMPLES_ROS2, "z: 0.7071067811865476", "z: 0.8", r"line 22, samples\[0\].tracking: quaternion .* has norm"),
-    (SAMPLES_ROS2, "x: 0.35\n", "x: .nan\n", r"line 34: samples\[1\].robot.translation.x = nan is not finite"),
-    (SAMPLES_ROS2, "    translation:\n      x: 0.4", "    translation:\n     x: 0.4",
-     r"line \d+: not valid YAML"),
-    (SAMPLES_ROS2, "  tracking:\n", "  robot:\n", r"line \d+: not valid YAML \(.*duplicate key 'robot'"),
-    (SAMPLES_ROS2, "calibration_type: ''", "calibration_type: eye_on_table",
-     r"line 3: calibration_type 'eye_on_table' is neither"),
-    (SAMPLES_ROS1, "  camera_marker_samples: \n    - \n", "  camera_marker_samples: \n    - \n      foo: 1\n    - \n",
-     r"line 23: 3 camera_marker_samples but 2 hand_world_samples"),
-    (DATA / "easy_handeye2_eye_in_hand.calib", "transform:", "transforms:",
-     r"easy_handeye2_eye_in_hand.calib, line 1: not an easy_handeye sample list"),
-])
+@pytest.mark.parametrize(
+    "source, old, new, message",
+    [
+        (SAMPLES_ROS2, "x: 0.4\n", "x: abc\n", r"line 14: samples\[0\].robot.translation.x 'abc' is not a number"),
+        (SAMPLES_ROS2, "      w: 1.0\n", "", r"line 18: samples\[0\].robot.rotation.w missing"),
+        (SAMPLES_ROS2, "z: 0.7071067811865476", "z: 0.8", r"line 22, samples\[0\].tracking: quaternion .* has norm"),
+        (SAMPLES_ROS2, "x: 0.35\n", "x: .nan\n", r"line 34: samples\[1\].robot.translation.x = nan is not finite"),
+        (SAMPLES_ROS2, "    translation:\n      x: 0.4", "    translation:\n     x: 0.4", r"line \d+: not valid YAML"),
+        (SAMPLES_ROS2, "  tracking:\n", "  robot:\n", r"line \d+: not valid YAML \(.*duplicate key 'robot'"),
+        (
+            SAMPLES_ROS2,
+            "calibration_type: ''",
+            "calibration_type: eye_on_table",
+            r"line 3: calibration_type 'eye_on_table' is neither",
+        ),
+        (
+            SAMPLES_ROS1,
+            "  camera_marker_samples: \n    - \n",
+            "  camera_marker_samples: \n    - \n      foo: 1\n    - \n",
+            r"line 23: 3 camera_marker_samples but 2 hand_world_samples",
+        ),
+        (
+            DATA / "easy_handeye2_eye_in_hand.calib",
+            "transform:",
+            "transforms:",
+            r"easy_handeye2_eye_in_hand.calib, line 1: not an easy_handeye sample list",
+        ),
+    ],
+)
 def test_malformed_sample_files_name_file_and_line(tmp_path, source, old, new, message):
     path = _damaged(tmp_path, source, old, new)
     with pytest.raises(PoseFileError, match=f"{path.name}.*{message}" if path.name not in message else message):
         read_easy_handeye_samples(path, setup="eye_to_hand")
 
 
-@pytest.mark.parametrize("old, new, message", [
-    ("    x: 0.03\n", "    x: [0.03]\n", r"line 13: transform.translation.x \[0.03\] is not a number"),
-    ("calibration_type: eye_in_hand", "calibration_type: ''", r"does not say whether it is eye-in-hand"),
-    ("transform:\n", "transform: 3\nold_transform:\n", r"line 11: transform must be a transform"),
-])
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ("    x: 0.03\n", "    x: [0.03]\n", r"line 13: transform.translation.x \[0.03\] is not a number"),
+        ("calibration_type: eye_in_hand", "calibration_type: ''", r"does not say whether it is eye-in-hand"),
+        ("transform:\n", "transform: 3\nold_transform:\n", r"line 11: transform must be a transform"),
+    ],
+)
 def test_malformed_calibration_names_file_and_line(tmp_path, old, new, message):
     path = _damaged(tmp_path, DATA / "easy_handeye2_eye_in_hand.calib", old, new)
     with pytest.raises(PoseFileError, match=rf"easy_handeye2_eye_in_hand.calib.*{message}"):

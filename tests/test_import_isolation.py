@@ -62,7 +62,11 @@ SCRIPT = textwrap.dedent(
 def _run(blocked):
     proc = subprocess.run(
         [sys.executable, "-c", SCRIPT.format(blocked=sorted(blocked))],
-        check=False, cwd=REPO, capture_output=True, text=True, timeout=120,
+        check=False,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -88,7 +92,9 @@ def test_classic_does_not_import_opencv():
 def test_learned_loads_without_sim_or_classic():
     """DESIGN: learned reads datasets and labels; loading it pulls in neither the simulator nor the solvers
     (the static rule is in tests/test_layers.py)."""
-    code = ("import sys, learned.experiment, learned.calibrator, learned.report; "
-            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('sim', 'classic', 'pinocchio', 'pyrender')))")
+    code = (
+        "import sys, learned.experiment, learned.calibrator, learned.report; "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('sim', 'classic', 'pinocchio', 'pyrender')))"
+    )
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -92,16 +92,20 @@ def test_every_package_file_has_a_layer():
 
 
 def test_no_import_runs_against_the_layers():
-    bad = [f"{file}:{line} ({src}) imports {name} ({dst})"
-           for src, dst, file, line, name in arrows() if dst in FORBIDDEN[src]]
+    bad = [
+        f"{file}:{line} ({src}) imports {name} ({dst})"
+        for src, dst, file, line, name in arrows()
+        if dst in FORBIDDEN[src]
+    ]
     assert bad == [], "\n".join(bad)
 
 
 def test_the_rules_catch_a_backward_arrow(tmp_path):
     """The checker itself: a foundation file importing the front is flagged, with its line."""
     fake = REPO / "handeye" / "core" / "_layer_probe_tmp.py"
-    fake.write_text("import numpy\n\ndef f():\n"
-                    "    from handeye.labelling import label_dataset\n    from classic import park\n")
+    fake.write_text(
+        "import numpy\n\ndef f():\n    from handeye.labelling import label_dataset\n    from classic import park\n"
+    )
     try:
         found = [(src, dst, line) for src, dst, file, line, _ in arrows() if file.endswith("_layer_probe_tmp.py")]
     finally:

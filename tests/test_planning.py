@@ -16,8 +16,9 @@ from handeye.core.setups import robot_side_poses
 from handeye.core.synthetic import make_problem
 from tests.tolerances import EXACT, SCALE_RTOL
 
-NOISE = NoiseModel(camera_rot_rad=np.radians(0.1), camera_trans_m=1e-3, robot_rot_rad=np.radians(0.01),
-                   robot_trans_m=0.2e-3)
+NOISE = NoiseModel(
+    camera_rot_rad=np.radians(0.1), camera_trans_m=1e-3, robot_rot_rad=np.radians(0.01), robot_trans_m=0.2e-3
+)
 NONE = np.zeros((0, 4, 4))
 
 
@@ -66,8 +67,10 @@ def test_planned_beats_random_on_its_criterion(rng):
     from classic.planning import workspace_weight
 
     M = workspace_weight(p.X_true, M_points)
-    random = [predicted_sigmas(_information(A[rng.choice(len(A), 8, replace=False)], p.X_true, p.Y_true), M)
-              for _ in range(20)]
+    random = [
+        predicted_sigmas(_information(A[rng.choice(len(A), 8, replace=False)], p.X_true, p.Y_true), M)
+        for _ in range(20)
+    ]
     assert plan.sigma_workspace_mm[-1] < min(r["X_workspace_mm"] for r in random)
 
 
@@ -109,8 +112,13 @@ def test_planned_poses_keep_the_target_in_view(rng, setup):
     from handeye.planning import plan_next_poses, sample_candidates, unknowns_for_plan
 
     limits = ViewLimits(0.5, 0.9, 18.0, 12.0, 35.0)
-    unknowns = unknowns_for_plan(setup, NONE, NONE, camera_guess=(1.1, 0.4, 0.9) if setup == "eye_to_hand" else None,
-                                 target_guess=(0.45, 0.1, 0.0) if setup == "eye_in_hand" else None)
+    unknowns = unknowns_for_plan(
+        setup,
+        NONE,
+        NONE,
+        camera_guess=(1.1, 0.4, 0.9) if setup == "eye_to_hand" else None,
+        target_guess=(0.45, 0.1, 0.0) if setup == "eye_in_hand" else None,
+    )
     cands = sample_candidates(setup, unknowns, rng, 400, limits)
     assert target_in_view(cands.T_cam_target, limits).all()
     planned = plan_next_poses(setup, NONE, NONE, unknowns, cands, n=8, noise=NOISE, min_gain=0.0)
@@ -123,8 +131,12 @@ def test_target_in_view_refuses_each_violation():
     """Too far, outside the field of view, too tilted: each alone fails the test."""
     limits = ViewLimits()
     ok = _about([0, 0, 0], [0.0, 0.0, 0.6])
-    bad = [_about([0, 0, 0], [0.0, 0.0, 1.2]), _about([0, 0, 0], [0.4, 0.0, 0.6]),
-           _about([np.radians(50), 0, 0], [0.0, 0.0, 0.6]), _about([np.pi, 0, 0], [0.0, 0.0, 0.6])]
+    bad = [
+        _about([0, 0, 0], [0.0, 0.0, 1.2]),
+        _about([0, 0, 0], [0.4, 0.0, 0.6]),
+        _about([np.radians(50), 0, 0], [0.0, 0.0, 0.6]),
+        _about([np.pi, 0, 0], [0.0, 0.0, 0.6]),
+    ]
     assert target_in_view(np.array([ok] + bad), limits).tolist() == [True, False, False, False, False]
 
 
@@ -166,8 +178,23 @@ def test_stop_advice_when_the_candidates_run_out(rng):
 def test_cli_plan_from_a_guess_writes_robot_poses(tmp_path, capsys):
     """``handeye plan`` with a camera guess: a table, the advice, and a CSV the pose readers take."""
     out = tmp_path / "plan.csv"
-    rc = main(["plan", "--setup", "eye-to-hand", "--camera-guess", "1.1", "0.4", "0.9", "--n", "5",
-               "--candidates", "300", "-o", str(out)])
+    rc = main(
+        [
+            "plan",
+            "--setup",
+            "eye-to-hand",
+            "--camera-guess",
+            "1.1",
+            "0.4",
+            "0.9",
+            "--n",
+            "5",
+            "--candidates",
+            "300",
+            "-o",
+            str(out),
+        ]
+    )
     assert rc == 0
     printed = capsys.readouterr().out
     assert "| step | sigma rot deg" in printed and "advice:" in printed

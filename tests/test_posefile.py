@@ -38,9 +38,21 @@ def test_csv_named_columns_in_any_order_and_rotvec(tmp_path, problem):
     t1, q1 = pos_quat_xyzw_from_transform(problem.T_base_ee)
     t2 = problem.T_cam_target[:, :3, 3]
     r2 = so3_log(problem.T_cam_target[:, :3, :3])
-    header = ["T_base_ee.qw", "T_base_ee.x", "T_base_ee.qz", "T_base_ee.y", "T_base_ee.qy", "T_base_ee.z",
-              "T_base_ee.qx", "T_cam_target.rx", "T_cam_target.ry", "T_cam_target.rz",
-              "T_cam_target.x", "T_cam_target.y", "T_cam_target.z"]
+    header = [
+        "T_base_ee.qw",
+        "T_base_ee.x",
+        "T_base_ee.qz",
+        "T_base_ee.y",
+        "T_base_ee.qy",
+        "T_base_ee.z",
+        "T_base_ee.qx",
+        "T_cam_target.rx",
+        "T_cam_target.ry",
+        "T_cam_target.rz",
+        "T_cam_target.x",
+        "T_cam_target.y",
+        "T_cam_target.z",
+    ]
     rows = np.column_stack([q1[:, 3], t1[:, 0], q1[:, 2], t1[:, 1], q1[:, 1], t1[:, 2], q1[:, 0], r2, t2])
     path = tmp_path / "poses.csv"
     _write_csv(path, header, rows)
@@ -57,8 +69,12 @@ def _json_doc(problem, order="xyzw", units="m"):
         q = q if order == "xyzw" else quat_xyzw_to_wxyz(q)
         B_scaled = B.copy()
         B_scaled[:3, 3] *= scale
-        poses.append({"T_base_ee": {"translation": (t * scale).tolist(), "quaternion": q.tolist()},
-                      "T_cam_target": {"matrix": B_scaled.tolist()}})
+        poses.append(
+            {
+                "T_base_ee": {"translation": (t * scale).tolist(), "quaternion": q.tolist()},
+                "T_cam_target": {"matrix": B_scaled.tolist()},
+            }
+        )
     return {"units": units, "quaternion_order": order, "poses": poses}
 
 
@@ -121,10 +137,13 @@ def test_missing_file_and_bad_json(tmp_path):
         read_pose_file(path)
 
 
-@pytest.mark.parametrize("content, message", [
-    (b"\x00\x01\x02binary\xff\xfe", "a binary file, not a text pose file"),
-    (b"T_base_ee.x\n\xe9\xe9\n", "not UTF-8 text"),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"\x00\x01\x02binary\xff\xfe", "a binary file, not a text pose file"),
+        (b"T_base_ee.x\n\xe9\xe9\n", "not UTF-8 text"),
+    ],
+)
 def test_unreadable_pose_files_give_one_named_line(tmp_path, content, message):
     from handeye.cli import main
 

@@ -57,15 +57,25 @@ def test_controller_columns_round_trip(tmp_path, problem, kind):
     np.testing.assert_allclose(robot.T_base_ee, problem.T_base_ee, atol=FLOAT)
 
 
-@pytest.mark.parametrize("header, row, expected", [
-    (["a", "b", "c"], [90, 0, 0], [[0, -1, 0], [1, 0, 0], [0, 0, 1]]),  # KUKA A about z
-    (["w", "p", "r"], [90, 0, 0], [[1, 0, 0], [0, 0, -1], [0, 1, 0]]),  # Fanuc W about x
-    (["q1", "q2", "q3", "q4"], [np.sqrt(0.5), 0, 0, np.sqrt(0.5)], [[0, -1, 0], [1, 0, 0], [0, 0, 1]]),  # ABB w first
-])
+@pytest.mark.parametrize(
+    "header, row, expected",
+    [
+        (["a", "b", "c"], [90, 0, 0], [[0, -1, 0], [1, 0, 0], [0, 0, 1]]),  # KUKA A about z
+        (["w", "p", "r"], [90, 0, 0], [[1, 0, 0], [0, 0, -1], [0, 1, 0]]),  # Fanuc W about x
+        (
+            ["q1", "q2", "q3", "q4"],
+            [np.sqrt(0.5), 0, 0, np.sqrt(0.5)],
+            [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+        ),  # ABB w first
+    ],
+)
 def test_known_rotation_and_millimetres(tmp_path, header, row, expected):
     path = tmp_path / "one.csv"
-    _write(path, [f"T_base_ee.{c}" for c in ["x", "y", "z", *header]] + CAMERA_COLUMNS,
-           [[100.0, -250.0, 500.0, *row, 0.1, 0.2, 0.3, 0, 0, 0, 1]])
+    _write(
+        path,
+        [f"T_base_ee.{c}" for c in ["x", "y", "z", *header]] + CAMERA_COLUMNS,
+        [[100.0, -250.0, 500.0, *row, 0.1, 0.2, 0.3, 0, 0, 0, 1]],
+    )
     poses = read_pose_file(path)
     np.testing.assert_allclose(poses.T_base_ee[0, :3, :3], expected, atol=FLOAT)
     np.testing.assert_allclose(poses.T_base_ee[0, :3, 3], [0.1, -0.25, 0.5], atol=FLOAT)  # mm read as mm
@@ -76,10 +86,13 @@ def test_known_rotation_and_millimetres(tmp_path, header, row, expected):
 
 def test_calibrate_from_a_kuka_file(tmp_path, problem):
     out = tmp_path / "r.json"
-    assert main(["calibrate", str(_controller_file(tmp_path, "kuka", problem)), "--setup", "eye-to-hand",
-                 "-o", str(out)]) == 0
-    np.testing.assert_allclose(np.array(json.loads(out.read_text())["T_base_cam"]["matrix"]), problem.X_true,
-                               atol=EXACT)
+    assert (
+        main(["calibrate", str(_controller_file(tmp_path, "kuka", problem)), "--setup", "eye-to-hand", "-o", str(out)])
+        == 0
+    )
+    np.testing.assert_allclose(
+        np.array(json.loads(out.read_text())["T_base_cam"]["matrix"]), problem.X_true, atol=EXACT
+    )
 
 
 def _damage(path, line_index: int, column: str, value: str):
@@ -91,11 +104,14 @@ def _damage(path, line_index: int, column: str, value: str):
     path.write_text("\n".join(lines) + "\n")
 
 
-@pytest.mark.parametrize("kind, column, value, message", [
-    ("kuka", "T_base_ee.b", "abc", r"kuka.csv, line 3, column T_base_ee.b: 'abc' is not a number"),
-    ("fanuc", "T_base_ee.p", "nan", r"fanuc.csv, line 3, column T_base_ee.p: 'nan' is not a finite number"),
-    ("abb", "T_base_ee.q2", "0.9", r"abb.csv, line 3, T_base_ee: quaternion .* has norm"),
-])
+@pytest.mark.parametrize(
+    "kind, column, value, message",
+    [
+        ("kuka", "T_base_ee.b", "abc", r"kuka.csv, line 3, column T_base_ee.b: 'abc' is not a number"),
+        ("fanuc", "T_base_ee.p", "nan", r"fanuc.csv, line 3, column T_base_ee.p: 'nan' is not a finite number"),
+        ("abb", "T_base_ee.q2", "0.9", r"abb.csv, line 3, T_base_ee: quaternion .* has norm"),
+    ],
+)
 def test_bad_values_name_the_file_and_line(tmp_path, problem, kind, column, value, message):
     path = _controller_file(tmp_path, kind, problem)
     _damage(path, 2, column, value)
@@ -118,7 +134,10 @@ def test_two_rotation_forms_for_one_pose_are_refused(tmp_path, problem):
     _, q = pos_quat_xyzw_from_transform(problem.T_base_ee)
     t2, q2 = pos_quat_xyzw_from_transform(problem.T_cam_target)
     path = tmp_path / "both.csv"
-    _write(path, header + ["T_base_ee.qx", "T_base_ee.qy", "T_base_ee.qz", "T_base_ee.qw"] + CAMERA_COLUMNS,
-           np.column_stack([robot, q, t2, q2]))
+    _write(
+        path,
+        header + ["T_base_ee.qx", "T_base_ee.qy", "T_base_ee.qz", "T_base_ee.qw"] + CAMERA_COLUMNS,
+        np.column_stack([robot, q, t2, q2]),
+    )
     with pytest.raises(PoseFileError, match=r"line 1\): columns for T_base_ee give 2 rotations"):
         read_pose_file(path)

@@ -20,8 +20,9 @@ from handeye.core.errors import DatasetError, PoseFileError
 from handeye.core.posefile import POSE_NAMES, read_pose_file, read_robot_poses, write_pose_csv
 
 ROUND_TRIP = 1e-12  # values written with repr(): the only error is one rounding in the reader's arithmetic
-PROPS = settings(max_examples=150, deadline=None, derandomize=True,
-                 suppress_health_check=[HealthCheck.function_scoped_fixture])
+PROPS = settings(
+    max_examples=150, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 
 FORMS = ("quat_named", "quat_positional", "rotvec", "json_matrix", "json_quaternion", "json_rotvec")
 
@@ -50,7 +51,7 @@ def _write(path_stem, form: str, units: str, order: str, poses: dict):
             entry = {}
             for name, (t, R) in poses.items():
                 if form == "json_matrix":
-                    T = _truth(t[i:i + 1], R[i]).reshape(4, 4)
+                    T = _truth(t[i : i + 1], R[i]).reshape(4, 4)
                     T[:3, 3] *= k
                     entry[name] = {"matrix": T.tolist()}
                 elif form == "json_quaternion":
@@ -86,19 +87,30 @@ def _write(path_stem, form: str, units: str, order: str, poses: dict):
 
 
 @PROPS
-@given(seed=st.integers(0, 2**31), n=st.integers(1, 8), form=st.sampled_from(FORMS),
-       units=st.sampled_from(["m", "mm"]), order=st.sampled_from(["xyzw", "wxyz"]),
-       scale=st.sampled_from([0.0, 1e-6, 0.3, 2.0, 50.0]))
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 8),
+    form=st.sampled_from(FORMS),
+    units=st.sampled_from(["m", "mm"]),
+    order=st.sampled_from(["xyzw", "wxyz"]),
+    scale=st.sampled_from([0.0, 1e-6, 0.3, 2.0, 50.0]),
+)
 def test_valid_pose_files_round_trip(tmp_path, seed, n, form, units, order, scale):
     poses = {name: _poses(seed + j, n, scale) for j, name in enumerate(POSE_NAMES)}
     path = _write(tmp_path / f"poses_{form}", form, units, order, poses)
-    got = read_pose_file(path, quat_order=order if form == "quat_positional" else None,
-                         units=units if not form.startswith("json") else None)
+    got = read_pose_file(
+        path,
+        quat_order=order if form == "quat_positional" else None,
+        units=units if not form.startswith("json") else None,
+    )
     for name in POSE_NAMES:
         np.testing.assert_allclose(getattr(got, name), _truth(*poses[name]), rtol=0, atol=ROUND_TRIP * max(1, scale))
     assert len(got.rows) == n
-    robot = read_robot_poses(path, quat_order=order if form == "quat_positional" else None,
-                             units=units if not form.startswith("json") else None)
+    robot = read_robot_poses(
+        path,
+        quat_order=order if form == "quat_positional" else None,
+        units=units if not form.startswith("json") else None,
+    )
     np.testing.assert_allclose(robot.T_base_ee, got.T_base_ee, rtol=0, atol=0)
 
 
@@ -185,9 +197,13 @@ def test_random_bytes_raise_pose_file_error(tmp_path, data, suffix):
 
 
 @PROPS
-@given(seed=st.integers(0, 1000), k=st.integers(0, 3), name=st.sampled_from(POSE_NAMES),
-       bad=st.sampled_from([float("nan"), float("inf"), -float("inf")]),
-       form=st.sampled_from(["json_matrix", "json_quaternion", "json_rotvec"]))
+@given(
+    seed=st.integers(0, 1000),
+    k=st.integers(0, 3),
+    name=st.sampled_from(POSE_NAMES),
+    bad=st.sampled_from([float("nan"), float("inf"), -float("inf")]),
+    form=st.sampled_from(["json_matrix", "json_quaternion", "json_rotvec"]),
+)
 def test_non_finite_json_is_refused_naming_the_entry(tmp_path, seed, k, name, bad, form):
     poses = {n: _poses(seed + j, 4, 0.5) for j, n in enumerate(POSE_NAMES)}
     path = _write(tmp_path / "p", form, "m", "xyzw", poses)
@@ -216,7 +232,7 @@ def tables(draw):
     n = draw(st.integers(0, 6))
     table = {}
     for c in _INT:
-        table[c] = np.array(draw(st.lists(st.integers(-2**40, 2**40), min_size=n, max_size=n)), dtype=int)
+        table[c] = np.array(draw(st.lists(st.integers(-(2**40), 2**40), min_size=n, max_size=n)), dtype=int)
     for c in _STR:
         table[c] = np.array(draw(st.lists(_text, min_size=n, max_size=n)), dtype=object)
     finite = st.floats(allow_nan=False, allow_infinity=False)
@@ -242,17 +258,27 @@ def test_dataset_tables_round_trip(tmp_path, table):
 
 def _valid_table_text(tmp_path, seed: int) -> str:
     rng = np.random.default_rng(seed)
-    table = {"camera_id": np.arange(4), "frame": np.arange(4), "split": np.array(["train"] * 4, dtype=object),
-             "rgb": np.array([f"rgb/{i}.png" for i in range(4)], dtype=object),
-             "q0": rng.normal(size=4), "T_base_ee.x": rng.normal(size=4), "radius_m": rng.uniform(1, 2, 4)}
+    table = {
+        "camera_id": np.arange(4),
+        "frame": np.arange(4),
+        "split": np.array(["train"] * 4, dtype=object),
+        "rgb": np.array([f"rgb/{i}.png" for i in range(4)], dtype=object),
+        "q0": rng.normal(size=4),
+        "T_base_ee.x": rng.normal(size=4),
+        "radius_m": rng.uniform(1, 2, 4),
+    }
     path = tmp_path / "valid.csv"
     write_table(path, table)
     return path.read_text()
 
 
 @PROPS
-@given(seed=st.integers(0, 1000), row=st.integers(0, 3), col=st.sampled_from(["camera_id", "frame", *_FLOAT]),
-       bad=st.sampled_from(["nan", "inf", "-inf", "Infinity", "abc", "1.5x", "\u00e9", "1e400"]))
+@given(
+    seed=st.integers(0, 1000),
+    row=st.integers(0, 3),
+    col=st.sampled_from(["camera_id", "frame", *_FLOAT]),
+    bad=st.sampled_from(["nan", "inf", "-inf", "Infinity", "abc", "1.5x", "\u00e9", "1e400"]),
+)
 def test_a_bad_table_cell_is_refused_naming_row_and_column(tmp_path, seed, row, col, bad):
     text = _valid_table_text(tmp_path, seed)
     lines = text.splitlines()

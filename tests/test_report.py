@@ -157,14 +157,30 @@ def test_rpy_is_ros_convention():
     from scipy.spatial.transform import Rotation
 
     roll, pitch, yaw = 10.0, -20.0, 30.0
-    R = (Rotation.from_euler("z", yaw, degrees=True) * Rotation.from_euler("y", pitch, degrees=True)
-         * Rotation.from_euler("x", roll, degrees=True)).as_matrix()  # Rz(yaw) Ry(pitch) Rx(roll)
+    R = (
+        Rotation.from_euler("z", yaw, degrees=True)
+        * Rotation.from_euler("y", pitch, degrees=True)
+        * Rotation.from_euler("x", roll, degrees=True)
+    ).as_matrix()  # Rz(yaw) Ry(pitch) Rx(roll)
     np.testing.assert_allclose(rpy_deg(R), [roll, pitch, yaw], atol=1e-9)
 
 
 def test_command_line_parses_back_to_the_same_arguments():
-    argv = ["calibrate", "my poses.csv", "--setup", "eye-in-hand", "--robust", "--camera-noise", "0.1", "1", "3",
-            "--units", "mm", "--report", "out dir"]
+    argv = [
+        "calibrate",
+        "my poses.csv",
+        "--setup",
+        "eye-in-hand",
+        "--robust",
+        "--camera-noise",
+        "0.1",
+        "1",
+        "3",
+        "--units",
+        "mm",
+        "--report",
+        "out dir",
+    ]
     args = build_parser().parse_args(argv)
     text = command_line(args)
     assert text.startswith("handeye calibrate 'my poses.csv' --setup eye-in-hand")
@@ -205,11 +221,40 @@ def image_recording(tmp_path_factory):
 def test_images_report_overlays_and_statuses(image_recording, tmp_path):
     d = image_recording
     det = tmp_path / "detections.json"
-    assert main(["detect", str(d / "images"), "--board", str(d / "board.json"), "--intrinsics",
-                 str(d / "camera.json"), "-o", str(det)]) == 0
+    assert (
+        main(
+            [
+                "detect",
+                str(d / "images"),
+                "--board",
+                str(d / "board.json"),
+                "--intrinsics",
+                str(d / "camera.json"),
+                "-o",
+                str(det),
+            ]
+        )
+        == 0
+    )
     folder, result = tmp_path / "rep", tmp_path / "result.json"
-    assert main(["calibrate", "--detections", str(det), "--robot-poses", str(d / "robot.csv"), "--setup",
-                 "eye-in-hand", "-o", str(result), "--report", str(folder)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--detections",
+                str(det),
+                "--robot-poses",
+                str(d / "robot.csv"),
+                "--setup",
+                "eye-in-hand",
+                "-o",
+                str(result),
+                "--report",
+                str(folder),
+            ]
+        )
+        == 0
+    )
     page = _check_page(folder, IMAGE_PNGS, SECTIONS + ("reprojection",))
     doc = json.loads((folder / "report.json").read_text())
     status = {v["image"]: v["status"] for v in doc["views"]}
@@ -246,15 +291,29 @@ window.addEventListener('load', () => { const pre = document.createElement('pre'
 </script>"""
 
 
-@pytest.mark.skipif(_browser() is None, reason="no headless browser (chromium, chromium-browser, google-chrome; or "
-                    "HANDEYE_TEST_BROWSER) is installed")
+@pytest.mark.skipif(
+    _browser() is None,
+    reason="no headless browser (chromium, chromium-browser, google-chrome; or HANDEYE_TEST_BROWSER) is installed",
+)
 def test_page_loads_in_a_headless_browser(example_report, tmp_path):
     page = (example_report / "index.html").read_text(encoding="utf-8")
     probe = tmp_path / "probe.html"
     probe.write_text(page.replace("<head>", "<head>" + _PROBE, 1), encoding="utf-8")
-    run = subprocess.run([_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr",
-                          "--virtual-time-budget=10000", "--dump-dom", probe.as_uri()],
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [
+            _browser(),
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--enable-logging=stderr",
+            "--virtual-time-budget=10000",
+            "--dump-dom",
+            probe.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     found = re.search(r'<pre id="probe">(.*?)</pre>', run.stdout, re.S)
     assert found, f"no probe in the dumped page (exit {run.returncode}): {run.stderr[-2000:]}"
     result = json.loads(html.unescape(found.group(1)))

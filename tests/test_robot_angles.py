@@ -22,12 +22,15 @@ RY90 = np.array([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]])
 RZ90 = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
 
 
-@pytest.mark.parametrize("abc, expected", [
-    ((90, 0, 0), RZ90),  # A about Z
-    ((0, 90, 0), RY90),  # B about Y
-    ((0, 0, 90), RX90),  # C about X
-    ((90, 90, 0), RZ90 @ RY90),  # Rz(A) Ry(B): [[0, -1, 0], [0, 0, 1], [-1, 0, 0]]
-])
+@pytest.mark.parametrize(
+    "abc, expected",
+    [
+        ((90, 0, 0), RZ90),  # A about Z
+        ((0, 90, 0), RY90),  # B about Y
+        ((0, 0, 90), RX90),  # C about X
+        ((90, 90, 0), RZ90 @ RY90),  # Rz(A) Ry(B): [[0, -1, 0], [0, 0, 1], [-1, 0, 0]]
+    ],
+)
 def test_kuka_abc_known_answers(abc, expected):
     np.testing.assert_allclose(matrix_from_kuka_abc(abc), expected, atol=FLOAT)
 
@@ -37,12 +40,15 @@ def test_kuka_order_written_out():
     np.testing.assert_allclose(matrix_from_kuka_abc([90, 90, 0]), [[0, -1, 0], [0, 0, 1], [-1, 0, 0]], atol=FLOAT)
 
 
-@pytest.mark.parametrize("wpr, expected", [
-    ((90, 0, 0), RX90),  # W about X
-    ((0, 90, 0), RY90),  # P about Y
-    ((0, 0, 90), RZ90),  # R about Z
-    ((90, 0, 90), RZ90 @ RX90),  # fixed axes: W first, then R about the fixed z
-])
+@pytest.mark.parametrize(
+    "wpr, expected",
+    [
+        ((90, 0, 0), RX90),  # W about X
+        ((0, 90, 0), RY90),  # P about Y
+        ((0, 0, 90), RZ90),  # R about Z
+        ((90, 0, 90), RZ90 @ RX90),  # fixed axes: W first, then R about the fixed z
+    ],
+)
 def test_fanuc_wpr_known_answers(wpr, expected):
     np.testing.assert_allclose(matrix_from_fanuc_wpr(wpr), expected, atol=FLOAT)
 

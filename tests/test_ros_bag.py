@@ -73,8 +73,9 @@ def _image(stamp_ns: int, encoding: str, pixels: np.ndarray, pad: int = 0):
     h, w = pixels.shape[:2]
     rows = pixels.reshape(h, -1).view(np.uint8)
     data = np.concatenate([rows, np.zeros((h, pad), np.uint8)], axis=1).reshape(-1)
-    return M["sensor_msgs/msg/Image"](_header(stamp_ns, "camera_optical_frame"), h, w, encoding, 0,
-                                      rows.shape[1] + pad, data)
+    return M["sensor_msgs/msg/Image"](
+        _header(stamp_ns, "camera_optical_frame"), h, w, encoding, 0, rows.shape[1] + pad, data
+    )
 
 
 def _write(path, storage: str, messages: list) -> None:
@@ -95,19 +96,28 @@ def _tf_messages(stamps_ns, T_base_ee, rng) -> tuple[list, np.ndarray, np.ndarra
     the product of the chain's transforms as written, and ``T_base_mount`` as written.
     """
     T_wrist_tool0 = make_transform(random_rotations(rng, 1)[0], [0.0, 0.0, 0.08])
-    T_base_shoulder = make_transform(so3_exp(np.outer(np.linspace(0, 2.0, len(stamps_ns)), [0, 0, 1])),
-                                     [0.0, 0.0, 0.09])
+    T_base_shoulder = make_transform(
+        so3_exp(np.outer(np.linspace(0, 2.0, len(stamps_ns)), [0, 0, 1])), [0.0, 0.0, 0.09]
+    )
     T_shoulder_wrist = invert_transform(T_base_shoulder) @ T_base_ee @ invert_transform(T_wrist_tool0)
     tf = "tf2_msgs/msg/TFMessage"
     T_base_mount = make_transform(random_rotations(rng, 1)[0], [0.5, 0.0, 1.0])
-    static = [_transform(EPOCH_NS, "world", "base_link", make_transform(np.eye(3), [1.0, 2.0, 0.0])),
-              _transform(EPOCH_NS, "wrist", "tool0", T_wrist_tool0),
-              _transform(EPOCH_NS, "/base_link", "camera_mount", T_base_mount),  # a ROS 1 habit: leading slash
-              _transform(EPOCH_NS, "map", "odom", np.eye(4))]
+    static = [
+        _transform(EPOCH_NS, "world", "base_link", make_transform(np.eye(3), [1.0, 2.0, 0.0])),
+        _transform(EPOCH_NS, "wrist", "tool0", T_wrist_tool0),
+        _transform(EPOCH_NS, "/base_link", "camera_mount", T_base_mount),  # a ROS 1 habit: leading slash
+        _transform(EPOCH_NS, "map", "odom", np.eye(4)),
+    ]
     msgs = [("/tf_static", tf, EPOCH_NS - 5 * MS, M[tf](static))]
     for s, A, B in zip(stamps_ns, T_base_shoulder, T_shoulder_wrist):  # robot_state_publisher: one stamp per message
-        msgs.append(("/tf", tf, int(s) + 3 * MS, M[tf]([_transform(int(s), "base_link", "shoulder", A),
-                                                        _transform(int(s), "shoulder", "wrist", B)])))
+        msgs.append(
+            (
+                "/tf",
+                tf,
+                int(s) + 3 * MS,
+                M[tf]([_transform(int(s), "base_link", "shoulder", A), _transform(int(s), "shoulder", "wrist", B)]),
+            )
+        )
     composed = _as_written(T_base_shoulder) @ _as_written(T_shoulder_wrist) @ _as_written(T_wrist_tool0)
     return msgs, composed, _as_written(T_base_mount)
 
@@ -128,15 +138,23 @@ def exact_bag(request, tmp_path_factory):
     for s, B in zip(list(cam_stamps) + outside, list(p.T_cam_target) + [np.eye(4), np.eye(4)]):
         msgs.append(("/marker_pose", ps, int(s) + 30 * MS, _pose_stamped(int(s), "camera_optical_frame", B)))
     for s, B in zip(cam_stamps[:4], p.T_cam_target):  # 4 poses as TransformStamped, 7 s later: the robot has stopped
-        msgs.append(("/marker_tf", "geometry_msgs/msg/TransformStamped", int(s) + 7000 * MS,
-                     _transform(int(s) + 7000 * MS, "camera_optical_frame", "board", B)))
+        msgs.append(
+            (
+                "/marker_tf",
+                "geometry_msgs/msg/TransformStamped",
+                int(s) + 7000 * MS,
+                _transform(int(s) + 7000 * MS, "camera_optical_frame", "board", B),
+            )
+        )
     img = "sensor_msgs/msg/Image"
     pix = rng.integers(0, 256, (2, 5, 4, 3), dtype=np.uint8)
     depth = rng.integers(0, 65535, (5, 4), dtype=np.uint16)
-    msgs += [("/image", img, int(cam_stamps[1]), _image(int(cam_stamps[1]), "rgb8", pix[0], pad=4)),
-             ("/image", img, int(cam_stamps[0]), _image(int(cam_stamps[0]), "bgr8", pix[1])),
-             ("/image", img, int(cam_stamps[2]), _image(int(cam_stamps[2]), "mono8", pix[0, ..., 0], pad=3)),
-             ("/image", img, int(cam_stamps[3]), _image(int(cam_stamps[3]), "16UC1", depth))]
+    msgs += [
+        ("/image", img, int(cam_stamps[1]), _image(int(cam_stamps[1]), "rgb8", pix[0], pad=4)),
+        ("/image", img, int(cam_stamps[0]), _image(int(cam_stamps[0]), "bgr8", pix[1])),
+        ("/image", img, int(cam_stamps[2]), _image(int(cam_stamps[2]), "mono8", pix[0, ..., 0], pad=3)),
+        ("/image", img, int(cam_stamps[3]), _image(int(cam_stamps[3]), "16UC1", depth)),
+    ]
     path = tmp_path_factory.mktemp(request.param) / "recording"
     _write(path, request.param, msgs)
     return path, p, robot_stamps, (composed, T_base_mount), cam_stamps, (pix, depth)
@@ -205,18 +223,24 @@ def test_tf_edges_stamped_apart_are_interpolated_as_tf2_does():
 
     def pose(s, w, v):
         return make_transform(so3_exp(np.outer(s * 1e-9, w)), np.outer(s * 1e-9, v) + [0.1, 0, 0.3])
+
     T_sh, T_wr = pose(s_sh, w_sh, [1, 0, 0]), pose(s_wr, w_wr, [0, 1, 0])
     n_sh, n_wr = len(s_sh), len(s_wr)
-    tree = TfTree.from_transforms(["base"] * n_sh + ["shoulder"] * n_wr, ["shoulder"] * n_sh + ["wrist"] * n_wr,
-                                  np.concatenate([s_sh, s_wr]), np.concatenate([T_sh, T_wr])[:, :3, 3],
-                                  pos_quat_xyzw_from_transform(np.concatenate([T_sh, T_wr]))[1],
-                                  np.zeros(n_sh + n_wr, bool))
+    tree = TfTree.from_transforms(
+        ["base"] * n_sh + ["shoulder"] * n_wr,
+        ["shoulder"] * n_sh + ["wrist"] * n_wr,
+        np.concatenate([s_sh, s_wr]),
+        np.concatenate([T_sh, T_wr])[:, :3, 3],
+        pos_quat_xyzw_from_transform(np.concatenate([T_sh, T_wr]))[1],
+        np.zeros(n_sh + n_wr, bool),
+    )
     chain = tree.chain("base", "wrist")
     expect = np.unique(np.concatenate([s_sh, s_wr]))
     expect = expect[(expect >= 5 * MS) & (expect <= 95 * MS)]
     np.testing.assert_array_equal(chain.stamps_ns, expect)
-    np.testing.assert_allclose(chain.T_base_ee, pose(expect, w_sh, [1, 0, 0]) @ pose(expect, w_wr, [0, 1, 0]),
-                               atol=FLOAT)
+    np.testing.assert_allclose(
+        chain.T_base_ee, pose(expect, w_sh, [1, 0, 0]) @ pose(expect, w_wr, [0, 1, 0]), atol=FLOAT
+    )
 
 
 @pytest.mark.parametrize("storage", list(STORAGES))
@@ -226,20 +250,24 @@ def test_time_offset_recovered_from_the_bag_streams(storage, tmp_path):
     robot_stamps = EPOCH_NS + np.arange(0, 20_000, 10) * MS
     t_r = (robot_stamps - EPOCH_NS) * 1e-9
     f, ph = rng.uniform(0.2, 0.6, (2, 3)), rng.uniform(0, 2 * np.pi, (2, 3))
-    T_r = make_transform(so3_exp(0.6 * np.sin(f[0] * t_r[:, None] + ph[0])),
-                         [0.5, 0.0, 0.4] + 0.15 * np.sin(f[1] * t_r[:, None] + ph[1]))
+    T_r = make_transform(
+        so3_exp(0.6 * np.sin(f[0] * t_r[:, None] + ph[0])), [0.5, 0.0, 0.4] + 0.15 * np.sin(f[1] * t_r[:, None] + ph[1])
+    )
     msgs = _tf_messages(robot_stamps, T_r, rng)[0]
     p = make_problem(3, "eye_to_hand", rng)
     offset_s = 0.0371
     cam_stamps = EPOCH_NS + np.arange(1000, 19000, 100) * MS
     t_c = (cam_stamps - EPOCH_NS) * 1e-9
     B = invert_transform(p.X_true) @ classic.RobotStream(t_r, T_r).at(t_c + offset_s)[0] @ p.Y_true
-    msgs += [("/marker_pose", "geometry_msgs/msg/PoseStamped", int(s) + 30 * MS, _pose_stamped(int(s), "cam", Bi))
-             for s, Bi in zip(cam_stamps, B)]
+    msgs += [
+        ("/marker_pose", "geometry_msgs/msg/PoseStamped", int(s) + 30 * MS, _pose_stamped(int(s), "cam", Bi))
+        for s, Bi in zip(cam_stamps, B)
+    ]
     _write(tmp_path / "bag", storage, msgs)
     rec = read_bag(tmp_path / "bag", "base_link", "tool0", marker_topic="/marker_pose")
-    res = classic.calibrate_stream(rec.robot_times_s, rec.T_base_ee, rec.camera_times_s, rec.T_cam_target,
-                                   setup="eye_to_hand", max_offset_s=0.5)
+    res = classic.calibrate_stream(
+        rec.robot_times_s, rec.T_base_ee, rec.camera_times_s, rec.T_cam_target, setup="eye_to_hand", max_offset_s=0.5
+    )
     assert res.diagnostics["time_offset"]["value_s"] == pytest.approx(offset_s, abs=EXACT)
     np.testing.assert_allclose(res.X, p.X_true, rtol=0, atol=EXACT)
 
@@ -265,8 +293,11 @@ def test_bad_input_raises_named_errors(exact_bag, tmp_path):
         read_bag(path, "base_link", "tool0", marker_topic="/nope")
     with pytest.raises(BagTopicError, match="topic '/image' holds sensor_msgs/msg/Image; expected geometry_msgs"):
         read_bag(path, "base_link", "tool0", marker_topic="/image")
-    with pytest.raises(FramesNotConnectedError, match="frames 'base_link' and 'odom' are not connected in the tf tree; "
-                       "frames reachable from 'base_link': base_link, camera_mount, shoulder, tool0, world, wrist"):
+    with pytest.raises(
+        FramesNotConnectedError,
+        match="frames 'base_link' and 'odom' are not connected in the tf tree; "
+        "frames reachable from 'base_link': base_link, camera_mount, shoulder, tool0, world, wrist",
+    ):
         read_bag(path, "base_link", "odom")
     with pytest.raises(FramesNotConnectedError, match=r"recording, /tf and /tf_static: frame 'tool1' not in the tf"):
         read_bag(path, "base_link", "tool1")
@@ -278,8 +309,12 @@ def test_bad_input_raises_named_errors(exact_bag, tmp_path):
         read_bag(path, "base_link", "camera_mount")
     (tmp_path / "notes.txt").write_text("not a bag")
     (tmp_path / "empty").mkdir()
-    for bad, why in [(tmp_path / "notes.txt", "not a ROS 2 bag"), (tmp_path / "empty", "not a ROS 2 bag"),
-                     (tmp_path / "missing", "no such file"), (tmp_path / "old.bag", "a ROS 1 bag")]:
+    for bad, why in [
+        (tmp_path / "notes.txt", "not a ROS 2 bag"),
+        (tmp_path / "empty", "not a ROS 2 bag"),
+        (tmp_path / "missing", "no such file"),
+        (tmp_path / "old.bag", "a ROS 1 bag"),
+    ]:
         if bad.suffix == ".bag":
             bad.write_bytes(b"#ROSBAG V2.0\n")
         with pytest.raises(NotABagError, match=why):
@@ -289,8 +324,25 @@ def test_bad_input_raises_named_errors(exact_bag, tmp_path):
 def test_bag_poses_command_writes_what_calibrate_reads(exact_bag, tmp_path, capsys):
     path, p = exact_bag[:2]
     out = tmp_path / "poses.csv"
-    assert main(["bag-poses", str(path), "--base", "base_link", "--ee", "tool0", "--marker-topic", "/marker_pose",
-                 "--tolerance", "0.01", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "bag-poses",
+                str(path),
+                "--base",
+                "base_link",
+                "--ee",
+                "tool0",
+                "--marker-topic",
+                "/marker_pose",
+                "--tolerance",
+                "0.01",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "pairs: 12 kept" in printed and "2 dropped" in printed
     assert "base_link -> shoulder -> wrist -> tool0" in printed
@@ -298,8 +350,12 @@ def test_bag_poses_command_writes_what_calibrate_reads(exact_bag, tmp_path, caps
     np.testing.assert_allclose(poses.T_base_ee, p.T_base_ee, rtol=0, atol=EXACT)
     np.testing.assert_allclose(poses.T_cam_target, p.T_cam_target, rtol=0, atol=EXACT)
     assert main(["calibrate", str(out), "--setup", "eye-to-hand"]) == 0
-    assert main(["bag-poses", str(tmp_path), "--base", "base_link", "--ee", "tool0", "--marker-topic", "/m",
-                 "-o", str(out)]) == 2
+    assert (
+        main(
+            ["bag-poses", str(tmp_path), "--base", "base_link", "--ee", "tool0", "--marker-topic", "/m", "-o", str(out)]
+        )
+        == 2
+    )
     assert "not a ROS 2 bag" in capsys.readouterr().err
 
 

@@ -67,10 +67,12 @@ def test_urdf_rpy_is_fixed_axis_xyz(tmp_path):
 
 def test_urdf_joint_found_by_name_in_a_whole_robot(tmp_path):
     path = tmp_path / "cell.urdf"
-    path.write_text('<?xml version="1.0"?>\n<robot name="cell">\n  <link name="base"/>\n  <link name="cam"/>\n'
-                    '  <joint name="other" type="fixed"><parent link="base"/><child link="x"/></joint>\n'
-                    '  <joint name="base_to_cam" type="fixed">\n    <parent link="base"/>\n    <child link="cam"/>\n'
-                    '    <origin xyz="1 2 3" rpy="0 0 1.5707963267948966"/>\n  </joint>\n</robot>\n')
+    path.write_text(
+        '<?xml version="1.0"?>\n<robot name="cell">\n  <link name="base"/>\n  <link name="cam"/>\n'
+        '  <joint name="other" type="fixed"><parent link="base"/><child link="x"/></joint>\n'
+        '  <joint name="base_to_cam" type="fixed">\n    <parent link="base"/>\n    <child link="cam"/>\n'
+        '    <origin xyz="1 2 3" rpy="0 0 1.5707963267948966"/>\n  </joint>\n</robot>\n'
+    )
     T, parent, child = read_urdf_joint(path, "base_to_cam")
     np.testing.assert_allclose(T, make_transform(matrix_from_kuka_abc([90, 0, 0]), [1, 2, 3]), atol=FLOAT)
     with pytest.raises(PoseFileError, match=r"cell.urdf: 2 joints in all \(joints: other, base_to_cam\)"):
@@ -78,13 +80,16 @@ def test_urdf_joint_found_by_name_in_a_whole_robot(tmp_path):
     np.testing.assert_allclose(read_urdf_joint(path, "other")[0], np.eye(4))  # no origin: identity (URDF)
 
 
-@pytest.mark.parametrize("old, new, message", [
-    ('"--qw", ', '"--qw_", ', r"line 24: argument '--qw_' not understood"),
-    ('"--x", "', '"--x", "x', r"line 18: --x 'x.*' is not a number"),
-    ('                "--qw", ', '                # "--qw", ', r"line 24: .* has no value|missing --qw"),
-    ("def generate", "def generate(", r"line \d+: not a Python launch file"),
-    ('executable="static_transform_publisher"', 'executable="other"', r"0 static_transform_publisher nodes"),
-])
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ('"--qw", ', '"--qw_", ', r"line 24: argument '--qw_' not understood"),
+        ('"--x", "', '"--x", "x', r"line 18: --x 'x.*' is not a number"),
+        ('                "--qw", ', '                # "--qw", ', r"line 24: .* has no value|missing --qw"),
+        ("def generate", "def generate(", r"line \d+: not a Python launch file"),
+        ('executable="static_transform_publisher"', 'executable="other"', r"0 static_transform_publisher nodes"),
+    ],
+)
 def test_malformed_launch_file_names_file_and_line(tmp_path, T_base_cam, old, new, message):
     path = tmp_path / "t.launch.py"
     write_static_tf_launch(path, T_base_cam, "base", "cam")
@@ -97,17 +102,22 @@ def test_malformed_launch_file_names_file_and_line(tmp_path, T_base_cam, old, ne
 
 def test_old_style_positional_arguments_are_refused(tmp_path):
     path = tmp_path / "old.launch.py"
-    path.write_text('from launch_ros.actions import Node\n\nNode(package="tf2_ros", executable="static_transform_'
-                    'publisher",\n     arguments=["0", "0", "1", "0", "0", "0", "base", "cam"])\n')
+    path.write_text(
+        'from launch_ros.actions import Node\n\nNode(package="tf2_ros", executable="static_transform_'
+        'publisher",\n     arguments=["0", "0", "1", "0", "0", "0", "base", "cam"])\n'
+    )
     with pytest.raises(PoseFileError, match=r"old.launch.py, line 4: argument '0' not understood; expected the named"):
         read_static_tf_launch(path)
 
 
-@pytest.mark.parametrize("old, new, message", [
-    ('<child link="cam"/>', "<child/>", r"line 2: joint 'base_to_cam' has no <child link"),
-    ('rpy="', 'rpy="1 ', r"line 5: origin rpy='1 .*' is not three finite numbers"),
-    ("</joint>", "</joint", r"line 6: not valid XML"),
-])
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ('<child link="cam"/>', "<child/>", r"line 2: joint 'base_to_cam' has no <child link"),
+        ('rpy="', 'rpy="1 ', r"line 5: origin rpy='1 .*' is not three finite numbers"),
+        ("</joint>", "</joint", r"line 6: not valid XML"),
+    ],
+)
 def test_malformed_urdf_names_file_and_line(tmp_path, T_base_cam, old, new, message):
     path = tmp_path / "joint.urdf"
     write_urdf_joint(path, T_base_cam, "base", "cam")

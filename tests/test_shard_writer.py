@@ -32,20 +32,39 @@ def _poses(rng, n):
 def _real_dataset(root, n_cameras=2):
     """meta.json and cameras.csv as a user writes them for a real robot: truth unknown."""
     intr = {"K": [[300.0, 0, 32], [0, 300.0, 24], [0, 0, 1]], "width": 64, "height": 48, "dist": [0.0] * 5}
-    write_json_atomic(root / "meta.json", {"format": FORMAT, "version": FORMAT_VERSION, "robot": "my-robot",
-                                           "n_joints": N_JOINTS, "intrinsics": intr, "cameras": n_cameras,
-                                           "depth": {"format": "png16", "scale_m": SCALE_M, "invalid": 0},
-                                           "recipe": {}})
-    table = {"camera_id": np.arange(n_cameras), "region": np.zeros(n_cameras, int),
-             "split": np.array(["train"] * n_cameras, dtype=object)}
+    write_json_atomic(
+        root / "meta.json",
+        {
+            "format": FORMAT,
+            "version": FORMAT_VERSION,
+            "robot": "my-robot",
+            "n_joints": N_JOINTS,
+            "intrinsics": intr,
+            "cameras": n_cameras,
+            "depth": {"format": "png16", "scale_m": SCALE_M, "invalid": 0},
+            "recipe": {},
+        },
+    )
+    table = {
+        "camera_id": np.arange(n_cameras),
+        "region": np.zeros(n_cameras, int),
+        "split": np.array(["train"] * n_cameras, dtype=object),
+    }
     table.update(poses_to_columns("T_base_cam_true", np.full((n_cameras, 4, 4), np.nan)))
     write_table(root / "cameras.csv", table, CAMERA_COLUMNS)
 
 
 def _recording(rng, n_cal=2, n_data=3):
     cal = [(_poses(rng, 1)[0], rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)) for _ in range(n_cal)]
-    data = [(rng.uniform(-3, 3, N_JOINTS), _poses(rng, 1)[0], rng.integers(0, 256, (48, 64, 3), dtype=np.uint8),
-             rng.uniform(0.3, 2.0, (48, 64))) for _ in range(n_data)]
+    data = [
+        (
+            rng.uniform(-3, 3, N_JOINTS),
+            _poses(rng, 1)[0],
+            rng.integers(0, 256, (48, 64, 3), dtype=np.uint8),
+            rng.uniform(0.3, 2.0, (48, 64)),
+        )
+        for _ in range(n_data)
+    ]
     for _, _, _, depth in data:
         depth[0, :5] = 0.0  # no depth
     return cal, data

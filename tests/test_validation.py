@@ -60,7 +60,9 @@ def test_every_input_error_is_a_value_error():
     input_errors = [
         obj
         for obj in vars(errors).values()
-        if isinstance(obj, type) and issubclass(obj, Exception) and obj.__module__ == errors.__name__
+        if isinstance(obj, type)
+        and issubclass(obj, Exception)
+        and obj.__module__ == errors.__name__
         and not issubclass(obj, (Warning, ImportError))
     ]
     assert len(input_errors) >= 12
@@ -254,7 +256,8 @@ def test_metre_translations_pass_the_units_check(problem):
 
 
 @pytest.mark.parametrize(
-    "kw", [{"setup": "eye_on_hand"}, {"method": "magic"}, {"pairs": "some"}, {"loss": "l7"}],
+    "kw",
+    [{"setup": "eye_on_hand"}, {"method": "magic"}, {"pairs": "some"}, {"loss": "l7"}],
     ids=["setup", "method", "pairs", "loss"],
 )
 def test_unknown_option_is_refused(problem, kw):

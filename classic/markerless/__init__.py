@@ -19,6 +19,16 @@ from classic.markerless.register import (
 )
 from classic.markerless.visibility import visible_points
 
-__all__ = ["register_robot", "RobotSurfaceFrames", "MarkerlessOptions", "MarkerlessResult", "RefusedError",
-           "solve_point_to_plane", "PlaneFit", "backproject", "static_depth", "moving_mask",
-           "visible_points"]
+__all__ = [
+    "register_robot",
+    "RobotSurfaceFrames",
+    "MarkerlessOptions",
+    "MarkerlessResult",
+    "RefusedError",
+    "solve_point_to_plane",
+    "PlaneFit",
+    "backproject",
+    "static_depth",
+    "moving_mask",
+    "visible_points",
+]

@@ -76,9 +76,17 @@ def _linearise(p_cam, m_base, n_base, T):
     return r, J
 
 
-def solve_point_to_plane(p_cam: np.ndarray, m_base: np.ndarray, n_base: np.ndarray, T_base_cam: np.ndarray,
-                         scale_m: float, loss: str = "cauchy", group: np.ndarray | None = None,
-                         iterations: int = 5, tol: float = 1e-7) -> PlaneFit:
+def solve_point_to_plane(
+    p_cam: np.ndarray,
+    m_base: np.ndarray,
+    n_base: np.ndarray,
+    T_base_cam: np.ndarray,
+    scale_m: float,
+    loss: str = "cauchy",
+    group: np.ndarray | None = None,
+    iterations: int = 5,
+    tol: float = 1e-7,
+) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
     Parameters

@@ -188,14 +188,22 @@ class MarkerlessResult:
         """JSON-serialisable summary."""
         from handeye.core.se3 import pos_quat_xyzw_from_transform
 
-        out = {"status": "ok" if self.ok else "refused", "refused": self.refused, "start": self.start,
-               "matched_fraction": self.matched_fraction, "sigma": self.sigma,
-               "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
-               "diagnostics": self.diagnostics}
+        out = {
+            "status": "ok" if self.ok else "refused",
+            "refused": self.refused,
+            "start": self.start,
+            "matched_fraction": self.matched_fraction,
+            "sigma": self.sigma,
+            "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
+            "diagnostics": self.diagnostics,
+        }
         if self.T_base_cam is not None:
             t, q = pos_quat_xyzw_from_transform(self.T_base_cam)
-            out["T_base_cam"] = {"matrix": self.T_base_cam.tolist(), "translation_m": t.tolist(),
-                                 "quaternion_xyzw": q.tolist()}
+            out["T_base_cam"] = {
+                "matrix": self.T_base_cam.tolist(),
+                "translation_m": t.tolist(),
+                "quaternion_xyzw": q.tolist(),
+            }
         return out
 
 
@@ -241,8 +249,9 @@ class _Problem:
         n_parts, n_fr = int(surface.part.max()) + 1, int(surface.frame.max()) + 1
         key = surface.part * n_fr + surface.frame
         count = np.bincount(key, minlength=n_parts * n_fr).reshape(n_parts, n_fr)
-        sums = np.stack([np.bincount(key, surface.points_base[:, k], minlength=n_parts * n_fr) for k in range(3)],
-                        axis=-1).reshape(n_parts, n_fr, 3)
+        sums = np.stack(
+            [np.bincount(key, surface.points_base[:, k], minlength=n_parts * n_fr) for k in range(3)], axis=-1
+        ).reshape(n_parts, n_fr, 3)
         spread = np.zeros(n_parts)
         for k in range(n_parts):
             seen = count[k] > 0
@@ -251,8 +260,9 @@ class _Problem:
         self.moving_part = spread[surface.part] > 0.02
         # the coarse stages work on a subset of the model (their windows are centimetres)
         m = len(surface.frame)
-        self.coarse_subset = np.sort(rng.choice(m, opts.max_model_points, replace=False)) if m > opts.max_model_points \
-            else np.arange(m)
+        self.coarse_subset = (
+            np.sort(rng.choice(m, opts.max_model_points, replace=False)) if m > opts.max_model_points else np.arange(m)
+        )
         cs = self.coarse_subset
         self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
 
@@ -314,8 +324,9 @@ class _Problem:
         for window in self.opts.coarse_windows_m:
             for _ in range(3):
                 p_base = self.moving_p_cam @ T[:3, :3].T + T[:3, 3]
-                d, j = self.tree.query(np.c_[p_base, self.moving_frame * _FRAME_KEY_M], distance_upper_bound=window,
-                                       workers=-1)
+                d, j = self.tree.query(
+                    np.c_[p_base, self.moving_frame * _FRAME_KEY_M], distance_upper_bound=window, workers=-1
+                )
                 ok = np.isfinite(d)
                 if ok.sum() < 50:
                     break
@@ -327,8 +338,15 @@ class _Problem:
                 jj = jj[towards]
                 if len(sel) < 50:
                     break
-                fit = solve_point_to_plane(self.moving_p_cam[sel], self.s.points_base[jj], self.s.normals_base[jj],
-                                           T, scale_m=window / 3, loss="cauchy", iterations=2)
+                fit = solve_point_to_plane(
+                    self.moving_p_cam[sel],
+                    self.s.points_base[jj],
+                    self.s.normals_base[jj],
+                    T,
+                    scale_m=window / 3,
+                    loss="cauchy",
+                    iterations=2,
+                )
                 moved = pose_error(T, fit.T_base_cam)
                 T = fit.T_base_cam
                 if np.radians(moved[0]) + moved[1] / 1e3 < 0.1 * window:
@@ -361,8 +379,16 @@ class _Problem:
     def _fit(self, T, idx, f, q, close):
         sel = np.flatnonzero(close)
         expected = np.sqrt(_sigma_z(q[sel, 2], self.opts) ** 2 + self.opts.model_floor_m**2)
-        fit = solve_point_to_plane(q[sel], self.s.points_base[idx[sel]], self.s.normals_base[idx[sel]], T,
-                                   scale_m=float(np.median(expected)) * 2, loss="cauchy", group=f[sel], iterations=3)
+        fit = solve_point_to_plane(
+            q[sel],
+            self.s.points_base[idx[sel]],
+            self.s.normals_base[idx[sel]],
+            T,
+            scale_m=float(np.median(expected)) * 2,
+            loss="cauchy",
+            group=f[sel],
+            iterations=3,
+        )
         return fit, float(np.median(expected))
 
     def fine(self, T):
@@ -396,17 +422,25 @@ class _Problem:
         fit, _ = self._fit(T, idx, f, q, close)
         step = max(step, fit.step_norm)
         matched_q = q[close]
-        self.final_geometry = (float(np.median(matched_q[:, 2])),
-                               float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))))
-        within_1cm = has_depth & (np.abs(q[:, 2] - (self.s.points_base[idx] - fit.T_base_cam[:3, 3])
-                                         @ fit.T_base_cam[:3, 2]) < 0.01)
+        self.final_geometry = (
+            float(np.median(matched_q[:, 2])),
+            float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
+        )
+        within_1cm = has_depth & (
+            np.abs(q[:, 2] - (self.s.points_base[idx] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
+        )
         matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
         return fit.T_base_cam, fit, step, matched
 
 
-def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFrames,
-                   starts: dict | None = None, options: MarkerlessOptions | None = None,
-                   centroid_start: bool = True) -> MarkerlessResult:
+def register_robot(
+    depth_m: np.ndarray,
+    K: np.ndarray,
+    surface: RobotSurfaceFrames,
+    starts: dict | None = None,
+    options: MarkerlessOptions | None = None,
+    centroid_start: bool = True,
+) -> MarkerlessResult:
     """Register the posed robot surface to the depth of all frames: ``T_base_cam`` or a refusal.
 
     Parameters
@@ -447,8 +481,10 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     problem = _Problem(depth_m, K, surface, opts)
     diag = {"frames": n, "moving_pixels": int(problem.n_moving), "starts": {}}
     if problem.n_moving < opts.min_moving_pixels:
-        return refuse(f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "
-                      f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?")
+        return refuse(
+            f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "
+            f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?"
+        )
     if centroid_start:
         T0 = problem.centroid_start()
         if T0 is not None:
@@ -469,8 +505,12 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     matched, name, T, fit, step = best
     inl = fit.weights > 0.5
     group = fit.group
-    res_frame = np.array([np.sqrt(np.mean(fit.residuals_m[inl & (group == i)] ** 2)) * 1e3
-                          if np.any(inl & (group == i)) else np.nan for i in range(n)])
+    res_frame = np.array(
+        [
+            np.sqrt(np.mean(fit.residuals_m[inl & (group == i)] ** 2)) * 1e3 if np.any(inl & (group == i)) else np.nan
+            for i in range(n)
+        ]
+    )
     rms_mm = float(np.sqrt(np.mean(fit.residuals_m[inl] ** 2)) * 1e3) if inl.any() else np.inf
     z_med = float(np.median(depth_m[depth_m > 0]))
     expected_mm = float(np.hypot(_sigma_z(z_med, opts), opts.model_floor_m) * 1e3)
@@ -485,19 +525,28 @@ def register_robot(depth_m: np.ndarray, K: np.ndarray, surface: RobotSurfaceFram
     footprint_m = z_med / max(K[0, 0], K[1, 1])
     sampling_mm = footprint_m**2 / (8 * opts.model_radius_m) / np.sqrt(3) * 1e3
     sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
-    sigma = {"rotation_deg": float(np.hypot(noise_deg, sampling_deg)),
-             "translation_mm": float(np.hypot(noise_mm, sampling_mm))}
-    diag.update({"inlier_rms_mm": rms_mm, "expected_rms_mm": expected_mm, "last_step": float(step),
-                 "matched_points": int(inl.sum()),
-                 "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm},
-                 "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)}})
+    sigma = {
+        "rotation_deg": float(np.hypot(noise_deg, sampling_deg)),
+        "translation_mm": float(np.hypot(noise_mm, sampling_mm)),
+    }
+    diag.update(
+        {
+            "inlier_rms_mm": rms_mm,
+            "expected_rms_mm": expected_mm,
+            "last_step": float(step),
+            "matched_points": int(inl.sum()),
+            "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm},
+            "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
+        }
+    )
     refused = None
     if matched < opts.min_matched_fraction:
-        refused = (f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
-                   f"(at least {opts.min_matched_fraction:.0%} needed)")
+        refused = (
+            f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
+            f"(at least {opts.min_matched_fraction:.0%} needed)"
+        )
     elif rms_mm > opts.max_residual_ratio * expected_mm:
-        refused = (f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth "
-                   f"noise")
+        refused = f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth noise"
     elif step > 1e-4:
         refused = f"did not converge: last step {step:.2g} (rad + m)"
     return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag)

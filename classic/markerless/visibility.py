@@ -24,8 +24,15 @@ def project(p_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
     return np.stack([u, v], axis=-1)
 
 
-def visible_points(p_cam: np.ndarray, n_cam: np.ndarray, frame: np.ndarray, K: np.ndarray, height: int, width: int,
-                   znear_m: float = 0.05) -> np.ndarray:
+def visible_points(
+    p_cam: np.ndarray,
+    n_cam: np.ndarray,
+    frame: np.ndarray,
+    K: np.ndarray,
+    height: int,
+    width: int,
+    znear_m: float = 0.05,
+) -> np.ndarray:
     """The nearest front-facing model point in every pixel of every frame.
 
     Parameters

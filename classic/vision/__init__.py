@@ -23,6 +23,15 @@ from classic.vision.intrinsics import IntrinsicsResult, calibrate_intrinsics  # 
 from classic.vision.reprojection import ReprojectionResult, refine_reprojection  # noqa: E402
 
 __all__ = [
-    "BoardSpec", "CameraIntrinsics", "Detection", "ViewPose", "detect_board", "estimate_pose",
-    "read_image", "IntrinsicsResult", "calibrate_intrinsics", "ReprojectionResult", "refine_reprojection",
+    "BoardSpec",
+    "CameraIntrinsics",
+    "Detection",
+    "ViewPose",
+    "detect_board",
+    "estimate_pose",
+    "read_image",
+    "IntrinsicsResult",
+    "calibrate_intrinsics",
+    "ReprojectionResult",
+    "refine_reprojection",
 ]

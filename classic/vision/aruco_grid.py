@@ -100,12 +100,24 @@ def detect_grid(gray: np.ndarray, spec: BoardSpec):
                 pts.append(quad.reshape(4, 2).astype(float))
     if not ids:
         if marker_ids is not None and len(marker_ids):
-            return np.zeros(0, int), np.zeros((0, 2)), 0, (
-                f"board not found: {len(marker_ids)} markers of dictionary {spec.dictionary} found but none of the "
-                f"board's 0..{spec.n_markers - 1} wholly in the image")
-        return np.zeros(0, int), np.zeros((0, 2)), 0, (
-            f"board not found: no marker 0..{spec.n_markers - 1} of dictionary {spec.dictionary} (wrong dictionary, "
-            "or board not in view)")
+            return (
+                np.zeros(0, int),
+                np.zeros((0, 2)),
+                0,
+                (
+                    f"board not found: {len(marker_ids)} markers of dictionary {spec.dictionary} found but none of the "
+                    f"board's 0..{spec.n_markers - 1} wholly in the image"
+                ),
+            )
+        return (
+            np.zeros(0, int),
+            np.zeros((0, 2)),
+            0,
+            (
+                f"board not found: no marker 0..{spec.n_markers - 1} of dictionary {spec.dictionary} "
+                "(wrong dictionary, or board not in view)"
+            ),
+        )
     ids, pts = np.concatenate(ids), np.concatenate(pts)
     ids, pts = _restart_stray_corners(gray, spec, ids, pts, criteria)
     order = np.argsort(ids)
@@ -124,8 +136,11 @@ def _restart_stray_corners(gray, spec, ids, pts, criteria, stray_px: float = 1.5
     keep = np.ones(len(ids), bool)
     for k, m in enumerate(markers):
         r, c = divmod(int(m), spec.squares_x)
-        near = [j for j, n in enumerate(markers) if n != m and abs(n // spec.squares_x - r) <= 1
-                and abs(n % spec.squares_x - c) <= 1]
+        near = [
+            j
+            for j, n in enumerate(markers)
+            if n != m and abs(n // spec.squares_x - r) <= 1 and abs(n % spec.squares_x - c) <= 1
+        ]
         if len(near) < 2:
             continue
         rows = np.concatenate([np.arange(4 * j, 4 * j + 4) for j in near])

@@ -110,7 +110,8 @@ class BoardSpec:
         least = 3 if kind == "checkerboard" else 2
         if int(self.squares_x) < least or int(self.squares_y) < least:
             raise BoardSpecError(
-                f"a {name} needs at least {least}x{least} squares, got {self.squares_x}x{self.squares_y}")
+                f"a {name} needs at least {least}x{least} squares, got {self.squares_x}x{self.squares_y}"
+            )
         if not np.isfinite(self.square_length_m) or self.square_length_m <= 0:
             raise BoardSpecError(f"square length {self.square_length_m} m must be positive")
         if self.square_length_m > 1.0:
@@ -119,7 +120,8 @@ class BoardSpec:
             if (self.squares_x + self.squares_y) % 2 == 0:
                 raise BoardSpecError(
                     f"a {self.squares_x}x{self.squares_y} checkerboard looks the same turned by 180 degrees, so its "
-                    "corner order is ambiguous; use one even and one odd square count (e.g. 10x7)")
+                    "corner order is ambiguous; use one even and one odd square count (e.g. 10x7)"
+                )
             return
         if not 0 < self.marker_length_m < self.square_length_m:
             raise BoardSpecError(
@@ -129,8 +131,10 @@ class BoardSpec:
         n_markers = self.n_markers
         size = _dictionary_size(self.dictionary)
         if n_markers > size:
-            raise BoardSpecError(f"a {self.squares_x}x{self.squares_y} {name} needs {n_markers} markers; "
-                                 f"dictionary {self.dictionary} has {size}")
+            raise BoardSpecError(
+                f"a {self.squares_x}x{self.squares_y} {name} needs {n_markers} markers; "
+                f"dictionary {self.dictionary} has {size}"
+            )
 
     @classmethod
     def checkerboard(cls, squares_x: int, squares_y: int, square_length_m: float) -> "BoardSpec":
@@ -138,17 +142,25 @@ class BoardSpec:
         return cls(squares_x, squares_y, square_length_m, 0.0, "", kind="checkerboard")
 
     @classmethod
-    def aruco_grid(cls, markers_x: int, markers_y: int, marker_length_m: float, separation_m: float,
-                   dictionary: str = "APRILTAG_36h11") -> "BoardSpec":
+    def aruco_grid(
+        cls,
+        markers_x: int,
+        markers_y: int,
+        marker_length_m: float,
+        separation_m: float,
+        dictionary: str = "APRILTAG_36h11",
+    ) -> "BoardSpec":
         """A grid of markers ``marker_length_m`` wide, ``separation_m`` apart (OpenCV's ``GridBoard``)."""
-        return cls(markers_x, markers_y, marker_length_m + separation_m, marker_length_m, dictionary,
-                   kind="aruco_grid")
+        return cls(markers_x, markers_y, marker_length_m + separation_m, marker_length_m, dictionary, kind="aruco_grid")
 
     @property
     def n_markers(self) -> int:
         """Markers on the board (0 for a checkerboard)."""
-        return {"charuco": (self.squares_x * self.squares_y) // 2, "checkerboard": 0,
-                "aruco_grid": self.squares_x * self.squares_y}[self.kind]
+        return {
+            "charuco": (self.squares_x * self.squares_y) // 2,
+            "checkerboard": 0,
+            "aruco_grid": self.squares_x * self.squares_y,
+        }[self.kind]
 
     @property
     def n_corners(self) -> int:
@@ -274,8 +286,15 @@ class BoardSpec:
         if not isinstance(legacy, bool):
             raise BoardSpecError(f"{path}: legacy must be true or false, got {legacy!r}")
         try:
-            return cls(int(doc["squares_x"]), int(doc["squares_y"]), float(doc["square_length_m"]),
-                       float(doc.get("marker_length_m", 0.0)), str(doc.get("dictionary", "")), kind, legacy)
+            return cls(
+                int(doc["squares_x"]),
+                int(doc["squares_y"]),
+                float(doc["square_length_m"]),
+                float(doc.get("marker_length_m", 0.0)),
+                str(doc.get("dictionary", "")),
+                kind,
+                legacy,
+            )
         except BoardSpecError as exc:
             raise BoardSpecError(f"{path}: {exc}") from None
         except (TypeError, ValueError) as exc:

@@ -49,8 +49,13 @@ class CameraIntrinsics:
 
     def to_dict(self) -> dict:
         """JSON-serialisable dictionary."""
-        return {"K": self.K.tolist(), "dist": self.dist.tolist(), "width": int(self.width), "height": int(self.height),
-                "distortion_model": "opencv (k1, k2, p1, p2, k3)"}
+        return {
+            "K": self.K.tolist(),
+            "dist": self.dist.tolist(),
+            "width": int(self.width),
+            "height": int(self.height),
+            "distortion_model": "opencv (k1, k2, p1, p2, k3)",
+        }
 
     def save(self, path: str | Path) -> None:
         """Write as JSON, or as OpenCV FileStorage YAML when the name ends in ``.yaml``/``.yml`` (what :meth:`load`
@@ -65,8 +70,12 @@ class CameraIntrinsics:
     @classmethod
     def from_dict(cls, doc: dict) -> "CameraIntrinsics":
         """Inverse of :meth:`to_dict`."""
-        return cls(np.array(doc["K"], dtype=float), np.array(doc.get("dist", np.zeros(5)), dtype=float),
-                   int(doc.get("width", 0)), int(doc.get("height", 0)))
+        return cls(
+            np.array(doc["K"], dtype=float),
+            np.array(doc.get("dist", np.zeros(5)), dtype=float),
+            int(doc.get("width", 0)),
+            int(doc.get("height", 0)),
+        )
 
     @classmethod
     def load(cls, path: str | Path) -> "CameraIntrinsics":

@@ -91,8 +91,10 @@ def _open(path: Path, text: str):
             raise IntrinsicsError(f"{path}: not a YAML file OpenCV can read ({cause.strip()})") from None
         line = int(found.group(1)) - (0 if opencv else 1)
         problem = found.group(2).strip("' ")
-        raise IntrinsicsError(f"{path}, line {line}: not a YAML file OpenCV can read ({problem}; "
-                              f"OpenCV's YAML needs sequences indented or in brackets)") from None
+        raise IntrinsicsError(
+            f"{path}, line {line}: not a YAML file OpenCV can read ({problem}; "
+            f"OpenCV's YAML needs sequences indented or in brackets)"
+        ) from None
     if not fs.isOpened():
         raise IntrinsicsError(f"{path}: OpenCV cannot open it as YAML")
     return fs, opencv
@@ -187,11 +189,21 @@ def load_intrinsics_yaml(path: str | Path) -> CameraIntrinsics:
         if dist is None or dist.size == 0:
             dist = np.zeros(5)
         if model and model not in ROS_DISTORTION_MODELS:
-            raise _error(path, text, "distortion_model", f"distortion_model {model!r} is not OpenCV's pinhole model "
-                         f"({' or '.join(ROS_DISTORTION_MODELS)}); handeye needs one of those")
+            raise _error(
+                path,
+                text,
+                "distortion_model",
+                f"distortion_model {model!r} is not OpenCV's pinhole model "
+                f"({' or '.join(ROS_DISTORTION_MODELS)}); handeye needs one of those",
+            )
         if model and dist.size not in ROS_DISTORTION_MODELS[model]:
-            raise _error(path, text, d_key, f"{model} takes {' or '.join(map(str, ROS_DISTORTION_MODELS[model]))} "
-                         f"coefficients, {d_key} holds {dist.size}")
+            raise _error(
+                path,
+                text,
+                d_key,
+                f"{model} takes {' or '.join(map(str, ROS_DISTORTION_MODELS[model]))} "
+                f"coefficients, {d_key} holds {dist.size}",
+            )
         width, height = _size(path, text, fs)
         try:
             return CameraIntrinsics(K.reshape(3, 3), dist, width, height)

@@ -65,8 +65,18 @@ def _square_contrast(gray: np.ndarray, grid_px: np.ndarray, squares_x: int, squa
     x = (sq_c[:, None] + 0.5 + ox[None]).ravel()
     y = (sq_r[:, None] + 0.5 + oy[None]).ravel()
     uv = cv2.perspectiveTransform(np.column_stack([x, y]).reshape(-1, 1, 2), H).reshape(-1, 2).astype(np.float32)
-    vals = cv2.remap(gray.astype(np.float32), uv[:, :1], uv[:, 1:], cv2.INTER_LINEAR,
-                     borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan).reshape(len(sq_r), -1).mean(axis=1)
+    vals = (
+        cv2.remap(
+            gray.astype(np.float32),
+            uv[:, :1],
+            uv[:, 1:],
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=np.nan,
+        )
+        .reshape(len(sq_r), -1)
+        .mean(axis=1)
+    )
     white = (sq_r + sq_c) % 2 == 1
     return float(np.nanmean(vals[white]) - np.nanmean(vals[~white]))
 
@@ -92,16 +102,22 @@ def detect_checkerboard(gray: np.ndarray, squares_x: int, squares_y: int):
     found, corners = cv2.findChessboardCornersSB(gray, (nx, ny), flags=cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)
     empty = np.zeros(0, int), np.zeros((0, 2))
     if not found or corners is None or len(corners) != nx * ny:
-        return (*empty, f"checkerboard of {squares_x}x{squares_y} squares not found: all {nx}x{ny} inner corners "
-                        "must be in view (or the spec's square counts do not match the board)")
+        return (
+            *empty,
+            f"checkerboard of {squares_x}x{squares_y} squares not found: all {nx}x{ny} inner corners "
+            "must be in view (or the spec's square counts do not match the board)",
+        )
     grid = corners.reshape(ny, nx, 2).astype(float)
     ex, ey = grid[0, -1] - grid[0, 0], grid[-1, 0] - grid[0, 0]
     if ex[0] * ey[1] - ex[1] * ey[0] < 0:  # mirrored order: seen from the front, x is to the right of y
         grid = grid[:, ::-1]
     contrast = _square_contrast(gray, grid, squares_x, squares_y)
     if not abs(contrast) >= MIN_CONTRAST_GRAY:
-        return (*empty, f"checkerboard found but its orientation is unclear (squares differ by {contrast:.0f} gray "
-                        f"levels, under {MIN_CONTRAST_GRAY:.0f})")
+        return (
+            *empty,
+            f"checkerboard found but its orientation is unclear (squares differ by {contrast:.0f} gray "
+            f"levels, under {MIN_CONTRAST_GRAY:.0f})",
+        )
     if contrast < 0:  # black and white swapped: the order is turned by 180 degrees
         grid = grid[::-1, ::-1]
     return np.arange(nx * ny), grid.reshape(-1, 2), None

@@ -11,8 +11,15 @@ from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
 from handeye.core.se3 import make_transform, so3_exp
 
-__all__ = ["Detection", "ViewPose", "POSE_LIMITS", "corners_collinear", "detect_board", "estimate_pose",
-           "project_points"]
+__all__ = [
+    "Detection",
+    "ViewPose",
+    "POSE_LIMITS",
+    "corners_collinear",
+    "detect_board",
+    "estimate_pose",
+    "project_points",
+]
 
 #: Acceptance limits of a view's pose.
 POSE_LIMITS = {
@@ -105,12 +112,15 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
     n_markers = 0 if marker_ids is None else len(marker_ids)
     if ids is None or len(ids) == 0:
         if n_markers == 0:
-            reason = (f"board not found: no marker of dictionary {spec.dictionary} (wrong dictionary, or board not "
-                      "in view)")
+            reason = (
+                f"board not found: no marker of dictionary {spec.dictionary} (wrong dictionary, or board not in view)"
+            )
         else:
-            reason = (f"{n_markers} markers found but no ChArUco corner could be interpolated: too little of the board "
-                      f"in view, or the spec does not match the board ({spec.squares_x}x{spec.squares_y} squares; "
-                      f"swapped?{' legacy pattern?' if spec.squares_y % 2 == 0 else ''})")
+            reason = (
+                f"{n_markers} markers found but no ChArUco corner could be interpolated: too little of the board "
+                f"in view, or the spec does not match the board ({spec.squares_x}x{spec.squares_y} squares; "
+                f"swapped?{' legacy pattern?' if spec.squares_y % 2 == 0 else ''})"
+            )
         return Detection(np.zeros(0, int), np.zeros((0, 2)), n_markers, size, reason)
     return Detection(ids.ravel().astype(int), corners.reshape(-1, 2).astype(float), n_markers, size)
 
@@ -195,16 +205,25 @@ def estimate_pose(det: Detection, spec: BoardSpec, intr: CameraIntrinsics, limit
     order = np.argsort(errors)
     best = int(order[0])
     if count > 1 and errors[order[1]] < lim["ambiguity_ratio"] * max(errors[best], 1e-12):
-        return ViewPose(None, float(errors[best]), n,
-                        f"ambiguous pose: two poses fit within {lim['ambiguity_ratio']}x "
-                        f"({errors[best]:.2f} and {errors[order[1]]:.2f} px RMS); tilt the board more or see more "
-                        "of it")
+        return ViewPose(
+            None,
+            float(errors[best]),
+            n,
+            f"ambiguous pose: two poses fit within {lim['ambiguity_ratio']}x "
+            f"({errors[best]:.2f} and {errors[order[1]]:.2f} px RMS); tilt the board more or see more "
+            "of it",
+        )
     rvec, tvec = cv2.solvePnPRefineLM(obj, img, intr.K, intr.dist, rvecs[best].copy(), tvecs[best].copy())
     T = make_transform(so3_exp(rvec.ravel()), tvec.ravel())
     rms = float(np.sqrt(np.mean(np.sum((project_points(obj, T, intr) - img) ** 2, axis=1))))
     if rms > lim["max_rms_px"]:
-        return ViewPose(None, rms, n, f"reprojection RMS {rms:.2f} px above {lim['max_rms_px']} px "
-                                   "(wrong intrinsics, motion blur, or a mis-detection)")
+        return ViewPose(
+            None,
+            rms,
+            n,
+            f"reprojection RMS {rms:.2f} px above {lim['max_rms_px']} px "
+            "(wrong intrinsics, motion blur, or a mis-detection)",
+        )
     if T[2, 3] <= 0:
         return ViewPose(None, rms, n, "PnP put the board behind the camera")
     return ViewPose(T, rms, n)

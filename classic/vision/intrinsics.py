@@ -42,9 +42,11 @@ class IntrinsicsResult:
         """A line a person can judge the calibration by."""
         K = self.intrinsics.K
         s = self.std
-        return (f"intrinsics from {len(self.used)} views: RMS {self.rms_px:.3f} px; fx {K[0, 0]:.1f} +- {s['fx']:.1f}, "
-                f"fy {K[1, 1]:.1f} +- {s['fy']:.1f}, cx {K[0, 2]:.1f} +- {s['cx']:.1f}, cy {K[1, 2]:.1f} +- "
-                f"{s['cy']:.1f} px")
+        return (
+            f"intrinsics from {len(self.used)} views: RMS {self.rms_px:.3f} px; fx {K[0, 0]:.1f} +- {s['fx']:.1f}, "
+            f"fy {K[1, 1]:.1f} +- {s['fy']:.1f}, cx {K[0, 2]:.1f} +- {s['cx']:.1f}, cy {K[1, 2]:.1f} +- "
+            f"{s['cy']:.1f} px"
+        )
 
 
 def calibrate_intrinsics(detections: list[Detection], spec: BoardSpec, min_views: int = 4) -> IntrinsicsResult:

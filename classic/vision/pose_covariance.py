@@ -28,8 +28,14 @@ def _pixels(T: np.ndarray, p_target: np.ndarray, K: np.ndarray, dist: np.ndarray
     return project(p_target @ R.T + t, K[0, 0], K[1, 1], K[0, 2], K[1, 2], dist)
 
 
-def pose_covariances(T_cam_target: np.ndarray, corner_ids: list, corners_px: list, spec: BoardSpec,
-                     intrinsics: CameraIntrinsics, pixel_sigma: float | None = None) -> tuple[np.ndarray, float]:
+def pose_covariances(
+    T_cam_target: np.ndarray,
+    corner_ids: list,
+    corners_px: list,
+    spec: BoardSpec,
+    intrinsics: CameraIntrinsics,
+    pixel_sigma: float | None = None,
+) -> tuple[np.ndarray, float]:
     """Covariance of each view's board pose from its corners.
 
     Parameters

@@ -110,8 +110,9 @@ def project(p_cam: np.ndarray, fx: float, fy: float, cx: float, cy: float, dist:
     return np.column_stack([fx * xd + cx, fy * yd + cy])
 
 
-def _reprojection_jacobian(A: np.ndarray, X: np.ndarray, Y: np.ndarray, p_target: np.ndarray, intr: np.ndarray,
-                           with_intrinsics: bool) -> np.ndarray:
+def _reprojection_jacobian(
+    A: np.ndarray, X: np.ndarray, Y: np.ndarray, p_target: np.ndarray, intr: np.ndarray, with_intrinsics: bool
+) -> np.ndarray:
     """Analytic Jacobian of the corners' pixels w.r.t. ``[w_X, v_X, w_Y, v_Y, (fx, fy, cx, cy, k1, k2, p1, p2, k3)]``.
 
     ``p_cam = R_X^T (q - t_X)`` with ``q = R_A (R_Y p + t_Y) + t_A``; increments ``R <- exp(w) R``,
@@ -260,8 +261,15 @@ def refine_reprojection(
         return _reprojection_jacobian(A[view], X, Y, p_target, intr, refine_intrinsics)
 
     n_params = 12 + (9 if refine_intrinsics else 0)
-    fit = fit_least_squares(residuals, "2-point" if full_model else jacobian, n_params, loss=loss,
-                            loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12)
+    fit = fit_least_squares(
+        residuals,
+        "2-point" if full_model else jacobian,
+        n_params,
+        loss=loss,
+        loss_scale=loss_scale_px,
+        max_evaluations=200,
+        tol=1e-12,
+    )
     X, Y, intr = unpack(fit.x)
     r = fit.residuals.reshape(-1, 2)
     sq = np.sum(r**2, axis=1)
@@ -279,6 +287,12 @@ def refine_reprojection(
     sigma = sigma_of_blocks(cov)
     K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
     return ReprojectionResult(
-        X, Y, CameraIntrinsics(K, np.concatenate([intr[4:9], tail]), intrinsics.width, intrinsics.height),
-        float(np.sqrt(np.mean(sq))), per_view, outliers, cov, sigma,
+        X,
+        Y,
+        CameraIntrinsics(K, np.concatenate([intr[4:9], tail]), intrinsics.width, intrinsics.height),
+        float(np.sqrt(np.mean(sq))),
+        per_view,
+        outliers,
+        cov,
+        sigma,
     )

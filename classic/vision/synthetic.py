@@ -94,8 +94,14 @@ def render_view(
     map_x = (X * ppm_x + margin - 0.5).astype(np.float32)
     map_y = (Y * ppm_y + margin - 0.5).astype(np.float32)
     map_x[behind] = -1e6
-    big = cv2.remap(tex, map_x.reshape(H * s, W * s), map_y.reshape(H * s, W * s), cv2.INTER_LINEAR,
-                    borderMode=cv2.BORDER_CONSTANT, borderValue=background)
+    big = cv2.remap(
+        tex,
+        map_x.reshape(H * s, W * s),
+        map_y.reshape(H * s, W * s),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=background,
+    )
     img = cv2.resize(big.astype(np.float32), (W, H), interpolation=cv2.INTER_AREA)
     if noise_gray > 0:
         img = img + rng.normal(scale=noise_gray, size=img.shape)

@@ -50,10 +50,16 @@ class View:
 
     def to_dict(self) -> dict:
         """JSON-serialisable dictionary."""
-        out = {"image": self.image, "n_corners": int(len(self.detection.ids)),
-               "rms_px": None if np.isnan(self.pose.rms_px) else float(self.pose.rms_px), "reason": self.pose.reason,
-               "ids": self.detection.ids.tolist(), "corners_px": self.detection.corners_px.tolist(),
-               "image_size": list(self.detection.image_size), "n_markers": int(self.detection.n_markers)}
+        out = {
+            "image": self.image,
+            "n_corners": int(len(self.detection.ids)),
+            "rms_px": None if np.isnan(self.pose.rms_px) else float(self.pose.rms_px),
+            "reason": self.pose.reason,
+            "ids": self.detection.ids.tolist(),
+            "corners_px": self.detection.corners_px.tolist(),
+            "image_size": list(self.detection.image_size),
+            "n_markers": int(self.detection.n_markers),
+        }
         if self.pose.ok:
             t, q = pos_quat_xyzw_from_transform(self.pose.T_cam_target)
             out["T_cam_target"] = {"translation_m": t.tolist(), "quaternion_xyzw": q.tolist()}
@@ -90,22 +96,44 @@ class Views:
         """Write ``path`` (JSON) and the CSV summary beside it; returns the CSV path."""
         path = Path(path)
         folder = Path(_relpath(self.image_folder, path.parent))
-        doc = {"format": "handeye-detections-1", "board": self.spec.to_dict(), "intrinsics": self.intrinsics.to_dict(),
-               "intrinsics_report": self.intrinsics_report, "image_folder": str(folder),
-               "views": [v.to_dict() for v in self.views]}
+        doc = {
+            "format": "handeye-detections-1",
+            "board": self.spec.to_dict(),
+            "intrinsics": self.intrinsics.to_dict(),
+            "intrinsics_report": self.intrinsics_report,
+            "image_folder": str(folder),
+            "views": [v.to_dict() for v in self.views],
+        }
         path.write_text(json.dumps(doc, indent=1) + "\n")
         csv_path = path.with_suffix(".csv")
         with csv_path.open("w", newline="") as f:
             w = csv.writer(f)
-            w.writerow(["image", "n_corners", "rms_px", "T_cam_target.x", "T_cam_target.y", "T_cam_target.z",
-                        "T_cam_target.qx", "T_cam_target.qy", "T_cam_target.qz", "T_cam_target.qw", "reason"])
+            w.writerow(
+                [
+                    "image",
+                    "n_corners",
+                    "rms_px",
+                    "T_cam_target.x",
+                    "T_cam_target.y",
+                    "T_cam_target.z",
+                    "T_cam_target.qx",
+                    "T_cam_target.qy",
+                    "T_cam_target.qz",
+                    "T_cam_target.qw",
+                    "reason",
+                ]
+            )
             for v in self.views:
                 d = v.to_dict()
-                pose = (d["T_cam_target"]["translation_m"] + d["T_cam_target"]["quaternion_xyzw"]
-                        if "T_cam_target" in d else [""] * 7)
+                pose = (
+                    d["T_cam_target"]["translation_m"] + d["T_cam_target"]["quaternion_xyzw"]
+                    if "T_cam_target" in d
+                    else [""] * 7
+                )
                 rms = "" if d["rms_px"] is None else f"{d['rms_px']:.4f}"
-                w.writerow([v.image, d["n_corners"], rms, *[f"{x:.9g}" if x != "" else "" for x in pose],
-                            v.pose.reason or ""])
+                w.writerow(
+                    [v.image, d["n_corners"], rms, *[f"{x:.9g}" if x != "" else "" for x in pose], v.pose.reason or ""]
+                )
         return csv_path
 
     @classmethod
@@ -126,12 +154,17 @@ class Views:
             intr = CameraIntrinsics.from_dict(doc["intrinsics"])
             views = []
             for v in doc["views"]:
-                det = Detection(np.array(v["ids"], dtype=int), np.array(v["corners_px"], dtype=float).reshape(-1, 2),
-                                int(v.get("n_markers", 0)), tuple(v["image_size"]))
+                det = Detection(
+                    np.array(v["ids"], dtype=int),
+                    np.array(v["corners_px"], dtype=float).reshape(-1, 2),
+                    int(v.get("n_markers", 0)),
+                    tuple(v["image_size"]),
+                )
                 T = None
                 if "T_cam_target" in v:
-                    T = transform_from_pos_quat_xyzw(np.array(v["T_cam_target"]["translation_m"]),
-                                                     np.array(v["T_cam_target"]["quaternion_xyzw"]))
+                    T = transform_from_pos_quat_xyzw(
+                        np.array(v["T_cam_target"]["translation_m"]), np.array(v["T_cam_target"]["quaternion_xyzw"])
+                    )
                 rms = np.nan if v["rms_px"] is None else float(v["rms_px"])
                 views.append(View(v["image"], det, ViewPose(T, rms, len(det.ids), v["reason"])))
         except FileNotFoundError:
@@ -147,8 +180,9 @@ def _relpath(target: Path, start: Path) -> str:
     return os.path.relpath(Path(target).resolve(), Path(start).resolve())
 
 
-def detect_folder(folder: str | Path, spec: BoardSpec, intrinsics: CameraIntrinsics | None = None,
-                  progress: bool = True) -> tuple[Views, IntrinsicsResult | None]:
+def detect_folder(
+    folder: str | Path, spec: BoardSpec, intrinsics: CameraIntrinsics | None = None, progress: bool = True
+) -> tuple[Views, IntrinsicsResult | None]:
     """Detect the board in every image of a folder and estimate each view's pose.
 
     Without intrinsics, they are first calibrated from the same images.
@@ -197,6 +231,7 @@ def detect_folder(folder: str | Path, spec: BoardSpec, intrinsics: CameraIntrins
         if intrinsics.width and (intrinsics.width, intrinsics.height) != detections[0].image_size:
             raise HandEyeInputError(
                 f"intrinsics are for {intrinsics.width}x{intrinsics.height} images but {folder} holds "
-                f"{detections[0].image_size[0]}x{detections[0].image_size[1]} images")
+                f"{detections[0].image_size[0]}x{detections[0].image_size[1]} images"
+            )
     views = [View(f.name, d, estimate_pose(d, spec, intrinsics)) for f, d in zip(files, detections)]
     return Views(views, spec, intrinsics, folder, report), calibrated

@@ -30,17 +30,30 @@ INCH_M = 0.0254
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("board", help="write a printable ChArUco board (PNG) and its spec (JSON)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--kind", default="charuco", choices=["charuco", "checkerboard", "aruco-grid"],
-                   help="board kind (default charuco)")
+    p = sub.add_parser(
+        "board",
+        help="write a printable ChArUco board (PNG) and its spec (JSON)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--kind",
+        default="charuco",
+        choices=["charuco", "checkerboard", "aruco-grid"],
+        help="board kind (default charuco)",
+    )
     p.add_argument("--legacy", action="store_true", help="ChArUco: OpenCV's legacy pattern (setLegacyPattern)")
     p.add_argument("--squares", default="7x5", help="squares (aruco-grid: markers) along x and y, e.g. 7x5")
     p.add_argument("--square", type=float, default=0.04, help="square side (aruco-grid: marker pitch) in metres")
     p.add_argument("--marker", type=float, default=0.03, help="marker side in metres")
-    p.add_argument("--dict", "--dictionary", dest="dict", default=None,
-                   help="ArUco or AprilTag dictionary, e.g. 5X5_100, 4X4_50, APRILTAG_36h11 (default 5X5_100; "
-                        "APRILTAG_36h11 for aruco-grid)")
+    p.add_argument(
+        "--dict",
+        "--dictionary",
+        dest="dict",
+        default=None,
+        help="ArUco or AprilTag dictionary, e.g. 5X5_100, 4X4_50, APRILTAG_36h11 (default 5X5_100; "
+        "APRILTAG_36h11 for aruco-grid)",
+    )
     p.add_argument("--dpi", type=float, default=300.0, help="printer resolution")
     p.add_argument("--margin", type=float, default=0.01, help="white margin around the board, metres")
     p.add_argument("-o", "--output", type=Path, default=Path("board.png"), help="PNG path; the spec goes beside it")
@@ -82,9 +95,11 @@ def run(args: argparse.Namespace) -> int:
         raise BoardSpecError(f"{args.output}: cannot write the image ({exc.strerror or exc})") from None
     printed_square_m = spec.pixels_per_square(ppm) / ppm
     if abs(printed_square_m - spec.square_length_m) > 0.001 * spec.square_length_m:
-        print(f"warning: at {args.dpi:g} dpi a square is {spec.pixels_per_square(ppm)} px = "
-              f"{1000 * printed_square_m:.3f} mm, not {1000 * spec.square_length_m:.3f} mm; measure the print "
-              "and correct square_length_m / marker_length_m in the JSON")
+        print(
+            f"warning: at {args.dpi:g} dpi a square is {spec.pixels_per_square(ppm)} px = "
+            f"{1000 * printed_square_m:.3f} mm, not {1000 * spec.square_length_m:.3f} mm; measure the print "
+            "and correct square_length_m / marker_length_m in the JSON"
+        )
     json_path = args.output.with_suffix(".json")
     spec.save(json_path)
     w_m, h_m = spec.size_m

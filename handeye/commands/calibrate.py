@@ -53,41 +53,80 @@ def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
     from classic.calibrate import DEFAULT_METHOD, METHODS
 
-    p = sub.add_parser("calibrate", help="hand-eye calibration from a pose file, or from board detections",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("poses", type=Path, nargs="?",
-                   help="pose file: CSV or JSON of T_base_ee and T_cam_target, or an easy_handeye sample list "
-                        "(.yaml, .yml, .samples)")
+    p = sub.add_parser(
+        "calibrate",
+        help="hand-eye calibration from a pose file, or from board detections",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "poses",
+        type=Path,
+        nargs="?",
+        help="pose file: CSV or JSON of T_base_ee and T_cam_target, or an easy_handeye sample list "
+        "(.yaml, .yml, .samples)",
+    )
     p.add_argument("--detections", type=Path, help="detections.json from 'handeye detect' (instead of a pose file)")
-    p.add_argument("--robot-poses", type=Path,
-                   help="with --detections: CSV/JSON of T_base_ee per image (an 'image' column pairs them by name)")
-    p.add_argument("--no-reprojection", action="store_true",
-                   help="with --detections: skip the refinement on corner reprojection error")
-    p.add_argument("--refine-intrinsics", action="store_true",
-                   help="with --detections: refine the camera intrinsics in the reprojection refinement")
-    p.add_argument("--setup", required=True, choices=["eye-to-hand", "eye-in-hand", "eye_to_hand", "eye_in_hand"],
-                   help="eye-to-hand: static camera, target on the flange; eye-in-hand: camera on the flange")
+    p.add_argument(
+        "--robot-poses",
+        type=Path,
+        help="with --detections: CSV/JSON of T_base_ee per image (an 'image' column pairs them by name)",
+    )
+    p.add_argument(
+        "--no-reprojection",
+        action="store_true",
+        help="with --detections: skip the refinement on corner reprojection error",
+    )
+    p.add_argument(
+        "--refine-intrinsics",
+        action="store_true",
+        help="with --detections: refine the camera intrinsics in the reprojection refinement",
+    )
+    p.add_argument(
+        "--setup",
+        required=True,
+        choices=["eye-to-hand", "eye-in-hand", "eye_to_hand", "eye_in_hand"],
+        help="eye-to-hand: static camera, target on the flange; eye-in-hand: camera on the flange",
+    )
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"closed form (default {DEFAULT_METHOD})")
     p.add_argument("--pairs", default="all", choices=["all", "consecutive"], help="motion pairs for AX=XB methods")
-    p.add_argument("--no-refine", action="store_true",
-                   help="skip the refinement (maximum likelihood under the noise model)")
+    p.add_argument(
+        "--no-refine", action="store_true", help="skip the refinement (maximum likelihood under the noise model)"
+    )
     p.add_argument("--robust", action="store_true", help="flag gross outlier poses and refine with a robust loss")
-    p.add_argument("--loss", choices=["linear", "huber", "cauchy"],
-                   help="refinement loss (default linear, cauchy if --robust)")
-    add_noise_arguments(p, "with --robot-noise the refinement is maximum likelihood under both (default: "
-                           "camera-only, estimated from the residuals)")
-    p.add_argument("--estimate-scale", action="store_true",
-                   help="also estimate a metric scale of the camera translations (monocular SLAM poses)")
-    p.add_argument("--units", choices=["m", "mm"],
-                   help="translation units of the file, for every pose (default m, or the JSON's 'units'; mm for "
-                        "poses in KUKA .a .b .c, Fanuc .w .p .r or ABB .q1-.q4 columns)")
-    p.add_argument("--quat-order", choices=["xyzw", "wxyz"],
-                   help="order of positional quaternions (JSON lists, CSV .q0-.q3 columns); default xyzw")
+    p.add_argument(
+        "--loss", choices=["linear", "huber", "cauchy"], help="refinement loss (default linear, cauchy if --robust)"
+    )
+    add_noise_arguments(
+        p,
+        "with --robot-noise the refinement is maximum likelihood under both (default: "
+        "camera-only, estimated from the residuals)",
+    )
+    p.add_argument(
+        "--estimate-scale",
+        action="store_true",
+        help="also estimate a metric scale of the camera translations (monocular SLAM poses)",
+    )
+    p.add_argument(
+        "--units",
+        choices=["m", "mm"],
+        help="translation units of the file, for every pose (default m, or the JSON's 'units'; mm for "
+        "poses in KUKA .a .b .c, Fanuc .w .p .r or ABB .q1-.q4 columns)",
+    )
+    p.add_argument(
+        "--quat-order",
+        choices=["xyzw", "wxyz"],
+        help="order of positional quaternions (JSON lists, CSV .q0-.q3 columns); default xyzw",
+    )
     p.add_argument("--truth", type=Path, help="JSON with the true X (and Y) by frame name: prints the error")
     p.add_argument("-o", "--output", type=Path, help="write the result as JSON here ('-' for stdout)")
-    p.add_argument("--report", type=Path, metavar="DIR",
-                   help="write an HTML report (index.html and its PNGs) into DIR: residuals, frames in 3-D, motion, "
-                        "a hold-out check, reprojection overlays with --detections (needs matplotlib)")
+    p.add_argument(
+        "--report",
+        type=Path,
+        metavar="DIR",
+        help="write an HTML report (index.html and its PNGs) into DIR: residuals, frames in 3-D, motion, "
+        "a hold-out check, reprojection overlays with --detections (needs matplotlib)",
+    )
     from handeye.ros_exports import add_export_arguments
 
     add_export_arguments(p)
@@ -119,8 +158,10 @@ def _fmt_pose(name: str, T: np.ndarray) -> str:
     from handeye.core.se3 import pos_quat_xyzw_from_transform
 
     t, q = pos_quat_xyzw_from_transform(T)
-    return (f"  {name}: translation [m] = [{t[0]:+.5f}, {t[1]:+.5f}, {t[2]:+.5f}]"
-            f"  quaternion xyzw = [{q[0]:+.6f}, {q[1]:+.6f}, {q[2]:+.6f}, {q[3]:+.6f}]")
+    return (
+        f"  {name}: translation [m] = [{t[0]:+.5f}, {t[1]:+.5f}, {t[2]:+.5f}]"
+        f"  quaternion xyzw = [{q[0]:+.6f}, {q[1]:+.6f}, {q[2]:+.6f}, {q[3]:+.6f}]"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -149,23 +190,36 @@ def _run_detections(args: argparse.Namespace) -> int:
     views = Views.load(args.detections)
     robot = read_robot_poses(args.robot_poses, quat_order=args.quat_order, units=args.units)
     T_base_ee = pair_robot_poses([v.image for v in views.views], robot.images, robot.T_base_ee, robot.source)
-    out = calibrate_from_views(views, T_base_ee, setup, method=args.method, robust=args.robust,
-                               reprojection=not args.no_reprojection, refine_intrinsics=args.refine_intrinsics)
+    out = calibrate_from_views(
+        views,
+        T_base_ee,
+        setup,
+        method=args.method,
+        robust=args.robust,
+        reprojection=not args.no_reprojection,
+        refine_intrinsics=args.refine_intrinsics,
+    )
     x_name, y_name = UNKNOWN_NAMES[setup]
     res = out.pose_based
-    lines = [f"handeye calibrate --detections {args.detections} --robot-poses {args.robot_poses} --setup "
-             f"{setup.replace('_', '-')}",
-             f"{len(views.views)} images, {len(views.accepted)} with a pose; method {res.method}",
-             "pose-based:",
-             _fmt_pose(x_name, res.X),
-             f"    1-sigma: {res.sigma['X_rotation_deg']:.4f} deg, {res.sigma['X_translation_mm']:.3f} mm"]
+    lines = [
+        f"handeye calibrate --detections {args.detections} --robot-poses {args.robot_poses} --setup "
+        f"{setup.replace('_', '-')}",
+        f"{len(views.views)} images, {len(views.accepted)} with a pose; method {res.method}",
+        "pose-based:",
+        _fmt_pose(x_name, res.X),
+        f"    1-sigma: {res.sigma['X_rotation_deg']:.4f} deg, {res.sigma['X_translation_mm']:.3f} mm",
+    ]
     for image, reason in out.rejected.items():
         lines.append(f"  rejected {image}: {reason}")
     rep = out.reprojection
     if rep is not None:
-        lines += ["refined on corner reprojection error:", _fmt_pose(x_name, rep.X),
-                  f"    1-sigma: {rep.sigma['X_rotation_deg']:.4f} deg, {rep.sigma['X_translation_mm']:.3f} mm",
-                  _fmt_pose(y_name, rep.Y), f"  pixel RMS {rep.rms_px:.3f} px; per view:"]
+        lines += [
+            "refined on corner reprojection error:",
+            _fmt_pose(x_name, rep.X),
+            f"    1-sigma: {rep.sigma['X_rotation_deg']:.4f} deg, {rep.sigma['X_translation_mm']:.3f} mm",
+            _fmt_pose(y_name, rep.Y),
+            f"  pixel RMS {rep.rms_px:.3f} px; per view:",
+        ]
         for k, (image, rms) in enumerate(zip(out.images, rep.per_view_rms_px)):
             flag = "  <- outlier" if k in rep.outlier_views else ""
             lines.append(f"    {image}: {rms:.3f} px{flag}")
@@ -178,9 +232,12 @@ def _run_detections(args: argparse.Namespace) -> int:
         doc["rejected"] = out.rejected
         if rep is not None:
             doc["reprojection"] = {
-                x_name: rep.X.tolist(), y_name: rep.Y.tolist(), "rms_px": rep.rms_px,
+                x_name: rep.X.tolist(),
+                y_name: rep.Y.tolist(),
+                "rms_px": rep.rms_px,
                 "per_view_rms_px": dict(zip(out.images, map(float, rep.per_view_rms_px))),
-                "outlier_views": [out.images[k] for k in rep.outlier_views], "sigma": rep.sigma,
+                "outlier_views": [out.images[k] for k in rep.outlier_views],
+                "sigma": rep.sigma,
                 "intrinsics": rep.intrinsics.to_dict(),
             }
         text = json.dumps(doc, indent=2)
@@ -206,9 +263,18 @@ def _run_poses(args: argparse.Namespace) -> int:
     poses = load_poses(args.poses, setup, quat_order=args.quat_order, units=args.units)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup=setup, method=args.method,
-                                pairs=args.pairs, refine=not args.no_refine, robust=args.robust, loss=args.loss,
-                                noise=noise_model_from_args(args), estimate_scale=args.estimate_scale)
+        res = classic.calibrate(
+            poses.T_base_ee,
+            poses.T_cam_target,
+            setup=setup,
+            method=args.method,
+            pairs=args.pairs,
+            refine=not args.no_refine,
+            robust=args.robust,
+            loss=args.loss,
+            noise=noise_model_from_args(args),
+            estimate_scale=args.estimate_scale,
+        )
     out = sys.stderr if args.output is not None and str(args.output) == "-" else sys.stdout
     x_name, y_name = UNKNOWN_NAMES[setup]
     sig = res.sigma
@@ -226,14 +292,18 @@ def _run_poses(args: argparse.Namespace) -> int:
     lines.append(f"  noise model: {describe_noise(res.diagnostics['noise_model'])}")
     if not res.diagnostics["noise_model"].get("estimated"):
         vf = res.diagnostics["refinement"]["variance_factor"]
-        lines.append(f"    residuals / model: variance factor {vf:.2f} (1 when the stated noise fits the data; the "
-                     "sigmas above assume the stated noise)")
+        lines.append(
+            f"    residuals / model: variance factor {vf:.2f} (1 when the stated noise fits the data; the "
+            "sigmas above assume the stated noise)"
+        )
     if "scale" in res.diagnostics:
         sc = res.diagnostics["scale"]
         lines.append(f"  camera translation scale: {sc['value']:.6f} +- {sc['sigma']:.6f}")
     motion = res.diagnostics["motion"]
-    lines.append(f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
-                 f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg")
+    lines.append(
+        f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
+        f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg"
+    )
     for w in caught:
         lines.append(f"  warning: {w.message}")
     lines += _truth_lines(args.truth, ((x_name, res.X), (y_name, res.Y)))
@@ -249,7 +319,13 @@ def _run_poses(args: argparse.Namespace) -> int:
     if args.report is not None:
         from handeye.report.from_command import report_poses
 
-        page = report_poses(args, poses.T_base_ee, poses.T_cam_target, res, noise_model_from_args(args),
-                            [str(w.message) for w in caught])
+        page = report_poses(
+            args,
+            poses.T_base_ee,
+            poses.T_cam_target,
+            res,
+            noise_model_from_args(args),
+            [str(w.message) for w in caught],
+        )
         print(f"  report: {page}", file=out)
     return 0

@@ -26,8 +26,12 @@ __all__ = ["add_parser", "run", "compare_table"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("compare", help="learned vs classic label vs truth, per test camera pose",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "compare",
+        help="learned vs classic label vs truth, per test camera pose",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("dataset", type=Path)
     p.add_argument("--model", type=Path, required=True, help="directory with translation.pt and orientation.pt")
     p.add_argument("--split", default="test", choices=("test", "train", "all"))
@@ -48,13 +52,21 @@ def compare_table(pc: dict, hybrid=None) -> str:
     headers += ["hybrid vs truth"] if hybrid is not None else []
     rows = []
     for i, c in enumerate(pc["camera"]):
-        row = [c, f"S{pc['region'][i] + 1}",
-               f"{pc['learned_vs_label_mm'][i]:.2f} / {pc['learned_vs_label_deg'][i]:.2f}",
-               f"{pc['learned_vs_truth_mm'][i]:.2f} / {pc['learned_vs_truth_deg'][i]:.2f}"]
+        row = [
+            c,
+            f"S{pc['region'][i] + 1}",
+            f"{pc['learned_vs_label_mm'][i]:.2f} / {pc['learned_vs_label_deg'][i]:.2f}",
+            f"{pc['learned_vs_truth_mm'][i]:.2f} / {pc['learned_vs_truth_deg'][i]:.2f}",
+        ]
         if hybrid is not None:
             res, err = hybrid.results.get(c), hybrid.errors.get(c)
-            row.append(f"{err[1]:.3f} / {err[0]:.4f}" if err else
-                       f"refused ({res.refused.split(':')[0]})" if res is not None and not res.ok else "-")
+            row.append(
+                f"{err[1]:.3f} / {err[0]:.4f}"
+                if err
+                else f"refused ({res.refused.split(':')[0]})"
+                if res is not None and not res.ok
+                else "-"
+            )
         rows.append(row + [f"{pc['label_vs_truth_mm'][i]:.3f} / {pc['label_vs_truth_deg'][i]:.4f}"])
     return "\n".join(markdown_table(headers + ["classic vs truth"], rows))
 
@@ -77,19 +89,27 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
         pred = predict(model, frames, idx)
         p_cam = backproject_keypoints(pred, frames.intrinsics_norm[idx]).reshape(-1, 3)
         k = pred.shape[1]
-        res = solve_keypoint_pose(p_cam, frames.keypoints_base[idx].reshape(-1, 3), np.repeat(np.arange(len(idx)), k),
-                                  inlier_m=0.1)
+        res = solve_keypoint_pose(
+            p_cam, frames.keypoints_base[idx].reshape(-1, 3), np.repeat(np.arange(len(idx)), k), inlier_m=0.1
+        )
         if not res.ok:
             rows.append([c, f"refused: {res.refused}", "-", "-"])
             continue
-        truth = transform_from_pos_quat_xyzw(frames.truth_t_base_cam_mm[idx[0]] / 1000.0,
-                                             frames.truth_q_base_cam_xyzw[idx[0]])
+        truth = transform_from_pos_quat_xyzw(
+            frames.truth_t_base_cam_mm[idx[0]] / 1000.0, frames.truth_q_base_cam_xyzw[idx[0]]
+        )
         deg, mm = pose_error(res.T_base_cam, truth)
-        rows.append([c, f"{mm:.1f} / {deg:.2f}",
-                     f"{res.sigma['translation_mm']:.1f} / {res.sigma['rotation_deg']:.2f}",
-                     f"{int(res.inliers.sum())} of {len(res.inliers)}"])
-    return "\n".join(markdown_table(["camera", "keypoint solve vs truth (mm / deg)", "sigma (mm / deg)",
-                                      "keypoints agreeing"], rows))
+        rows.append(
+            [
+                c,
+                f"{mm:.1f} / {deg:.2f}",
+                f"{res.sigma['translation_mm']:.1f} / {res.sigma['rotation_deg']:.2f}",
+                f"{int(res.inliers.sum())} of {len(res.inliers)}",
+            ]
+        )
+    return "\n".join(
+        markdown_table(["camera", "keypoint solve vs truth (mm / deg)", "sigma (mm / deg)", "keypoints agreeing"], rows)
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -129,10 +149,14 @@ def run(args: argparse.Namespace) -> int:
         hybrid = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model)
     print(compare_table(pc, hybrid))
     for key in ("learned_vs_label", "learned_vs_truth", "label_vs_truth"):
-        print(f"median {key.replace('_', ' ')}: {np.median(pc[key + '_mm']):.2f} mm, "
-              f"{np.median(pc[key + '_deg']):.3f} deg")
+        print(
+            f"median {key.replace('_', ' ')}: {np.median(pc[key + '_mm']):.2f} mm, "
+            f"{np.median(pc[key + '_deg']):.3f} deg"
+        )
     if hybrid is not None and hybrid.errors:
         e = np.array(list(hybrid.errors.values()))
-        print(f"median hybrid vs truth: {np.median(e[:, 1]):.3f} mm, {np.median(e[:, 0]):.4f} deg "
-              f"({len(hybrid.errors)} of {len(hybrid.results)} accepted)")
+        print(
+            f"median hybrid vs truth: {np.median(e[:, 1]):.3f} mm, {np.median(e[:, 0]):.4f} deg "
+            f"({len(hybrid.errors)} of {len(hybrid.results)} accepted)"
+        )
     return 0

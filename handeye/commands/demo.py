@@ -28,8 +28,12 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("demo", help="small dataset -> labels -> continual training -> comparison",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "demo",
+        help="small dataset -> labels -> continual training -> comparison",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--data", type=Path, default=Path("data/demo"))
     p.add_argument("--out", type=Path, default=Path("runs/demo"))
     p.add_argument("--sim-preset", default="demo")
@@ -61,8 +65,14 @@ def run(args: argparse.Namespace) -> int:
     labels = label_dataset(args.data, progress=not args.quiet)
     print("      " + labels.summary().replace("\n", "\n      "))
     print(f"[3/4] continual training, preset {args.preset}, strategies {args.strategies}")
-    results = run_experiment(args.data, args.preset, [s.strip() for s in args.strategies.split(",")], args.out,
-                             progress=not args.quiet, threads=2)
+    results = run_experiment(
+        args.data,
+        args.preset,
+        [s.strip() for s in args.strategies.split(",")],
+        args.out,
+        progress=not args.quiet,
+        threads=2,
+    )
     write_report(args.out)
     print("[4/4] per test camera pose, translation mm / rotation deg:")
     from handeye.markerless import markerless_dataset

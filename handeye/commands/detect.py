@@ -27,13 +27,19 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("detect", help="detect the board in a folder of images and estimate poses",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "detect",
+        help="detect the board in a folder of images and estimate poses",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("images", type=Path, help="folder of PNG/JPEG images")
     p.add_argument("--board", type=Path, required=True, help="board spec written by 'handeye board'")
-    p.add_argument("--intrinsics", type=Path,
-                   help="camera.json, or a ROS camera_info / OpenCV FileStorage .yaml; calibrated from the images "
-                        "when omitted")
+    p.add_argument(
+        "--intrinsics",
+        type=Path,
+        help="camera.json, or a ROS camera_info / OpenCV FileStorage .yaml; calibrated from the images when omitted",
+    )
     p.add_argument("-o", "--output", type=Path, default=Path("detections.json"))
     p.set_defaults(run=run)
     return p
@@ -57,8 +63,10 @@ def run(args: argparse.Namespace) -> int:
     for v in views.views:
         if v.pose.ok:
             t = v.pose.T_cam_target[:3, 3]
-            print(f"  {v.image:<{width}}  {len(v.detection.ids):3d} corners  {v.pose.rms_px:6.3f} px  "
-                  f"t = [{t[0]:+.4f}, {t[1]:+.4f}, {t[2]:+.4f}] m")
+            print(
+                f"  {v.image:<{width}}  {len(v.detection.ids):3d} corners  {v.pose.rms_px:6.3f} px  "
+                f"t = [{t[0]:+.4f}, {t[1]:+.4f}, {t[2]:+.4f}] m"
+            )
         else:
             print(f"  {v.image:<{width}}  rejected: {v.pose.reason}")
     csv_path = views.save(args.output)

@@ -21,12 +21,21 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("intrinsics", help="calibrate camera intrinsics from board images",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "intrinsics",
+        help="calibrate camera intrinsics from board images",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("images", type=Path, help="folder of PNG/JPEG images")
     p.add_argument("--board", type=Path, required=True, help="board spec written by 'handeye board'")
-    p.add_argument("-o", "--output", type=Path, default=Path("camera.json"),
-                   help="camera.json (default); a .yaml/.yml name writes OpenCV FileStorage YAML")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=Path("camera.json"),
+        help="camera.json (default); a .yaml/.yml name writes OpenCV FileStorage YAML",
+    )
     p.set_defaults(run=run)
     return p
 

@@ -23,8 +23,12 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("label", help="label a dataset: classic calibration per camera pose",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "label",
+        help="label a dataset: classic calibration per camera pose",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("dataset", type=Path, help="dataset directory")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
     p.add_argument("--method", default="park", help="closed form of the pose-based solve (default park)")
@@ -42,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
 
     report = label_dataset(args.dataset, workers=args.workers, method=args.method, progress=not args.quiet)
     print(report.summary())
-    print(f"written: {report.root / 'cameras.csv'} (label columns), {report.root / 'labels.md'}, "
-          f"{report.root / 'label_errors.png'} ({report.wall_s:.1f} s)")
+    print(
+        f"written: {report.root / 'cameras.csv'} (label columns), {report.root / 'labels.md'}, "
+        f"{report.root / 'label_errors.png'} ({report.wall_s:.1f} s)"
+    )
     return 0

@@ -29,25 +29,40 @@ __all__ = ["add_parser", "run_run", "run_report"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command group."""
-    p = sub.add_parser("learned", help="train and report the learned continual calibration",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "learned",
+        help="train and report the learned continual calibration",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     lsub = p.add_subparsers(dest="learned_command", required=True, metavar="LEARNED_COMMAND")
     r = lsub.add_parser("run", help="run the continual-learning protocol on a labelled dataset")
     r.add_argument("--data", type=Path, required=True, help="labelled dataset directory")
     r.add_argument("--preset", default="cpu", help="tiny, demo, cpu (default) or paper")
     r.add_argument("--strategies", default="batch,naive,reservoir,selection")
-    r.add_argument("--labels", default="classic", choices=("classic", "truth", "markerless"),
-                   help="training targets; markerless: classic labels in the first region, the markerless "
-                        "labels after it (no board)")
-    r.add_argument("--family", default="regression", choices=("regression", "keypoints"),
-                   help="regression: the paper's two networks (default); keypoints: the equivariant model that "
-                        "finds the arm's joints in the image and solves the camera pose")
+    r.add_argument(
+        "--labels",
+        default="classic",
+        choices=("classic", "truth", "markerless"),
+        help="training targets; markerless: classic labels in the first region, the markerless "
+        "labels after it (no board)",
+    )
+    r.add_argument(
+        "--family",
+        default="regression",
+        choices=("regression", "keypoints"),
+        help="regression: the paper's two networks (default); keypoints: the equivariant model that "
+        "finds the arm's joints in the image and solves the camera pose",
+    )
     r.add_argument("--out", type=Path, required=True, help="run directory")
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     r.add_argument("--quiet", action="store_true")
-    r.add_argument("--fresh", action="store_true",
-                   help="discard <out>/checkpoint.pt of an earlier, unfinished run instead of resuming it")
+    r.add_argument(
+        "--fresh",
+        action="store_true",
+        help="discard <out>/checkpoint.pt of an earlier, unfinished run instead of resuming it",
+    )
     r.set_defaults(run=run_run)
     rep = lsub.add_parser("report", help="tables (markdown, CSV) and figures (PNG) of a run")
     rep.add_argument("run_dir", type=Path)
@@ -69,11 +84,19 @@ def run_run(args: argparse.Namespace) -> int:
         require_package("pinocchio", extra="sim", purpose="the arm's keypoints from its kinematics")
         from handeye.learned_frames import load_keypoint_frames
 
-        data = load_keypoint_frames(args.data, get_preset(args.preset).image_size, args.labels,
-                                    progress=not args.quiet)
-    results = run_experiment(data, args.preset, [s.strip() for s in args.strategies.split(",")], args.out,
-                             args.labels, args.seed, progress=not args.quiet, threads=args.threads,
-                             family=args.family, resume=not args.fresh)
+        data = load_keypoint_frames(args.data, get_preset(args.preset).image_size, args.labels, progress=not args.quiet)
+    results = run_experiment(
+        data,
+        args.preset,
+        [s.strip() for s in args.strategies.split(",")],
+        args.out,
+        args.labels,
+        args.seed,
+        progress=not args.quiet,
+        threads=args.threads,
+        family=args.family,
+        resume=not args.fresh,
+    )
     for line in findings(results):
         print(line)
     print(f"written: {args.out / 'results.json'}; next: handeye learned report {args.out}")
@@ -86,6 +109,6 @@ def run_report(args: argparse.Namespace) -> int:
 
     text = write_report(args.run_dir)
     start = text.find("## Final step")
-    print(text[start:text.find("## Per test camera pose")] if start >= 0 else text)
+    print(text[start : text.find("## Per test camera pose")] if start >= 0 else text)
     print(f"written: {args.run_dir / 'report.md'}, CSV tables and PNG figures in {args.run_dir}")
     return 0

@@ -29,21 +29,29 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("markerless", help="camera pose from the robot's surface in depth (no board)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "markerless",
+        help="camera pose from the robot's surface in depth (no board)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("dataset", type=Path, help="dataset directory")
     p.add_argument("--camera", type=int, nargs="+", help="camera placements (default all)")
     start = p.add_mutually_exclusive_group()
     start.add_argument("--model", type=Path, help="learned model directory (translation.pt, orientation.pt)")
     start.add_argument("--start", type=Path, help="JSON start T_base_cam (a rough guess)")
     p.add_argument("--urdf", type=Path, help="robot URDF with visual meshes (default: the dataset's UR)")
-    p.add_argument("--package-dir", type=Path, action="append", default=[],
-                   help="folder for package:// mesh paths (repeatable)")
+    p.add_argument(
+        "--package-dir", type=Path, action="append", default=[], help="folder for package:// mesh paths (repeatable)"
+    )
     p.add_argument("--depth-noise", type=float, default=0.001, help="depth sigma at 1 m, metres (default 0.001)")
     p.add_argument("-o", "--out", type=Path, help="write the results as JSON")
-    p.add_argument("--write-labels", action="store_true",
-                   help="write the results into the dataset's cameras.csv as markerless labels (for "
-                        "'handeye learned run --labels markerless')")
+    p.add_argument(
+        "--write-labels",
+        action="store_true",
+        help="write the results into the dataset's cameras.csv as markerless labels (for "
+        "'handeye learned run --labels markerless')",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
     return p
@@ -61,10 +69,16 @@ def run(args: argparse.Namespace) -> int:
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
     start = read_start(args.start) if args.start else None
-    out = markerless_dataset(args.dataset, args.camera, model_dir=args.model, T_base_cam_start=start, urdf=args.urdf,
-                             package_dirs=args.package_dir,
-                             options=MarkerlessOptions(depth_sigma_m_at_1m=args.depth_noise),
-                             progress=not args.quiet)
+    out = markerless_dataset(
+        args.dataset,
+        args.camera,
+        model_dir=args.model,
+        T_base_cam_start=start,
+        urdf=args.urdf,
+        package_dirs=args.package_dir,
+        options=MarkerlessOptions(depth_sigma_m_at_1m=args.depth_noise),
+        progress=not args.quiet,
+    )
     print(out.table())
     if args.out:
         write_json_atomic(args.out, out.to_dict())

@@ -21,8 +21,12 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser("show", help="contact sheet of a camera pose: views, detections, label vs truth",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "show",
+        help="contact sheet of a camera pose: views, detections, label vs truth",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("dataset", type=Path, help="dataset directory")
     p.add_argument("--camera", type=int, required=True, help="camera id")
     p.add_argument("-o", "--output", type=Path, default=None, help="PNG path (default cam<N>.png)")

@@ -48,10 +48,28 @@ from handeye.core.jsonfile import read_json_file
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = [
-    "FORMAT", "FORMAT_VERSION", "RECORDINGS", "POSE_FIELDS", "CAMERA_COLUMNS", "LABEL_COLUMNS", "MARKERLESS_COLUMNS",
-    "camera_table_columns", "Dataset",
-    "pose_columns", "frame_columns", "poses_to_columns", "columns_to_poses", "read_table", "write_table", "shard_name",
-    "write_manifest", "shard_is_complete", "write_json_atomic", "encode_depth", "decode_depth", "dataset_lock",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "RECORDINGS",
+    "POSE_FIELDS",
+    "CAMERA_COLUMNS",
+    "LABEL_COLUMNS",
+    "MARKERLESS_COLUMNS",
+    "camera_table_columns",
+    "Dataset",
+    "pose_columns",
+    "frame_columns",
+    "poses_to_columns",
+    "columns_to_poses",
+    "read_table",
+    "write_table",
+    "shard_name",
+    "write_manifest",
+    "shard_is_complete",
+    "write_json_atomic",
+    "encode_depth",
+    "decode_depth",
+    "dataset_lock",
 ]
 
 FORMAT = "handeye-dataset"
@@ -67,15 +85,36 @@ def pose_columns(name: str) -> list[str]:
 
 
 #: Camera table: the placement, and the truth where known (empty cells for a real robot).
-CAMERA_COLUMNS = ["camera_id", "region", "split", "azimuth_deg", "elevation_deg", "radius_m",
-                  *pose_columns("T_base_cam_true")]
+CAMERA_COLUMNS = [
+    "camera_id",
+    "region",
+    "split",
+    "azimuth_deg",
+    "elevation_deg",
+    "radius_m",
+    *pose_columns("T_base_cam_true"),
+]
 #: Written by labelling: the classic label, how it was obtained and, with a truth, its error.
-LABEL_COLUMNS = [*pose_columns("T_base_cam_label"), "label_status", "label_views_used", "label_views_total",
-                 "label_rms_px", "label_sigma_rot_deg", "label_sigma_trans_mm", "label_error_rot_deg",
-                 "label_error_trans_mm"]
+LABEL_COLUMNS = [
+    *pose_columns("T_base_cam_label"),
+    "label_status",
+    "label_views_used",
+    "label_views_total",
+    "label_rms_px",
+    "label_sigma_rot_deg",
+    "label_sigma_trans_mm",
+    "label_error_rot_deg",
+    "label_error_trans_mm",
+]
 #: Written by ``handeye markerless --write-labels``: the board-free label from the robot's surface.
-MARKERLESS_COLUMNS = [*pose_columns("T_base_cam_markerless"), "markerless_status", "markerless_sigma_rot_deg",
-                      "markerless_sigma_trans_mm", "markerless_error_rot_deg", "markerless_error_trans_mm"]
+MARKERLESS_COLUMNS = [
+    *pose_columns("T_base_cam_markerless"),
+    "markerless_status",
+    "markerless_sigma_rot_deg",
+    "markerless_sigma_trans_mm",
+    "markerless_error_rot_deg",
+    "markerless_error_trans_mm",
+]
 _INT_COLUMNS = {"camera_id", "region", "frame", "label_views_used", "label_views_total"}
 _STR_COLUMNS = {"split", "recording", "rgb", "depth", "label_status", "markerless_status"}
 
@@ -97,8 +136,18 @@ def shard_name(camera_id: int) -> str:
 
 def frame_columns(n_joints: int) -> list[str]:
     """Columns of a shard's ``frames.csv``."""
-    return ["frame", "camera_id", "region", "split", "recording", *[f"q{j}" for j in range(n_joints)],
-            *pose_columns("T_base_ee"), *pose_columns("T_base_ref"), "rgb", "depth"]
+    return [
+        "frame",
+        "camera_id",
+        "region",
+        "split",
+        "recording",
+        *[f"q{j}" for j in range(n_joints)],
+        *pose_columns("T_base_ee"),
+        *pose_columns("T_base_ref"),
+        "rgb",
+        "depth",
+    ]
 
 
 # ------------------------------------------------------------------ poses <-> columns
@@ -124,8 +173,9 @@ def columns_to_poses(table: dict, name: str, where: str = "") -> np.ndarray:
     norms = np.linalg.norm(values[:, 3:], axis=1)
     bad = np.flatnonzero(known & (np.abs(norms - 1.0) > 1e-4))
     if len(bad):
-        raise DatasetError(f"{where}: {name} of row {bad[0] + 2} has a quaternion of norm {norms[bad[0]]:.6f}, "
-                           "not a unit quaternion")
+        raise DatasetError(
+            f"{where}: {name} of row {bad[0] + 2} has a quaternion of norm {norms[bad[0]]:.6f}, not a unit quaternion"
+        )
     out = np.full((len(values), 4, 4), np.nan)
     if known.any():
         out[known] = transform_from_pos_quat_xyzw(values[known, :3], values[known, 3:])
@@ -147,8 +197,9 @@ def _parse(value: str, column: str, path: Path, row: int):
         raise DatasetError(f"{path}: row {row} column {column}: {value!r} is not {kind}") from None
     # write_table writes an unknown value as an empty cell, never nan or inf
     if isinstance(number, float) and not np.isfinite(number):
-        raise DatasetError(f"{path}: row {row} column {column}: {value!r} is not finite (an unknown value is an "
-                           f"empty cell)")
+        raise DatasetError(
+            f"{path}: row {row} column {column}: {value!r} is not finite (an unknown value is an empty cell)"
+        )
     return number
 
 
@@ -299,8 +350,10 @@ def dataset_lock(root: str | Path, what: str):
         except BlockingIOError:
             f.seek(0)
             holder = f.read().strip() or "another process"
-            raise DatasetError(f"{root}: {holder} is writing this dataset; wait for it to finish, or use another "
-                               f"directory (lock {path})") from None
+            raise DatasetError(
+                f"{root}: {holder} is writing this dataset; wait for it to finish, or use another "
+                f"directory (lock {path})"
+            ) from None
         f.seek(0)
         f.truncate()
         f.write(f"{what} (pid {os.getpid()})")
@@ -319,8 +372,10 @@ def write_manifest(shard_dir: Path, camera_id: int, n_frames: dict) -> None:
     for p in sorted(shard_dir.rglob("*")):
         if p.is_file() and p.name != "manifest.json":
             files[p.relative_to(shard_dir).as_posix()] = p.stat().st_size
-    write_json_atomic(shard_dir / "manifest.json", {"format": FORMAT, "version": FORMAT_VERSION,
-                                                    "camera_id": int(camera_id), "frames": n_frames, "files": files})
+    write_json_atomic(
+        shard_dir / "manifest.json",
+        {"format": FORMAT, "version": FORMAT_VERSION, "camera_id": int(camera_id), "frames": n_frames, "files": files},
+    )
 
 
 def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
@@ -383,8 +438,9 @@ class Dataset:
             found = meta.get("format") if isinstance(meta, dict) else None
             raise DatasetError(f"{path}: not a {FORMAT} meta file (format {found!r})")
         if meta.get("version") != FORMAT_VERSION:
-            raise DatasetError(f"{path}: format version {meta.get('version')!r}; this handeye reads version "
-                               f"{FORMAT_VERSION}")
+            raise DatasetError(
+                f"{path}: format version {meta.get('version')!r}; this handeye reads version {FORMAT_VERSION}"
+            )
         for key in ("robot", "intrinsics", "depth", "n_joints", "cameras"):
             if key not in meta:
                 raise DatasetError(f"{path}: key {key!r} missing")
@@ -449,8 +505,9 @@ class Dataset:
             for r, cells in enumerate(zip(table["rgb"], table["depth"]), start=2):
                 for column, rel in zip(("rgb", "depth"), cells):
                     if rel and (Path(rel).is_absolute() or ".." in Path(rel).parts):
-                        raise DatasetError(f"{path}: row {r} column {column}: image path {rel!r} leaves the shard "
-                                           f"{shard}")
+                        raise DatasetError(
+                            f"{path}: row {r} column {column}: image path {rel!r} leaves the shard {shard}"
+                        )
             self._frames[camera_id] = table
         return self._frames[camera_id]
 
@@ -495,8 +552,9 @@ class Dataset:
         """
         cams = self.cameras()
         if "T_base_cam_markerless.x" not in cams:
-            raise DatasetError(f"{self.cameras_path}: no markerless labels; run 'handeye markerless {self.root} "
-                               f"--write-labels' first")
+            raise DatasetError(
+                f"{self.cameras_path}: no markerless labels; run 'handeye markerless {self.root} --write-labels' first"
+            )
         return columns_to_poses(cams, "T_base_cam_markerless", str(self.cameras_path))
 
     # -- images
@@ -519,16 +577,18 @@ class Dataset:
         """Colour image of a frame (its ``rgb`` cell), uint8 (H, W, 3)."""
         img = _read_png(self.image_path(camera_id, relpath))
         if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
-            raise DatasetError(f"{self.shard_dir(camera_id) / relpath}: expected 8-bit RGB, got {img.dtype} "
-                               f"{img.shape}")
+            raise DatasetError(
+                f"{self.shard_dir(camera_id) / relpath}: expected 8-bit RGB, got {img.dtype} {img.shape}"
+            )
         return img
 
     def depth_m(self, camera_id: int, relpath: str) -> np.ndarray:
         """Depth image of a frame (its ``depth`` cell) in metres, float32 (H, W), 0 = no depth."""
         units = _read_png(self.image_path(camera_id, relpath))
         if units.ndim != 2 or units.dtype not in (np.uint16, np.int32):
-            raise DatasetError(f"{self.shard_dir(camera_id) / relpath}: expected a 16-bit depth PNG, got "
-                               f"{units.dtype} {units.shape}")
+            raise DatasetError(
+                f"{self.shard_dir(camera_id) / relpath}: expected a 16-bit depth PNG, got {units.dtype} {units.shape}"
+            )
         return decode_depth(units, self.meta["depth"]["scale_m"])
 
     def validate(self, images: bool = False) -> None:

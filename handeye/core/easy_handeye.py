@@ -66,8 +66,12 @@ CALIBRATION_TYPES = {"eye_to_hand": "eye_on_base", "eye_in_hand": "eye_in_hand"}
 #: Frame names used when none are given: the project's (conventions page).
 DEFAULT_FRAMES = {"base": "base", "ee": "ee", "cam": "cam", "target": "target"}
 #: easy_handeye's parameter holding the tf name of each of the project's frames.
-_FRAME_PARAMETERS = {"base": "robot_base_frame", "ee": "robot_effector_frame", "cam": "tracking_base_frame",
-                     "target": "tracking_marker_frame"}
+_FRAME_PARAMETERS = {
+    "base": "robot_base_frame",
+    "ee": "robot_effector_frame",
+    "cam": "tracking_base_frame",
+    "target": "tracking_marker_frame",
+}
 _QUAT_NORM_TOL = 1e-3
 
 
@@ -145,8 +149,10 @@ def _transform(path: Path, container, key, label: str) -> np.ndarray:
     """
     msg = container[key] if isinstance(container, (dict, list)) else None
     if not isinstance(msg, dict):
-        raise PoseFileError(f"{_where(path, container, key)}: {label} must be a transform "
-                            f"(translation: {{x, y, z}}, rotation: {{x, y, z, w}})")
+        raise PoseFileError(
+            f"{_where(path, container, key)}: {label} must be a transform "
+            f"(translation: {{x, y, z}}, rotation: {{x, y, z, w}})"
+        )
     t_map = _mapping(path, msg, "translation", label)
     r_map = _mapping(path, msg, "rotation", label)
     t = [_number(path, t_map, c, f"{label}.translation") for c in "xyz"]
@@ -163,18 +169,24 @@ def _setup_of(path: Path, params, given: str | None) -> str:
             kind = params[key]
             stated = {v: k for k, v in CALIBRATION_TYPES.items()}.get(kind)
             if stated is None:
-                raise PoseFileError(f"{_where(path, params, key)}: calibration_type {kind!r} is neither "
-                                    f"{' nor '.join(map(repr, CALIBRATION_TYPES.values()))}")
+                raise PoseFileError(
+                    f"{_where(path, params, key)}: calibration_type {kind!r} is neither "
+                    f"{' nor '.join(map(repr, CALIBRATION_TYPES.values()))}"
+                )
         elif isinstance(params.get("eye_on_hand"), bool):
             key = "eye_on_hand"
             stated = "eye_in_hand" if params[key] else "eye_to_hand"
     given = normalize_setup(given) if given is not None else None
     if stated is None and given is None:
-        raise PoseFileError(f"{path}: the file does not say whether it is eye-in-hand or eye-on-base (its robot "
-                            f"transforms differ); give the setup (--setup)")
+        raise PoseFileError(
+            f"{path}: the file does not say whether it is eye-in-hand or eye-on-base (its robot "
+            f"transforms differ); give the setup (--setup)"
+        )
     if stated is not None and given is not None and stated != given:
-        raise PoseFileError(f"{_where(path, params, key)}: the file says {key}: {params[key]} "
-                            f"({stated.replace('_', '-')}), but the setup given is {given.replace('_', '-')}")
+        raise PoseFileError(
+            f"{_where(path, params, key)}: the file says {key}: {params[key]} "
+            f"({stated.replace('_', '-')}), but the setup given is {given.replace('_', '-')}"
+        )
     return stated or given
 
 
@@ -196,20 +208,28 @@ def _sample_lists(path: Path, doc) -> list[tuple]:
             if not isinstance(value, list):
                 raise PoseFileError(f"{_where(path, doc, key)}: '{key}' must be a list of transforms")
         if len(hand) != len(cam):
-            raise PoseFileError(f"{_where(path, doc, 'camera_marker_samples')}: {len(cam)} camera_marker_samples "
-                                f"but {len(hand)} hand_world_samples; they are paired by index")
-        return [(line_of(hand, k), (hand, k, f"hand_world_samples[{k}]"), (cam, k, f"camera_marker_samples[{k}]"))
-                for k in range(len(hand))]
+            raise PoseFileError(
+                f"{_where(path, doc, 'camera_marker_samples')}: {len(cam)} camera_marker_samples "
+                f"but {len(hand)} hand_world_samples; they are paired by index"
+            )
+        return [
+            (line_of(hand, k), (hand, k, f"hand_world_samples[{k}]"), (cam, k, f"camera_marker_samples[{k}]"))
+            for k in range(len(hand))
+        ]
     if isinstance(doc, dict) and isinstance(doc.get("samples"), list):
         samples = doc["samples"]
         for k, s in enumerate(samples):
             if not isinstance(s, dict):
                 raise PoseFileError(f"{_where(path, samples, k)}: samples[{k}] must hold 'robot' and 'tracking'")
-        return [(line_of(samples, k), (s, "robot", f"samples[{k}].robot"), (s, "tracking", f"samples[{k}].tracking"))
-                for k, s in enumerate(samples)]
-    raise PoseFileError(f"{_where(path, doc)}: not an easy_handeye sample list: expected 'samples' (easy_handeye2: "
-                        f"a list of robot/tracking transforms) or 'hand_world_samples' and 'camera_marker_samples' "
-                        f"(easy_handeye)")
+        return [
+            (line_of(samples, k), (s, "robot", f"samples[{k}].robot"), (s, "tracking", f"samples[{k}].tracking"))
+            for k, s in enumerate(samples)
+        ]
+    raise PoseFileError(
+        f"{_where(path, doc)}: not an easy_handeye sample list: expected 'samples' (easy_handeye2: "
+        f"a list of robot/tracking transforms) or 'hand_world_samples' and 'camera_marker_samples' "
+        f"(easy_handeye)"
+    )
 
 
 def read_easy_handeye_samples(path: str | Path, setup: str | None = None, units: str | None = None) -> PoseSet:
@@ -279,20 +299,25 @@ def read_easy_handeye_calibration(path: str | Path) -> EasyHandeyeCalibration:
     doc = load_yaml(path)
     params = _mapping(path, doc, "parameters", "an easy_handeye calibration") if isinstance(doc, dict) else None
     if params is None:
-        raise PoseFileError(f"{_where(path, doc)}: not an easy_handeye calibration: expected 'parameters' and "
-                            f"'transform' (easy_handeye2) or 'transformation' (easy_handeye)")
+        raise PoseFileError(
+            f"{_where(path, doc)}: not an easy_handeye calibration: expected 'parameters' and "
+            f"'transform' (easy_handeye2) or 'transformation' (easy_handeye)"
+        )
     setup = _setup_of(path, params, None)
     if "transform" in doc:
         T = _transform(path, doc, "transform", "transform")
     elif "transformation" in doc:
         flat = _mapping(path, doc, "transformation", "a calibration")
-        T = _pose(path, [_number(path, flat, c, "transformation") for c in "xyz"],
-                  [_number(path, flat, f"q{c}", "transformation") for c in "xyzw"], _where(path, doc, "transformation"))
+        T = _pose(
+            path,
+            [_number(path, flat, c, "transformation") for c in "xyz"],
+            [_number(path, flat, f"q{c}", "transformation") for c in "xyzw"],
+            _where(path, doc, "transformation"),
+        )
     else:
         raise PoseFileError(f"{_where(path, doc)}: no 'transform' (easy_handeye2) or 'transformation' (easy_handeye)")
     name = params.get("name") or str(params.get("namespace") or "").strip("/").split("/")[-1]
-    return EasyHandeyeCalibration(T, setup, {**DEFAULT_FRAMES, **_frames_of(params)}, str(name or path.stem),
-                                  str(path))
+    return EasyHandeyeCalibration(T, setup, {**DEFAULT_FRAMES, **_frames_of(params)}, str(name or path.stem), str(path))
 
 
 # ----------------------------------------------------------------------------------------------- writing
@@ -312,14 +337,21 @@ def _check_frames(frames: dict | None) -> dict:
 
 def _transform_dict(T: np.ndarray) -> dict:
     t, q = pos_quat_xyzw_from_transform(np.asarray(T, dtype=float))
-    return {"translation": {c: float(v) for c, v in zip("xyz", t)},
-            "rotation": {c: float(v) for c, v in zip("xyzw", q)}}
+    return {
+        "translation": {c: float(v) for c, v in zip("xyz", t)},
+        "rotation": {c: float(v) for c, v in zip("xyzw", q)},
+    }
 
 
 def _parameters(setup: str, frames: dict, name: str) -> dict:
-    return {"name": name, "calibration_type": CALIBRATION_TYPES[setup],
-            **{theirs: frames[ours] for ours, theirs in _FRAME_PARAMETERS.items()},
-            "freehand_robot_movement": True, "move_group_namespace": "/", "move_group": "manipulator"}
+    return {
+        "name": name,
+        "calibration_type": CALIBRATION_TYPES[setup],
+        **{theirs: frames[ours] for ours, theirs in _FRAME_PARAMETERS.items()},
+        "freehand_robot_movement": True,
+        "move_group_namespace": "/",
+        "move_group": "manipulator",
+    }
 
 
 def _dump(path: Path, header: str, doc: dict) -> None:
@@ -330,8 +362,9 @@ def _dump(path: Path, header: str, doc: dict) -> None:
     Path(path).write_text("".join(f"# {line}\n" for line in header.splitlines()) + text)
 
 
-def write_easy_handeye_calibration(path: str | Path, T_parent_cam: np.ndarray, setup: str,
-                                   frames: dict | None = None, name: str | None = None) -> None:
+def write_easy_handeye_calibration(
+    path: str | Path, T_parent_cam: np.ndarray, setup: str, frames: dict | None = None, name: str | None = None
+) -> None:
     """Write an easy_handeye2 calibration (``HandeyeCalibration`` as YAML, a ``.calib`` file).
 
     Parameters
@@ -354,14 +387,23 @@ def write_easy_handeye_calibration(path: str | Path, T_parent_cam: np.ndarray, s
     name = name or Path(path).stem
     x_name = UNKNOWN_NAMES[setup][0]
     parent = frames["base" if setup == "eye_to_hand" else "ee"]
-    header = (f"easy_handeye2 calibration written by handeye: transform = {x_name}, the pose of\n"
-              f"'{frames['cam']}' in '{parent}' (metres, quaternion x y z w)")
+    header = (
+        f"easy_handeye2 calibration written by handeye: transform = {x_name}, the pose of\n"
+        f"'{frames['cam']}' in '{parent}' (metres, quaternion x y z w)"
+    )
     doc = {"parameters": _parameters(setup, frames, name), "transform": _transform_dict(T_parent_cam)}
     _dump(Path(path), header, doc)
 
 
-def write_easy_handeye_samples(path: str | Path, T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: str,
-                               frames: dict | None = None, name: str | None = None, ros: int = 2) -> None:
+def write_easy_handeye_samples(
+    path: str | Path,
+    T_base_ee: np.ndarray,
+    T_cam_target: np.ndarray,
+    setup: str,
+    frames: dict | None = None,
+    name: str | None = None,
+    ros: int = 2,
+) -> None:
     """Write paired poses as an easy_handeye2 (``ros=2``) or easy_handeye (``ros=1``) sample list.
 
     Parameters
@@ -381,15 +423,22 @@ def write_easy_handeye_samples(path: str | Path, T_base_ee: np.ndarray, T_cam_ta
     T_cam_target = np.asarray(T_cam_target, dtype=float).reshape(-1, 4, 4)
     robot = T_base_ee if setup == "eye_in_hand" else invert_transform(T_base_ee)
     robot_name = "T_base_ee" if setup == "eye_in_hand" else "T_ee_base"
-    header = f"easy_handeye{'2' if ros == 2 else ''} sample list written by handeye: robot = {robot_name}, " \
-             f"tracking = T_cam_target (metres, quaternion x y z w)"
+    header = (
+        f"easy_handeye{'2' if ros == 2 else ''} sample list written by handeye: robot = {robot_name}, "
+        f"tracking = T_cam_target (metres, quaternion x y z w)"
+    )
     if ros == 1:
-        doc = {"hand_world_samples": [_transform_dict(T) for T in robot],
-               "camera_marker_samples": [_transform_dict(T) for T in T_cam_target]}
+        doc = {
+            "hand_world_samples": [_transform_dict(T) for T in robot],
+            "camera_marker_samples": [_transform_dict(T) for T in T_cam_target],
+        }
     elif ros == 2:
-        doc = {"parameters": _parameters(setup, _check_frames(frames), name or Path(path).stem),
-               "samples": [{"robot": _transform_dict(A), "tracking": _transform_dict(B)}
-                           for A, B in zip(robot, T_cam_target)]}
+        doc = {
+            "parameters": _parameters(setup, _check_frames(frames), name or Path(path).stem),
+            "samples": [
+                {"robot": _transform_dict(A), "tracking": _transform_dict(B)} for A, B in zip(robot, T_cam_target)
+            ],
+        }
     else:
         raise ValueError(f"ros must be 1 or 2, got {ros!r}")
     _dump(Path(path), header, doc)

@@ -39,6 +39,5 @@ def require_package(module: str, extra: str, purpose: str | None = None) -> Modu
     except ImportError as exc:
         why = f" (needed for {purpose})" if purpose else ""
         raise MissingDependencyError(
-            f"the optional package '{module}' is not installed{why}; "
-            f'install it with: pip install "handeye[{extra}]"'
+            f"the optional package '{module}' is not installed{why}; install it with: pip install \"handeye[{extra}]\""
         ) from exc

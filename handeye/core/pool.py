@@ -42,9 +42,19 @@ class _Named:
             raise
 
 
-def run_pool(fn: Callable, tasks: Iterable, workers: int = 2, progress: bool = True, desc: str = "",
-             unit: str = "task", ordered: bool = False, initializer: Callable | None = None, initargs: tuple = (),
-             isolate: bool = False, describe: Callable[[object], str] = repr) -> Iterator:
+def run_pool(
+    fn: Callable,
+    tasks: Iterable,
+    workers: int = 2,
+    progress: bool = True,
+    desc: str = "",
+    unit: str = "task",
+    ordered: bool = False,
+    initializer: Callable | None = None,
+    initargs: tuple = (),
+    isolate: bool = False,
+    describe: Callable[[object], str] = repr,
+) -> Iterator:
     """Yield ``fn(task)`` for every task, computed on ``workers`` spawned processes.
 
     Parameters

@@ -63,8 +63,17 @@ from handeye.core.se3 import (
     so3_exp,
 )
 
-__all__ = ["POSE_NAMES", "QUAT_ORDERS", "ROBOT_CONTROLLER_UNITS", "YAML_SUFFIXES", "PoseSet", "RobotPoses",
-           "read_pose_file", "read_robot_poses", "write_pose_csv"]
+__all__ = [
+    "POSE_NAMES",
+    "QUAT_ORDERS",
+    "ROBOT_CONTROLLER_UNITS",
+    "YAML_SUFFIXES",
+    "PoseSet",
+    "RobotPoses",
+    "read_pose_file",
+    "read_robot_poses",
+    "write_pose_csv",
+]
 
 POSE_NAMES = ("T_base_ee", "T_cam_target")
 QUAT_ORDERS = ("xyzw", "wxyz")
@@ -147,8 +156,11 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
     An ``image`` column, if present, is returned under the key ``"image"`` of the first dict.
     """
     text = _read_text(path)
-    lines = [(i + 1, line) for i, line in enumerate(io.StringIO(text, newline=""))
-             if line.strip() and not line.lstrip().startswith("#")]
+    lines = [
+        (i + 1, line)
+        for i, line in enumerate(io.StringIO(text, newline=""))
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
     if not lines:
         raise PoseFileError(f"{path}: no header and no rows")
     header_line, header = lines[0][0], [h.strip() for h in next(csv.reader([lines[0][1]]))]
@@ -305,8 +317,12 @@ def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, .
     for name in names:
         unit = units or ROBOT_CONTROLLER_UNITS.get(kinds[name], "m")
         out[name] = _to_transforms(
-            raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit],
-            lambda ln, n=name: f"{path}, line {ln}, {n}", rows
+            raw[name],
+            kinds[name],
+            quat_orders[name],
+            UNIT_SCALE[unit],
+            lambda ln, n=name: f"{path}, line {ln}, {n}",
+            rows,
         )
     return out, rows, kinds
 

@@ -66,8 +66,13 @@ def rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | 
     return T
 
 
-def robust_rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | None = None,
-                           iterations: int = 10, floor_m: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+def robust_rigid_transform(
+    p_from: np.ndarray,
+    p_to: np.ndarray,
+    weights: np.ndarray | None = None,
+    iterations: int = 10,
+    floor_m: float = 0.005,
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`rigid_transform` with iteratively reweighted Cauchy weights on the residual distances.
 
     The scale is 1.4826 times the median residual of the points in play (at least ``floor_m``), the

@@ -77,8 +77,9 @@ def check_frame_name(name: str) -> str:
     return name
 
 
-def write_static_tf_launch(path: str | Path, T_parent_child: np.ndarray, parent: str, child: str,
-                           x_name: str | None = None) -> None:
+def write_static_tf_launch(
+    path: str | Path, T_parent_child: np.ndarray, parent: str, child: str, x_name: str | None = None
+) -> None:
     """Write a ROS 2 Python launch file publishing ``T_parent_child`` as a static transform.
 
     Parameters
@@ -96,8 +97,15 @@ def write_static_tf_launch(path: str | Path, T_parent_child: np.ndarray, parent:
     t, q = pos_quat_xyzw_from_transform(np.asarray(T_parent_child, dtype=float))
     pairs = [f'"{arg}", "{float(v)!r}",' for arg, v in zip(_NUMBER_ARGS, [*t, *q])]
     node_name = "handeye_" + re.sub(r"[^A-Za-z0-9_]", "_", f"{parent}_to_{child}")
-    Path(path).write_text(_TEMPLATE.format(x_name=x_name or f"T_{parent}_{child}", parent=parent, child=child,
-                                           node_name=node_name, numbers="\n                ".join(pairs)))
+    Path(path).write_text(
+        _TEMPLATE.format(
+            x_name=x_name or f"T_{parent}_{child}",
+            parent=parent,
+            child=child,
+            node_name=node_name,
+            numbers="\n                ".join(pairs),
+        )
+    )
 
 
 def _arguments(path: Path, tree: ast.AST) -> ast.List:
@@ -159,8 +167,10 @@ def read_static_tf_launch(path: str | Path) -> tuple[np.ndarray, str, str]:
     while k < len(items):
         flag, line = items[k].value, items[k].lineno
         if flag not in _NUMBER_ARGS + _FRAME_ARGS:
-            raise PoseFileError(f"{path}, line {line}: argument {flag!r} not understood; expected the named "
-                                f"arguments {' '.join(_NUMBER_ARGS + _FRAME_ARGS)} (ROS 2 Humble and later)")
+            raise PoseFileError(
+                f"{path}, line {line}: argument {flag!r} not understood; expected the named "
+                f"arguments {' '.join(_NUMBER_ARGS + _FRAME_ARGS)} (ROS 2 Humble and later)"
+            )
         if flag in values:
             raise PoseFileError(f"{path}, line {line}: {flag} given twice")
         if k + 1 >= len(items):
@@ -182,7 +192,9 @@ def read_static_tf_launch(path: str | Path) -> tuple[np.ndarray, str, str]:
         numbers.append(number)
     q = np.array(numbers[3:])
     if abs(np.linalg.norm(q) - 1.0) > _QUAT_NORM_TOL:
-        raise PoseFileError(f"{path}, line {values['--qx'][1]}: quaternion (x, y, z, w) {q.tolist()} has norm "
-                            f"{np.linalg.norm(q):.4f}, not 1")
+        raise PoseFileError(
+            f"{path}, line {values['--qx'][1]}: quaternion (x, y, z, w) {q.tolist()} has norm "
+            f"{np.linalg.norm(q):.4f}, not 1"
+        )
     T = make_transform(matrix_from_quat_xyzw(q), np.array(numbers[:3]))
     return T, values["--frame-id"][0], values["--child-frame-id"][0]

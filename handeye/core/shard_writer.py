@@ -102,8 +102,16 @@ class ShardWriter:
     ...     shard.write_frames(table)
     """
 
-    def __init__(self, root: str | Path, camera_id: int, region: int = 0, split: str = "train",
-                 n_joints: int | None = None, depth_scale_m: float | None = None, png_compress_level: int = 1):
+    def __init__(
+        self,
+        root: str | Path,
+        camera_id: int,
+        region: int = 0,
+        split: str = "train",
+        n_joints: int | None = None,
+        depth_scale_m: float | None = None,
+        png_compress_level: int = 1,
+    ):
         self.root = Path(root)
         self.camera_id = int(camera_id)
         self.region, self.split = int(region), str(split)
@@ -157,8 +165,9 @@ class ShardWriter:
                 if self._rows:
                     self._write_rows()
                 if not self._frames_written:
-                    raise DatasetError(f"{self.partial}: no frame table written (call add_frame or write_frames); "
-                                       "shard not published")
+                    raise DatasetError(
+                        f"{self.partial}: no frame table written (call add_frame or write_frames); shard not published"
+                    )
                 self._publish()
         except BaseException:
             shutil.rmtree(self.partial, ignore_errors=True)
@@ -251,8 +260,15 @@ class ShardWriter:
         self._n_frames = dict(n_frames)
         self._frames_written = True
 
-    def add_frame(self, recording: str, T_base_ee: np.ndarray, rgb: np.ndarray, depth_m: np.ndarray | None = None,
-                  q: np.ndarray | None = None, T_base_ref: np.ndarray | None = None) -> int:
+    def add_frame(
+        self,
+        recording: str,
+        T_base_ee: np.ndarray,
+        rgb: np.ndarray,
+        depth_m: np.ndarray | None = None,
+        q: np.ndarray | None = None,
+        T_base_ref: np.ndarray | None = None,
+    ) -> int:
         """Add one frame: its images are written now, its row with the frame table when the block ends.
 
         Parameters
@@ -282,16 +298,26 @@ class ShardWriter:
         q = np.full(self.n_joints, np.nan) if q is None else np.asarray(q, dtype=float).reshape(-1)
         if len(q) != self.n_joints:
             raise HandEyeInputError(f"q has {len(q)} joint angles, the robot has {self.n_joints}")
-        self._rows.append({"recording": recording, "q": q, "rgb": self.write_rgb(name, rgb),
-                           "depth": "" if depth_m is None else self.write_depth(name, depth_m),
-                           "T_base_ee": np.asarray(T_base_ee, dtype=float).reshape(4, 4),
-                           "T_base_ref": np.asarray(T_base_ref, dtype=float).reshape(4, 4)})
+        self._rows.append(
+            {
+                "recording": recording,
+                "q": q,
+                "rgb": self.write_rgb(name, rgb),
+                "depth": "" if depth_m is None else self.write_depth(name, depth_m),
+                "T_base_ee": np.asarray(T_base_ee, dtype=float).reshape(4, 4),
+                "T_base_ref": np.asarray(T_base_ref, dtype=float).reshape(4, 4),
+            }
+        )
         return len(self._rows) - 1
 
     def _write_rows(self) -> None:
         n, rows = len(self._rows), self._rows
-        table = {"frame": np.arange(n), "camera_id": np.full(n, self.camera_id), "region": np.full(n, self.region),
-                 "split": np.array([self.split] * n, dtype=object)}
+        table = {
+            "frame": np.arange(n),
+            "camera_id": np.full(n, self.camera_id),
+            "region": np.full(n, self.region),
+            "split": np.array([self.split] * n, dtype=object),
+        }
         for key in ("recording", "rgb", "depth"):
             table[key] = np.array([r[key] for r in rows], dtype=object)
         q = np.array([r["q"] for r in rows])

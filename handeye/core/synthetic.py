@@ -65,9 +65,7 @@ def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
     return matrix_from_quat_xyzw(rng.normal(size=(n, 4)))
 
 
-def perturb(
-    T: np.ndarray, rng: np.random.Generator, sigma_rot_rad: float, sigma_trans_m: float
-) -> np.ndarray:
+def perturb(T: np.ndarray, rng: np.random.Generator, sigma_rot_rad: float, sigma_trans_m: float) -> np.ndarray:
     """Add pose noise: ``R @ so3_exp(w)`` with ``w ~ N(0, s_r^2 I)``, ``t + N(0, s_t^2 I)``.
 
     Parameters

@@ -33,8 +33,14 @@ from handeye.core.se3 import make_transform
 __all__ = ["read_urdf_joint", "write_urdf_joint"]
 
 
-def write_urdf_joint(path: str | Path, T_parent_child: np.ndarray, parent: str, child: str,
-                     joint_name: str | None = None, x_name: str | None = None) -> None:
+def write_urdf_joint(
+    path: str | Path,
+    T_parent_child: np.ndarray,
+    parent: str,
+    child: str,
+    joint_name: str | None = None,
+    x_name: str | None = None,
+) -> None:
     """Write a fixed URDF joint placing ``child`` at ``T_parent_child``.
 
     Parameters
@@ -58,10 +64,10 @@ def write_urdf_joint(path: str | Path, T_parent_child: np.ndarray, parent: str, 
     Path(path).write_text(
         f"<!-- written by handeye: {label}, the pose of link '{child}' in link '{parent}'; "
         f"xyz in metres, rpy in radians (fixed axes X, Y, Z) -->\n"
-        f"<joint name={quoteattr(name)} type=\"fixed\">\n"
+        f'<joint name={quoteattr(name)} type="fixed">\n'
         f"  <parent link={quoteattr(parent)}/>\n"
         f"  <child link={quoteattr(child)}/>\n"
-        f"  <origin xyz=\"{xyz}\" rpy=\"{rpy}\"/>\n"
+        f'  <origin xyz="{xyz}" rpy="{rpy}"/>\n'
         f"</joint>\n"
     )
 
@@ -128,7 +134,7 @@ def read_urdf_joint(path: str | Path, joint_name: str | None = None) -> tuple[np
     for role in ("parent", "child"):
         element = joint.find(role)
         if element is None or not element.get("link"):
-            raise PoseFileError(f"{path}, line {line}: joint {joint.get('name')!r} has no <{role} link=\"...\"/>")
+            raise PoseFileError(f'{path}, line {line}: joint {joint.get("name")!r} has no <{role} link="..."/>')
         links[role] = element.get("link")
     origin = joint.find("origin")
     if origin is None:  # URDF: no origin is the identity

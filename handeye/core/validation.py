@@ -71,9 +71,7 @@ def check_transforms(T: np.ndarray, name: str, tol: float = ROTATION_TOLERANCE) 
     bottom = np.abs(T[:, 3, :] - np.array([0.0, 0.0, 0.0, 1.0])).max(axis=1)
     if (bottom > tol).any():
         idx = np.flatnonzero(bottom > tol)
-        raise ShapeError(
-            f"{name} is not homogeneous at pose index {_list(idx)}: the last row must be [0, 0, 0, 1]"
-        )
+        raise ShapeError(f"{name} is not homogeneous at pose index {_list(idx)}: the last row must be [0, 0, 0, 1]")
     R = T[:, :3, :3]
     ortho = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
     det = np.einsum("ki,ki->k", R[:, 0], np.cross(R[:, 1], R[:, 2]))

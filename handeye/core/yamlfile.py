@@ -64,8 +64,9 @@ def _loader(yaml):
             try:
                 duplicate = key in out
             except TypeError:
-                raise yaml.constructor.ConstructorError(None, None, "a key that is not a plain value",
-                                                        key_node.start_mark) from None
+                raise yaml.constructor.ConstructorError(
+                    None, None, "a key that is not a plain value", key_node.start_mark
+                ) from None
             if duplicate:
                 raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
             out[key] = loader.construct_object(value_node, deep=True)

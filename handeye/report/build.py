@@ -91,8 +91,15 @@ def _run_holdout(data: ReportData):
     from handeye.report.holdout import hold_out_check
 
     try:
-        return hold_out_check(data.T_base_ee, data.T_cam_target, data.setup, data.fit, k=data.holdout_k,
-                              use=data.result.residuals.inliers, camera_covariance=data.camera_covariance), None
+        return hold_out_check(
+            data.T_base_ee,
+            data.T_cam_target,
+            data.setup,
+            data.fit,
+            k=data.holdout_k,
+            use=data.result.residuals.inliers,
+            camera_covariance=data.camera_covariance,
+        ), None
     except ValueError as exc:
         return None, str(exc)
 
@@ -132,11 +139,15 @@ def write_report(folder: str | Path, data: ReportData) -> Path:
     inl = res.residuals.inliers
     final = _final(data)
     board = data.images.views.spec.size_m if data.images is not None else None
-    pngs = {"residuals": residuals_figure(folder / "residuals.png", res.residuals.rotation_deg,
-                                          res.residuals.translation_mm, inl, data.labels),
-            "frames": frames_figure(folder / "frames.png", setup, final[0], final[1], data.T_base_ee[inl], board),
-            "motion": motion_figure(folder / "motion.png", robot_side_poses(data.T_base_ee[inl], setup),
-                                    res.diagnostics["motion"], data.pairs)}
+    pngs = {
+        "residuals": residuals_figure(
+            folder / "residuals.png", res.residuals.rotation_deg, res.residuals.translation_mm, inl, data.labels
+        ),
+        "frames": frames_figure(folder / "frames.png", setup, final[0], final[1], data.T_base_ee[inl], board),
+        "motion": motion_figure(
+            folder / "motion.png", robot_side_poses(data.T_base_ee[inl], setup), res.diagnostics["motion"], data.pairs
+        ),
+    }
     check, error = _run_holdout(data)
     if check is not None and len(check.indices):
         pngs["holdout"] = holdout_figure(folder / "holdout.png", check)
@@ -157,20 +168,40 @@ def write_report(folder: str | Path, data: ReportData) -> Path:
         ("holdout", "Hold-out check", sec.holdout_section(data, check, error, pngs.get("holdout"))),
     ]
     if overlays is not None:
-        sections.append(("reprojection", "Reprojection per image",
-                         sec.reprojection_section(data, overlays, pngs["reprojection_rms"], pngs["overlays"])))
+        sections.append(
+            (
+                "reprojection",
+                "Reprojection per image",
+                sec.reprojection_section(data, overlays, pngs["reprojection_rms"], pngs["overlays"]),
+            )
+        )
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    sub = (f"{escape(setup.replace('_', '-'))} &middot; {len(inl)} poses &middot; method {escape(res.method)} "
-           f"&middot; {now}<br><code>{escape(data.command)}</code>")
+    sub = (
+        f"{escape(setup.replace('_', '-'))} &middot; {len(inl)} poses &middot; method {escape(res.method)} "
+        f"&middot; {now}<br><code>{escape(data.command)}</code>"
+    )
     foot = f"Written by <code>handeye calibrate --report</code>; {escape(_versions())}."
     page = html.page("Hand-eye calibration report", sub, sections, foot)
     index = folder / "index.html"
     index.write_text(page, encoding="utf-8")
-    doc = {"command": data.command, "source": data.source, "final": final[3],
-           "result": res.to_dict(), "holdout": None if check is None else check.to_dict(), "holdout_error": error,
-           "figures": sorted(p.name for p in pngs.values())}
+    doc = {
+        "command": data.command,
+        "source": data.source,
+        "final": final[3],
+        "result": res.to_dict(),
+        "holdout": None if check is None else check.to_dict(),
+        "holdout_error": error,
+        "figures": sorted(p.name for p in pngs.values()),
+    }
     if overlays is not None:
-        doc["views"] = [{"image": o.image, "status": o.status, "rms_px": None if np.isnan(o.rms_px) else o.rms_px,
-                         "reason": o.reason} for o in overlays]
+        doc["views"] = [
+            {
+                "image": o.image,
+                "status": o.status,
+                "rms_px": None if np.isnan(o.rms_px) else o.rms_px,
+                "reason": o.reason,
+            }
+            for o in overlays
+        ]
     (folder / "report.json").write_text(json.dumps(doc, indent=1) + "\n")
     return index

@@ -23,8 +23,13 @@ def _bars(ax, labels, values, outlier, ylabel):
     return x
 
 
-def residuals_figure(path: str | Path, rotation_deg: np.ndarray, translation_mm: np.ndarray, inliers: np.ndarray,
-                     labels: list[str] | None = None) -> Path:
+def residuals_figure(
+    path: str | Path,
+    rotation_deg: np.ndarray,
+    translation_mm: np.ndarray,
+    inliers: np.ndarray,
+    labels: list[str] | None = None,
+) -> Path:
     """Bar chart of each pose's residual, rotation and translation, outliers in their own colour.
 
     Parameters
@@ -57,9 +62,11 @@ def residuals_figure(path: str | Path, rotation_deg: np.ndarray, translation_mm:
         ax.axhline(float(rms[-1].split()[0]), color=COLORS["ink"], lw=1, ls="--")
         ax.set_ylim(0, float(np.max(v, initial=0)) * 1.12 + 1e-12)
     axes[1].set_xlabel("pose")
-    handles = [Patch(color=COLORS["inlier"], label="inlier"),
-               Patch(color=COLORS["outlier"], label="outlier (excluded)"),
-               Line2D([], [], color=COLORS["ink"], lw=1, ls="--", label=f"RMS of inliers ({rms[0]}, {rms[1]})")]
+    handles = [
+        Patch(color=COLORS["inlier"], label="inlier"),
+        Patch(color=COLORS["outlier"], label="outlier (excluded)"),
+        Line2D([], [], color=COLORS["ink"], lw=1, ls="--", label=f"RMS of inliers ({rms[0]}, {rms[1]})"),
+    ]
     fig.legend(handles=handles, loc="upper right", ncol=3, bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     return save_figure(fig, path)
@@ -94,10 +101,12 @@ def holdout_figure(path: str | Path, check) -> Path:
         ax.set_xlabel("held-out pose")
         ax.set_title(f"{name}: RMS error / RMS sigma = {ratio:.2f}", fontsize=10)
         ax.set_ylim(0, max(float(np.max(3 * sig, initial=0)), float(np.max(err, initial=0))) * 1.15 + 1e-12)
-    handles = [Patch(color=COLORS["inlier"], label="error within 3 sigma"),
-               Patch(color=COLORS["outlier"], label="beyond 3 sigma"),
-               Line2D([], [], ls="none", marker="_", ms=12, mew=2.2, color=COLORS["ink"], label="predicted 1 sigma"),
-               Line2D([], [], ls="none", marker="_", ms=12, mew=2.2, color=COLORS["accent"], label="3 sigma")]
+    handles = [
+        Patch(color=COLORS["inlier"], label="error within 3 sigma"),
+        Patch(color=COLORS["outlier"], label="beyond 3 sigma"),
+        Line2D([], [], ls="none", marker="_", ms=12, mew=2.2, color=COLORS["ink"], label="predicted 1 sigma"),
+        Line2D([], [], ls="none", marker="_", ms=12, mew=2.2, color=COLORS["accent"], label="3 sigma"),
+    ]
     fig.legend(handles=handles, loc="lower center", ncol=4, bbox_to_anchor=(0.5, -0.08))
     fig.tight_layout()
     return save_figure(fig, path)
@@ -135,15 +144,20 @@ def motion_figure(path: str | Path, A: np.ndarray, motion: dict, pairs: str = "a
     ax0 = fig.add_subplot(1, 3, 1)
     counts, _, _ = ax0.hist(angle, bins=min(24, max(6, len(angle) // 4)), color=COLORS["inlier"], edgecolor="white")
     ax0.set_ylim(0, 1.25 * float(np.max(counts, initial=1)))  # room for the legend
-    ax0.axvline(THRESHOLDS["max_rotation_warn_deg"], color=COLORS["outlier"], ls="--", lw=1,
-                label=f"warning level ({THRESHOLDS['max_rotation_warn_deg']:g} deg)")
+    ax0.axvline(
+        THRESHOLDS["max_rotation_warn_deg"],
+        color=COLORS["outlier"],
+        ls="--",
+        lw=1,
+        label=f"warning level ({THRESHOLDS['max_rotation_warn_deg']:g} deg)",
+    )
     ax0.legend(loc="upper right", fontsize=8, frameon=True, framealpha=0.92, edgecolor="none")
     ax0.set_xlabel("rotation between two poses [deg]")
     ax0.set_ylabel("motion pairs")
     ax0.set_title(f"rotation angles (max {motion['max_rotation_deg']:.1f} deg)", fontsize=10)
 
     ax1 = fig.add_subplot(1, 3, 2, projection="3d")
-    u, v = np.mgrid[0:2 * np.pi:40j, 0:np.pi:20j]
+    u, v = np.mgrid[0 : 2 * np.pi : 40j, 0 : np.pi : 20j]
     ax1.plot_wireframe(np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v), color=COLORS["grid"], lw=0.4)
     sc = ax1.scatter(*axis.T, c=angle, cmap="viridis", s=10, depthshade=False, edgecolors="none")
     ax1.set_box_aspect((1, 1, 1))
@@ -158,8 +172,13 @@ def motion_figure(path: str | Path, A: np.ndarray, motion: dict, pairs: str = "a
     s = np.asarray(motion["axis_singular_values"], dtype=float)
     ratio = s / s[0] if s[0] > 0 else s
     ax2.bar(["s1", "s2", "s3"], ratio, color=[COLORS["inlier"], COLORS["accent"], COLORS["muted"]], width=0.6)
-    ax2.axhline(THRESHOLDS["axis_diversity_warn"], color=COLORS["outlier"], ls="--", lw=1,
-                label=f"s2/s1 warning level ({THRESHOLDS['axis_diversity_warn']:g})")
+    ax2.axhline(
+        THRESHOLDS["axis_diversity_warn"],
+        color=COLORS["outlier"],
+        ls="--",
+        lw=1,
+        label=f"s2/s1 warning level ({THRESHOLDS['axis_diversity_warn']:g})",
+    )
     ax2.legend(loc="upper right", fontsize=8, frameon=True, framealpha=0.92, edgecolor="none")
     ax2.set_ylim(0, 1.08)
     ax2.set_ylabel("singular value / s1")

@@ -111,8 +111,15 @@ def _panel(ax, f: dict, setup: str, shown: np.ndarray, board, with_base: bool, t
     ax.set_title(title, fontsize=10)
 
 
-def frames_figure(path: str | Path, setup: str, X: np.ndarray, Y: np.ndarray, T_base_ee: np.ndarray,
-                  board_size_m: tuple[float, float] | None = None, most: int = 5) -> Path:
+def frames_figure(
+    path: str | Path,
+    setup: str,
+    X: np.ndarray,
+    Y: np.ndarray,
+    T_base_ee: np.ndarray,
+    board_size_m: tuple[float, float] | None = None,
+    most: int = 5,
+) -> Path:
     """Draw the cell in the base frame and a close-up of the poses; equal aspect, axes x red, y green, z blue.
 
     Parameters
@@ -140,15 +147,33 @@ def frames_figure(path: str | Path, setup: str, X: np.ndarray, Y: np.ndarray, T_
     f = cell_frames(setup, X, Y, T_base_ee)
     shown = _shown(len(T_base_ee), most)
     fig = plt.figure(figsize=(11.5, 5.6))
-    _panel(fig.add_subplot(1, 2, 1, projection="3d"), f, setup, shown, board_size_m, True,
-           "the cell in the robot base frame", (22, -58))
-    _panel(fig.add_subplot(1, 2, 2, projection="3d"), f, setup, shown, board_size_m, False,
-           "close-up of the poses (base out of view)", (24, 32))
+    _panel(
+        fig.add_subplot(1, 2, 1, projection="3d"),
+        f,
+        setup,
+        shown,
+        board_size_m,
+        True,
+        "the cell in the robot base frame",
+        (22, -58),
+    )
+    _panel(
+        fig.add_subplot(1, 2, 2, projection="3d"),
+        f,
+        setup,
+        shown,
+        board_size_m,
+        False,
+        "close-up of the poses (base out of view)",
+        (24, 32),
+    )
     mount = "target" if setup == "eye_to_hand" else "camera"
     handles = [Line2D([], [], color=c, lw=2, label=f"{a} axis") for c, a in zip(AXIS_COLORS, "xyz")]
-    handles += [Line2D([], [], color=COLORS["muted"], lw=0.8, label="end-effector path"),
-                Line2D([], [], color=COLORS["ink"], lw=1.2, label=f"flange to {mount}"),
-                Line2D([], [], color=COLORS["muted"], lw=0.8, ls=":", label="camera to target")]
+    handles += [
+        Line2D([], [], color=COLORS["muted"], lw=0.8, label="end-effector path"),
+        Line2D([], [], color=COLORS["ink"], lw=1.2, label=f"flange to {mount}"),
+        Line2D([], [], color=COLORS["muted"], lw=0.8, ls=":", label="camera to target"),
+    ]
     fig.legend(handles=handles, loc="lower center", ncol=6, bbox_to_anchor=(0.5, 0.0))
     fig.subplots_adjust(left=0.0, right=0.97, top=0.95, bottom=0.08, wspace=0.08)
     return save_figure(fig, path)

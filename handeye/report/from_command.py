@@ -63,8 +63,9 @@ def _subset(noise, keep: np.ndarray):
     return dataclasses.replace(noise, **changes) if changes else noise
 
 
-def report_poses(args: argparse.Namespace, T_base_ee: np.ndarray, T_cam_target: np.ndarray, result, noise,
-                 warnings: list[str]) -> Path:
+def report_poses(
+    args: argparse.Namespace, T_base_ee: np.ndarray, T_cam_target: np.ndarray, result, noise, warnings: list[str]
+) -> Path:
     """Write the report of a calibration from a pose file.
 
     Parameters
@@ -91,13 +92,31 @@ def report_poses(args: argparse.Namespace, T_base_ee: np.ndarray, T_cam_target: 
 
     def fit(keep):
         # the held-out fits run on the inliers already: the robust sampling's loss is kept, not the sampling
-        return classic.calibrate(T_base_ee[keep], T_cam_target[keep], setup=setup, method=args.method,
-                                 pairs=args.pairs, refine=not args.no_refine, loss=loss, noise=_subset(noise, keep),
-                                 estimate_scale=args.estimate_scale)
+        return classic.calibrate(
+            T_base_ee[keep],
+            T_cam_target[keep],
+            setup=setup,
+            method=args.method,
+            pairs=args.pairs,
+            refine=not args.no_refine,
+            loss=loss,
+            noise=_subset(noise, keep),
+            estimate_scale=args.estimate_scale,
+        )
 
     cov = None if noise is None or noise.camera_covariance is None else np.asarray(noise.camera_covariance)
-    data = ReportData(result, T_base_ee, T_cam_target, setup, command_line(args), f"pose file {args.poses}", fit,
-                      pairs=args.pairs, warnings=list(warnings), camera_covariance=cov)
+    data = ReportData(
+        result,
+        T_base_ee,
+        T_cam_target,
+        setup,
+        command_line(args),
+        f"pose file {args.poses}",
+        fit,
+        pairs=args.pairs,
+        warnings=list(warnings),
+        camera_covariance=cov,
+    )
     return write_report(args.report, data)
 
 
@@ -128,18 +147,33 @@ def report_images(args: argparse.Namespace, views, T_base_ee: np.ndarray, calibr
     T_ee = T_base_ee[accepted]
     T_ct = np.array([views.views[k].pose.T_cam_target for k in accepted]).reshape(-1, 4, 4)
     # the pose-based fit of handeye.image_calibration.calibrate_from_views, refit per fold
-    covs, _ = pose_covariances(T_ct, [views.views[k].detection.ids for k in accepted],
-                               [views.views[k].detection.corners_px for k in accepted], views.spec, views.intrinsics)
-    noise = classic.NoiseModel(camera_covariance=covs, name="camera, PnP covariance from the corners",
-                               scale_to_residuals=True)
+    covs, _ = pose_covariances(
+        T_ct,
+        [views.views[k].detection.ids for k in accepted],
+        [views.views[k].detection.corners_px for k in accepted],
+        views.spec,
+        views.intrinsics,
+    )
+    noise = classic.NoiseModel(
+        camera_covariance=covs, name="camera, PnP covariance from the corners", scale_to_residuals=True
+    )
     loss = "cauchy" if (not args.no_reprojection or args.robust) else "linear"
 
     def fit(keep):
-        return classic.calibrate(T_ee[keep], T_ct[keep], setup=setup, method=args.method, noise=_subset(noise, keep),
-                                 loss=loss)
+        return classic.calibrate(
+            T_ee[keep], T_ct[keep], setup=setup, method=args.method, noise=_subset(noise, keep), loss=loss
+        )
 
-    data = ReportData(calibration.pose_based, T_ee, T_ct, setup, command_line(args),
-                      f"detections {args.detections} with robot poses {args.robot_poses}", fit,
-                      labels=[Path(views.views[k].image).stem for k in accepted], camera_covariance=covs,
-                      images=ImagesPart(views, T_base_ee, calibration))
+    data = ReportData(
+        calibration.pose_based,
+        T_ee,
+        T_ct,
+        setup,
+        command_line(args),
+        f"detections {args.detections} with robot poses {args.robot_poses}",
+        fit,
+        labels=[Path(views.views[k].image).stem for k in accepted],
+        camera_covariance=covs,
+        images=ImagesPart(views, T_base_ee, calibration),
+    )
     return write_report(args.report, data)

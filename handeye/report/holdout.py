@@ -78,12 +78,17 @@ class HoldOutCheck:
         """
         rot, trans = self._rms(self.rotation_deg), self._rms(self.translation_mm)
         s_rot, s_trans = self._rms(self.sigma_rotation_deg), self._rms(self.sigma_translation_mm)
-        within = ((self.rotation_deg <= 3 * self.sigma_rotation_deg)
-                  & (self.translation_mm <= 3 * self.sigma_translation_mm))
+        within = (self.rotation_deg <= 3 * self.sigma_rotation_deg) & (
+            self.translation_mm <= 3 * self.sigma_translation_mm
+        )
         return {
-            "k": self.k, "folds": self.n_folds, "predicted": int(len(self.indices)),
-            "rms_rotation_deg": rot, "rms_translation_mm": trans,
-            "rms_sigma_rotation_deg": s_rot, "rms_sigma_translation_mm": s_trans,
+            "k": self.k,
+            "folds": self.n_folds,
+            "predicted": int(len(self.indices)),
+            "rms_rotation_deg": rot,
+            "rms_translation_mm": trans,
+            "rms_sigma_rotation_deg": s_rot,
+            "rms_sigma_translation_mm": s_trans,
             "ratio_rotation": rot / s_rot if s_rot > 0 else float("nan"),
             "ratio_translation": trans / s_trans if s_trans > 0 else float("nan"),
             "within_3_sigma": float(np.mean(within)) if len(within) else float("nan"),
@@ -93,10 +98,26 @@ class HoldOutCheck:
 
     def to_dict(self) -> dict:
         """JSON-serialisable: the summary and the per-pose rows."""
-        rows = [{"index": int(i), "fold": int(f), "rotation_deg": float(r), "translation_mm": float(t),
-                 "sigma_rotation_deg": float(sr), "sigma_translation_mm": float(st), "mahalanobis": float(m)}
-                for i, f, r, t, sr, st, m in zip(self.indices, self.fold, self.rotation_deg, self.translation_mm,
-                                                 self.sigma_rotation_deg, self.sigma_translation_mm, self.mahalanobis)]
+        rows = [
+            {
+                "index": int(i),
+                "fold": int(f),
+                "rotation_deg": float(r),
+                "translation_mm": float(t),
+                "sigma_rotation_deg": float(sr),
+                "sigma_translation_mm": float(st),
+                "mahalanobis": float(m),
+            }
+            for i, f, r, t, sr, st, m in zip(
+                self.indices,
+                self.fold,
+                self.rotation_deg,
+                self.translation_mm,
+                self.sigma_rotation_deg,
+                self.sigma_translation_mm,
+                self.mahalanobis,
+            )
+        ]
         return {**self.summary, "per_pose": rows}
 
 
@@ -200,7 +221,7 @@ def hold_out_check(
         raise HandEyeInputError(f"hold-out k must be 1 to {len(pool) - MIN_POSES} with {len(pool)} poses, got {k}")
     rng = np.random.default_rng(0) if rng is None else rng
     order = rng.permutation(pool)
-    folds = [np.sort(order[s:s + k]) for s in range(0, len(order), k)]
+    folds = [np.sort(order[s : s + k]) for s in range(0, len(order), k)]
     A_all = robot_side_poses(T_base_ee, setup)
     rows, refused = [], []
     for f, held in enumerate(folds):
@@ -223,8 +244,17 @@ def hold_out_check(
         C = C + J @ res.covariance @ np.swapaxes(J, 1, 2)
         maha = np.sqrt(np.einsum("mi,mi->m", r, np.linalg.solve(C, r[..., None])[..., 0]))
         for m, i in enumerate(held):
-            rows.append((i, f, np.degrees(np.linalg.norm(r[m, :3])), 1000 * np.linalg.norm(r[m, 3:]),
-                         np.degrees(np.sqrt(np.trace(C[m, :3, :3]))), 1000 * np.sqrt(np.trace(C[m, 3:, 3:])), maha[m]))
+            rows.append(
+                (
+                    i,
+                    f,
+                    np.degrees(np.linalg.norm(r[m, :3])),
+                    1000 * np.linalg.norm(r[m, 3:]),
+                    np.degrees(np.sqrt(np.trace(C[m, :3, :3]))),
+                    1000 * np.sqrt(np.trace(C[m, 3:, 3:])),
+                    maha[m],
+                )
+            )
     rows.sort()
     cols = [np.array([row[c] for row in rows]) for c in range(7)] if rows else [np.zeros(0)] * 7
     return HoldOutCheck(k, cols[0].astype(int), cols[1].astype(int), *cols[2:], refused=refused)

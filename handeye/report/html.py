@@ -10,7 +10,8 @@ from handeye.report.style import COLORS
 
 __all__ = ["CSS", "table", "key_values", "figure", "cards", "section", "page", "data_uri"]
 
-CSS = """
+CSS = (
+    """
 :root { --ink: %(ink)s; --muted: %(muted)s; --grid: %(grid)s; --inlier: %(inlier)s; --outlier: %(outlier)s;
         --accent: %(accent)s; --ok: %(ok)s; }
 * { box-sizing: border-box; }
@@ -57,7 +58,9 @@ figcaption .cmd { display: block; margin-top: 4px; }
 ul.warnings li { color: #8a5a00; }
 .note code { white-space: nowrap; }
 footer { color: var(--muted); font-size: 13px; padding: 8px 0 34px; }
-""" % COLORS
+"""
+    % COLORS
+)
 
 
 def data_uri(png: str | Path) -> str:
@@ -69,8 +72,14 @@ def table(headers: list[str], rows: list[list[str]], numeric: tuple[int, ...] = 
     """An HTML table; the text is escaped, columns in ``numeric`` set in tabular figures."""
     head = "".join(f"<th>{escape(h)}</th>" for h in headers)
     body = "".join(
-        "<tr>" + "".join(f'<td class="num">{escape(str(c))}</td>' if k in numeric else f"<td>{escape(str(c))}</td>"
-                         for k, c in enumerate(row)) + "</tr>" for row in rows)
+        "<tr>"
+        + "".join(
+            f'<td class="num">{escape(str(c))}</td>' if k in numeric else f"<td>{escape(str(c))}</td>"
+            for k, c in enumerate(row)
+        )
+        + "</tr>"
+        for row in rows
+    )
     return f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
 
 
@@ -93,16 +102,20 @@ def figure(png: str | Path, caption: str, command: str, alt: str) -> str:
         The command that made it.
     alt : str
     """
-    return (f'<figure><img src="{data_uri(png)}" alt="{escape(alt)}" data-file="{escape(Path(png).name)}">'
-            f"<figcaption>{escape(caption)}<span class=\"cmd\">made by <code>{escape(command)}</code> "
-            f"({escape(Path(png).name)})</span></figcaption></figure>")
+    return (
+        f'<figure><img src="{data_uri(png)}" alt="{escape(alt)}" data-file="{escape(Path(png).name)}">'
+        f'<figcaption>{escape(caption)}<span class="cmd">made by <code>{escape(command)}</code> '
+        f"({escape(Path(png).name)})</span></figcaption></figure>"
+    )
 
 
 def cards(items: list[tuple[str, str, str, str]]) -> str:
     """Headline numbers: ``(label, value, note, level)`` with level ``ok``, ``warn``, ``bad`` or ``""``."""
-    out = "".join(f'<div class="card {escape(level)}"><div class="label">{escape(label)}</div>'
-                  f'<div class="value">{escape(value)}</div><div class="note">{escape(note)}</div></div>'
-                  for label, value, note, level in items)
+    out = "".join(
+        f'<div class="card {escape(level)}"><div class="label">{escape(label)}</div>'
+        f'<div class="value">{escape(value)}</div><div class="note">{escape(note)}</div></div>'
+        for label, value, note, level in items
+    )
     return f'<div class="cards">{out}</div>'
 
 
@@ -124,10 +137,12 @@ def page(title: str, subtitle_html: str, sections: list[tuple[str, str, str]], f
     """
     nav = "".join(f'<a href="#{escape(a)}">{escape(t)}</a>' for a, t, _ in sections)
     body = "".join(section(a, t, b) for a, t, b in sections)
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>{escape(title)}</title><link rel=\"icon\" href=\"data:,\"><style>{CSS}</style></head><body>"
-            f"<header><div class=\"wrap\"><h1>{escape(title)}</h1><div class=\"sub\">{subtitle_html}</div></div>"
-            "</header>"
-            f"<nav><div class=\"wrap\">{nav}</div></nav><main class=\"wrap\">{body}</main>"
-            f"<footer class=\"wrap\">{footer_html}</footer></body></html>\n")
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f'<title>{escape(title)}</title><link rel="icon" href="data:,"><style>{CSS}</style></head><body>'
+        f'<header><div class="wrap"><h1>{escape(title)}</h1><div class="sub">{subtitle_html}</div></div>'
+        "</header>"
+        f'<nav><div class="wrap">{nav}</div></nav><main class="wrap">{body}</main>'
+        f'<footer class="wrap">{footer_html}</footer></body></html>\n'
+    )

@@ -84,8 +84,9 @@ def view_overlays(views, T_base_ee: np.ndarray, calibration, setup: str) -> list
     used = {name: j for j, name in enumerate(calibration.images)}
     pose_outliers = set()
     if rep is None:
-        pose_outliers = {name for name, ok in zip(calibration.images, calibration.pose_based.residuals.inliers)
-                         if not ok}
+        pose_outliers = {
+            name for name, ok in zip(calibration.images, calibration.pose_based.residuals.inliers) if not ok
+        }
     flagged = {calibration.images[j] for j in (rep.outlier_views if rep is not None else [])}
     T_cam_target = invert_transform(calibration.X) @ robot_side_poses(T_base_ee, setup) @ calibration.Y
     corners = views.spec.corners_target()
@@ -107,8 +108,12 @@ def view_overlays(views, T_base_ee: np.ndarray, calibration, setup: str) -> list
     return out
 
 
-_STATUS_COLOR = {"used": COLORS["inlier"], "outlier": COLORS["outlier"], "excluded": COLORS["outlier"],
-                 "rejected": COLORS["muted"]}
+_STATUS_COLOR = {
+    "used": COLORS["inlier"],
+    "outlier": COLORS["outlier"],
+    "excluded": COLORS["outlier"],
+    "rejected": COLORS["muted"],
+}
 
 
 def rms_figure(path: str | Path, overlays: list[ViewOverlay]) -> Path:
@@ -130,8 +135,14 @@ def rms_figure(path: str | Path, overlays: list[ViewOverlay]) -> Path:
     shown = [o for o in overlays if np.isfinite(o.rms_px)]
     fig, ax = plt.subplots(figsize=(max(6.5, 0.34 * len(shown) + 2), 3.3))
     x = np.arange(len(shown))
-    ax.bar(x, [o.rms_px for o in shown], color=[_STATUS_COLOR[o.status] for o in shown], width=0.72,
-           edgecolor="white", hatch=None)
+    ax.bar(
+        x,
+        [o.rms_px for o in shown],
+        color=[_STATUS_COLOR[o.status] for o in shown],
+        width=0.72,
+        edgecolor="white",
+        hatch=None,
+    )
     used = [o.rms_px for o in shown if o.status == "used"]
     rms = float(np.sqrt(np.mean(np.square(used)))) if used else float("nan")
     if used:
@@ -141,8 +152,10 @@ def rms_figure(path: str | Path, overlays: list[ViewOverlay]) -> Path:
     ax.set_xlim(-0.7, len(shown) - 0.3)
     ax.set_ylabel("reprojection RMS [px]")
     ax.grid(axis="x", visible=False)
-    handles = [Patch(color=_STATUS_COLOR[s], label=label) for s, label in
-               (("used", "used"), ("outlier", "outlier or excluded"))]
+    handles = [
+        Patch(color=_STATUS_COLOR[s], label=label)
+        for s, label in (("used", "used"), ("outlier", "outlier or excluded"))
+    ]
     handles.append(Line2D([], [], color=COLORS["ink"], lw=1, ls="--", label=f"RMS of used views ({rms:.3g} px)"))
     fig.legend(handles=handles, loc="upper right", ncol=3, bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout(rect=(0, 0, 1, 0.9))
@@ -177,8 +190,9 @@ def _tile(ax, image: np.ndarray, o: ViewOverlay, gain: float) -> None:
         spine.set_linewidth(3.0 if o.status != "used" else 0.8)
 
 
-def overlay_grid_figure(path: str | Path, overlays: list[ViewOverlay], image_folder: str | Path, most: int = 24,
-                        columns: int = 4) -> Path:
+def overlay_grid_figure(
+    path: str | Path, overlays: list[ViewOverlay], image_folder: str | Path, most: int = 24, columns: int = 4
+) -> Path:
     """A grid of the views, cropped to the board: detected corners, predicted corners, their residuals.
 
     Outlier, excluded and rejected views come first (framed in red or grey), then the used views.
@@ -211,9 +225,11 @@ def overlay_grid_figure(path: str | Path, overlays: list[ViewOverlay], image_fol
     for ax, o in zip(axes.ravel(), order):
         ax.axis("on")
         _tile(ax, read_image(Path(image_folder) / o.image), o, gain)
-    handles = [Line2D([], [], ls="none", marker="o", mfc="none", mec=COLORS["detected"], label="detected corner"),
-               Line2D([], [], ls="none", marker="+", color=COLORS["reprojected"], label="predicted (X, Y, robot pose)"),
-               Line2D([], [], color=COLORS["accent"], label=f"residual, magnified {gain:g}x")]
+    handles = [
+        Line2D([], [], ls="none", marker="o", mfc="none", mec=COLORS["detected"], label="detected corner"),
+        Line2D([], [], ls="none", marker="+", color=COLORS["reprojected"], label="predicted (X, Y, robot pose)"),
+        Line2D([], [], color=COLORS["accent"], label=f"residual, magnified {gain:g}x"),
+    ]
     fig.legend(handles=handles, loc="upper center", ncol=3, bbox_to_anchor=(0.5, 1.0))
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / (2.55 * rows + 0.5)))
     return save_figure(fig, path, dpi=100)

@@ -8,8 +8,13 @@ from handeye.core.se3 import pos_quat_xyzw_from_transform
 
 __all__ = ["rpy_deg", "pose_rows", "noise_text", "motion_rows", "holdout_rows", "POSE_HEADERS"]
 
-POSE_HEADERS = ("frame", "translation x, y, z [mm]", "quaternion x, y, z, w", "roll, pitch, yaw [deg]",
-                "1-sigma [deg / mm]")
+POSE_HEADERS = (
+    "frame",
+    "translation x, y, z [mm]",
+    "quaternion x, y, z, w",
+    "roll, pitch, yaw [deg]",
+    "1-sigma [deg / mm]",
+)
 
 
 def rpy_deg(T: np.ndarray) -> np.ndarray:
@@ -51,8 +56,15 @@ def pose_rows(named: list[tuple[str, np.ndarray]], sigma: dict) -> list[list[str
     rows = []
     for (name, T), which in zip(named, "XY"):
         t, q = pos_quat_xyzw_from_transform(T)
-        rows.append([name, _join(1000 * t, "+.2f"), _join(q, "+.6f"), _join(rpy_deg(T), "+.3f"),
-                     f"{sigma[f'{which}_rotation_deg']:.4f} / {sigma[f'{which}_translation_mm']:.3f}"])
+        rows.append(
+            [
+                name,
+                _join(1000 * t, "+.2f"),
+                _join(q, "+.6f"),
+                _join(rpy_deg(T), "+.3f"),
+                f"{sigma[f'{which}_rotation_deg']:.4f} / {sigma[f'{which}_translation_mm']:.3f}",
+            ]
+        )
     return rows
 
 
@@ -62,13 +74,23 @@ def noise_text(d: dict) -> str:
     if "camera" in d:
         parts.append(f"camera: {d['camera']}")
     elif "camera_rotation_deg" in d:
-        parts.append("camera per axis " + _join(d["camera_rotation_deg"], ".4g") + " deg / "
-                     + _join(d["camera_translation_mm"], ".4g") + " mm")
+        parts.append(
+            "camera per axis "
+            + _join(d["camera_rotation_deg"], ".4g")
+            + " deg / "
+            + _join(d["camera_translation_mm"], ".4g")
+            + " mm"
+        )
     if "robot" in d:
         parts.append(f"robot: {d['robot']}")
     elif any(d.get("robot_rotation_deg", [0])) or any(d.get("robot_translation_mm", [0])):
-        parts.append("robot per axis " + _join(d["robot_rotation_deg"], ".4g") + " deg / "
-                     + _join(d["robot_translation_mm"], ".4g") + " mm")
+        parts.append(
+            "robot per axis "
+            + _join(d["robot_rotation_deg"], ".4g")
+            + " deg / "
+            + _join(d["robot_translation_mm"], ".4g")
+            + " mm"
+        )
     if d.get("estimated"):
         parts.append("scales estimated from the residuals")
     if "variance_factor_applied" in d:
@@ -82,19 +104,31 @@ def motion_rows(motion: dict) -> list[list[str]]:
 
     s = motion["axis_singular_values"]
     return [
-        ["poses / motion pairs", f"{motion['n_poses']} / {motion['n_motions']}",
-         f"{THRESHOLDS['poses_warn']} poses or more; 10 to 20 well spread recommended"],
-        ["largest rotation between poses", f"{motion['max_rotation_deg']:.1f} deg",
-         f"warning below {THRESHOLDS['max_rotation_warn_deg']:g} deg, refused below "
-         f"{THRESHOLDS['max_rotation_error_deg']:g} deg"],
-        ["axis diversity s2/s1", f"{motion['axis_diversity']:.3f}",
-         f"0 when all rotations share one axis, up to 1; warning below {THRESHOLDS['axis_diversity_warn']:g}, "
-         f"refused below {THRESHOLDS['axis_diversity_error']:g}"],
+        [
+            "poses / motion pairs",
+            f"{motion['n_poses']} / {motion['n_motions']}",
+            f"{THRESHOLDS['poses_warn']} poses or more; 10 to 20 well spread recommended",
+        ],
+        [
+            "largest rotation between poses",
+            f"{motion['max_rotation_deg']:.1f} deg",
+            f"warning below {THRESHOLDS['max_rotation_warn_deg']:g} deg, refused below "
+            f"{THRESHOLDS['max_rotation_error_deg']:g} deg",
+        ],
+        [
+            "axis diversity s2/s1",
+            f"{motion['axis_diversity']:.3f}",
+            f"0 when all rotations share one axis, up to 1; warning below {THRESHOLDS['axis_diversity_warn']:g}, "
+            f"refused below {THRESHOLDS['axis_diversity_error']:g}",
+        ],
         ["axis singular values", _join(s, ".3f"), "spread of the rotation axes, largest first"],
         ["dominant rotation axis", "[" + _join(motion["dominant_axis"], "+.2f") + "]", "robot side's frame"],
         ["translation condition number", f"{motion['translation_condition']:.3g}", "of the translation system; 1 best"],
-        ["angle mismatch robot / camera", f"{motion['angle_mismatch_deg']:.3f} deg",
-         "low quantile of |angle(A) - angle(B)|: near the noise when the pairing is right"],
+        [
+            "angle mismatch robot / camera",
+            f"{motion['angle_mismatch_deg']:.3f} deg",
+            "low quantile of |angle(A) - angle(B)|: near the noise when the pairing is right",
+        ],
     ]
 
 
@@ -102,8 +136,14 @@ def holdout_rows(summary: dict) -> list[list[str]]:
     """Rows ``(quantity, rotation, translation)`` of :attr:`HoldOutCheck.summary`."""
     return [
         ["RMS prediction error", f"{summary['rms_rotation_deg']:.4f} deg", f"{summary['rms_translation_mm']:.3f} mm"],
-        ["RMS predicted 1-sigma", f"{summary['rms_sigma_rotation_deg']:.4f} deg",
-         f"{summary['rms_sigma_translation_mm']:.3f} mm"],
-        ["error / sigma (1 when the sigma is right)", f"{summary['ratio_rotation']:.2f}",
-         f"{summary['ratio_translation']:.2f}"],
+        [
+            "RMS predicted 1-sigma",
+            f"{summary['rms_sigma_rotation_deg']:.4f} deg",
+            f"{summary['rms_sigma_translation_mm']:.3f} mm",
+        ],
+        [
+            "error / sigma (1 when the sigma is right)",
+            f"{summary['ratio_rotation']:.2f}",
+            f"{summary['ratio_translation']:.2f}",
+        ],
     ]

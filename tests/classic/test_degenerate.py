@@ -23,8 +23,15 @@ from tests.tolerances import EXACT, GRAM_FLOOR
 SETUPS = ["eye_to_hand", "eye_in_hand"]
 FRAME = {"eye_to_hand": "base", "eye_in_hand": "end-effector"}
 MOTION_KEYS = {
-    "n_poses", "n_motions", "max_rotation_deg", "axis_singular_values", "axis_diversity", "dominant_axis",
-    "translation_condition", "angle_mismatch_deg", "warnings",
+    "n_poses",
+    "n_motions",
+    "max_rotation_deg",
+    "axis_singular_values",
+    "axis_diversity",
+    "dominant_axis",
+    "translation_condition",
+    "angle_mismatch_deg",
+    "warnings",
 }
 
 

@@ -113,8 +113,10 @@ def test_converges_from_given_starts(scene, rng, trans_m, angle_deg, centroid):
     bias_mm, bias_deg = _bias_bounds(depth)
     for _ in range(2):
         axis, direction = rng.normal(size=3), rng.normal(size=3)
-        T0 = T_true @ make_transform(so3_exp(np.radians(angle_deg) * axis / np.linalg.norm(axis)),
-                                     trans_m * direction / np.linalg.norm(direction))
+        T0 = T_true @ make_transform(
+            so3_exp(np.radians(angle_deg) * axis / np.linalg.norm(axis)),
+            trans_m * direction / np.linalg.norm(direction),
+        )
         res = register_robot(depth, K, surface, starts={"user": T0}, centroid_start=centroid)
         assert res.ok, res.refused
         rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)

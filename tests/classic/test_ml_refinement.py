@@ -77,8 +77,9 @@ def test_scale_one_and_a_known_scale_recovered_exactly(setup):
 def _stream(rng, duration_s=20.0, rate_hz=100.0):
     t = np.arange(0.0, duration_s, 1.0 / rate_hz)
     f, ph = rng.uniform(0.2, 0.6, (2, 3)), rng.uniform(0, 2 * np.pi, (2, 3))
-    T = make_transform(so3_exp(0.6 * np.sin(f[0] * t[:, None] + ph[0])),
-                       [0.5, 0.0, 0.4] + 0.15 * np.sin(f[1] * t[:, None] + ph[1]))
+    T = make_transform(
+        so3_exp(0.6 * np.sin(f[0] * t[:, None] + ph[0])), [0.5, 0.0, 0.4] + 0.15 * np.sin(f[1] * t[:, None] + ph[1])
+    )
     return t, T
 
 
@@ -113,8 +114,10 @@ def test_robot_stream_interpolates_and_its_rate_is_the_derivative():
     h = 1e-6
     T0, rate = stream.at(q)
     Tp, Tm = stream.at(q + h)[0], stream.at(q - h)[0]
-    w = (so3_log(np.swapaxes(T0[:, :3, :3], 1, 2) @ Tp[:, :3, :3])
-         - so3_log(np.swapaxes(T0[:, :3, :3], 1, 2) @ Tm[:, :3, :3])) / (2 * h)
+    w = (
+        so3_log(np.swapaxes(T0[:, :3, :3], 1, 2) @ Tp[:, :3, :3])
+        - so3_log(np.swapaxes(T0[:, :3, :3], 1, 2) @ Tm[:, :3, :3])
+    ) / (2 * h)
     v = (Tp[:, :3, 3] - Tm[:, :3, 3]) / (2 * h)
     np.testing.assert_allclose(rate, np.concatenate([w, v], axis=1), atol=JACOBIAN_RTOL * np.abs(rate).max())
     with pytest.raises(HandEyeInputError, match="outside the robot recording"):
@@ -144,22 +147,40 @@ def test_noise_jacobians_match_central_differences(setup):
     def res(A_, B_):
         return np.concatenate(pose_residuals(A_, B_, p.X_true, p.Y_true), axis=1)
 
-    J_rob = np.stack([(res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, h), setup), B)
-                       - res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, -h), setup), B)) / (2 * h)
-                      for k in range(6)], axis=2)
+    J_rob = np.stack(
+        [
+            (
+                res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, h), setup), B)
+                - res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, -h), setup), B)
+            )
+            / (2 * h)
+            for k in range(6)
+        ],
+        axis=2,
+    )
     J = robot_residual_jacobian(A, p.X_true, p.Y_true, setup)
     # the analytic rotation rows leave out J_l^-1 (first order at a small residual): compare at the truth's
     # exact measurements, where the residual is zero
     B_exact = invert_transform(p.X_true) @ A @ p.Y_true
-    J_rob_exact = np.stack([(res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, h), setup), B_exact)
-                             - res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, -h), setup), B_exact)) / (2 * h)
-                            for k in range(6)], axis=2)
+    J_rob_exact = np.stack(
+        [
+            (
+                res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, h), setup), B_exact)
+                - res(robot_side_poses(_perturbed_base_ee(p.T_base_ee, k, -h), setup), B_exact)
+            )
+            / (2 * h)
+            for k in range(6)
+        ],
+        axis=2,
+    )
     np.testing.assert_allclose(J, J_rob_exact, atol=JACOBIAN_RTOL * np.abs(J).max())
     # with the (noisy) measurements given, the rotation rows carry J_l(r)^-1 and are exact there too
     J_B = robot_residual_jacobian(A, p.X_true, p.Y_true, setup, B)
     np.testing.assert_allclose(J_B, J_rob, atol=JACOBIAN_RTOL * np.abs(J_B).max())
-    J_cam = np.stack([(res(A, _perturbed_base_ee(B, k, h)) - res(A, _perturbed_base_ee(B, k, -h))) / (2 * h)
-                      for k in range(6)], axis=2)
+    J_cam = np.stack(
+        [(res(A, _perturbed_base_ee(B, k, h)) - res(A, _perturbed_base_ee(B, k, -h))) / (2 * h) for k in range(6)],
+        axis=2,
+    )
     J_c = camera_residual_jacobian(A, B, p.X_true, p.Y_true)
     np.testing.assert_allclose(J_c, J_cam, atol=JACOBIAN_RTOL * np.abs(J_c).max())
 

@@ -62,9 +62,7 @@ AXYB_FLAGS = {"shah": cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH, "li": cv2.CALIB_ROBOT
 
 
 def _problem(setup, seed):
-    return make_problem(
-        N_POSES, setup, np.random.default_rng(seed), camera_noise=CAMERA_NOISE, robot_noise=ROBOT_NOISE
-    )
+    return make_problem(N_POSES, setup, np.random.default_rng(seed), camera_noise=CAMERA_NOISE, robot_noise=ROBOT_NOISE)
 
 
 def _split(T):
@@ -113,8 +111,9 @@ def test_axxb_matches_opencv(method, setup, seed):
             assert np.degrees(rotation_angle(M[:, :3, :3])).max() < DANIILIDIS_MAX_PAIR_ANGLE_DEG
     # OpenCV's Andreff keeps the joint solve's translation; ours solves it again by default
     kwargs = {"translation": "joint"} if method == "andreff" else {}
-    _assert_agree(getattr(classic, method)(A, B, **kwargs), _opencv_hand_eye(p, AXXB_FLAGS[method]),
-                  SAME_ALGORITHM_FRACTION)
+    _assert_agree(
+        getattr(classic, method)(A, B, **kwargs), _opencv_hand_eye(p, AXXB_FLAGS[method]), SAME_ALGORITHM_FRACTION
+    )
 
 
 def _tsai_eq12_residual(A, B, R_X):

@@ -125,10 +125,14 @@ def monte_carlo(request):
         s = res.sigma
         rows.append(
             [
-                rotation_error_deg(res.X, p.X_true), s["X_rotation_deg"],
-                translation_error_mm(res.X, p.X_true), s["X_translation_mm"],
-                rotation_error_deg(res.Y, p.Y_true), s["Y_rotation_deg"],
-                translation_error_mm(res.Y, p.Y_true), s["Y_translation_mm"],
+                rotation_error_deg(res.X, p.X_true),
+                s["X_rotation_deg"],
+                translation_error_mm(res.X, p.X_true),
+                s["X_translation_mm"],
+                rotation_error_deg(res.Y, p.Y_true),
+                s["Y_rotation_deg"],
+                translation_error_mm(res.Y, p.Y_true),
+                s["Y_translation_mm"],
             ]
         )
     return np.array(rows)

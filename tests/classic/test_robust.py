@@ -24,7 +24,11 @@ SEEDS = [0, 1, 2]
 
 def _problem(setup, seed, fraction):
     return make_problem(
-        N_POSES, setup, np.random.default_rng(seed), camera_noise=CAMERA_NOISE, robot_noise=ROBOT_NOISE,
+        N_POSES,
+        setup,
+        np.random.default_rng(seed),
+        camera_noise=CAMERA_NOISE,
+        robot_noise=ROBOT_NOISE,
         outlier_fraction=fraction,
     )
 

@@ -22,8 +22,14 @@ def _look_at_rotation(position: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def make_frames(rng: np.random.Generator, regions=((0.0, 90.0), (180.0, 270.0)), train_per_region=4,
-                test_per_region=2, frames_per_camera=12, size=(32, 32)) -> FrameSet:
+def make_frames(
+    rng: np.random.Generator,
+    regions=((0.0, 90.0), (180.0, 270.0)),
+    train_per_region=4,
+    test_per_region=2,
+    frames_per_camera=12,
+    size=(32, 32),
+) -> FrameSet:
     """Frames of cameras spread over azimuth regions; targets are the exact camera poses (label = truth)."""
     w, h = size
     u, v = np.meshgrid(np.linspace(0, 1, w), np.linspace(0, 1, h))
@@ -41,8 +47,13 @@ def make_frames(rng: np.random.Generator, regions=((0.0, 90.0), (180.0, 270.0)),
             quat = quat_xyzw_from_matrix(R)  # w >= 0
             for _ in range(frames_per_camera):
                 phase = a + rng.normal(scale=0.02)
-                img = np.stack([np.sin(2 * np.pi * u + phase), np.cos(2 * np.pi * v + phase),
-                                np.sin(2 * np.pi * (u + v) + 2 * phase)])
+                img = np.stack(
+                    [
+                        np.sin(2 * np.pi * u + phase),
+                        np.cos(2 * np.pi * v + phase),
+                        np.sin(2 * np.pi * (u + v) + 2 * phase),
+                    ]
+                )
                 rgb.append(np.clip(127.5 + 120 * img + rng.normal(scale=3, size=img.shape), 0, 255).astype(np.uint8))
                 depth.append((1.0 + 0.5 * np.cos(a) * u + 0.5 * np.sin(a) * v)[None].astype(np.float16))
                 pose_base_ref.append(np.concatenate([rng.uniform(-0.4, 0.4, 3), [0.0, 0.0, 0.0, 1.0]]))
@@ -54,6 +65,17 @@ def make_frames(rng: np.random.Generator, regions=((0.0, 90.0), (180.0, 270.0)),
             cam_id += 1
     n = len(camera)
     t_mm, q_xyzw = np.array(t_mm, np.float32), np.array(q_xyzw, np.float32)
-    return FrameSet(np.array(rgb), np.array(depth), np.array(pose_base_ref, np.float32), t_mm, q_xyzw,
-                    np.array(camera), np.array(region), np.array(split), t_mm.astype(float), q_xyzw.astype(float),
-                    "truth", (w, h))
+    return FrameSet(
+        np.array(rgb),
+        np.array(depth),
+        np.array(pose_base_ref, np.float32),
+        t_mm,
+        q_xyzw,
+        np.array(camera),
+        np.array(region),
+        np.array(split),
+        t_mm.astype(float),
+        q_xyzw.astype(float),
+        "truth",
+        (w, h),
+    )

@@ -17,8 +17,14 @@ TINY = PRESETS["tiny"]
 
 @pytest.fixture(scope="module")
 def frames():
-    return make_frames(np.random.default_rng(0), regions=((0, 60), (120, 180)), train_per_region=2,
-                       test_per_region=1, frames_per_camera=8, size=TINY.image_size)
+    return make_frames(
+        np.random.default_rng(0),
+        regions=((0, 60), (120, 180)),
+        train_per_region=2,
+        test_per_region=1,
+        frames_per_camera=8,
+        size=TINY.image_size,
+    )
 
 
 def _observe_two(cal, frames):
@@ -46,7 +52,8 @@ def test_the_calibrator_trains_on_the_gpu_and_reloads_anywhere(frames, tmp_path)
     test = frames.subset(np.flatnonzero(frames.camera == int(frames.cameras("test")[0])))
     T = cal.predict(test.rgb, test.depth_m, test.pose_base_ref)
     cal.save(tmp_path / "cell.pt")
-    np.testing.assert_array_equal(ContinualCalibrator.load(tmp_path / "cell.pt").predict(
-        test.rgb, test.depth_m, test.pose_base_ref), T)
+    np.testing.assert_array_equal(
+        ContinualCalibrator.load(tmp_path / "cell.pt").predict(test.rgb, test.depth_m, test.pose_base_ref), T
+    )
     on_cpu = ContinualCalibrator.load(tmp_path / "cell.pt", device="cpu")
     np.testing.assert_allclose(on_cpu.predict(test.rgb, test.depth_m, test.pose_base_ref), T, atol=1e-3)

@@ -19,14 +19,24 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
 
     root = small_dataset[0]
     out = tmp_path / "run"
-    assert main(["learned", "run", "--data", str(root), "--preset", "tiny", "--out", str(out), "--quiet",
-                 "--threads", "2"]) == 0
+    assert (
+        main(
+            ["learned", "run", "--data", str(root), "--preset", "tiny", "--out", str(out), "--quiet", "--threads", "2"]
+        )
+        == 0
+    )
     results = json.loads((out / "results.json").read_text())
     assert {r["strategy"] for r in results["runs"]} == {"batch", "naive", "reservoir", "selection"}
     assert all(len(r["matrix"]) == 2 and len(r["matrix"][0]) == 2 for r in results["runs"])
     assert main(["learned", "report", str(out)]) == 0
-    for name in ("report.md", "final_step.csv", "compute.csv", "per_camera.csv", "steps_translation.png",
-                 "final_step.png"):
+    for name in (
+        "report.md",
+        "final_step.csv",
+        "compute.csv",
+        "per_camera.csv",
+        "steps_translation.png",
+        "final_step.png",
+    ):
         assert (out / name).is_file(), name
     capsys.readouterr()
     assert main(["compare", str(root), "--model", str(out / "reservoir")]) == 0
@@ -39,8 +49,9 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
 
     cams = Dataset.open(root).cameras()
     pc = results["per_camera"]["reservoir"]
-    np.testing.assert_allclose(pc["label_vs_truth_mm"], cams["label_error_trans_mm"][pc["camera"]],
-                               atol=FLOAT32_POSITION_MM)
+    np.testing.assert_allclose(
+        pc["label_vs_truth_mm"], cams["label_error_trans_mm"][pc["camera"]], atol=FLOAT32_POSITION_MM
+    )
 
 
 def test_an_unlabelled_dataset_is_refused(small_copy):

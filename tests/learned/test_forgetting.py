@@ -13,14 +13,19 @@ from tests.learned._synthetic import make_frames  # noqa: E402
 
 @pytest.fixture(scope="module")
 def results():
-    frames = make_frames(np.random.default_rng(0), regions=((0, 70), (180, 250)), train_per_region=5,
-                         test_per_region=2, frames_per_camera=16, size=PRESETS["tiny"].image_size)
+    frames = make_frames(
+        np.random.default_rng(0),
+        regions=((0, 70), (180, 250)),
+        train_per_region=5,
+        test_per_region=2,
+        frames_per_camera=16,
+        size=PRESETS["tiny"].image_size,
+    )
     return run_experiment(frames, "tiny", strategies=("naive", "reservoir"), progress=False, threads=2)
 
 
 def _matrix(results, strategy, network):
-    return np.array(next(r for r in results["runs"] if r["strategy"] == strategy and r["network"] == network)
-                    ["matrix"])
+    return np.array(next(r for r in results["runs"] if r["strategy"] == strategy and r["network"] == network)["matrix"])
 
 
 @pytest.mark.parametrize("network", ["translation", "orientation"])

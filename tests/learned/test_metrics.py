@@ -10,10 +10,14 @@ from learned.metrics import rotation_errors_deg, summarize, translation_errors_m
 def test_rotation_error_is_the_angle_between_the_rotations():
     s = np.sqrt(0.5)
     identity = np.array([[0.0, 0.0, 0.0, 1.0]] * 4)
-    q = np.array([[0, 0, s, s],                     # 90 deg about z
-                  [0, 0, -s, -s],                   # the same, other sign
-                  [1.0, 0, 0, 0],                   # 180 deg about x
-                  [0, np.sin(np.pi / 12), 0, np.cos(np.pi / 12)]])  # 30 deg about y
+    q = np.array(
+        [
+            [0, 0, s, s],  # 90 deg about z
+            [0, 0, -s, -s],  # the same, other sign
+            [1.0, 0, 0, 0],  # 180 deg about x
+            [0, np.sin(np.pi / 12), 0, np.cos(np.pi / 12)],
+        ]
+    )  # 30 deg about y
     np.testing.assert_allclose(rotation_errors_deg(q, identity), [90.0, 90.0, 180.0, 30.0], atol=1e-9)
 
 

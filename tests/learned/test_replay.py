@@ -14,8 +14,13 @@ from tests.learned._synthetic import make_frames  # noqa: E402
 
 @pytest.fixture(scope="module")
 def frames():
-    return make_frames(np.random.default_rng(0), regions=((0, 60), (120, 180)), train_per_region=3,
-                       test_per_region=1, frames_per_camera=10)
+    return make_frames(
+        np.random.default_rng(0),
+        regions=((0, 60), (120, 180)),
+        train_per_region=3,
+        test_per_region=1,
+        frames_per_camera=10,
+    )
 
 
 def _of(frames, cams):

@@ -25,8 +25,21 @@ RUN = "from handeye.cli import main; import sys; sys.exit(main(sys.argv[1:]))"
 
 
 def _command(root, out):
-    return [sys.executable, "-c", RUN, "learned", "run", "--data", str(root), "--preset", "tiny", "--out", str(out),
-            "--threads", "1"]
+    return [
+        sys.executable,
+        "-c",
+        RUN,
+        "learned",
+        "run",
+        "--data",
+        str(root),
+        "--preset",
+        "tiny",
+        "--out",
+        str(out),
+        "--threads",
+        "1",
+    ]
 
 
 def _comparable(out):

@@ -19,8 +19,14 @@ TINY = PRESETS["tiny"]
 
 @pytest.fixture(scope="module")
 def frames():
-    return make_frames(np.random.default_rng(0), regions=((0, 60), (120, 180)), train_per_region=3,
-                       test_per_region=1, frames_per_camera=10, size=TINY.image_size)
+    return make_frames(
+        np.random.default_rng(0),
+        regions=((0, 60), (120, 180)),
+        train_per_region=3,
+        test_per_region=1,
+        frames_per_camera=10,
+        size=TINY.image_size,
+    )
 
 
 @pytest.mark.parametrize("kind", ["translation", "orientation"])
@@ -56,8 +62,10 @@ def test_the_calibrator_keeps_learning_across_a_restart(frames, tmp_path):
     cal.save(tmp_path / "cell.pt")
     again = ContinualCalibrator.load(tmp_path / "cell.pt", preset=TINY)
     test = _pose_frames(frames, int(frames.cameras("test")[0]))
-    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.pose_base_ref),
-                                  again.predict(test.rgb, test.depth_m, test.pose_base_ref))
+    np.testing.assert_array_equal(
+        cal.predict(test.rgb, test.depth_m, test.pose_base_ref),
+        again.predict(test.rgb, test.depth_m, test.pose_base_ref),
+    )
     assert again.history == cal.history
     for kind in ("translation", "orientation"):
         np.testing.assert_array_equal(again.memory[kind].rgb, cal.memory[kind].rgb)
@@ -65,8 +73,10 @@ def test_the_calibrator_keeps_learning_across_a_restart(frames, tmp_path):
     nxt = _pose_frames(frames, int(frames.cameras("train")[-1]))
     a, b = cal.observe(nxt), again.observe(nxt)
     assert a == b
-    np.testing.assert_array_equal(cal.predict(test.rgb, test.depth_m, test.pose_base_ref),
-                                  again.predict(test.rgb, test.depth_m, test.pose_base_ref))
+    np.testing.assert_array_equal(
+        cal.predict(test.rgb, test.depth_m, test.pose_base_ref),
+        again.predict(test.rgb, test.depth_m, test.pose_base_ref),
+    )
     T = cal.predict(test.rgb, test.depth_m, test.pose_base_ref)
     assert T.shape == (4, 4) and np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-6)
 
@@ -104,8 +114,10 @@ def test_files_are_read_without_pickle_and_foreign_files_are_refused(tmp_path):
         load_model(tmp_path / "evil.pt")
     assert not (tmp_path / "pwned").exists()
     # an old-format file (pickled dict, as version 1 wrote it) and a tensor file of someone else's
-    torch.save({"config": TINY.model_config("translation").to_dict(), "state_dict": {}, "meta": {"x": np.zeros(2)}},
-               tmp_path / "old.pt")
+    torch.save(
+        {"config": TINY.model_config("translation").to_dict(), "state_dict": {}, "meta": {"x": np.zeros(2)}},
+        tmp_path / "old.pt",
+    )
     with pytest.raises(SavedFileError, match="old.pt"):
         load_model(tmp_path / "old.pt")
     torch.save({"weights": torch.zeros(3)}, tmp_path / "other.pt")

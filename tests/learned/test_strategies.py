@@ -21,8 +21,13 @@ TRAIN_PER_REGION = 3
 
 @pytest.fixture(scope="module")
 def frames():
-    return make_frames(np.random.default_rng(0), regions=((0, 60), (120, 180), (240, 300)),
-                       train_per_region=TRAIN_PER_REGION, test_per_region=1, frames_per_camera=FRAMES_PER_CAMERA)
+    return make_frames(
+        np.random.default_rng(0),
+        regions=((0, 60), (120, 180), (240, 300)),
+        train_per_region=TRAIN_PER_REGION,
+        test_per_region=1,
+        frames_per_camera=FRAMES_PER_CAMERA,
+    )
 
 
 def _run(name, frames, **params):
@@ -115,11 +120,15 @@ def test_counts_hold_for_the_keypoint_model(frames):
     for k, cams in enumerate(steps):
         strat.step(k, cams, kframes, last=k == len(steps) - 1)
     per_step = TRAIN_PER_REGION * FRAMES_PER_CAMERA
-    expected = FIRST.epochs * per_step + LATER.epochs * (per_step + 4 * TRAIN_PER_REGION) \
+    expected = (
+        FIRST.epochs * per_step
+        + LATER.epochs * (per_step + 4 * TRAIN_PER_REGION)
         + LATER.epochs * (per_step + 8 * TRAIN_PER_REGION)
+    )
     assert strat.processed == expected and strat.stored == 4 * 3 * TRAIN_PER_REGION
-    sel = make_strategy("selection", config, FIRST, LATER, np.random.default_rng(1), threshold_mm=1e9,
-                        threshold_deg=1e9)
+    sel = make_strategy(
+        "selection", config, FIRST, LATER, np.random.default_rng(1), threshold_mm=1e9, threshold_deg=1e9
+    )
     for k, cams in enumerate(steps):
         sel.step(k, cams, kframes, last=k == len(steps) - 1)
     assert len(sel.skipped) == 2 * TRAIN_PER_REGION  # nothing is novel at infinite thresholds

@@ -32,8 +32,16 @@ def ray_sphere(centre_cam: np.ndarray, radius: float, K: np.ndarray, width: int,
     return hit, np.where(hit, t, 0.0)  # rays have z = 1, so t is the depth
 
 
-def assert_sphere_rendered(mask: np.ndarray, depth_m: np.ndarray, centre_cam: np.ndarray, radius: float,
-                           K: np.ndarray, min_pixels: int, min_core: int, depth_atol_m: float) -> tuple[float, float]:
+def assert_sphere_rendered(
+    mask: np.ndarray,
+    depth_m: np.ndarray,
+    centre_cam: np.ndarray,
+    radius: float,
+    K: np.ndarray,
+    min_pixels: int,
+    min_core: int,
+    depth_atol_m: float,
+) -> tuple[float, float]:
     """A rendered sphere covers the pixels whose rays hit it (to MAX_MASK_MISMATCH_PX) at the ray-sphere depth.
 
     The depth is compared on the core (within CORE_FRACTION of the projected radius, where the facets do

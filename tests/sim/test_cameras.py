@@ -23,10 +23,21 @@ def test_counts_per_region_and_split(name):
 
 def test_paper_presets_match_the_paper():
     sim, real = get_preset("paper-sim"), get_preset("paper-real")
-    assert (sim.n_cameras, len(sim.region_azimuths_deg), sim.train_per_region, sim.test_per_region,
-            sim.configurations, sim.robot) == (108, 6, (14,) * 6, (4,) * 6, 50, "ur5")
-    assert (real.n_cameras, sum(real.train_per_region), sum(real.test_per_region), real.configurations,
-            real.robot) == (24, 19, 5, 100, "ur3")
+    assert (
+        sim.n_cameras,
+        len(sim.region_azimuths_deg),
+        sim.train_per_region,
+        sim.test_per_region,
+        sim.configurations,
+        sim.robot,
+    ) == (108, 6, (14,) * 6, (4,) * 6, 50, "ur5")
+    assert (real.n_cameras, sum(real.train_per_region), sum(real.test_per_region), real.configurations, real.robot) == (
+        24,
+        19,
+        5,
+        100,
+        "ur3",
+    )
     centres = [np.mean(s) % 360 for s in real.region_azimuths_deg]
     assert sorted(centres) == [0.0, 90.0, 180.0]  # front, perpendicular and reflected views
 

@@ -58,8 +58,7 @@ def test_labels_are_within_their_uncertainty_of_the_truth(small_dataset):
     floor_rot_deg = np.degrees(LABEL_COMMON_SHIFT_PX / f)
     floor_trans_mm = 1000 * LABEL_COMMON_SHIFT_PX / f * distance_m
     assert np.all(cams["label_error_rot_deg"] <= ESTIMATED_SIGMA_BOUND * cams["label_sigma_rot_deg"] + floor_rot_deg)
-    assert np.all(cams["label_error_trans_mm"] <= ESTIMATED_SIGMA_BOUND * cams["label_sigma_trans_mm"]
-                  + floor_trans_mm)
+    assert np.all(cams["label_error_trans_mm"] <= ESTIMATED_SIGMA_BOUND * cams["label_sigma_trans_mm"] + floor_trans_mm)
     # and the label columns agree with the poses they describe
     from handeye.core.metrics import pose_error
 

@@ -39,6 +39,7 @@ def test_flange_origin_where_the_recorded_camera_model_puts_it(marker_dataset, i
     depth = ds.depth_m(c, t["depth"][k])
     # the marker is magenta: red and blue high, green a small fraction of them (nothing else in the lab is)
     magenta = (rgb[..., 0] > 80) & (rgb[..., 2] > 80) & (rgb[..., 1] < 0.25 * np.minimum(rgb[..., 0], rgb[..., 2]))
-    u, v = assert_sphere_rendered(magenta, depth, p_cam, MARKER_RADIUS_M, K, min_pixels=20, min_core=5,
-                                  depth_atol_m=DEPTH_M + DEPTH_QUANTUM_M)
+    u, v = assert_sphere_rendered(
+        magenta, depth, p_cam, MARKER_RADIUS_M, K, min_pixels=20, min_core=5, depth_atol_m=DEPTH_M + DEPTH_QUANTUM_M
+    )
     assert 5 < u < W - 5 and 5 < v < H - 5  # the generator keeps the tool in the image

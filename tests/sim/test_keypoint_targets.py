@@ -33,8 +33,9 @@ def test_flange_keypoint_target_is_the_rendered_marker_centre(marker_dataset):
     K = np.array(ds.meta["intrinsics"]["K"])
     W, H = ds.meta["intrinsics"]["width"], ds.meta["intrinsics"]["height"]
     flange = -2  # keypoints: the joints' origins, then the flange, then the reference point
-    targets = keypoint_targets(frames.keypoints_base, frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw,
-                               frames.intrinsics_norm)
+    targets = keypoint_targets(
+        frames.keypoints_base, frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw, frames.intrinsics_norm
+    )
     i = 0
     for c in range(len(ds)):
         t = ds.select(c, "data")
@@ -42,10 +43,19 @@ def test_flange_keypoint_target_is_the_rendered_marker_centre(marker_dataset):
             T_base_ee = ds.poses(t, "T_base_ee")[k]
             p_cam = (invert_transform(ds.truth()[c]) @ T_base_ee[:, 3])[:3]
             rgb = ds.rgb(c, t["rgb"][k]).astype(int)
-            magenta = ((rgb[..., 0] > 80) & (rgb[..., 2] > 80)
-                       & (rgb[..., 1] < 0.25 * np.minimum(rgb[..., 0], rgb[..., 2])))
-            u, v = assert_sphere_rendered(magenta, ds.depth_m(c, t["depth"][k]), p_cam, MARKER_RADIUS_M, K,
-                                          min_pixels=20, min_core=5, depth_atol_m=DEPTH_M + DEPTH_QUANTUM_M)
+            magenta = (
+                (rgb[..., 0] > 80) & (rgb[..., 2] > 80) & (rgb[..., 1] < 0.25 * np.minimum(rgb[..., 0], rgb[..., 2]))
+            )
+            u, v = assert_sphere_rendered(
+                magenta,
+                ds.depth_m(c, t["depth"][k]),
+                p_cam,
+                MARKER_RADIUS_M,
+                K,
+                min_pixels=20,
+                min_core=5,
+                depth_atol_m=DEPTH_M + DEPTH_QUANTUM_M,
+            )
             x_n, y_n, z = targets[i, flange]
             assert x_n * W - 0.5 == pytest.approx(u, abs=FLOAT32_PX * W)
             assert y_n * H - 0.5 == pytest.approx(v, abs=FLOAT32_PX * H)

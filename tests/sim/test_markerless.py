@@ -70,8 +70,10 @@ def test_bad_robot_and_dataset_inputs_are_named(small_copy, tmp_path):
     with pytest.raises(HandEyeInputError, match="no such URDF"):
         markerless_dataset(small_copy, cameras=[0], urdf=tmp_path / "missing.urdf")
     urdf = tmp_path / "arm.urdf"
-    urdf.write_text('<robot name="arm"><link name="base"><visual><geometry><mesh filename="/nope/base.stl"/>'
-                    '</geometry></visual></link></robot>')
+    urdf.write_text(
+        '<robot name="arm"><link name="base"><visual><geometry><mesh filename="/nope/base.stl"/>'
+        "</geometry></visual></link></robot>"
+    )
     with pytest.raises(HandEyeInputError, match="base.stl|cannot load"):
         load_robot_urdf(urdf)
     # intrinsics of another size than the depth images

@@ -23,8 +23,7 @@ RADIUS = 0.015
 @pytest.fixture(scope="module")
 def setup():
     robot = load_robot("ur5")
-    renderer = Renderer(robot, K, W, H, environment=False, gripper=False, robot_visible=False,
-                        marker_radius_m=RADIUS)
+    renderer = Renderer(robot, K, W, H, environment=False, gripper=False, robot_visible=False, marker_radius_m=RADIUS)
     yield robot, renderer
     renderer.close()
 

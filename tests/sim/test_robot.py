@@ -15,8 +15,10 @@ from sim.robot import load_robot  # noqa: E402
 from tests.tolerances import EXACT  # noqa: E402
 
 # Universal Robots' published DH parameters (metres): d1, a2, a3, d4, d5, d6
-DH = {"ur5": (0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823),
-      "ur3": (0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819)}
+DH = {
+    "ur5": (0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823),
+    "ur3": (0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819),
+}
 
 
 @pytest.fixture(scope="module", params=["ur5", "ur3"])

@@ -72,10 +72,13 @@ def handeye_jacobian(T_base_ee, corner_ids, X, Y, setup, intr=INTR) -> np.ndarra
 
     def f(d):
         Xd, Yd = perturbed(X, d[:6]), perturbed(Y, d[6:])
-        return np.concatenate([
-            project_points(SPEC.corners_target()[ids], invert_transform(Xd) @ A[k] @ Yd, intr).ravel()
-            for k, ids in enumerate(corner_ids) if len(ids)
-        ])
+        return np.concatenate(
+            [
+                project_points(SPEC.corners_target()[ids], invert_transform(Xd) @ A[k] @ Yd, intr).ravel()
+                for k, ids in enumerate(corner_ids)
+                if len(ids)
+            ]
+        )
 
     return numeric_jacobian(f, 12)
 

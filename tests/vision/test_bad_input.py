@@ -33,8 +33,9 @@ def test_read_image_missing_file_names_it(tmp_path):
     assert str(path) in str(info.value) and "no such image" in str(info.value)
 
 
-@pytest.mark.parametrize("name,content", [("notes.png", b"this is not a PNG"), ("empty.jpg", b""),
-                                          ("data.csv", b"a,b\n1,2\n")])
+@pytest.mark.parametrize(
+    "name,content", [("notes.png", b"this is not a PNG"), ("empty.jpg", b""), ("data.csv", b"a,b\n1,2\n")]
+)
 def test_read_image_non_image_file_names_it(tmp_path, name, content):
     path = tmp_path / name
     path.write_bytes(content)
@@ -93,8 +94,9 @@ def test_board_load_errors_name_the_file(tmp_path):
     assert str(partial) in str(info.value)
 
     mm = tmp_path / "mm.json"
-    mm.write_text('{"squares_x": 7, "squares_y": 5, "square_length_m": 40, "marker_length_m": 30, '
-                  '"dictionary": "5X5_100"}')
+    mm.write_text(
+        '{"squares_x": 7, "squares_y": 5, "square_length_m": 40, "marker_length_m": 30, "dictionary": "5X5_100"}'
+    )
     with pytest.raises(BoardSpecError, match="millimetres") as info:
         BoardSpec.load(mm)
     assert str(mm) in str(info.value)
@@ -105,8 +107,11 @@ def test_intrinsics_load_errors_name_the_file(tmp_path):
     with pytest.raises(IntrinsicsError, match="no such intrinsics file") as info:
         CameraIntrinsics.load(missing)
     assert str(missing) in str(info.value)
-    for name, text in [("a.json", "not json"), ("b.json", '{"dist": [0, 0, 0, 0, 0]}'),
-                       ("c.json", '{"K": [[1, 2], [3, 4]]}')]:
+    for name, text in [
+        ("a.json", "not json"),
+        ("b.json", '{"dist": [0, 0, 0, 0, 0]}'),
+        ("c.json", '{"K": [[1, 2], [3, 4]]}'),
+    ]:
         path = tmp_path / name
         path.write_text(text)
         with pytest.raises(IntrinsicsError) as info:

@@ -61,8 +61,10 @@ def test_rendered_board_is_detected_where_the_frame_convention_puts_it(spec, pix
     pixels_per_metre = pixels_per_square / spec.square_length_m
     image = spec.render(pixels_per_metre, margin_px=margin)
     assert image.dtype == np.uint8
-    assert image.shape == (spec.squares_y * pixels_per_square + 2 * margin,
-                           spec.squares_x * pixels_per_square + 2 * margin)
+    assert image.shape == (
+        spec.squares_y * pixels_per_square + 2 * margin,
+        spec.squares_x * pixels_per_square + 2 * margin,
+    )
     _assert_detected_at(image, spec, pixels_per_metre, margin)
 
 

@@ -32,23 +32,29 @@ def test_opencv_filestorage_file():
 
 def test_camera_info_message_as_rostopic_echo_prints_it(tmp_path):
     path = tmp_path / "echo.yaml"
-    path.write_text('header: \n  seq: 0\n  stamp: \n    secs: 1\n    nsecs: 0\n  frame_id: "camera_optical_frame"\n'
-                    'height: 480\nwidth: 640\ndistortion_model: "plumb_bob"\nD: [0.1, -0.2, 0.0, 0.0, 0.0]\n'
-                    "K: [500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0, 1.0]\n"
-                    "R: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]\nbinning_x: 0\n---\n")
+    path.write_text(
+        'header: \n  seq: 0\n  stamp: \n    secs: 1\n    nsecs: 0\n  frame_id: "camera_optical_frame"\n'
+        'height: 480\nwidth: 640\ndistortion_model: "plumb_bob"\nD: [0.1, -0.2, 0.0, 0.0, 0.0]\n'
+        "K: [500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0, 1.0]\n"
+        "R: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]\nbinning_x: 0\n---\n"
+    )
     intr = CameraIntrinsics.load(path)
     np.testing.assert_array_equal(intr.K, [[500, 0, 320], [0, 500, 240], [0, 0, 1]])
     assert intr.dist[1] == -0.2 and (intr.width, intr.height) == (640, 480)
 
 
-@pytest.mark.parametrize("dist", [
-    [0.11, -0.23, 1e-3, -2e-3, 0.0456],
-    [0.11, -0.23, 1e-3, -2e-3, 0.0456, 0.01, -0.02, 0.003],  # rational_polynomial
-])
+@pytest.mark.parametrize(
+    "dist",
+    [
+        [0.11, -0.23, 1e-3, -2e-3, 0.0456],
+        [0.11, -0.23, 1e-3, -2e-3, 0.0456, 0.01, -0.02, 0.003],  # rational_polynomial
+    ],
+)
 @pytest.mark.parametrize("writer", [write_camera_info_yaml, write_opencv_yaml])
 def test_round_trip(tmp_path, writer, dist):
-    intr = CameraIntrinsics(np.array([[612.123456789, 0.25, 321.987654321], [0, 611.5, 238.0], [0, 0, 1]]),
-                            np.array(dist), 1280, 720)
+    intr = CameraIntrinsics(
+        np.array([[612.123456789, 0.25, 321.987654321], [0, 611.5, 238.0], [0, 0, 1]]), np.array(dist), 1280, 720
+    )
     path = tmp_path / "camera.yaml"
     writer(path, intr)
     back = CameraIntrinsics.load(path)
@@ -59,8 +65,9 @@ def test_round_trip(tmp_path, writer, dist):
 
 def test_save_to_a_yaml_name_writes_what_load_reads(tmp_path):
     """``handeye intrinsics -o camera.yaml`` then ``handeye detect --intrinsics camera.yaml``."""
-    intr = CameraIntrinsics(np.array([[500.5, 0, 320.25], [0, 501.5, 240.75], [0, 0, 1]]),
-                            np.array([0.1, -0.2, 1e-3, 2e-3, 0.05]), 640, 480)
+    intr = CameraIntrinsics(
+        np.array([[500.5, 0, 320.25], [0, 501.5, 240.75], [0, 0, 1]]), np.array([0.1, -0.2, 1e-3, 2e-3, 0.05]), 640, 480
+    )
     intr.save(tmp_path / "camera.yaml")
     assert (tmp_path / "camera.yaml").read_text().startswith("%YAML:1.0")
     back = CameraIntrinsics.load(tmp_path / "camera.yaml")
@@ -75,19 +82,34 @@ def test_four_coefficients_are_written_as_plumb_bob(tmp_path):
     np.testing.assert_array_equal(CameraIntrinsics.load(tmp_path / "c.yaml").dist, [0.1, -0.2, 0.0, 0.01, 0.0])
 
 
-@pytest.mark.parametrize("source, old, new, message", [
-    ("camera_info.yaml", "plumb_bob", "equidistant", r"line 8: distortion_model 'equidistant' is not OpenCV's"),
-    ("camera_info.yaml", "  rows: 1\n", "  rows: [1,\n", r"line \d+: not a YAML file OpenCV can read"),
-    ("camera_info.yaml", "0, 0, 1]\ndistortion_model", "0, 1]\ndistortion_model",
-     r"line 4: camera_matrix holds 8 numbers; a camera matrix has 9"),
-    ("camera_info.yaml", "[612.5, 0,", "[612.5, zero,", r"line 4: camera_matrix \(camera matrix\) is not a matrix"),
-    ("camera_info.yaml", "camera_matrix:", "camera_matrice:", r"no camera matrix: expected one of camera_matrix"),
-    ("camera_info.yaml", "0.125, -0.25, 0.001, -0.002, 0.0625]", "0.125, -0.25, 0.001]",
-     r"line 9: plumb_bob takes 4 or 5 coefficients, distortion_coefficients holds 3"),
-    ("camera_info.yaml", "[612.5, 0, 321.25, 0, 611.75", "[-612.5, 0, 321.25, 0, 611.75",
-     r"line 4: K is not a camera matrix"),
-    ("opencv_intrinsics.yml", "rows: 3", "rows: 4", r"line 7: camera_matrix .* data does not hold rows x cols"),
-])
+@pytest.mark.parametrize(
+    "source, old, new, message",
+    [
+        ("camera_info.yaml", "plumb_bob", "equidistant", r"line 8: distortion_model 'equidistant' is not OpenCV's"),
+        ("camera_info.yaml", "  rows: 1\n", "  rows: [1,\n", r"line \d+: not a YAML file OpenCV can read"),
+        (
+            "camera_info.yaml",
+            "0, 0, 1]\ndistortion_model",
+            "0, 1]\ndistortion_model",
+            r"line 4: camera_matrix holds 8 numbers; a camera matrix has 9",
+        ),
+        ("camera_info.yaml", "[612.5, 0,", "[612.5, zero,", r"line 4: camera_matrix \(camera matrix\) is not a matrix"),
+        ("camera_info.yaml", "camera_matrix:", "camera_matrice:", r"no camera matrix: expected one of camera_matrix"),
+        (
+            "camera_info.yaml",
+            "0.125, -0.25, 0.001, -0.002, 0.0625]",
+            "0.125, -0.25, 0.001]",
+            r"line 9: plumb_bob takes 4 or 5 coefficients, distortion_coefficients holds 3",
+        ),
+        (
+            "camera_info.yaml",
+            "[612.5, 0, 321.25, 0, 611.75",
+            "[-612.5, 0, 321.25, 0, 611.75",
+            r"line 4: K is not a camera matrix",
+        ),
+        ("opencv_intrinsics.yml", "rows: 3", "rows: 4", r"line 7: camera_matrix .* data does not hold rows x cols"),
+    ],
+)
 def test_malformed_files_name_file_and_line(tmp_path, source, old, new, message):
     text = (DATA / source).read_text()
     assert old in text

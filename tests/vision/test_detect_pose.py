@@ -62,8 +62,12 @@ def test_pnp_pose_is_within_the_noise_predicted_from_the_views_residuals(rendere
     assert pose.ok, pose.reason
     assert pose.n_corners == len(det.ids)
     T = pose.T_cam_target
-    assert pose.rms_px == pytest.approx(np.sqrt(np.mean(np.sum(
-        (project_points(SPEC.corners_target()[det.ids], T, INTR) - det.corners_px) ** 2, axis=1))), rel=1e-9)
+    assert pose.rms_px == pytest.approx(
+        np.sqrt(
+            np.mean(np.sum((project_points(SPEC.corners_target()[det.ids], T, INTR) - det.corners_px) ** 2, axis=1))
+        ),
+        rel=1e-9,
+    )
 
     # predicted covariance sigma^2 (J^T J)^-1, sigma from the view's own RMS (2M - 6 dof)
     J = view_jacobian(T, det.ids)

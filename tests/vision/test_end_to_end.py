@@ -62,11 +62,23 @@ def test_images_to_hand_eye(handeye_recordings, setup):
     assert res.outlier_views == []
 
     s = res.sigma
-    sigma = np.array([np.radians(s["X_rotation_deg"]), s["X_translation_mm"] / 1000,
-                      np.radians(s["Y_rotation_deg"]), s["Y_translation_mm"] / 1000])
+    sigma = np.array(
+        [
+            np.radians(s["X_rotation_deg"]),
+            s["X_translation_mm"] / 1000,
+            np.radians(s["Y_rotation_deg"]),
+            s["Y_translation_mm"] / 1000,
+        ]
+    )
     floor = _mean_shift_effect(p, dets, res.X, res.Y, setup)
-    errors = np.array([rotation_error_rad(res.X, p.X_true), translation_error_m(res.X, p.X_true),
-                       rotation_error_rad(res.Y, p.Y_true), translation_error_m(res.Y, p.Y_true)])
+    errors = np.array(
+        [
+            rotation_error_rad(res.X, p.X_true),
+            translation_error_m(res.X, p.X_true),
+            rotation_error_rad(res.Y, p.Y_true),
+            translation_error_m(res.Y, p.Y_true),
+        ]
+    )
     bound = ESTIMATED_SIGMA_BOUND * sigma + floor
     assert np.all(errors <= bound), (errors, sigma, floor)
     # the bound is a bound on something small: hundredths of a degree, tenths of a millimetre

@@ -29,8 +29,17 @@ def calibration(detections):
 
 def _params(intr: CameraIntrinsics) -> dict:
     K, d = intr.K, intr.dist
-    return {"fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2],
-            "k1": d[0], "k2": d[1], "p1": d[2], "p2": d[3], "k3": d[4]}
+    return {
+        "fx": K[0, 0],
+        "fy": K[1, 1],
+        "cx": K[0, 2],
+        "cy": K[1, 2],
+        "k1": d[0],
+        "k2": d[1],
+        "p1": d[2],
+        "p2": d[3],
+        "k3": d[4],
+    }
 
 
 def test_intrinsics_recover_the_synthetic_camera(detections, calibration):

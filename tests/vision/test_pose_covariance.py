@@ -19,8 +19,16 @@ TRIALS = 200
 
 def _pnp(ids, uv, T0):
     rvec, _ = cv2.Rodrigues(T0[:3, :3])
-    ok, rvec, tvec = cv2.solvePnP(SPEC.corners_target()[ids], uv, INTR.K, INTR.dist, rvec, T0[:3, 3:].copy(),
-                                  useExtrinsicGuess=True, flags=cv2.SOLVEPNP_ITERATIVE)
+    ok, rvec, tvec = cv2.solvePnP(
+        SPEC.corners_target()[ids],
+        uv,
+        INTR.K,
+        INTR.dist,
+        rvec,
+        T0[:3, 3:].copy(),
+        useExtrinsicGuess=True,
+        flags=cv2.SOLVEPNP_ITERATIVE,
+    )
     assert ok
     return make_transform(cv2.Rodrigues(rvec)[0], tvec.ravel())
 

@@ -80,7 +80,7 @@ def test_too_few_corners_from_a_partial_view(rendered_views):
     lo = np.floor(full.corners_px[keep].min(axis=0) - 25).astype(int)
     hi = np.ceil(full.corners_px[keep].max(axis=0) + 25).astype(int)
     image = np.full_like(view.image, 128)
-    image[lo[1]:hi[1], lo[0]:hi[0]] = view.image[lo[1]:hi[1], lo[0]:hi[0]]
+    image[lo[1] : hi[1], lo[0] : hi[0]] = view.image[lo[1] : hi[1], lo[0] : hi[0]]
     det = detect_board(image, SPEC)
     assert 0 < len(det.ids) < POSE_LIMITS["min_corners"], det
     pose = estimate_pose(det, SPEC, INTR)

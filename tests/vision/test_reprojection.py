@@ -60,15 +60,23 @@ def _pnp_calibration(p, ids, uv, setup):
 
 
 def _errors(res, p):
-    return (rotation_error_rad(res.X, p.X_true), translation_error_m(res.X, p.X_true),
-            rotation_error_rad(res.Y, p.Y_true), translation_error_m(res.Y, p.Y_true))
+    return (
+        rotation_error_rad(res.X, p.X_true),
+        translation_error_m(res.X, p.X_true),
+        rotation_error_rad(res.Y, p.Y_true),
+        translation_error_m(res.Y, p.Y_true),
+    )
 
 
 def _sigmas_si(res):
     """result.sigma in radians and metres, ordered as _errors."""
     s = res.sigma
-    return (np.radians(s["X_rotation_deg"]), s["X_translation_mm"] / 1000,
-            np.radians(s["Y_rotation_deg"]), s["Y_translation_mm"] / 1000)
+    return (
+        np.radians(s["X_rotation_deg"]),
+        s["X_translation_mm"] / 1000,
+        np.radians(s["Y_rotation_deg"]),
+        s["Y_translation_mm"] / 1000,
+    )
 
 
 def test_project_is_opencvs_projection():
@@ -174,8 +182,9 @@ def test_refine_intrinsics_with_noise_is_within_its_covariance():
     K1 = INTR.K.copy()
     K1[0, 0] *= 1.01
     start = CameraIntrinsics(K1, INTR.dist, INTR.width, INTR.height)
-    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, start, p.X_true, p.Y_true, setup=setup,
-                              refine_intrinsics=True)
+    res = refine_reprojection(
+        p.T_base_ee, ids, uv, SPEC, start, p.X_true, p.Y_true, setup=setup, refine_intrinsics=True
+    )
     K, d = res.intrinsics.K, res.intrinsics.dist
     est = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], *d])
     truth = np.array([INTR.K[0, 0], INTR.K[1, 1], INTR.K[0, 2], INTR.K[1, 2], *INTR.dist])
@@ -209,8 +218,9 @@ def test_an_outlier_view_is_flagged(setup, shift):
     rob = refine_reprojection(p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, setup=setup, loss="cauchy")
     assert rob.outlier_views == [k]
     keep = [v for v in range(N_VIEWS) if v != k]
-    clean = refine_reprojection(p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep], SPEC, INTR,
-                                p.X_true, p.Y_true, setup=setup)
+    clean = refine_reprojection(
+        p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep], SPEC, INTR, p.X_true, p.Y_true, setup=setup
+    )
     errors, sigmas = _errors(rob, p), _sigmas_si(clean)
     assert all(e <= ESTIMATED_SIGMA_BOUND * s for e, s in zip(errors, sigmas))
 
@@ -232,8 +242,9 @@ def test_robust_sigma_is_not_inflated_by_a_rejected_outlier_view(setup):
     rob = refine_reprojection(p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, setup=setup, loss="cauchy")
     assert rob.outlier_views == [k]
     keep = [v for v in range(N_VIEWS) if v != k]
-    clean = refine_reprojection(p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep], SPEC, INTR,
-                                p.X_true, p.Y_true, setup=setup)
+    clean = refine_reprojection(
+        p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep], SPEC, INTR, p.X_true, p.Y_true, setup=setup
+    )
     ratio = np.array(_sigmas_si(rob)) / np.array(_sigmas_si(clean))
     assert np.all((1 / ROBUST_SIGMA_FACTOR <= ratio) & (ratio <= ROBUST_SIGMA_FACTOR)), ratio
 

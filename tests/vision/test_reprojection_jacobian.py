@@ -17,8 +17,13 @@ def test_reprojection_jacobian_matches_central_differences():
     X = make_transform(so3_exp(rng.normal(size=3)), rng.normal(scale=0.5, size=3))
     Y = make_transform(so3_exp(rng.normal(size=3)), rng.normal(scale=0.05, size=3))
     # put every corner in front of the camera: choose X so that the target is ~0.6 m ahead
-    A = X @ make_transform(so3_exp(rng.normal(scale=0.3, size=(m, 3))), [0.0, 0.0, 0.6] + rng.normal(
-        scale=0.05, size=(m, 3))) @ invert_transform(Y)
+    A = (
+        X
+        @ make_transform(
+            so3_exp(rng.normal(scale=0.3, size=(m, 3))), [0.0, 0.0, 0.6] + rng.normal(scale=0.05, size=(m, 3))
+        )
+        @ invert_transform(Y)
+    )
     p = SPEC.corners_target()[rng.integers(0, len(SPEC.corners_target()), m)]
     intr = np.array([600.0, 590.0, 320.0, 240.0, -0.2, 0.1, 0.002, -0.001, -0.02])
 

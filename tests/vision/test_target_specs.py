@@ -32,26 +32,37 @@ def test_spec_json_round_trip(tmp_path, spec):
 
 def test_old_spec_files_are_charuco(tmp_path):
     path = tmp_path / "old.json"
-    path.write_text('{"type": "charuco", "squares_x": 7, "squares_y": 5, "square_length_m": 0.04, '
-                    '"marker_length_m": 0.03, "dictionary": "5X5_100"}')
+    path.write_text(
+        '{"type": "charuco", "squares_x": 7, "squares_y": 5, "square_length_m": 0.04, '
+        '"marker_length_m": 0.03, "dictionary": "5X5_100"}'
+    )
     spec = BoardSpec.load(path)
     assert spec.kind == "charuco" and spec.legacy is False
 
 
-@pytest.mark.parametrize("fields,match", [
-    ({"kind": "circles"}, "unknown board kind"),
-    ({"kind": "checkerboard", "squares_x": 8, "squares_y": 6}, "ambiguous"),
-    ({"kind": "checkerboard", "squares_x": 7, "squares_y": 7}, "ambiguous"),
-    ({"kind": "checkerboard", "squares_x": 2, "squares_y": 3}, "at least 3x3"),
-    ({"kind": "aruco_grid", "legacy": True}, "legacy is a ChArUco"),
-    ({"legacy": "yes"}, "legacy must be true or false"),
-    ({"kind": "aruco_grid", "marker_length_m": 0.05}, "smaller than the square"),
-    ({"kind": "aruco_grid", "dictionary": "4X4_50", "squares_x": 10, "squares_y": 6}, "has 50"),
-    ({"dictionary": "APRILTAG_99h1"}, "unknown ArUco dictionary"),
-])
+@pytest.mark.parametrize(
+    "fields,match",
+    [
+        ({"kind": "circles"}, "unknown board kind"),
+        ({"kind": "checkerboard", "squares_x": 8, "squares_y": 6}, "ambiguous"),
+        ({"kind": "checkerboard", "squares_x": 7, "squares_y": 7}, "ambiguous"),
+        ({"kind": "checkerboard", "squares_x": 2, "squares_y": 3}, "at least 3x3"),
+        ({"kind": "aruco_grid", "legacy": True}, "legacy is a ChArUco"),
+        ({"legacy": "yes"}, "legacy must be true or false"),
+        ({"kind": "aruco_grid", "marker_length_m": 0.05}, "smaller than the square"),
+        ({"kind": "aruco_grid", "dictionary": "4X4_50", "squares_x": 10, "squares_y": 6}, "has 50"),
+        ({"dictionary": "APRILTAG_99h1"}, "unknown ArUco dictionary"),
+    ],
+)
 def test_bad_spec_fields_raise(tmp_path, fields, match):
-    doc = {"squares_x": 5, "squares_y": 4, "square_length_m": 0.04, "marker_length_m": 0.03,
-           "dictionary": "4X4_50", **fields}
+    doc = {
+        "squares_x": 5,
+        "squares_y": 4,
+        "square_length_m": 0.04,
+        "marker_length_m": 0.03,
+        "dictionary": "4X4_50",
+        **fields,
+    }
     path = tmp_path / "bad.json"
     path.write_text(json.dumps(doc))
     with pytest.raises(BoardSpecError, match=match) as info:
@@ -61,8 +72,11 @@ def test_bad_spec_fields_raise(tmp_path, fields, match):
 
 @pytest.mark.parametrize("name", ["APRILTAG_36h11", "apriltag_36H11", "DICT_APRILTAG_16h5", "APRILTAG_25h9"])
 def test_apriltag_dictionaries_by_name(name):
-    assert dictionary_id(name) in (cv2.aruco.DICT_APRILTAG_36h11, cv2.aruco.DICT_APRILTAG_16h5,
-                                   cv2.aruco.DICT_APRILTAG_25h9)
+    assert dictionary_id(name) in (
+        cv2.aruco.DICT_APRILTAG_36h11,
+        cv2.aruco.DICT_APRILTAG_16h5,
+        cv2.aruco.DICT_APRILTAG_25h9,
+    )
 
 
 def test_marker_grid_corners_agree_with_opencvs_grid_board():

@@ -95,13 +95,23 @@ def test_checkerboard_order_follows_the_colours_when_turned(views):
         assert np.linalg.norm(err, axis=1).max() < 1.0
 
 
-@pytest.mark.parametrize("name", [
-    "checkerboard",
-    pytest.param("aruco_grid", marks=pytest.mark.xfail(strict=True, reason=(
-        "marker corners shrink toward each marker's centre by ~0.2 px (MARKER_CORNER_BIAS_PX): a bias "
-        "the per-view mean-shift floor does not cover; X is 0.47 mm off for a 0.34 mm bound"))),
-    "charuco_legacy",
-])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "checkerboard",
+        pytest.param(
+            "aruco_grid",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason=(
+                    "marker corners shrink toward each marker's centre by ~0.2 px (MARKER_CORNER_BIAS_PX): a bias "
+                    "the per-view mean-shift floor does not cover; X is 0.47 mm off for a 0.34 mm bound"
+                ),
+            ),
+        ),
+        "charuco_legacy",
+    ],
+)
 def test_hand_eye_from_rendered_views_recovers_x(name):
     spec = TARGETS[name]
     setup = "eye_in_hand"
@@ -125,12 +135,22 @@ def test_hand_eye_from_rendered_views_recovers_x(name):
 
     def corners(d):
         X, Y = perturbed(res.X, d[:6]), perturbed(res.Y, d[6:])
-        return np.concatenate([project_points(spec.corners_target()[i], invert_transform(X) @ A[k] @ Y, INTR).ravel()
-                               for k, i in enumerate(ids) if len(i)])
+        return np.concatenate(
+            [
+                project_points(spec.corners_target()[i], invert_transform(X) @ A[k] @ Y, INTR).ravel()
+                for k, i in enumerate(ids)
+                if len(i)
+            ]
+        )
 
     J = numeric_jacobian(corners, 12)
-    shift = np.concatenate([np.tile((u - project_points(spec.corners_target()[i], T, INTR)).mean(axis=0), len(i))
-                            for i, u, T in zip(ids, uv, p.T_cam_target) if len(i)])
+    shift = np.concatenate(
+        [
+            np.tile((u - project_points(spec.corners_target()[i], T, INTR)).mean(axis=0), len(i))
+            for i, u, T in zip(ids, uv, p.T_cam_target)
+            if len(i)
+        ]
+    )
     floor_rot, floor_trans = np.linalg.norm((np.linalg.pinv(J) @ shift).reshape(4, 3), axis=1)[:2]
     assert rotation_error_rad(res.X, p.X_true) <= ESTIMATED_SIGMA_BOUND * sig_rot + floor_rot
     assert translation_error_m(res.X, p.X_true) <= ESTIMATED_SIGMA_BOUND * sig_trans + floor_trans
