@@ -146,20 +146,7 @@ def _check_pair_consensus(A, B, X, model, setup, pairs, motions) -> None:
 
 
 def _subset_model(model, keep):
-    if model is None:
-        return None
-    cam = None if model.camera_covariance is None else np.asarray(model.camera_covariance)[keep]
-    rob = None if model.robot_covariance is None else np.asarray(model.robot_covariance)[keep]
-    return NoiseModel(
-        model.camera_rot_rad,
-        model.camera_trans_m,
-        model.robot_rot_rad,
-        model.robot_trans_m,
-        cam,
-        rob,
-        model.name,
-        model.scale_to_residuals,
-    )
+    return None if model is None else model.subset(keep)
 
 
 def calibrate(

@@ -23,6 +23,7 @@ Every covariance is 6x6 in the order ``[w, n]`` (rad, m).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,6 +103,15 @@ class NoiseModel:
             ** 2
         )
         return np.broadcast_to(np.diag(d), (n, 6, 6))
+
+    def subset(self, keep: np.ndarray) -> "NoiseModel":
+        """The model of the poses in ``keep`` (a mask or indices): per-pose covariances cut to them."""
+        changes = {
+            name: np.asarray(getattr(self, name))[keep]
+            for name in ("camera_covariance", "robot_covariance")
+            if getattr(self, name) is not None
+        }
+        return dataclasses.replace(self, **changes) if changes else self
 
     @property
     def has_robot_noise(self) -> bool:

@@ -13,7 +13,7 @@ import numpy as np
 
 from handeye.core.errors import LengthMismatchError, PoseFileError
 
-__all__ = ["ImageCalibration", "pair_robot_poses", "calibrate_from_views"]
+__all__ = ["ImageCalibration", "pair_robot_poses", "calibrate_from_views", "pnp_noise_model"]
 
 
 @dataclass
@@ -90,6 +90,38 @@ def pair_robot_poses(
     return T_base_ee[[index[im] for im in images]]
 
 
+def pnp_noise_model(views, accepted: list, T_cam_target: np.ndarray):
+    """The camera noise of the accepted views' PnP poses: each its own covariance from its corners.
+
+    Poor along the optical axis, as PnP is; the common scale is left to the residuals
+    (``scale_to_residuals``), since the robot's noise adds to the camera's.
+
+    Parameters
+    ----------
+    views : classic.vision.views.Views
+    accepted : list of int
+        The views with a PnP pose, in the order of ``T_cam_target``.
+    T_cam_target : array, shape (len(accepted), 4, 4)
+
+    Returns
+    -------
+    classic.noise_model.NoiseModel
+    """
+    import classic
+    from classic.vision.pose_covariance import pose_covariances
+
+    covs, _ = pose_covariances(
+        T_cam_target,
+        [views.views[k].detection.ids for k in accepted],
+        [views.views[k].detection.corners_px for k in accepted],
+        views.spec,
+        views.intrinsics,
+    )
+    return classic.NoiseModel(
+        camera_covariance=covs, name="camera, PnP covariance from the corners", scale_to_residuals=True
+    )
+
+
 def calibrate_from_views(
     views,
     T_base_ee: np.ndarray,
@@ -121,24 +153,12 @@ def calibrate_from_views(
     ImageCalibration
     """
     import classic
-    from classic.vision.pose_covariance import pose_covariances
     from classic.vision.reprojection import refine_reprojection
 
     accepted = [k for k, v in enumerate(views.views) if v.pose.ok]
     rejected = {v.image: v.pose.reason for v in views.views if not v.pose.ok}
     T_cam_target = np.array([views.views[k].pose.T_cam_target for k in accepted]).reshape(-1, 4, 4)
-    # each PnP pose weighed by its own covariance from its corners (poor along the optical axis); the
-    # common scale is left to the residuals, since the robot's noise adds to the camera's
-    covs, _ = pose_covariances(
-        T_cam_target,
-        [views.views[k].detection.ids for k in accepted],
-        [views.views[k].detection.corners_px for k in accepted],
-        views.spec,
-        views.intrinsics,
-    )
-    noise = classic.NoiseModel(
-        camera_covariance=covs, name="camera, PnP covariance from the corners", scale_to_residuals=True
-    )
+    noise = pnp_noise_model(views, accepted, T_cam_target)
     # with the reprojection refinement to follow, the pose-based fit is its start: a robust loss keeps a
     # view whose PnP pose is off (a grazing board) from pulling it, and the corners then weigh every view
     # for what it holds; without it the pose-based fit is the result, and least squares refuses outliers

@@ -21,12 +21,17 @@ same rotation. ABB's ``q1 q2 q3 q4`` is a quaternion, scalar first ``(w, x, y, z
 Every function takes one set of angles or a batch ``(..., 3)`` and returns
 rotation matrices ``(..., 3, 3)``, or the inverse. Matrix to angles returns the
 controller's range: ``B`` (pitch) in ``[-90, 90]`` degrees, the other two in
-``(-180, 180]``; at ``B = +-90`` (gimbal lock) the roll angle is set to 0.
+``[-180, 180]``; at ``B = +-90`` (gimbal lock) the roll angle is set to 0. The
+matrices are scipy's (:class:`scipy.spatial.transform.Rotation`, intrinsic ``"ZYX"``);
+this module only names the conventions and orders the angles.
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 __all__ = [
     "fanuc_wpr_from_matrix",
@@ -39,12 +44,9 @@ __all__ = [
     "zyx_from_matrix",
 ]
 
-#: Below this ``cos(pitch)`` the yaw and roll axes coincide (gimbal lock): roll is set to 0.
-_GIMBAL_COS = 1e-12
-
 
 def matrix_from_zyx(yaw: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.ndarray:
-    """Rotation ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``, angles in radians.
+    """Rotation ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``, angles in radians (scipy's intrinsic ``"ZYX"``).
 
     Parameters
     ----------
@@ -59,20 +61,8 @@ def matrix_from_zyx(yaw: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.
     -----
     .. math:: R = R_z(\\gamma) R_y(\\beta) R_x(\\alpha)
     """
-    cz, sz = np.cos(yaw), np.sin(yaw)
-    cy, sy = np.cos(pitch), np.sin(pitch)
-    cx, sx = np.cos(roll), np.sin(roll)
-    R = np.empty(np.broadcast(cz, cy, cx).shape + (3, 3))
-    R[..., 0, 0] = cz * cy
-    R[..., 0, 1] = cz * sy * sx - sz * cx
-    R[..., 0, 2] = cz * sy * cx + sz * sx
-    R[..., 1, 0] = sz * cy
-    R[..., 1, 1] = sz * sy * sx + cz * cx
-    R[..., 1, 2] = sz * sy * cx - cz * sx
-    R[..., 2, 0] = -sy
-    R[..., 2, 1] = cy * sx
-    R[..., 2, 2] = cy * cx
-    return R
+    a = np.stack(np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (yaw, pitch, roll))), axis=-1)
+    return Rotation.from_euler("ZYX", a.reshape(-1, 3)).as_matrix().reshape(a.shape[:-1] + (3, 3))
 
 
 def zyx_from_matrix(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -85,16 +75,14 @@ def zyx_from_matrix(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     Returns
     -------
     yaw, pitch, roll : array, shape (...)
-        ``pitch`` in ``[-pi/2, pi/2]``, ``yaw`` and ``roll`` in ``(-pi, pi]``; at
-        gimbal lock (``cos(pitch) = 0``) ``roll = 0`` and ``yaw`` carries the rest.
+        ``pitch`` in ``[-pi/2, pi/2]``, ``yaw`` and ``roll`` in ``[-pi, pi]``; at gimbal lock
+        (``cos(pitch) = 0``) scipy sets ``roll = 0`` and ``yaw`` carries the rest.
     """
     R = np.asarray(R, dtype=float)
-    cos_pitch = np.hypot(R[..., 0, 0], R[..., 1, 0])
-    pitch = np.arctan2(-R[..., 2, 0], cos_pitch)
-    locked = cos_pitch < _GIMBAL_COS
-    yaw = np.where(locked, np.arctan2(-R[..., 0, 1], R[..., 1, 1]), np.arctan2(R[..., 1, 0], R[..., 0, 0]))
-    roll = np.where(locked, 0.0, np.arctan2(R[..., 2, 1], R[..., 2, 2]))
-    return yaw, pitch, roll
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Gimbal lock detected")
+        a = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_euler("ZYX").reshape(R.shape[:-2] + (3,))
+    return a[..., 0], a[..., 1], a[..., 2]
 
 
 def _split(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import shlex
 from pathlib import Path
 
@@ -51,18 +50,6 @@ def command_line(args: argparse.Namespace, command: str = "calibrate") -> str:
     return " ".join(shlex.quote(w) for w in words)
 
 
-def _subset(noise, keep: np.ndarray):
-    """The noise model of the poses in ``keep`` (per-pose covariances cut to them)."""
-    if noise is None:
-        return None
-    changes = {}
-    for name in ("camera_covariance", "robot_covariance"):
-        value = getattr(noise, name)
-        if value is not None:
-            changes[name] = np.asarray(value)[keep]
-    return dataclasses.replace(noise, **changes) if changes else noise
-
-
 def report_poses(
     args: argparse.Namespace, T_base_ee: np.ndarray, T_cam_target: np.ndarray, result, noise, warnings: list[str]
 ) -> Path:
@@ -100,7 +87,7 @@ def report_poses(
             pairs=args.pairs,
             refine=not args.no_refine,
             loss=loss,
-            noise=_subset(noise, keep),
+            noise=(None if noise is None else noise.subset(keep)),
             estimate_scale=args.estimate_scale,
         )
 
@@ -138,8 +125,8 @@ def report_images(args: argparse.Namespace, views, T_base_ee: np.ndarray, calibr
         The page.
     """
     import classic
-    from classic.vision.pose_covariance import pose_covariances
     from handeye.core.setups import normalize_setup
+    from handeye.image_calibration import pnp_noise_model
     from handeye.report.build import ImagesPart, ReportData, write_report
 
     setup = normalize_setup(args.setup)
@@ -147,21 +134,17 @@ def report_images(args: argparse.Namespace, views, T_base_ee: np.ndarray, calibr
     T_ee = T_base_ee[accepted]
     T_ct = np.array([views.views[k].pose.T_cam_target for k in accepted]).reshape(-1, 4, 4)
     # the pose-based fit of handeye.image_calibration.calibrate_from_views, refit per fold
-    covs, _ = pose_covariances(
-        T_ct,
-        [views.views[k].detection.ids for k in accepted],
-        [views.views[k].detection.corners_px for k in accepted],
-        views.spec,
-        views.intrinsics,
-    )
-    noise = classic.NoiseModel(
-        camera_covariance=covs, name="camera, PnP covariance from the corners", scale_to_residuals=True
-    )
+    noise = pnp_noise_model(views, accepted, T_ct)
     loss = "cauchy" if (not args.no_reprojection or args.robust) else "linear"
 
     def fit(keep):
         return classic.calibrate(
-            T_ee[keep], T_ct[keep], setup=setup, method=args.method, noise=_subset(noise, keep), loss=loss
+            T_ee[keep],
+            T_ct[keep],
+            setup=setup,
+            method=args.method,
+            noise=noise.subset(keep),
+            loss=loss,
         )
 
     data = ReportData(
@@ -173,7 +156,7 @@ def report_images(args: argparse.Namespace, views, T_base_ee: np.ndarray, calibr
         f"detections {args.detections} with robot poses {args.robot_poses}",
         fit,
         labels=[Path(views.views[k].image).stem for k in accepted],
-        camera_covariance=covs,
+        camera_covariance=noise.camera_covariance,
         images=ImagesPart(views, T_base_ee, calibration),
     )
     return write_report(args.report, data)
