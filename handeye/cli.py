@@ -7,6 +7,7 @@ calibrate`` works with only the core dependencies installed.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from handeye.core.errors import HandEyeInputError, MissingDependencyError
@@ -59,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     Bad input exits with status 2 and a one-line message, no traceback.
     """
     args = build_parser().parse_args(argv)
+    _quiet_opencv()
     try:
         return int(args.run(args) or 0)
     except (HandEyeInputError, MissingDependencyError) as exc:
@@ -67,6 +69,14 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # the output was piped into a reader that stopped (``| head``): not an error of ours
         sys.stderr.close()
         return 0
+
+
+def _quiet_opencv() -> None:
+    """OpenCV's own warnings off stderr (a truncated PNG prints one before our error names the file)."""
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")  # read when cv2 is first imported
+    cv2 = sys.modules.get("cv2")
+    if cv2 is not None:
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
 
 
 if __name__ == "__main__":

@@ -29,9 +29,9 @@ from handeye.core.dataset import (
     poses_to_columns,
     write_table,
 )
+from handeye.core.engines import check_engine, require_visible, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
-from handeye.core.pool import run_pool
 from handeye.core.tables import markdown_table
 
 __all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown", "plot_label_errors"]
@@ -132,6 +132,7 @@ def _label_one(args):
 
     cv2.setNumThreads(1)
     root, camera_id, method = args
+    require_visible(Path(root) / "meta.json")  # a Ray worker on a machine that does not share the folder
     return camera_id, label_camera(Dataset.open(root), camera_id, method)[0]
 
 
@@ -141,20 +142,31 @@ def _describe(args) -> str:
 
 
 def label_dataset(
-    root: str | Path, workers: int = 2, method: str = "park", progress: bool = True, plot: bool = True
+    root: str | Path,
+    workers: int | None = None,
+    method: str = "park",
+    progress: bool = True,
+    plot: bool = True,
+    engine: str = "pool",
+    address: str | None = None,
 ) -> LabelReport:
     """Label every camera pose of a dataset and write the labels, a report and a plot.
 
     Parameters
     ----------
     root : str or Path
-    workers : int
-        Processes (1: in this process).
+    workers : int, optional
+        Processes (1: in this process), or Ray tasks in flight; None: 2, or every CPU of the cluster at
+        ``address``.
     method : str
     progress : bool
         A progress bar on stderr.
     plot : bool
         Write ``label_errors.png`` (needs matplotlib).
+    engine : {"pool", "ray"}
+        Where the camera poses are labelled, one task each (:func:`handeye.core.engines.run_tasks`).
+    address : str, optional
+        A running Ray cluster; None starts a local one. Every node must see ``root`` at the same path.
 
     Returns
     -------
@@ -166,13 +178,24 @@ def label_dataset(
         An invalid or incomplete dataset (checked before any work).
     """
     t0 = time.perf_counter()
+    check_engine(engine, address, workers)
     ds = Dataset.open(root)
     cams = ds.cameras()
     for c in range(len(ds)):
         ds.frames(c)  # validate every shard up front: fail before an hour of work, not after
-    jobs = [(str(ds.root), c, method) for c in range(len(ds))]
+    jobs = [(str(ds.root.resolve()), c, method) for c in range(len(ds))]
     results = dict(
-        run_pool(_label_one, jobs, workers, progress, desc=f"label {ds.root.name}", unit="camera", describe=_describe)
+        run_tasks(
+            _label_one,
+            jobs,
+            engine,
+            workers,
+            address,
+            progress,
+            desc=f"label {ds.root.name}",
+            unit="camera",
+            describe=_describe,
+        )
     )
     table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS or k in MARKERLESS_COLUMNS}
     for col in LABEL_COLUMNS:

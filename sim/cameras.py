@@ -5,11 +5,19 @@ recipe), each camera looking at the workspace centre with its x axis
 horizontal, in the OpenCV optical convention (x right, y down, z forward).
 Regions (the subsets S1..Sk of the continual-learning protocol) are azimuth
 sectors; within each region a seeded choice of poses is held out for test.
+
+Presets: ``paper-sim`` (the paper's 108 poses, UR5), ``paper-real`` (the
+paper's 24-pose real rig, UR3), ``demo`` and ``small`` (quick looks, tests),
+and ``dense-sim``: 1,000 poses over the whole hemisphere (10 azimuth sectors
+of 36 deg, 80 train + 20 test each; elevation 10-75 deg, distance 1.1-1.8 m)
+in 4 scenes, the robot standing at different places and headings in the lab
+(:mod:`sim.lab`: camera ``c`` is in scene ``c % 4``, the lab posed by
+``T_base_lab(scene)``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -48,6 +56,9 @@ class CameraPreset:
         learner gets downscaled images; the calibration uses the sensor's resolution).
     fov_deg : float
         Horizontal field of view.
+    scenes : int
+        Scenes (>= 1): where the robot stands in the lab; camera ``c`` is in scene ``c % scenes``
+        and the lab is posed by :func:`sim.lab.T_base_lab`. 1 is today's lab for every camera.
     """
 
     name: str
@@ -63,11 +74,15 @@ class CameraPreset:
     image_size: tuple = (256, 256)
     calibration_image_size: tuple = (640, 640)
     fov_deg: float = 60.0
+    scenes: int = 1
 
     def __post_init__(self):
         k = len(self.region_azimuths_deg)
         if not (len(self.train_per_region) == len(self.test_per_region) == k):
             raise HandEyeInputError(f"preset {self.name}: one train and one test count per region ({k} regions)")
+        if isinstance(self.scenes, bool) or not isinstance(self.scenes, (int, np.integer)) or self.scenes < 1:
+            raise HandEyeInputError(f"preset {self.name}: scenes must be an integer >= 1, got {self.scenes!r}")
+        object.__setattr__(self, "scenes", int(self.scenes))  # a plain int, for the JSON recipe
 
     @classmethod
     def from_dict(cls, doc: dict) -> "CameraPreset":
@@ -77,6 +92,18 @@ class CameraPreset:
             return tuple(as_tuple(x) for x in v) if isinstance(v, list) else v
 
         return cls(**{k: as_tuple(v) for k, v in doc.items()})
+
+    def to_dict(self) -> dict:
+        """The preset as a dataset recipe stores it: ``dataclasses.asdict`` without ``scenes`` when it is 1.
+
+        Recipes written before presets had scenes lack the field; leaving it out when it is 1 keeps
+        their recipes, and so the resume check that compares them, unchanged.
+        :meth:`from_dict` reads either back (a missing ``scenes`` is 1).
+        """
+        doc = asdict(self)
+        if self.scenes == 1:
+            del doc["scenes"]
+        return doc
 
     @property
     def n_cameras(self) -> int:
@@ -130,6 +157,25 @@ PRESETS = {
         calibration_views=10,
         image_size=(128, 128),
         calibration_image_size=(480, 480),
+    ),
+    # dense coverage of the whole hemisphere in several scenes: 1,000 poses, 10 azimuth sectors of 36 deg with
+    # 80 train + 20 test each, elevation 10-75 deg (look_at refuses straight down), 1.1-1.8 m from the workspace
+    # centre, in 4 scenes (camera c in scene c % 4: the robot at another place and heading in the lab, sim.lab;
+    # the lab's objects stay >= 1.95 m from the base axis, the cameras within 1.8 cos 10 deg = 1.77 m);
+    # UR5, 50 configurations and 15 calibration views, 256x256 data and 640x640 calibration images as paper-sim
+    "dense-sim": CameraPreset(
+        "dense-sim",
+        "ur5",
+        _sectors(10),
+        (80,) * 10,
+        (20,) * 10,
+        50,
+        calibration_views=15,
+        radius_m=(1.1, 1.8),
+        elevation_deg=(10.0, 75.0),
+        image_size=(256, 256),
+        calibration_image_size=(640, 640),
+        scenes=4,
     ),
 }
 

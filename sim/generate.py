@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -35,9 +36,9 @@ from handeye.core.dataset import (
     write_json_atomic,
     write_table,
 )
+from handeye.core.engines import check_engine, require_visible, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.jsonfile import read_json_file
-from handeye.core.pool import run_pool
 from handeye.core.se3 import invert_transform
 from handeye.core.shard_writer import ShardWriter
 from sim.cameras import CameraPreset, get_preset, place_cameras
@@ -100,6 +101,8 @@ class GenerationReport:
     frames : int
         Frames rendered by this call.
     wall_s : float
+    left : int
+        Camera poses of the preset still without a complete shard (a call with ``cameras`` renders a part).
     """
 
     out: Path
@@ -108,6 +111,7 @@ class GenerationReport:
     regenerated: list = field(default_factory=list)
     frames: int = 0
     wall_s: float = 0.0
+    left: int = 0
 
     def summary(self) -> str:
         fps = self.frames / self.wall_s if self.wall_s > 0 else float("nan")
@@ -117,6 +121,8 @@ class GenerationReport:
         )
         if self.regenerated:
             text += f", regenerated half-written {self.regenerated}"
+        if self.left:
+            text += f"; {self.left} camera poses still to render (run again without --cameras)"
         return text
 
 
@@ -175,7 +181,7 @@ def dataset_meta(
         "(x right, y down, z forward); eye-to-hand: label X = T_base_cam",
         "recipe": {
             "generator": "handeye sim generate",
-            "preset": asdict(preset),
+            "preset": preset.to_dict(),
             "seed": int(seed),
             "noise": asdict(noise),
             "marker_radius_m": marker_radius_m,
@@ -206,9 +212,11 @@ class _ShardRenderer:
     def __init__(self, meta: dict):
         from classic.vision.board import BoardSpec
         from classic.vision.camera import CameraIntrinsics
+        from sim.lab import T_base_lab, camera_scene
         from sim.render import Renderer
         from sim.robot import load_robot
 
+        self._T_base_lab, self._camera_scene = T_base_lab, camera_scene
         self.meta = meta
         recipe = meta["recipe"]
         self.preset = CameraPreset.from_dict(recipe["preset"])
@@ -274,6 +282,9 @@ class _ShardRenderer:
         rng = np.random.default_rng([self.meta["recipe"]["seed"], camera_id])
         noise_rng = np.random.default_rng([self.meta["recipe"]["seed"], camera_id, 1])
         T_base_cam = self.cams.T_base_cam[camera_id]
+        T_base_lab = self._T_base_lab(self._camera_scene(camera_id, self.preset.scenes))  # identity: one scene
+        for renderer in self.renderers.values():
+            renderer.set_environment_pose(T_base_lab)
         rows = []  # (recording, q_true, rgb_rel, depth_rel)
         counts = {}
         if "calibration" in self.renderers:
@@ -330,6 +341,7 @@ def _init_worker(meta: dict) -> None:
 
 def _work(args) -> tuple[int, int]:
     camera_id, out = args
+    require_visible(Path(out) / "meta.json")  # a Ray worker on a machine that does not share the folder
     return camera_id, _WORKER.render_shard(camera_id, Path(out))
 
 
@@ -368,12 +380,15 @@ def generate(
     preset: str | CameraPreset = "small",
     seed: int = 0,
     noise: NoiseModel | None = None,
-    workers: int = 2,
+    workers: int | None = None,
     recordings: tuple[str, ...] = ("calibration", "data"),
     marker_radius_m: float | None = None,
     progress: bool = True,
+    engine: str = "pool",
+    address: str | None = None,
+    cameras: Sequence[int] | None = None,
 ) -> GenerationReport:
-    """Render a dataset (or resume one): one shard per camera pose, on ``workers`` processes.
+    """Render a dataset (or resume one): one shard per camera pose, one task per shard.
 
     Parameters
     ----------
@@ -384,13 +399,23 @@ def generate(
     seed : int
     noise : NoiseModel, optional
         None for none.
-    workers : int
-        Rendering processes.
+    workers : int, optional
+        Rendering processes (or Ray tasks in flight); None: 2, or every CPU of the Ray cluster at ``address``.
     recordings : tuple of {"calibration", "data"}
     marker_radius_m : float, optional
         Debugging: data recordings show only a sphere on the flange origin (and the lab).
     progress : bool
         A progress bar on stderr.
+    engine : {"pool", "ray"}
+        ``pool`` (default): processes on this machine; ``ray``: tasks on a Ray cluster (``handeye[cluster]``),
+        each retried when its worker dies. Either way a shard is published whole or not at all, and the
+        dataset is byte-identical.
+    address : str, optional
+        A running Ray cluster (``auto``, ``HOST:6379``, ``ray://HOST:10001``); None starts a local one.
+        On several machines ``out`` must be a folder every node sees at the same path.
+    cameras : sequence of int, optional
+        Render only these camera poses (a part of a large preset; the rest stays to do, and a later call
+        without ``cameras`` completes it). None: all.
 
     Returns
     -------
@@ -407,8 +432,13 @@ def generate(
     bad = [r for r in recordings if r not in ("calibration", "data")]
     if bad or not recordings:
         raise HandEyeInputError(f"recordings must be calibration and/or data, got {list(recordings)}")
-    if workers < 1:
-        raise HandEyeInputError(f"workers must be >= 1, got {workers}")
+    check_engine(engine, address, workers)
+    if cameras is not None:
+        cameras = sorted({int(c) for c in cameras})
+        if cameras and not (0 <= cameras[0] and cameras[-1] < preset.n_cameras):
+            raise HandEyeInputError(
+                f"cameras must lie in 0..{preset.n_cameras - 1} (preset {preset.name}), got {cameras[0]}..{cameras[-1]}"
+            )
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out}: exists and is not a directory; choose another --out")
@@ -425,7 +455,7 @@ def generate(
             )
         report = GenerationReport(out)
         pending = []
-        for c in range(preset.n_cameras):
+        for c in range(preset.n_cameras) if cameras is None else cameras:
             shard = ShardWriter(out, c)
             if shard.complete:
                 report.skipped.append(c)
@@ -435,10 +465,12 @@ def generate(
             pending.append(c)
         # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
         # context of the process, so the caller's process never holds one
-        for c, n in run_pool(
+        for c, n in run_tasks(
             _work,
-            [(c, str(out)) for c in pending],
+            [(c, str(out.resolve())) for c in pending],
+            engine,
             workers,
+            address,
             progress,
             desc=f"render {out.name}",
             unit="camera",
@@ -450,5 +482,7 @@ def generate(
             report.rendered.append(c)
             report.frames += n
         report.rendered.sort()
+        if cameras is not None:
+            report.left = sum(not ShardWriter(out, c).complete for c in range(preset.n_cameras))
         report.wall_s = time.perf_counter() - t0
         return report

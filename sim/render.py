@@ -3,7 +3,9 @@
 ``PYOPENGL_PLATFORM`` defaults to ``egl`` here, before OpenGL is imported.
 Camera poses come in as OpenCV ``T_base_cam`` and are converted once
 (:mod:`sim.opengl`). Depth is the z coordinate in the camera frame, metres,
-0 where nothing was hit (the convention of RGB-D sensors).
+0 where nothing was hit (the convention of RGB-D sensors). The lab stands
+where :meth:`Renderer.set_environment_pose` puts it (``T_base_lab``, the
+identity unless set: :mod:`sim.lab`).
 """
 
 from __future__ import annotations
@@ -93,9 +95,10 @@ class Renderer:
         _single_sample_framebuffers(pr)
         self.robot = robot
         self.scene = pr.Scene(ambient_light=np.array([0.35, 0.35, 0.35]), bg_color=np.array([0.8, 0.85, 0.9, 1.0]))
+        self.environment_nodes = []  # posed by T_base_lab, the identity until set_environment_pose
         if environment:
             for m in environment_meshes():
-                self.scene.add(_matte(pr.Mesh.from_trimesh(m, smooth=False)))
+                self.environment_nodes.append(self.scene.add(_matte(pr.Mesh.from_trimesh(m, smooth=False))))
         self.link_nodes = []
         if robot_visible:
             for name, path, _ in robot.link_poses(np.zeros(robot.nq)):
@@ -121,6 +124,19 @@ class Renderer:
             pose=np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 2], [0, 0, 0, 1]], dtype=float),
         )
         self.renderer = pr.OffscreenRenderer(int(width), int(height))
+
+    def set_environment_pose(self, T_base_lab: np.ndarray) -> None:
+        """Pose the lab (floor, walls, objects) in the base frame for the next renders.
+
+        Parameters
+        ----------
+        T_base_lab : array, shape (4, 4)
+            The lab frame the environment meshes are built in, in the base frame
+            (:func:`sim.lab.T_base_lab`); the identity is the lab of a preset with one scene.
+        """
+        T_base_lab = np.asarray(T_base_lab, dtype=float)
+        for node in self.environment_nodes:
+            self.scene.set_pose(node, T_base_lab)
 
     def render(self, q: np.ndarray, T_base_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Colour and depth of the cell with the robot at ``q`` seen from ``T_base_cam``.

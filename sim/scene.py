@@ -77,10 +77,12 @@ def _textured_quad(width_m: float, height_m: float, image: np.ndarray, T: np.nda
 
 
 def environment_meshes(seed: int = 0) -> list:
-    """Floor, two walls and objects around the base (base frame, metres).
+    """Floor, two walls and objects around the base (lab frame, metres: the base frame of a one-scene preset).
 
-    The objects stand 2.2-2.6 m from the base, beyond the cameras (at most
-    about 1.7 m out), so they are background and never hide the robot.
+    The objects stand 2.15-2.6 m from the base, beyond the cameras (at most
+    about 1.8 m out), so they are background and never hide the robot. A scene
+    of a several-scene preset turns and shifts the lab by ``T_base_lab``
+    (:mod:`sim.lab`), which keeps them at least 1.95 m out.
     """
     trimesh = _trimesh()
     meshes = [_textured_quad(7.0, 7.0, floor_texture(seed=seed), make_transform(np.eye(3), [0, 0, -0.001]))]

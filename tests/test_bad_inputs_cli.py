@@ -249,3 +249,17 @@ def test_a_pose_file_with_too_few_poses_is_named(tmp_path, capsys):
     assert main(["plan", str(path), "--setup", "eye-to-hand"]) == 2
     err = capsys.readouterr().err
     assert str(path) in err and "--camera-guess" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_truncated_png_is_one_line_without_opencv_s_own_warning(tmp_path):
+    """OpenCV printed '[ WARN ...] PNG input buffer is incomplete' before our error: kept off stderr now."""
+    pytest.importorskip("cv2")
+    assert _subprocess([b"board", b"-o", os.fsencode(tmp_path / "board.png")], tmp_path).returncode == 0
+    images = tmp_path / "images"
+    images.mkdir()
+    png = (tmp_path / "board.png").read_bytes()
+    (images / "view_000.png").write_bytes(png[: len(png) // 3])
+    r = _subprocess([b"intrinsics", b"images", b"--board", b"board.json", b"-o", b"camera.json"], tmp_path)
+    err = r.stderr.decode(errors="replace")
+    lines = [ln for ln in err.split("\n") if ln.strip()]
+    assert r.returncode == 2 and len(lines) == 1 and "view_000.png" in lines[0], err

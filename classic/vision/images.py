@@ -12,6 +12,8 @@ from handeye.core.errors import HandEyeInputError
 __all__ = ["ImageError", "IMAGE_SUFFIXES", "read_image", "list_images"]
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_PNG_END = b"IEND"
 
 
 class ImageError(HandEyeInputError):
@@ -41,6 +43,9 @@ def read_image(path: str | Path) -> np.ndarray:
         data = np.fromfile(path, dtype=np.uint8)
     except OSError as exc:
         raise ImageError(f"{path}: cannot read the image ({exc.strerror or exc})") from None
+    if data[:8].tobytes() == _PNG_SIGNATURE and _PNG_END not in data.tobytes():
+        # refused before decoding: libpng would print its own error line on stderr first
+        raise ImageError(f"{path}: a truncated PNG (its end chunk is missing)")
     image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
     if image is None:
         raise ImageError(f"{path}: not a readable image (PNG, JPEG, BMP or TIFF expected)")

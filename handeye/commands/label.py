@@ -5,6 +5,7 @@ Example
 ::
 
     handeye label data/paper-sim
+    handeye label /shared/dense-sim --engine ray --address auto
 
 Per camera pose: ChArUco detection and PnP on the calibration recording,
 eye-to-hand solve, corner-reprojection refinement. Writes the label, its
@@ -18,6 +19,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.core.engines import add_engine_arguments
+
 __all__ = ["add_parser", "run"]
 
 
@@ -30,7 +33,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("dataset", type=Path, help="dataset directory")
-    p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    add_engine_arguments(p, "labelling")
     p.add_argument("--method", default="park", help="closed form of the pose-based solve (default park)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
@@ -44,7 +47,14 @@ def run(args: argparse.Namespace) -> int:
     require_package("cv2", extra="vision", purpose="board detection")
     from handeye.labelling import label_dataset
 
-    report = label_dataset(args.dataset, workers=args.workers, method=args.method, progress=not args.quiet)
+    report = label_dataset(
+        args.dataset,
+        workers=args.workers,
+        method=args.method,
+        progress=not args.quiet,
+        engine=args.engine,
+        address=args.address,
+    )
     print(report.summary())
     print(
         f"written: {report.root / 'cameras.csv'} (label columns), {report.root / 'labels.md'}, "

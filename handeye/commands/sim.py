@@ -6,6 +6,7 @@ Example
 
     handeye sim generate --preset paper-sim --out data/paper-sim
     handeye sim generate --preset small --out data/small --noise default
+    handeye sim generate --preset dense-sim --out /shared/dense-sim --engine ray --address auto
 
 Per camera pose of the preset: a calibration recording (the ChArUco board on
 the flange in reachable views facing the camera) and a data recording (RGB,
@@ -18,6 +19,8 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+from handeye.core.engines import add_engine_arguments
 
 __all__ = ["add_parser", "run"]
 
@@ -37,10 +40,18 @@ def add_parser(sub) -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    g.add_argument("--preset", default="small", help="paper-sim, paper-real or small (default)")
+    g.add_argument(
+        "--preset", default="small", help="small (default), demo, paper-sim, paper-real or dense-sim (1,000 poses)"
+    )
     g.add_argument("--out", type=Path, required=True, help="dataset directory")
     g.add_argument("--seed", type=int, default=0)
-    g.add_argument("--workers", type=int, default=2, help="rendering processes (default 2)")
+    add_engine_arguments(g, "rendering")
+    g.add_argument(
+        "--cameras",
+        default=None,
+        help="render only these camera poses: FIRST:STOP (a part of a large preset; run again without it to "
+        "complete the dataset)",
+    )
     g.add_argument(
         "--noise",
         default="none",
@@ -69,6 +80,21 @@ def parse_noise(text: str):
     return NoiseModel(pixel, depth, joint)
 
 
+def parse_cameras(text: str | None):
+    """``FIRST:STOP`` -> ``range(FIRST, STOP)``; None -> None."""
+    from handeye.core.errors import HandEyeInputError
+
+    if text is None:
+        return None
+    try:
+        first, stop = (int(v) for v in text.split(":"))
+    except ValueError:
+        raise HandEyeInputError(f"--cameras {text!r}: use FIRST:STOP, e.g. 0:100") from None
+    if not 0 <= first < stop:
+        raise HandEyeInputError(f"--cameras {text!r}: need 0 <= FIRST < STOP")
+    return range(first, stop)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the command."""
     from handeye.core.optional import require_package
@@ -84,6 +110,9 @@ def run(args: argparse.Namespace) -> int:
         workers=args.workers,
         recordings=tuple(r.strip() for r in args.recordings.split(",")),
         progress=not args.quiet,
+        engine=args.engine,
+        address=args.address,
+        cameras=parse_cameras(args.cameras),
     )
     print(report.summary())
     print(f"next: handeye label {args.out}")

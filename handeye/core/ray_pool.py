@@ -1,0 +1,217 @@
+"""Run a function over tasks on a Ray cluster, with a progress bar: :func:`run_pool`'s twin for many machines.
+
+The same contract as :func:`handeye.core.pool.run_pool` (module-level ``fn``,
+picklable tasks, an ``initializer`` run once in each worker process), but the
+tasks go to Ray (``pip install "handeye[cluster]"``): a local cluster started
+for the call (``address=None``) or a running one (``address="auto"`` on one of
+its nodes, ``"ray://HEAD:10001"`` from outside). Ray restarts a task whose
+worker process or node died (``max_retries`` times), so a task must be
+idempotent: the dataset shards are (each is drawn from its own seed and
+published atomically by :class:`handeye.core.shard_writer.ShardWriter`).
+An exception raised by ``fn`` itself is not retried: it is re-raised with the
+task named, and the tasks not yet finished are cancelled.
+
+On a cluster of several machines every path a task reads or writes must be the
+same on every node: a shared folder (NFS, or an object store mounted with
+s3fs / gcsfuse), and the project installed in the same environment on every
+node.
+
+Example::
+
+    from handeye.core.ray_pool import run_ray
+
+    def square(x):
+        return x * x
+
+    if __name__ == "__main__":
+        print(sorted(run_ray(square, range(10), workers=2)))
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import pickle
+import sys
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+
+from handeye.core.errors import HandEyeInputError
+from handeye.core.optional import require_package
+from handeye.core.pool import _Named
+
+__all__ = ["run_ray", "ray_worker_ready_keys", "busy_worker_pids"]
+
+#: Initialisers already run in this (worker) process, by key: a Ray worker runs many tasks.
+_READY: set = set()
+
+
+def ray_worker_ready_keys() -> frozenset:
+    """The initialiser keys this process has run (for tests: a worker initialises once, not per task)."""
+    return frozenset(_READY)
+
+
+def busy_worker_pids() -> list[int]:
+    """Process ids of this machine's Ray workers busy with a :func:`run_ray` task (Linux ``/proc``).
+
+    For fault drills: kill one (``os.kill(pid, signal.SIGKILL)``) and Ray runs its task again on another
+    worker; the result and a dataset's shards are the same as without the fault.
+    """
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                title = (entry / "cmdline").read_bytes()
+            except OSError:  # gone meanwhile
+                continue
+            if title.startswith(b"ray::" + _handeye_task.__name__.encode()):
+                pids.append(int(entry.name))
+    return sorted(pids)
+
+
+def _handeye_task(fn: Callable, initializer: Callable | None, initargs: tuple, key: str, task):
+    """Body of one Ray task: run the initializer once per worker process, then ``fn(task)``."""
+    if initializer is not None and key not in _READY:
+        initializer(*initargs)
+        _READY.add(key)
+    return fn(task)
+
+
+def _init_key(initializer: Callable | None, initargs: tuple) -> str:
+    if initializer is None:
+        return ""
+    name = f"{initializer.__module__}.{initializer.__qualname__}".encode()
+    return hashlib.sha256(name + pickle.dumps(initargs)).hexdigest()
+
+
+def _start(ray, address: str | None, workers: int | None) -> bool:
+    """Connect to Ray (or start a local cluster); True when this call started it and must shut it down."""
+    if ray.is_initialized():
+        return False
+    os.environ.setdefault("RAY_ACCEL_ENV_VAR_OVERRIDE_ON_ZERO", "0")  # quiets a FutureWarning of Ray 2.x
+    kwargs = dict(include_dashboard=False, log_to_driver=False, logging_level=logging.WARNING)
+    if address is None:  # a local cluster of `workers` CPUs, with a small object store (tasks pass paths, not data)
+        ray.init(num_cpus=workers or os.cpu_count(), object_store_memory=256 * 2**20, **kwargs)
+    else:
+        try:
+            ray.init(address=address, **kwargs)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            raise HandEyeInputError(f"--address {address}: cannot connect to a Ray cluster ({exc})") from None
+    return True
+
+
+def run_ray(
+    fn: Callable,
+    tasks: Iterable,
+    workers: int | None = 2,
+    address: str | None = None,
+    progress: bool = True,
+    desc: str = "",
+    unit: str = "task",
+    ordered: bool = False,
+    initializer: Callable | None = None,
+    initargs: tuple = (),
+    describe: Callable[[object], str] = repr,
+    max_retries: int = 3,
+) -> Iterator:
+    """Yield ``fn(task)`` for every task, computed by Ray workers (one CPU each).
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function of one task.
+    tasks : iterable
+        The tasks (each picklable, small: paths and ids, not images).
+    workers : int, optional
+        Tasks in flight at once: the CPUs of the local cluster when ``address`` is None; on a running
+        cluster None uses all its CPUs.
+    address : str, optional
+        A running cluster (``"auto"``, ``"HOST:6379"``, ``"ray://HOST:10001"``); None starts a local one for
+        this call and stops it at the end. When Ray is already initialised in this process, it is used as is.
+    progress : bool
+        A progress bar on stderr.
+    desc, unit : str
+    ordered : bool
+        Results in task order; False (default) yields each as it completes.
+    initializer : callable, optional
+        Called once in each worker process with ``initargs`` before its first task.
+    initargs : tuple
+    describe : callable
+        Names a task in the message of its failure.
+    max_retries : int
+        Times Ray runs a task again after its worker process or node died.
+
+    Yields
+    ------
+    object
+        ``fn(task)``.
+
+    Raises
+    ------
+    MissingDependencyError
+        Ray is not installed.
+    HandEyeInputError
+        ``address`` cannot be reached, or ``workers < 1``.
+    Exception
+        The first exception a task raises, of its own type, with the note ``while running task ...``.
+    """
+    if workers is not None and workers < 1:
+        raise HandEyeInputError(f"workers must be >= 1, got {workers}")
+    tasks = list(tasks)
+    if not tasks:
+        return
+    ray = require_package("ray", extra="cluster", purpose="the Ray engine")
+    started = _start(ray, address, workers)
+    bar = None
+    pending: list = []
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=max_retries)(_handeye_task)
+        key = _init_key(initializer, initargs)
+        initargs_ref = ray.put(initargs)
+        call = _Named(fn, describe)
+        window = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
+        if progress:
+            tqdm = require_package("tqdm", extra="sim", purpose="a progress bar").tqdm
+            bar = tqdm(total=len(tasks), desc=desc, unit=unit, file=sys.stderr)
+        submitted = 0
+
+        def submit():
+            nonlocal submitted
+            ref = remote.remote(call, initializer, initargs_ref, key, tasks[submitted])
+            pending.append(ref)
+            submitted += 1
+
+        while submitted < min(window, len(tasks)):
+            submit()
+        while pending:
+            if ordered:
+                ref = pending.pop(0)
+            else:
+                ready, _ = ray.wait(pending, num_returns=1)
+                ref = ready[0]
+                pending.remove(ref)
+            result = _get(ray, ref)
+            if submitted < len(tasks):
+                submit()
+            if bar is not None:
+                bar.update(1)
+            yield result
+    finally:
+        for ref in pending:  # a failure or an abandoned generator: stop the remaining work
+            ray.cancel(ref, force=True)
+        if bar is not None:
+            bar.close()
+        if started:
+            ray.shutdown()
+
+
+def _get(ray, ref):
+    """``ray.get`` with the task's own exception re-raised (not Ray's wrapper)."""
+    try:
+        return ray.get(ref)
+    except ray.exceptions.RayTaskError as exc:
+        cause = exc.cause if isinstance(exc.cause, BaseException) else None
+        if cause is not None:
+            raise cause from None
+        raise

@@ -1,0 +1,114 @@
+"""The Ray engine: a 2-worker local cluster renders and labels the small preset exactly as the process pool does,
+and a worker killed in the middle of a shard costs nothing but time."""
+
+from __future__ import annotations
+
+import filecmp
+import os
+import signal
+import threading
+from pathlib import Path
+
+import pytest
+
+ray = pytest.importorskip(
+    "ray", reason="the Ray engine needs the optional 'cluster' extra: pip install 'handeye[cluster]'"
+)
+
+from benchmarks.cluster_engines import differing_files, kill_when_half_written  # noqa: E402
+from handeye.core.ray_pool import ray_worker_ready_keys, run_ray  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def local_cluster():
+    """One local 2-CPU Ray cluster for the module (run_ray uses an initialised Ray as is)."""
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=256 * 2**20)
+    yield
+    ray.shutdown()
+
+
+def _square_and_inits(x):
+    return os.getpid(), x * x, len(ray_worker_ready_keys())
+
+
+def _noop_init(_):
+    pass
+
+
+def _fails_on_three(x):
+    if x == 3:
+        raise ValueError("three is refused")
+    return x
+
+
+def _dies_once(args):
+    """Kill this worker process (SIGKILL) the first time task 2 runs; the retry finds the marker."""
+    x, marker = args
+    if x == 2 and not Path(marker).exists():
+        Path(marker).write_text("killed once")
+        os.kill(os.getpid(), signal.SIGKILL)
+    return x * 10
+
+
+def test_results_in_order_and_initializer_once_per_worker(local_cluster):
+    out = list(
+        run_ray(_square_and_inits, range(8), 2, progress=False, ordered=True, initializer=_noop_init, initargs=(1,))
+    )
+    assert [r[1] for r in out] == [x * x for x in range(8)]
+    assert {r[2] for r in out} == {1}  # one initializer key per worker, run once however many tasks it took
+    assert sorted(r[1] for r in run_ray(_square_and_inits, range(5), 2, progress=False)) == [0, 1, 4, 9, 16]
+
+
+def test_a_task_error_is_raised_with_its_type_and_the_task_named(local_cluster):
+    with pytest.raises(ValueError, match="three is refused") as info:
+        list(run_ray(_fails_on_three, range(6), 2, progress=False, describe=lambda x: f"number {x}"))
+    assert "while running task number 3" in info.value.__notes__
+
+
+def test_a_killed_worker_is_replaced_and_its_task_run_again(local_cluster, tmp_path):
+    marker = tmp_path / "killed"
+    out = sorted(run_ray(_dies_once, [(x, str(marker)) for x in range(5)], 2, progress=False))
+    assert marker.exists(), "the fault was not injected"
+    assert out == [0, 10, 20, 30, 40]
+
+
+def test_small_preset_on_ray_with_a_worker_killed_is_byte_identical_to_the_pool(local_cluster, small_dataset, tmp_path):
+    from handeye.core.dataset import Dataset
+    from handeye.labelling import label_dataset
+    from sim.generate import generate
+
+    pool_root = small_dataset[0]
+    root = tmp_path / "small"
+    stop, killed = threading.Event(), []
+    killer = threading.Thread(target=kill_when_half_written, args=(root, stop, killed))
+    killer.start()
+    try:
+        report = generate(root, "small", seed=0, workers=2, progress=False, engine="ray")
+    finally:
+        stop.set()
+        killer.join()
+    assert killed, "no worker was killed: the fault drill did not run"
+    assert report.rendered == list(range(6)) and not report.regenerated
+    assert not list((root / "shards").glob("*.partial")), "a half-written shard was left behind"
+    assert differing_files(pool_root / "shards", root / "shards") == []
+    assert filecmp.cmp(pool_root / "meta.json", root / "meta.json", shallow=False)
+    for c in range(len(Dataset.open(root))):
+        Dataset.open(root).frames(c)  # every shard passes the manifest check
+    label_dataset(root, workers=2, progress=False, plot=False, engine="ray")
+    assert filecmp.cmp(pool_root / "cameras.csv", root / "cameras.csv", shallow=False)
+
+
+def test_an_address_without_the_ray_engine_is_refused(tmp_path, capsys):
+    from handeye.cli import main
+
+    assert main(["sim", "generate", "--out", str(tmp_path / "d"), "--address", "auto", "--quiet"]) == 2
+    assert "--engine ray" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+def test_a_folder_other_nodes_cannot_see_is_named(tmp_path):
+    from handeye.core.engines import require_visible
+    from handeye.core.errors import DatasetError
+
+    with pytest.raises(DatasetError, match="shared by every node"):
+        require_visible(tmp_path / "elsewhere" / "meta.json")
