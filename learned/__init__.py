@@ -10,7 +10,8 @@ class-balanced replay buffer), :mod:`learned.continual_step` (Algorithms 1 and 2
 written once), :mod:`learned.presets` (the experiment presets), :mod:`learned.experiment`
 (the protocol), :mod:`learned.checkpoint` (its per-step checkpoint, for resuming),
 :mod:`learned.report` (tables and figures), :mod:`learned.calibrator` (the online
-:class:`ContinualCalibrator`).
+:class:`ContinualCalibrator`), :mod:`learned.distributed` (data-parallel training under torchrun)
+with :mod:`learned.global_batchnorm` (batch norm over the whole batch of a data-parallel step).
 
 It never imports :mod:`sim` or :mod:`classic`: it reads datasets and their labels
 through :mod:`handeye.core.dataset`.

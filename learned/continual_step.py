@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 
+from learned import distributed
 from learned.data import FrameSet, concat
 from learned.model import CalibrationNet
 from learned.replay import ReplayBuffer, random_fraction
@@ -130,6 +131,7 @@ def continual_step(
     mean, n = None, 0
     if threshold is not None:
         mean, n = sample_error(model, frames, current, sample_fraction, rng)
+        mean = distributed.from_writer(mean)  # data-parallel: every rank takes rank 0's decision
         if not np.any(np.asarray(mean) > threshold):
             return StepOutcome(False, mean, n, 0)
     data, index = training_set(frames, current, buffer, rng, rule)

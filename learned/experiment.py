@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from handeye.core.errors import HandEyeInputError
+from learned import distributed
 from learned.checkpoint import CHECKPOINT_NAME, fingerprint, load_checkpoint, remove_checkpoint, save_checkpoint
 from learned.data import FrameSet, load_frames
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
@@ -246,6 +247,18 @@ def _split_keypoint_record(rec: "RunRecord") -> list:
     return out
 
 
+def _replicated_state(strat) -> bytes:
+    """What must be the same on every rank after a time step: generator, replay buffer, weights and buffers."""
+    buffer = strat.buffer.state_dict()
+    parts = [
+        json.dumps(strat.rng.bit_generator.state).encode(),
+        json.dumps(buffer["meta"], sort_keys=True).encode(),
+        *(t.numpy().tobytes() for _, t in sorted(buffer["tensors"].items())),
+        *(t.detach().cpu().numpy().tobytes() for t in strat.model.state_dict().values()),
+    ]
+    return b"\0".join(parts)
+
+
 def run_experiment(
     data: str | Path | FrameSet,
     preset: str | Preset = "cpu",
@@ -286,12 +299,20 @@ def run_experiment(
         Resume from ``<out>/checkpoint.pt`` when there is one (one of another run is refused);
         ``False`` discards it and starts over.
 
+    Under ``torchrun`` (:mod:`learned.distributed`) every rank runs the whole protocol with the
+    same seeds, training data-parallel (:func:`learned.trainer.train`) and evaluating on its own; the
+    generators, replay buffers and weights are checked to be the same on every rank after every
+    time step, and only rank 0 writes (checkpoints, networks, ``results.json``). A checkpoint
+    resumes with any number of processes; the exact equality of a resumed run with an uninterrupted
+    one holds for the same number of processes (others agree to float32 rounding).
+
     Returns
     -------
     dict
         The results (as written to ``results.json``).
     """
     preset = get_preset(preset) if isinstance(preset, str) else preset
+    progress = progress and distributed.is_writer()
     if family not in FAMILIES:
         raise HandEyeInputError(f"unknown model family {family!r}: use {', '.join(FAMILIES)}")
     strategies = list(strategies)
@@ -327,10 +348,13 @@ def run_experiment(
         test_cameras=test_cams,
     )
     state = None
+    writer = out is not None and distributed.is_writer()  # data-parallel: rank 0 alone writes
     if out is not None:
-        if not resume:
+        if writer and not resume:
             remove_checkpoint(out)
+        distributed.barrier()  # removed before any rank reads
         state = load_checkpoint(out, run)
+        distributed.barrier()  # read by every rank before rank 0 writes the next one
     if state is not None and progress:
         print(f"resuming from {out / CHECKPOINT_NAME}: {len(state['records'])} runs done", file=sys.stderr)
     if state is None:
@@ -374,6 +398,8 @@ def run_experiment(
         t0, spent = time.perf_counter(), rec.wall_s
         for k in range(start, len(steps)):
             strat.step(k, steps[k], frames, last=k == len(steps) - 1)
+            if distributed.world_size() > 1:
+                distributed.check_same(_replicated_state(strat), f"{name} {kind} repeat {rep + 1} step {k + 1}")
             trained = name != "batch" or k == len(steps) - 1
             rec.matrix.append(
                 [_json_error(_subset_error(strat.model, frames, r)) if trained else float("nan") for r in regions]
@@ -384,17 +410,17 @@ def run_experiment(
                 row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
                 print(f"{name:9s} {kind:11s} repeat {rep + 1} step {k + 1}: {row}", file=sys.stderr)
             if k < len(steps) - 1:
-                if out is not None:
+                if writer:
                     save_checkpoint(out, run, u, k + 1, [asdict(r) for r in records], asdict(rec), strat.state_dict())
                 continue
             records += _split_keypoint_record(rec) if kind == "keypoints" else [rec]
             if rep == preset.repeats - 1:
                 validation.setdefault(name, {})[kind] = strat.model
-                if out is not None:
+                if writer:
                     save_model(
                         strat.model, out / name / f"{kind}.pt", {"preset": preset.name, "labels": labels, "seed": seed}
                     )
-            if out is not None:
+            if writer:
                 save_checkpoint(out, run, u + 1, 0, [asdict(r) for r in records])
     per_camera, inference = {}, {}
     test_idx = np.flatnonzero(frames.split == "test")
@@ -441,9 +467,11 @@ def run_experiment(
         },
         "summary": summary,
         "inference": inference,
+        "world_size": distributed.world_size(),
     }
-    if out is not None:
+    if writer:
         out.mkdir(parents=True, exist_ok=True)
         (out / "results.json").write_text(json.dumps(results, indent=1))
         remove_checkpoint(out)
+    distributed.barrier()  # every rank returns once the results are written
     return results

@@ -35,6 +35,7 @@ __all__ = [
     "frame_poses",
     "camera_pose",
     "keypoint_loss",
+    "inside_image",
     "pose_errors",
 ]
 
@@ -155,7 +156,7 @@ class KeypointNet(nn.Module):
         f = self.fuse(torch.cat([h, g], dim=1))
         logits = self.heat(f)
         b, k, hh, ww = logits.shape
-        prob = torch.softmax(logits.reshape(b, k, -1), dim=-1).reshape(b, k, hh, ww)
+        prob = torch.softmax(logits.reshape(b, k, hh * ww), dim=-1).reshape(b, k, hh, ww)
         xs = (torch.arange(ww, device=f.device, dtype=f.dtype) + 0.5) / ww
         ys = (torch.arange(hh, device=f.device, dtype=f.dtype) + 0.5) / hh
         x_n = (prob.sum(2) * xs).sum(-1)
@@ -166,6 +167,23 @@ class KeypointNet(nn.Module):
         z_map = d_half + 0.1 * self.depth(f)
         z = (prob * z_map).sum((-1, -2))
         return torch.stack([x_n, y_n, z], dim=-1)
+
+
+def inside_image(target: torch.Tensor) -> torch.Tensor:
+    """Which target keypoints the loss counts: inside the image and in front of the camera.
+
+    Parameters
+    ----------
+    target : tensor, shape (B, K, 3)
+        ``(x_n, y_n, z_m)``.
+
+    Returns
+    -------
+    tensor of bool, shape (B, K)
+    """
+    return (
+        (target[..., 0] > 0) & (target[..., 0] < 1) & (target[..., 1] > 0) & (target[..., 1] < 1) & (target[..., 2] > 0)
+    )
 
 
 def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -> torch.Tensor:
@@ -179,9 +197,7 @@ def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -
         ``(width, height)`` the network sees.
     """
     w, h = image_size
-    inside = (
-        (target[..., 0] > 0) & (target[..., 0] < 1) & (target[..., 1] > 0) & (target[..., 1] < 1) & (target[..., 2] > 0)
-    ).float()
+    inside = inside_image(target).float()
     err = (
         (pred[..., 0] - target[..., 0]).abs() * w
         + (pred[..., 1] - target[..., 1]).abs() * h

@@ -9,7 +9,9 @@ import numpy as np
 import torch
 
 from handeye.core.errors import HandEyeInputError
+from learned import distributed
 from learned.data import FrameSet
+from learned.global_batchnorm import global_batchnorm
 from learned.losses import chordal_loss, translation_loss
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 from learned.model import CalibrationNet
@@ -68,17 +70,37 @@ def _keypoint_targets(frames: FrameSet, index: np.ndarray, against: str = "label
     return keypoint_targets(frames.keypoints_base[index], t[index], q[index], frames.intrinsics_norm[index])
 
 
-def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> torch.Tensor:
+def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray, net: torch.nn.Module | None = None):
+    """The training loss of the frames at ``index`` and how many terms it averages.
+
+    ``net`` runs the forward pass (the data-parallel wrapper of ``model``; ``model`` by default).
+    The count is the samples, or for the keypoint model the keypoints inside the image; an empty
+    ``index`` gives a zero loss that still reaches every parameter (a rank's empty slice of a batch).
+    """
     device = _device(model)
-    out = model(*_tensors(frames, index, device))
+    out = (model if net is None else net)(*_tensors(frames, index, device))
+    if len(index) == 0:
+        return out.sum() * 0.0, 0
     if model.config.kind == "keypoints":
-        from learned.keypoints import keypoint_loss
+        from learned.keypoints import inside_image, keypoint_loss
 
         target = torch.from_numpy(_keypoint_targets(frames, index).astype(np.float32)).to(device)
-        return keypoint_loss(out, target, model.config.image_size)
+        return keypoint_loss(out, target, model.config.image_size), int(inside_image(target).sum().item())
     if model.config.kind == "translation":
-        return translation_loss(out, torch.from_numpy(frames.t_base_cam_mm[index]).to(device))
-    return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device))
+        return translation_loss(out, torch.from_numpy(frames.t_base_cam_mm[index]).to(device)), len(index)
+    return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device)), len(index)
+
+
+def _slice_loss(net: torch.nn.Module, model: CalibrationNet, frames: FrameSet, batch: np.ndarray) -> torch.Tensor:
+    """This rank's share of a global batch's loss, weighted so that the ranks' average gradient is the batch's.
+
+    The loss on the slice averages ``n_r`` terms (samples, or keypoints in the image) of the batch's
+    ``n``; weighted by ``n_r / n * world_size``, the mean over ranks of the slices' gradients (what
+    DistributedDataParallel computes) is the gradient of the whole batch's mean loss.
+    """
+    loss, count = _loss(model, frames, distributed.shard(batch), net)
+    total = len(batch) if model.config.kind != "keypoints" else distributed.sum_over_ranks(count)
+    return loss * (count / max(total, 1) * distributed.world_size())
 
 
 def train(
@@ -91,6 +113,13 @@ def train(
     desc: str = "train",
 ) -> int:
     """Train on the frames at ``index`` (a fresh Adam per call); returns the samples processed.
+
+    In a process group of more than one rank (:mod:`learned.distributed`) the training is
+    data-parallel: every rank draws the same batches from ``rng`` (which must be in the same state on
+    every rank), computes the loss of its contiguous slice of each batch with batch norm over the
+    whole batch (:mod:`learned.global_batchnorm`), and DistributedDataParallel averages the
+    gradients, so each step is the one-process step on the whole batch up to float32 rounding. The
+    model is wrapped for the call only; it ends with the same parameters on every rank.
 
     Parameters
     ----------
@@ -112,6 +141,30 @@ def train(
     if len(index) == 0:
         return 0
     torch.manual_seed(int(rng.integers(2**31)))
+    if distributed.world_size() > 1:
+        with global_batchnorm(model):
+            _epochs(model, distributed.data_parallel(model), frames, index, config, rng, progress, desc)
+    else:
+        _epochs(model, None, frames, index, config, rng, progress, desc)
+    model.eval()
+    return config.epochs * len(index)
+
+
+def _epochs(
+    model: CalibrationNet,
+    net: torch.nn.Module | None,
+    frames: FrameSet,
+    index: np.ndarray,
+    config: TrainConfig,
+    rng: np.random.Generator,
+    progress: bool,
+    desc: str,
+) -> None:
+    """The epochs of :func:`train`; ``net``: the data-parallel wrapper of ``model`` (None: one process).
+
+    Every rank draws the same permutations from the same generator, so all see the same batches and
+    skip the same ones; each rank then computes the loss of its slice (:func:`_slice_loss`).
+    """
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
     model.train()
     bar = None
@@ -126,7 +179,7 @@ def train(
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             optimizer.zero_grad()
-            loss = _loss(model, frames, batch)
+            loss = _loss(model, frames, batch)[0] if net is None else _slice_loss(net, model, frames, batch)
             loss.backward()
             optimizer.step()
         if bar is not None:
@@ -134,8 +187,6 @@ def train(
             bar.update(1)
     if bar is not None:
         bar.close()
-    model.eval()
-    return config.epochs * len(index)
 
 
 @torch.no_grad()

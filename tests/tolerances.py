@@ -333,3 +333,39 @@ LABEL_COMMON_SHIFT_PX = 0.2
 #: 2000 * 2^-24 = 1.2e-4 mm per coordinate; a distance from three such coordinates (and the
 #: truth's) differs from the float64 one by well under 1e-3 mm.
 FLOAT32_POSITION_MM = 1e-3
+
+# -------------------------------------------------------------------------- data-parallel training (learned)
+
+#: The gradient of one batch on 2 ranks (each a slice, batch norm over the whole batch) against one
+#: process: the same float32 sums (2^-24 = 6e-8 relative per operation) in another order and split.
+#: The longest sums (a first-layer weight: 24 samples x 16 x 16 pixels = 6144 terms) round to about
+#: sqrt(6144) x 6e-8 = 5e-6 of the tensor's largest entry; measured 8e-6, as one process on 1 thread
+#: against 2. 1e-4 leaves a factor 10; batch norm per slice, or a wrong weight of a slice's loss, is off
+#: by order 1.
+DDP_GRADIENT_RTOL = 1e-4
+
+#: A parameter tensor whose gradient is below this fraction of the network's largest gradient entry
+#: has a gradient that is mathematically zero (a convolution's bias before batch norm, the heatmaps'
+#: bias before the softmax), rounding noise only: measured <= 2e-6, while every other tensor's is
+#: above 1e-2.
+ZERO_GRADIENT_FRACTION = 1e-4
+
+#: What training changed in a tensor (parameters with a gradient, running variances) after 9 Adam
+#: steps of learning rate 1e-3, 2 or 3 ranks against one process: the L2 norm of the difference relative
+#: to that of the change. Adam divides each entry's gradient by its own running scale, so an entry whose
+#: gradient is near zero (a ReLU feature active in one sample of a batch) moves by up to lr per step in
+#: a direction set by rounding: 26 of 65984 entries of one layer differ by 6e-5 on 3 ranks, all others
+#: by about 1e-7. Over a tensor they weigh little: measured <= 1.6e-4 (one process on 1 thread against
+#: 2: 1.2e-5); batch norm per slice gives 0.5 to 1.7.
+DDP_UPDATE_RTOL = 1e-2
+
+#: Predictions of the trained networks, relative to their largest magnitude: Adam moves the biases of
+#: zero gradient by a full step (lr) in the direction of the rounding noise, up to 9e-3 after 9 steps,
+#: and batch norm in evaluation mode sees them through its lagging running mean. Measured 1.3e-3 (one
+#: process on 1 thread against 2: 1e-3).
+DDP_PREDICTION_RTOL = 1e-2
+
+#: The ``tiny`` preset end to end, 2 processes against 1 (same seed): every time step's test-subset
+#: errors and the final summaries, relative. The same mechanism over some 60 training calls; measured
+#: 1.5e-3, as one process on 1 thread against 2 (1.1e-3).
+DDP_RUN_RTOL = 1e-2

@@ -15,6 +15,10 @@ and writes ``results.json`` and the networks (``<out>/<strategy>/*.pt``);
 killed resumes when started again with the same arguments and ``--out``, and
 ends with the results of an uninterrupted run; ``--fresh`` discards the
 checkpoint and starts over.
+``torchrun --nproc-per-node N -m handeye learned run ...`` trains each time
+step data-parallel on N processes (gloo on the CPU, nccl with one GPU per
+process); rank 0 alone writes, and the results agree with one process's to
+float32 rounding.
 Presets: ``tiny`` (tests), ``demo``, ``cpu`` (the paper-sim protocol at reduced
 resolution on a CPU), ``paper`` (the paper's scale, for a GPU).
 """
@@ -71,20 +75,37 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 
 def run_run(args: argparse.Namespace) -> int:
-    """``handeye learned run``."""
+    """``handeye learned run``; data-parallel under ``torchrun`` (:mod:`learned.distributed`)."""
     from handeye.core.optional import require_package
 
     require_package("torch", extra="learned", purpose="the learned calibration")
+    from learned import distributed
+
+    backend = distributed.init_from_env()
+    try:
+        if backend is not None and distributed.is_writer():
+            print(f"data-parallel training: {distributed.world_size()} processes, backend {backend}", flush=True)
+        return _run(args, distributed.is_writer())
+    finally:
+        distributed.destroy()
+
+
+def _run(args: argparse.Namespace, writer: bool) -> int:
+    """The protocol and its findings; ``writer``: this process prints (rank 0, or the only one)."""
     from learned.experiment import run_experiment
     from learned.presets import get_preset
     from learned.report import findings
 
     data = args.data
     if args.family == "keypoints":
+        from handeye.core.optional import require_package
+
         require_package("pinocchio", extra="sim", purpose="the arm's keypoints from its kinematics")
         from handeye.learned_frames import load_keypoint_frames
 
-        data = load_keypoint_frames(args.data, get_preset(args.preset).image_size, args.labels, progress=not args.quiet)
+        data = load_keypoint_frames(
+            args.data, get_preset(args.preset).image_size, args.labels, progress=writer and not args.quiet
+        )
     results = run_experiment(
         data,
         args.preset,
@@ -97,9 +118,10 @@ def run_run(args: argparse.Namespace) -> int:
         family=args.family,
         resume=not args.fresh,
     )
-    for line in findings(results):
-        print(line)
-    print(f"written: {args.out / 'results.json'}; next: handeye learned report {args.out}")
+    if writer:
+        for line in findings(results):
+            print(line)
+        print(f"written: {args.out / 'results.json'}; next: handeye learned report {args.out}")
     return 0
 
 
