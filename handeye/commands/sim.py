@@ -115,5 +115,8 @@ def run(args: argparse.Namespace) -> int:
         cameras=parse_cameras(args.cameras),
     )
     print(report.summary())
-    print(f"next: handeye label {args.out}")
+    if report.left:
+        print(f"next: the same command without --cameras completes {args.out}; then handeye label {args.out}")
+    else:
+        print(f"next: handeye label {args.out}")
     return 0
