@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.optional import require_package
 
 __all__ = ["ENGINES", "DEFAULT_WORKERS", "run_tasks", "check_engine", "require_visible", "add_engine_arguments"]
 
@@ -20,11 +21,13 @@ DEFAULT_WORKERS = 2
 
 
 def check_engine(engine: str, address: str | None = None, workers: int | None = None) -> None:
-    """Refuse an unknown engine, an ``address`` without Ray, or ``workers < 1``, naming the fix.
+    """Refuse an unknown engine, an ``address`` without Ray, ``workers < 1`` or a missing Ray, naming the fix.
 
     Raises
     ------
     HandEyeInputError
+    MissingDependencyError
+        The Ray engine without Ray installed.
     """
     if engine not in ENGINES:
         raise HandEyeInputError(f"unknown engine {engine!r}: use one of {', '.join(ENGINES)}")
@@ -32,6 +35,8 @@ def check_engine(engine: str, address: str | None = None, workers: int | None = 
         raise HandEyeInputError(f"an address ({address}) is for the Ray engine: add --engine ray")
     if workers is not None and workers < 1:
         raise HandEyeInputError(f"workers must be >= 1, got {workers}")
+    if engine == "ray":  # before any output is written
+        require_package("ray", extra="cluster", purpose="the Ray engine")
 
 
 def add_engine_arguments(parser, what: str) -> None:
