@@ -112,3 +112,19 @@ def test_a_folder_other_nodes_cannot_see_is_named(tmp_path):
 
     with pytest.raises(DatasetError, match="shared by every node"):
         require_visible(tmp_path / "elsewhere" / "meta.json")
+
+
+def _remember(value):
+    global _REMEMBERED
+    _REMEMBERED = value
+
+
+def _recall(_):
+    return _REMEMBERED
+
+
+def test_a_worker_initialises_again_when_the_arguments_change(local_cluster):
+    """On a standing cluster a worker serves call after call: state set up for other arguments is never reused."""
+    for value in ("first", "second", "first"):
+        out = set(run_ray(_recall, range(4), 2, progress=False, initializer=_remember, initargs=(value,)))
+        assert out == {value}

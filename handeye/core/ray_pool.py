@@ -43,13 +43,14 @@ from handeye.core.pool import _Named
 
 __all__ = ["run_ray", "ray_worker_ready_keys", "busy_worker_pids"]
 
-#: Initialisers already run in this (worker) process, by key: a Ray worker runs many tasks.
-_READY: set = set()
+#: The key (initializer and its arguments) each initializer last ran with in this (worker) process: a Ray
+#: worker runs many tasks, of one call or, on a standing cluster, of several calls with other arguments.
+_READY: dict = {}
 
 
 def ray_worker_ready_keys() -> frozenset:
-    """The initialiser keys this process has run (for tests: a worker initialises once, not per task)."""
-    return frozenset(_READY)
+    """The initialiser keys this process holds (for tests: a worker initialises once, not per task)."""
+    return frozenset(_READY.values())
 
 
 def busy_worker_pids() -> list[int]:
@@ -72,9 +73,11 @@ def busy_worker_pids() -> list[int]:
 
 def _handeye_task(fn: Callable, initializer: Callable | None, initargs: tuple, key: str, task):
     """Body of one Ray task: run the initializer once per worker process, then ``fn(task)``."""
-    if initializer is not None and key not in _READY:
-        initializer(*initargs)
-        _READY.add(key)
+    if initializer is not None:
+        name = f"{initializer.__module__}.{initializer.__qualname__}"
+        if _READY.get(name) != key:  # first task here, or the last ran with other arguments: its state is stale
+            initializer(*initargs)
+            _READY[name] = key
     return fn(task)
 
 
