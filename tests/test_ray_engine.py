@@ -128,3 +128,26 @@ def test_a_worker_initialises_again_when_the_arguments_change(local_cluster):
     for value in ("first", "second", "first"):
         out = set(run_ray(_recall, range(4), 2, progress=False, initializer=_remember, initargs=(value,)))
         assert out == {value}
+
+
+def _io_error_once(args):
+    """An OSError the first time (a shared folder's hiccup), the result on the retry."""
+    x, marker = args
+    if not Path(marker).exists():
+        Path(marker).write_text("failed once")
+        raise OSError(5, "Input/output error", marker)
+    return x + 1
+
+
+def _value_error_counted(log):
+    with open(log, "a") as f:
+        f.write("attempt\n")
+    raise ValueError("bad input fails again the same way")
+
+
+def test_an_io_error_is_retried_and_other_errors_are_not(local_cluster, tmp_path):
+    assert list(run_ray(_io_error_once, [(1, str(tmp_path / "hiccup"))], 1, progress=False)) == [2]
+    log = tmp_path / "attempts"
+    with pytest.raises(ValueError, match="fails again"):
+        list(run_ray(_value_error_counted, [str(log)], 1, progress=False))
+    assert log.read_text().count("attempt") == 1

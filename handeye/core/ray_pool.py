@@ -5,11 +5,12 @@ picklable tasks, an ``initializer`` run once in each worker process), but the
 tasks go to Ray (``pip install "handeye[cluster]"``): a local cluster started
 for the call (``address=None``) or a running one (``address="auto"`` on one of
 its nodes, ``"ray://HEAD:10001"`` from outside). Ray restarts a task whose
-worker process or node died (``max_retries`` times), so a task must be
-idempotent: the dataset shards are (each is drawn from its own seed and
-published atomically by :class:`handeye.core.shard_writer.ShardWriter`).
-An exception raised by ``fn`` itself is not retried: it is re-raised with the
-task named, and the tasks not yet finished are cancelled.
+worker process or node died, or that raised an ``OSError`` (a shared folder's
+hiccup), up to ``max_retries`` times, so a task must be idempotent: the
+dataset shards are (each is drawn from its own seed and published atomically
+by :class:`handeye.core.shard_writer.ShardWriter`). Any other exception raised
+by ``fn`` (bad input would fail again the same way) is not retried: it is
+re-raised with the task named, and the tasks not yet finished are cancelled.
 
 On a cluster of several machines every path a task reads or writes must be the
 same on every node: a shared folder (NFS, or an object store mounted with
@@ -143,7 +144,7 @@ def run_ray(
     describe : callable
         Names a task in the message of its failure.
     max_retries : int
-        Times Ray runs a task again after its worker process or node died.
+        Times Ray runs a task again after its worker process or node died, or it raised ``OSError``.
 
     Yields
     ------
@@ -169,7 +170,9 @@ def run_ray(
     bar = None
     pending: list = []
     try:
-        remote = ray.remote(num_cpus=1, max_retries=max_retries)(_handeye_task)
+        # transient I/O errors (a shared folder's hiccup) are retried like a dead worker; the task's other
+        # exceptions (bad input, a refused dataset) would fail again the same way, so they stop the run
+        remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=[OSError])(_handeye_task)
         key = _init_key(initializer, initargs)
         initargs_ref = ray.put(initargs)
         call = _Named(fn, describe)
