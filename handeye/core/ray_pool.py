@@ -74,11 +74,9 @@ def busy_worker_pids() -> list[int]:
 
 def _handeye_task(fn: Callable, initializer: Callable | None, initargs: tuple, key: str, task):
     """Body of one Ray task: run the initializer once per worker process, then ``fn(task)``."""
-    if initializer is not None:
-        name = f"{initializer.__module__}.{initializer.__qualname__}"
-        if _READY.get(name) != key:  # first task here, or the last ran with other arguments: its state is stale
-            initializer(*initargs)
-            _READY[name] = key
+    if initializer is not None and _READY.get(initializer) != key:
+        initializer(*initargs)  # first task here, or the last ran with other arguments: its state is stale
+        _READY[initializer] = key
     return fn(task)
 
 
