@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from classic.markerless import RobotSurfaceFrames
+from classic.markerless.curvature import sample_curvatures
 from handeye.core.errors import HandEyeInputError, ShapeError
 from handeye.core.optional import require_package
 from sim.scene import load_link_mesh
@@ -46,6 +47,7 @@ class RobotSurface:
         self.robot = robot
         self.spacing_m = float(spacing_m)
         self.parts = []  # (name, points in mesh frame (k, 3), normals (k, 3))
+        self.curvatures = []  # (kappa (k, 2) in 1/m, first principal direction (k, 3) in the mesh frame)
         rng = np.random.default_rng(seed)
         for name, path, _ in robot.link_poses(np.zeros(robot.nq)):
             try:
@@ -56,7 +58,11 @@ class RobotSurface:
                 raise HandEyeInputError(f"{path}: the mesh of {name} has no triangles")
             n = max(int(np.ceil(mesh.area / self.spacing_m**2)), 10)
             points, face = trimesh.sample.sample_surface(mesh, n, seed=int(rng.integers(2**31)))
-            self.parts.append((name, np.asarray(points, dtype=float), np.asarray(mesh.face_normals[face], dtype=float)))
+            points = np.asarray(points, dtype=float)
+            normals = np.asarray(mesh.face_normals[face], dtype=float)
+            self.parts.append((name, points, normals))
+            # curvature at the scale of the samples, for the fine stage's second-order residual
+            self.curvatures.append(sample_curvatures(points, normals, radius_m=2.5 * self.spacing_m))
 
     @property
     def n_points(self) -> int:
@@ -84,13 +90,25 @@ class RobotSurface:
         q = np.atleast_2d(np.asarray(q, dtype=float))
         if q.ndim != 2 or q.shape[1] != self.robot.nq:
             raise ShapeError(f"joint angles must be (N, {self.robot.nq}) for {self.robot.name}, got {q.shape}")
-        pts, nrm, frame, part = [], [], [], []
+        pts, nrm, frame, part, kappa, direction = [], [], [], [], [], []
         for i, qi in enumerate(q):
-            for k, ((_, _, T), (_, p, n)) in enumerate(zip(self.robot.link_poses(qi), self.parts)):
+            for k, ((_, _, T), (_, p, n), (c, e)) in enumerate(
+                zip(self.robot.link_poses(qi), self.parts, self.curvatures)
+            ):
                 A = T[:3, :3]
                 pts.append(p @ A.T + T[:3, 3])
                 nk = n @ np.linalg.inv(A)  # normals move with the inverse transpose (meshes may be scaled)
                 nrm.append(nk / np.linalg.norm(nk, axis=1, keepdims=True))
+                ek = e @ A.T  # tangents move with the link; a uniformly scaled mesh's curvature scales inversely
+                direction.append(ek / np.linalg.norm(ek, axis=1, keepdims=True))
+                kappa.append(c / np.cbrt(abs(np.linalg.det(A))))
                 frame.append(np.full(len(p), i))
                 part.append(np.full(len(p), k))
-        return RobotSurfaceFrames(np.concatenate(pts), np.concatenate(nrm), np.concatenate(frame), np.concatenate(part))
+        return RobotSurfaceFrames(
+            np.concatenate(pts),
+            np.concatenate(nrm),
+            np.concatenate(frame),
+            np.concatenate(part),
+            curvatures=np.concatenate(kappa),
+            direction_base=np.concatenate(direction),
+        )

@@ -29,6 +29,7 @@ import numpy as np
 
 from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
+from classic.markerless.curvature import second_order_residual
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = ["PlaneFit", "solve_point_to_plane", "apply_right"]
@@ -68,10 +69,14 @@ def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
     return T @ make_transform(so3_exp(xi[:3]), xi[3:])
 
 
-def _linearise(p_cam, m_base, n_base, T):
+def _linearise(p_cam, m_base, n_base, T, shape=None):
     R, t = T[:3, :3], T[:3, 3]
-    r = np.einsum("ij,ij->i", n_base, p_cam @ R.T + t - m_base)
-    n_cam = n_base @ R  # R^T n, row-wise
+    x_base = p_cam @ R.T + t
+    if shape is None:
+        r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
+    else:
+        r, grad = second_order_residual(x_base, m_base, n_base, *shape)
+    n_cam = grad @ R  # R^T grad, row-wise
     J = np.hstack([np.cross(p_cam, n_cam), n_cam])
     return r, J
 
@@ -86,6 +91,8 @@ def solve_point_to_plane(
     group: np.ndarray | None = None,
     iterations: int = 5,
     tol: float = 1e-7,
+    curvatures: np.ndarray | None = None,
+    direction_base: np.ndarray | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -105,15 +112,22 @@ def solve_point_to_plane(
     iterations : int
     tol : float
         Stop when the update (rad + m) is below this.
+    curvatures : array, shape (N, 2), optional
+        Principal curvatures of the model at each match (1/m); with ``direction_base`` the residual
+        is taken to second order (:func:`classic.markerless.curvature.second_order_residual`), which
+        removes the bias of matching a sample anywhere in a pixel on a curved surface.
+    direction_base : array, shape (N, 3), optional
+        First principal direction of each match, base frame.
 
     Returns
     -------
     PlaneFit
     """
     T = np.array(T_base_cam, dtype=float)
+    shape = None if curvatures is None else (curvatures, direction_base)
     step_norm, steps = np.inf, 0
     for steps in range(1, iterations + 1):
-        r, J = _linearise(p_cam, m_base, n_base, T)
+        r, J = _linearise(p_cam, m_base, n_base, T, shape)
         w = loss_weights(r / scale_m, loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
@@ -122,7 +136,7 @@ def solve_point_to_plane(
         step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:]))
         if step_norm < tol:
             break
-    r, J = _linearise(p_cam, m_base, n_base, T)
+    r, J = _linearise(p_cam, m_base, n_base, T, shape)
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     return PlaneFit(T, clustered_covariance(J, r, w, group), r, w, groups, steps, step_norm)

@@ -70,12 +70,20 @@ class RobotSurfaceFrames:
     part : array of int, shape (M,)
         Rigid part (link mesh) of each sample; parts whose position changes between frames
         are "moving" (found from the data, not from names).
+    curvatures : array, shape (M, 2), optional
+        Principal curvatures ``kappa_1 >= kappa_2`` of each sample, 1/m (convex positive), from
+        :func:`classic.markerless.curvature.sample_curvatures`. With them the fine stage's residual
+        is second order; without, first order (biased by a fraction of a millimetre on curved links).
+    direction_base : array, shape (M, 3), optional
+        Unit tangent along ``kappa_1``, base frame; given with ``curvatures``.
     """
 
     points_base: np.ndarray
     normals_base: np.ndarray
     frame: np.ndarray
     part: np.ndarray
+    curvatures: np.ndarray | None = None
+    direction_base: np.ndarray | None = None
 
     def __post_init__(self):
         m = len(self.points_base)
@@ -91,6 +99,16 @@ class RobotSurfaceFrames:
             if a.shape != (m,):
                 raise ShapeError(f"surface {name} must be (M,), got {a.shape}")
             setattr(self, name, a)
+        if (self.curvatures is None) != (self.direction_base is None):
+            raise HandEyeInputError("surface curvatures and direction_base are given together or not at all")
+        if self.curvatures is not None:
+            for name, cols in (("curvatures", 2), ("direction_base", 3)):
+                a = np.asarray(getattr(self, name), dtype=float)
+                if a.shape != (m, cols):
+                    raise ShapeError(f"surface {name} must be (M, {cols}), got {a.shape}")
+                if not np.all(np.isfinite(a)):
+                    raise NonFiniteError(f"surface {name} has NaN or inf")
+                setattr(self, name, a)
 
 
 @dataclass(frozen=True)
@@ -379,15 +397,19 @@ class _Problem:
     def _fit(self, T, idx, f, q, close):
         sel = np.flatnonzero(close)
         expected = np.sqrt(_sigma_z(q[sel, 2], self.opts) ** 2 + self.opts.model_floor_m**2)
+        m = idx[sel]
+        curved = self.s.curvatures is not None
         fit = solve_point_to_plane(
             q[sel],
-            self.s.points_base[idx[sel]],
-            self.s.normals_base[idx[sel]],
+            self.s.points_base[m],
+            self.s.normals_base[m],
             T,
             scale_m=float(np.median(expected)) * 2,
             loss="cauchy",
             group=f[sel],
             iterations=3,
+            curvatures=self.s.curvatures[m] if curved else None,
+            direction_base=self.s.direction_base[m] if curved else None,
         )
         return fit, float(np.median(expected))
 

@@ -114,3 +114,22 @@ def test_markerless_labels_feed_the_board_free_continual_run(small_copy):
         k = np.flatnonzero(frames.camera == c)[0]
         expected = classic[c] if cams["region"][c] == 0 else ml[c]
         np.testing.assert_allclose(frames.t_base_cam_mm[k], expected[:3, 3] * 1e3, atol=FLOAT32_POSITION_MM)
+
+
+def test_posed_surface_carries_curvatures_that_move_with_the_links():
+    """The UR5's samples: curvatures do not change with the pose, the first principal direction stays a unit
+    tangent, and the upper arm's tube (radius 5-7 cm) curves by 1/r across its axis."""
+    from sim.robot import load_robot
+    from sim.surface import RobotSurface
+
+    robot = load_robot("ur5")
+    surface = RobotSurface(robot, spacing_m=0.006)
+    q = np.random.default_rng(0).uniform(-np.pi, np.pi, size=(2, robot.nq))
+    posed = surface.posed(q)
+    first, second = posed.frame == 0, posed.frame == 1
+    np.testing.assert_allclose(posed.curvatures[first], posed.curvatures[second], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(posed.direction_base, axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", posed.direction_base, posed.normals_base), 0.0, atol=1e-9)
+    names = [name for name, _, _ in surface.parts]
+    upper = first & (posed.part == names.index(next(n for n in names if n.startswith("upper_arm"))))
+    assert 1 / 0.07 <= np.median(posed.curvatures[upper, 0]) <= 1 / 0.05

@@ -1,0 +1,103 @@
+"""Curvature of sampled surfaces, and the second-order residual that removes the markerless fit's sampling bias.
+
+On a sphere and a cylinder the normals are linear in the position over the tangent plane, so the
+neighbour fit is exact (float round-off); on a plane and across a box's creases it is zero.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, register_robot
+from classic.markerless.curvature import sample_curvatures, second_order_residual
+from handeye.core.errors import HandEyeInputError
+from handeye.core.metrics import pose_error
+from tests.classic.test_markerless import F_PX, RADII, SIGMA_1M, K, _bias_bounds, _scene
+
+
+def _fibonacci_sphere(n, r):
+    g = np.arange(n) + 0.5
+    phi, theta = np.arccos(1 - 2 * g / n), np.pi * (1 + 5**0.5) * g
+    u = np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
+    return r * u, u
+
+
+def test_sphere_has_both_curvatures_one_over_r():
+    p, n = _fibonacci_sphere(4000, 0.05)
+    kappa, direction = sample_curvatures(p, n, radius_m=0.006)
+    np.testing.assert_allclose(kappa, 1 / 0.05, rtol=1e-9)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", direction, n), 0.0, atol=1e-12)
+
+
+def test_cylinder_curves_across_its_axis_only(rng):
+    r = 0.04
+    theta, z = rng.uniform(0, 2 * np.pi, 6000), rng.uniform(-0.15, 0.15, 6000)
+    n = np.column_stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)])
+    kappa, direction = sample_curvatures(np.column_stack([r * n[:, :2], z]), n, radius_m=0.008)
+    inner = np.abs(z) < 0.14  # away from the open ends
+    np.testing.assert_allclose(kappa[inner, 0], 1 / r, rtol=1e-9)
+    np.testing.assert_allclose(kappa[inner, 1], 0.0, atol=1e-9)
+    np.testing.assert_allclose(np.abs(direction[inner, 2]), 0.0, atol=1e-9)  # across the axis
+
+
+def test_plane_and_box_creases_have_no_curvature(rng):
+    import trimesh
+
+    box = trimesh.creation.box((0.1, 0.1, 0.1))
+    p, face = trimesh.sample.sample_surface(box, 6000, seed=3)
+    kappa, _ = sample_curvatures(np.asarray(p), box.face_normals[face], radius_m=0.008)
+    np.testing.assert_allclose(kappa, 0.0, atol=1e-9)
+
+
+def test_second_order_residual_vanishes_on_the_sphere_and_its_gradient_is_the_normal_there(rng):
+    """A point on a sphere at offset d from the sample: the first-order residual is -d^2/2r, the second-order
+    one is left with the fourth-order term d^4/8r^3; the gradient is the sphere's normal at the point."""
+    r, n_pts = 0.05, 200
+    m_dir = rng.normal(size=(n_pts, 3))
+    m_dir /= np.linalg.norm(m_dir, axis=1, keepdims=True)
+    x_dir = m_dir + rng.normal(scale=0.05, size=m_dir.shape)  # offsets up to ~5 mm
+    x_dir /= np.linalg.norm(x_dir, axis=1, keepdims=True)
+    m, x = r * m_dir, r * x_dir
+    e1 = np.cross(m_dir, [0, 0, 1.0])
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    res, grad = second_order_residual(x, m, m_dir, np.full((n_pts, 2), 1 / r), e1)
+    d = np.linalg.norm(x - m, axis=1)
+    first_order = np.einsum("ij,ij->i", m_dir, x - m)
+    assert np.all(first_order < 0) and np.all(np.abs(first_order) > 0.4 * d**2 / r)
+    assert np.all(np.abs(res) <= d**4 / r**3)
+    np.testing.assert_allclose(grad, x_dir, atol=(d**2 / r**2).max())
+
+
+def test_a_second_order_fit_removes_the_sampling_bias():
+    """Noise-free spheres: the first-order fit is off by up to the sampling bias; with the spheres' curvature
+    estimated from the samples the error falls to the fourth-order term F^4 / (8 r^3) of a pixel footprint F."""
+    depth, s, T_true = _scene(np.random.default_rng(1), noise=False)
+    spacing = 0.7 * 0.8 / F_PX
+    kappa, direction = np.zeros((len(s.part), 2)), np.zeros((len(s.part), 3))
+    for key in np.unique(s.part * 100 + s.frame):
+        sel = s.part * 100 + s.frame == key
+        kappa[sel], direction[sel] = sample_curvatures(s.points_base[sel], s.normals_base[sel], 2.5 * spacing)
+    curved = RobotSurfaceFrames(
+        s.points_base, s.normals_base, s.frame, s.part, curvatures=kappa, direction_base=direction
+    )
+    opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M)
+    rot_first, trans_first = pose_error(register_robot(depth, K, s, options=opts).require(), T_true)
+    rot_second, trans_second = pose_error(register_robot(depth, K, curved, options=opts).require(), T_true)
+    footprint = depth[depth > 0].max() / F_PX
+    fourth_mm = footprint**4 / (8 * RADII.min() ** 3) * 1e3
+    bias_mm, bias_deg = _bias_bounds(depth)
+    assert trans_second <= fourth_mm
+    assert rot_second <= bias_deg * fourth_mm / bias_mm
+    assert trans_second < trans_first / 10 and rot_second < rot_first / 10
+
+
+def test_curvatures_come_with_their_directions(scene):
+    _, s, _ = scene
+    with pytest.raises(HandEyeInputError, match="together"):
+        RobotSurfaceFrames(s.points_base, s.normals_base, s.frame, s.part, curvatures=np.zeros((len(s.part), 2)))
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return _scene(np.random.default_rng(0))
