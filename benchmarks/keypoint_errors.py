@@ -77,6 +77,18 @@ def keypoint_stats(pred, tgt, intrinsics_norm, native, network):
     return out
 
 
+def predicted_and_true(model, frames, index):
+    """A keypoint model's predictions for the frames at ``index`` and their true ``(x_n, y_n, z_m)``, (N, K, 3) each."""
+    pred = predict(model, frames, index)
+    tgt = keypoint_targets(
+        frames.keypoints_base[index].astype(float),
+        frames.truth_t_base_cam_mm[index],
+        frames.truth_q_base_cam_xyzw[index],
+        frames.intrinsics_norm[index],
+    )
+    return pred, tgt
+
+
 def placement_errors(kp, frames, index):
     """Pose error of each camera placement from keypoints ``kp`` of the frames at ``index``.
 
@@ -164,13 +176,7 @@ def main(argv=None):
     names = list(dataset_robot(ds).keypoint_names)
     frames = load_keypoint_frames(args.data, network, progress=False)
     index = np.flatnonzero(frames.split == args.split)
-    pred = predict(model, frames, index)
-    tgt = keypoint_targets(
-        frames.keypoints_base[index].astype(float),
-        frames.truth_t_base_cam_mm[index],
-        frames.truth_q_base_cam_xyzw[index],
-        frames.intrinsics_norm[index],
-    )
+    pred, tgt = predicted_and_true(model, frames, index)
     if len(names) != pred.shape[1]:
         names = [f"keypoint {j}" for j in range(pred.shape[1])]
     stats = keypoint_stats(pred, tgt, frames.intrinsics_norm[index], native, network)

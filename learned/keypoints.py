@@ -41,6 +41,10 @@ __all__ = [
 
 #: Depth error of 1 cm weighs as much as 1 pixel (at the network's input resolution) in the loss.
 DEPTH_WEIGHT_PER_M = 100.0
+#: Weight of the heatmaps' spread about the target (input pixels) in the loss, against the soft-argmax's L1.
+#: 0 (off) by default: on ``paper-sim`` it did not move the placement error beyond the run-to-run spread
+#: (``benchmarks/keypoint_training.py``).
+HEATMAP_SPREAD_WEIGHT = 0.0
 
 
 def keypoint_targets(
@@ -147,8 +151,13 @@ class KeypointNet(nn.Module):
         self.heat = nn.Conv2d(c, k, 1)
         self.depth = nn.Conv2d(c, k, 1)
 
-    def forward(self, rgb: torch.Tensor, depth_m: torch.Tensor, ref: torch.Tensor | None = None) -> torch.Tensor:
-        """Keypoints ``(x_n, y_n, z_m)``, shape (B, K, 3); ``ref`` is ignored (kept for one call signature)."""
+    def forward(
+        self, rgb: torch.Tensor, depth_m: torch.Tensor, ref: torch.Tensor | None = None, heatmaps: bool = False
+    ):
+        """Keypoints ``(x_n, y_n, z_m)``, shape (B, K, 3); ``ref`` is ignored (kept for one call signature).
+
+        With ``heatmaps``, also the heatmaps' probabilities, shape (B, K, H/2, W/2), for the training loss.
+        """
         x = rgb.float() / 255.0 if rgb.dtype == torch.uint8 else rgb.float()
         d = depth_m.float()
         h = self.stem(torch.cat([x, d / self.config.depth_scale_m], dim=1))
@@ -166,7 +175,8 @@ class KeypointNet(nn.Module):
         d_half = F.avg_pool2d(d, 2) / F.avg_pool2d(valid, 2).clamp_min(1e-6)
         z_map = d_half + 0.1 * self.depth(f)
         z = (prob * z_map).sum((-1, -2))
-        return torch.stack([x_n, y_n, z], dim=-1)
+        out = torch.stack([x_n, y_n, z], dim=-1)
+        return (out, prob) if heatmaps else out
 
 
 def inside_image(target: torch.Tensor) -> torch.Tensor:
@@ -186,8 +196,16 @@ def inside_image(target: torch.Tensor) -> torch.Tensor:
     )
 
 
-def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -> torch.Tensor:
+def keypoint_loss(
+    pred: torch.Tensor, target: torch.Tensor, image_size: tuple, prob: torch.Tensor | None = None
+) -> torch.Tensor:
     """L1 in input pixels plus depth (1 cm = 1 pixel), over the keypoints inside the image.
+
+    With the heatmaps and a :data:`HEATMAP_SPREAD_WEIGHT` above 0, plus their spread about the target:
+    the RMS distance (input pixels) of the heatmap's mass from the true position. The soft-argmax alone
+    is satisfied by a diffuse heatmap whose mean happens to fall right, and a diffuse heatmap reads the
+    depth map over the background too; the spread term makes the heatmap a peak at the keypoint (the
+    variance regulariser of DSNT, Nibali et al. 2018, taken about the target rather than the mean).
 
     Parameters
     ----------
@@ -195,6 +213,8 @@ def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -
         ``(x_n, y_n, z_m)``.
     image_size : (int, int)
         ``(width, height)`` the network sees.
+    prob : tensor, shape (B, K, h, w), optional
+        The heatmaps' probabilities (:meth:`KeypointNet.forward` with ``heatmaps=True``).
     """
     w, h = image_size
     inside = inside_image(target).float()
@@ -203,6 +223,12 @@ def keypoint_loss(pred: torch.Tensor, target: torch.Tensor, image_size: tuple) -
         + (pred[..., 1] - target[..., 1]).abs() * h
         + (pred[..., 2] - target[..., 2]).abs() * DEPTH_WEIGHT_PER_M
     )
+    if prob is not None and HEATMAP_SPREAD_WEIGHT > 0:
+        hh, ww = prob.shape[-2:]
+        xs = ((torch.arange(ww, device=prob.device, dtype=prob.dtype) + 0.5) / ww)[None, None, :] - target[..., 0:1]
+        ys = ((torch.arange(hh, device=prob.device, dtype=prob.dtype) + 0.5) / hh)[None, None, :] - target[..., 1:2]
+        spread2 = (prob.sum(2) * (xs * w) ** 2).sum(-1) + (prob.sum(3) * (ys * h) ** 2).sum(-1)
+        err = err + HEATMAP_SPREAD_WEIGHT * torch.sqrt(spread2 + 1e-6)
     return (err * inside).sum() / inside.sum().clamp_min(1.0)
 
 

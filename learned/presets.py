@@ -41,6 +41,8 @@ class Preset:
         First, later and batch epochs of the keypoint model (it learns local features and costs
         several times more per sample); the regression epochs when omitted.
     repeats : int
+    keypoint_schedule : {"constant", "cosine"}
+        The keypoint model's learning rate within each training call (:class:`learned.trainer.TrainConfig`).
     """
 
     name: str
@@ -60,6 +62,7 @@ class Preset:
     selection_replay: str = "region"
     keypoint_epochs: tuple | None = None
     repeats: int = 3
+    keypoint_schedule: str = "constant"
 
     def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
         if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
@@ -74,10 +77,16 @@ class Preset:
 
     def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
         first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
-        if kind == "keypoints" and self.keypoint_epochs:
-            first_e, later_e, batch_e = self.keypoint_epochs
-        first = TrainConfig(batch_e if strategy == "batch" else first_e, self.batch_size, self.learning_rate)
-        return first, TrainConfig(later_e, self.batch_size, self.learning_rate)
+        schedule = "constant"
+        if kind == "keypoints":
+            schedule = self.keypoint_schedule
+            if self.keypoint_epochs:
+                first_e, later_e, batch_e = self.keypoint_epochs
+        first_e = batch_e if strategy == "batch" else first_e
+        return (
+            TrainConfig(first_e, self.batch_size, self.learning_rate, schedule=schedule),
+            TrainConfig(later_e, self.batch_size, self.learning_rate, schedule=schedule),
+        )
 
     def to_dict(self) -> dict:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}

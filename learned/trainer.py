@@ -34,12 +34,20 @@ class TrainConfig:
     batch_size : int
     learning_rate : float
     weight_decay : float
+    schedule : {"constant", "cosine"}
+        The learning rate over the call's steps: constant, or a cosine decay from ``learning_rate`` to
+        zero (each call, i.e. each continual step, starts again from ``learning_rate``).
     """
 
     epochs: int = 10
     batch_size: int = 32
     learning_rate: float = 1e-3
     weight_decay: float = 0.0
+    schedule: str = "constant"
+
+    def __post_init__(self):
+        if self.schedule not in ("constant", "cosine"):
+            raise ValueError(f"schedule must be 'constant' or 'cosine', got {self.schedule!r}")
 
 
 def _device(model: CalibrationNet) -> torch.device:
@@ -78,14 +86,17 @@ def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray, net: torch
     ``index`` gives a zero loss that still reaches every parameter (a rank's empty slice of a batch).
     """
     device = _device(model)
-    out = (model if net is None else net)(*_tensors(frames, index, device))
-    if len(index) == 0:
-        return out.sum() * 0.0, 0
     if model.config.kind == "keypoints":
         from learned.keypoints import inside_image, keypoint_loss
 
+        out, prob = (model if net is None else net)(*_tensors(frames, index, device), heatmaps=True)
+        if len(index) == 0:
+            return out.sum() * 0.0 + prob.sum() * 0.0, 0
         target = torch.from_numpy(_keypoint_targets(frames, index).astype(np.float32)).to(device)
-        return keypoint_loss(out, target, model.config.image_size), int(inside_image(target).sum().item())
+        return keypoint_loss(out, target, model.config.image_size, prob), int(inside_image(target).sum().item())
+    out = (model if net is None else net)(*_tensors(frames, index, device))
+    if len(index) == 0:
+        return out.sum() * 0.0, 0
     if model.config.kind == "translation":
         return translation_loss(out, torch.from_numpy(frames.t_base_cam_mm[index]).to(device)), len(index)
     return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device)), len(index)
@@ -166,6 +177,12 @@ def _epochs(
     skip the same ones; each rank then computes the loss of its slice (:func:`_slice_loss`).
     """
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
+    steps = config.epochs * sum(1 for s in range(0, len(index), config.batch_size) if len(index) - s >= 2)
+    scheduler = (
+        torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=max(steps, 1))
+        if config.schedule == "cosine"
+        else None
+    )
     model.train()
     bar = None
     if progress:
@@ -182,6 +199,8 @@ def _epochs(
             loss = _loss(model, frames, batch)[0] if net is None else _slice_loss(net, model, frames, batch)
             loss.backward()
             optimizer.step()
+            if scheduler is not None:
+                scheduler.step()
         if bar is not None:
             bar.set_postfix(loss=f"{loss.item():.4g}")
             bar.update(1)

@@ -1,0 +1,82 @@
+"""The keypoint model's loss: soft-argmax error plus the heatmap's spread about the true position."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+import learned.keypoints
+from learned.keypoints import KeypointNet, keypoint_loss
+from learned.model import ModelConfig
+
+W, H = 16, 12  # input pixels; heatmaps at half resolution, 8 x 6
+
+
+def _uniform(b=1, k=1, h=H // 2, w=W // 2):
+    return torch.full((b, k, h, w), 1.0 / (h * w), dtype=torch.float64)
+
+
+@pytest.fixture
+def spread_on(monkeypatch):
+    monkeypatch.setattr(learned.keypoints, "HEATMAP_SPREAD_WEIGHT", 1.0)
+
+
+def test_a_diffuse_heatmap_costs_its_spread_and_a_peak_costs_nothing(spread_on):
+    """Both heatmaps put the soft-argmax on the target, the image centre. The uniform one is charged the RMS
+    distance of the cell centres from it; the peak on the four cells around it, half a cell's diagonal."""
+    target = torch.tensor([[[0.5, 0.5, 1.0]]], dtype=torch.float64)
+    pred = target.clone()
+    hh, ww = H // 2, W // 2
+    xs = ((np.arange(ww) + 0.5) / ww - 0.5) * W
+    ys = ((np.arange(hh) + 0.5) / hh - 0.5) * H
+    expected_rms = np.sqrt(np.mean(xs**2) + np.mean(ys**2))
+    diffuse = keypoint_loss(pred, target, (W, H), _uniform()).item()
+    np.testing.assert_allclose(diffuse, expected_rms, rtol=1e-6)
+    peak = torch.zeros(1, 1, hh, ww, dtype=torch.float64)
+    peak[0, 0, hh // 2 - 1 : hh // 2 + 1, ww // 2 - 1 : ww // 2 + 1] = 0.25  # the four cells around the centre
+    np.testing.assert_allclose(
+        keypoint_loss(pred, target, (W, H), peak).item(), np.sqrt((W / ww / 2) ** 2 + (H / hh / 2) ** 2), rtol=1e-6
+    )
+    assert keypoint_loss(pred, target, (W, H)).item() == 0.0  # without heatmaps: the coordinates alone
+
+
+def test_the_spread_is_off_by_default():
+    target = torch.tensor([[[0.5, 0.5, 1.0]]], dtype=torch.float64)
+    assert keypoint_loss(target.clone(), target, (W, H), _uniform()).item() == 0.0
+
+
+def test_keypoints_outside_the_image_are_not_charged(spread_on):
+    target = torch.tensor([[[1.5, 0.5, 1.0], [0.5, 0.5, 1.0]]], dtype=torch.float64)
+    pred = target.clone()
+    both = keypoint_loss(pred, target, (W, H), _uniform(k=2)).item()
+    only_inside = keypoint_loss(pred[:, 1:], target[:, 1:], (W, H), _uniform(k=1)).item()
+    np.testing.assert_allclose(both, only_inside)
+
+
+def test_the_heatmaps_returned_are_the_ones_the_prediction_is_made_from():
+    torch.manual_seed(0)
+    net = KeypointNet(ModelConfig("keypoints", (W, H), (4,), (), n_keypoints=3)).eval()
+    rgb = torch.randint(0, 255, (2, 3, H, W), dtype=torch.uint8)
+    depth = torch.rand(2, 1, H, W) + 0.5
+    with torch.no_grad():
+        plain = net(rgb, depth)
+        pred, prob = net(rgb, depth, heatmaps=True)
+    torch.testing.assert_close(pred, plain)
+    assert prob.shape == (2, 3, H // 2, W // 2)
+    torch.testing.assert_close(prob.sum((-1, -2)), torch.ones(2, 3))
+    x_from_prob = (prob.sum(2) * ((torch.arange(W // 2) + 0.5) / (W // 2))).sum(-1)
+    torch.testing.assert_close(pred[..., 0], x_from_prob)
+
+
+def test_the_schedule_reaches_the_keypoint_model_only():
+    from dataclasses import replace
+
+    from learned.presets import get_preset
+    from learned.trainer import TrainConfig
+
+    preset = replace(get_preset("tiny"), keypoint_schedule="cosine")
+    assert all(c.schedule == "cosine" for c in preset.train_configs("reservoir", "keypoints"))
+    assert all(c.schedule == "constant" for c in preset.train_configs("reservoir", "translation"))
+    with pytest.raises(ValueError, match="schedule"):
+        TrainConfig(schedule="linear")
