@@ -129,32 +129,36 @@ def first_frames(k):
 
 
 def basin(ds, surface, opts, cells, trials, centroid, rng):
+    """Trial k of a cell starts placement ``k mod P`` off by the cell's offset about a random axis and direction.
+
+    The offsets are drawn first, cell by cell, then the trials run placement by placement, so that one
+    placement's frames are in memory at a time (all 108 of ``paper-sim`` take about 18 GB).
+    """
     K = np.array(ds.meta["intrinsics"]["K"])
     truth = ds.truth()
     cams = list(range(len(ds)))
-    data = {c: load_camera(ds, c) for c in cams}
-    posed = {c: surface.posed(data[c][1]) for c in cams}
-    out = {}
-    for mm, deg in cells:
-        good = wrong = refused = 0
-        for k in range(trials):
-            c = cams[k % len(cams)]
-            axis, direction = rng.normal(size=3), rng.normal(size=3)
-            T0 = truth[c] @ make_transform(
-                so3_exp(np.radians(deg) * axis / np.linalg.norm(axis)),
-                mm / 1000 * direction / np.linalg.norm(direction),
-            )
-            res = register_robot(data[c][0], K, posed[c], starts={"user": T0}, options=opts, centroid_start=centroid)
-            if not res.ok:
-                refused += 1
-                continue
-            rot, tr = pose_error(res.T_base_cam, truth[c])
-            if rot <= SUCCESS_DEG and tr <= SUCCESS_MM:
-                good += 1
-            else:
-                wrong += 1
-        out[(mm, deg)] = (good, wrong, refused, trials)
-    return out
+    draws = {cell: [(rng.normal(size=3), rng.normal(size=3)) for _ in range(trials)] for cell in cells}
+    counts = {cell: [0, 0, 0] for cell in cells}  # good, wrong, refused
+    for c in cams:
+        mine = [k for k in range(trials) if k % len(cams) == c]
+        if not mine:
+            continue
+        depth, q = load_camera(ds, c)
+        posed = surface.posed(q)
+        for mm, deg in cells:
+            for k in mine:
+                axis, direction = draws[(mm, deg)][k]
+                T0 = truth[c] @ make_transform(
+                    so3_exp(np.radians(deg) * axis / np.linalg.norm(axis)),
+                    mm / 1000 * direction / np.linalg.norm(direction),
+                )
+                res = register_robot(depth, K, posed, starts={"user": T0}, options=opts, centroid_start=centroid)
+                if not res.ok:
+                    counts[(mm, deg)][2] += 1
+                    continue
+                rot, tr = pose_error(res.T_base_cam, truth[c])
+                counts[(mm, deg)][0 if rot <= SUCCESS_DEG and tr <= SUCCESS_MM else 1] += 1
+    return {cell: (*counts[cell], trials) for cell in cells}
 
 
 def main(argv=None):
