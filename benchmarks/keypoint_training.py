@@ -8,8 +8,8 @@ the model underfits rather than fails to generalise to new camera poses.
 
     python benchmarks/keypoint_training.py --data data/paper-sim-noisy --out benchmarks/results/keypoint_training.md
 
-A variant is ``name:width:epochs:schedule:spread`` (``schedule`` constant or cosine; ``spread`` the
-weight of :data:`learned.keypoints.HEATMAP_SPREAD_WEIGHT`).
+A variant is ``name:width:epochs:schedule:spread`` (``schedule`` constant or cosine: the preset's
+``keypoint_schedule``; ``spread`` its ``keypoint_spread_weight``).
 """
 
 from __future__ import annotations
@@ -37,13 +37,11 @@ DEFAULT_VARIANTS = (
 
 
 def _train(data: Path, spec: str, out: Path, seed: int) -> tuple[str, float]:
-    import learned.keypoints
     from handeye.learned_frames import load_keypoint_frames
     from learned.experiment import run_experiment
     from learned.presets import get_preset
 
     name, width, epochs, schedule, spread = spec.split(":")
-    learned.keypoints.HEATMAP_SPREAD_WEIGHT = float(spread)
     cpu = get_preset("cpu")
     preset = replace(
         cpu,
@@ -52,6 +50,7 @@ def _train(data: Path, spec: str, out: Path, seed: int) -> tuple[str, float]:
         repeats=1,
         keypoint_epochs=(int(epochs), cpu.keypoint_epochs[1], int(epochs)),
         keypoint_schedule=schedule,
+        keypoint_spread_weight=float(spread),
     )
     frames = load_keypoint_frames(data, preset.image_size, "classic", progress=False)
     t0 = time.perf_counter()
@@ -59,17 +58,13 @@ def _train(data: Path, spec: str, out: Path, seed: int) -> tuple[str, float]:
     return spec, time.perf_counter() - t0
 
 
-def _measure(data: Path, model_path: Path) -> dict:
+def _measure(frames, native: tuple, model_path: Path) -> dict:
+    """Pixel errors of the training and the test frames, and the test placements' pose errors."""
     from benchmarks.keypoint_errors import keypoint_stats, placement_errors, predicted_and_true
-    from handeye.core.dataset import Dataset
-    from handeye.learned_frames import load_keypoint_frames
     from learned.experiment import load_model
 
     model = load_model(model_path)
-    ds = Dataset.open(data)
-    native = (int(ds.meta["intrinsics"]["width"]), int(ds.meta["intrinsics"]["height"]))
     network = tuple(int(v) for v in model.config.image_size)
-    frames = load_keypoint_frames(data, network, progress=False)
     out = {}
     for split in ("train", "test"):
         index = np.flatnonzero(frames.split == split)
@@ -119,9 +114,16 @@ def main(argv=None):
         "placement median mm / deg | worst mm / deg | train s |"
     )
     emit("|---|---|---|---|---|---|---|---|---|---|---|")
+    from handeye.core.dataset import Dataset
+    from handeye.learned_frames import load_keypoint_frames
+    from learned.presets import get_preset
+
+    meta = Dataset.open(args.data).meta["intrinsics"]
+    native = (int(meta["width"]), int(meta["height"]))
+    frames = load_keypoint_frames(args.data, get_preset("cpu").image_size, progress=False)  # every variant's input
     for spec in args.variants:
         name, width, epochs, schedule, spread = spec.split(":")
-        m = _measure(args.data, dirs[spec] / "batch" / "keypoints.pt")
+        m = _measure(frames, native, dirs[spec] / "batch" / "keypoints.pt")
         p = m["placements"]
         emit(
             f"| {name} | {width} | {epochs} | {schedule} | {spread} | {m['train']['px_network']:.2f} | "

@@ -74,6 +74,20 @@ class MarkerlessRun:
             out[str(c)] = d
         return {"cameras": out}
 
+    def summary(self) -> str:
+        """One line: accepted placements, and the median and worst error against the truth where it is known."""
+        n_ok = sum(r.ok for r in self.results.values())
+        line = f"accepted {n_ok} of {len(self.results)} placements in {sum(self.seconds.values()):.0f} s"
+        for what, errs in (("markerless", self.errors), ("classic label", self.label_errors)):
+            if errs:
+                e = np.array(list(errs.values()))  # (deg, mm) per camera
+                med, worst = np.median(e, axis=0), e.max(axis=0)
+                line += (
+                    f"; {what} vs truth over {len(e)}: median {med[1]:.3f} mm / {med[0]:.4f} deg, "
+                    f"worst {worst[1]:.3f} mm / {worst[0]:.4f} deg"
+                )
+        return line
+
     def table(self) -> str:
         """Markdown: per camera, status, error against truth, sigma, the classic label's error."""
         rows = []

@@ -41,10 +41,6 @@ __all__ = [
 
 #: Depth error of 1 cm weighs as much as 1 pixel (at the network's input resolution) in the loss.
 DEPTH_WEIGHT_PER_M = 100.0
-#: Weight of the heatmaps' spread about the target (input pixels) in the loss, against the soft-argmax's L1.
-#: 0 (off) by default: on ``paper-sim`` it did not move the placement error beyond the run-to-run spread
-#: (``benchmarks/keypoint_training.py``).
-HEATMAP_SPREAD_WEIGHT = 0.0
 
 
 def keypoint_targets(
@@ -197,11 +193,15 @@ def inside_image(target: torch.Tensor) -> torch.Tensor:
 
 
 def keypoint_loss(
-    pred: torch.Tensor, target: torch.Tensor, image_size: tuple, prob: torch.Tensor | None = None
+    pred: torch.Tensor,
+    target: torch.Tensor,
+    image_size: tuple,
+    prob: torch.Tensor | None = None,
+    spread_weight: float = 0.0,
 ) -> torch.Tensor:
     """L1 in input pixels plus depth (1 cm = 1 pixel), over the keypoints inside the image.
 
-    With the heatmaps and a :data:`HEATMAP_SPREAD_WEIGHT` above 0, plus their spread about the target:
+    With the heatmaps and a ``spread_weight`` above 0, plus that times their spread about the target:
     the RMS distance (input pixels) of the heatmap's mass from the true position. The soft-argmax alone
     is satisfied by a diffuse heatmap whose mean happens to fall right, and a diffuse heatmap reads the
     depth map over the background too; the spread term makes the heatmap a peak at the keypoint (the
@@ -215,6 +215,9 @@ def keypoint_loss(
         ``(width, height)`` the network sees.
     prob : tensor, shape (B, K, h, w), optional
         The heatmaps' probabilities (:meth:`KeypointNet.forward` with ``heatmaps=True``).
+    spread_weight : float
+        Weight of the spread against the soft-argmax's L1; 0 (off) by default: on ``paper-sim`` it did
+        not move the placement error beyond the run-to-run spread (``benchmarks/keypoint_training.py``).
     """
     w, h = image_size
     inside = inside_image(target).float()
@@ -223,12 +226,12 @@ def keypoint_loss(
         + (pred[..., 1] - target[..., 1]).abs() * h
         + (pred[..., 2] - target[..., 2]).abs() * DEPTH_WEIGHT_PER_M
     )
-    if prob is not None and HEATMAP_SPREAD_WEIGHT > 0:
+    if prob is not None and spread_weight > 0:
         hh, ww = prob.shape[-2:]
         xs = ((torch.arange(ww, device=prob.device, dtype=prob.dtype) + 0.5) / ww)[None, None, :] - target[..., 0:1]
         ys = ((torch.arange(hh, device=prob.device, dtype=prob.dtype) + 0.5) / hh)[None, None, :] - target[..., 1:2]
         spread2 = (prob.sum(2) * (xs * w) ** 2).sum(-1) + (prob.sum(3) * (ys * h) ** 2).sum(-1)
-        err = err + HEATMAP_SPREAD_WEIGHT * torch.sqrt(spread2 + 1e-6)
+        err = err + spread_weight * torch.sqrt(spread2 + 1e-6)
     return (err * inside).sum() / inside.sum().clamp_min(1.0)
 
 

@@ -43,6 +43,8 @@ class Preset:
     repeats : int
     keypoint_schedule : {"constant", "cosine"}
         The keypoint model's learning rate within each training call (:class:`learned.trainer.TrainConfig`).
+    keypoint_spread_weight : float
+        Weight of the keypoint model's heatmap spread in its loss (0: off; :func:`learned.keypoints.keypoint_loss`).
     """
 
     name: str
@@ -63,6 +65,7 @@ class Preset:
     keypoint_epochs: tuple | None = None
     repeats: int = 3
     keypoint_schedule: str = "constant"
+    keypoint_spread_weight: float = 0.0
 
     def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
         if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
@@ -77,15 +80,15 @@ class Preset:
 
     def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
         first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
-        schedule = "constant"
+        extra = {}
         if kind == "keypoints":
-            schedule = self.keypoint_schedule
+            extra = {"schedule": self.keypoint_schedule, "heatmap_spread_weight": self.keypoint_spread_weight}
             if self.keypoint_epochs:
                 first_e, later_e, batch_e = self.keypoint_epochs
         first_e = batch_e if strategy == "batch" else first_e
         return (
-            TrainConfig(first_e, self.batch_size, self.learning_rate, schedule=schedule),
-            TrainConfig(later_e, self.batch_size, self.learning_rate, schedule=schedule),
+            TrainConfig(first_e, self.batch_size, self.learning_rate, **extra),
+            TrainConfig(later_e, self.batch_size, self.learning_rate, **extra),
         )
 
     def to_dict(self) -> dict:

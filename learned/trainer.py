@@ -37,6 +37,9 @@ class TrainConfig:
     schedule : {"constant", "cosine"}
         The learning rate over the call's steps: constant, or a cosine decay from ``learning_rate`` to
         zero (each call, i.e. each continual step, starts again from ``learning_rate``).
+    heatmap_spread_weight : float
+        The keypoint model only: weight of its heatmaps' spread in the loss
+        (:func:`learned.keypoints.keypoint_loss`); 0 is off.
     """
 
     epochs: int = 10
@@ -44,6 +47,7 @@ class TrainConfig:
     learning_rate: float = 1e-3
     weight_decay: float = 0.0
     schedule: str = "constant"
+    heatmap_spread_weight: float = 0.0
 
     def __post_init__(self):
         if self.schedule not in ("constant", "cosine"):
@@ -78,10 +82,17 @@ def _keypoint_targets(frames: FrameSet, index: np.ndarray, against: str = "label
     return keypoint_targets(frames.keypoints_base[index], t[index], q[index], frames.intrinsics_norm[index])
 
 
-def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray, net: torch.nn.Module | None = None):
+def _loss(
+    model: CalibrationNet,
+    frames: FrameSet,
+    index: np.ndarray,
+    net: torch.nn.Module | None = None,
+    spread_weight: float = 0.0,
+):
     """The training loss of the frames at ``index`` and how many terms it averages.
 
-    ``net`` runs the forward pass (the data-parallel wrapper of ``model``; ``model`` by default).
+    ``net`` runs the forward pass (the data-parallel wrapper of ``model``; ``model`` by default);
+    ``spread_weight`` is :attr:`TrainConfig.heatmap_spread_weight`.
     The count is the samples, or for the keypoint model the keypoints inside the image; an empty
     ``index`` gives a zero loss that still reaches every parameter (a rank's empty slice of a batch).
     """
@@ -91,9 +102,10 @@ def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray, net: torch
 
         out, prob = (model if net is None else net)(*_tensors(frames, index, device), heatmaps=True)
         if len(index) == 0:
-            return out.sum() * 0.0 + prob.sum() * 0.0, 0
+            return out.sum() * 0.0, 0
         target = torch.from_numpy(_keypoint_targets(frames, index).astype(np.float32)).to(device)
-        return keypoint_loss(out, target, model.config.image_size, prob), int(inside_image(target).sum().item())
+        loss = keypoint_loss(out, target, model.config.image_size, prob, spread_weight)
+        return loss, int(inside_image(target).sum().item())
     out = (model if net is None else net)(*_tensors(frames, index, device))
     if len(index) == 0:
         return out.sum() * 0.0, 0
@@ -102,14 +114,16 @@ def _loss(model: CalibrationNet, frames: FrameSet, index: np.ndarray, net: torch
     return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device)), len(index)
 
 
-def _slice_loss(net: torch.nn.Module, model: CalibrationNet, frames: FrameSet, batch: np.ndarray) -> torch.Tensor:
+def _slice_loss(
+    net: torch.nn.Module, model: CalibrationNet, frames: FrameSet, batch: np.ndarray, spread_weight: float = 0.0
+) -> torch.Tensor:
     """This rank's share of a global batch's loss, weighted so that the ranks' average gradient is the batch's.
 
     The loss on the slice averages ``n_r`` terms (samples, or keypoints in the image) of the batch's
     ``n``; weighted by ``n_r / n * world_size``, the mean over ranks of the slices' gradients (what
     DistributedDataParallel computes) is the gradient of the whole batch's mean loss.
     """
-    loss, count = _loss(model, frames, distributed.shard(batch), net)
+    loss, count = _loss(model, frames, distributed.shard(batch), net, spread_weight)
     total = len(batch) if model.config.kind != "keypoints" else distributed.sum_over_ranks(count)
     return loss * (count / max(total, 1) * distributed.world_size())
 
@@ -177,7 +191,7 @@ def _epochs(
     skip the same ones; each rank then computes the loss of its slice (:func:`_slice_loss`).
     """
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
-    steps = config.epochs * sum(1 for s in range(0, len(index), config.batch_size) if len(index) - s >= 2)
+    steps = config.epochs * -(-len(index) // config.batch_size)  # a last batch of one, skipped, leaves it above 0
     scheduler = (
         torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=max(steps, 1))
         if config.schedule == "cosine"
@@ -196,7 +210,12 @@ def _epochs(
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             optimizer.zero_grad()
-            loss = _loss(model, frames, batch)[0] if net is None else _slice_loss(net, model, frames, batch)
+            spread = config.heatmap_spread_weight
+            loss = (
+                _loss(model, frames, batch, spread_weight=spread)[0]
+                if net is None
+                else _slice_loss(net, model, frames, batch, spread)
+            )
             loss.backward()
             optimizer.step()
             if scheduler is not None:

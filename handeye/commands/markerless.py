@@ -80,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.quiet,
     )
     print(out.table())
+    print(out.summary())
     if args.out:
         write_json_atomic(args.out, out.to_dict())
         print(f"written: {args.out}")

@@ -41,7 +41,7 @@ def test_cylinder_curves_across_its_axis_only(rng):
     np.testing.assert_allclose(np.abs(direction[inner, 2]), 0.0, atol=1e-9)  # across the axis
 
 
-def test_plane_and_box_creases_have_no_curvature(rng):
+def test_a_box_has_no_curvature_on_its_faces_or_across_its_creases():
     import trimesh
 
     box = trimesh.creation.box((0.1, 0.1, 0.1))
@@ -50,9 +50,10 @@ def test_plane_and_box_creases_have_no_curvature(rng):
     np.testing.assert_allclose(kappa, 0.0, atol=1e-9)
 
 
-def test_second_order_residual_vanishes_on_the_sphere_and_its_gradient_is_the_normal_there(rng):
-    """A point on a sphere at offset d from the sample: the first-order residual is -d^2/2r, the second-order
-    one is left with the fourth-order term d^4/8r^3; the gradient is the sphere's normal at the point."""
+def test_second_order_residual_on_a_sphere_leaves_exactly_the_fourth_order_term(rng):
+    """A point on a sphere at chord d from the sample (angle t between them): the first-order residual is
+    r (cos t - 1) = -d^2/2r, the tangential offset r sin t, so the second-order one is exactly -d^4/8r^3;
+    the gradient n + S d is x_dir + (1 - cos t) m_dir = x_dir + d^2/(2 r^2) m_dir."""
     r, n_pts = 0.05, 200
     m_dir = rng.normal(size=(n_pts, 3))
     m_dir /= np.linalg.norm(m_dir, axis=1, keepdims=True)
@@ -63,10 +64,9 @@ def test_second_order_residual_vanishes_on_the_sphere_and_its_gradient_is_the_no
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
     res, grad = second_order_residual(x, m, m_dir, np.full((n_pts, 2), 1 / r), e1)
     d = np.linalg.norm(x - m, axis=1)
-    first_order = np.einsum("ij,ij->i", m_dir, x - m)
-    assert np.all(first_order < 0) and np.all(np.abs(first_order) > 0.4 * d**2 / r)
-    assert np.all(np.abs(res) <= d**4 / r**3)
-    np.testing.assert_allclose(grad, x_dir, atol=(d**2 / r**2).max())
+    np.testing.assert_allclose(np.einsum("ij,ij->i", m_dir, x - m), -(d**2) / (2 * r), rtol=1e-9)
+    np.testing.assert_allclose(res, -(d**4) / (8 * r**3), rtol=1e-6, atol=1e-18)
+    np.testing.assert_allclose(grad, x_dir + (d**2 / (2 * r**2))[:, None] * m_dir, atol=1e-12)
 
 
 def test_a_second_order_fit_removes_the_sampling_bias():

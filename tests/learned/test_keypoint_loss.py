@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 import torch
 
-import learned.keypoints
 from learned.keypoints import KeypointNet, keypoint_loss
 from learned.model import ModelConfig
 
@@ -17,12 +16,7 @@ def _uniform(b=1, k=1, h=H // 2, w=W // 2):
     return torch.full((b, k, h, w), 1.0 / (h * w), dtype=torch.float64)
 
 
-@pytest.fixture
-def spread_on(monkeypatch):
-    monkeypatch.setattr(learned.keypoints, "HEATMAP_SPREAD_WEIGHT", 1.0)
-
-
-def test_a_diffuse_heatmap_costs_its_spread_and_a_peak_costs_nothing(spread_on):
+def test_a_diffuse_heatmap_costs_its_spread_and_a_peak_costs_nothing():
     """Both heatmaps put the soft-argmax on the target, the image centre. The uniform one is charged the RMS
     distance of the cell centres from it; the peak on the four cells around it, half a cell's diagonal."""
     target = torch.tensor([[[0.5, 0.5, 1.0]]], dtype=torch.float64)
@@ -31,12 +25,14 @@ def test_a_diffuse_heatmap_costs_its_spread_and_a_peak_costs_nothing(spread_on):
     xs = ((np.arange(ww) + 0.5) / ww - 0.5) * W
     ys = ((np.arange(hh) + 0.5) / hh - 0.5) * H
     expected_rms = np.sqrt(np.mean(xs**2) + np.mean(ys**2))
-    diffuse = keypoint_loss(pred, target, (W, H), _uniform()).item()
+    diffuse = keypoint_loss(pred, target, (W, H), _uniform(), spread_weight=1.0).item()
     np.testing.assert_allclose(diffuse, expected_rms, rtol=1e-6)
     peak = torch.zeros(1, 1, hh, ww, dtype=torch.float64)
     peak[0, 0, hh // 2 - 1 : hh // 2 + 1, ww // 2 - 1 : ww // 2 + 1] = 0.25  # the four cells around the centre
     np.testing.assert_allclose(
-        keypoint_loss(pred, target, (W, H), peak).item(), np.sqrt((W / ww / 2) ** 2 + (H / hh / 2) ** 2), rtol=1e-6
+        keypoint_loss(pred, target, (W, H), peak, spread_weight=1.0).item(),
+        np.sqrt((W / ww / 2) ** 2 + (H / hh / 2) ** 2),
+        rtol=1e-6,
     )
     assert keypoint_loss(pred, target, (W, H)).item() == 0.0  # without heatmaps: the coordinates alone
 
@@ -46,11 +42,11 @@ def test_the_spread_is_off_by_default():
     assert keypoint_loss(target.clone(), target, (W, H), _uniform()).item() == 0.0
 
 
-def test_keypoints_outside_the_image_are_not_charged(spread_on):
+def test_keypoints_outside_the_image_are_not_charged():
     target = torch.tensor([[[1.5, 0.5, 1.0], [0.5, 0.5, 1.0]]], dtype=torch.float64)
     pred = target.clone()
-    both = keypoint_loss(pred, target, (W, H), _uniform(k=2)).item()
-    only_inside = keypoint_loss(pred[:, 1:], target[:, 1:], (W, H), _uniform(k=1)).item()
+    both = keypoint_loss(pred, target, (W, H), _uniform(k=2), spread_weight=1.0).item()
+    only_inside = keypoint_loss(pred[:, 1:], target[:, 1:], (W, H), _uniform(k=1), spread_weight=1.0).item()
     np.testing.assert_allclose(both, only_inside)
 
 
@@ -69,14 +65,16 @@ def test_the_heatmaps_returned_are_the_ones_the_prediction_is_made_from():
     torch.testing.assert_close(pred[..., 0], x_from_prob)
 
 
-def test_the_schedule_reaches_the_keypoint_model_only():
+def test_the_schedule_and_the_spread_reach_the_keypoint_model_only():
     from dataclasses import replace
 
     from learned.presets import get_preset
     from learned.trainer import TrainConfig
 
-    preset = replace(get_preset("tiny"), keypoint_schedule="cosine")
-    assert all(c.schedule == "cosine" for c in preset.train_configs("reservoir", "keypoints"))
-    assert all(c.schedule == "constant" for c in preset.train_configs("reservoir", "translation"))
+    preset = replace(get_preset("tiny"), keypoint_schedule="cosine", keypoint_spread_weight=0.5)
+    keypoints = preset.train_configs("reservoir", "keypoints")
+    assert all(c.schedule == "cosine" and c.heatmap_spread_weight == 0.5 for c in keypoints)
+    regression = preset.train_configs("reservoir", "translation")
+    assert all(c.schedule == "constant" and c.heatmap_spread_weight == 0.0 for c in regression)
     with pytest.raises(ValueError, match="schedule"):
         TrainConfig(schedule="linear")

@@ -36,7 +36,12 @@ def test_cli_writes_results_and_refusals_exit_1(small_dataset, tmp_path, capsys)
     doc = json.loads(out.read_text())
     cam = doc["cameras"]["1"]
     assert cam["status"] == "ok" and len(cam["T_base_cam"]["matrix"]) == 4 and "error_vs_truth" in cam
-    assert "| 1 | ok |" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "| 1 | ok |" in printed
+    # the summary line repeats the one placement's error as both median and worst
+    mm = f"{cam['error_vs_truth']['mm']:.3f} mm"
+    assert "accepted 1 of 1 placements" in printed and f"markerless vs truth over 1: median {mm}" in printed
+    assert f"worst {mm}" in printed
 
 
 def test_start_file_and_its_errors(small_dataset, tmp_path):
