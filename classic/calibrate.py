@@ -145,6 +145,25 @@ def _check_pair_consensus(A, B, X, model, setup, pairs, motions) -> None:
         refuse_shift(suspects, shift, len(A))
 
 
+def _consensus_model(model, ref) -> NoiseModel:
+    """The noise model of the consensus check's refit: the caller's, or the fit's own estimate up to one factor.
+
+    With the noise estimated, a refit on fewer poses could settle on another shape (isotropic against
+    across and along the line of sight) and the shift between the two fits would then measure the
+    difference of their weightings, not of their poses; the estimated shape, rescaled to the refit's
+    residuals, keeps the two comparable.
+    """
+    if model is not None:
+        return model
+    d = ref.noise_model
+    return NoiseModel(
+        camera_rot_rad=tuple(np.radians(d["camera_rotation_deg"])),
+        camera_trans_m=tuple(np.asarray(d["camera_translation_mm"]) / 1000.0),
+        name=f"{d['name']}, shape of the full fit",
+        scale_to_residuals=True,
+    )
+
+
 def _subset_model(model, keep):
     return None if model is None else model.subset(keep)
 
@@ -325,7 +344,7 @@ def calibrate(
             B_fit[:, :3, 3] *= ref.scale
             check_contamination(ref.whitened, np.concatenate(pose_residuals(A_in, B_fit, X, Y), axis=1), ref.jacobian)
             if not estimate_scale:
-                _check_pair_consensus(A_in, B_in, X, model, setup, pairs, motions)
+                _check_pair_consensus(A_in, B_in, X, _consensus_model(model, ref), setup, pairs, motions)
     diagnostics["noise_estimate"] = {
         "rotation_deg": float(np.degrees(ref.sigma_rot_rad)),
         "translation_mm": 1000 * ref.sigma_trans_m,

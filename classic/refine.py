@@ -52,6 +52,10 @@ _CHI2_3_MEDIAN = 2.36597
 _CHI2_6_MEDIAN = 5.34812
 #: Outer passes at most (noise scales and S_i re-evaluated at the estimate each pass).
 _PASSES = 4
+#: Significance at which the camera-frame translation residuals' axes are taken to differ in spread
+#: (:func:`_scales`), and the fewest poses the test is made on.
+_ANISOTROPY_P = 0.01
+_ANISOTROPY_MIN_POSES = 8
 
 
 @dataclass
@@ -114,35 +118,55 @@ def _update(X, Y, delta):
     return _apply(X, delta[0:3], delta[3:6]), _apply(Y, delta[6:9], delta[9:12])
 
 
-def _scales(r_rot, r_trans, w, robust: bool, n_params: int = 12, leverage=None) -> tuple[float, float]:
-    """Camera-noise scales, one for rotation and one for translation, from the residuals.
+def _scales(r_rot, r_trans, w, robust: bool, n_params: int = 12, leverage=None) -> tuple[float, float | np.ndarray]:
+    """Camera-noise scales from the residuals: one for rotation; for translation one, or three per axis.
 
     Robust: the median of the squared norms over the chi-square(3) median. Otherwise the weighted
     mean square, each residual corrected for what the fit absorbed (``r / sqrt(1 - h)`` with ``h``
     the hat matrix's diagonal, ``leverage`` (N, 6)), or with a global degrees-of-freedom factor when
-    no leverage is given. Per-axis scales were tried and dropped: estimated together with the fit
-    they ran away on a dozen poses (an axis the fit follows closely gets a smaller scale, hence more
-    weight); anisotropic noise is stated in a :class:`classic.noise_model.NoiseModel` instead (from
-    the corners when images are available: :mod:`classic.vision.pose_covariance`).
+    no leverage is given.
+
+    The translation residual is in the camera frame, where a PnP pose is poor along the optical axis
+    (depth). It gets two scales, across the line of sight (x and y pooled) and along it (z), only when
+    a Brown–Forsythe test (``scipy.stats.levene``, median-centred) on the leverage-corrected residuals
+    says their spreads differ at :data:`_ANISOTROPY_P`. Three free per-axis scales ran away on a dozen
+    poses (an axis the fit follows closely gets a smaller scale, hence more weight: an overconfident
+    covariance); pooling the two lateral axes halves that scale's sampling error, and the test keeps
+    isotropic noise isotropic. Rotation keeps one scale (its residual is in the target frame, which
+    turns with every pose).
     """
+    from scipy.stats import levene
+
     w = np.ones(len(r_rot)) if w is None else np.asarray(w, dtype=float)
     out = []
     for k, r in enumerate((np.asarray(r_rot), np.asarray(r_trans))):
         if leverage is not None:
             r = r / np.sqrt(np.clip(1.0 - np.asarray(leverage)[:, 3 * k : 3 * k + 3], 1e-6, None))
+        n = w.sum()
+        dof = 1.0 if leverage is not None else max(6.0 * n - n_params, 1.0) / (6.0 * n)
+        if k == 1 and len(r) >= _ANISOTROPY_MIN_POSES:
+            across, along = np.concatenate([r[:, 0], r[:, 1]]), r[:, 2]
+            if levene(across, along, center="median").pvalue < _ANISOTROPY_P:
+                if robust:
+                    level = 1.4826 * np.array([np.median(np.abs(across)), np.median(np.abs(along))])
+                else:
+                    level = np.sqrt([np.sum(np.r_[w, w] * across**2) / (2.0 * n) / dof, np.sum(w * along**2) / n / dof])
+                level = np.maximum(level, 1e-12)
+                out.append(np.array([level[0], level[0], level[1]]))
+                continue
         z2 = np.sum(r**2, axis=1)
         if robust:
             level = np.sqrt(np.median(z2) / _CHI2_3_MEDIAN)
         else:
-            n = w.sum()
-            dof = 1.0 if leverage is not None else max(6.0 * n - n_params, 1.0) / (6.0 * n)
             level = np.sqrt(np.sum(w * z2) / (3.0 * n) / dof)
         out.append(max(float(level), 1e-12))
     return out[0], out[1]
 
 
-def _camera_model(s_r: float, s_t: float) -> NoiseModel:
-    return NoiseModel(camera_rot_rad=s_r, camera_trans_m=s_t, name="camera, estimated")
+def _camera_model(s_r: float, s_t) -> NoiseModel:
+    per_axis = np.ndim(s_t) > 0
+    name = "camera, estimated (translation across and along the line of sight)" if per_axis else "camera, estimated"
+    return NoiseModel(camera_rot_rad=s_r, camera_trans_m=tuple(s_t) if per_axis else s_t, name=name)
 
 
 def _left_jacobian_inverse(r: np.ndarray) -> np.ndarray:
@@ -363,7 +387,7 @@ def refine_xy(
             hat = np.einsum("ij,ij->i", Jw @ np.linalg.pinv(Jw.T @ Jw), Jw).reshape(n, 6)
             s_r, s_t = _scales(r_rot, r_t, weights_pose, robust=robust, n_params=prob.n_params, leverage=hat)
             model = _camera_model(s_r, s_t)
-            changed = max(abs(s_r / old[0] - 1.0), abs(s_t / old[1] - 1.0))
+            changed = float(max(abs(s_r / old[0] - 1.0), np.max(np.abs(np.asarray(s_t) / np.asarray(old[1]) - 1.0))))
         elif model.scale_to_residuals:
             d2 = np.sum(fit.residuals.reshape(n, 6) ** 2, axis=1)
             if robust:
