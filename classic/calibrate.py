@@ -224,7 +224,8 @@ def calibrate(
     noise : (float, float) or NoiseModel, optional
         Per-axis camera noise ``(rad, m)``, or a :class:`classic.noise_model.NoiseModel`
         with camera and robot noise (anisotropic, per pose, joint noise through the
-        robot's Jacobian); default: camera-only, both scales estimated from the residuals.
+        robot's Jacobian); default: camera-only, the scales estimated from the residuals (rotation;
+        translation, split across and along the line of sight when the residuals say they differ).
     check : bool
         Run the consistency, motion and contamination checks (default). Turn off
         only for data you have checked otherwise.

@@ -301,7 +301,8 @@ def refine_xy(
     loss : {"linear", "huber", "cauchy"}
         On each whitened residual component, bending at :data:`ROBUST_SCALE`.
     noise : None, (float, float) or NoiseModel
-        None: camera-only noise with its two scales estimated from the residuals; a pair: camera-only
+        None: camera-only noise with its scales estimated from the residuals (:func:`_scales`: one for
+        rotation; translation across and along the line of sight when they differ); a pair: camera-only
         per-axis ``(sigma_rot_rad, sigma_trans_m)``; a :class:`classic.noise_model.NoiseModel`:
         camera and robot noise as stated.
     max_iterations : int

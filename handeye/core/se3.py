@@ -118,13 +118,17 @@ def quat_xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
     S = 2.0 * np.sqrt(np.maximum(1.0 + 2.0 * c_k - tr, 1e-300))  # 4 * |largest component|
     d21, d02, d10 = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]
     s21, s02, s10 = R[..., 2, 1] + R[..., 1, 2], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 0] + R[..., 0, 1]
-    quarter = 0.25 * S
-    conds = [k == 0, k == 1, k == 2, k == 3]
-    x = np.select(conds, [d21 / S, quarter, s10 / S, s02 / S])
-    y = np.select(conds, [d02 / S, s10 / S, quarter, s21 / S])
-    z = np.select(conds, [d10 / S, s02 / S, s21 / S, quarter])
-    w = np.select(conds, [quarter, d21 / S, d02 / S, d10 / S])
-    q = np.stack([x, y, z, w], axis=-1)
+    # row k: (x, y, z, w) times S when candidate k is the largest; the rows gathered by k in one step
+    table = np.stack(
+        [
+            np.stack([d21, d02, d10, 0.25 * S * S], axis=-1),
+            np.stack([0.25 * S * S, s10, s02, d21], axis=-1),
+            np.stack([s10, 0.25 * S * S, s21, d02], axis=-1),
+            np.stack([s02, s21, 0.25 * S * S, d10], axis=-1),
+        ],
+        axis=-2,
+    )
+    q = np.take_along_axis(table, k[..., None, None], axis=-2)[..., 0, :] / S[..., None]
     q /= np.linalg.norm(q, axis=-1, keepdims=True)
     q *= np.where(q[..., 3:4] < 0, -1.0, 1.0)
     return q
