@@ -8,8 +8,11 @@ the model underfits rather than fails to generalise to new camera poses.
 
     python benchmarks/keypoint_training.py --data data/paper-sim-noisy --out benchmarks/results/keypoint_training.md
 
-A variant is ``name:width:epochs:schedule:spread`` (``schedule`` constant or cosine: the preset's
-``keypoint_schedule``; ``spread`` its ``keypoint_spread_weight``).
+A variant is ``name:width:epochs:schedule:spread[:size[:batch]]``: ``width`` the first stage's channels, or
+``a-b`` for two stride-2 stages of ``a`` and ``b`` channels (:class:`learned.keypoints.KeypointNet`);
+``schedule`` constant or cosine (the preset's ``keypoint_schedule``); ``spread`` its
+``keypoint_spread_weight``; ``size`` the square input in pixels and ``batch`` the batch size (by default
+the ``cpu`` preset's: 64 and 32).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks._report import Report  # noqa: E402
 
 DEFAULT_VARIANTS = (
-    "cpu preset:8:15:constant:0",
+    "width 8 (the cpu preset before):8:15:constant:0",
     "twice as wide:16:15:constant:0",
     "cosine schedule:8:15:cosine:0",
     "heatmap spread:8:15:constant:1",
@@ -41,21 +44,30 @@ def _train(data: Path, spec: str, out: Path, seed: int) -> tuple[str, float]:
     from learned.experiment import run_experiment
     from learned.presets import get_preset
 
-    name, width, epochs, schedule, spread = spec.split(":")
+    name, width, epochs, schedule, spread, size, batch = _fields(spec)
     cpu = get_preset("cpu")
     preset = replace(
         cpu,
+        keypoint_batch_size=batch,
         name=f"cpu-{name}",
-        channels=(int(width),) + tuple(cpu.channels[1:]),
+        keypoint_image_size=(size, size),
+        keypoint_channels=tuple(int(w) for w in width.split("-")),
         repeats=1,
         keypoint_epochs=(int(epochs), cpu.keypoint_epochs[1], int(epochs)),
         keypoint_schedule=schedule,
         keypoint_spread_weight=float(spread),
     )
-    frames = load_keypoint_frames(data, preset.image_size, "classic", progress=False)
+    frames = load_keypoint_frames(data, preset.keypoint_image_size, "classic", progress=False)
     t0 = time.perf_counter()
     run_experiment(frames, preset, ["batch"], out, "classic", seed, progress=False, threads=1, family="keypoints")
     return spec, time.perf_counter() - t0
+
+
+def _fields(spec: str) -> tuple:
+    """``name, width, epochs, schedule, spread, size, batch`` of a variant (size and batch ints, 64 and 32 when not
+    given)."""
+    parts = spec.split(":")
+    return (*parts[:5], int(parts[5]) if len(parts) > 5 else 64, int(parts[6]) if len(parts) > 6 else 32)
 
 
 def _measure(frames, native: tuple, model_path: Path) -> dict:
@@ -85,11 +97,16 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--work", type=Path, default=Path("runs/keypoint_training"), help="where the models go")
     ap.add_argument("--out", type=Path, help="also write the report here")
+    ap.add_argument(
+        "--measure-only",
+        action="store_true",
+        help="measure the models an earlier run left in --work (same variants, same order), train nothing",
+    )
     args = ap.parse_args(argv)
     for spec in args.variants:
         parts = spec.split(":")
-        if len(parts) != 5 or parts[3] not in ("constant", "cosine"):
-            ap.error(f"variant {spec!r}: expected name:width:epochs:constant|cosine:spread")
+        if len(parts) not in (5, 6, 7) or parts[3] not in ("constant", "cosine"):
+            ap.error(f"variant {spec!r}: expected name:width:epochs:constant|cosine:spread[:size[:batch]]")
     import torch
 
     rep = Report(
@@ -100,9 +117,11 @@ def main(argv=None):
     )
     emit = rep.say
     dirs = {spec: args.work / f"v{i}" for i, spec in enumerate(args.variants)}
-    with ProcessPoolExecutor(args.jobs) as pool:
-        futures = [pool.submit(_train, args.data, spec, dirs[spec], args.seed) for spec in args.variants]
-        seconds = dict(f.result() for f in futures)
+    seconds = {}
+    if not args.measure_only:
+        with ProcessPoolExecutor(args.jobs) as pool:
+            futures = [pool.submit(_train, args.data, spec, dirs[spec], args.seed) for spec in args.variants]
+            seconds = dict(f.result() for f in futures)
     emit(
         "Keypoint errors: medians over the frames' keypoints in view, network input pixels; depth bias: the mean "
         "over keypoints of |median signed depth error|. Placements: the 24 test placements, one pose each from "
@@ -110,26 +129,28 @@ def main(argv=None):
     )
     emit()
     emit(
-        "| variant | width | epochs | schedule | spread weight | train px | test px | train / test depth bias mm | "
-        "placement median mm / deg | worst mm / deg | train s |"
+        "| variant | input px | width | epochs | batch | schedule | spread weight | train px | test px | "
+        "native px, test | train / test depth bias mm | placement median mm / deg | worst mm / deg | train s |"
     )
-    emit("|---|---|---|---|---|---|---|---|---|---|---|")
+    emit("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     from handeye.core.dataset import Dataset
     from handeye.learned_frames import load_keypoint_frames
-    from learned.presets import get_preset
 
     meta = Dataset.open(args.data).meta["intrinsics"]
     native = (int(meta["width"]), int(meta["height"]))
-    frames = load_keypoint_frames(args.data, get_preset("cpu").image_size, progress=False)  # every variant's input
+    frames = {}  # per input size, read once for all its variants
     for spec in args.variants:
-        name, width, epochs, schedule, spread = spec.split(":")
-        m = _measure(frames, native, dirs[spec] / "batch" / "keypoints.pt")
+        name, width, epochs, schedule, spread, size, batch = _fields(spec)
+        if size not in frames:
+            frames[size] = load_keypoint_frames(args.data, (size, size), progress=False)
+        m = _measure(frames[size], native, dirs[spec] / "batch" / "keypoints.pt")
         p = m["placements"]
         emit(
-            f"| {name} | {width} | {epochs} | {schedule} | {spread} | {m['train']['px_network']:.2f} | "
-            f"{m['test']['px_network']:.2f} | {m['train_bias_mm']:.1f} / {m['test_bias_mm']:.1f} | "
+            f"| {name} | {size} | {width} | {epochs} | {batch} | {schedule} | {spread} | "
+            f"{m['train']['px_network']:.2f} | {m['test']['px_network']:.2f} | {m['test']['px_native']:.1f} | "
+            f"{m['train_bias_mm']:.1f} / {m['test_bias_mm']:.1f} | "
             f"{np.median(p[:, 0]):.1f} / {np.median(p[:, 1]):.2f} | {p[:, 0].max():.1f} / {p[:, 1].max():.2f} | "
-            f"{seconds[spec]:.0f} |"
+            f"{f'{seconds[spec]:.0f}' if spec in seconds else '- (measured only)'} |"
         )
     return rep.write(args.out)
 

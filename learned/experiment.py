@@ -321,9 +321,10 @@ def run_experiment(
         raise HandEyeInputError(f"unknown strategies {unknown}: use {', '.join(STRATEGIES)}")
     if threads:
         torch.set_num_threads(threads)
-    frames = data if isinstance(data, FrameSet) else load_frames(data, preset.image_size, labels, progress=progress)
-    if tuple(frames.image_size) != tuple(preset.image_size):
-        raise HandEyeInputError(f"frames are {frames.image_size}, preset {preset.name} needs {preset.image_size}")
+    size = preset.frame_size(family)
+    frames = data if isinstance(data, FrameSet) else load_frames(data, size, labels, progress=progress)
+    if tuple(frames.image_size) != size:
+        raise HandEyeInputError(f"frames are {frames.image_size}, preset {preset.name} needs {size} for {family}")
     steps = time_steps(frames)
     regions = [int(r) for r in np.unique(frames.region)]
     test_cams = [int(c) for c in frames.cameras("test")]

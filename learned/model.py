@@ -65,8 +65,12 @@ class ModelConfig:
             if self.n_keypoints < 3:
                 raise ValueError(f"the keypoint model needs at least 3 keypoints, got {self.n_keypoints}")
             w, h = self.image_size
-            if w % 4 or h % 4:
-                raise ValueError(f"image size {w}x{h} must be divisible by 4 for the keypoint model")
+            stride = 2 ** (len(self.channels) + 1)  # the stages, then the trunk's own stride 2
+            if w % stride or h % stride:
+                raise ValueError(
+                    f"image size {w}x{h} must be divisible by {stride} for the keypoint model "
+                    f"({len(self.channels)} stride-2 stages and the trunk)"
+                )
             return
         w, h = self.image_size
         stride = 2 ** len(self.channels)

@@ -45,6 +45,15 @@ class Preset:
         The keypoint model's learning rate within each training call (:class:`learned.trainer.TrainConfig`).
     keypoint_spread_weight : float
         Weight of the keypoint model's heatmap spread in its loss (0: off; :func:`learned.keypoints.keypoint_loss`).
+    keypoint_image_size : (int, int), optional
+        The keypoint model's input; ``image_size`` when omitted. :meth:`frame_size` gives either. (On
+        ``paper-sim`` 96 and 128 pixels did not lower its error: ``benchmarks/keypoint_training.py``.)
+    keypoint_channels : tuple of int, optional
+        The keypoint model's stride-2 stages (:class:`learned.keypoints.KeypointNet`); ``channels[0]``
+        alone when omitted.
+    keypoint_batch_size : int, optional
+        The keypoint model's batch size; ``batch_size`` when omitted (it underfits, and more, smaller
+        steps per sample lower its error at the same cost: ``benchmarks/keypoint_training.py``).
     """
 
     name: str
@@ -66,10 +75,20 @@ class Preset:
     repeats: int = 3
     keypoint_schedule: str = "constant"
     keypoint_spread_weight: float = 0.0
+    keypoint_image_size: tuple | None = None
+    keypoint_channels: tuple | None = None
+    keypoint_batch_size: int | None = None
+
+    def frame_size(self, family: str = "regression") -> tuple:
+        """``(width, height)`` the frames are loaded at for a model family (``regression`` or ``keypoints``)."""
+        if family == "keypoints" and self.keypoint_image_size:
+            return tuple(int(v) for v in self.keypoint_image_size)
+        return tuple(self.image_size)
 
     def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
-        if kind == "keypoints":  # fully convolutional: the width of the encoders' first layer, no head
-            return ModelConfig(kind, tuple(self.image_size), (int(self.channels[0]),), (), n_keypoints=int(n_keypoints))
+        if kind == "keypoints":  # fully convolutional: its stages' widths (the encoders' first by default), no head
+            widths = tuple(int(c) for c in (self.keypoint_channels or self.channels[:1]))
+            return ModelConfig(kind, self.frame_size("keypoints"), widths, (), n_keypoints=int(n_keypoints))
         return ModelConfig(
             kind,
             tuple(self.image_size),
@@ -80,15 +99,16 @@ class Preset:
 
     def train_configs(self, strategy: str, kind: str = "translation") -> tuple[TrainConfig, TrainConfig]:
         first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
-        extra = {}
+        batch_size, extra = self.batch_size, {}
         if kind == "keypoints":
             extra = {"schedule": self.keypoint_schedule, "heatmap_spread_weight": self.keypoint_spread_weight}
             if self.keypoint_epochs:
                 first_e, later_e, batch_e = self.keypoint_epochs
+            batch_size = self.keypoint_batch_size or batch_size
         first_e = batch_e if strategy == "batch" else first_e
         return (
-            TrainConfig(first_e, self.batch_size, self.learning_rate, **extra),
-            TrainConfig(later_e, self.batch_size, self.learning_rate, **extra),
+            TrainConfig(first_e, batch_size, self.learning_rate, **extra),
+            TrainConfig(later_e, batch_size, self.learning_rate, **extra),
         )
 
     def to_dict(self) -> dict:
@@ -135,6 +155,11 @@ PRESETS = {
         later_epochs=15,
         batch_epochs=30,
         keypoint_epochs=(15, 8, 15),
+        # the keypoint model: twice the encoders' first width, heatmaps pulled to a peak, batches of 8
+        # (benchmarks/keypoint_training.py: 15.6 mm against 39.4 mm for width 8, no spread, batches of 32)
+        keypoint_channels=(16,),
+        keypoint_spread_weight=1.0,
+        keypoint_batch_size=8,
         repeats=3,
     ),
     # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU

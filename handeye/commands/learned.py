@@ -104,7 +104,7 @@ def _run(args: argparse.Namespace, writer: bool) -> int:
         from handeye.learned_frames import load_keypoint_frames
 
         data = load_keypoint_frames(
-            args.data, get_preset(args.preset).image_size, args.labels, progress=writer and not args.quiet
+            args.data, get_preset(args.preset).frame_size("keypoints"), args.labels, progress=writer and not args.quiet
         )
     results = run_experiment(
         data,

@@ -65,16 +65,28 @@ def test_the_heatmaps_returned_are_the_ones_the_prediction_is_made_from():
     torch.testing.assert_close(pred[..., 0], x_from_prob)
 
 
-def test_the_schedule_and_the_spread_reach_the_keypoint_model_only():
+def test_the_keypoint_settings_reach_the_keypoint_model_only():
     from dataclasses import replace
 
     from learned.presets import get_preset
     from learned.trainer import TrainConfig
 
-    preset = replace(get_preset("tiny"), keypoint_schedule="cosine", keypoint_spread_weight=0.5)
+    preset = replace(
+        get_preset("tiny"),
+        keypoint_schedule="cosine",
+        keypoint_spread_weight=0.5,
+        keypoint_batch_size=4,
+        keypoint_channels=(8, 16),
+        keypoint_image_size=(64, 48),
+    )
     keypoints = preset.train_configs("reservoir", "keypoints")
-    assert all(c.schedule == "cosine" and c.heatmap_spread_weight == 0.5 for c in keypoints)
+    assert all(c.schedule == "cosine" and c.heatmap_spread_weight == 0.5 and c.batch_size == 4 for c in keypoints)
     regression = preset.train_configs("reservoir", "translation")
     assert all(c.schedule == "constant" and c.heatmap_spread_weight == 0.0 for c in regression)
+    assert all(c.batch_size == preset.batch_size for c in regression)
+    config = preset.model_config("keypoints", n_keypoints=8)
+    assert config.channels == (8, 16) and config.image_size == (64, 48)
+    assert preset.frame_size("keypoints") == (64, 48) and preset.frame_size() == tuple(preset.image_size)
+    assert preset.model_config("translation").image_size == tuple(preset.image_size)
     with pytest.raises(ValueError, match="schedule"):
         TrainConfig(schedule="linear")
