@@ -1,11 +1,19 @@
-"""The keypoint network with more than one stride-2 stage."""
+"""The keypoint network with more than one stride-2 stage, and the keypoint model's own input size."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import numpy as np
+import pytest
 import torch
 
+from handeye.core.errors import HandEyeInputError
+from learned.experiment import run_experiment
 from learned.keypoints import KeypointNet
 from learned.model import ModelConfig
+from learned.presets import get_preset
+from tests.learned._synthetic import make_frames
 
 
 def test_a_two_stage_network_keeps_the_heatmaps_at_half_its_input():
@@ -16,3 +24,16 @@ def test_a_two_stage_network_keeps_the_heatmaps_at_half_its_input():
     assert out.shape == (2, 5, 3) and prob.shape == (2, 5, 48, 64)
     # one stage: the same modules as before stages existed, so saved models still load
     assert {k.split(".")[0] for k in one.state_dict()} == {"stem", "deep", "fuse", "heat", "depth"}
+
+
+def test_an_input_the_stages_cannot_halve_is_refused():
+    with pytest.raises(ValueError, match="divisible by 8"):
+        ModelConfig("keypoints", (100, 96), (4, 8), (), n_keypoints=5)
+
+
+def test_the_protocol_refuses_frames_of_another_size_than_the_keypoint_model_takes():
+    frames = make_frames(np.random.default_rng(0), size=(32, 32))
+    preset = replace(get_preset("tiny"), keypoint_image_size=(64, 64))
+    assert preset.frame_size("keypoints") == (64, 64) and preset.frame_size("regression") == (32, 32)
+    with pytest.raises(HandEyeInputError, match=r"needs \(64, 64\) for keypoints"):
+        run_experiment(frames, preset, ["batch"], family="keypoints")
