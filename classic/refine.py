@@ -119,7 +119,7 @@ def _update(X, Y, delta):
 
 
 def _scales(r_rot, r_trans, w, robust: bool, n_params: int = 12, leverage=None) -> tuple[float, float | np.ndarray]:
-    """Camera-noise scales from the residuals: one for rotation; for translation one, or three per axis.
+    """Camera-noise scales from the residuals: one for rotation; for translation one, or (across, across, along).
 
     Robust: the median of the squared norms over the chi-square(3) median. Otherwise the weighted
     mean square, each residual corrected for what the fit absorbed (``r / sqrt(1 - h)`` with ``h``
