@@ -67,10 +67,13 @@ def noise_model_from_args(args: argparse.Namespace):
 def describe_noise(d: dict) -> str:
     """One line for a result's ``diagnostics["noise_model"]``."""
     if d.get("estimated"):
-        return (
-            f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, "
-            f"{d['camera_translation_mm'][0]:.3f} mm per axis)"
+        across, _, along = d["camera_translation_mm"]
+        trans = (
+            f"{across:.3f} mm per axis"
+            if across == along
+            else f"{across:.3f} mm across and {along:.3f} mm along the line of sight"
         )
+        return f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, {trans})"
     parts = [d["name"]]
     if "camera_rotation_deg" in d:
         parts.append(

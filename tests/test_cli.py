@@ -155,3 +155,12 @@ def test_contaminated_file_refused_then_robust_and_noise_model_options(tmp_path,
     assert rot < 4 * result["sigma"]["X_rotation_deg"] and trans < 4 * result["sigma"]["X_translation_mm"]
     assert main(["calibrate", str(path), "--setup", "eye-to-hand", "--robot-noise", "0.02", "0.1"]) == 2
     assert "--camera-noise" in capsys.readouterr().err
+
+
+def test_the_printed_noise_model_says_when_depth_was_estimated_apart():
+    from handeye.noise_args import describe_noise
+
+    iso = {"estimated": True, "camera_rotation_deg": [0.1] * 3, "camera_translation_mm": [1.0] * 3}
+    assert describe_noise(iso).endswith("(0.1000 deg, 1.000 mm per axis)")
+    pnp = dict(iso, camera_translation_mm=[0.3, 0.3, 3.0])
+    assert "0.300 mm across and 3.000 mm along the line of sight" in describe_noise(pnp)

@@ -28,7 +28,8 @@ ROS (:mod:`handeye.ros_exports`)::
         --export-easy-handeye my_eob_calib.calib --export-launch handeye_tf.launch.py --export-urdf camera_joint.urdf
 
 The pose-file refinement is maximum likelihood under a noise model: by default
-camera noise only, its two scales estimated from the residuals; with
+camera noise only, its scales estimated from the residuals (the translation's across
+and along the line of sight apart when the residuals say they differ); with
 ``--camera-noise DEG MM [MM MM]`` and ``--robot-noise DEG MM`` under both (PnP
 poses: give the optical axis its own, larger, millimetres). A pose set with gross
 outliers is refused with the poses named unless ``--robust``.
