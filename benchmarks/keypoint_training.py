@@ -67,6 +67,8 @@ def _fields(spec: str) -> tuple:
     """``name, width, epochs, schedule, spread, size, batch`` of a variant (size and batch ints, 64 and 32 when not
     given)."""
     parts = spec.split(":")
+    if len(parts) not in (5, 6, 7) or parts[3] not in ("constant", "cosine"):
+        raise ValueError(f"variant {spec!r}: expected name:width:epochs:constant|cosine:spread[:size[:batch]]")
     return (*parts[:5], int(parts[5]) if len(parts) > 5 else 64, int(parts[6]) if len(parts) > 6 else 32)
 
 
@@ -104,9 +106,10 @@ def main(argv=None):
     )
     args = ap.parse_args(argv)
     for spec in args.variants:
-        parts = spec.split(":")
-        if len(parts) not in (5, 6, 7) or parts[3] not in ("constant", "cosine"):
-            ap.error(f"variant {spec!r}: expected name:width:epochs:constant|cosine:spread[:size[:batch]]")
+        try:
+            _fields(spec)
+        except ValueError as exc:
+            ap.error(str(exc))
     import torch
 
     rep = Report(

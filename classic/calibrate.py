@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from classic.andreff import _andreff_finish, _andreff_stats
@@ -155,13 +157,7 @@ def _consensus_model(model, ref) -> NoiseModel:
     """
     if model is not None:
         return model
-    d = ref.noise_model
-    return NoiseModel(
-        camera_rot_rad=tuple(np.radians(d["camera_rotation_deg"])),
-        camera_trans_m=tuple(np.asarray(d["camera_translation_mm"]) / 1000.0),
-        name=f"{d['name']}, shape of the full fit",
-        scale_to_residuals=True,
-    )
+    return dataclasses.replace(ref.model, name=f"{ref.model.name}, shape of the full fit", scale_to_residuals=True)
 
 
 def _subset_model(model, keep):

@@ -88,6 +88,8 @@ class Refinement:
         Final whitened residuals per pose (unit variance per component under the model).
     jacobian : array, shape (6N, P)
         Whitened Jacobian at the estimate (``[w_X, v_X, w_Y, v_Y, (s), (dt)]``).
+    model : NoiseModel or None
+        The model itself (``noise_model`` describes it): the given one, or the one estimated.
     """
 
     X: np.ndarray
@@ -108,6 +110,7 @@ class Refinement:
     time_offset_sigma_s: float = 0.0
     whitened: np.ndarray | None = None
     jacobian: np.ndarray | None = None
+    model: NoiseModel | None = None
 
 
 def _apply(T: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -446,6 +449,7 @@ def refine_xy(
         time_offset_sigma_s=offset_sigma,
         whitened=r_final.reshape(n, 6),
         jacobian=J,
+        model=model,
     )
 
 

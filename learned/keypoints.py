@@ -109,6 +109,11 @@ def camera_pose(
     )
 
 
+def _cell_centres(n: int, like: torch.Tensor) -> torch.Tensor:
+    """Normalised centres ``(i + 0.5) / n`` of a heatmap's ``n`` cells along one axis, shape (n,)."""
+    return (torch.arange(n, device=like.device, dtype=like.dtype) + 0.5) / n
+
+
 def _block(c_in, c_out, stride=1, dilation=1):
     return nn.Sequential(
         nn.Conv2d(c_in, c_out, 3, stride=stride, padding=dilation, dilation=dilation),
@@ -175,8 +180,7 @@ class KeypointNet(nn.Module):
         logits = self.heat(f)
         b, k, hh, ww = logits.shape
         prob = torch.softmax(logits.reshape(b, k, hh * ww), dim=-1).reshape(b, k, hh, ww)
-        xs = (torch.arange(ww, device=f.device, dtype=f.dtype) + 0.5) / ww
-        ys = (torch.arange(hh, device=f.device, dtype=f.dtype) + 0.5) / hh
+        xs, ys = _cell_centres(ww, f), _cell_centres(hh, f)
         x_n = (prob.sum(2) * xs).sum(-1)
         y_n = (prob.sum(3) * ys).sum(-1)
         # the sensor's depth at half resolution (holes left out of the average), plus a learned offset
@@ -242,8 +246,8 @@ def keypoint_loss(
     )
     if prob is not None and spread_weight > 0:
         hh, ww = prob.shape[-2:]
-        xs = ((torch.arange(ww, device=prob.device, dtype=prob.dtype) + 0.5) / ww)[None, None, :] - target[..., 0:1]
-        ys = ((torch.arange(hh, device=prob.device, dtype=prob.dtype) + 0.5) / hh)[None, None, :] - target[..., 1:2]
+        xs = _cell_centres(ww, prob)[None, None, :] - target[..., 0:1]
+        ys = _cell_centres(hh, prob)[None, None, :] - target[..., 1:2]
         spread2 = (prob.sum(2) * (xs * w) ** 2).sum(-1) + (prob.sum(3) * (ys * h) ** 2).sum(-1)
         err = err + spread_weight * torch.sqrt(spread2 + 1e-6)
     return (err * inside).sum() / inside.sum().clamp_min(1.0)
