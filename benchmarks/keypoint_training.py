@@ -1,18 +1,19 @@
 """What moves the keypoint model's error: width, learning-rate schedule, heatmap spread loss (issue 10).
 
 Each variant trains the keypoint model's batch strategy once (one repeat, the ``cpu`` preset otherwise,
-one thread per variant, ``--jobs`` variants at a time) and is measured on the keypoint pixels of the
+``--threads`` per variant, ``--jobs`` variants at a time) and is measured on the keypoint pixels of the
 training and the test frames (median, network input pixels) and on the test placements' poses (one
 robust fit of all a placement's frames against the truth). Train and test pixel errors that agree say
 the model underfits rather than fails to generalise to new camera poses.
 
     python benchmarks/keypoint_training.py --data data/paper-sim-noisy --out benchmarks/results/keypoint_training.md
 
-A variant is ``name:width:epochs:schedule:spread[:size[:batch]]``: ``width`` the first stage's channels, or
+A variant is ``name:width:epochs:schedule:spread[:size[:batch[:dtype]]]``: ``width`` the first stage's channels, or
 ``a-b`` for two stride-2 stages of ``a`` and ``b`` channels (:class:`learned.keypoints.KeypointNet`);
 ``schedule`` constant or cosine (the preset's ``keypoint_schedule``); ``spread`` its
 ``keypoint_spread_weight``; ``size`` the square input in pixels and ``batch`` the batch size (by default
-the ``cpu`` preset's: 64 and 32).
+64 and 32); ``dtype`` the precision of the convolutions, float32 (default) or bfloat16 (the preset's
+``keypoint_trunk_dtype``).
 """
 
 from __future__ import annotations
@@ -39,16 +40,18 @@ DEFAULT_VARIANTS = (
 )
 
 
-def _train(data: Path, spec: str, out: Path, seed: int) -> tuple[str, float]:
+def _train(data: Path, spec: str, out: Path, seed: int, threads: int, average: int) -> tuple[str, float]:
     from handeye.learned_frames import load_keypoint_frames
     from learned.experiment import run_experiment
     from learned.presets import get_preset
 
-    name, width, epochs, schedule, spread, size, batch = _fields(spec)
+    name, width, epochs, schedule, spread, size, batch, dtype = _fields(spec)
     cpu = get_preset("cpu")
     preset = replace(
         cpu,
         keypoint_batch_size=batch,
+        keypoint_trunk_dtype=dtype,
+        keypoint_average_epochs=average,
         name=f"cpu-{name}",
         keypoint_image_size=(size, size),
         keypoint_channels=tuple(int(w) for w in width.split("-")),
@@ -59,17 +62,22 @@ def _train(data: Path, spec: str, out: Path, seed: int) -> tuple[str, float]:
     )
     frames = load_keypoint_frames(data, preset.keypoint_image_size, "classic", progress=False)
     t0 = time.perf_counter()
-    run_experiment(frames, preset, ["batch"], out, "classic", seed, progress=False, threads=1, family="keypoints")
+    run_experiment(frames, preset, ["batch"], out, "classic", seed, progress=False, threads=threads, family="keypoints")
     return spec, time.perf_counter() - t0
 
 
 def _fields(spec: str) -> tuple:
-    """``name, width, epochs, schedule, spread, size, batch`` of a variant (size and batch ints, 64 and 32 when not
-    given)."""
+    """``name, width, epochs, schedule, spread, size, batch, dtype`` of a variant (size and batch ints, 64 and 32
+    when not given; dtype float32 when not given)."""
     parts = spec.split(":")
-    if len(parts) not in (5, 6, 7) or parts[3] not in ("constant", "cosine"):
-        raise ValueError(f"variant {spec!r}: expected name:width:epochs:constant|cosine:spread[:size[:batch]]")
-    return (*parts[:5], int(parts[5]) if len(parts) > 5 else 64, int(parts[6]) if len(parts) > 6 else 32)
+    usage = "name:width:epochs:constant|cosine:spread[:size[:batch[:float32|bfloat16]]]"
+    if len(parts) not in (5, 6, 7, 8) or parts[3] not in ("constant", "cosine"):
+        raise ValueError(f"variant {spec!r}: expected {usage}")
+    dtype = parts[7] if len(parts) > 7 else "float32"
+    if dtype not in ("float32", "bfloat16"):
+        raise ValueError(f"variant {spec!r}: expected {usage}")
+    size, batch = (int(parts[5]) if len(parts) > 5 else 64), (int(parts[6]) if len(parts) > 6 else 32)
+    return (*parts[:5], size, batch, dtype)
 
 
 def _measure(frames, native: tuple, model_path: Path) -> dict:
@@ -95,7 +103,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, required=True, help="labelled dataset (paper-sim)")
     ap.add_argument("--variants", nargs="+", default=list(DEFAULT_VARIANTS))
-    ap.add_argument("--jobs", type=int, default=2, help="variants trained at a time (one thread each)")
+    ap.add_argument("--jobs", type=int, default=2, help="variants trained at a time")
+    ap.add_argument("--threads", type=int, default=1, help="torch threads per variant")
+    ap.add_argument(
+        "--average-epochs", type=int, default=0, help="every variant averages its weights over this many last epochs"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--work", type=Path, default=Path("runs/keypoint_training"), help="where the models go")
     ap.add_argument("--out", type=Path, help="also write the report here")
@@ -123,19 +135,24 @@ def main(argv=None):
     seconds = {}
     if not args.measure_only:
         with ProcessPoolExecutor(args.jobs) as pool:
-            futures = [pool.submit(_train, args.data, spec, dirs[spec], args.seed) for spec in args.variants]
+            futures = [
+                pool.submit(_train, args.data, spec, dirs[spec], args.seed, args.threads, args.average_epochs)
+                for spec in args.variants
+            ]
             seconds = dict(f.result() for f in futures)
     emit(
         "Keypoint errors: medians over the frames' keypoints in view, network input pixels; depth bias: the mean "
         "over keypoints of |median signed depth error|. Placements: the 24 test placements, one pose each from "
-        f"all its frames, against the truth. Training times with {args.jobs} variants at a time."
+        f"all its frames, against the truth. Training times with {args.jobs} variants at a time, "
+        f"{args.threads} thread(s) each; seed {args.seed}; weights averaged over the last {args.average_epochs} "
+        "epochs (0: not averaged)."
     )
     emit()
     emit(
-        "| variant | input px | width | epochs | batch | schedule | spread weight | train px | test px | "
+        "| variant | input px | width | trunk | epochs | batch | schedule | spread weight | train px | test px | "
         "native px, test | train / test depth bias mm | placement median mm / deg | worst mm / deg | train s |"
     )
-    emit("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    emit("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     from handeye.core.dataset import Dataset
     from handeye.learned_frames import load_keypoint_frames
 
@@ -143,13 +160,13 @@ def main(argv=None):
     native = (int(meta["width"]), int(meta["height"]))
     frames = {}  # per input size, read once for all its variants
     for spec in args.variants:
-        name, width, epochs, schedule, spread, size, batch = _fields(spec)
+        name, width, epochs, schedule, spread, size, batch, dtype = _fields(spec)
         if size not in frames:
             frames[size] = load_keypoint_frames(args.data, (size, size), progress=False)
         m = _measure(frames[size], native, dirs[spec] / "batch" / "keypoints.pt")
         p = m["placements"]
         emit(
-            f"| {name} | {size} | {width} | {epochs} | {batch} | {schedule} | {spread} | "
+            f"| {name} | {size} | {width} | {dtype} | {epochs} | {batch} | {schedule} | {spread} | "
             f"{m['train']['px_network']:.2f} | {m['test']['px_network']:.2f} | {m['test']['px_native']:.1f} | "
             f"{m['train_bias_mm']:.1f} / {m['test_bias_mm']:.1f} | "
             f"{np.median(p[:, 0]):.1f} / {np.median(p[:, 1]):.2f} | {p[:, 0].max():.1f} / {p[:, 1].max():.2f} | "

@@ -158,6 +158,9 @@ class KeypointNet(nn.Module):
         self.fuse = _block(c + t, c)
         self.heat = nn.Conv2d(widths[0], k, 1)
         self.depth = nn.Conv2d(widths[0], k, 1)
+        # channels-last (NHWC) convolutions: 1.15-1.4x faster training steps than NCHW on this project's
+        # 2-core CPU (oneDNN), the same values to float rounding; saved weights load into either layout
+        self.to(memory_format=torch.channels_last)
 
     def forward(
         self, rgb: torch.Tensor, depth_m: torch.Tensor, ref: torch.Tensor | None = None, heatmaps: bool = False
@@ -168,15 +171,19 @@ class KeypointNet(nn.Module):
         """
         x = rgb.float() / 255.0 if rgb.dtype == torch.uint8 else rgb.float()
         d = depth_m.float()
-        levels = [self.stem(torch.cat([x, d / self.config.depth_scale_m], dim=1))]
-        for down in self.down:
-            levels.append(down(levels[-1]))
-        h = levels[-1]
-        g = F.interpolate(self.deep(h), size=h.shape[-2:], mode="bilinear", align_corners=False)
-        f = self.fuse(torch.cat([h, g], dim=1))
-        for lift, h in zip(reversed(self.lift), reversed(levels[:-1])):
-            g = F.interpolate(f, size=h.shape[-2:], mode="bilinear", align_corners=False)
-            f = lift(torch.cat([h, g], dim=1))
+        image = torch.cat([x, d / self.config.depth_scale_m], dim=1).contiguous(memory_format=torch.channels_last)
+        bf16 = self.config.trunk_dtype == "bfloat16"
+        with torch.autocast(image.device.type, dtype=torch.bfloat16, enabled=bf16):
+            levels = [self.stem(image)]
+            for down in self.down:
+                levels.append(down(levels[-1]))
+            h = levels[-1]
+            g = F.interpolate(self.deep(h), size=h.shape[-2:], mode="bilinear", align_corners=False)
+            f = self.fuse(torch.cat([h, g], dim=1))
+            for lift, h in zip(reversed(self.lift), reversed(levels[:-1])):
+                g = F.interpolate(f, size=h.shape[-2:], mode="bilinear", align_corners=False)
+                f = lift(torch.cat([h, g], dim=1))
+        f = f.float()  # the heads, the soft-argmax and the depths in float32
         logits = self.heat(f)
         b, k, hh, ww = logits.shape
         prob = torch.softmax(logits.reshape(b, k, hh * ww), dim=-1).reshape(b, k, hh, ww)

@@ -47,6 +47,10 @@ class ModelConfig:
         Depth is divided by this before the encoder.
     n_keypoints : int
         Keypoints of the ``keypoints`` kind (0 for the others).
+    trunk_dtype : {"float32", "bfloat16"}
+        The keypoint model's convolutions run in this precision (``torch.autocast``); its heads, the
+        soft-argmax and the depths stay float32 (bfloat16 holds a normalised coordinate to 1/256 and a
+        depth of 2 m to 8 mm). bfloat16 trains a width-32 model 1.6x faster on a CPU with AMX.
     """
 
     kind: str
@@ -57,10 +61,15 @@ class ModelConfig:
     translation_offset_mm: tuple = (0.0, 0.0, 0.0)
     depth_scale_m: float = 3.0
     n_keypoints: int = 0
+    trunk_dtype: str = "float32"
 
     def __post_init__(self):
         if self.kind not in ALL_KINDS:
             raise ValueError(f"kind must be one of {ALL_KINDS}, got {self.kind!r}")
+        if self.trunk_dtype not in ("float32", "bfloat16"):
+            raise ValueError(f"trunk_dtype must be 'float32' or 'bfloat16', got {self.trunk_dtype!r}")
+        if self.trunk_dtype != "float32" and self.kind != "keypoints":
+            raise ValueError(f"trunk_dtype {self.trunk_dtype!r} is for the keypoint model only, not {self.kind!r}")
         if self.kind == "keypoints":
             if self.n_keypoints < 3:
                 raise ValueError(f"the keypoint model needs at least 3 keypoints, got {self.n_keypoints}")

@@ -54,6 +54,11 @@ class Preset:
     keypoint_batch_size : int, optional
         The keypoint model's batch size; ``batch_size`` when omitted (it underfits, and more, smaller
         steps per sample lower its error at the same cost: ``benchmarks/keypoint_training.py``).
+    keypoint_trunk_dtype : {"float32", "bfloat16"}
+        Precision of the keypoint model's convolutions (:class:`learned.model.ModelConfig`).
+    keypoint_average_epochs : int
+        The keypoint model ends each training call with its weights averaged over this many last epochs
+        (:attr:`learned.trainer.TrainConfig.average_epochs`); 0: off.
     """
 
     name: str
@@ -78,6 +83,8 @@ class Preset:
     keypoint_image_size: tuple | None = None
     keypoint_channels: tuple | None = None
     keypoint_batch_size: int | None = None
+    keypoint_trunk_dtype: str = "float32"
+    keypoint_average_epochs: int = 0
 
     def frame_size(self, family: str = "regression") -> tuple:
         """``(width, height)`` the frames are loaded at for a model family (``regression`` or ``keypoints``)."""
@@ -88,7 +95,14 @@ class Preset:
     def model_config(self, kind: str, offset_mm=(0.0, 0.0, 0.0), n_keypoints: int = 0) -> ModelConfig:
         if kind == "keypoints":  # fully convolutional: its stages' widths (the encoders' first by default), no head
             widths = tuple(int(c) for c in (self.keypoint_channels or self.channels[:1]))
-            return ModelConfig(kind, self.frame_size("keypoints"), widths, (), n_keypoints=int(n_keypoints))
+            return ModelConfig(
+                kind,
+                self.frame_size("keypoints"),
+                widths,
+                (),
+                n_keypoints=int(n_keypoints),
+                trunk_dtype=self.keypoint_trunk_dtype,
+            )
         return ModelConfig(
             kind,
             tuple(self.image_size),
@@ -101,7 +115,11 @@ class Preset:
         first_e, later_e, batch_e = self.first_epochs, self.later_epochs, self.batch_epochs
         batch_size, extra = self.batch_size, {}
         if kind == "keypoints":
-            extra = {"schedule": self.keypoint_schedule, "heatmap_spread_weight": self.keypoint_spread_weight}
+            extra = {
+                "schedule": self.keypoint_schedule,
+                "heatmap_spread_weight": self.keypoint_spread_weight,
+                "average_epochs": self.keypoint_average_epochs,
+            }
             if self.keypoint_epochs:
                 first_e, later_e, batch_e = self.keypoint_epochs
             batch_size = self.keypoint_batch_size or batch_size
@@ -155,9 +173,11 @@ PRESETS = {
         later_epochs=15,
         batch_epochs=30,
         keypoint_epochs=(15, 8, 15),
-        # the keypoint model: twice the encoders' first width, heatmaps pulled to a peak, batches of 8
-        # (benchmarks/keypoint_training.py: 15.6 mm against 39.4 mm for width 8, no spread, batches of 32)
-        keypoint_channels=(16,),
+        # the keypoint model: width 32 with its convolutions in bfloat16 (on this CPU's AMX as fast as width
+        # 24 in float32), heatmaps pulled to a peak, batches of 8 (benchmarks/keypoint_training.py: 11.8 mm
+        # against 39.4 mm for width 8, float32, no spread, batches of 32)
+        keypoint_channels=(32,),
+        keypoint_trunk_dtype="bfloat16",
         keypoint_spread_weight=1.0,
         keypoint_batch_size=8,
         repeats=3,

@@ -40,6 +40,11 @@ class TrainConfig:
     heatmap_spread_weight : float
         The keypoint model only: weight of its heatmaps' spread in the loss
         (:func:`learned.keypoints.keypoint_loss`); 0 is off.
+    average_epochs : int
+        End the call with the mean of the weights after each of its last this many epochs (stochastic
+        weight averaging, Izmailov et al. 2018, ``torch.optim.swa_utils.AveragedModel``; with a constant
+        learning rate the iterates scatter about a minimum and their mean lies nearer it), the batch-norm
+        statistics then recomputed on the call's frames; 0 (default) keeps the last weights.
     """
 
     epochs: int = 10
@@ -48,10 +53,13 @@ class TrainConfig:
     weight_decay: float = 0.0
     schedule: str = "constant"
     heatmap_spread_weight: float = 0.0
+    average_epochs: int = 0
 
     def __post_init__(self):
         if self.schedule not in ("constant", "cosine"):
             raise ValueError(f"schedule must be 'constant' or 'cosine', got {self.schedule!r}")
+        if self.average_epochs < 0:
+            raise ValueError(f"average_epochs must be 0 (off) or more, got {self.average_epochs}")
 
 
 def _device(model: CalibrationNet) -> torch.device:
@@ -168,11 +176,38 @@ def train(
     torch.manual_seed(int(rng.integers(2**31)))
     if distributed.world_size() > 1:
         with global_batchnorm(model):
-            _epochs(model, distributed.data_parallel(model), frames, index, config, rng, progress, desc)
+            mean = _epochs(model, distributed.data_parallel(model), frames, index, config, rng, progress, desc)
     else:
-        _epochs(model, None, frames, index, config, rng, progress, desc)
+        mean = _epochs(model, None, frames, index, config, rng, progress, desc)
+    if mean is not None:
+        _take_average(model, mean, frames, index, config.batch_size)
     model.eval()
     return config.epochs * len(index)
+
+
+@torch.no_grad()
+def _take_average(model, mean, frames: FrameSet, index: np.ndarray, batch_size: int) -> None:
+    """Load the averaged weights into ``model`` and recompute its batch-norm statistics on the frames.
+
+    The running statistics of the last weights do not belong to their mean: they are reset and
+    accumulated anew (cumulative average, ``momentum=None``) over the frames in ``batch_size`` batches,
+    in order, the same on every rank.
+    """
+    for p, q in zip(model.parameters(), mean.module.parameters()):
+        p.copy_(q)
+    norms = [m for m in model.modules() if isinstance(m, torch.nn.modules.batchnorm._BatchNorm)]
+    momenta = [m.momentum for m in norms]
+    for m in norms:
+        m.reset_running_stats()
+        m.momentum = None
+    model.train()
+    device = _device(model)
+    for start in range(0, len(index), batch_size):
+        batch = index[start : start + batch_size]
+        if len(batch) >= 2:
+            model(*_tensors(frames, batch, device))
+    for m, momentum in zip(norms, momenta):
+        m.momentum = momentum
 
 
 def _epochs(
@@ -184,12 +219,15 @@ def _epochs(
     rng: np.random.Generator,
     progress: bool,
     desc: str,
-) -> None:
+):
     """The epochs of :func:`train`; ``net``: the data-parallel wrapper of ``model`` (None: one process).
 
     Every rank draws the same permutations from the same generator, so all see the same batches and
-    skip the same ones; each rank then computes the loss of its slice (:func:`_slice_loss`).
+    skip the same ones; each rank then computes the loss of its slice (:func:`_slice_loss`). Returns
+    the mean of the weights over the last ``config.average_epochs`` epochs (an ``AveragedModel``), or
+    None when that is 0.
     """
+    mean = None
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
     steps = config.epochs * -(-len(index) // config.batch_size)  # a last batch of one, skipped, leaves it above 0
     scheduler = (
@@ -203,7 +241,7 @@ def _epochs(
         from tqdm import tqdm
 
         bar = tqdm(total=config.epochs, desc=desc, unit="epoch", file=sys.stderr, leave=False)
-    for _ in range(config.epochs):
+    for epoch in range(config.epochs):
         order = rng.permutation(index)
         for start in range(0, len(order), config.batch_size):
             batch = np.sort(order[start : start + config.batch_size])
@@ -220,11 +258,18 @@ def _epochs(
             optimizer.step()
             if scheduler is not None:
                 scheduler.step()
+        if epoch >= config.epochs - config.average_epochs:
+            if mean is None:
+                from torch.optim.swa_utils import AveragedModel
+
+                mean = AveragedModel(model)
+            mean.update_parameters(model)
         if bar is not None:
             bar.set_postfix(loss=f"{loss.item():.4g}")
             bar.update(1)
     if bar is not None:
         bar.close()
+    return mean
 
 
 @torch.no_grad()

@@ -26,6 +26,7 @@ resolution on a CPU), ``paper`` (the paper's scale, for a GPU).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 __all__ = ["add_parser", "run_run", "run_report"]
@@ -61,6 +62,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
     r.add_argument("--out", type=Path, required=True, help="run directory")
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--threads", type=int, default=None, help="torch CPU threads")
+    r.add_argument(
+        "--trunk-dtype",
+        choices=("float32", "bfloat16"),
+        help="precision of the keypoint model's convolutions (default: the preset's; the cpu preset's bfloat16 "
+        "is fast on a CPU with AMX or AVX-512 BF16 and emulated, slower than float32, on one without)",
+    )
     r.add_argument("--quiet", action="store_true")
     r.add_argument(
         "--fresh",
@@ -92,11 +99,17 @@ def run_run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, writer: bool) -> int:
     """The protocol and its findings; ``writer``: this process prints (rank 0, or the only one)."""
+    from handeye.core.errors import HandEyeInputError
     from learned.experiment import run_experiment
     from learned.presets import get_preset
     from learned.report import findings
 
     data = args.data
+    preset = get_preset(args.preset)
+    if args.trunk_dtype:
+        if args.family != "keypoints":
+            raise HandEyeInputError("--trunk-dtype is for the keypoint model: add --family keypoints")
+        preset = dataclasses.replace(preset, keypoint_trunk_dtype=args.trunk_dtype)
     if args.family == "keypoints":
         from handeye.core.optional import require_package
 
@@ -104,11 +117,11 @@ def _run(args: argparse.Namespace, writer: bool) -> int:
         from handeye.learned_frames import load_keypoint_frames
 
         data = load_keypoint_frames(
-            args.data, get_preset(args.preset).frame_size("keypoints"), args.labels, progress=writer and not args.quiet
+            args.data, preset.frame_size("keypoints"), args.labels, progress=writer and not args.quiet
         )
     results = run_experiment(
         data,
-        args.preset,
+        preset,
         [s.strip() for s in args.strategies.split(",")],
         args.out,
         args.labels,

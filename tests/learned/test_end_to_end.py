@@ -73,3 +73,18 @@ def test_mismatched_image_sizes_are_refused(small_copy):
     write_manifest(path.parent.parent, 2, {"calibration": 10, "data": 6})  # a consistent but odd shard
     with pytest.raises(DatasetError, match="data_001.png: image size 64x64.*other frames are 128x128"):
         load_frames(small_copy, (32, 32), "classic", progress=False)
+
+
+def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(small_dataset, tmp_path):
+    from handeye.cli import main
+    from learned.experiment import load_model
+
+    root, out = small_dataset[0], tmp_path / "kp"
+    args = ["learned", "run", "--data", str(root), "--preset", "tiny", "--strategies", "batch", "--quiet"]
+    assert main([*args, "--family", "keypoints", "--trunk-dtype", "bfloat16", "--out", str(out), "--threads", "1"]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert results["preset"]["keypoint_trunk_dtype"] == "bfloat16"
+    assert load_model(out / "batch" / "keypoints.pt").config.trunk_dtype == "bfloat16"
+    # the regression networks have no such setting: refused, not ignored
+    assert main([*args, "--trunk-dtype", "bfloat16", "--out", str(tmp_path / "reg")]) == 2
+    assert not (tmp_path / "reg").exists()

@@ -37,3 +37,28 @@ def test_the_protocol_refuses_frames_of_another_size_than_the_keypoint_model_tak
     assert preset.frame_size("keypoints") == (64, 64) and preset.frame_size("regression") == (32, 32)
     with pytest.raises(HandEyeInputError, match=r"needs \(64, 64\) for keypoints"):
         run_experiment(frames, preset, ["batch"], family="keypoints")
+
+
+def test_a_bfloat16_trunk_predicts_in_float32_what_the_float32_trunk_does():
+    torch.manual_seed(0)
+    full = KeypointNet(ModelConfig("keypoints", (64, 64), (8,), (), n_keypoints=5)).eval()
+    half = KeypointNet(ModelConfig("keypoints", (64, 64), (8,), (), n_keypoints=5, trunk_dtype="bfloat16")).eval()
+    half.load_state_dict(full.state_dict())
+    rgb = torch.randint(0, 256, (2, 3, 64, 64), dtype=torch.uint8)
+    depth = 1.0 + torch.rand(2, 1, 64, 64)
+    with torch.no_grad():
+        a, b = full(rgb, depth), half(rgb, depth)
+    assert b.dtype == torch.float32
+    # bfloat16 keeps 8 bits of each activation (relative rounding 2^-9); through the trunk's eight layers the
+    # logits move by about a percent of their size, so a position moves by far less than a heatmap cell
+    # (1/32 of the image) and a depth by far less than its 1-2 m
+    assert (a - b)[..., :2].abs().max() < 1 / 32
+    assert (a - b)[..., 2].abs().max() < 0.01
+    assert not torch.equal(a, b)  # the trunk did run in the lower precision
+
+
+def test_a_trunk_precision_other_than_float32_or_bfloat16_or_on_a_regression_network_is_refused():
+    with pytest.raises(ValueError, match="trunk_dtype"):
+        ModelConfig("keypoints", (64, 64), (8,), (), n_keypoints=5, trunk_dtype="float16")
+    with pytest.raises(ValueError, match="keypoint model only"):
+        ModelConfig("translation", trunk_dtype="bfloat16")

@@ -128,14 +128,20 @@ def test_files_are_read_without_pickle_and_foreign_files_are_refused(tmp_path):
         ContinualCalibrator.load(tmp_path / "garbage.pt")
 
 
-def test_keypoint_model_reloads_to_identical_predictions(tmp_path):
+@pytest.mark.parametrize("trunk_dtype", ["float32", "bfloat16"])
+def test_keypoint_model_reloads_to_identical_predictions(tmp_path, trunk_dtype):
+    from dataclasses import replace
+
     from learned.data import with_keypoints
     from learned.experiment import Preset
     from learned.model import make_network
 
     frames = make_frames(np.random.default_rng(0), frames_per_camera=3)
     frames = with_keypoints(frames, np.random.default_rng(1).uniform(-0.5, 0.5, (len(frames), 4, 3)))
-    config = Preset("kp", (32, 32), (4, 8)).model_config("keypoints", n_keypoints=4)
+    config = replace(Preset("kp", (32, 32), (4, 8)), keypoint_trunk_dtype=trunk_dtype).model_config(
+        "keypoints", n_keypoints=4
+    )
+    assert config.trunk_dtype == trunk_dtype
     model = make_network(config)
     train(model, frames, np.arange(len(frames)), TrainConfig(epochs=1, batch_size=8), np.random.default_rng(2))
     save_model(model, tmp_path / "kp.pt")
