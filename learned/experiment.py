@@ -209,7 +209,13 @@ def load_model(path: str | Path, expect: ModelConfig | None = None) -> Calibrati
 
 @dataclass
 class RunRecord:
-    """One strategy, network and repeat."""
+    """One strategy, network and repeat.
+
+    ``placements``: for the keypoint model, this repeat's model on the test camera placements, one pose
+    each from all its frames against the truth: ``median_mm``, ``worst_mm``, ``median_deg``, ``worst_deg``
+    (the per-camera tables show the last repeat's model only; one training run's median varies by
+    millimetres, so the report gives every repeat's).
+    """
 
     strategy: str
     network: str
@@ -220,6 +226,7 @@ class RunRecord:
     evaluated: int = 0
     skipped: list = field(default_factory=list)
     wall_s: float = 0.0
+    placements: dict = field(default_factory=dict)
 
 
 FAMILIES = ("regression", "keypoints")
@@ -242,6 +249,7 @@ def _split_keypoint_record(rec: "RunRecord") -> list:
             rec.evaluated,
             list(rec.skipped),
             rec.wall_s,
+            dict(rec.placements),
         )
         out.append(r)
     return out
@@ -414,6 +422,15 @@ def run_experiment(
                 if writer:
                     save_checkpoint(out, run, u, k + 1, [asdict(r) for r in records], asdict(rec), strat.state_dict())
                 continue
+            if kind == "keypoints":
+                pc = keypoint_camera_predictions(strat.model, frames, test_cams)
+                t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
+                rec.placements = {
+                    "median_mm": float(np.median(t_mm)),
+                    "worst_mm": float(t_mm.max()),
+                    "median_deg": float(np.median(r_deg)),
+                    "worst_deg": float(r_deg.max()),
+                }
             records += _split_keypoint_record(rec) if kind == "keypoints" else [rec]
             if rep == preset.repeats - 1:
                 validation.setdefault(name, {})[kind] = strat.model

@@ -204,6 +204,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
         ],
         md_rows,
     ) + [""]
+    md += _repeat_placements(results)
     keys, csv_rows = None, []
     for strategy, pc in results["per_camera"].items():
         md_rows = []
@@ -274,3 +275,32 @@ def _figures(results: dict, run_dir: Path) -> None:
     fig.tight_layout()
     fig.savefig(run_dir / "final_step.png", dpi=110)
     plt.close(fig)
+
+
+def _repeat_placements(results: dict) -> list:
+    """Markdown lines: every repeat's model on the test placements (keypoint model; empty otherwise)."""
+    runs = [r for r in results["runs"] if r.get("placements") and r["network"] == "translation"]
+    if not runs:
+        return []
+    repeats = sorted({r["repeat"] for r in runs})
+    rows = []
+    for strategy in dict.fromkeys(r["strategy"] for r in runs):
+        mine = {r["repeat"]: r["placements"] for r in runs if r["strategy"] == strategy}
+        cells = [
+            f"{mine[k]['median_mm']:.1f} / {mine[k]['median_deg']:.2f} ({mine[k]['worst_mm']:.1f})"
+            if k in mine
+            else "-"
+            for k in repeats
+        ]
+        medians = [p["median_mm"] for p in mine.values()]
+        worst = [p["worst_mm"] for p in mine.values()]
+        rows.append([strategy, *cells, f"{np.median(medians):.1f} ({np.median(worst):.1f})"])
+    return (
+        [
+            "Every repeat's model: median mm / deg over the test placements (worst mm in brackets); one training "
+            "run's median varies, and the table above shows the last repeat's model only.",
+            "",
+        ]
+        + markdown_table(["strategy", *[f"repeat {k + 1}" for k in repeats], "median of repeats mm (worst)"], rows)
+        + [""]
+    )

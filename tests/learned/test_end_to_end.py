@@ -85,6 +85,15 @@ def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(sm
     results = json.loads((out / "results.json").read_text())
     assert results["preset"]["keypoint_trunk_dtype"] == "bfloat16"
     assert load_model(out / "batch" / "keypoints.pt").config.trunk_dtype == "bfloat16"
+    # every repeat's model is measured on the test placements; the last repeat's is the per-camera table's model
+    last = max(r["repeat"] for r in results["runs"])
+    mine = [r["placements"] for r in results["runs"] if r["repeat"] == last]
+    assert len(mine) == 2 and mine[0] == mine[1]  # the translation and orientation rows of one network
+    pc = results["per_camera"]["batch"]
+    assert mine[0]["median_mm"] == pytest.approx(np.median(pc["learned_vs_truth_mm"]), rel=1e-12)
+    assert mine[0]["worst_deg"] == pytest.approx(np.max(pc["learned_vs_truth_deg"]), rel=1e-12)
+    assert main(["learned", "report", str(out)]) == 0
+    assert "Every repeat's model" in (out / "report.md").read_text()
     # the regression networks have no such setting: refused, not ignored
     assert main([*args, "--trunk-dtype", "bfloat16", "--out", str(tmp_path / "reg")]) == 2
     assert not (tmp_path / "reg").exists()
