@@ -288,6 +288,28 @@ def speed(repeats: int) -> list:
         ours = _median_ms(lambda: classic.solve(p.T_base_ee, p.T_cam_target, SETUP, m), repeats)
         theirs = _median_ms(lambda: cv2.calibrateHandEye(*args, method=CV_AXXB[m]), repeats)
         rows.append((f"closed form {m} at 200 poses", ours, theirs))
+    # the rotation conversions the refinement calls most, against scipy's (the reference column's library)
+    from scipy.spatial.transform import Rotation
+
+    from handeye.core.se3 import quat_xyzw_from_matrix, so3_exp, so3_log
+
+    R = so3_exp(rng.normal(size=(200, 3)) * 0.3)  # residual-sized and larger rotations
+    ref = Rotation.from_matrix(R)
+    assert np.abs(so3_log(R) - ref.as_rotvec()).max() < 1e-12  # the same answer, or the timing means nothing
+    rows.append(
+        (
+            "so3_log of 200 rotations (reference: scipy as_rotvec)",
+            _median_ms(lambda: so3_log(R), 200),
+            _median_ms(lambda: Rotation.from_matrix(R).as_rotvec(), 200),
+        )
+    )
+    rows.append(
+        (
+            "quat_xyzw_from_matrix of 200 rotations (reference: scipy as_quat)",
+            _median_ms(lambda: quat_xyzw_from_matrix(R), 200),
+            _median_ms(lambda: Rotation.from_matrix(R).as_quat(), 200),
+        )
+    )
     return rows
 
 
@@ -454,7 +476,7 @@ def _paired_table(say, results: dict, cells: list, seed: int, resamples: int = 2
 def _speed_table(say) -> None:
     say("## Speed (median of 20 calls, ms)")
     say()
-    say("| what | handeye ms | opencv ms | ratio |")
+    say("| what | handeye ms | reference ms (OpenCV unless named) | ratio |")
     say("|---|---|---|---|")
     for what, ours, theirs in speed(20):
         say(

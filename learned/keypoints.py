@@ -158,8 +158,8 @@ class KeypointNet(nn.Module):
         self.fuse = _block(c + t, c)
         self.heat = nn.Conv2d(widths[0], k, 1)
         self.depth = nn.Conv2d(widths[0], k, 1)
-        # channels-last (NHWC) convolutions: 1.1-1.3x faster training steps than NCHW on this project's
-        # 2-core CPU (oneDNN), the same values to float rounding; saved weights load into either layout
+        # channels-last (NHWC) convolutions: oneDNN's faster layout on the CPU, the same values to float
+        # rounding; saved weights load into either layout
         self.to(memory_format=torch.channels_last)
 
     def forward(

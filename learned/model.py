@@ -50,8 +50,8 @@ class ModelConfig:
     trunk_dtype : {"float32", "bfloat16"}
         The keypoint model's convolutions run in this precision (``torch.autocast``); its heads, the
         soft-argmax and the depths stay float32 (bfloat16 holds a normalised coordinate to 1/256 and a
-        depth of 2 m to 8 mm). On a CPU with AMX bfloat16 runs a width-32 model's training step 1.6x
-        faster in isolation, and the protocol's training 1.15x (``benchmarks/keypoint_training.py``).
+        depth of 2 m to 8 mm). On a CPU with AMX a width-32 model trained in 270 against 311 s in float32
+        (``benchmarks/results/keypoint_training.md``).
     """
 
     kind: str

@@ -258,7 +258,7 @@ def so3_log(R: np.ndarray) -> np.ndarray:
         Angle in ``[0, pi]``.
     """
     R = np.asarray(R, dtype=float)
-    s = 0.5 * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1)
+    s = vee(R)  # sin(theta) * axis
     c = 0.5 * (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
     sin = np.sqrt(np.einsum("...i,...i->...", s, s))
     theta = np.arctan2(sin, c)
