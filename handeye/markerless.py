@@ -233,15 +233,16 @@ def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
     out = {}
     if (model_dir / "keypoints.pt").is_file():
         from handeye.learned_frames import load_keypoint_frames
-        from learned.keypoints import camera_pose
+        from learned.keypoints import camera_pose, model_residual_stats
         from learned.trainer import predict
 
         model = load_model(model_dir / "keypoints.pt")
+        stats = model_residual_stats(model)
         frames = load_keypoint_frames(ds_root, model.config.image_size, "none", progress=False)
         for c in cameras:
             idx = np.flatnonzero(frames.camera == c)
             out[c], _ = camera_pose(
-                predict(model, frames, idx), frames.keypoints_base[idx], frames.intrinsics_norm[idx]
+                predict(model, frames, idx), frames.keypoints_base[idx], frames.intrinsics_norm[idx], stats=stats
             )
         return out
     from learned.data import load_frames

@@ -24,7 +24,7 @@ from learned import distributed
 from learned.checkpoint import CHECKPOINT_NAME, fingerprint, load_checkpoint, remove_checkpoint, save_checkpoint
 from learned.data import FrameSet, load_frames
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
-from learned.model import KINDS, CalibrationNet, ModelConfig, make_network
+from learned.model import KINDS, CalibrationNet, ModelConfig, load_weights, make_network
 from learned.presets import PRESETS, Preset, get_preset
 from learned.safe_io import load_document, save_document
 from learned.strategies import STRATEGIES, make_strategy
@@ -135,17 +135,19 @@ def _per_camera_rows(frames: FrameSet, cameras: list[int], predict_camera) -> di
 def keypoint_camera_predictions(model, frames: FrameSet, cameras: list[int]) -> dict:
     """As :func:`camera_predictions`, for the keypoint model: one pose per camera from all its frames' keypoints.
 
-    The pose is the robust 3-D to 3-D fit of every frame's predicted keypoints to their base-frame
-    positions (:func:`learned.keypoints.camera_pose`); the per-frame columns use each frame's own fit
-    (frames with fewer than three usable keypoints left out).
+    The pose is the fit of every frame's predicted keypoints to their base-frame positions, weighed by
+    the model's residual statistics (:func:`learned.keypoints.camera_pose`); the per-frame columns use
+    each frame's own 3-D to 3-D fit (frames with fewer than three usable keypoints left out).
     """
     from handeye.core.se3 import quat_xyzw_from_matrix
-    from learned.keypoints import camera_pose, frame_poses
+    from learned.keypoints import camera_pose, frame_poses, model_residual_stats
+
+    stats = model_residual_stats(model)
 
     def predict_camera(idx):
         pred = predict(model, frames, idx)
-        T, _ = camera_pose(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
-        T_frames = frame_poses(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx])
+        T, _ = camera_pose(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx], stats=stats)
+        T_frames = frame_poses(pred, frames.keypoints_base[idx], frames.intrinsics_norm[idx], stats)
         T_frames = T_frames[np.isfinite(T_frames).all(axis=(1, 2))]
         return (
             (T[:3, 3] * 1000.0, quat_xyzw_from_matrix(T[:3, :3])),
@@ -202,7 +204,7 @@ def load_model(path: str | Path, expect: ModelConfig | None = None) -> Calibrati
         what = ", ".join(f"{k}: saved {getattr(config, k)}, expected {getattr(expect, k)}" for k in diff)
         raise HandEyeInputError(f"{path}: saved with another config ({what})")
     model = make_network(config)
-    model.load_state_dict(doc["state_dict"])
+    load_weights(model, doc["state_dict"])
     model.eval()
     return model
 

@@ -18,7 +18,7 @@ from torch import nn
 
 from learned.quaternion import quaternion_from_10
 
-__all__ = ["ModelConfig", "CalibrationNet", "KINDS", "make_network"]
+__all__ = ["ModelConfig", "CalibrationNet", "KINDS", "make_network", "load_weights"]
 
 KINDS = ("translation", "orientation")
 #: Every network kind: the paper's two, and the equivariant keypoint model (:mod:`learned.keypoints`).
@@ -161,3 +161,19 @@ def make_network(config: ModelConfig) -> nn.Module:
 
         return KeypointNet(config)
     return CalibrationNet(config)
+
+
+#: Buffers a file may lack: written by later versions, filled with their "unknown" value on load.
+OPTIONAL_BUFFERS = ("residual_stats",)
+
+
+def load_weights(model: nn.Module, state_dict: dict) -> None:
+    """``model.load_state_dict(state_dict)``, strict except for :data:`OPTIONAL_BUFFERS`.
+
+    A keypoint model saved before it kept its ``residual_stats`` loads with them unknown (NaN): its
+    placement fit is then the 3-D to 3-D fit alone, as when it was saved.
+    """
+    missing, unexpected = model.load_state_dict(state_dict, strict=False)
+    missing = [k for k in missing if k not in OPTIONAL_BUFFERS]
+    if missing or unexpected:
+        raise RuntimeError(f"weights do not fit the network: missing {missing}, unexpected {unexpected}")

@@ -41,7 +41,7 @@ import numpy as np
 
 from learned.continual_step import ReplayRule, continual_step, sample_error
 from learned.data import FrameSet
-from learned.model import CalibrationNet, ModelConfig, make_network
+from learned.model import CalibrationNet, ModelConfig, load_weights, make_network
 from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
 from learned.trainer import TrainConfig, default_device, train
 
@@ -127,7 +127,7 @@ class Strategy:
 
     def load_state_dict(self, state: dict) -> None:
         """Inverse of :meth:`state_dict`."""
-        self.model.load_state_dict(state["weights"])
+        load_weights(self.model, state["weights"])
         self.model.eval()
         self.buffer.load_state_dict({"meta": state["buffer"], "tensors": state.get("buffer_tensors")})
         self.rng.bit_generator.state = json.loads(state["rng"])

@@ -182,7 +182,29 @@ def train(
     if mean is not None:
         _take_average(model, mean, frames, index, config.batch_size)
     model.eval()
+    if model.config.kind == "keypoints":
+        estimate_residuals(model, frames, index)
     return config.epochs * len(index)
+
+
+#: Training frames on which :func:`estimate_residuals` measures the keypoint model (evenly spaced).
+RESIDUAL_FRAMES = 256
+
+
+@torch.no_grad()
+def estimate_residuals(model: CalibrationNet, frames: FrameSet, index: np.ndarray) -> None:
+    """Set a keypoint model's ``residual_stats`` from its residuals on (up to 256 of) the frames at ``index``.
+
+    The frames are evenly spaced over ``index`` (no random draw, so the training's random stream and
+    every rank's result are unchanged); the targets are the training targets (the label's projection).
+    """
+    from learned.keypoints import residual_stats
+
+    index = np.asarray(index)
+    if len(index) > RESIDUAL_FRAMES:
+        index = index[np.linspace(0, len(index) - 1, RESIDUAL_FRAMES).round().astype(int)]
+    stats = residual_stats(predict(model, frames, index), _keypoint_targets(frames, index))
+    model.residual_stats.copy_(torch.from_numpy(stats))
 
 
 @torch.no_grad()
@@ -301,7 +323,9 @@ def errors(
     index = np.arange(len(frames)) if index is None else np.asarray(index)
     pred = predict(model, frames, index)
     if model.config.kind == "keypoints":
-        return np.column_stack(keypoint_pose_errors(pred, frames, index, against))
+        from learned.keypoints import model_residual_stats
+
+        return np.column_stack(keypoint_pose_errors(pred, frames, index, against, model_residual_stats(model)))
     if model.config.kind == "translation":
         t_mm = frames.t_base_cam_mm if against == "label" else frames.truth_t_base_cam_mm
         return translation_errors_mm(pred, t_mm[index])
@@ -310,12 +334,16 @@ def errors(
 
 
 def keypoint_pose_errors(
-    pred: np.ndarray, frames: FrameSet, index: np.ndarray, against: str = "label"
+    pred: np.ndarray, frames: FrameSet, index: np.ndarray, against: str = "label", stats: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Translation (mm) and rotation (deg) errors of the per-frame poses solved from predicted keypoints."""
+    """Translation (mm) and rotation (deg) errors of the per-frame poses solved from predicted keypoints.
+
+    ``stats``: the model's residual statistics (:func:`learned.keypoints.residual_stats`), whose offsets
+    are removed first.
+    """
     from learned.keypoints import frame_poses, pose_errors
 
-    T = frame_poses(pred, frames.keypoints_base[index], frames.intrinsics_norm[index])
+    T = frame_poses(pred, frames.keypoints_base[index], frames.intrinsics_norm[index], stats)
     t, q = (
         (frames.t_base_cam_mm, frames.q_base_cam_xyzw)
         if against == "label"

@@ -138,6 +138,8 @@ def test_keypoint_model_reloads_to_identical_predictions(tmp_path, trunk_dtype):
 
     frames = make_frames(np.random.default_rng(0), frames_per_camera=3)
     frames = with_keypoints(frames, np.random.default_rng(1).uniform(-0.5, 0.5, (len(frames), 4, 3)))
+    # the cameras 1.5 m from the keypoints, which then lie in the image (the residual statistics need them)
+    frames = replace(frames, intrinsics_norm=np.tile([1.0, 1.0, 0.5, 0.5], (len(frames), 1)))
     config = replace(Preset("kp", (32, 32), (4, 8)), keypoint_trunk_dtype=trunk_dtype).model_config(
         "keypoints", n_keypoints=4
     )
@@ -147,4 +149,9 @@ def test_keypoint_model_reloads_to_identical_predictions(tmp_path, trunk_dtype):
     save_model(model, tmp_path / "kp.pt")
     again = load_model(tmp_path / "kp.pt", expect=config)
     np.testing.assert_array_equal(predict(model, frames), predict(again, frames))
+    # training measured the residuals on its frames; they travel with the weights
+    from learned.keypoints import model_residual_stats
+
+    assert model_residual_stats(model) is not None
+    np.testing.assert_array_equal(model_residual_stats(again), model_residual_stats(model))
     assert predict(again, frames).shape == (len(frames), 4, 3)
