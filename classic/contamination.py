@@ -135,8 +135,8 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", mo
         offsets = np.unique(np.linspace(1, n - 1, PAIR_PARTNERS).astype(int))
         k = np.repeat(np.arange(n), len(offsets))
         other = (k + np.tile(offsets, n)) % n
-        ij = np.unique(np.sort(np.column_stack([k, other]), axis=1), axis=0)
-        i, j = ij[:, 0], ij[:, 1]
+        code = np.unique(np.minimum(k, other) * n + np.maximum(k, other))  # each pair once, in (i, j) order
+        i, j = code // n, code % n
     if motions_all is not None and len(motions_all) == n * (n - 1) // 2:
         idx = i * n - i * (i + 1) // 2 + (j - i - 1)  # position of (i, j) in numpy's triu order
         m = Motions(motions_all.q_A[idx], motions_all.t_A[idx], motions_all.q_B[idx], motions_all.t_B[idx])
@@ -144,9 +144,9 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", mo
         m = motions_from_poses(A, B, i, j)
     ang = []
     disp = []
-    for q, t in ((m.q_A, m.t_A), (m.q_B, m.t_B)):
-        s = np.linalg.norm(q[:, :3], axis=1)
-        ang.append(2.0 * np.arctan2(s, np.abs(q[:, 3])))
+    for q, t, angle in ((m.q_A, m.t_A, m.angles_A), (m.q_B, m.t_B, m.angles_B)):
+        s = np.sqrt(np.einsum("ij,ij->i", q[:, :3], q[:, :3]))
+        ang.append(angle)
         axis = q[:, :3] * np.sign(q[:, 3:4] + (q[:, 3:4] == 0)) / np.maximum(s, 1e-300)[:, None]
         disp.append(np.sum(axis * t, axis=1))
     d_ang = np.abs(ang[0] - ang[1])

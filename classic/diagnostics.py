@@ -99,10 +99,6 @@ def _motions(T_base_ee, T_cam_target, setup, pairs) -> Motions:
     return motions_from_poses(robot_side_poses(T_base_ee, setup), T_cam_target, *pair_indices(len(T_base_ee), pairs))
 
 
-def _angles(q: np.ndarray) -> np.ndarray:
-    return 2.0 * np.arctan2(np.linalg.norm(q[:, :3], axis=1), np.abs(q[:, 3]))
-
-
 def angle_mismatch_deg(m: Motions, quantile: float = THRESHOLDS["consistency_quantile"]) -> tuple[float, float]:
     """Robust mismatch of the rotation angles of paired motions.
 
@@ -120,9 +116,12 @@ def angle_mismatch_deg(m: Motions, quantile: float = THRESHOLDS["consistency_qua
     typical_angle_deg : float
         The median motion angle, for scale.
     """
-    a = np.degrees(_angles(m.q_A))
-    b = np.degrees(_angles(m.q_B))
-    return float(np.quantile(np.abs(a - b), quantile)), float(np.median(a))
+    key = f"_angle_mismatch_{quantile}"  # diagnose_motion and check_consistency both ask: computed once
+    if key not in m.__dict__:
+        a = np.degrees(m.angles_A)
+        b = np.degrees(m.angles_B)
+        m.__dict__[key] = (float(np.quantile(np.abs(a - b), quantile)), float(np.median(a)))
+    return m.__dict__[key]
 
 
 def _is_inconsistent(mismatch: float, typical: float) -> bool:
@@ -284,7 +283,7 @@ def diagnose_motion(
         When the set is poorly conditioned (few poses, small or near-parallel rotations).
     """
     m = motions if motions is not None else _motions(T_base_ee, T_cam_target, setup, pairs)
-    angles = _angles(m.q_A)
+    angles = m.angles_A
     P = 2.0 * m.q_A[:, :3]
     eigval, eigvec = np.linalg.eigh(P.T @ P)
     s = np.sqrt(np.maximum(eigval[::-1], 0.0) / len(P))

@@ -6,7 +6,7 @@ import numpy as np
 
 from classic._linear import check_motions, translation_from_stats, translation_stats
 from classic.motions import Motions, motions_from_transforms
-from handeye.core.se3 import make_transform, project_to_so3, rotvec_from_quat_xyzw
+from handeye.core.se3 import make_transform, project_to_so3
 
 __all__ = ["park"]
 
@@ -44,9 +44,7 @@ def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 def _park_stats(m: Motions) -> dict:
-    alpha = rotvec_from_quat_xyzw(m.q_A)
-    beta = rotvec_from_quat_xyzw(m.q_B)
-    return {"M": beta.T @ alpha, **translation_stats(m)}
+    return {"M": m.rotvec_B.T @ m.rotvec_A, **translation_stats(m)}
 
 
 def _park_finish(st: dict) -> np.ndarray:

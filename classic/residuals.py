@@ -6,7 +6,7 @@ import numpy as np
 
 from handeye.core.se3 import invert_transform, make_transform, project_to_so3, so3_log
 
-__all__ = ["predict_cam_target", "pose_residuals", "estimate_target_pose"]
+__all__ = ["predict_cam_target", "pose_residuals", "residuals_of_prediction", "estimate_target_pose"]
 
 
 def predict_cam_target(A: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
@@ -43,7 +43,11 @@ def pose_residuals(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray) -
     r_rot : array, shape (N, 3)
     r_trans : array, shape (N, 3)
     """
-    P = predict_cam_target(A, X, Y)
+    return residuals_of_prediction(predict_cam_target(A, X, Y), B)
+
+
+def residuals_of_prediction(P: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pose_residuals` from the predicted ``P_i = X^-1 A_i Y`` (shape (N, 4, 4)) and the measured ``B_i``."""
     r_rot = so3_log(np.swapaxes(P[:, :3, :3], 1, 2) @ B[:, :3, :3])
     r_trans = B[:, :3, 3] - P[:, :3, 3]
     return r_rot, r_trans

@@ -228,3 +228,11 @@ def test_project_to_so3_recovers_a_perturbed_rotation(rng):
     np.testing.assert_allclose(se3.project_to_so3(3.0 * R), R, atol=FLOAT)
     # a reflection is never returned: det(-R) = -1 must come out with det +1
     assert np.all(np.linalg.det(se3.project_to_so3(-R)) > 0)
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-9, 1e-8, 1e-4, 1.0, np.pi - 1e-6, np.pi])
+def test_so3_exp_of_one_vector_is_the_batched_formula(rng, angle):
+    """One rotation vector takes a scalar path (refinement steps); it must give the batched values."""
+    axis = rng.normal(size=3)
+    rv = angle * axis / np.linalg.norm(axis)
+    np.testing.assert_allclose(se3.so3_exp(rv), se3.so3_exp(rv[None])[0], rtol=0, atol=1e-15)

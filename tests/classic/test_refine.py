@@ -200,3 +200,26 @@ def test_analytic_jacobian_matches_central_differences():
         # central differences with h = 1e-7 on entries of order 100: truncation ~h^2 * 100, rounding
         # ~eps * |r| / h ~ 1e-7; the relative bound 1e-6 is far below any real derivative mistake (order 1)
         np.testing.assert_allclose(J, J_num, atol=1e-6 * np.abs(J_num).max())
+
+
+@pytest.mark.parametrize("n", [4, 8, 60, 400])
+def test_brown_forsythe_p_is_scipys_levene_median_centred(n):
+    from scipy.stats import levene
+
+    from classic.refine import brown_forsythe_p
+
+    rng = np.random.default_rng(n)
+    for ratio in (1.0, 1.5, 4.0):
+        a, b = rng.normal(size=2 * n), ratio * rng.normal(size=n)
+        np.testing.assert_allclose(brown_forsythe_p(a, b), levene(a, b, center="median").pvalue, rtol=1e-10)
+
+
+def test_motion_rotation_vectors_are_those_of_their_quaternions():
+    from classic.motions import motions_from_poses
+    from classic.pairs import pair_indices
+    from handeye.core.se3 import rotvec_from_quat_xyzw
+
+    p = make_problem(15, "eye_to_hand", np.random.default_rng(3), camera_noise=(0.1, 1.0))
+    m = motions_from_poses(p.T_base_ee, p.T_cam_target, *pair_indices(15, "all"))
+    np.testing.assert_allclose(m.rotvec_A, rotvec_from_quat_xyzw(m.q_A), rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(m.rotvec_B, rotvec_from_quat_xyzw(m.q_B), rtol=1e-13, atol=1e-15)
