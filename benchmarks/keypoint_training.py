@@ -3,8 +3,9 @@
 Each variant trains the keypoint model's batch strategy once (one repeat, the ``cpu`` preset otherwise,
 ``--threads`` per variant, ``--jobs`` variants at a time) and is measured on the keypoint pixels of the
 training and the test frames (median, network input pixels) and on the test placements' poses (one
-robust fit of all a placement's frames against the truth). Train and test pixel errors that agree say
-the model underfits rather than fails to generalise to new camera poses.
+fit of all a placement's frames against the truth: the robust 3-D to 3-D fit, and the likelihood fit
+with the model's residual statistics that the protocol uses, :func:`learned.keypoints.camera_pose`).
+Train and test pixel errors that agree say the model underfits rather than fails to generalise to new camera poses.
 
     python benchmarks/keypoint_training.py --data data/paper-sim-noisy --out benchmarks/results/keypoint_training.md
 
@@ -84,6 +85,7 @@ def _measure(frames, native: tuple, model_path: Path) -> dict:
     """Pixel errors of the training and the test frames, and the test placements' pose errors."""
     from benchmarks.keypoint_errors import keypoint_stats, placement_errors, predicted_and_true
     from learned.experiment import load_model
+    from learned.keypoints import model_residual_stats
 
     model = load_model(model_path)
     network = tuple(int(v) for v in model.config.image_size)
@@ -96,6 +98,8 @@ def _measure(frames, native: tuple, model_path: Path) -> dict:
         out[f"{split}_bias_mm"] = float(np.nanmean(np.abs(stats["dz_mm"])))
         if split == "test":
             out["placements"] = placement_errors(pred, frames, index)
+            stats = model_residual_stats(model)  # None: a model saved before it kept them
+            out["placements_ml"] = None if stats is None else placement_errors(pred, frames, index, stats)
     return out
 
 
@@ -143,16 +147,18 @@ def main(argv=None):
     emit(
         "Keypoint errors: medians over the frames' keypoints in view, network input pixels; depth bias: the mean "
         "over keypoints of |median signed depth error|. Placements: the 24 test placements, one pose each from "
-        f"all its frames, against the truth. Training times with {args.jobs} variants at a time, "
+        "all its frames, against the truth, by the 3-D to 3-D fit and by the likelihood fit (offsets removed, "
+        f"each keypoint weighed by the model's training sigmas). Training times with {args.jobs} variants at a time, "
         f"{args.threads} thread(s) each; seed {args.seed}; weights averaged over the last {args.average_epochs} "
         "epochs (0: not averaged)."
     )
     emit()
     emit(
         "| variant | input px | width | trunk | epochs | batch | schedule | spread weight | train px | test px | "
-        "native px, test | train / test depth bias mm | placement median mm / deg | worst mm / deg | train s |"
+        "native px, test | train / test depth bias mm | placement median mm / deg | worst mm / deg | "
+        "likelihood fit median / worst mm | train s |"
     )
-    emit("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    emit("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     from handeye.core.dataset import Dataset
     from handeye.learned_frames import load_keypoint_frames
 
@@ -164,12 +170,13 @@ def main(argv=None):
         if size not in frames:
             frames[size] = load_keypoint_frames(args.data, (size, size), progress=False)
         m = _measure(frames[size], native, dirs[spec] / "batch" / "keypoints.pt")
-        p = m["placements"]
+        p, q = m["placements"], m["placements_ml"]
+        ml = "-" if q is None else f"{np.median(q[:, 0]):.1f} / {q[:, 0].max():.1f}"
         emit(
             f"| {name} | {size} | {width} | {dtype} | {epochs} | {batch} | {schedule} | {spread} | "
             f"{m['train']['px_network']:.2f} | {m['test']['px_network']:.2f} | {m['test']['px_native']:.1f} | "
             f"{m['train_bias_mm']:.1f} / {m['test_bias_mm']:.1f} | "
-            f"{np.median(p[:, 0]):.1f} / {np.median(p[:, 1]):.2f} | {p[:, 0].max():.1f} / {p[:, 1].max():.2f} | "
+            f"{np.median(p[:, 0]):.1f} / {np.median(p[:, 1]):.2f} | {p[:, 0].max():.1f} / {p[:, 1].max():.2f} | {ml} | "
             f"{f'{seconds[spec]:.0f}' if spec in seconds else '- (measured only)'} |"
         )
     return rep.write(args.out)

@@ -73,20 +73,27 @@ def compare_table(pc: dict, hybrid=None) -> str:
 
 def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     """Per camera, the classic cross-frame keypoint solve (:func:`classic.keypoint_pose.solve_keypoint_pose`):
-    its pose against the truth, its sigma, the keypoints that agree, or its refusal."""
+    its pose against the truth, its sigma, the keypoints that agree, or its refusal.
+
+    The keypoints' offsets measured on the model's training frames
+    (:func:`learned.keypoints.residual_stats`) are removed first, as in the learned placement fit.
+    """
     import numpy as np
 
     from classic.keypoint_pose import solve_keypoint_pose
     from handeye.core.metrics import pose_error
     from handeye.core.se3 import transform_from_pos_quat_xyzw
     from handeye.core.tables import markdown_table
-    from learned.keypoints import backproject_keypoints
+    from learned.keypoints import backproject_keypoints, model_residual_stats
     from learned.trainer import predict
 
+    stats = model_residual_stats(model)
     rows = []
     for c in cameras:
         idx = np.flatnonzero(frames.camera == c)
         pred = predict(model, frames, idx)
+        if stats is not None:
+            pred = pred - stats[0]
         p_cam = backproject_keypoints(pred, frames.intrinsics_norm[idx]).reshape(-1, 3)
         k = pred.shape[1]
         res = solve_keypoint_pose(
