@@ -169,8 +169,8 @@ def brown_forsythe_p(a: np.ndarray, b: np.ndarray) -> float:
 
     ``scipy.stats.levene(a, b, center="median").pvalue`` (the tests check the two agree), written
     out for two groups: the one-way ANOVA F of the absolute deviations from each group's median, its
-    tail from ``scipy.special.fdtrc``. ``levene``'s generic argument handling costs about 2 ms a call,
-    several times the arithmetic, and the refinement asks once per pass.
+    tail from ``scipy.special.fdtrc``. ``levene``'s general argument handling costs several times the
+    arithmetic, and the refinement asks once per pass.
 
     Parameters
     ----------

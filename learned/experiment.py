@@ -137,7 +137,8 @@ def keypoint_camera_predictions(model, frames: FrameSet, cameras: list[int]) -> 
 
     The pose is the fit of every frame's predicted keypoints to their base-frame positions, weighed by
     the model's residual statistics (:func:`learned.keypoints.camera_pose`); the per-frame columns use
-    each frame's own 3-D to 3-D fit (frames with fewer than three usable keypoints left out).
+    each frame's own fit (:func:`learned.keypoints.frame_poses`, the same statistics; frames with fewer
+    than three usable keypoints left out).
     """
     from handeye.core.se3 import quat_xyzw_from_matrix
     from learned.keypoints import camera_pose, frame_poses, model_residual_stats

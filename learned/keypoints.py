@@ -14,9 +14,9 @@ annotation.
 After each training call the model's residuals on its own training frames are summarised per
 keypoint and component (:func:`residual_stats`, kept in the model as ``residual_stats``): a median
 offset, which the solves subtract, and a robust sigma, with which :func:`camera_pose` weighs every
-pixel coordinate and depth in a maximum-likelihood fit. The network's errors differ by keypoint
-(on ``paper-sim`` 2 px at the shoulder, 25 px at the reference point) and its offsets repeat from
-the training frames to the test frames, so both are known before the test.
+pixel coordinate and depth in a maximum-likelihood fit. The network's errors differ by keypoint (on
+``paper-sim`` sigmas of 1.5 px at the base joint, 16-20 px at the reference point) and its offsets
+repeat from the training frames to the test frames, so both are known before the test.
 
 Image coordinates are normalised: ``x_n = (u + 0.5) / W``, ``y_n = (v + 0.5) / H`` for pixel
 ``(u, v)`` of an image ``W`` wide and ``H`` high (OpenCV pixel centres at integers), so they do not
@@ -166,8 +166,7 @@ def camera_pose(
     T, w = robust_rigid_transform(p_cam, p_base.reshape(-1, 3), iterations=iterations, floor_m=floor_m)
     if not usable or not np.isfinite(T).all():
         return T, w
-    n, k = pred.shape[:2]
-    intr = np.repeat(np.asarray(intrinsics_norm, dtype=float), k, axis=0)[None]  # (1, N K, 4)
+    intr = np.repeat(np.asarray(intrinsics_norm, dtype=float), pred.shape[1], axis=0)[None]  # (1, N K, 4)
     sigma = np.broadcast_to(stats[1], pred.shape).reshape(1, -1, 3)
     T, w = likelihood_fit(pred.reshape(1, -1, 3), p_base.reshape(1, -1, 3), intr, sigma, T[None])
     return T[0], w[0]
@@ -188,9 +187,9 @@ def likelihood_fit(
     point and component, ``rho`` the Cauchy loss of scale :data:`CAUCHY_SCALE` sigmas (``scipy``'s
     ``loss="cauchy"``), by iteratively reweighted Gauss–Newton steps with Levenberg damping, each set
     with its own damping and its own acceptance test. The update is ``p_cam <- exp(dw) p_cam + dv``.
-    ``scipy.optimize.least_squares`` solves one problem at a time; thousands of frames of six
-    parameters each are solved here at once (about 0.5 ms a frame against 10 ms), and the tests check
-    that both reach the same minimum.
+    ``scipy.optimize.least_squares`` solves one problem at a time; the protocol's thousands of frames
+    of six parameters each are solved here at once, in array operations, and the tests check that both
+    reach the same minimum.
 
     Parameters
     ----------

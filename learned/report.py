@@ -173,7 +173,9 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     )
     # per camera pose validation
     how = (
-        "the keypoints of all the pose's frames fitted at once (robust 3-D to 3-D)"
+        "the keypoints of all the pose's frames fitted at once (learned.keypoints.camera_pose: the model's "
+        "offsets removed, pixels and depths weighed by its sigmas; robust 3-D to 3-D for a model saved "
+        "without them)"
         if family == "keypoints"
         else "the frame predictions of the pose averaged"
     )
