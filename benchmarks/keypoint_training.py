@@ -86,6 +86,7 @@ def _measure(frames, native: tuple, model_path: Path) -> dict:
     from benchmarks.keypoint_errors import keypoint_stats, placement_errors, predicted_and_true
     from learned.experiment import load_model
     from learned.keypoints import model_residual_stats
+    from learned.trainer import estimate_residuals
 
     model = load_model(model_path)
     network = tuple(int(v) for v in model.config.image_size)
@@ -98,8 +99,9 @@ def _measure(frames, native: tuple, model_path: Path) -> dict:
         out[f"{split}_bias_mm"] = float(np.nanmean(np.abs(stats["dz_mm"])))
         if split == "test":
             out["placements"] = placement_errors(pred, frames, index)
-            stats = model_residual_stats(model)  # None: a model saved before it kept them
-            out["placements_ml"] = None if stats is None else placement_errors(pred, frames, index, stats)
+            if model_residual_stats(model) is None:  # saved before models kept them: as training would have
+                estimate_residuals(model, frames, np.flatnonzero(frames.split == "train"))
+            out["placements_ml"] = placement_errors(pred, frames, index, model_residual_stats(model))
     return out
 
 
@@ -171,7 +173,7 @@ def main(argv=None):
             frames[size] = load_keypoint_frames(args.data, (size, size), progress=False)
         m = _measure(frames[size], native, dirs[spec] / "batch" / "keypoints.pt")
         p, q = m["placements"], m["placements_ml"]
-        ml = "-" if q is None else f"{np.median(q[:, 0]):.1f} / {q[:, 0].max():.1f}"
+        ml = f"{np.median(q[:, 0]):.1f} / {q[:, 0].max():.1f}"
         emit(
             f"| {name} | {size} | {width} | {dtype} | {epochs} | {batch} | {schedule} | {spread} | "
             f"{m['train']['px_network']:.2f} | {m['test']['px_network']:.2f} | {m['test']['px_native']:.1f} | "

@@ -338,8 +338,8 @@ def keypoint_pose_errors(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Translation (mm) and rotation (deg) errors of the per-frame poses solved from predicted keypoints.
 
-    ``stats``: the model's residual statistics (:func:`learned.keypoints.residual_stats`), whose offsets
-    are removed first.
+    ``stats``: the model's residual statistics (:func:`learned.keypoints.residual_stats`): with them each
+    frame's offsets are removed and it is fitted by maximum likelihood (:func:`learned.keypoints.frame_poses`).
     """
     from learned.keypoints import frame_poses, pose_errors
 
