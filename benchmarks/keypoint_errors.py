@@ -115,6 +115,19 @@ def placement_errors(kp, frames, index, stats=None):
     return np.array(rows)
 
 
+def residual_stats_of(model, frames) -> tuple[np.ndarray, str]:
+    """A keypoint model's residual statistics (2, K, 3) and where they come from.
+
+    A model saved before models kept them gets them estimated on the ``train`` split, as its training
+    would have (:func:`learned.trainer.estimate_residuals`).
+    """
+    stats = model_residual_stats(model)
+    if stats is not None:
+        return stats, "kept in the model (its last training call's frames)"
+    estimate_residuals(model, frames, np.flatnonzero(frames.split == "train"))
+    return model_residual_stats(model), "estimated here on the train split (the model was saved without them)"
+
+
 def interpretation(variants, stats, names):
     """One paragraph reading the tables: which error, pixels or depth, the pose error comes from.
 
@@ -221,12 +234,7 @@ def main(argv=None):
     )
     emit()
 
-    res_stats = model_residual_stats(model)
-    source = "kept in the model (its last training call's frames)"
-    if res_stats is None:
-        estimate_residuals(model, frames, np.flatnonzero(frames.split == "train"))
-        res_stats = model_residual_stats(model)
-        source = "estimated here on the train split (the model was saved without them)"
+    res_stats, source = residual_stats_of(model, frames)
     emit(f"## Residual statistics per keypoint, {source}")
     emit()
     emit("Offset (median of predicted minus target) and sigma (1.4826 MAD), native pixels and mm.")

@@ -83,10 +83,8 @@ def _fields(spec: str) -> tuple:
 
 def _measure(frames, native: tuple, model_path: Path) -> dict:
     """Pixel errors of the training and the test frames, and the test placements' pose errors."""
-    from benchmarks.keypoint_errors import keypoint_stats, placement_errors, predicted_and_true
+    from benchmarks.keypoint_errors import keypoint_stats, placement_errors, predicted_and_true, residual_stats_of
     from learned.experiment import load_model
-    from learned.keypoints import model_residual_stats
-    from learned.trainer import estimate_residuals
 
     model = load_model(model_path)
     network = tuple(int(v) for v in model.config.image_size)
@@ -99,9 +97,7 @@ def _measure(frames, native: tuple, model_path: Path) -> dict:
         out[f"{split}_bias_mm"] = float(np.nanmean(np.abs(stats["dz_mm"])))
         if split == "test":
             out["placements"] = placement_errors(pred, frames, index)
-            if model_residual_stats(model) is None:  # saved before models kept them: as training would have
-                estimate_residuals(model, frames, np.flatnonzero(frames.split == "train"))
-            out["placements_ml"] = placement_errors(pred, frames, index, model_residual_stats(model))
+            out["placements_ml"] = placement_errors(pred, frames, index, residual_stats_of(model, frames)[0])
     return out
 
 

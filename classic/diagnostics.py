@@ -116,12 +116,9 @@ def angle_mismatch_deg(m: Motions, quantile: float = THRESHOLDS["consistency_qua
     typical_angle_deg : float
         The median motion angle, for scale.
     """
-    key = f"_angle_mismatch_{quantile}"  # diagnose_motion and check_consistency both ask: computed once
-    if key not in m.__dict__:
-        a = np.degrees(m.angles_A)
-        b = np.degrees(m.angles_B)
-        m.__dict__[key] = (float(np.quantile(np.abs(a - b), quantile)), float(np.median(a)))
-    return m.__dict__[key]
+    a = np.degrees(m.angles_A)
+    b = np.degrees(m.angles_B)
+    return float(np.quantile(np.abs(a - b), quantile)), float(np.median(a))
 
 
 def _is_inconsistent(mismatch: float, typical: float) -> bool:

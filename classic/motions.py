@@ -14,7 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
+from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix, rotvec_from_quat_xyzw
 
 __all__ = ["Motions", "motions_from_transforms", "motions_from_poses", "iter_motions", "accumulate"]
 
@@ -47,41 +47,28 @@ class Motions:
         return matrix_from_quat_xyzw(self.q_B, normalize=False)
 
     @cached_property
-    def angles_A(self) -> np.ndarray:
-        """Rotation angles of A, radians, shape (K,) (the checks read them several times: computed once)."""
-        return _angles_rad(self.q_A)
-
-    @cached_property
-    def angles_B(self) -> np.ndarray:
-        """Rotation angles of B, radians, shape (K,)."""
-        return _angles_rad(self.q_B)
-
-    @cached_property
     def rotvec_A(self) -> np.ndarray:
-        """Rotation vectors of A (axis times angle, radians), shape (K, 3)."""
-        return _rotvec(self.q_A, self.angles_A)
+        """Rotation vectors of A (axis times angle, radians), shape (K, 3); computed once, as the
+        checks and Park's method read them."""
+        return rotvec_from_quat_xyzw(self.q_A)
 
     @cached_property
     def rotvec_B(self) -> np.ndarray:
         """Rotation vectors of B, shape (K, 3)."""
-        return _rotvec(self.q_B, self.angles_B)
+        return rotvec_from_quat_xyzw(self.q_B)
+
+    @cached_property
+    def angles_A(self) -> np.ndarray:
+        """Rotation angles of A, radians in [0, pi], shape (K,)."""
+        return np.sqrt(np.einsum("ij,ij->i", self.rotvec_A, self.rotvec_A))
+
+    @cached_property
+    def angles_B(self) -> np.ndarray:
+        """Rotation angles of B, radians in [0, pi], shape (K,)."""
+        return np.sqrt(np.einsum("ij,ij->i", self.rotvec_B, self.rotvec_B))
 
     def __len__(self) -> int:
         return len(self.q_A)
-
-
-def _rotvec(q: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Rotation vectors of quaternions with ``w >= 0`` and their angles, as
-    :func:`handeye.core.se3.rotvec_from_quat_xyzw` (which computes the angles again)."""
-    s = np.sqrt(np.einsum("ij,ij->i", q[:, :3], q[:, :3]))
-    small = s < 1e-12
-    return q[:, :3] * np.where(small, 2.0, angle / np.where(small, 1.0, s))[:, None]
-
-
-def _angles_rad(q: np.ndarray) -> np.ndarray:
-    """Rotation angle of unit quaternions (x, y, z, w), radians in [0, pi], shape (K,)."""
-    s = np.sqrt(np.einsum("ij,ij->i", q[:, :3], q[:, :3]))
-    return 2.0 * np.arctan2(s, np.abs(q[:, 3]))
 
 
 def motions_from_transforms(A: np.ndarray, B: np.ndarray) -> Motions:

@@ -42,6 +42,7 @@ __all__ = [
     "frame_poses",
     "camera_pose",
     "likelihood_fit",
+    "remove_offsets",
     "residual_stats",
     "model_residual_stats",
     "keypoint_loss",
@@ -96,6 +97,17 @@ def backproject_keypoints(pred: np.ndarray, intrinsics_norm: np.ndarray) -> np.n
     return np.stack([(pred[..., 0] - cx) / fx * z, (pred[..., 1] - cy) / fy * z, z], axis=-1)
 
 
+def remove_offsets(pred: np.ndarray, stats: np.ndarray | None) -> tuple[np.ndarray, bool]:
+    """Predicted ``(x_n, y_n, z_m)`` (N, K, 3) less the offsets of ``stats`` (:func:`residual_stats`).
+
+    Returns the keypoints and whether ``stats`` were usable (given and finite); unusable statistics
+    leave the keypoints as they are.
+    """
+    pred = np.asarray(pred, dtype=float)
+    usable = stats is not None and bool(np.isfinite(stats).all())
+    return (pred - stats[0] if usable else pred), usable
+
+
 def frame_poses(
     pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray, stats: np.ndarray | None = None
 ) -> np.ndarray:
@@ -105,9 +117,7 @@ def frame_poses(
     offsets removed, that closed form is the start of each frame's maximum-likelihood fit
     (:func:`likelihood_fit`, all frames at once). A frame with fewer than three usable keypoints is NaN.
     """
-    usable = stats is not None and np.isfinite(stats).all()
-    if usable:
-        pred = np.asarray(pred, dtype=float) - stats[0]
+    pred, usable = remove_offsets(pred, stats)
     T = rigid_transform(backproject_keypoints(pred, intrinsics_norm), p_base)
     if not usable:
         return T
@@ -156,11 +166,8 @@ def camera_pose(
         Final weights (near 1 for keypoints that agree, near 0 for outliers, 0 for keypoints behind
         the camera).
     """
-    pred = np.asarray(pred, dtype=float)
+    pred, usable = remove_offsets(pred, stats)
     p_base = np.asarray(p_base, dtype=float)
-    usable = stats is not None and np.isfinite(stats).all()
-    if usable:
-        pred = pred - stats[0]
     p_cam = backproject_keypoints(pred, intrinsics_norm).reshape(-1, 3)
     p_cam[~(p_cam[:, 2] > 0)] = np.nan  # behind the camera: no measurement
     T, w = robust_rigid_transform(p_cam, p_base.reshape(-1, 3), iterations=iterations, floor_m=floor_m)

@@ -84,16 +84,14 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     from handeye.core.metrics import pose_error
     from handeye.core.se3 import transform_from_pos_quat_xyzw
     from handeye.core.tables import markdown_table
-    from learned.keypoints import backproject_keypoints, model_residual_stats
+    from learned.keypoints import backproject_keypoints, model_residual_stats, remove_offsets
     from learned.trainer import predict
 
     stats = model_residual_stats(model)
     rows = []
     for c in cameras:
         idx = np.flatnonzero(frames.camera == c)
-        pred = predict(model, frames, idx)
-        if stats is not None:
-            pred = pred - stats[0]
+        pred, _ = remove_offsets(predict(model, frames, idx), stats)
         p_cam = backproject_keypoints(pred, frames.intrinsics_norm[idx]).reshape(-1, 3)
         k = pred.shape[1]
         res = solve_keypoint_pose(

@@ -214,12 +214,12 @@ def test_brown_forsythe_p_is_scipys_levene_median_centred(n):
         np.testing.assert_allclose(brown_forsythe_p(a, b), levene(a, b, center="median").pvalue, rtol=1e-10)
 
 
-def test_motion_rotation_vectors_are_those_of_their_quaternions():
+def test_motion_angles_are_the_rotation_angles_of_the_motions():
     from classic.motions import motions_from_poses
     from classic.pairs import pair_indices
-    from handeye.core.se3 import rotvec_from_quat_xyzw
+    from handeye.core.se3 import rotation_angle
 
     p = make_problem(15, "eye_to_hand", np.random.default_rng(3), camera_noise=(0.1, 1.0))
     m = motions_from_poses(p.T_base_ee, p.T_cam_target, *pair_indices(15, "all"))
-    np.testing.assert_allclose(m.rotvec_A, rotvec_from_quat_xyzw(m.q_A), rtol=1e-13, atol=1e-15)
-    np.testing.assert_allclose(m.rotvec_B, rotvec_from_quat_xyzw(m.q_B), rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(m.angles_A, rotation_angle(m.R_A), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(m.angles_B, rotation_angle(m.R_B), rtol=1e-12, atol=1e-14)
