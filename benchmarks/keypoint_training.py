@@ -41,7 +41,7 @@ DEFAULT_VARIANTS = (
 )
 
 
-def _train(data: Path, spec: str, out: Path, seed: int, threads: int, average: int) -> tuple[str, float]:
+def _train(data: Path, spec: str, out: Path, seed: int, threads: int, average: int, shift: int) -> tuple[str, float]:
     from handeye.learned_frames import load_keypoint_frames
     from learned.experiment import run_experiment
     from learned.presets import get_preset
@@ -53,6 +53,7 @@ def _train(data: Path, spec: str, out: Path, seed: int, threads: int, average: i
         keypoint_batch_size=batch,
         keypoint_trunk_dtype=dtype,
         keypoint_average_epochs=average,
+        keypoint_shift_px=shift,
         name=f"cpu-{name}",
         keypoint_image_size=(size, size),
         keypoint_channels=tuple(int(w) for w in width.split("-")),
@@ -110,6 +111,9 @@ def main(argv=None):
     ap.add_argument(
         "--average-epochs", type=int, default=0, help="every variant averages its weights over this many last epochs"
     )
+    ap.add_argument(
+        "--shift-px", type=int, default=0, help="every variant trains on images shifted by up to this many pixels"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--work", type=Path, default=Path("runs/keypoint_training"), help="where the models go")
     ap.add_argument("--out", type=Path, help="also write the report here")
@@ -138,7 +142,9 @@ def main(argv=None):
     if not args.measure_only:
         with ProcessPoolExecutor(args.jobs) as pool:
             futures = [
-                pool.submit(_train, args.data, spec, dirs[spec], args.seed, args.threads, args.average_epochs)
+                pool.submit(
+                    _train, args.data, spec, dirs[spec], args.seed, args.threads, args.average_epochs, args.shift_px
+                )
                 for spec in args.variants
             ]
             seconds = dict(f.result() for f in futures)
@@ -148,7 +154,7 @@ def main(argv=None):
         "all its frames, against the truth, by the 3-D to 3-D fit and by the likelihood fit (offsets removed, "
         f"each keypoint weighed by the model's training sigmas). Training times with {args.jobs} variants at a time, "
         f"{args.threads} thread(s) each; seed {args.seed}; weights averaged over the last {args.average_epochs} "
-        "epochs (0: not averaged)."
+        f"epochs (0: not averaged); training images shifted by up to {args.shift_px} pixels (0: not shifted)."
     )
     emit()
     emit(

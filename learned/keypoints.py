@@ -47,6 +47,8 @@ __all__ = [
     "model_residual_stats",
     "keypoint_loss",
     "inside_image",
+    "shift_images",
+    "shift_targets",
     "pose_errors",
 ]
 
@@ -403,6 +405,45 @@ class KeypointNet(nn.Module):
         z = (prob * z_map).sum((-1, -2))
         out = torch.stack([x_n, y_n, z], dim=-1)
         return (out, prob) if heatmaps else out
+
+
+def shift_images(rgb: torch.Tensor, depth_m: torch.Tensor, shifts: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+    """Each frame's image moved by whole pixels, the uncovered border empty (0: black, and no depth).
+
+    Parameters
+    ----------
+    rgb : tensor, shape (B, 3, H, W)
+    depth_m : tensor, shape (B, 1, H, W)
+    shifts : array of int, shape (B, 2)
+        ``(dx, dy)``: what was at pixel ``(u, v)`` is at ``(u + dx, v + dy)``.
+
+    Returns
+    -------
+    rgb, depth_m : tensors of the input shapes and dtypes
+    """
+    shifts = np.asarray(shifts, dtype=int)
+    h, w = rgb.shape[-2:]
+    p = int(np.abs(shifts).max(initial=0))
+    if p == 0:
+        return rgb, depth_m
+    rgb_p, depth_p = F.pad(rgb, (p, p, p, p)), F.pad(depth_m, (p, p, p, p))
+    rows = [(slice(p - dy, p - dy + h), slice(p - dx, p - dx + w)) for dx, dy in shifts]
+    return (
+        torch.stack([rgb_p[i, :, r, c] for i, (r, c) in enumerate(rows)]),
+        torch.stack([depth_p[i, :, r, c] for i, (r, c) in enumerate(rows)]),
+    )
+
+
+def shift_targets(target: np.ndarray, shifts: np.ndarray, image_size: tuple) -> np.ndarray:
+    """Keypoint targets ``(x_n, y_n, z_m)`` (B, K, 3) of images moved by :func:`shift_images`' ``shifts``.
+
+    ``image_size`` is ``(width, height)`` in the shifts' pixels; depths are unchanged.
+    """
+    out = np.array(target, dtype=float, copy=True)
+    w, h = image_size
+    out[..., 0] += np.asarray(shifts)[:, None, 0] / w
+    out[..., 1] += np.asarray(shifts)[:, None, 1] / h
+    return out
 
 
 def inside_image(target: torch.Tensor) -> torch.Tensor:

@@ -56,6 +56,9 @@ class Preset:
         steps per sample lower its error at the same cost: ``benchmarks/keypoint_training.py``).
     keypoint_trunk_dtype : {"float32", "bfloat16"}
         Precision of the keypoint model's convolutions (:class:`learned.model.ModelConfig`).
+    keypoint_shift_px : int
+        Random shifts of the keypoint model's training images, input pixels
+        (:attr:`learned.trainer.TrainConfig.shift_px`); 0: off.
     keypoint_average_epochs : int
         The keypoint model ends each training call with its weights averaged over this many last epochs
         (:attr:`learned.trainer.TrainConfig.average_epochs`); 0: off.
@@ -85,6 +88,7 @@ class Preset:
     keypoint_batch_size: int | None = None
     keypoint_trunk_dtype: str = "float32"
     keypoint_average_epochs: int = 0
+    keypoint_shift_px: int = 0
 
     def frame_size(self, family: str = "regression") -> tuple:
         """``(width, height)`` the frames are loaded at for a model family (``regression`` or ``keypoints``)."""
@@ -119,6 +123,7 @@ class Preset:
                 "schedule": self.keypoint_schedule,
                 "heatmap_spread_weight": self.keypoint_spread_weight,
                 "average_epochs": self.keypoint_average_epochs,
+                "shift_px": self.keypoint_shift_px,
             }
             if self.keypoint_epochs:
                 first_e, later_e, batch_e = self.keypoint_epochs

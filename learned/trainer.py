@@ -40,6 +40,12 @@ class TrainConfig:
     heatmap_spread_weight : float
         The keypoint model only: weight of its heatmaps' spread in the loss
         (:func:`learned.keypoints.keypoint_loss`); 0 is off.
+    shift_px : int
+        The keypoint model only: each training sample's image moved by a random whole number of input
+        pixels in ``[-shift_px, shift_px]`` along each axis (the uncovered border empty: black, no depth)
+        and its keypoint targets with it (:func:`learned.keypoints.shift_images`); 0 (default) is off.
+        A network whose receptive field spans the image can learn where the base sits in each training
+        view from the image border rather than find it; random shifts leave it only the robot to go by.
     average_epochs : int
         End the call with the mean of the weights after each of its last this many epochs (stochastic
         weight averaging, Izmailov et al. 2018, ``torch.optim.swa_utils.AveragedModel``; with a constant
@@ -54,12 +60,15 @@ class TrainConfig:
     schedule: str = "constant"
     heatmap_spread_weight: float = 0.0
     average_epochs: int = 0
+    shift_px: int = 0
 
     def __post_init__(self):
         if self.schedule not in ("constant", "cosine"):
             raise ValueError(f"schedule must be 'constant' or 'cosine', got {self.schedule!r}")
         if self.average_epochs < 0:
             raise ValueError(f"average_epochs must be 0 (off) or more, got {self.average_epochs}")
+        if self.shift_px < 0:
+            raise ValueError(f"shift_px must be 0 (off) or more, got {self.shift_px}")
 
 
 def _device(model: CalibrationNet) -> torch.device:
@@ -96,22 +105,29 @@ def _loss(
     index: np.ndarray,
     net: torch.nn.Module | None = None,
     spread_weight: float = 0.0,
+    shifts: np.ndarray | None = None,
 ):
     """The training loss of the frames at ``index`` and how many terms it averages.
 
     ``net`` runs the forward pass (the data-parallel wrapper of ``model``; ``model`` by default);
-    ``spread_weight`` is :attr:`TrainConfig.heatmap_spread_weight`.
+    ``spread_weight`` is :attr:`TrainConfig.heatmap_spread_weight`; ``shifts`` (len(index), 2), the
+    keypoint model only: whole input pixels ``(dx, dy)`` each frame's image and targets are moved by.
     The count is the samples, or for the keypoint model the keypoints inside the image; an empty
     ``index`` gives a zero loss that still reaches every parameter (a rank's empty slice of a batch).
     """
     device = _device(model)
     if model.config.kind == "keypoints":
-        from learned.keypoints import inside_image, keypoint_loss
+        from learned.keypoints import inside_image, keypoint_loss, shift_images, shift_targets
 
-        out, prob = (model if net is None else net)(*_tensors(frames, index, device), heatmaps=True)
+        rgb, depth, ref = _tensors(frames, index, device)
+        target = _keypoint_targets(frames, index) if len(index) else None
+        if shifts is not None and len(index):
+            rgb, depth = shift_images(rgb, depth, shifts)
+            target = shift_targets(target, shifts, model.config.image_size)
+        out, prob = (model if net is None else net)(rgb, depth, ref, heatmaps=True)
         if len(index) == 0:
             return out.sum() * 0.0, 0
-        target = torch.from_numpy(_keypoint_targets(frames, index).astype(np.float32)).to(device)
+        target = torch.from_numpy(target.astype(np.float32)).to(device)
         loss = keypoint_loss(out, target, model.config.image_size, prob, spread_weight)
         return loss, int(inside_image(target).sum().item())
     out = (model if net is None else net)(*_tensors(frames, index, device))
@@ -123,7 +139,12 @@ def _loss(
 
 
 def _slice_loss(
-    net: torch.nn.Module, model: CalibrationNet, frames: FrameSet, batch: np.ndarray, spread_weight: float = 0.0
+    net: torch.nn.Module,
+    model: CalibrationNet,
+    frames: FrameSet,
+    batch: np.ndarray,
+    spread_weight: float = 0.0,
+    shifts: np.ndarray | None = None,
 ) -> torch.Tensor:
     """This rank's share of a global batch's loss, weighted so that the ranks' average gradient is the batch's.
 
@@ -131,7 +152,8 @@ def _slice_loss(
     ``n``; weighted by ``n_r / n * world_size``, the mean over ranks of the slices' gradients (what
     DistributedDataParallel computes) is the gradient of the whole batch's mean loss.
     """
-    loss, count = _loss(model, frames, distributed.shard(batch), net, spread_weight)
+    mine = distributed.shard(np.arange(len(batch)))
+    loss, count = _loss(model, frames, batch[mine], net, spread_weight, None if shifts is None else shifts[mine])
     total = len(batch) if model.config.kind != "keypoints" else distributed.sum_over_ranks(count)
     return loss * (count / max(total, 1) * distributed.world_size())
 
@@ -271,10 +293,16 @@ def _epochs(
                 continue
             optimizer.zero_grad()
             spread = config.heatmap_spread_weight
+            # drawn for the whole batch (the same on every rank), and only when on: the stream is unchanged when off
+            shifts = (
+                rng.integers(-config.shift_px, config.shift_px + 1, size=(len(batch), 2))
+                if config.shift_px > 0 and model.config.kind == "keypoints"
+                else None
+            )
             loss = (
-                _loss(model, frames, batch, spread_weight=spread)[0]
+                _loss(model, frames, batch, spread_weight=spread, shifts=shifts)[0]
                 if net is None
-                else _slice_loss(net, model, frames, batch, spread)
+                else _slice_loss(net, model, frames, batch, spread, shifts)
             )
             loss.backward()
             optimizer.step()

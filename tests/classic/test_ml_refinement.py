@@ -280,11 +280,30 @@ def test_the_default_finds_depth_noise_along_the_line_of_sight():
     assert along == pytest.approx(3.0, rel=0.35) and along > 4 * across
 
 
+def _found_anisotropic(rng, n_poses: int, model: NoiseModel, trials: int) -> int:
+    """In how many of ``trials`` problems of ``n_poses`` the default estimated an along-sight scale."""
+    found = 0
+    for _ in range(trials):
+        p = make_problem(n_poses, "eye_to_hand", rng)
+        B = perturb_cov(p.T_cam_target, rng, model.camera(n_poses))
+        found += "along the line of sight" in classic.calibrate(p.T_base_ee, B).diagnostics["noise_model"]["name"]
+    return found
+
+
 def test_isotropic_camera_noise_stays_isotropic():
-    rng = np.random.default_rng(22)
-    p = make_problem(40, "eye_to_hand", rng)
-    B = perturb_cov(p.T_cam_target, rng, NoiseModel(0.1 * DEG, 1.0 * MM).camera(40))
-    assert classic.calibrate(p.T_base_ee, B).diagnostics["noise_model"]["name"] == "camera, estimated"
+    """The anisotropy test's false alarms: at its significance of 0.05, 3 of 60 expected; 10 or more has a
+    binomial probability under 0.2 %."""
+    from classic.refine import _ANISOTROPY_P
+
+    assert _ANISOTROPY_P == 0.05
+    assert _found_anisotropic(np.random.default_rng(22), 12, NoiseModel(0.1 * DEG, 1.0 * MM), 60) <= 9
+
+
+def test_depth_noise_is_found_on_few_poses():
+    """10 poses of PnP-like noise: an along-sight scale missed costs twice the bound in translation, so the test
+    must find it nearly always (measured: 99 % of 500 trials of ``benchmarks/classic_ml.py``'s pnp 10 cell);
+    at most 3 misses of 60 is a 5 % miss rate with margin."""
+    assert _found_anisotropic(np.random.default_rng(24), 10, PNP, 60) >= 57
 
 
 def test_estimating_depth_noise_beats_isotropic_weights():

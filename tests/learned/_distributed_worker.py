@@ -7,7 +7,8 @@ frames and network on every rank, then writes ``OUT/<kind>.rank<r>.npz`` with
 - ``grad.<name>``: the gradient of the loss of all training frames (one batch) at the initial
   weights, through :func:`learned.trainer._slice_loss` when distributed;
 - ``init.<name>``: the initial parameters and buffers;
-- ``state.<name>``: the parameters and buffers after one :func:`learned.trainer.train` call;
+- ``state.<name>``: the parameters and buffers after one :func:`learned.trainer.train` call (the
+  keypoint model's on randomly shifted images, :data:`SHIFT_PX`);
 - ``pred``: the trained network's predictions (evaluation mode) for every frame.
 
 An optional second argument sets the batch size (default :data:`BATCH`).
@@ -33,6 +34,8 @@ from tests.learned._synthetic import make_frames
 #: slices of 4, 3, 3 and 2, 1, 1), 3 epochs: 9 Adam steps of learning rate 1e-3.
 EPOCHS, BATCH, LR = 3, 10, 1e-3
 KINDS = ("translation", "orientation", "keypoints")
+#: Random shifts of the keypoint model's training images (input pixels).
+SHIFT_PX = 3
 
 
 def frames_and_config(kind: str):
@@ -69,7 +72,9 @@ def run(out: Path, kind: str, batch: int) -> None:
     model = make_network(config)
     arrays = _gradient(model, frames, index)
     arrays.update({f"init.{k}": v.detach().numpy().copy() for k, v in model.state_dict().items()})
-    train(model, frames, index, TrainConfig(EPOCHS, batch, LR), np.random.default_rng(1))
+    # the keypoint model on shifted images: every rank must shift its slice's frames as the one process does
+    config = TrainConfig(EPOCHS, batch, LR, shift_px=SHIFT_PX if kind == "keypoints" else 0)
+    train(model, frames, index, config, np.random.default_rng(1))
     arrays.update({f"state.{k}": v.detach().numpy() for k, v in model.state_dict().items()})
     arrays["pred"] = predict(model, frames)
     np.savez(out / f"{kind}.rank{distributed.rank()}.npz", **arrays)

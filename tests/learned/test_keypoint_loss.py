@@ -78,11 +78,13 @@ def test_the_keypoint_settings_reach_the_keypoint_model_only():
         keypoint_batch_size=4,
         keypoint_channels=(8, 16),
         keypoint_image_size=(64, 48),
+        keypoint_shift_px=3,
     )
     keypoints = preset.train_configs("reservoir", "keypoints")
     assert all(c.schedule == "cosine" and c.heatmap_spread_weight == 0.5 and c.batch_size == 4 for c in keypoints)
+    assert all(c.shift_px == 3 for c in keypoints)
     regression = preset.train_configs("reservoir", "translation")
-    assert all(c.schedule == "constant" and c.heatmap_spread_weight == 0.0 for c in regression)
+    assert all(c.schedule == "constant" and c.heatmap_spread_weight == 0.0 and c.shift_px == 0 for c in regression)
     assert all(c.batch_size == preset.batch_size for c in regression)
     config = preset.model_config("keypoints", n_keypoints=8)
     assert config.channels == (8, 16) and config.image_size == (64, 48)
