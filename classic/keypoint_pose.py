@@ -7,9 +7,13 @@ base-frame positions ``p_base`` (forward kinematics), find ``T_base_cam`` with
 1. RANSAC over minimal samples (three points, rigid closed form, :func:`handeye.core.rigid.rigid_transform`),
    scored by the number of points within ``inlier_m``;
 2. IRLS with a Cauchy weight from that consensus (:func:`handeye.core.rigid.robust_rigid_transform`);
-3. the covariance of ``(omega, v)`` (camera-frame right perturbation, as in
+3. given what was measured (normalised image positions and depths) and each component's sigma: the
+   maximum-likelihood fit of the consensus's projections and depths
+   (:func:`handeye.core.keypoint_fit.likelihood_fit`, the learned placement fit's), so that a pixel error
+   is not read as a depth error and each keypoint counts as much as its sigma allows;
+4. the covariance of ``(omega, v)`` (camera-frame right perturbation, as in
    :mod:`classic.markerless.point_to_plane`), :func:`classic.clustered_covariance.clustered_covariance`
-   with one cluster per frame.
+   with one cluster per frame, of the 3-D residuals or, after step 3, of the whitened ones.
 
 Refuses (``refused`` names the reason) when fewer than ``min_inlier_fraction`` of the points, or
 fewer than six, agree: most keypoints wrong is not an answer.
@@ -23,6 +27,7 @@ import numpy as np
 
 from classic.clustered_covariance import clustered_covariance, pose_sigma
 from handeye.core.errors import ShapeError
+from handeye.core.keypoint_fit import CAUCHY_SCALE, likelihood_fit, whitened_residuals
 from handeye.core.rigid import rigid_transform, robust_rigid_transform
 from handeye.core.se3 import hat
 
@@ -69,6 +74,9 @@ def solve_keypoint_pose(
     min_inlier_fraction: float = 0.5,
     iterations: int = 200,
     rng: np.random.Generator | None = None,
+    meas: np.ndarray | None = None,
+    intrinsics_norm: np.ndarray | None = None,
+    sigma: np.ndarray | None = None,
 ) -> KeypointPoseResult:
     """Robust ``T_base_cam`` from matched camera-frame and base-frame points.
 
@@ -85,6 +93,14 @@ def solve_keypoint_pose(
         RANSAC samples.
     rng : numpy.random.Generator, optional
         Default ``default_rng(0)`` (deterministic).
+    meas : array, shape (M, 3), optional
+        What ``p_cam`` was back-projected from: normalised image position and depth ``(x_n, y_n, z_m)``
+        (:mod:`handeye.core.keypoint_fit`). With ``intrinsics_norm`` and ``sigma``, the pose is the
+        maximum-likelihood fit of the consensus's measurements (step 3).
+    intrinsics_norm : array, shape (M, 4), optional
+        ``(fx, fy, cx, cy)`` normalised, per point.
+    sigma : array, shape (M, 3), optional
+        Sigma of each measured component.
 
     Returns
     -------
@@ -125,17 +141,35 @@ def solve_keypoint_pose(
     r3 = _residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
     inl = valid & (np.linalg.norm(r3, axis=1) < inlier_m)
     frac = inl.sum() / max(valid.sum(), 1)
-    rms_mm = float(np.sqrt(np.mean(np.sum(r3[inl] ** 2, axis=1))) * 1e3) if inl.any() else np.nan
     sel = np.flatnonzero(inl)
-    # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R; three residual rows per point
-    R = T[:3, :3]
-    J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
-    cov = clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
-    sigma = pose_sigma(cov, R)
+    measured = meas is not None and intrinsics_norm is not None and sigma is not None
+    if measured and len(sel) >= 3:
+        meas, intrinsics_norm = np.asarray(meas, dtype=float), np.asarray(intrinsics_norm, dtype=float)
+        sigma = np.broadcast_to(np.asarray(sigma, dtype=float), meas.shape)
+        if meas.shape != p_cam.shape or intrinsics_norm.shape != (m, 4):
+            raise ShapeError(
+                f"meas must be (M, 3) and intrinsics_norm (M, 4) for M = {m}, got {meas.shape} and "
+                f"{intrinsics_norm.shape}"
+            )
+        args = (meas[sel], p_base[sel], intrinsics_norm[sel], sigma[sel])
+        T = likelihood_fit(*(a[None] for a in args), T[None])[0][0]
+        r, J, ok = whitened_residuals(*args, T)
+        # the Cauchy loss's weights per component, as in the fit; J is d r / d (dw, dv), whose covariance is
+        # that of T_base_cam's camera-frame right perturbation (handeye.core.keypoint_fit)
+        wr = np.where(ok[:, None], 1.0 / (1.0 + r**2 / CAUCHY_SCALE**2), 0.0)
+        cov = clustered_covariance(J.reshape(-1, 6), r.reshape(-1), wr.reshape(-1), np.repeat(frame[sel], 3))
+        r3 = _residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
+    else:
+        # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R; three residual rows per point
+        R = T[:3, :3]
+        J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
+        cov = clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
+    rms_mm = float(np.sqrt(np.mean(np.sum(r3[inl] ** 2, axis=1))) * 1e3) if inl.any() else np.nan
+    pose_sig = pose_sigma(cov, T[:3, :3])
     refused = None
     if inl.sum() < 6 or frac < min_inlier_fraction:
         refused = (
             f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
             f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)"
         )
-    return KeypointPoseResult(None if refused else T, refused, sigma, cov, inl, rms_mm)
+    return KeypointPoseResult(None if refused else T, refused, pose_sig, cov, inl, rms_mm)

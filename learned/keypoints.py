@@ -31,8 +31,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from handeye.core.keypoint_fit import CAUCHY_SCALE, likelihood_fit
 from handeye.core.rigid import rigid_transform, robust_rigid_transform
-from handeye.core.se3 import hat, matrix_from_quat_xyzw, quat_xyzw_from_matrix, so3_exp
+from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "frame_poses",
     "camera_pose",
     "likelihood_fit",
+    "CAUCHY_SCALE",
     "remove_offsets",
     "residual_stats",
     "model_residual_stats",
@@ -60,9 +62,6 @@ SIGMA_FLOOR = np.array([1e-4, 1e-4, 1e-3])
 
 #: Keypoints seen in fewer training frames than this get no offset and the largest sigma.
 MIN_RESIDUALS = 8
-
-#: Cauchy scale of the maximum-likelihood fit, in sigmas.
-CAUCHY_SCALE = 2.0
 
 
 def keypoint_targets(
@@ -179,97 +178,6 @@ def camera_pose(
     sigma = np.broadcast_to(stats[1], pred.shape).reshape(1, -1, 3)
     T, w = likelihood_fit(pred.reshape(1, -1, 3), p_base.reshape(1, -1, 3), intr, sigma, T[None])
     return T[0], w[0]
-
-
-def likelihood_fit(
-    meas: np.ndarray,
-    p_base: np.ndarray,
-    intrinsics_norm: np.ndarray,
-    sigma: np.ndarray,
-    T_base_cam0: np.ndarray,
-    iterations: int = 50,
-    ftol: float = 1e-10,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Maximum-likelihood ``T_base_cam`` of G independent point sets, by one batched Levenberg–Marquardt.
-
-    Minimises per set ``sum rho(((x_n, y_n, z) - project(T_cam_base p_base)) / sigma)`` over every
-    point and component, ``rho`` the Cauchy loss of scale :data:`CAUCHY_SCALE` sigmas (``scipy``'s
-    ``loss="cauchy"``), by iteratively reweighted Gauss–Newton steps with Levenberg damping, each set
-    with its own damping and its own acceptance test. The update is ``p_cam <- exp(dw) p_cam + dv``.
-    ``scipy.optimize.least_squares`` solves one problem at a time; the protocol's thousands of frames
-    of six parameters each are solved here at once, in array operations, and the tests check that both
-    reach the same minimum.
-
-    Parameters
-    ----------
-    meas : array, shape (G, M, 3)
-        Measured ``(x_n, y_n, z_m)``, offsets already removed; rows that are not finite or with
-        ``z <= 0`` are left out.
-    p_base : array, shape (G, M, 3)
-        The points in the base frame, metres.
-    intrinsics_norm : array, shape (G, M, 4)
-    sigma : array, shape (M, 3) or (G, M, 3)
-        Sigma of every component.
-    T_base_cam0 : array, shape (G, 4, 4)
-        Starts.
-    iterations : int
-    ftol : float
-        Relative change of the cost that ends a set's iterations.
-
-    Returns
-    -------
-    T_base_cam : array, shape (G, 4, 4)
-    weights : array, shape (G, M)
-        Cauchy weight of every point's whitened residual norm (0 where left out).
-    """
-    meas = np.asarray(meas, dtype=float)
-    p_base = np.asarray(p_base, dtype=float)
-    sigma = np.broadcast_to(np.asarray(sigma, dtype=float), meas.shape)
-    ok = np.isfinite(meas).all(-1) & (meas[..., 2] > 0) & np.isfinite(p_base).all(-1)
-    okf = ok.astype(float)[..., None]
-    meas, pts = np.where(ok[..., None], meas, 0.0), np.where(ok[..., None], p_base, 0.0)
-    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[..., i] for i in range(4))
-    c2 = CAUCHY_SCALE**2
-    T_cam_base = np.linalg.inv(T_base_cam0)
-    R, t = T_cam_base[:, :3, :3], T_cam_base[:, :3, 3]
-
-    def state(R, t):
-        p = np.einsum("gij,gmj->gmi", R, pts) + t[:, None, :]
-        z = np.where(ok, p[..., 2], 1.0)
-        model = np.stack([fx * p[..., 0] / z + cx, fy * p[..., 1] / z + cy, p[..., 2]], axis=-1)
-        r = (meas - model) / sigma * okf
-        return p, z, r, (c2 * np.log1p(r**2 / c2)).sum(axis=(1, 2))
-
-    p, z, r, cost = state(R, t)
-    damping = np.full(len(R), 1e-3)
-    eye3 = np.broadcast_to(np.eye(3), p.shape + (3,))
-    for _ in range(iterations):
-        w = 1.0 / (1.0 + r**2 / c2)  # the Cauchy loss's IRLS weights, per component
-        D = np.zeros(p.shape + (3,))  # d model / d p_cam
-        D[..., 0, 0], D[..., 0, 2] = fx / z, -fx * p[..., 0] / z**2
-        D[..., 1, 1], D[..., 1, 2] = fy / z, -fy * p[..., 1] / z**2
-        D[..., 2, 2] = 1.0
-        J = -(D @ np.concatenate([-hat(p), eye3], axis=-1)) / sigma[..., None] * okf[..., None]  # (G, M, 3, 6)
-        Jw = J * w[..., None]
-        H = np.einsum("gmki,gmkj->gij", Jw, J)
-        g = np.einsum("gmki,gmk->gi", Jw, r)
-        scale = np.trace(H, axis1=1, axis2=2) / 6.0 + 1e-300
-        step = -np.linalg.solve(H + (damping * scale)[:, None, None] * np.eye(6), g[..., None])[..., 0]
-        dR = so3_exp(step[:, :3])
-        R_new, t_new = dR @ R, np.einsum("gij,gj->gi", dR, t) + step[:, 3:]
-        p_new, z_new, r_new, cost_new = state(R_new, t_new)
-        better = cost_new <= cost
-        done = better & (cost - cost_new <= ftol * cost)
-        R, t = np.where(better[:, None, None], R_new, R), np.where(better[:, None], t_new, t)
-        p, z = np.where(better[:, None, None], p_new, p), np.where(better[:, None], z_new, z)
-        r, cost = np.where(better[:, None, None], r_new, r), np.where(better, cost_new, cost)
-        damping = np.where(better, damping / 3.0, damping * 10.0)
-        if np.all(done | (damping > 1e12)):
-            break
-    T_cam_base = np.zeros((len(R), 4, 4))
-    T_cam_base[:, :3, :3], T_cam_base[:, :3, 3], T_cam_base[:, 3, 3] = R, t, 1.0
-    weights = np.where(ok, 1.0 / (1.0 + (r**2).sum(-1) / c2), 0.0)
-    return np.linalg.inv(T_cam_base), weights
 
 
 def residual_stats(pred: np.ndarray, target: np.ndarray) -> np.ndarray:

@@ -76,7 +76,9 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     its pose against the truth, its sigma, the keypoints that agree, or its refusal.
 
     The keypoints' offsets measured on the model's training frames
-    (:func:`learned.keypoints.residual_stats`) are removed first, as in the learned placement fit.
+    (:func:`learned.keypoints.residual_stats`) are removed first and, with the sigmas measured there, the
+    pose is the maximum-likelihood fit of the agreeing keypoints' image positions and depths, as in the
+    learned placement fit; a model without them is fitted 3-D to 3-D.
     """
     import numpy as np
 
@@ -91,11 +93,24 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     rows = []
     for c in cameras:
         idx = np.flatnonzero(frames.camera == c)
-        pred, _ = remove_offsets(predict(model, frames, idx), stats)
+        pred, usable = remove_offsets(predict(model, frames, idx), stats)
         p_cam = backproject_keypoints(pred, frames.intrinsics_norm[idx]).reshape(-1, 3)
         k = pred.shape[1]
+        measured = (
+            {
+                "meas": pred.reshape(-1, 3),
+                "intrinsics_norm": np.repeat(frames.intrinsics_norm[idx].astype(float), k, axis=0),
+                "sigma": np.broadcast_to(stats[1], pred.shape).reshape(-1, 3),
+            }
+            if usable
+            else {}
+        )
         res = solve_keypoint_pose(
-            p_cam, frames.keypoints_base[idx].reshape(-1, 3), np.repeat(np.arange(len(idx)), k), inlier_m=0.1
+            p_cam,
+            frames.keypoints_base[idx].reshape(-1, 3),
+            np.repeat(np.arange(len(idx)), k),
+            inlier_m=0.1,
+            **measured,
         )
         if not res.ok:
             rows.append([c, f"refused: {res.refused}", "-", "-"])

@@ -1,0 +1,55 @@
+"""The foundation's measurement-space pose fit: its residuals' Jacobian and what it leaves out."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from handeye.core.keypoint_fit import likelihood_fit, whitened_residuals
+from handeye.core.se3 import make_transform, so3_exp
+
+
+def _scene(rng, m=40):
+    T_base_cam = make_transform(so3_exp(rng.normal(size=3)), rng.normal(size=3))
+    p_cam = rng.uniform(-0.4, 0.4, (m, 3)) + [0.0, 0.0, 1.5]
+    p_base = p_cam @ T_base_cam[:3, :3].T + T_base_cam[:3, 3]
+    intr = np.tile([0.9, 0.85, 0.5, 0.48], (m, 1))
+    meas = np.column_stack(
+        [
+            intr[:, 0] * p_cam[:, 0] / p_cam[:, 2] + intr[:, 2],
+            intr[:, 1] * p_cam[:, 1] / p_cam[:, 2] + intr[:, 3],
+            p_cam[:, 2],
+        ]
+    )
+    return T_base_cam, p_base, intr, meas
+
+
+def test_the_jacobian_is_the_derivative_of_the_residuals_under_the_fits_update(rng):
+    """The update is ``p_cam <- exp(dw) p_cam + dv``, i.e. ``T_cam_base <- [exp(dw), dv] T_cam_base``."""
+    T, p_base, intr, meas = _scene(rng)
+    sigma = rng.uniform(0.5, 2.0, meas.shape) * [1e-3, 1e-3, 1e-2]
+    T0 = T @ make_transform(so3_exp(rng.normal(size=3) * 0.01), rng.normal(size=3) * 0.01)  # off the truth
+    r0, J, ok = whitened_residuals(meas, p_base, intr, sigma, T0)
+    assert ok.all()
+    h = 1e-6
+    for k in range(6):
+        d = np.zeros(6)
+        d[k] = h
+        E = make_transform(so3_exp(d[:3]), d[3:])
+        r_plus = whitened_residuals(meas, p_base, intr, sigma, np.linalg.inv(E @ np.linalg.inv(T0)))[0]
+        E = make_transform(so3_exp(-d[:3]), -d[3:])
+        r_minus = whitened_residuals(meas, p_base, intr, sigma, np.linalg.inv(E @ np.linalg.inv(T0)))[0]
+        np.testing.assert_allclose(J[..., k], (r_plus - r_minus) / (2 * h), rtol=1e-5, atol=1e-5)
+
+
+def test_exact_measurements_have_zero_residual_and_points_behind_or_missing_are_left_out(rng):
+    T, p_base, intr, meas = _scene(rng)
+    r, J, ok = whitened_residuals(meas, p_base, intr, np.ones(3), T)
+    np.testing.assert_allclose(r, 0.0, atol=1e-12)
+    meas[0, 2] = -1.0
+    meas[1] = np.nan
+    r, J, ok = whitened_residuals(meas, p_base, intr, np.ones(3), T)
+    assert not ok[:2].any() and ok[2:].all()
+    assert (r[:2] == 0).all() and (J[:2] == 0).all()
+    T_fit, weights = likelihood_fit(meas[None], p_base[None], intr[None], np.ones(3), T[None])
+    np.testing.assert_allclose(T_fit[0], T, atol=1e-12)
+    assert (weights[0, :2] == 0).all()
