@@ -44,6 +44,7 @@ __all__ = [
     "camera_pose",
     "likelihood_fit",
     "CAUCHY_SCALE",
+    "CONSENSUS_M",
     "remove_offsets",
     "residual_stats",
     "model_residual_stats",
@@ -62,6 +63,12 @@ SIGMA_FLOOR = np.array([1e-4, 1e-4, 1e-3])
 
 #: Keypoints seen in fewer training frames than this get no offset and the largest sigma.
 MIN_RESIDUALS = 8
+
+#: Consensus distance of :func:`camera_pose` (metres): a keypoint whose back-projection lies farther than
+#: this from its base-frame position under the robust 3-D fit is left out of the likelihood fit, as the
+#: classic keypoint solve leaves out what its RANSAC consensus rejects (``handeye compare`` solves with
+#: this distance). The Cauchy loss alone down-weights such keypoints but keeps them.
+CONSENSUS_M = 0.1
 
 
 def keypoint_targets(
@@ -142,9 +149,10 @@ def camera_pose(
 
     Without ``stats``: a robust (Cauchy IRLS) 3-D to 3-D fit of every back-projected keypoint to its
     base-frame position. With ``stats`` (:func:`residual_stats`): the keypoints' offsets removed, that
-    fit is the start of the maximum-likelihood fit of the projections and depths (:func:`likelihood_fit`):
-    each keypoint counts as much as the network's error on it allows, and a pixel error is not read as
-    a depth error.
+    fit is the start of the maximum-likelihood fit of the projections and depths (:func:`likelihood_fit`)
+    of the keypoints it puts within :data:`CONSENSUS_M` (all of them when fewer than six are): each
+    keypoint counts as much as the network's error on it allows, and a pixel error is not read as a
+    depth error.
 
     Parameters
     ----------
@@ -165,7 +173,7 @@ def camera_pose(
     T_base_cam : array, shape (4, 4)
     weights : array, shape (N * K,)
         Final weights (near 1 for keypoints that agree, near 0 for outliers, 0 for keypoints behind
-        the camera).
+        the camera and, with ``stats``, outside the consensus).
     """
     pred, usable = remove_offsets(pred, stats)
     p_base = np.asarray(p_base, dtype=float)
@@ -176,7 +184,11 @@ def camera_pose(
         return T, w
     intr = np.repeat(np.asarray(intrinsics_norm, dtype=float), pred.shape[1], axis=0)[None]  # (1, N K, 4)
     sigma = np.broadcast_to(stats[1], pred.shape).reshape(1, -1, 3)
-    T, w = likelihood_fit(pred.reshape(1, -1, 3), p_base.reshape(1, -1, 3), intr, sigma, T[None])
+    meas = pred.reshape(-1, 3).copy()
+    far = ~(np.linalg.norm(p_cam @ T[:3, :3].T + T[:3, 3] - p_base.reshape(-1, 3), axis=1) < CONSENSUS_M)
+    if (~far).sum() >= 6:
+        meas[far] = np.nan  # left out
+    T, w = likelihood_fit(meas[None], p_base.reshape(1, -1, 3), intr, sigma, T[None])
     return T[0], w[0]
 
 

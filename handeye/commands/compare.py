@@ -86,7 +86,7 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     from handeye.core.metrics import pose_error
     from handeye.core.se3 import transform_from_pos_quat_xyzw
     from handeye.core.tables import markdown_table
-    from learned.keypoints import backproject_keypoints, model_residual_stats, remove_offsets
+    from learned.keypoints import CONSENSUS_M, backproject_keypoints, model_residual_stats, remove_offsets
     from learned.trainer import predict
 
     stats = model_residual_stats(model)
@@ -109,7 +109,7 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
             p_cam,
             frames.keypoints_base[idx].reshape(-1, 3),
             np.repeat(np.arange(len(idx)), k),
-            inlier_m=0.1,
+            inlier_m=CONSENSUS_M,
             **measured,
         )
         if not res.ok:

@@ -127,6 +127,31 @@ def test_keypoints_behind_the_camera_get_no_weight():
     np.testing.assert_allclose(T, T_true, atol=1e-9)
 
 
+def test_keypoints_outside_the_consensus_are_left_out_of_the_likelihood_fit():
+    """Exact keypoints and 15 % of them 0.2-0.5 m off in depth: the robust 3-D fit puts those beyond
+    CONSENSUS_M, the likelihood fit leaves them out and lands on the truth; with every keypoint in (the
+    consensus made wide) the Cauchy loss only down-weights them and the pose is pulled off."""
+    import learned.keypoints as kp
+
+    rng = np.random.default_rng(6)
+    p_base, target, intr, T_true = _placement(rng)
+    pred = target.copy()
+    bad = rng.random(pred.shape[:2]) < 0.15
+    pred[bad, 2] += rng.uniform(0.2, 0.5, bad.sum())
+    stats = np.stack([np.zeros((6, 3)), np.full((6, 3), 0.01)])
+    T, w = camera_pose(pred, p_base, intr, stats=stats)
+    np.testing.assert_allclose(T, T_true, atol=1e-9)
+    assert np.all(w[bad.ravel()] == 0.0) and np.all(w[~bad.ravel()] > 0.99)
+    wide = kp.CONSENSUS_M
+    try:
+        kp.CONSENSUS_M = 10.0
+        T_all, w_all = camera_pose(pred, p_base, intr, stats=stats)
+    finally:
+        kp.CONSENSUS_M = wide
+    assert np.all(w_all[bad.ravel()] > 0.0)
+    assert np.abs(T_all - T_true).max() > 1e-6
+
+
 def test_a_model_saved_without_residual_stats_loads_with_none_and_unexpected_weights_are_refused():
     model = KeypointNet(ModelConfig(kind="keypoints", image_size=(32, 32), channels=(8,), n_keypoints=4))
     assert model_residual_stats(model) is None  # NaN until estimated
