@@ -172,13 +172,15 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
         compute_rows,
     )
     # per camera pose validation
-    how = (
-        "the keypoints of all the pose's frames fitted at once (learned.keypoints.camera_pose: the model's "
-        "offsets removed, pixels and depths weighed by its sigmas; robust 3-D to 3-D for a model saved "
-        "without them)"
-        if family == "keypoints"
-        else "the frame predictions of the pose averaged"
-    )
+    how = "the frame predictions of the pose averaged"
+    if family == "keypoints":
+        from learned.keypoints import CONSENSUS_M
+
+        how = (
+            "the keypoints of all the pose's frames fitted at once (learned.keypoints.camera_pose: the model's "
+            f"offsets removed, the keypoints within {CONSENSUS_M:g} m of a robust 3-D to 3-D fit, their pixels "
+            "and depths weighed by its sigmas; robust 3-D to 3-D for a model saved without them)"
+        )
     md_rows = []
     for strategy, pc in results["per_camera"].items():
         inf = results.get("inference", {}).get(strategy, {})
