@@ -136,13 +136,13 @@ def camera_frame_errors(kp, frames, index, stats) -> np.ndarray:
     for c in np.unique(frames.camera[index]):
         m = frames.camera[index] == c
         p_base = frames.keypoints_base[index][m].astype(float)
-        T, _ = camera_pose(kp[m], p_base, frames.intrinsics_norm[index][m], stats=stats)
+        T_base_cam, _ = camera_pose(kp[m], p_base, frames.intrinsics_norm[index][m], stats=stats)
         i0 = index[m][0]
-        R = matrix_from_quat_xyzw(frames.truth_q_base_cam_xyzw[i0])
-        t_mm = frames.truth_t_base_cam_mm[i0]
-        e = R.T @ (T[:3, 3] * 1000.0 - t_mm)
-        w = so3_log(R.T @ T[:3, :3])
-        p_c = (R.T @ (p_base.reshape(-1, 3) * 1000.0 - t_mm).T).T.mean(0)
+        R_base_cam = matrix_from_quat_xyzw(frames.truth_q_base_cam_xyzw[i0])  # the truth; quaternion (x, y, z, w)
+        t_base_cam_mm = frames.truth_t_base_cam_mm[i0]
+        e = R_base_cam.T @ (T_base_cam[:3, 3] * 1000.0 - t_base_cam_mm)
+        w = so3_log(R_base_cam.T @ T_base_cam[:3, :3])
+        p_c = (R_base_cam.T @ (p_base.reshape(-1, 3) * 1000.0 - t_base_cam_mm).T).T.mean(0)
         rows.append(np.r_[e, np.degrees(w), -np.cross(w, p_c), np.linalg.norm(p_c)])
     return np.array(rows)
 

@@ -27,8 +27,8 @@ import numpy as np
 
 from classic.clustered_covariance import clustered_covariance, pose_sigma
 from handeye.core.errors import ShapeError
-from handeye.core.keypoint_fit import CAUCHY_SCALE, likelihood_fit, whitened_residuals
-from handeye.core.rigid import rigid_transform, robust_rigid_transform
+from handeye.core.keypoint_fit import cauchy_weights, likelihood_fit, whitened_residuals
+from handeye.core.rigid import rigid_residuals, rigid_transform, robust_rigid_transform
 from handeye.core.se3 import hat
 
 __all__ = ["KeypointPoseResult", "solve_keypoint_pose"]
@@ -60,10 +60,6 @@ class KeypointPoseResult:
     @property
     def ok(self) -> bool:
         return self.refused is None
-
-
-def _residuals(T, p_cam, p_base):
-    return p_cam @ T[:3, :3].T + T[:3, 3] - p_base
 
 
 def solve_keypoint_pose(
@@ -100,7 +96,7 @@ def solve_keypoint_pose(
     intrinsics_norm : array, shape (M, 4), optional
         ``(fx, fy, cx, cy)`` normalised, per point.
     sigma : array, shape (M, 3), optional
-        Sigma of each measured component.
+        Sigma of each measured component. ``meas``, ``intrinsics_norm`` and ``sigma`` come together.
 
     Returns
     -------
@@ -111,6 +107,17 @@ def solve_keypoint_pose(
     if p_cam.shape != p_base.shape or p_cam.ndim != 2 or p_cam.shape[1] != 3:
         raise ShapeError(f"keypoints must both be (M, 3), got {p_cam.shape} and {p_base.shape}")
     m = len(p_cam)
+    given = [a is not None for a in (meas, intrinsics_norm, sigma)]
+    if any(given) and not all(given):
+        raise ShapeError("meas, intrinsics_norm and sigma go together: give all three or none")
+    if all(given):
+        meas, intrinsics_norm = np.asarray(meas, dtype=float), np.asarray(intrinsics_norm, dtype=float)
+        sigma = np.asarray(sigma, dtype=float)
+        if meas.shape != (m, 3) or intrinsics_norm.shape != (m, 4) or sigma.shape != (m, 3):
+            raise ShapeError(
+                f"meas and sigma must be (M, 3) and intrinsics_norm (M, 4) for M = {m}, got {meas.shape}, "
+                f"{sigma.shape} and {intrinsics_norm.shape}"
+            )
     frame = np.arange(m) if frame is None else np.asarray(frame)
     rng = np.random.default_rng(0) if rng is None else rng
     valid = np.isfinite(p_cam).all(1) & np.isfinite(p_base).all(1)
@@ -132,33 +139,25 @@ def solve_keypoint_pose(
         T = rigid_transform(p_cam[s], p_base[s])
         if not np.isfinite(T).all():
             continue
-        count = int((np.linalg.norm(_residuals(T, p_cam[idx], p_base[idx]), axis=1) < inlier_m).sum())
+        count = int((np.linalg.norm(rigid_residuals(T, p_cam[idx], p_base[idx]), axis=1) < inlier_m).sum())
         if count > best_count:
             best, best_count = T, count
     w0 = np.zeros(m)
-    w0[idx] = np.linalg.norm(_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
+    w0[idx] = np.linalg.norm(rigid_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
     T, w = robust_rigid_transform(p_cam, p_base, w0, floor_m=1e-6)
-    r3 = _residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
+    r3 = rigid_residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
     inl = valid & (np.linalg.norm(r3, axis=1) < inlier_m)
     frac = inl.sum() / max(valid.sum(), 1)
     sel = np.flatnonzero(inl)
-    measured = meas is not None and intrinsics_norm is not None and sigma is not None
-    if measured and len(sel) >= 3:
-        meas, intrinsics_norm = np.asarray(meas, dtype=float), np.asarray(intrinsics_norm, dtype=float)
-        sigma = np.broadcast_to(np.asarray(sigma, dtype=float), meas.shape)
-        if meas.shape != p_cam.shape or intrinsics_norm.shape != (m, 4):
-            raise ShapeError(
-                f"meas must be (M, 3) and intrinsics_norm (M, 4) for M = {m}, got {meas.shape} and "
-                f"{intrinsics_norm.shape}"
-            )
+    if all(given) and len(sel) >= 3:
         args = (meas[sel], p_base[sel], intrinsics_norm[sel], sigma[sel])
         T = likelihood_fit(*(a[None] for a in args), T[None])[0][0]
         r, J, ok = whitened_residuals(*args, T)
         # the Cauchy loss's weights per component, as in the fit; J is d r / d (dw, dv), whose covariance is
         # that of T_base_cam's camera-frame right perturbation (handeye.core.keypoint_fit)
-        wr = np.where(ok[:, None], 1.0 / (1.0 + r**2 / CAUCHY_SCALE**2), 0.0)
+        wr = np.where(ok[:, None], cauchy_weights(r), 0.0)
         cov = clustered_covariance(J.reshape(-1, 6), r.reshape(-1), wr.reshape(-1), np.repeat(frame[sel], 3))
-        r3 = _residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
+        r3 = rigid_residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
     else:
         # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R; three residual rows per point
         R = T[:3, :3]

@@ -31,8 +31,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from handeye.core.keypoint_fit import CAUCHY_SCALE, likelihood_fit
-from handeye.core.rigid import rigid_transform, robust_rigid_transform
+from handeye.core.keypoint_fit import likelihood_fit
+from handeye.core.rigid import rigid_residuals, rigid_transform, robust_rigid_transform
 from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 
@@ -42,8 +42,6 @@ __all__ = [
     "backproject_keypoints",
     "frame_poses",
     "camera_pose",
-    "likelihood_fit",
-    "CAUCHY_SCALE",
     "CONSENSUS_M",
     "remove_offsets",
     "residual_stats",
@@ -123,7 +121,8 @@ def frame_poses(
 
     Without ``stats``: the 3-D to 3-D closed form. With ``stats`` (:func:`residual_stats`): the
     offsets removed, that closed form is the start of each frame's maximum-likelihood fit
-    (:func:`likelihood_fit`, all frames at once). A frame with fewer than three usable keypoints is NaN.
+    (:func:`handeye.core.keypoint_fit.likelihood_fit`, all frames at once). A frame with fewer than three
+    usable keypoints is NaN.
     """
     pred, usable = remove_offsets(pred, stats)
     T = rigid_transform(backproject_keypoints(pred, intrinsics_norm), p_base)
@@ -149,10 +148,10 @@ def camera_pose(
 
     Without ``stats``: a robust (Cauchy IRLS) 3-D to 3-D fit of every back-projected keypoint to its
     base-frame position. With ``stats`` (:func:`residual_stats`): the keypoints' offsets removed, that
-    fit is the start of the maximum-likelihood fit of the projections and depths (:func:`likelihood_fit`)
-    of the keypoints it puts within :data:`CONSENSUS_M` (all of them when fewer than six are): each
-    keypoint counts as much as the network's error on it allows, and a pixel error is not read as a
-    depth error.
+    fit is the start of the maximum-likelihood fit of the projections and depths
+    (:func:`handeye.core.keypoint_fit.likelihood_fit`) of the keypoints it puts within :data:`CONSENSUS_M`
+    (all of them when fewer than six are): each keypoint counts as much as the network's error on it
+    allows, and a pixel error is not read as a depth error.
 
     Parameters
     ----------
@@ -185,7 +184,7 @@ def camera_pose(
     intr = np.repeat(np.asarray(intrinsics_norm, dtype=float), pred.shape[1], axis=0)[None]  # (1, N K, 4)
     sigma = np.broadcast_to(stats[1], pred.shape).reshape(1, -1, 3)
     meas = pred.reshape(-1, 3).copy()
-    far = ~(np.linalg.norm(p_cam @ T[:3, :3].T + T[:3, 3] - p_base.reshape(-1, 3), axis=1) < CONSENSUS_M)
+    far = ~(np.linalg.norm(rigid_residuals(T, p_cam, p_base.reshape(-1, 3)), axis=1) < CONSENSUS_M)
     if (~far).sum() >= 6:
         meas[far] = np.nan  # left out
     T, w = likelihood_fit(meas[None], p_base.reshape(1, -1, 3), intr, sigma, T[None])

@@ -181,7 +181,7 @@ PRESETS = {
         # the keypoint model: width 32 with its convolutions in bfloat16 (on this CPU's AMX as fast as width
         # 24 in float32), heatmaps pulled to a peak, batches of 8 (benchmarks/keypoint_training.py, placement
         # median with the 3-D to 3-D fit: 11.8 mm against 39.4 mm for width 8, float32, no spread, batches
-        # of 32; 10.8 mm with the likelihood fit)
+        # of 32; 9.8 mm with the likelihood fit and its consensus, the protocol's first batch repeat)
         keypoint_channels=(32,),
         keypoint_trunk_dtype="bfloat16",
         keypoint_spread_weight=1.0,

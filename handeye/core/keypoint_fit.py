@@ -21,10 +21,16 @@ import numpy as np
 
 from handeye.core.se3 import hat, so3_exp
 
-__all__ = ["CAUCHY_SCALE", "likelihood_fit", "whitened_residuals"]
+__all__ = ["CAUCHY_SCALE", "cauchy_weights", "likelihood_fit", "whitened_residuals"]
 
 #: Cauchy scale of the maximum-likelihood fit, in sigmas.
 CAUCHY_SCALE = 2.0
+
+
+def cauchy_weights(r: np.ndarray) -> np.ndarray:
+    """IRLS weights ``1 / (1 + (r / c)^2)`` of whitened residuals ``r`` under the Cauchy loss of scale
+    :data:`CAUCHY_SCALE` (``scipy``'s ``loss="cauchy"``), elementwise."""
+    return 1.0 / (1.0 + np.square(r) / CAUCHY_SCALE**2)
 
 
 def _model_and_jacobian(p: np.ndarray, fx, fy, cx, cy, ok: np.ndarray):
@@ -136,7 +142,7 @@ def likelihood_fit(
     dmodel, r, cost = state(R, t)
     damping = np.full(len(R), 1e-3)
     for _ in range(iterations):
-        w = 1.0 / (1.0 + r**2 / c2)  # the Cauchy loss's IRLS weights, per component
+        w = cauchy_weights(r)  # per component
         J = -dmodel / sigma[..., None] * okf[..., None]  # (G, M, 3, 6)
         Jw = J * w[..., None]
         H = np.einsum("gmki,gmkj->gij", Jw, J)
@@ -156,5 +162,5 @@ def likelihood_fit(
             break
     T_cam_base = np.zeros((len(R), 4, 4))
     T_cam_base[:, :3, :3], T_cam_base[:, :3, 3], T_cam_base[:, 3, 3] = R, t, 1.0
-    weights = np.where(ok, 1.0 / (1.0 + (r**2).sum(-1) / c2), 0.0)
+    weights = np.where(ok, cauchy_weights(np.linalg.norm(r, axis=-1)), 0.0)
     return np.linalg.inv(T_cam_base), weights

@@ -15,7 +15,7 @@ import numpy as np
 
 from handeye.core.errors import ShapeError
 
-__all__ = ["rigid_transform", "robust_rigid_transform"]
+__all__ = ["rigid_transform", "robust_rigid_transform", "rigid_residuals"]
 
 
 def rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
@@ -66,6 +66,18 @@ def rigid_transform(p_from: np.ndarray, p_to: np.ndarray, weights: np.ndarray | 
     return T
 
 
+def rigid_residuals(T: np.ndarray, p_from: np.ndarray, p_to: np.ndarray) -> np.ndarray:
+    """``T p_from - p_to`` of matched points, shape (M, 3); NaN points give NaN rows.
+
+    Parameters
+    ----------
+    T : array, shape (4, 4)
+        Maps ``p_from``'s frame to ``p_to``'s (:func:`rigid_transform`'s result).
+    p_from, p_to : array, shape (M, 3)
+    """
+    return np.asarray(p_from, dtype=float) @ T[:3, :3].T + T[:3, 3] - np.asarray(p_to, dtype=float)
+
+
 def robust_rigid_transform(
     p_from: np.ndarray,
     p_to: np.ndarray,
@@ -101,7 +113,7 @@ def robust_rigid_transform(
     for _ in range(iterations):
         if not np.isfinite(T).all():
             break
-        r = np.linalg.norm(np.nan_to_num(p_from) @ T[:3, :3].T + T[:3, 3] - np.nan_to_num(p_to), axis=-1)
+        r = np.linalg.norm(rigid_residuals(T, np.nan_to_num(p_from), np.nan_to_num(p_to)), axis=-1)
         s = max(1.4826 * float(np.median(r[w0 > 0])), floor_m)
         w = w0 / (1.0 + (r / (2.0 * s)) ** 2)
         T = rigid_transform(p_from, p_to, w)

@@ -101,3 +101,17 @@ def test_measurement_weights_beat_the_3d_fit_and_their_sigma_matches_the_error(r
     rms, rms_3d = np.sqrt(np.mean(np.square(errs))), np.sqrt(np.mean(np.square(errs_3d)))
     assert rms < 0.5 * rms_3d, (rms, rms_3d)
     assert 0.7 <= rms / np.mean(sigmas) <= 1.4, (rms, np.mean(sigmas))
+
+
+def test_measurements_come_complete_and_shaped_or_are_refused(rng):
+    import pytest
+
+    from handeye.core.errors import ShapeError
+
+    T, p_cam, p_base, frame = _problem(rng)
+    meas, intr = _measured(p_cam)
+    sigma = np.tile([1e-3, 1e-3, 0.01], (len(meas), 1))
+    with pytest.raises(ShapeError, match="all three or none"):
+        solve_keypoint_pose(p_cam, p_base, frame, meas=meas, intrinsics_norm=intr)
+    with pytest.raises(ShapeError, match="intrinsics_norm"):
+        solve_keypoint_pose(p_cam, p_base, frame, meas=meas, intrinsics_norm=intr[:, :3], sigma=sigma)

@@ -168,43 +168,6 @@ def test_a_model_saved_without_residual_stats_loads_with_none_and_unexpected_wei
         load_weights(again, {k: v for k, v in state.items() if not k.startswith("heat")})
 
 
-def test_the_batched_fit_reaches_scipys_minimum_of_the_same_cost():
-    """:func:`likelihood_fit` against ``scipy.optimize.least_squares`` (loss "cauchy", same scale) on noisy
-    placements: the same minimum, to far below the noise (1e-6 m against millimetres)."""
-    from scipy.optimize import least_squares
-    from scipy.spatial.transform import Rotation
-
-    from learned.keypoints import CAUCHY_SCALE, likelihood_fit
-
-    rng = np.random.default_rng(6)
-    sigma = np.tile([0.004, 0.004, 0.02], (6, 1))
-    for _ in range(3):
-        p_base, target, intr, T_true = _placement(rng, n_frames=10)
-        pred = target + rng.normal(size=target.shape) * sigma
-        pred[0, 0] += [0.1, -0.1, 0.3]  # one gross outlier for the loss to bend on
-        T, _ = likelihood_fit(
-            pred.reshape(1, -1, 3),
-            p_base.reshape(1, -1, 3),
-            np.repeat(intr, 6, axis=0)[None],
-            np.broadcast_to(sigma, pred.shape).reshape(1, -1, 3),
-            T_true[None],
-        )
-
-        def residuals(x):
-            p = p_base.reshape(-1, 3) @ Rotation.from_rotvec(x[:3]).as_matrix().T + x[3:]
-            fx, fy, cx, cy = K_NORM
-            model = np.stack([fx * p[:, 0] / p[:, 2] + cx, fy * p[:, 1] / p[:, 2] + cy, p[:, 2]], axis=-1)
-            return ((pred.reshape(-1, 3) - model) / np.tile(sigma, (10, 1))).ravel()
-
-        T_cam_base = np.linalg.inv(T_true)
-        x0 = np.r_[Rotation.from_matrix(T_cam_base[:3, :3]).as_rotvec(), T_cam_base[:3, 3]]
-        ref = least_squares(residuals, x0, loss="cauchy", f_scale=CAUCHY_SCALE, xtol=1e-15, ftol=1e-15, gtol=1e-15)
-        T_ref = np.eye(4)
-        T_ref[:3, :3], T_ref[:3, 3] = Rotation.from_rotvec(ref.x[:3]).as_matrix(), ref.x[3:]
-        np.testing.assert_allclose(T[0], np.linalg.inv(T_ref), atol=1e-6)
-        assert _error(T[0], T_true)[0] > 1e-3  # the noise moved it: the agreement is not both staying at the start
-
-
 def test_per_frame_fits_with_statistics_recover_each_frame_and_leave_short_frames_nan():
     p_base, target, intr, T_true = _placement(np.random.default_rng(7), n_frames=5)
     stats = np.stack([np.zeros((6, 3)), np.full((6, 3), 0.01)])
