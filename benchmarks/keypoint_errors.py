@@ -5,8 +5,8 @@ Run from the repository root, on a dataset and a keypoint model trained on it::
     python benchmarks/keypoint_errors.py --data data/paper-sim-noisy --model runs/kp-cpu/batch/keypoints.pt \\
         --out benchmarks/results/keypoint_errors_cpu_paper-sim.md
 
-The model (:mod:`learned.keypoints`) predicts per keypoint (the robot's joint origins, then the
-flange, then the reference point) a normalised image position and a depth on every test frame;
+The model (:mod:`learned.keypoints`) predicts per keypoint (the robot's joint origins, points along
+its long links, the flange, the reference point) a normalised image position and a depth on every test frame;
 the targets are the keypoints projected with the true ``T_base_cam``. Reported:
 
 1. Per keypoint, over the test frames where its target lies in the image: median pixel error

@@ -41,11 +41,22 @@ DEFAULT_VARIANTS = (
 )
 
 
-def _train(data: Path, spec: str, out: Path, seed: int, threads: int, average: int, shift: int) -> tuple[str, float]:
+def _use_link_fractions(fractions) -> None:
+    """Points along the long links at these fractions (``sim.robot.LINK_FRACTIONS``); ``None``: the default."""
+    if fractions is not None:
+        import sim.robot
+
+        sim.robot.LINK_FRACTIONS = tuple(float(f) for f in fractions)
+
+
+def _train(
+    data: Path, spec: str, out: Path, seed: int, threads: int, average: int, shift: int, fractions=None
+) -> tuple[str, float]:
     from handeye.learned_frames import load_keypoint_frames
     from learned.experiment import run_experiment
     from learned.presets import get_preset
 
+    _use_link_fractions(fractions)  # in the worker process too
     name, width, epochs, schedule, spread, size, batch, dtype = _fields(spec)
     cpu = get_preset("cpu")
     preset = replace(
@@ -114,6 +125,14 @@ def main(argv=None):
     ap.add_argument(
         "--shift-px", type=int, default=0, help="every variant trains on images shifted by up to this many pixels"
     )
+    ap.add_argument(
+        "--link-fractions",
+        type=float,
+        nargs="*",
+        default=None,
+        help="keypoints along the long links at these fractions (sim.robot.LINK_FRACTIONS; none given: no such "
+        "keypoints, the set before they were added); default: the robot's",
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--work", type=Path, default=Path("runs/keypoint_training"), help="where the models go")
     ap.add_argument("--out", type=Path, help="also write the report here")
@@ -143,7 +162,15 @@ def main(argv=None):
         with ProcessPoolExecutor(args.jobs) as pool:
             futures = [
                 pool.submit(
-                    _train, args.data, spec, dirs[spec], args.seed, args.threads, args.average_epochs, args.shift_px
+                    _train,
+                    args.data,
+                    spec,
+                    dirs[spec],
+                    args.seed,
+                    args.threads,
+                    args.average_epochs,
+                    args.shift_px,
+                    args.link_fractions,
                 )
                 for spec in args.variants
             ]
@@ -156,6 +183,10 @@ def main(argv=None):
         f"{args.threads} thread(s) each; seed {args.seed}; weights averaged over the last {args.average_epochs} "
         f"epochs (0: not averaged); training images shifted by up to {args.shift_px} pixels (0: not shifted)."
     )
+    import sim.robot
+
+    _use_link_fractions(args.link_fractions)
+    emit(f"Keypoints along the long links at fractions {sim.robot.LINK_FRACTIONS}.")
     emit()
     emit(
         "| variant | input px | width | trunk | epochs | batch | schedule | spread weight | train px | test px | "

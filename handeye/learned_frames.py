@@ -24,7 +24,7 @@ def load_keypoint_frames(
     urdf: str | Path | None = None,
     package_dirs=(),
 ):
-    """:func:`learned.data.load_frames` with ``keypoints_base`` filled (joint origins, flange, reference point)."""
+    """:func:`learned.data.load_frames` with ``keypoints_base`` filled (:meth:`sim.robot.Robot.keypoints_base`)."""
     from learned.data import load_frames, with_keypoints
 
     robot = dataset_robot(Dataset.open(root), urdf, package_dirs)

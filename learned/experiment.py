@@ -387,7 +387,7 @@ def run_experiment(
         if state and u == state["unit"]:  # as it was when the checkpoint was written (loading networks drew)
             torch.set_rng_state(state["torch_rng"])
         rng = np.random.default_rng([seed, rep, si, ki])
-        first, later = preset.train_configs(name, kind)
+        first, later = preset.train_configs(name, kind, int((frames.split == "train").sum()))
         strat = make_strategy(
             name,
             preset.model_config(kind, offset_mm, n_keypoints),

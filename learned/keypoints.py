@@ -3,10 +3,10 @@
 The paper's networks regress ``T_base_cam`` from a whole image, a mapping that must be learned
 anew for every region of camera space. What an image shows directly is the robot in the camera's
 frame. :class:`KeypointNet` is fully convolutional (translation-equivariant): per keypoint (joint
-origins, flange, reference point) a heatmap whose soft-argmax is the keypoint's image position,
-and a depth map read at the same place (the sensor's depth plus a learned offset, since a joint's
-origin lies inside the link). The keypoints' base-frame positions are known from the joints
-(forward kinematics, supplied with the frames), so the camera pose follows in closed form: per
+origins, points along the long links, flange, reference point) a heatmap whose soft-argmax is the
+keypoint's image position, and a depth map read at the same place (the sensor's depth plus a learned
+offset, since a joint's origin lies inside the link). The keypoints' base-frame positions are known from
+the joints (forward kinematics, supplied with the frames), so the camera pose follows in closed form: per
 frame (:func:`frame_poses`) and, robustly, across all frames of a camera placement
 (:func:`camera_pose`). Targets come from the label, the kinematics and the intrinsics: no new
 annotation.

@@ -21,6 +21,11 @@ ROBOTS = ("ur5", "ur3")
 _LOADERS = {"ur5": "UR5Loader", "ur3": "UR3Loader"}
 #: The reference point: the tip of a 12 cm tool along the flange's z axis.
 DEFAULT_T_EE_REF = make_transform(np.eye(3), [0.0, 0.0, 0.12])
+#: Links whose two joint origins lie at least this far apart (metres) get keypoints along the segment between
+#: them (:meth:`Robot.keypoints_base`): on a UR the upper arm and the forearm.
+LONG_LINK_M = 0.2
+#: Where along such a segment, from its first joint's origin (0) to the next one's (1).
+LINK_FRACTIONS = (0.25, 0.5, 0.75)
 
 
 @dataclass
@@ -49,6 +54,7 @@ class Robot:
     T_ee_ref: np.ndarray = field(default_factory=lambda: DEFAULT_T_EE_REF.copy())
     shoulder_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
     reach_m: float = 0.0
+    _link_points_cache: list | None = field(default=None, repr=False, compare=False)
 
     @property
     def pin(self):
@@ -83,13 +89,33 @@ class Robot:
 
     @property
     def keypoint_names(self) -> list[str]:
-        """Names of :meth:`keypoints_base`: every joint's origin, then the flange and the reference point."""
-        return [str(self.model.names[j]) for j in range(1, self.model.njoints)] + ["flange", "ref"]
+        """Names of :meth:`keypoints_base`: every joint's origin, the points along the long links
+        (``shoulder_lift@0.50``: half-way from ``shoulder_lift_joint``'s origin to the next joint's), the
+        flange, the reference point."""
+        joints = [str(self.model.names[j]) for j in range(1, self.model.njoints)]
+        links = [f"{joints[a].removesuffix('_joint')}@{f:.2f}" for a, f in self._link_points()]
+        return joints + links + ["flange", "ref"]
+
+    def _link_points(self) -> list[tuple[int, float]]:
+        """``(a, f)`` per point along a long link: the point ``(1 - f) o_a + f o_(a+1)`` of joint origins ``o``
+        (0-based joint indices), for the links of :data:`LONG_LINK_M` or longer. Joint ``a + 1``'s origin is
+        fixed in joint ``a``'s link, so the distance, and each point's place in that link, do not depend on
+        the joints: read once, at the model's neutral configuration."""
+        if self._link_points_cache is None:
+            pin = self.pin
+            pin.forwardKinematics(self.model, self.data, pin.neutral(self.model))
+            o = np.array([self.data.oMi[j].translation for j in range(1, self.model.njoints)])
+            long = [a for a in range(len(o) - 1) if np.linalg.norm(o[a + 1] - o[a]) >= LONG_LINK_M]
+            self._link_points_cache = [(a, float(f)) for a in long for f in LINK_FRACTIONS]
+        return self._link_points_cache
 
     def keypoints_base(self, q: np.ndarray) -> np.ndarray:
-        """Points on the arm known from the joints: joint origins, flange, reference point, base frame.
+        """Points on the arm known from the joints, base frame (names: :attr:`keypoint_names`).
 
-        What the learned keypoint model finds in the image (``learned.keypoints``).
+        What the learned keypoint model finds in the image (``learned.keypoints``): every joint's origin,
+        points along the long links (:data:`LINK_FRACTIONS` of the way between two joint origins at least
+        :data:`LONG_LINK_M` apart: more points spread over the arm, seen on its surface), the flange and the
+        reference point.
 
         Parameters
         ----------
@@ -97,16 +123,20 @@ class Robot:
 
         Returns
         -------
-        p_base : array, shape (..., nq + 2, 3)
-            Metres.
+        p_base : array, shape (..., K, 3)
+            Metres; ``K = nq + len(link points) + 2``.
         """
         pin = self.pin
         q = np.asarray(q, dtype=float)
         flat = q.reshape(-1, self.nq)
-        out = np.empty((len(flat), self.model.njoints + 1, 3))
+        links = self._link_points()
+        nj = self.model.njoints - 1
+        out = np.empty((len(flat), nj + len(links) + 2, 3))
         for k, qk in enumerate(flat):
             pin.framesForwardKinematics(self.model, self.data, qk)
-            out[k, :-2] = [self.data.oMi[j].translation for j in range(1, self.model.njoints)]
+            out[k, :nj] = [self.data.oMi[j].translation for j in range(1, self.model.njoints)]
+            for i, (a, f) in enumerate(links):
+                out[k, nj + i] = (1.0 - f) * out[k, a] + f * out[k, a + 1]
             T_base_ee = self.data.oMf[self.ee_frame].homogeneous
             out[k, -2] = T_base_ee[:3, 3]
             out[k, -1] = (T_base_ee @ self.T_ee_ref)[:3, 3]

@@ -92,3 +92,24 @@ def test_the_keypoint_settings_reach_the_keypoint_model_only():
     assert preset.model_config("translation").image_size == tuple(preset.image_size)
     with pytest.raises(ValueError, match="schedule"):
         TrainConfig(schedule="linear")
+
+
+def test_a_smaller_dataset_trains_the_keypoint_model_more_epochs_up_to_the_cap():
+    """Epochs scale by reference / training frames, between 1 and the cap, for the keypoint model alone."""
+    from dataclasses import replace
+
+    from learned.presets import get_preset
+
+    preset = replace(
+        get_preset("tiny"), keypoint_epochs=(15, 8, 15), keypoint_reference_frames=4200, keypoint_max_epoch_scale=2.0
+    )
+
+    def epochs(strategy, kind, n):
+        return tuple(c.epochs for c in preset.train_configs(strategy, kind, n))
+
+    assert epochs("reservoir", "keypoints", 4200) == (15, 8) == epochs("reservoir", "keypoints", None)
+    assert epochs("reservoir", "keypoints", 9000) == (15, 8)  # more data: never fewer epochs
+    assert epochs("reservoir", "keypoints", 2800) == (22, 12)  # 1.5x: round(22.5) = 22, 12
+    assert epochs("batch", "keypoints", 1900) == (30, 16)  # 2.21x, capped at 2
+    assert epochs("reservoir", "translation", 1900) == (preset.first_epochs, preset.later_epochs)
+    assert replace(preset, keypoint_reference_frames=0).epoch_scale("keypoints", 1900) == 1.0

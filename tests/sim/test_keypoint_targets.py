@@ -32,7 +32,7 @@ def test_flange_keypoint_target_is_the_rendered_marker_centre(marker_dataset):
     ds = Dataset.open(marker_dataset)
     K = np.array(ds.meta["intrinsics"]["K"])
     W, H = ds.meta["intrinsics"]["width"], ds.meta["intrinsics"]["height"]
-    flange = -2  # keypoints: the joints' origins, then the flange, then the reference point
+    flange = -2  # keypoints: the joints' origins, points along the long links, the flange, the reference point
     targets = keypoint_targets(
         frames.keypoints_base, frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw, frames.intrinsics_norm
     )

@@ -51,6 +51,31 @@ def test_batch_and_reference_point(robot):
     np.testing.assert_allclose(robot.fk_ref(q), T @ robot.T_ee_ref, atol=EXACT)
 
 
+def test_keypoints_along_the_long_links_ride_with_their_link(robot):
+    """The upper arm and the forearm (DH a2, a3) carry points at LINK_FRACTIONS of the way between their joint
+    origins; each stays at a fixed place in its link whatever the joints do."""
+    from sim.robot import LINK_FRACTIONS
+
+    names = robot.keypoint_names
+    q = np.random.default_rng(3).uniform(-2, 2, (4, robot.nq))
+    kp = robot.keypoints_base(q)
+    assert kp.shape == (4, robot.nq + 2 * len(LINK_FRACTIONS) + 2, 3) == (4, len(names), 3)
+    assert names[-2:] == ["flange", "ref"]
+    np.testing.assert_allclose(kp[:, -2], robot.fk(q)[:, :3, 3], atol=EXACT)
+    joint = {n: i for i, n in enumerate(names)}
+    _, a2, a3, *_ = DH[robot.name]
+    for first, second, length in [("shoulder_lift", "elbow", abs(a2)), ("elbow", "wrist_1", abs(a3))]:
+        o_a, o_b = kp[:, joint[f"{first}_joint"]], kp[:, joint[f"{second}_joint"]]
+        d = np.linalg.norm(o_b - o_a, axis=1)
+        for f in LINK_FRACTIONS:
+            p = kp[:, joint[f"{first}@{f:.2f}"]]
+            np.testing.assert_allclose(np.linalg.norm(p - o_a, axis=1), f * d, atol=EXACT)
+            np.testing.assert_allclose(np.linalg.norm(p - o_b, axis=1), (1 - f) * d, atol=EXACT)
+        # the segment is the link's: as long whatever the joints (the DH length plus the joints' offset)
+        np.testing.assert_allclose(d, d[0], atol=EXACT)
+        assert d[0] >= length
+
+
 def test_ik_round_trip(robot):
     rng = np.random.default_rng(2)
     for _ in range(5):
