@@ -14,7 +14,10 @@ A variant is ``name:width:epochs:schedule:spread[:size[:batch[:dtype]]]``: ``wid
 ``schedule`` constant or cosine (the preset's ``keypoint_schedule``); ``spread`` its
 ``keypoint_spread_weight``; ``size`` the square input in pixels and ``batch`` the batch size (by default
 64 and 32); ``dtype`` the precision of the convolutions, float32 (default) or bfloat16 (the preset's
-``keypoint_trunk_dtype``).
+``keypoint_trunk_dtype``). A variant trains the epochs it names on any dataset (the preset's
+``keypoint_reference_frames`` is off here). ``--link-fractions`` sets the keypoints along the long links
+(``sim.robot.LINK_FRACTIONS``; given without values, none: the 8 keypoints of the joints, flange and
+reference point).
 """
 
 from __future__ import annotations
@@ -70,6 +73,7 @@ def _train(
         keypoint_channels=tuple(int(w) for w in width.split("-")),
         repeats=1,
         keypoint_epochs=(int(epochs), cpu.keypoint_epochs[1], int(epochs)),
+        keypoint_reference_frames=0,  # the variant's epochs as given, whatever the dataset's size
         keypoint_schedule=schedule,
         keypoint_spread_weight=float(spread),
     )

@@ -31,6 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from handeye.core.errors import ShapeError
 from handeye.core.keypoint_fit import likelihood_fit
 from handeye.core.rigid import rigid_residuals, rigid_transform, robust_rigid_transform
 from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
@@ -114,6 +115,16 @@ def remove_offsets(pred: np.ndarray, stats: np.ndarray | None) -> tuple[np.ndarr
     return (pred - stats[0] if usable else pred), usable
 
 
+def _check_keypoint_sets(pred: np.ndarray, p_base: np.ndarray) -> None:
+    """Refuse predictions of another keypoint set than the frames' base-frame positions (an older model)."""
+    if pred.shape[:-1] != p_base.shape[:-1]:
+        raise ShapeError(
+            f"the model predicts {pred.shape[1:-1]} keypoints per frame, the frames carry {p_base.shape[1:-1]} "
+            f"(predictions {pred.shape}, positions {p_base.shape}): a keypoint model trained on another keypoint "
+            "set (sim.robot.Robot.keypoints_base); train it again"
+        )
+
+
 def frame_poses(
     pred: np.ndarray, p_base: np.ndarray, intrinsics_norm: np.ndarray, stats: np.ndarray | None = None
 ) -> np.ndarray:
@@ -124,6 +135,7 @@ def frame_poses(
     (:func:`handeye.core.keypoint_fit.likelihood_fit`, all frames at once). A frame with fewer than three
     usable keypoints is NaN.
     """
+    _check_keypoint_sets(np.asarray(pred), np.asarray(p_base))
     pred, usable = remove_offsets(pred, stats)
     T = rigid_transform(backproject_keypoints(pred, intrinsics_norm), p_base)
     if not usable:
@@ -174,6 +186,7 @@ def camera_pose(
         Final weights (near 1 for keypoints that agree, near 0 for outliers, 0 for keypoints behind
         the camera and, with ``stats``, outside the consensus).
     """
+    _check_keypoint_sets(np.asarray(pred), np.asarray(p_base))
     pred, usable = remove_offsets(pred, stats)
     p_base = np.asarray(p_base, dtype=float)
     p_cam = backproject_keypoints(pred, intrinsics_norm).reshape(-1, 3)

@@ -86,6 +86,17 @@ def test_the_cross_frame_fit_recovers_a_known_camera_pose_from_exact_keypoints(w
     assert w.shape == (p_base.shape[0] * p_base.shape[1],) and np.all(w > 0.99)
 
 
+def test_predictions_of_another_keypoint_set_are_refused():
+    """A model trained on 8 keypoints against frames that carry 14 (the set grew): a named refusal, not a crash."""
+    from handeye.core.errors import ShapeError
+
+    p_base, target, intr, _ = _placement(np.random.default_rng(4), n_frames=5, k=6)
+    with pytest.raises(ShapeError, match="another keypoint set"):
+        camera_pose(target[:, :4], p_base, intr)
+    with pytest.raises(ShapeError, match="another keypoint set"):
+        frame_poses(target[:, :4], p_base, intr)
+
+
 def test_known_offsets_are_removed_before_the_fit():
     p_base, target, intr, T_true = _placement(np.random.default_rng(3))
     offset = np.array([0.01, -0.005, 0.03]) * np.linspace(0.5, 1.5, 6)[:, None]  # (K, 3): 3-9 px, 15-45 mm
