@@ -53,7 +53,16 @@ def _use_link_fractions(fractions) -> None:
 
 
 def _train(
-    data: Path, spec: str, out: Path, seed: int, threads: int, average: int, shift: int, fractions=None
+    data: Path,
+    spec: str,
+    out: Path,
+    seed: int,
+    threads: int,
+    average: int,
+    shift: int,
+    fractions=None,
+    strategy: str = "batch",
+    later_epochs: int | None = None,
 ) -> tuple[str, float]:
     from handeye.learned_frames import load_keypoint_frames
     from learned.experiment import run_experiment
@@ -72,14 +81,16 @@ def _train(
         keypoint_image_size=(size, size),
         keypoint_channels=tuple(int(w) for w in width.split("-")),
         repeats=1,
-        keypoint_epochs=(int(epochs), cpu.keypoint_epochs[1], int(epochs)),
+        keypoint_epochs=(int(epochs), int(later_epochs or cpu.keypoint_epochs[1]), int(epochs)),
         keypoint_reference_frames=0,  # the variant's epochs as given, whatever the dataset's size
         keypoint_schedule=schedule,
         keypoint_spread_weight=float(spread),
     )
     frames = load_keypoint_frames(data, preset.keypoint_image_size, "classic", progress=False)
     t0 = time.perf_counter()
-    run_experiment(frames, preset, ["batch"], out, "classic", seed, progress=False, threads=threads, family="keypoints")
+    run_experiment(
+        frames, preset, [strategy], out, "classic", seed, progress=False, threads=threads, family="keypoints"
+    )
     return spec, time.perf_counter() - t0
 
 
@@ -137,6 +148,15 @@ def main(argv=None):
         help="keypoints along the long links at these fractions (sim.robot.LINK_FRACTIONS; none given: no such "
         "keypoints, the set before they were added); default: the robot's",
     )
+    ap.add_argument(
+        "--strategy",
+        choices=("batch", "reservoir"),
+        default="batch",
+        help="the strategy each variant trains (reservoir: region by region, the final model measured)",
+    )
+    ap.add_argument(
+        "--later-epochs", type=int, default=None, help="epochs of each later training call (default: the preset's)"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--work", type=Path, default=Path("runs/keypoint_training"), help="where the models go")
     ap.add_argument("--out", type=Path, help="also write the report here")
@@ -154,7 +174,7 @@ def main(argv=None):
     import torch
 
     rep = Report(
-        f"Keypoint model: what moves its error ({args.data.name}, batch strategy, 1 repeat per variant)",
+        f"Keypoint model: what moves its error ({args.data.name}, {args.strategy} strategy, 1 repeat per variant)",
         "benchmarks/keypoint_training.py",
         argv,
         f"torch {torch.__version__}, numpy {np.__version__}",
@@ -175,6 +195,8 @@ def main(argv=None):
                     args.average_epochs,
                     args.shift_px,
                     args.link_fractions,
+                    args.strategy,
+                    args.later_epochs,
                 )
                 for spec in args.variants
             ]
@@ -190,7 +212,13 @@ def main(argv=None):
     import sim.robot
 
     _use_link_fractions(args.link_fractions)
-    emit(f"Keypoints along the long links at fractions {sim.robot.LINK_FRACTIONS}.")
+    from learned.presets import get_preset
+
+    later = args.later_epochs or get_preset("cpu").keypoint_epochs[1]
+    emit(
+        f"Keypoints along the long links at fractions {sim.robot.LINK_FRACTIONS}; strategy {args.strategy}, "
+        f"later training calls {later} epochs."
+    )
     emit()
     emit(
         "| variant | input px | width | trunk | epochs | batch | schedule | spread weight | train px | test px | "
@@ -208,7 +236,7 @@ def main(argv=None):
         name, width, epochs, schedule, spread, size, batch, dtype = _fields(spec)
         if size not in frames:
             frames[size] = load_keypoint_frames(args.data, (size, size), progress=False)
-        m = _measure(frames[size], native, dirs[spec] / "batch" / "keypoints.pt")
+        m = _measure(frames[size], native, dirs[spec] / args.strategy / "keypoints.pt")
         p, q = m["placements"], m["placements_ml"]
         ml = f"{np.median(q[:, 0]):.1f} / {q[:, 0].max():.1f}"
         emit(
