@@ -114,8 +114,8 @@ class Robot:
 
         What the learned keypoint model finds in the image (``learned.keypoints``): every joint's origin,
         points along the long links (:data:`LINK_FRACTIONS` of the way between two joint origins at least
-        :data:`LONG_LINK_M` apart: more points spread over the arm, seen on its surface), the flange and the
-        reference point.
+        :data:`LONG_LINK_M` apart, inside the link like the joints' origins: more points spread over the
+        arm), the flange and the reference point.
 
         Parameters
         ----------
