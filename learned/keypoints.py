@@ -32,7 +32,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from handeye.core.errors import ShapeError
-from handeye.core.keypoint_fit import likelihood_fit
+from handeye.core.keypoint_fit import backproject, likelihood_fit, project
 from handeye.core.rigid import rigid_residuals, rigid_transform, robust_rigid_transform
 from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from learned.metrics import rotation_errors_deg, translation_errors_mm
@@ -92,16 +92,13 @@ def keypoint_targets(
     R = matrix_from_quat_xyzw(np.asarray(q_base_cam_xyzw, dtype=float))
     t = np.asarray(t_base_cam_mm, dtype=float) / 1000.0
     p_cam = np.einsum("nji,nkj->nki", R, p_base - t[:, None, :])  # R^T (p - t)
-    z = p_cam[..., 2]
-    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[:, None, i] for i in range(4))
-    return np.stack([fx * p_cam[..., 0] / z + cx, fy * p_cam[..., 1] / z + cy, z], axis=-1)
+    return project(p_cam, np.asarray(intrinsics_norm, dtype=float)[:, None, :])
 
 
 def backproject_keypoints(pred: np.ndarray, intrinsics_norm: np.ndarray) -> np.ndarray:
-    """Camera-frame points of predicted ``(x_n, y_n, z)``, shape (N, K, 3)."""
-    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[:, None, i] for i in range(4))
-    z = pred[..., 2]
-    return np.stack([(pred[..., 0] - cx) / fx * z, (pred[..., 1] - cy) / fy * z, z], axis=-1)
+    """Camera-frame points of predicted ``(x_n, y_n, z)`` (N, K, 3), intrinsics (N, 4): shape (N, K, 3)
+    (:func:`handeye.core.keypoint_fit.backproject`)."""
+    return backproject(pred, np.asarray(intrinsics_norm, dtype=float)[:, None, :])
 
 
 def remove_offsets(pred: np.ndarray, stats: np.ndarray | None) -> tuple[np.ndarray, bool]:
@@ -119,7 +116,7 @@ def _check_keypoint_sets(pred: np.ndarray, p_base: np.ndarray) -> None:
     """Refuse predictions of another keypoint set than the frames' base-frame positions (an older model)."""
     if pred.shape[:-1] != p_base.shape[:-1]:
         raise ShapeError(
-            f"the model predicts {pred.shape[1:-1]} keypoints per frame, the frames carry {p_base.shape[1:-1]} "
+            f"the model predicts {pred.shape[-2]} keypoints per frame, the frames carry {p_base.shape[-2]} "
             f"(predictions {pred.shape}, positions {p_base.shape}): a keypoint model trained on another keypoint "
             "set (sim.robot.Robot.keypoints_base); train it again"
         )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handeye.core.keypoint_fit import CAUCHY_SCALE, likelihood_fit, whitened_residuals
+from handeye.core.keypoint_fit import CAUCHY_SCALE, backproject, likelihood_fit, project, whitened_residuals
 from handeye.core.se3 import make_transform, so3_exp
 
 
@@ -21,6 +21,16 @@ def _scene(rng, m=40):
         ]
     )
     return T_base_cam, p_base, intr, meas
+
+
+def test_projection_is_the_pinhole_in_normalised_units_and_backprojection_inverts_it(rng):
+    """``project`` against the scene's hand-written pinhole; ``backproject`` gives the camera-frame points back."""
+    T, p_base, intr, meas = _scene(rng)
+    p_cam = (p_base - T[:3, 3]) @ T[:3, :3]  # T_cam_base p_base
+    np.testing.assert_allclose(project(p_cam, intr), meas, atol=1e-12)
+    np.testing.assert_allclose(backproject(meas, intr), p_cam, atol=1e-12)
+    # one intrinsics row broadcast over a batch of point sets
+    np.testing.assert_allclose(project(p_cam[None], intr[0]), meas[None], atol=1e-12)
 
 
 def test_the_jacobian_is_the_derivative_of_the_residuals_under_the_fits_update(rng):

@@ -21,7 +21,7 @@ import numpy as np
 
 from handeye.core.se3 import hat, so3_exp
 
-__all__ = ["CAUCHY_SCALE", "cauchy_weights", "likelihood_fit", "whitened_residuals"]
+__all__ = ["CAUCHY_SCALE", "cauchy_weights", "project", "backproject", "likelihood_fit", "whitened_residuals"]
 
 #: Cauchy scale of the maximum-likelihood fit, in sigmas.
 CAUCHY_SCALE = 2.0
@@ -33,13 +33,41 @@ def cauchy_weights(r: np.ndarray) -> np.ndarray:
     return 1.0 / (1.0 + np.square(r) / CAUCHY_SCALE**2)
 
 
+def project(p_cam: np.ndarray, intrinsics_norm: np.ndarray) -> np.ndarray:
+    """Camera-frame points as measured: ``(x_n, y_n, z) = (fx x / z + cx, fy y / z + cy, z)``.
+
+    Parameters
+    ----------
+    p_cam : array, shape (..., 3)
+        Metres.
+    intrinsics_norm : array, shape (..., 4)
+        ``(fx, fy, cx, cy)`` normalised, broadcast against ``p_cam``'s leading axes.
+
+    Returns
+    -------
+    array, shape (..., 3)
+    """
+    p_cam = np.asarray(p_cam, dtype=float)
+    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[..., i] for i in range(4))
+    z = p_cam[..., 2]
+    return np.stack([fx * p_cam[..., 0] / z + cx, fy * p_cam[..., 1] / z + cy, z], axis=-1)
+
+
+def backproject(meas: np.ndarray, intrinsics_norm: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`project`: camera-frame points (metres) of measured ``(x_n, y_n, z)``, shape (..., 3)."""
+    meas = np.asarray(meas, dtype=float)
+    fx, fy, cx, cy = (np.asarray(intrinsics_norm, dtype=float)[..., i] for i in range(4))
+    z = meas[..., 2]
+    return np.stack([(meas[..., 0] - cx) / fx * z, (meas[..., 1] - cy) / fy * z, z], axis=-1)
+
+
 def _model_and_jacobian(p: np.ndarray, fx, fy, cx, cy, ok: np.ndarray):
     """Predicted ``(x_n, y_n, z)`` of camera-frame points ``p`` (..., M, 3), and its derivative by ``(dw, dv)``.
 
     The derivative has shape (..., M, 3, 6); ``ok`` (..., M) marks the points whose depth divides.
     """
     z = np.where(ok, p[..., 2], 1.0)
-    model = np.stack([fx * p[..., 0] / z + cx, fy * p[..., 1] / z + cy, p[..., 2]], axis=-1)
+    model = project(np.concatenate([p[..., :2], z[..., None]], axis=-1), np.stack([fx, fy, cx, cy], axis=-1))
     D = np.zeros(p.shape + (3,))  # d model / d p_cam
     D[..., 0, 0], D[..., 0, 2] = fx / z, -fx * p[..., 0] / z**2
     D[..., 1, 1], D[..., 1, 2] = fy / z, -fy * p[..., 1] / z**2
