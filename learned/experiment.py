@@ -401,6 +401,7 @@ def run_experiment(
             threshold_mm=preset.threshold_mm,
             threshold_deg=preset.threshold_deg,
             replay_share=preset.selection_replay,
+            novelty=preset.selection_novelty,
         )
         rec, start = RunRecord(name, kind, rep), 0
         if state and u == state["unit"] and state.get("strategy"):

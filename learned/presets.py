@@ -37,6 +37,9 @@ class Preset:
         Novelty thresholds of camera-pose selection.
     selection_replay : {"region", "all"}
         What a novel pose's step replays (:class:`learned.strategies.Selection`).
+    selection_novelty : {"frames", "placement"}
+        How selection measures a pose's novelty (:func:`learned.continual_step.sample_error`): the paper's
+        mean per-frame error of a 10 % sample, or (keypoint model) the one pose from all its frames.
     keypoint_epochs : (int, int, int), optional
         First, later and batch epochs of the keypoint model (it learns local features and costs
         several times more per sample); the regression epochs when omitted.
@@ -85,6 +88,7 @@ class Preset:
     threshold_mm: float = 3.0
     threshold_deg: float = 4.0
     selection_replay: str = "region"
+    selection_novelty: str = "frames"
     keypoint_epochs: tuple | None = None
     repeats: int = 3
     keypoint_schedule: str = "constant"
@@ -203,7 +207,10 @@ PRESETS = {
         first_epochs=30,
         later_epochs=15,
         batch_epochs=30,
-        keypoint_epochs=(15, 8, 15),
+        # each later step of a continual strategy trains 12 epochs: the reservoir then processes about as many
+        # samples as the batch model (62,600 against 63,000 on paper-sim); with 8 its worst placement was
+        # 31.3 and 21.9 mm on two seeds, with 12 22.9 and 19.5 (benchmarks/results/keypoint_training.md)
+        keypoint_epochs=(15, 12, 15),
         # the keypoint model: width 32 with its convolutions in bfloat16 (on this CPU's AMX as fast as width
         # 24 in float32), heatmaps pulled to a peak, batches of 8 (benchmarks/keypoint_training.py, placement
         # median with the 3-D to 3-D fit: 11.8 mm against 39.4 mm for width 8, float32, no spread, batches

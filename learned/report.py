@@ -83,8 +83,17 @@ def findings(results: dict) -> list[str]:
             es = np.nanmean(mean_matrix(results, "selection", net)[0][-1])
             er = np.nanmean(mean_matrix(results, "reservoir", net)[0][-1])
             ok = skipped > 0 and proc_s < proc_r
+            preset = results.get("preset", {})
+            how = (
+                "the one pose from all its frames"
+                if preset.get("selection_novelty") == "placement"
+                else "its frames' mean error"
+            )
+            mm, deg = f"{preset.get('threshold_mm', 3.0):g} mm", f"{preset.get('threshold_deg', 4.0):g} deg"
+            limit = f"{mm} or {deg}" if results.get("family") == "keypoints" else (mm if net == "translation" else deg)
             lines.append(
-                f"{net}: selection skipped {skipped:.1f} camera poses, processed {proc_s:.0f} samples against "
+                f"{net}: selection (novel: {how} above {limit}) skipped {skipped:.1f} camera poses, "
+                f"processed {proc_s:.0f} samples against "
                 f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} "
                 f"{u}: "
                 f"{'reproduced' if ok else 'NOT reproduced'} (skips and less data)"

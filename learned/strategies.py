@@ -23,7 +23,9 @@ the generator it is given.
   step costs, and every skipped pose is saved work, which is what the paper's
   claim that selection processes less data implies. Replaying the whole buffer
   at every pose (``replay_share="all"``, this project's first version) made a
-  region of 14 poses cost about five reservoir steps.
+  region of 14 poses cost about five reservoir steps. With ``novelty="placement"``
+  (keypoint model) a pose is judged by the one pose fitted to all its frames
+  (:func:`learned.trainer.placement_error`) instead of its frames' mean error.
 
 The buffer is :class:`learned.replay.ReplayBuffer` (frame indices) and each step of reservoir and
 selection is :func:`learned.continual_step.continual_step`, the same code the online
@@ -39,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from learned.continual_step import ReplayRule, continual_step, sample_error
+from learned.continual_step import NOVELTY, ReplayRule, continual_step, sample_error
 from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig, load_weights, make_network
 from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
@@ -222,7 +224,15 @@ class Selection(Reservoir):
     threshold_deg: float = 4.0
     sample_fraction: float = 0.1
     replay_share: str = "region"
+    novelty: str = "frames"
     name = "selection"
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.novelty not in NOVELTY:
+            raise ValueError(f"unknown novelty measure {self.novelty!r}: use {', '.join(NOVELTY)}")
+        if self.novelty == "placement" and self.config.kind != "keypoints":
+            raise ValueError("placement novelty needs the keypoint model: the paper's networks judge it per frame")
 
     @property
     def threshold(self):
@@ -236,7 +246,8 @@ class Selection(Reservoir):
         The keypoint model's pose is novel when either its translation or its rotation error is above its
         threshold.
         """
-        mean, n = sample_error(self.model, frames, self._frames_of(frames, [camera]), self.sample_fraction, self.rng)
+        index = self._frames_of(frames, [camera])
+        mean, n = sample_error(self.model, frames, index, self.sample_fraction, self.rng, self.novelty)
         self.evaluated += n
         return bool(np.any(np.asarray(mean) > self.threshold)), mean
 
@@ -256,6 +267,7 @@ class Selection(Reservoir):
                 self._train_fn(step),
                 self.threshold,
                 self.sample_fraction,
+                self.novelty,
             )
             self.evaluated += outcome.evaluated
             (novel if outcome.novel else self.skipped).append(int(c))

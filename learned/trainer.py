@@ -361,6 +361,50 @@ def errors(
     return rotation_errors_deg(pred, q_xyzw[index])
 
 
+def placement_error(model: CalibrationNet, frames: FrameSet, index: np.ndarray, against: str = "label") -> np.ndarray:
+    """The keypoint model's error on one camera placement: its one pose from all of ``index``'s frames.
+
+    The pose is :func:`learned.keypoints.camera_pose` of the frames' predicted keypoints, with the
+    model's residual statistics; it is compared with the placement's label (or truth).
+
+    Parameters
+    ----------
+    model : CalibrationNet
+        A keypoint model (``config.kind == "keypoints"``).
+    frames : FrameSet
+    index : array of int, shape (N,)
+        Frames of one camera placement.
+    against : {"label", "truth"}
+
+    Returns
+    -------
+    array, shape (2,)
+        Translation error, mm, and rotation error, deg.
+    """
+    from learned.keypoints import camera_pose, model_residual_stats, pose_errors
+
+    if model.config.kind != "keypoints":
+        raise HandEyeInputError(
+            "a placement's one pose needs the keypoint model; the paper's networks judge novelty per frame"
+        )
+    index = np.asarray(index)
+    if not len(index) or len(np.unique(frames.camera[index])) != 1:
+        raise HandEyeInputError(f"placement_error needs the frames of one camera placement, got {len(index)} frames")
+    pred = predict(model, frames, index)
+    T, _ = camera_pose(
+        pred, frames.keypoints_base[index], frames.intrinsics_norm[index], stats=model_residual_stats(model)
+    )
+    t, q = (
+        (frames.t_base_cam_mm, frames.q_base_cam_xyzw)
+        if against == "label"
+        else (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw)
+    )
+    if not np.isfinite(T).all():
+        return np.array([np.inf, 180.0])
+    e_t, e_r = pose_errors(T[None], t[index[:1]], q[index[:1]])
+    return np.array([e_t[0], e_r[0]])
+
+
 def keypoint_pose_errors(
     pred: np.ndarray, frames: FrameSet, index: np.ndarray, against: str = "label", stats: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:

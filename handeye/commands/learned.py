@@ -68,6 +68,15 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="precision of the keypoint model's convolutions (default: the preset's; the cpu preset's bfloat16 "
         "is fast on a CPU with AMX or AVX-512 BF16 and emulated, slower than float32, on one without)",
     )
+    r.add_argument(
+        "--novelty",
+        choices=("frames", "placement"),
+        help="how selection judges a new camera pose (default: the preset's, frames): frames, the paper's mean "
+        "per-frame error of a 10%% sample; placement (--family keypoints), the error of the one pose fitted to "
+        "all its frames",
+    )
+    r.add_argument("--threshold-mm", type=float, help="selection's novelty threshold, mm (default: the preset's, 3)")
+    r.add_argument("--threshold-deg", type=float, help="selection's novelty threshold, deg (default: the preset's, 4)")
     r.add_argument("--quiet", action="store_true")
     r.add_argument(
         "--fresh",
@@ -110,6 +119,17 @@ def _run(args: argparse.Namespace, writer: bool) -> int:
         if args.family != "keypoints":
             raise HandEyeInputError("--trunk-dtype is for the keypoint model: add --family keypoints")
         preset = dataclasses.replace(preset, keypoint_trunk_dtype=args.trunk_dtype)
+    if args.novelty == "placement" and args.family != "keypoints":
+        raise HandEyeInputError("--novelty placement needs the keypoint model's one pose: add --family keypoints")
+    for name, value in (("threshold_mm", args.threshold_mm), ("threshold_deg", args.threshold_deg)):
+        if value is not None and not value > 0:
+            raise HandEyeInputError(f"--{name.replace('_', '-')} must be positive, got {value}")
+    changes = {
+        "selection_novelty": args.novelty,
+        "threshold_mm": args.threshold_mm,
+        "threshold_deg": args.threshold_deg,
+    }
+    preset = dataclasses.replace(preset, **{k: v for k, v in changes.items() if v is not None})
     if args.family == "keypoints":
         from handeye.core.optional import require_package
 

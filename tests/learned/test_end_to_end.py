@@ -97,3 +97,24 @@ def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(sm
     # the regression networks have no such setting: refused, not ignored
     assert main([*args, "--trunk-dtype", "bfloat16", "--out", str(tmp_path / "reg")]) == 2
     assert not (tmp_path / "reg").exists()
+
+
+def test_selection_judges_novelty_by_the_placement_at_the_thresholds_the_command_line_asks_for(small_dataset, tmp_path):
+    from handeye.cli import main
+    from learned.report import findings
+
+    root, out = small_dataset[0], tmp_path / "sel"
+    args = ["learned", "run", "--data", str(root), "--preset", "tiny", "--quiet", "--threads", "1"]
+    novelty = ["--novelty", "placement", "--threshold-mm", "14", "--threshold-deg", "0.8"]
+    assert (
+        main([*args, "--strategies", "reservoir,selection", "--family", "keypoints", *novelty, "--out", str(out)]) == 0
+    )
+    results = json.loads((out / "results.json").read_text())
+    assert results["preset"]["selection_novelty"] == "placement"
+    assert (results["preset"]["threshold_mm"], results["preset"]["threshold_deg"]) == (14.0, 0.8)
+    line = [x for x in findings(results) if "selection" in x][0]
+    assert "the one pose from all its frames above 14 mm or 0.8 deg" in line
+    # placement novelty needs the keypoint model's one pose; thresholds must be positive: refused, not ignored
+    assert main([*args, *novelty, "--out", str(tmp_path / "reg")]) == 2
+    assert main([*args, "--family", "keypoints", "--threshold-mm", "0", "--out", str(tmp_path / "zero")]) == 2
+    assert not (tmp_path / "reg").exists() and not (tmp_path / "zero").exists()
