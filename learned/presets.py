@@ -209,7 +209,9 @@ PRESETS = {
         batch_epochs=30,
         # each later step of a continual strategy trains 12 epochs: the reservoir then processes about as many
         # samples as the batch model (62,600 against 63,000 on paper-sim); with 8 its worst placement was
-        # 31.3 and 21.9 mm on two seeds, with 12 22.9 and 19.5 (benchmarks/results/keypoint_training.md)
+        # 31.3 and 21.9 mm on two seeds, with 12 22.9 and 19.5 (benchmarks/results/keypoint_training.md); in
+        # the protocol runs the reservoir's median of repeats went 11.8 -> 7.8 mm on paper-sim and 13.6 -> 10.7 on
+        # paper-real (README)
         keypoint_epochs=(15, 12, 15),
         # the keypoint model: width 32 with its convolutions in bfloat16 (on this CPU's AMX as fast as width
         # 24 in float32), heatmaps pulled to a peak, batches of 8 (benchmarks/keypoint_training.py, placement
