@@ -114,6 +114,14 @@ def test_selection_judges_novelty_by_the_placement_at_the_thresholds_the_command
     assert (results["preset"]["threshold_mm"], results["preset"]["threshold_deg"]) == (14.0, 0.8)
     line = [x for x in findings(results) if "selection" in x][0]
     assert "the one pose from all its frames above 14 mm or 0.8 deg" in line
+    # the per-placement matrix: a row per step; its last row of the last repeat is the per-camera table's median
+    last = max(r["repeat"] for r in results["runs"])
+    rec = [r for r in results["runs"] if r["strategy"] == "reservoir" and r["network"] == "translation"][-1]
+    assert rec["repeat"] == last and len(rec["placement_matrix"]) == len(results["steps"])
+    pc = results["per_camera"]["reservoir"]
+    for j, region in enumerate(results["regions"]):
+        mine = [e for e, r in zip(pc["learned_vs_label_mm"], pc["region"]) if r == region]
+        assert rec["placement_matrix"][-1][j] == pytest.approx(np.median(mine), rel=1e-9)
     # placement novelty needs the keypoint model's one pose; thresholds must be positive: refused, not ignored
     assert main([*args, *novelty, "--out", str(tmp_path / "reg")]) == 2
     assert main([*args, "--family", "keypoints", "--threshold-mm", "0", "--out", str(tmp_path / "zero")]) == 2

@@ -122,3 +122,28 @@ def test_selection_skips_exactly_the_placements_below_the_threshold(kframes, mon
     assert sel.skipped == [c for c in later if shift[c] == 5.0]
     assert [c for s in sel.trained_on[1:] for c in s] == [c for c in later if shift[c] == 20.0]
     assert sel.evaluated == len(later) * FRAMES_PER_CAMERA  # every frame of every later pose
+
+
+def test_the_forgetting_finding_reads_the_placement_matrix_where_one_was_recorded():
+    """Per frame naive improves on S1 (0.5x); per placement it forgets (4x): the report says both."""
+    from learned.report import findings
+
+    runs = [
+        {
+            "strategy": "naive",
+            "network": net,
+            "repeat": 0,
+            "matrix": [[200.0, 300.0], [100.0, 90.0]],  # steps x subsets, per-frame means
+            "placement_matrix": [[5.0, 40.0], [20.0, 6.0]],
+        }
+        for net in ("translation", "orientation")
+    ]
+    lines = findings({"strategies": ["naive"], "runs": runs, "family": "keypoints", "preset": {}})
+    per_frame = [x for x in lines if x.startswith("translation: naive forgets S1:")]
+    per_placement = [x for x in lines if x.startswith("translation: naive forgets S1, per placement")]
+    assert "(0.5x" in per_frame[0] and "NOT reproduced" in per_frame[0]
+    assert "5.00 mm after step 1, 20.00 mm at the last step (4.0x" in per_placement[0]
+    assert per_placement[0].endswith(": reproduced")
+    # a run without the matrix (the paper's networks, or saved before it existed): the per-frame line alone
+    lines = findings({"strategies": ["naive"], "runs": [{**r, "placement_matrix": []} for r in runs], "preset": {}})
+    assert not any("per placement" in x for x in lines)
