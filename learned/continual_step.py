@@ -80,8 +80,8 @@ def sample_error(
     paper's networks and ``(mm, deg)`` (an array) for the keypoint model, whose one network gives both.
     ``novelty="placement"`` (keypoint model): the error ``(mm, deg)`` of the one pose fitted to all of
     ``index`` (one camera pose's frames; ``fraction`` is not used and nothing is drawn): a pose from a
-    10 % sample, five frames, is noise-dominated (about 20 mm where all 50 frames give 5.5 on
-    ``paper-sim``).
+    10 % sample, five frames, is noise-dominated (a median of 23.6 mm where all 50 frames give 5.4 on
+    ``paper-sim``: ``benchmarks/keypoint_errors.py``).
     """
     if novelty not in NOVELTY:
         raise ValueError(f"unknown novelty measure {novelty!r}: use {', '.join(NOVELTY)}")

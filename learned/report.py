@@ -149,11 +149,8 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
                 ["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]],
                 rows,
             )
-    placement = {
-        st: _placement_matrix(results, st, "translation")
-        for st in results["strategies"]
-        if _placement_matrix(results, st, "translation") is not None
-    }
+    placement = {st: _placement_matrix(results, st, "translation") for st in results["strategies"]}
+    placement = {st: pm for st, pm in placement.items() if pm is not None}
     if placement:
         md += [
             "## Per placement, after each time step (keypoint model)",
