@@ -1,0 +1,77 @@
+"""Render the documentation's pictures: a simulated cell (``docs/img/cell.png``) and its frames
+(``docs/img/frames.png``).
+
+Run from the repository root (needs ``pip install -e ".[sim]"``; about a minute on two cores)::
+
+    PYOPENGL_PLATFORM=egl python docs/make_figures.py
+
+It generates the ``small`` preset's first camera placement with the default sensor noise into a temporary
+folder, and draws one calibration view (the ChArUco board on the flange), one data view and its depth, and
+the frames of the shipped example pose file's calibration in the robot base.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+import classic  # noqa: E402
+from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.core.posefile import read_pose_file  # noqa: E402
+from handeye.report.frames3d import frames_figure  # noqa: E402
+from sim.generate import DEFAULT_NOISE, generate  # noqa: E402
+
+OUT = Path(__file__).resolve().parent / "img"
+CAMERA = 0
+EXAMPLE = Path(__file__).resolve().parents[1] / "handeye" / "data" / "example_eye_to_hand.csv"
+
+
+def cell_figure(ds: Dataset, path: Path) -> Path:
+    """One calibration view, one data view and its depth of camera ``CAMERA``, side by side."""
+    calib = ds.select(CAMERA, "calibration")
+    data = ds.select(CAMERA, "data")
+    rgb_calib = ds.rgb(CAMERA, calib["rgb"][0])
+    rgb_data = ds.rgb(CAMERA, data["rgb"][0])
+    depth = ds.depth_m(CAMERA, data["depth"][0])
+    fig, axes = plt.subplots(1, 3, figsize=(10.5, 3.7), dpi=100)
+    axes[0].imshow(rgb_calib)
+    axes[0].set_title("calibration view: board on the flange", fontsize=10)
+    axes[1].imshow(rgb_data)
+    axes[1].set_title("data view: RGB", fontsize=10)
+    shown = np.where(depth > 0, depth, np.nan)
+    im = axes[2].imshow(shown, cmap="viridis")
+    axes[2].set_title("data view: depth", fontsize=10)
+    fig.colorbar(im, ax=axes[2], fraction=0.046, pad=0.04, label="m")
+    for ax in axes:
+        ax.set_axis_off()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def frames_of_example(path: Path) -> Path:
+    """The frames of the shipped example's calibration (``handeye/data/example_eye_to_hand.csv``)."""
+    poses = read_pose_file(EXAMPLE)
+    res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup="eye_to_hand")
+    return frames_figure(path, "eye_to_hand", res.T_base_cam, res.T_ee_target, poses.T_base_ee)
+
+
+def main() -> None:
+    OUT.mkdir(exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp) / "small"
+        generate(root, "small", seed=0, noise=DEFAULT_NOISE, workers=1, cameras=[CAMERA], progress=False)
+        ds = Dataset.open(root)
+        print(cell_figure(ds, OUT / "cell.png"))
+    print(frames_of_example(OUT / "frames.png"))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,98 @@
+"""The README and the documentation: short, linked, and their examples run and print what they show."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from handeye.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+#: The README is a newcomer's page; guides, figures and history live in docs/ and CHANGELOG.md.
+README_MAX_LINES = 250
+NUMBER = re.compile(r"[-+]?\d+\.\d+|[-+]?\d+")
+
+
+def markdown_files() -> list[Path]:
+    return [README, ROOT / "CHANGELOG.md", *sorted(DOCS.rglob("*.md"))]
+
+
+def code_blocks(path: Path, language: str) -> list[str]:
+    """The fenced blocks of one language in a markdown file, in order."""
+    return re.findall(rf"^```{language}\n(.*?)^```", path.read_text(), flags=re.S | re.M)
+
+
+def test_readme_is_short():
+    n = len(README.read_text().splitlines())
+    assert n <= README_MAX_LINES, f"README.md has {n} lines; move the rest into docs/"
+
+
+@pytest.mark.parametrize("path", [README, ROOT / "CHANGELOG.md"], ids=lambda p: p.name)
+def test_relative_links_resolve(path):
+    """mkdocs checks the site's links (``mkdocs build --strict`` in the test command); this checks the README's."""
+    for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", path.read_text()):
+        if "://" in target:
+            continue
+        assert (path.parent / target).exists(), f"{path.name} links to {target}, which does not exist"
+
+
+def _same_within_last_digit(printed: str, shown: str) -> None:
+    """Equal text, and every number within two units of its last printed digit (BLAS may differ there)."""
+    got, want = printed.strip().splitlines(), shown.strip().splitlines()
+    assert len(got) == len(want), f"{len(got)} lines printed, {len(want)} shown"
+    for g, w in zip(got, want):
+        assert NUMBER.sub("#", g) == NUMBER.sub("#", w), f"printed {g!r}, shown {w!r}"
+        for a, b in zip(NUMBER.findall(g), NUMBER.findall(w)):
+            decimals = len(b.split(".")[1]) if "." in b else 0
+            assert abs(float(a) - float(b)) <= 2 * 10.0**-decimals, f"printed {g!r}, shown {w!r}"
+
+
+@pytest.mark.parametrize("path", [README, DOCS / "getting-started.md"], ids=lambda p: p.name)
+def test_calibrate_example_prints_what_is_shown(path, capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    command = next(line for line in code_blocks(path, "bash")[1].splitlines() if line.startswith("handeye calibrate"))
+    shown = path.read_text().split(command + "\n```\n", 1)[1].split("```\n", 1)[1].split("```", 1)[0]
+    assert main(command.split()[1:]) == 0
+    _same_within_last_digit(capsys.readouterr().out, shown)
+
+
+def _python_blocks() -> list[tuple[str, int, str]]:
+    return [
+        (p.relative_to(ROOT).as_posix(), i, b) for p in markdown_files() for i, b in enumerate(code_blocks(p, "python"))
+    ]
+
+
+@pytest.mark.parametrize(
+    "where,index,block", _python_blocks(), ids=lambda v: str(v) if not isinstance(v, str) or "\n" not in v else ""
+)
+def test_python_blocks_run(where, index, block, tmp_path):
+    """Every Python block of the README and the documentation runs as written, in a fresh interpreter."""
+    env = dict(os.environ, PYOPENGL_PLATFORM="egl", PYTHONPATH=str(ROOT))
+    run = subprocess.run(
+        [sys.executable, "-c", block], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert run.returncode == 0, f"{where} block {index} failed:\n{run.stderr[-3000:]}"
+
+
+def _example_shell_blocks() -> list[tuple[int, str]]:
+    """The README's bash blocks after the install: the examples a newcomer copies."""
+    return [(i, b) for i, b in enumerate(code_blocks(README, "bash")) if "pip install" not in b]
+
+
+@pytest.mark.parametrize("index,block", _example_shell_blocks(), ids=lambda v: str(v) if isinstance(v, int) else "")
+def test_readme_shell_examples_run(index, block, tmp_path):
+    """Each of the README's example commands runs from a fresh folder and exits 0."""
+    for name in ("handeye",):
+        (tmp_path / name).symlink_to(ROOT / name)  # the shipped example files, as from the repository root
+    env = dict(os.environ, PYOPENGL_PLATFORM="egl", PYTHONPATH=str(ROOT))
+    run = subprocess.run(
+        ["bash", "-euo", "pipefail", "-c", block], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert run.returncode == 0, f"README bash block {index} failed:\n{run.stderr[-3000:]}"
