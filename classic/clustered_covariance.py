@@ -18,7 +18,13 @@ import numpy as np
 __all__ = ["clustered_covariance", "pose_sigma"]
 
 
-def clustered_covariance(J: np.ndarray, r: np.ndarray, w: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
+def clustered_covariance(
+    J: np.ndarray,
+    r: np.ndarray,
+    w: np.ndarray,
+    group: np.ndarray | None = None,
+    prior_information: np.ndarray | None = None,
+) -> np.ndarray:
     """Covariance of the parameters of a weighted least-squares fit, clustered by group.
 
     Parameters
@@ -31,15 +37,21 @@ def clustered_covariance(J: np.ndarray, r: np.ndarray, w: np.ndarray, group: np.
         Their (robust) weights.
     group : array of int, shape (M,), optional
         Cluster of each residual; the plain estimate when omitted or with a single cluster.
+    prior_information : array, shape (P, P), optional
+        A Gaussian prior on the parameters as an extra, independent observation, in the units of ``J^T J``
+        (its inverse times the residual variance is the prior's covariance): added to the information, and
+        to the scores' variance times the residuals' variance.
 
     Returns
     -------
     array, shape (6, 6)
     """
     Jw = J * w[:, None]
-    H_inv = np.linalg.pinv(Jw.T @ J)
+    prior = np.zeros((J.shape[1], J.shape[1])) if prior_information is None else np.asarray(prior_information)
+    H_inv = np.linalg.pinv(Jw.T @ J + prior)
     dof = max(float(w.sum()) - J.shape[1], 1.0)
-    plain = H_inv * float((w * r**2).sum() / dof)
+    variance = float((w * r**2).sum() / dof)
+    plain = H_inv * variance
     if group is None:
         return plain
     groups, where = np.unique(group, return_inverse=True)
@@ -48,7 +60,7 @@ def clustered_covariance(J: np.ndarray, r: np.ndarray, w: np.ndarray, group: np.
         return plain
     scores = np.zeros((k, J.shape[1]))
     np.add.at(scores, where, Jw * r[:, None])
-    sandwich = H_inv @ (scores.T @ scores * k / (k - 1)) @ H_inv
+    sandwich = H_inv @ (scores.T @ scores * k / (k - 1) + variance * prior) @ H_inv
     return sandwich if np.trace(sandwich) >= np.trace(plain) else plain
 
 

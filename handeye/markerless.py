@@ -101,6 +101,7 @@ class MarkerlessRun:
                     r.start or "-",
                     f"{err[1]:.3f} / {err[0]:.4f}" if err else "-",
                     f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f}",
+                    _depth_cell(r.depth),
                     f"{r.matched_fraction:.2f}",
                     f"{lab[1]:.3f} / {lab[0]:.4f}" if lab else "-",
                     f"{self.seconds[c]:.1f}",
@@ -114,6 +115,7 @@ class MarkerlessRun:
                     "start",
                     "hybrid vs truth (mm / deg)",
                     "sigma (mm / deg)",
+                    "depth scale, offset mm",
                     "matched",
                     "classic label vs truth",
                     "s",
@@ -121,6 +123,15 @@ class MarkerlessRun:
                 rows,
             )
         )
+
+
+def _depth_cell(depth: dict) -> str:
+    """The estimated depth scale and offset with their sigmas, or '-' where not estimated."""
+    if "scale" not in depth:
+        return "-"
+    return (
+        f"{depth['scale']:.4f} ± {depth['scale_sigma']:.4f}, {depth['offset_mm']:+.2f} ± {depth['offset_sigma_mm']:.2f}"
+    )
 
 
 def robot_surface_for(

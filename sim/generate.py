@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.dataset import (
-    CAMERA_COLUMNS,
     FORMAT,
     FORMAT_VERSION,
+    camera_table_columns,
     dataset_lock,
     poses_to_columns,
     write_json_atomic,
@@ -43,6 +43,7 @@ from handeye.core.se3 import invert_transform
 from handeye.core.shard_writer import ShardWriter
 from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
+from sim.sensors import DepthSensor, apply_sensor, draw_systematic, sensor_profile
 
 __all__ = ["NoiseModel", "DEFAULT_NOISE", "DEPTH_SCALE_M", "GenerationReport", "generate", "dataset_meta"]
 
@@ -132,6 +133,7 @@ def dataset_meta(
     noise: NoiseModel,
     recordings: tuple[str, ...],
     marker_radius_m: float | None = None,
+    sensor: DepthSensor | None = None,
 ) -> dict:
     """The ``meta.json`` of a simulated dataset (everything needed to regenerate it).
 
@@ -143,6 +145,8 @@ def dataset_meta(
     recordings : tuple of str
     marker_radius_m : float, optional
         A debugging sphere on the flange origin in data recordings (robot hidden).
+    sensor : DepthSensor, optional
+        The depth sensor profile (:mod:`sim.sensors`); its depth errors replace the noise's depth term.
 
     Returns
     -------
@@ -185,12 +189,13 @@ def dataset_meta(
             "seed": int(seed),
             "noise": asdict(noise),
             "marker_radius_m": marker_radius_m,
+            "sensor": None if sensor is None else sensor.to_dict(),
         },
     }
     return json.loads(json.dumps(meta))  # as it reads back from the file (tuples become lists)
 
 
-def _camera_table(cams) -> dict:
+def _camera_table(cams, sensor: DepthSensor | None = None, seed: int = 0) -> dict:
     table = {
         "camera_id": np.arange(len(cams)),
         "region": cams.region,
@@ -200,6 +205,12 @@ def _camera_table(cams) -> dict:
         "radius_m": cams.radius_m,
     }
     table.update(poses_to_columns("T_base_cam_true", cams.T_base_cam))
+    if sensor is not None:
+        truths = [draw_systematic(sensor, seed, c) for c in range(len(cams))]
+        table["depth_scale_true"] = np.array([t.scale for t in truths])
+        table["depth_offset_mm_true"] = np.array([t.offset_m * 1e3 for t in truths])
+        for k, axis in enumerate("xyz"):
+            table[f"depth_extrinsic_mm_true.{axis}"] = np.array([t.t_colour_depth_m[k] * 1e3 for t in truths])
     return table
 
 
@@ -221,6 +232,7 @@ class _ShardRenderer:
         recipe = meta["recipe"]
         self.preset = CameraPreset.from_dict(recipe["preset"])
         self.noise = NoiseModel(**recipe["noise"])
+        self.sensor = None if recipe.get("sensor") is None else DepthSensor.from_dict(recipe["sensor"])
         self.robot = load_robot(meta["robot"])
         self.cams = place_cameras(self.preset, np.random.default_rng(recipe["seed"]))
         self.spec = BoardSpec(**meta["board"])
@@ -264,7 +276,10 @@ class _ShardRenderer:
             return rgb
         return np.clip(np.rint(rgb + rng.normal(scale=self.noise.pixel_sigma, size=rgb.shape)), 0, 255).astype(np.uint8)
 
-    def _noisy_depth(self, depth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    def _noisy_depth(self, depth: np.ndarray, rng: np.random.Generator, camera_id: int, rgb: np.ndarray) -> np.ndarray:
+        if self.sensor is not None:
+            truth = draw_systematic(self.sensor, self.meta["recipe"]["seed"], camera_id)
+            return apply_sensor(depth, self.K_data, self.sensor, truth, rng, rgb=rgb)
         if self.noise.depth_sigma_m_at_1m == 0:
             return depth
         noisy = depth + rng.normal(size=depth.shape) * self.noise.depth_sigma_m_at_1m * depth**2
@@ -308,7 +323,7 @@ class _ShardRenderer:
                 q = sample_data_configuration(self.robot, T_base_cam, self.K_data, self.size_data, rng)
                 rgb, depth = renderer.render(q, T_base_cam)
                 rel_rgb = shard.write_rgb(f"data_{k:03d}", self._noisy_rgb(rgb, noise_rng))
-                rel_depth = shard.write_depth(f"data_{k:03d}", self._noisy_depth(depth, noise_rng))
+                rel_depth = shard.write_depth(f"data_{k:03d}", self._noisy_depth(depth, noise_rng, camera_id, rgb))
                 rows.append(("data", q, rel_rgb, rel_depth))
             counts["data"] = self.preset.configurations
         q_rec = np.array([self._recorded_joints(r[1], noise_rng) for r in rows]).reshape(-1, self.robot.nq)
@@ -387,6 +402,7 @@ def generate(
     engine: str = "pool",
     address: str | None = None,
     cameras: Sequence[int] | None = None,
+    sensor: DepthSensor | str | None = None,
 ) -> GenerationReport:
     """Render a dataset (or resume one): one shard per camera pose, one task per shard.
 
@@ -416,6 +432,11 @@ def generate(
     cameras : sequence of int, optional
         Render only these camera poses (a part of a large preset; the rest stays to do, and a later call
         without ``cameras`` completes it). None: all.
+    sensor : DepthSensor or str, optional
+        A depth sensor profile (:data:`sim.sensors.PROFILES` by name, or a :class:`sim.sensors.DepthSensor`):
+        the depth as that camera would report it, with a scale, offset and extrinsic error drawn per placement
+        and recorded in ``cameras.csv`` (``depth_scale_true`` ...). It replaces the noise's depth term, which
+        must then be 0. None: the noise's depth term alone.
 
     Returns
     -------
@@ -429,6 +450,13 @@ def generate(
     t0 = time.perf_counter()
     preset = get_preset(preset) if isinstance(preset, str) else preset
     noise = noise or NoiseModel()
+    if isinstance(sensor, str):
+        sensor = sensor_profile(sensor)
+    if sensor is not None and noise.depth_sigma_m_at_1m > 0:
+        raise HandEyeInputError(
+            f"depth noise given twice: the sensor {sensor.name!r} and depth_sigma_m_at_1m="
+            f"{noise.depth_sigma_m_at_1m}; set the noise's depth term to 0"
+        )
     bad = [r for r in recordings if r not in ("calibration", "data")]
     if bad or not recordings:
         raise HandEyeInputError(f"recordings must be calibration and/or data, got {list(recordings)}")
@@ -447,11 +475,13 @@ def generate(
         raise DatasetError(f"{out}: cannot be created, {blocking} is a file; choose another --out")
     out.mkdir(parents=True, exist_ok=True)
     with dataset_lock(out, "handeye sim generate"):
-        meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m)
+        meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m, sensor)
         _check_or_write_meta(out, meta)
         if not (out / "cameras.csv").exists():
             write_table(
-                out / "cameras.csv", _camera_table(place_cameras(preset, np.random.default_rng(seed))), CAMERA_COLUMNS
+                out / "cameras.csv",
+                table := _camera_table(place_cameras(preset, np.random.default_rng(seed)), sensor, seed),
+                camera_table_columns(table),
             )
         report = GenerationReport(out)
         pending = []

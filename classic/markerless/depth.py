@@ -105,3 +105,45 @@ def moving_mask(depth_m: np.ndarray, static_m: np.ndarray, min_gap_m: float) -> 
     depth_m = np.asarray(depth_m, dtype=float)
     valid = depth_m > 0
     return valid & ((static_m <= 0) | (depth_m < static_m - min_gap_m))
+
+
+def depth_noise_curve(depth_m: np.ndarray, max_frames: int = 12, bins: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """The sensor's depth noise against depth, measured on the static background of the frames.
+
+    The camera is static, so a background pixel's depth differs between frames only by the sensor's
+    noise: its robust spread over frames (1.4826 MAD) is that pixel's noise sigma, whatever the sensor's
+    principle (growing with depth squared for stereo, nearly constant for time of flight). The arm covers
+    a pixel in a few frames at most; the median ignores them. Pixels are binned by depth and each bin's
+    median sigma taken.
+
+    Parameters
+    ----------
+    depth_m : array, shape (N, H, W)
+        Depth of N frames from one static camera, 0 where missing.
+    max_frames : int
+        Frames used (spread over the recording): pixels with depth in all of them are measured.
+    bins : int
+        Depth bins (equal counts).
+
+    Returns
+    -------
+    z_m : array, shape (B,)
+        Bin centres (median depth of each bin), increasing; empty when fewer than 3 frames or 100
+        pixels can be measured.
+    sigma_m : array, shape (B,)
+        Noise sigma at ``z_m``.
+    """
+    depth_m = np.asarray(depth_m, dtype=float)
+    n = len(depth_m)
+    if n < 3:
+        return np.empty(0), np.empty(0)
+    use = depth_m[np.unique(np.linspace(0, n - 1, min(n, max_frames)).round().astype(int))]
+    valid = (use > 0).all(axis=0)
+    if valid.sum() < 100:
+        return np.empty(0), np.empty(0)
+    z = use[:, valid]
+    med = np.median(z, axis=0)
+    sigma = 1.4826 * np.median(np.abs(z - med), axis=0)
+    order = np.argsort(med)
+    chunks = np.array_split(order, min(bins, max(1, len(order) // 50)))
+    return np.array([np.median(med[c]) for c in chunks]), np.array([np.median(sigma[c]) for c in chunks])

@@ -15,6 +15,13 @@ step) rather than with ``scipy.optimize.least_squares``: the matches change
 after every step (ICP), so each problem is a handful of linear solves, and
 the exact Jacobian at the current pose is the closed form below.
 
+With ``depth_correction`` the sensor's depth scale and offset are estimated too. A sensor that reports
+``d_obs = s d + o`` places a point at ``q_obs = d_obs r`` on its pixel's ray ``r = (x_n, y_n, 1)``; the
+true point is ``q = k q_obs + c r`` with ``k = 1 / s`` and ``c = -o / s``, linear in ``(k, c)``. Their
+columns of the Jacobian are ``n_cam . q_obs`` and ``n_cam . r``. The robot's size is known in metres, so
+``k`` is fixed by the arm's size in the image as much as by its depth; ``c`` apart from the camera's
+position along its axis by the rays' spread across the image and the arm's range of depths.
+
 The covariance is the sandwich (cluster-robust) estimate with one cluster per
 frame: neighbouring pixels of one frame share the model's discretisation and
 the sensor's systematic error, so counting them as independent would make
@@ -32,7 +39,7 @@ from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from handeye.core.se3 import make_transform, so3_exp
 
-__all__ = ["PlaneFit", "solve_point_to_plane", "apply_right"]
+__all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points"]
 
 
 @dataclass
@@ -53,6 +60,11 @@ class PlaneFit:
     steps : int
     step_norm : float
         Size of the last update: rotation (rad) plus translation (m).
+    depth_correction : (float, float) or None
+        ``(k, c)``: the estimated correction ``q = k q_obs + c r`` (``k = 1 / s``, ``c = -o / s``), when
+        asked for; the pose's ``covariance`` then includes their uncertainty.
+    depth_covariance : array, shape (2, 2) or None
+        Of ``(k, c)``.
     """
 
     T_base_cam: np.ndarray
@@ -62,6 +74,8 @@ class PlaneFit:
     group: np.ndarray
     steps: int
     step_norm: float
+    depth_correction: tuple | None = None
+    depth_covariance: np.ndarray | None = None
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -69,16 +83,31 @@ def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
     return T @ make_transform(so3_exp(xi[:3]), xi[3:])
 
 
-def _linearise(p_cam, m_base, n_base, T, shape=None):
+def corrected_points(q_obs: np.ndarray, k: float, c: float) -> np.ndarray:
+    """``k q_obs + c r``: observed camera-frame points with the depth correction, ``r = q_obs / z_obs``."""
+    return q_obs * (k + c / q_obs[:, 2])[:, None]
+
+
+def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None):
     R, t = T[:3, :3], T[:3, 3]
+    p_cam = q_obs if depth is None else corrected_points(q_obs, *depth)
     x_base = p_cam @ R.T + t
     if shape is None:
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
     else:
         r, grad = second_order_residual(x_base, m_base, n_base, *shape)
     n_cam = grad @ R  # R^T grad, row-wise
-    J = np.hstack([np.cross(p_cam, n_cam), n_cam])
-    return r, J
+    cols = [np.cross(p_cam, n_cam), n_cam]
+    if depth is not None:
+        ray = q_obs / q_obs[:, 2:3]
+        cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], np.einsum("ij,ij->i", n_cam, ray)[:, None]]
+    return r, np.hstack(cols)
+
+
+def _prior_information(precision: np.ndarray, r: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """A prior of the given precisions as information in the units of ``J^T W J``: times the residual variance."""
+    variance = float((w * r**2).sum() / max(float(w.sum()), 1.0))
+    return np.diag(precision * variance)
 
 
 def solve_point_to_plane(
@@ -93,13 +122,16 @@ def solve_point_to_plane(
     tol: float = 1e-7,
     curvatures: np.ndarray | None = None,
     direction_base: np.ndarray | None = None,
+    depth_correction: tuple[float, float] | None = None,
+    depth_prior_sigma: tuple[float, float] | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
     Parameters
     ----------
     p_cam : array, shape (N, 3)
-        Observed points, camera frame, metres.
+        Observed points, camera frame, metres (as the sensor reports them when ``depth_correction``
+        is given; they must then have ``z > 0``).
     m_base, n_base : array, shape (N, 3)
         Matched model points and their unit normals, base frame.
     T_base_cam : array, shape (4, 4)
@@ -118,6 +150,13 @@ def solve_point_to_plane(
         removes the bias of matching a sample anywhere in a pixel on a curved surface.
     direction_base : array, shape (N, 3), optional
         First principal direction of each match, base frame.
+    depth_correction : (float, float), optional
+        Start ``(k, c)`` of the depth correction ``q = k p_cam + c r`` (``(1, 0)``: none); given, it is
+        estimated with the pose (8 parameters).
+    depth_prior_sigma : (float, float), optional
+        Sigmas of a Gaussian prior on ``k`` about 1 and ``c`` about 0 (a datasheet's spread of the scale and
+        the offset, metres): with few frames or little depth range the prior keeps them, and their
+        uncertainty enters the pose's covariance. None: no prior.
 
     Returns
     -------
@@ -125,18 +164,36 @@ def solve_point_to_plane(
     """
     T = np.array(T_base_cam, dtype=float)
     shape = None if curvatures is None else (curvatures, direction_base)
+    depth = None if depth_correction is None else np.array(depth_correction, dtype=float)
+    n_par = 6 if depth is None else 8
+    prior_precision = np.zeros(n_par)
+    if depth is not None and depth_prior_sigma is not None:
+        prior_precision[6:] = 1.0 / np.square(np.asarray(depth_prior_sigma, dtype=float))
     step_norm, steps = np.inf, 0
     for steps in range(1, iterations + 1):
-        r, J = _linearise(p_cam, m_base, n_base, T, shape)
+        r, J = _linearise(p_cam, m_base, n_base, T, shape, depth)
         w = loss_weights(r / scale_m, loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
-        xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(6), g)
-        T = apply_right(T, xi)
-        step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:]))
+        if depth is not None:
+            # the prior in the residuals' units: their variance over the prior's
+            P = _prior_information(prior_precision, r, w)
+            H = H + P
+            g = g + P @ np.r_[np.zeros(6), depth - (1.0, 0.0)]
+        # a ridge of 1e-12 relative: a direction the data do not fix stays put instead of running away
+        xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(n_par), g)
+        T = apply_right(T, xi[:6])
+        step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6]))
+        if depth is not None:
+            depth = depth + xi[6:]
+            step_norm += float(abs(xi[6]) + abs(xi[7]))
         if step_norm < tol:
             break
-    r, J = _linearise(p_cam, m_base, n_base, T, shape)
+    r, J = _linearise(p_cam, m_base, n_base, T, shape, depth)
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
-    return PlaneFit(T, clustered_covariance(J, r, w, group), r, w, groups, steps, step_norm)
+    prior = None if depth is None else _prior_information(prior_precision, r, w)
+    cov = clustered_covariance(J, r, w, group, prior)
+    if depth is None:
+        return PlaneFit(T, cov, r, w, groups, steps, step_norm)
+    return PlaneFit(T, cov[:6, :6], r, w, groups, steps, step_norm, (float(depth[0]), float(depth[1])), cov[6:, 6:])

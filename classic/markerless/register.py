@@ -23,8 +23,15 @@ Stages:
    observed point in its pixel (projective association), point-to-plane with
    a Cauchy loss over all frames, the gate shrinking to a few noise sigmas.
 
+The sensor's depth scale and offset are estimated with the pose in the fine stage
+(``MarkerlessOptions.depth_model``): a real RGB-D camera's depth is off by a fraction of a percent and
+a few millimetres, which would otherwise pull the camera along its optical axis by millimetres while the
+fit reports a sigma of tenths. A prior of a datasheet's spread keeps them where the frames say little,
+and their uncertainty enters the pose's sigma. The depth noise is measured on the static background
+(:func:`classic.markerless.depth.depth_noise_curve`) unless the caller gives it.
+
 A result is accepted only when most of the visible model is matched, the
-residual is of the depth noise's size and the last step has converged;
+residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
 otherwise it is refused with the reason (:attr:`MarkerlessResult.refused`),
 never returned as a calibration.
 """
@@ -37,8 +44,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from classic.clustered_covariance import pose_sigma
-from classic.markerless.depth import backproject, moving_mask, static_depth
-from classic.markerless.point_to_plane import solve_point_to_plane
+from classic.markerless.depth import backproject, depth_noise_curve, moving_mask, static_depth
+from classic.markerless.point_to_plane import corrected_points, solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
 from handeye.core.metrics import pose_error
@@ -117,8 +124,26 @@ class MarkerlessOptions:
 
     Attributes
     ----------
-    depth_sigma_m_at_1m : float
-        Depth noise sigma at 1 m (it grows with depth squared); sets the robust scales.
+    depth_sigma_m_at_1m : float or None
+        Depth noise sigma at 1 m, growing with depth squared (a sensor profile's figure); sets the robust
+        scales and the expected residual. None (the default): measured on the static background of the
+        frames, at every depth (:func:`classic.markerless.depth.depth_noise_curve`), 1 mm at 1 m where
+        too little background has depth in every frame.
+    depth_model : {"scale-offset", "fixed"}
+        ``"scale-offset"`` (the default) estimates the sensor's depth scale and offset with the pose;
+        ``"fixed"`` takes the depth as exact.
+    depth_scale_prior_sigma : float
+        Spread of the sensor's depth scale ``s - 1`` before the data (a datasheet's figure: 1 % by default;
+        consumer RGB-D cameras quote 1-2 % of the distance as a bound).
+    depth_offset_prior_sigma_m : float
+        Spread of its depth offset before the data, metres (5 mm by default).
+    max_depth_prior_share : float
+        Refused when the data leave the depth scale's or offset's sigma above this share of its prior's: the
+        frames span too little range of depth to calibrate it, and the answer would rest on the datasheet.
+    depth_extrinsic_sigma_m : float
+        Uncertainty of the depth-to-colour extrinsic per axis, metres (a sensor profile's figure): the
+        registration finds the depth camera, the board and the learned model the colour camera; added to
+        the translation sigma.
     min_moving_pixels : int
         Fewer moving pixels in all frames than this: refused (the arm is not in view).
     min_matched_fraction : float
@@ -143,7 +168,12 @@ class MarkerlessOptions:
     seed : int
     """
 
-    depth_sigma_m_at_1m: float = 0.001
+    depth_sigma_m_at_1m: float | None = None
+    depth_model: str = "scale-offset"
+    depth_scale_prior_sigma: float = 0.01
+    depth_offset_prior_sigma_m: float = 0.005
+    max_depth_prior_share: float = 0.5
+    depth_extrinsic_sigma_m: float = 0.0
     min_moving_pixels: int = 200
     min_matched_fraction: float = 0.6
     max_residual_ratio: float = 3.0
@@ -155,6 +185,19 @@ class MarkerlessOptions:
     max_model_points: int = 300000
     zbuffer_stride: int = 1
     seed: int = 0
+
+    def __post_init__(self):
+        if self.depth_model not in ("scale-offset", "fixed"):
+            raise HandEyeInputError(f"depth_model must be 'scale-offset' or 'fixed', got {self.depth_model!r}")
+        priors = (self.depth_scale_prior_sigma, self.depth_offset_prior_sigma_m)
+        if self.depth_model == "scale-offset" and not min(priors) > 0:
+            raise HandEyeInputError(
+                "depth_model 'scale-offset' needs positive prior sigmas of the scale and offset; a sensor known "
+                "exactly is depth_model='fixed'"
+            )
+        sigma = self.depth_sigma_m_at_1m
+        if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
+            raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
 
 
 @dataclass
@@ -181,6 +224,11 @@ class MarkerlessResult:
     start : str
         Which start led to the answer.
     diagnostics : dict
+    depth : dict
+        The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
+        ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
+        ``offset_sigma_mm``); ``range_m`` (the matched depths' 10th and 90th percentiles), and the noise
+        used (``noise_source``, ``noise_mm_at_median_depth``).
     """
 
     T_base_cam: np.ndarray | None
@@ -191,6 +239,7 @@ class MarkerlessResult:
     matched_fraction: float
     start: str
     diagnostics: dict = field(default_factory=dict)
+    depth: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -212,6 +261,7 @@ class MarkerlessResult:
             "start": self.start,
             "matched_fraction": self.matched_fraction,
             "sigma": self.sigma,
+            "depth": self.depth,
             "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
             "diagnostics": self.diagnostics,
         }
@@ -241,8 +291,8 @@ def _check_inputs(depth_m, K, surface):
     return depth_m, K
 
 
-def _sigma_z(z, opts):
-    return opts.depth_sigma_m_at_1m * z**2
+#: Depth noise taken when it can be neither measured nor was given: 1 mm at 1 m, growing with depth squared.
+FALLBACK_SIGMA_M_AT_1M = 0.001
 
 
 class _Problem:
@@ -251,11 +301,17 @@ class _Problem:
     def __init__(self, depth_m, K, surface, opts):
         self.depth, self.K, self.s, self.opts = depth_m, K, surface, opts
         self.n, self.h, self.w = depth_m.shape
-        self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth
+        self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
+        self.k, self.c = 1.0, 0.0  # the depth correction q = k q_obs + c r, estimated by the fine stage
+        if opts.depth_sigma_m_at_1m is not None:
+            self.noise_z, self.noise_sigma, self.noise_source = None, None, "given"
+        else:
+            self.noise_z, self.noise_sigma = depth_noise_curve(depth_m)
+            self.noise_source = "measured on the static background" if len(self.noise_z) else "fallback 1 mm at 1 m"
         static = static_depth(depth_m)
         # moved there: nearer than the static depth by 2 cm or six depth-noise sigmas, whichever is larger
         z = np.where(depth_m > 0, depth_m, 1.0)
-        self.moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * _sigma_z(z, opts)))
+        self.moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * self.sigma_z(z)))
         f, r, c = np.nonzero(self.moving)
         self.n_moving = len(f)
         rng = np.random.default_rng(opts.seed)
@@ -283,6 +339,22 @@ class _Problem:
         )
         cs = self.coarse_subset
         self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
+
+    def sigma_z(self, z):
+        """Depth noise sigma at depth ``z`` (metres): given, or measured, or the fallback."""
+        if self.opts.depth_sigma_m_at_1m is not None:
+            return self.opts.depth_sigma_m_at_1m * np.asarray(z) ** 2
+        if self.noise_z is None or len(self.noise_z) == 0:
+            return FALLBACK_SIGMA_M_AT_1M * np.asarray(z) ** 2
+        if len(self.noise_z) == 1:
+            return np.full(np.shape(z), self.noise_sigma[0])
+        return np.interp(z, self.noise_z, self.noise_sigma)
+
+    def corrected(self, q_obs):
+        """Observed camera-frame points with the current depth correction."""
+        if self.k == 1.0 and self.c == 0.0:
+            return q_obs
+        return corrected_points(q_obs, self.k, self.c)
 
     # -- visibility
 
@@ -339,9 +411,10 @@ class _Problem:
     def coarse(self, T):
         """3-D ICP of the moving pixels to the model, window shrinking; up to 3 matchings per window,
         fewer once a matching moves the pose by less than a tenth of the window (the rotation taken at 1 m)."""
+        moving_p_cam = self.corrected(self.moving_p_cam)
         for window in self.opts.coarse_windows_m:
             for _ in range(3):
-                p_base = self.moving_p_cam @ T[:3, :3].T + T[:3, 3]
+                p_base = moving_p_cam @ T[:3, :3].T + T[:3, 3]
                 d, j = self.tree.query(
                     np.c_[p_base, self.moving_frame * _FRAME_KEY_M], distance_upper_bound=window, workers=-1
                 )
@@ -357,7 +430,7 @@ class _Problem:
                 if len(sel) < 50:
                     break
                 fit = solve_point_to_plane(
-                    self.moving_p_cam[sel],
+                    moving_p_cam[sel],
                     self.s.points_base[jj],
                     self.s.normals_base[jj],
                     T,
@@ -389,18 +462,20 @@ class _Problem:
             inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h) & (p_cam[:, 2] > 0)
             idx, p_cam, pix = idx[inside], p_cam[inside], uv[inside][:, ::-1]
         f = self.s.frame[idx]
-        q = self.P[f, pix[:, 0], pix[:, 1]]
-        has_depth = np.isfinite(q[:, 2])
+        q_obs = self.P[f, pix[:, 0], pix[:, 1]]
+        q = self.corrected(q_obs)
+        has_depth = np.isfinite(q[:, 2]) & (q_obs[:, 2] > 0)
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
-        return idx, f, q, has_depth, close
+        return idx, f, q_obs, q, has_depth, close
 
-    def _fit(self, T, idx, f, q, close):
+    def _fit(self, T, idx, f, q_obs, close):
         sel = np.flatnonzero(close)
-        expected = np.sqrt(_sigma_z(q[sel, 2], self.opts) ** 2 + self.opts.model_floor_m**2)
+        expected = np.sqrt(self.sigma_z(q_obs[sel, 2]) ** 2 + self.opts.model_floor_m**2)
         m = idx[sel]
         curved = self.s.curvatures is not None
+        estimate_depth = self.opts.depth_model == "scale-offset"
         fit = solve_point_to_plane(
-            q[sel],
+            q_obs[sel] if estimate_depth else self.corrected(q_obs[sel]),
             self.s.points_base[m],
             self.s.normals_base[m],
             T,
@@ -410,7 +485,11 @@ class _Problem:
             iterations=3,
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
+            depth_correction=(self.k, self.c) if estimate_depth else None,
+            depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
         )
+        if estimate_depth:
+            self.k, self.c = fit.depth_correction
         return fit, float(np.median(expected))
 
     def fine(self, T):
@@ -426,28 +505,30 @@ class _Problem:
         for it in range(opts.fine_iterations):
             gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)
             full = it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
-            idx, f, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
+            idx, f, q_obs, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
             if full:
                 visible_idx = idx
             if close.sum() < 50:
                 return T, None, np.inf, 0.0
-            fit, expected = self._fit(T, idx, f, q, close)
+            fit, expected = self._fit(T, idx, f, q_obs, close)
             T, step = fit.T_base_cam, fit.step_norm
             inl = fit.weights > 0.5
             scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
             if it >= len(gates) and step < 1e-7:
                 break
         # the final association, fresh z-buffer: one more fit on it, and the matched fraction
-        idx, f, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
+        idx, f, q_obs, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
         if close.sum() < 50:
             return T, None, np.inf, 0.0
-        fit, _ = self._fit(T, idx, f, q, close)
+        fit, _ = self._fit(T, idx, f, q_obs, close)
+        q = self.corrected(q_obs)
         step = max(step, fit.step_norm)
         matched_q = q[close]
         self.final_geometry = (
             float(np.median(matched_q[:, 2])),
             float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
         )
+        self.final_depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
         within_1cm = has_depth & (
             np.abs(q[:, 2] - (self.s.points_base[idx] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
         )
@@ -515,16 +596,17 @@ def register_robot(
         return refuse("no start: the moving pixels of too few frames to align centroids, and none was given")
     best = None
     for name, T_start in starts.items():
+        problem.k, problem.c = 1.0, 0.0
         T = problem.coarse(np.asarray(T_start, dtype=float))
         T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
         if fit is not None and (best is None or matched > best[0]):
-            best = (matched, name, T, fit, step)
+            best = (matched, name, T, fit, step, problem.final_geometry, problem.final_depth_range)
         if fit is not None and matched >= opts.min_matched_fraction + 0.15:
             break  # a clear success: the other starts cannot do better than the noise
     if best is None:
         return refuse("did not converge: no start kept enough matched points")
-    matched, name, T, fit, step = best
+    matched, name, T, fit, step, (z_med, lever_m), depth_range = best
     inl = fit.weights > 0.5
     group = fit.group
     res_frame = np.array(
@@ -534,30 +616,32 @@ def register_robot(
         ]
     )
     rms_mm = float(np.sqrt(np.mean(fit.residuals_m[inl] ** 2)) * 1e3) if inl.any() else np.inf
-    z_med = float(np.median(depth_m[depth_m > 0]))
-    expected_mm = float(np.hypot(_sigma_z(z_med, opts), opts.model_floor_m) * 1e3)
+    noise_mm = float(problem.sigma_z(z_med) * 1e3)
+    expected_mm = float(np.hypot(noise_mm, opts.model_floor_m * 1e3))
     cov = fit.covariance
     R = T[:3, :3]
     noise = pose_sigma(cov, R)
-    noise_deg, noise_mm = noise["rotation_deg"], noise["translation_mm"]
+    noise_deg, noise_mm_pose = noise["rotation_deg"], noise["translation_mm"]
     # what all frames share and the covariance cannot see: a model point stands for the surface up to half a
     # pixel off its ray, off the tangent plane by at most F^2 / (8 r) on a link of radius r; taken as a uniform
     # error (std = bound / sqrt 3) in translation, and over the matched points' spread in rotation
-    z_med, lever_m = problem.final_geometry
     footprint_m = z_med / max(K[0, 0], K[1, 1])
     sampling_mm = footprint_m**2 / (8 * opts.model_radius_m) / np.sqrt(3) * 1e3
     sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
+    # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
+    extrinsic_mm = np.sqrt(3) * opts.depth_extrinsic_sigma_m * 1e3
     sigma = {
         "rotation_deg": float(np.hypot(noise_deg, sampling_deg)),
-        "translation_mm": float(np.hypot(noise_mm, sampling_mm)),
+        "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2)),
     }
+    depth = _depth_summary(fit, opts, depth_range, problem.noise_source, noise_mm)
     diag.update(
         {
             "inlier_rms_mm": rms_mm,
             "expected_rms_mm": expected_mm,
             "last_step": float(step),
             "matched_points": int(inl.sum()),
-            "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm},
+            "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm_pose},
             "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
         }
     )
@@ -571,4 +655,35 @@ def register_robot(
         refused = f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth noise"
     elif step > 1e-4:
         refused = f"did not converge: last step {step:.2g} (rad + m)"
-    return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag)
+    elif depth.get("scale_sigma", 0.0) > opts.max_depth_prior_share * opts.depth_scale_prior_sigma or (
+        depth.get("offset_sigma_mm", 0.0) > opts.max_depth_prior_share * opts.depth_offset_prior_sigma_m * 1e3
+    ):
+        refused = (
+            f"depth scale and offset not observable: the matched depths span {depth['range_m'][0]:.2f}-"
+            f"{depth['range_m'][1]:.2f} m, which leaves the scale at {depth['scale_sigma']:.2%} and the offset at "
+            f"{depth['offset_sigma_mm']:.1f} mm (1 sigma; at most {opts.max_depth_prior_share:.0%} of the prior's "
+            f"{opts.depth_scale_prior_sigma:.2%} and {opts.depth_offset_prior_sigma_m * 1e3:.1f} mm); move the arm "
+            "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
+        )
+    return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag, depth)
+
+
+def _depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_source: str, noise_mm: float) -> dict:
+    """The depth correction as the sensor's scale and offset, ``d_obs = s d + o``, with their sigmas."""
+    out = {"model": opts.depth_model, "noise_source": noise_source, "noise_mm_at_median_depth": noise_mm}
+    out["range_m"] = [float(depth_range[0]), float(depth_range[1])]
+    if fit.depth_correction is None:
+        return out
+    k, c = fit.depth_correction
+    # s = 1 / k, o = -c / k; first order through the Jacobian of (s, o) in (k, c)
+    G = np.array([[-1 / k**2, 0.0], [c / k**2, -1 / k]])
+    C = G @ fit.depth_covariance @ G.T
+    out.update(
+        {
+            "scale": float(1 / k),
+            "scale_sigma": float(np.sqrt(max(C[0, 0], 0.0))),
+            "offset_mm": float(-c / k * 1e3),
+            "offset_sigma_mm": float(np.sqrt(max(C[1, 1], 0.0)) * 1e3),
+        }
+    )
+    return out

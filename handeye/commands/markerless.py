@@ -44,7 +44,24 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--package-dir", type=Path, action="append", default=[], help="folder for package:// mesh paths (repeatable)"
     )
-    p.add_argument("--depth-noise", type=float, default=0.001, help="depth sigma at 1 m, metres (default 0.001)")
+    p.add_argument(
+        "--depth-noise",
+        type=float,
+        default=None,
+        help="depth sigma at 1 m, metres, growing with depth squared (default: measured on the static background)",
+    )
+    p.add_argument(
+        "--depth-model",
+        choices=("scale-offset", "fixed"),
+        default="scale-offset",
+        help="estimate the sensor's depth scale and offset with the pose (default), or take the depth as exact",
+    )
+    p.add_argument(
+        "--sensor",
+        default=None,
+        help="the depth camera's profile (d435, d455, l515, azure-kinect, zivid): its depth-to-colour extrinsic "
+        "uncertainty enters the sigma (default: the dataset's simulated sensor, if any)",
+    )
     p.add_argument("-o", "--out", type=Path, help="write the results as JSON")
     p.add_argument(
         "--write-labels",
@@ -69,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
     start = read_start(args.start) if args.start else None
+    extrinsic_m = _extrinsic_sigma_m(args)
     out = markerless_dataset(
         args.dataset,
         args.camera,
@@ -76,7 +94,9 @@ def run(args: argparse.Namespace) -> int:
         T_base_cam_start=start,
         urdf=args.urdf,
         package_dirs=args.package_dir,
-        options=MarkerlessOptions(depth_sigma_m_at_1m=args.depth_noise),
+        options=MarkerlessOptions(
+            depth_sigma_m_at_1m=args.depth_noise, depth_model=args.depth_model, depth_extrinsic_sigma_m=extrinsic_m
+        ),
         progress=not args.quiet,
     )
     print(out.table())
@@ -87,3 +107,14 @@ def run(args: argparse.Namespace) -> int:
     if args.write_labels:
         print(f"written: {write_markerless_labels(args.dataset, out)} (markerless label columns)")
     return 0 if all(r.ok for r in out.results.values()) else 1
+
+
+def _extrinsic_sigma_m(args: argparse.Namespace) -> float:
+    """The depth-to-colour extrinsic's sigma per axis: of ``--sensor``, else of the dataset's simulated sensor."""
+    from handeye.core.dataset import Dataset
+    from sim.sensors import sensor_profile
+
+    if args.sensor is not None:
+        return sensor_profile(args.sensor).extrinsic_sigma_m
+    recorded = Dataset.open(args.dataset).meta.get("recipe", {}).get("sensor")
+    return float(recorded.get("extrinsic_sigma_m", 0.0)) if isinstance(recorded, dict) else 0.0

@@ -6,6 +6,7 @@ Example
 
     handeye sim generate --preset paper-sim --out data/paper-sim
     handeye sim generate --preset small --out data/small --noise default
+    handeye sim generate --preset paper-real --out data/paper-real-d435 --noise default --sensor d435
     handeye sim generate --preset dense-sim --out /shared/dense-sim --engine ray --address auto
 
 Per camera pose of the preset: a calibration recording (the ChArUco board on
@@ -13,6 +14,12 @@ the flange in reachable views facing the camera) and a data recording (RGB,
 depth, joints, ``T_base_ee``, ``T_base_ref``). Run it again on the same
 ``--out`` to resume: complete shards are kept, half-written ones are rendered
 again. Then ``handeye label`` the result.
+
+``--sensor`` renders the depth as a real camera reports it (``ideal``, ``d435``, ``d455``, ``l515``,
+``azure-kinect``, ``zivid``, or a JSON file of :class:`sim.sensors.DepthSensor` parameters): a depth scale,
+offset and depth-to-colour extrinsic error drawn per placement (recorded in ``cameras.csv``), noise as
+the sensing principle grows it, correlated noise, flying pixels and holes. It replaces the depth term
+of ``--noise``.
 """
 
 from __future__ import annotations
@@ -58,6 +65,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="'none', 'default' (pixel 2 grey levels, depth 1 mm at 1 m, joints 0.01 deg) or "
         "PIXEL,DEPTH_M_AT_1M,JOINT_DEG",
     )
+    g.add_argument(
+        "--sensor",
+        default=None,
+        help="depth sensor profile: ideal, d435, d455, l515, azure-kinect, zivid, or a JSON file of its parameters "
+        "(replaces the depth term of --noise)",
+    )
     g.add_argument("--recordings", default="calibration,data", help="calibration,data (default) or one of them")
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(run=run)
@@ -80,6 +93,24 @@ def parse_noise(text: str):
     return NoiseModel(pixel, depth, joint)
 
 
+def parse_sensor(text: str | None):
+    """A profile name or a JSON parameter file -> DepthSensor; None -> None."""
+    from handeye.core.errors import HandEyeInputError
+    from handeye.core.jsonfile import read_json_file
+    from sim.sensors import PROFILES, sensor_profile
+
+    if text is None:
+        return None
+    if text in PROFILES:
+        return PROFILES[text]
+    if not text.endswith(".json"):
+        raise HandEyeInputError(f"--sensor {text!r}: use one of {', '.join(PROFILES)}, or a .json parameter file")
+    params = read_json_file(Path(text), HandEyeInputError, "sensor parameter file")
+    if not isinstance(params, dict):
+        raise HandEyeInputError(f"{text}: sensor parameters must be a JSON object")
+    return sensor_profile(params)
+
+
 def parse_cameras(text: str | None):
     """``FIRST:STOP`` -> ``range(FIRST, STOP)``; None -> None."""
     from handeye.core.errors import HandEyeInputError
@@ -100,13 +131,20 @@ def run(args: argparse.Namespace) -> int:
     from handeye.core.optional import require_package
 
     require_package("pyrender", extra="sim", purpose="rendering")
+    from dataclasses import replace
+
     from sim.generate import generate
 
+    sensor = parse_sensor(args.sensor)
+    noise = parse_noise(args.noise)
+    if sensor is not None:
+        noise = replace(noise, depth_sigma_m_at_1m=0.0)  # the sensor's depth errors replace the noise's depth term
     report = generate(
         args.out,
         args.preset,
         seed=args.seed,
-        noise=parse_noise(args.noise),
+        noise=noise,
+        sensor=sensor,
         workers=args.workers,
         recordings=tuple(r.strip() for r in args.recordings.split(",")),
         progress=not args.quiet,

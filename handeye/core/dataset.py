@@ -53,6 +53,7 @@ __all__ = [
     "RECORDINGS",
     "POSE_FIELDS",
     "CAMERA_COLUMNS",
+    "SENSOR_COLUMNS",
     "LABEL_COLUMNS",
     "MARKERLESS_COLUMNS",
     "camera_table_columns",
@@ -94,6 +95,16 @@ CAMERA_COLUMNS = [
     "radius_m",
     *pose_columns("T_base_cam_true"),
 ]
+#: Written by the simulator with a depth sensor profile: the unit's systematic errors at the placement, the truth
+#: that the markerless registration estimates (``d_obs = scale d + offset``) and the depth-to-colour extrinsic's
+#: error (the registered depth is that of a camera displaced by minus this vector in the colour camera's frame).
+SENSOR_COLUMNS = [
+    "depth_scale_true",
+    "depth_offset_mm_true",
+    "depth_extrinsic_mm_true.x",
+    "depth_extrinsic_mm_true.y",
+    "depth_extrinsic_mm_true.z",
+]
 #: Written by labelling: the classic label, how it was obtained and, with a truth, its error.
 LABEL_COLUMNS = [
     *pose_columns("T_base_cam_label"),
@@ -122,6 +133,8 @@ _STR_COLUMNS = {"split", "recording", "rgb", "depth", "label_status", "markerles
 def camera_table_columns(table: dict) -> list[str]:
     """The camera table's columns in order: placement and truth, then the label groups the table has."""
     cols = list(CAMERA_COLUMNS)
+    if "depth_scale_true" in table:
+        cols += SENSOR_COLUMNS
     if "T_base_cam_label.x" in table:
         cols += LABEL_COLUMNS
     if "T_base_cam_markerless.x" in table:

@@ -1,0 +1,388 @@
+"""Depth sensors as they are: per-unit scale and offset, axial and correlated noise, flying pixels, holes.
+
+The renderer gives the true depth ``d`` of every pixel. A real RGB-D camera reports
+
+.. math:: d_{obs} = s\\, d + o + \\epsilon(d)
+
+with a scale ``s`` and offset ``o`` of its own (a unit's calibration error, fixed for a placement), and a
+noise ``epsilon`` whose size grows with depth as the sensing principle makes it grow: with ``z^2`` for
+triangulation (active stereo, structured light: ``sigma_z = z^2 sigma_d / (f B)``), roughly constant plus a
+term linear in ``z`` for time of flight. The noise is partly spatially correlated (stereo matches windows of
+pixels; time-of-flight sensors filter), pixels at depth edges mix the foreground and the background
+("flying pixels"), surfaces seen at grazing angles and dark surfaces return no depth, and the depth image,
+registered to the colour camera through a factory extrinsic, carries that extrinsic's error.
+
+A :class:`DepthSensor` holds these numbers for one kind of camera; :data:`PROFILES` has the cameras a
+robot cell uses, with the figures taken from their vendors' datasheets and white papers (cited beside
+each). Where a datasheet gives a bound ("accuracy within 2 % at 2 m"), the spread here is a third of it,
+so that the bound is a 3-sigma one. :func:`apply_sensor` turns a rendered depth image into what the sensor
+would report; :func:`draw_systematic` draws a unit's scale, offset and extrinsic error for one placement,
+from a seed, so that the generator records them as the placement's truth.
+
+Not modelled: multipath at concave corners of time-of-flight sensors (a positive bias of millimetres
+there), the temperature drift of the scale, rolling shutter and motion blur, IR interference between
+sensors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy import ndimage
+from scipy.special import ndtri
+
+from handeye.core.errors import HandEyeInputError
+
+__all__ = ["DepthSensor", "SensorTruth", "PROFILES", "sensor_profile", "draw_systematic", "apply_sensor"]
+
+
+@dataclass(frozen=True)
+class DepthSensor:
+    """The depth errors of one kind of RGB-D camera.
+
+    Attributes
+    ----------
+    name : str
+    principle : {"ideal", "active-stereo", "time-of-flight", "structured-light"}
+    scale_sigma : float
+        Spread of a unit's depth scale ``s - 1`` (one sigma, unitless), drawn per placement.
+    offset_sigma_m : float
+        Spread of a unit's depth offset ``o``, metres, drawn per placement.
+    noise_const_m : float
+        Axial noise sigma that does not grow with depth (time of flight), metres.
+    noise_linear : float
+        Axial noise sigma per metre of depth (time of flight), unitless.
+    noise_quadratic_per_m : float
+        Axial noise sigma per square metre of depth, 1/m: ``subpixel / (f B)`` for a stereo pair of
+        baseline ``B`` with focal length ``f`` pixels at the sensor's own resolution.
+    correlated_fraction : float
+        Share of the noise variance that is spatially correlated (0: white).
+    correlation_px : float
+        Correlation length of that part in the sensor's own pixels (the stereo matching window).
+    native_focal_px : float
+        Focal length of the depth sensor at its own resolution; scales ``correlation_px`` to the
+        rendered image. 0 for no scaling.
+    flying_fraction : float
+        Share of the pixels at a depth edge that mix foreground and background.
+    edge_jump_m : float
+        Depth difference between neighbours that makes an edge.
+    grazing_hole_deg : float
+        Surfaces seen at more than this angle from their normal return no depth (90: never).
+    dark_hole_fraction : float
+        Share of dark pixels (grey level below ``dark_level``) that return no depth.
+    dark_level : float
+        Grey level (0-255) below which a pixel is dark.
+    hole_blob_fraction : float
+        Share of each image lost in random blobs (specular spots, dropped matches).
+    hole_blob_px : float
+        Blob size, rendered pixels.
+    extrinsic_sigma_m : float
+        Spread of the depth-to-colour extrinsic's translation error per axis, metres: the depth image is
+        registered to the colour camera through a factory extrinsic that is off by this much.
+    source : str
+        Where the numbers come from.
+    """
+
+    name: str
+    principle: str
+    scale_sigma: float = 0.0
+    offset_sigma_m: float = 0.0
+    noise_const_m: float = 0.0
+    noise_linear: float = 0.0
+    noise_quadratic_per_m: float = 0.0
+    correlated_fraction: float = 0.0
+    correlation_px: float = 0.0
+    native_focal_px: float = 0.0
+    flying_fraction: float = 0.0
+    edge_jump_m: float = 0.05
+    grazing_hole_deg: float = 90.0
+    dark_hole_fraction: float = 0.0
+    dark_level: float = 30.0
+    hole_blob_fraction: float = 0.0
+    hole_blob_px: float = 6.0
+    extrinsic_sigma_m: float = 0.0
+    source: str = ""
+
+    def __post_init__(self):
+        if self.principle not in ("ideal", "active-stereo", "time-of-flight", "structured-light"):
+            raise HandEyeInputError(f"sensor {self.name!r}: unknown principle {self.principle!r}")
+        for key, value in asdict(self).items():
+            if key in ("name", "principle", "source"):
+                continue
+            if not np.isfinite(value) or value < 0:
+                raise HandEyeInputError(f"sensor {self.name!r}: {key} must be a finite value >= 0, got {value}")
+        for key in ("correlated_fraction", "flying_fraction", "dark_hole_fraction", "hole_blob_fraction"):
+            if getattr(self, key) > 1:
+                raise HandEyeInputError(f"sensor {self.name!r}: {key} is a fraction, got {getattr(self, key)}")
+
+    def sigma_m(self, z_m: np.ndarray) -> np.ndarray:
+        """Axial noise sigma at depth ``z_m`` (metres), any shape."""
+        z = np.asarray(z_m, dtype=float)
+        return np.sqrt(self.noise_const_m**2 + (self.noise_linear * z) ** 2 + (self.noise_quadratic_per_m * z**2) ** 2)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "DepthSensor":
+        unknown = set(d) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise HandEyeInputError(f"sensor parameters: unknown keys {sorted(unknown)}")
+        return cls(**d)
+
+
+def _stereo(subpixel: float, focal_px: float, baseline_m: float) -> float:
+    """``sigma_z / z^2`` of a stereo pair: ``subpixel / (f B)`` (Intel's depth RMS error formula)."""
+    return subpixel / (focal_px * baseline_m)
+
+
+#: Intel RealSense D4xx at 848x480: 87 deg horizontal field of view, so f = 424 / tan(43.5 deg) = 447 px.
+_D4XX_FOCAL_PX = 447.0
+
+#: The profiles of ``handeye sim generate --sensor``.
+PROFILES: dict[str, DepthSensor] = {
+    # today's simulator: white noise of 1 mm at 1 m growing with depth squared, nothing else
+    "ideal": DepthSensor("ideal", "ideal", noise_quadratic_per_m=0.001, source="the simulator's default noise"),
+    "d435": DepthSensor(
+        "d435",
+        "active-stereo",
+        scale_sigma=0.02 / 3,  # absolute depth accuracy within 2 % at 2 m (D400 series datasheet)
+        offset_sigma_m=0.002,
+        noise_quadratic_per_m=_stereo(0.08, _D4XX_FOCAL_PX, 0.050),  # subpixel RMS 0.08 px, 50 mm baseline
+        correlated_fraction=0.5,
+        correlation_px=3.5,  # half of the 7x7 census window of the D4 vision processor
+        native_focal_px=_D4XX_FOCAL_PX,
+        flying_fraction=0.3,
+        grazing_hole_deg=75.0,
+        dark_hole_fraction=0.3,
+        hole_blob_fraction=0.03,
+        extrinsic_sigma_m=0.0005,
+        source="Intel RealSense D400 series datasheet (accuracy 2 % at 2 m, 50 mm baseline, 87 deg HFOV); "
+        "Intel white paper 'Tuning depth cameras for best performance' (RMS error = z^2 subpixel / (f B), "
+        "subpixel 0.08 px)",
+    ),
+    "d455": DepthSensor(
+        "d455",
+        "active-stereo",
+        scale_sigma=0.02 / 3 / 2,  # within 2 % at 4 m (D455 datasheet): 1 % at the 2 m of the D435's bound
+        offset_sigma_m=0.002,
+        noise_quadratic_per_m=_stereo(0.08, _D4XX_FOCAL_PX, 0.095),  # 95 mm baseline
+        correlated_fraction=0.5,
+        correlation_px=3.5,
+        native_focal_px=_D4XX_FOCAL_PX,
+        flying_fraction=0.3,
+        grazing_hole_deg=75.0,
+        dark_hole_fraction=0.3,
+        hole_blob_fraction=0.03,
+        extrinsic_sigma_m=0.0005,
+        source="Intel RealSense D455 datasheet (accuracy 2 % at 4 m, 95 mm baseline, 87 deg HFOV); "
+        "the D435's subpixel RMS",
+    ),
+    "l515": DepthSensor(
+        "l515",
+        "time-of-flight",
+        scale_sigma=0.001,
+        offset_sigma_m=0.005 / 3,  # depth accuracy about 5 mm near the sensor (L515 datasheet: 5 mm to 14 mm)
+        noise_const_m=0.0010,
+        noise_linear=0.0015,  # precision about 2.5 mm at 1 m (L515 datasheet)
+        correlated_fraction=0.3,
+        correlation_px=2.0,
+        native_focal_px=0.0,
+        flying_fraction=0.5,  # a lidar's beam spans both sides of an edge
+        grazing_hole_deg=80.0,
+        dark_hole_fraction=0.5,
+        hole_blob_fraction=0.02,
+        extrinsic_sigma_m=0.0005,
+        source="Intel RealSense LiDAR Camera L515 datasheet (accuracy about 5-14 mm over its range, "
+        "precision about 2.5 mm at 1 m)",
+    ),
+    "azure-kinect": DepthSensor(
+        "azure-kinect",
+        "time-of-flight",
+        scale_sigma=0.001 / 3,  # systematic error < 11 mm + 0.1 % of distance (Azure Kinect DK specification)
+        offset_sigma_m=0.011 / 3,
+        noise_const_m=0.0015,
+        noise_linear=0.001,  # random error std <= 17 mm over the range; 1.5-2.5 mm at 1 m measured by users
+        correlated_fraction=0.3,
+        correlation_px=2.0,
+        native_focal_px=0.0,
+        flying_fraction=0.5,
+        grazing_hole_deg=80.0,
+        dark_hole_fraction=0.4,
+        hole_blob_fraction=0.02,
+        extrinsic_sigma_m=0.0005,
+        source="Azure Kinect DK depth camera specification (systematic error < 11 mm + 0.1 % of distance, "
+        "random error std <= 17 mm)",
+    ),
+    "zivid": DepthSensor(
+        "zivid",
+        "structured-light",
+        scale_sigma=0.002 / 3,  # trueness error < 0.2 % (Zivid 2+ datasheet)
+        offset_sigma_m=0.0002,
+        noise_quadratic_per_m=0.00012 / 0.7**2,  # point precision about 0.12 mm at 0.7 m (Zivid 2+ M70)
+        correlated_fraction=0.2,
+        correlation_px=1.5,
+        native_focal_px=0.0,
+        flying_fraction=0.05,  # its filters remove most edge points
+        grazing_hole_deg=80.0,
+        dark_hole_fraction=0.1,
+        hole_blob_fraction=0.005,
+        extrinsic_sigma_m=0.0,  # colour and depth from the same imager
+        source="Zivid 2+ datasheet (trueness error < 0.2 %, point precision about 0.1 mm at 0.7 m)",
+    ),
+}
+
+
+def sensor_profile(name_or_params: str | dict) -> DepthSensor:
+    """A profile by name (:data:`PROFILES`), or a :class:`DepthSensor` from a parameter dict."""
+    if isinstance(name_or_params, dict):
+        return DepthSensor.from_dict(name_or_params)
+    if name_or_params not in PROFILES:
+        raise HandEyeInputError(f"unknown sensor {name_or_params!r}: use one of {', '.join(PROFILES)} or a file")
+    return PROFILES[name_or_params]
+
+
+@dataclass(frozen=True)
+class SensorTruth:
+    """One unit's systematic errors at one placement: what the method does not know.
+
+    Attributes
+    ----------
+    scale : float
+        ``d_obs = scale * d + offset_m``.
+    offset_m : float
+    t_colour_depth_m : array, shape (3,)
+        Error of the depth-to-colour extrinsic: the registered depth is that of a camera displaced by
+        this much from the colour camera (colour camera frame), metres.
+    """
+
+    scale: float = 1.0
+    offset_m: float = 0.0
+    t_colour_depth_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+def draw_systematic(sensor: DepthSensor, seed: int, camera_id: int) -> SensorTruth:
+    """Draw a unit's scale, offset and extrinsic error for one placement, repeatably from ``(seed, camera)``.
+
+    Each is normal with the profile's spread, cut at 2.5 sigma (a unit outside its datasheet's bound is
+    returned to the vendor).
+    """
+    rng = np.random.default_rng([seed, camera_id, 2])
+    z = np.clip(rng.normal(size=5), -2.5, 2.5)
+    return SensorTruth(
+        scale=float(1.0 + sensor.scale_sigma * z[0]),
+        offset_m=float(sensor.offset_sigma_m * z[1]),
+        t_colour_depth_m=sensor.extrinsic_sigma_m * z[2:5],
+    )
+
+
+def _correlated_field(shape, length_px: float, rng: np.random.Generator) -> np.ndarray:
+    """Unit-variance Gaussian noise, correlated over about ``length_px`` pixels."""
+    white = rng.normal(size=shape)
+    if length_px <= 0.5:
+        return white
+    smooth = ndimage.gaussian_filter(white, length_px, mode="reflect")
+    # a Gaussian filter of sigma L on white noise leaves a variance of 1 / (4 pi L^2)
+    return smooth * np.sqrt(4 * np.pi * length_px**2)
+
+
+def _shift_depth(depth: np.ndarray, K: np.ndarray, t_m: np.ndarray) -> np.ndarray:
+    """The depth a camera displaced by ``-t_m`` would see: every point moved by ``t_m``, splatted again."""
+    if not np.any(t_m):
+        return depth
+    h, w = depth.shape
+    v, u = np.nonzero(depth > 0)
+    z = depth[v, u]
+    x = (u - K[0, 2]) / K[0, 0] * z + t_m[0]
+    y = (v - K[1, 2]) / K[1, 1] * z + t_m[1]
+    z2 = z + t_m[2]
+    u2 = np.rint(K[0, 0] * x / z2 + K[0, 2]).astype(np.int64)
+    v2 = np.rint(K[1, 1] * y / z2 + K[1, 2]).astype(np.int64)
+    inside = (u2 >= 0) & (u2 < w) & (v2 >= 0) & (v2 < h) & (z2 > 0)
+    out = np.full(h * w, np.inf)
+    np.minimum.at(out, v2[inside] * w + u2[inside], z2[inside])
+    out = out.reshape(h, w)
+    # pixels no point landed on (sub-pixel shifts leave a few): filled from their own depth moved along z
+    empty = ~np.isfinite(out) & (depth > 0)
+    out[empty] = depth[empty] + t_m[2]
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _normals_cos(depth: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Cosine between each pixel's surface normal (from the depth's gradient) and its line of sight."""
+    h, w = depth.shape
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    P = np.stack([(u - K[0, 2]) / K[0, 0] * depth, (v - K[1, 2]) / K[1, 1] * depth, depth], axis=-1)
+    du = np.gradient(P, axis=1)
+    dv = np.gradient(P, axis=0)
+    n = np.cross(du, dv)
+    ray = P / np.maximum(np.linalg.norm(P, axis=-1, keepdims=True), 1e-9)
+    norm = np.maximum(np.linalg.norm(n, axis=-1), 1e-12)
+    return np.abs(np.einsum("hwk,hwk->hw", n, ray)) / norm
+
+
+def apply_sensor(
+    depth_m: np.ndarray,
+    K: np.ndarray,
+    sensor: DepthSensor,
+    truth: SensorTruth,
+    rng: np.random.Generator,
+    rgb: np.ndarray | None = None,
+) -> np.ndarray:
+    """What the sensor reports for a rendered (true) depth image.
+
+    Parameters
+    ----------
+    depth_m : array, shape (H, W)
+        True depth, metres, 0 where nothing was rendered.
+    K : array, shape (3, 3)
+        Camera matrix of the image.
+    sensor : DepthSensor
+    truth : SensorTruth
+        The unit's scale, offset and extrinsic error at this placement (:func:`draw_systematic`).
+    rng : numpy.random.Generator
+        For the noise, the flying pixels and the holes.
+    rgb : array, shape (H, W, 3), optional
+        The colour image, for the holes on dark surfaces.
+
+    Returns
+    -------
+    array, shape (H, W)
+        Reported depth, metres, 0 where the sensor returns none.
+    """
+    depth = np.asarray(depth_m, dtype=float)
+    valid = depth > 0
+    if not valid.any():
+        return depth.copy()
+    depth = _shift_depth(depth, K, truth.t_colour_depth_m)
+    valid = depth > 0
+    z = np.where(valid, depth, 0.0)
+    # axial noise, part white and part correlated over the matching window (scaled to these pixels)
+    sigma = sensor.sigma_m(z)
+    length = sensor.correlation_px * (K[0, 0] / sensor.native_focal_px if sensor.native_focal_px else 1.0)
+    rho = sensor.correlated_fraction
+    noise = np.sqrt(1 - rho) * rng.normal(size=z.shape)
+    if rho > 0:
+        noise += np.sqrt(rho) * _correlated_field(z.shape, length, rng)
+    out = truth.scale * z + truth.offset_m + sigma * noise
+    # flying pixels: at a depth edge, a mix of the nearest and the farthest neighbour
+    if sensor.flying_fraction > 0:
+        far = ndimage.maximum_filter(np.where(valid, z, 0.0), size=3)
+        near = ndimage.minimum_filter(np.where(valid, z, np.inf), size=3)
+        edge = valid & np.isfinite(near) & (far - near > sensor.edge_jump_m)
+        fly = edge & (rng.random(z.shape) < sensor.flying_fraction)
+        lam = rng.random(z.shape)
+        mixed = truth.scale * (lam * near + (1 - lam) * far) + truth.offset_m
+        out = np.where(fly, mixed, out)
+    holes = ~valid
+    if sensor.grazing_hole_deg < 90:
+        holes |= valid & (_normals_cos(z, K) < np.cos(np.radians(sensor.grazing_hole_deg)))
+    if sensor.dark_hole_fraction > 0 and rgb is not None:
+        grey = np.asarray(rgb, dtype=float).mean(axis=-1)
+        holes |= (grey < sensor.dark_level) & (rng.random(z.shape) < sensor.dark_hole_fraction)
+    if sensor.hole_blob_fraction > 0:
+        blob = _correlated_field(z.shape, sensor.hole_blob_px, rng)
+        # the share of a unit normal above this threshold is the blob fraction
+        holes |= blob > ndtri(1 - sensor.hole_blob_fraction)
+    return np.where(holes | (out <= 0), 0.0, out)
