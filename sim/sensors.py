@@ -287,26 +287,30 @@ def _correlated_field(shape, length_px: float, rng: np.random.Generator) -> np.n
     return smooth * np.sqrt(4 * np.pi * length_px**2)
 
 
-def _shift_depth(depth: np.ndarray, K: np.ndarray, t_m: np.ndarray) -> np.ndarray:
-    """The depth a camera displaced by ``-t_m`` would see: every point moved by ``t_m``, splatted again."""
+def _shift_depth(depth: np.ndarray, K: np.ndarray, t_m: np.ndarray, edge_jump_m: float) -> np.ndarray:
+    """The depth a camera displaced by ``-t_m`` would see, for a displacement of a fraction of a pixel.
+
+    Every point moves by ``t_m``: its depth by ``t_z``, its pixel by ``f t_xy / z``. Each pixel takes the depth
+    found that far back, interpolated bilinearly between neighbours on one surface (their depths within
+    ``edge_jump_m``), the nearest one across an edge.
+    """
     if not np.any(t_m):
         return depth
     h, w = depth.shape
-    v, u = np.nonzero(depth > 0)
-    z = depth[v, u]
-    x = (u - K[0, 2]) / K[0, 0] * z + t_m[0]
-    y = (v - K[1, 2]) / K[1, 1] * z + t_m[1]
-    z2 = z + t_m[2]
-    u2 = np.rint(K[0, 0] * x / z2 + K[0, 2]).astype(np.int64)
-    v2 = np.rint(K[1, 1] * y / z2 + K[1, 2]).astype(np.int64)
-    inside = (u2 >= 0) & (u2 < w) & (v2 >= 0) & (v2 < h) & (z2 > 0)
-    out = np.full(h * w, np.inf)
-    np.minimum.at(out, v2[inside] * w + u2[inside], z2[inside])
-    out = out.reshape(h, w)
-    # pixels no point landed on (sub-pixel shifts leave a few): filled from their own depth moved along z
-    empty = ~np.isfinite(out) & (depth > 0)
-    out[empty] = depth[empty] + t_m[2]
-    return np.where(np.isfinite(out), out, 0.0)
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    z = np.where(depth > 0, depth, np.nan)
+    us = u - K[0, 0] * t_m[0] / np.where(np.isfinite(z), z, 1.0)
+    vs = v - K[1, 1] * t_m[1] / np.where(np.isfinite(z), z, 1.0)
+    u0 = np.clip(np.floor(us).astype(np.int64), 0, w - 2)
+    v0 = np.clip(np.floor(vs).astype(np.int64), 0, h - 2)
+    a, b = np.clip(us - u0, 0, 1), np.clip(vs - v0, 0, 1)
+    corners = np.stack([z[v0, u0], z[v0, u0 + 1], z[v0 + 1, u0], z[v0 + 1, u0 + 1]])
+    weights = np.stack([(1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b])
+    one_surface = np.all(np.isfinite(corners), axis=0) & (np.ptp(np.nan_to_num(corners), axis=0) < edge_jump_m)
+    bilinear = np.sum(np.nan_to_num(corners) * weights, axis=0)
+    nearest = z[np.clip(np.rint(vs).astype(np.int64), 0, h - 1), np.clip(np.rint(us).astype(np.int64), 0, w - 1)]
+    out = np.where(one_surface, bilinear, nearest) + t_m[2]
+    return np.where(np.isfinite(out) & np.isfinite(z), out, 0.0)
 
 
 def _normals_cos(depth: np.ndarray, K: np.ndarray) -> np.ndarray:
@@ -355,7 +359,7 @@ def apply_sensor(
     valid = depth > 0
     if not valid.any():
         return depth.copy()
-    depth = _shift_depth(depth, K, truth.t_colour_depth_m)
+    depth = _shift_depth(depth, K, truth.t_colour_depth_m, sensor.edge_jump_m)
     valid = depth > 0
     z = np.where(valid, depth, 0.0)
     # axial noise, part white and part correlated over the matching window (scaled to these pixels)

@@ -10,6 +10,7 @@ arm. This gives a mask of the arm without a model, a start or a colour cue.
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from handeye.core.errors import ShapeError
 
@@ -147,3 +148,49 @@ def depth_noise_curve(depth_m: np.ndarray, max_frames: int = 12, bins: int = 10)
     order = np.argsort(med)
     chunks = np.array_split(order, min(bins, max(1, len(order) // 50)))
     return np.array([np.median(med[c]) for c in chunks]), np.array([np.median(sigma[c]) for c in chunks])
+
+
+def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> np.ndarray:
+    """Pixels at a depth edge whose depth lies between the two surfaces: a sensor's "flying" pixels.
+
+    A pixel that straddles an edge returns a mix of the near and the far surface (time-of-flight sensors
+    average the two returns; stereo matching windows span both). On any smooth surface, a pixel's inverse
+    depth is the mean of its two neighbours' along some direction (exactly, on a plane: ``1/z`` is affine in
+    the pixel coordinates), and at an edge the direction along the edge still is. A mixed pixel is on no
+    surface: its 3x3 neighbourhood spans more than ``min_jump_m`` and it agrees with no pair of opposite
+    neighbours (horizontal, vertical, diagonal) within ``tolerance_m``. They are outliers to any surface
+    model: the registration treats them as missing.
+
+    Parameters
+    ----------
+    depth_m : array, shape (N, H, W)
+        0 where missing.
+    tolerance_m : float or array, shape (N, H, W)
+        How far a pixel of a surface may lie from its neighbours' mean: a few noise sigmas.
+    min_jump_m : float
+        Span of depth that makes an edge.
+
+    Returns
+    -------
+    mask : array of bool, shape (N, H, W)
+    """
+    depth_m = np.asarray(depth_m, dtype=float)
+    valid = depth_m > 0
+    size = (1, 3, 3)
+    near = ndimage.minimum_filter(np.where(valid, depth_m, np.inf), size=size)
+    far = ndimage.maximum_filter(np.where(valid, depth_m, 0.0), size=size)
+    edge = valid & (far - near > min_jump_m)
+    if not edge.any():
+        return edge
+    inv = np.pad(np.where(valid, 1.0 / np.where(valid, depth_m, 1.0), np.nan), ((0, 0), (1, 1), (1, 1)))
+    inv[:, 0, :] = inv[:, -1, :] = inv[:, :, 0] = inv[:, :, -1] = np.nan
+    h, w = depth_m.shape[1:]
+    centre = inv[:, 1 : h + 1, 1 : w + 1]
+    tol_inv = np.asarray(tolerance_m) * centre**2  # d(1/z) = dz / z^2
+    on_a_surface = np.zeros_like(valid)
+    for dv, du in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = inv[:, 1 + dv : h + 1 + dv, 1 + du : w + 1 + du]
+        b = inv[:, 1 - dv : h + 1 - dv, 1 - du : w + 1 - du]
+        with np.errstate(invalid="ignore"):
+            on_a_surface |= np.abs(centre - 0.5 * (a + b)) <= tol_inv
+    return edge & ~on_a_surface

@@ -41,10 +41,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from classic.clustered_covariance import pose_sigma
-from classic.markerless.depth import backproject, depth_noise_curve, moving_mask, static_depth
+from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
 from classic.markerless.point_to_plane import corrected_points, solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
@@ -299,19 +300,27 @@ class _Problem:
     """Everything the stages share for one camera placement."""
 
     def __init__(self, depth_m, K, surface, opts):
-        self.depth, self.K, self.s, self.opts = depth_m, K, surface, opts
-        self.n, self.h, self.w = depth_m.shape
-        self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
+        self.K, self.s, self.opts = K, surface, opts
         self.k, self.c = 1.0, 0.0  # the depth correction q = k q_obs + c r, estimated by the fine stage
         if opts.depth_sigma_m_at_1m is not None:
             self.noise_z, self.noise_sigma, self.noise_source = None, None, "given"
         else:
             self.noise_z, self.noise_sigma = depth_noise_curve(depth_m)
             self.noise_source = "measured on the static background" if len(self.noise_z) else "fallback 1 mm at 1 m"
+        # pixels that straddle a depth edge report a depth between its two surfaces: treated as missing
+        mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * self.sigma_z(np.where(depth_m > 0, depth_m, 1.0))))
+        self.n_mixed = int(mixed.sum())
+        depth_m = np.where(mixed, 0.0, depth_m)
+        self.depth = depth_m
+        self.n, self.h, self.w = depth_m.shape
+        self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
         static = static_depth(depth_m)
         # moved there: nearer than the static depth by 2 cm or six depth-noise sigmas, whichever is larger
         z = np.where(depth_m > 0, depth_m, 1.0)
-        self.moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * self.sigma_z(z)))
+        moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * self.sigma_z(z)))
+        # the arm moves as a body, many pixels wide; what moves in a line a pixel or two wide is the sensor's
+        # (flying pixels along static edges, holes that come and go): an opening keeps bodies only
+        self.moving = ndimage.binary_opening(moving, structure=np.ones((1, 3, 3), bool))
         f, r, c = np.nonzero(self.moving)
         self.n_moving = len(f)
         rng = np.random.default_rng(opts.seed)
@@ -482,7 +491,7 @@ class _Problem:
             scale_m=float(np.median(expected)) * 2,
             loss="cauchy",
             group=f[sel],
-            iterations=3,
+            iterations=3 if self.opts.depth_model == "fixed" else 5,
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
             depth_correction=(self.k, self.c) if estimate_depth else None,
@@ -582,7 +591,7 @@ def register_robot(
         return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
 
     problem = _Problem(depth_m, K, surface, opts)
-    diag = {"frames": n, "moving_pixels": int(problem.n_moving), "starts": {}}
+    diag = {"frames": n, "moving_pixels": int(problem.n_moving), "mixed_pixels": problem.n_mixed, "starts": {}}
     if problem.n_moving < opts.min_moving_pixels:
         return refuse(
             f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "

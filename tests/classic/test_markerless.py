@@ -39,6 +39,15 @@ def _scene(rng, n_frames=8, noise=True, in_view=True):
     centres[:, 1:] = rng.uniform([-0.3, -0.3, 0.25], [0.3, 0.3, 0.65], size=(n_frames, 3, 3))
     if not in_view:
         centres[:, :] += [0, 0, 5.0]  # all far above the camera's view
+    return render_depth(centres, T_base_cam, rng if noise else None), sphere_model(centres), T_base_cam
+
+
+def render_depth(centres, T_base_cam, rng=None):
+    """Ray-cast depth of the spheres (``centres``: (frames, spheres, 3), base frame) over the floor z = 0.
+
+    With ``rng``, noise of ``SIGMA_1M`` at 1 m growing with depth squared.
+    """
+    n_frames = len(centres)
     rays_cam = pixel_rays(K, H, W).reshape(-1, 3)
     R, o = T_base_cam[:3, :3], T_base_cam[:3, 3]
     d_base = rays_cam @ R.T  # ray direction scaled so that t is the camera-frame depth z
@@ -53,10 +62,15 @@ def _scene(rng, n_frames=8, noise=True, in_view=True):
             t = np.where(disc > 0, (-b - np.sqrt(np.maximum(disc, 0))) / (2 * a), np.inf)
             t_best = np.minimum(t_best, np.where(t > 0, t, np.inf))
         z = np.where(np.isfinite(t_best) & (t_best < 5), t_best, 0.0)
-        if noise:
+        if rng is not None:
             z = np.where(z > 0, z + rng.normal(size=z.shape) * SIGMA_1M * z**2, 0.0)
         depth[i] = z
-    # the model: each sphere sampled (Fibonacci) at 0.7 of the pixel footprint at the nearest distance
+    return depth.reshape(n_frames, H, W)
+
+
+def sphere_model(centres):
+    """The spheres' surface at every frame: each sampled (Fibonacci) at 0.7 of the pixel footprint at 0.8 m."""
+    n_frames = len(centres)
     spacing = 0.7 * 0.8 / F_PX
     pts, nrm, frame, part = [], [], [], []
     for k, r in enumerate(RADII):
@@ -69,8 +83,7 @@ def _scene(rng, n_frames=8, noise=True, in_view=True):
             nrm.append(u)
             frame.append(np.full(n, i))
             part.append(np.full(n, k))
-    surface = RobotSurfaceFrames(np.concatenate(pts), np.concatenate(nrm), np.concatenate(frame), np.concatenate(part))
-    return depth.reshape(n_frames, H, W), surface, T_base_cam
+    return RobotSurfaceFrames(np.concatenate(pts), np.concatenate(nrm), np.concatenate(frame), np.concatenate(part))
 
 
 def _bias_bounds(depth):

@@ -1,0 +1,122 @@
+"""The registration calibrates the sensor's depth: a known scale and offset recovered, refused where unobservable.
+
+The analytic sphere scenes of ``test_markerless``: depth ray-cast exactly, noise of known sigma, then the
+sensor's systematic error ``d_obs = s d + o`` applied as a real camera's calibration error would be.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from classic.markerless import MarkerlessOptions, register_robot
+from classic.markerless.depth import depth_noise_curve
+from handeye.core.metrics import pose_error
+from tests.classic.test_markerless import (
+    RADII,
+    SIGMA_1M,
+    K,
+    _bias_bounds,
+    _look_at,
+    _scene,
+    render_depth,
+    sphere_model,
+)
+from tests.tolerances import SIGMA_BOUND
+
+#: A consumer RGB-D camera's calibration error: 1.2 % of scale, 4 mm of offset (within their datasheets' 1-2 %).
+SCALE, OFFSET_M = 1.012, 0.004
+
+
+def _sensor(depth, scale=SCALE, offset_m=OFFSET_M):
+    return np.where(depth > 0, scale * depth + offset_m, 0.0)
+
+
+def _flat_scene(rng, depth_spread_m, n_frames=8):
+    """Moving spheres whose centres keep to the plane through the look-at point facing the camera, moved along
+    the optical axis by up to ``depth_spread_m``: 0 puts every sphere at one depth."""
+    T_base_cam = _look_at(np.array([1.2, -0.6, 0.9]), np.array([0.0, 0.0, 0.35]))
+    x, y, z = T_base_cam[:3, 0], T_base_cam[:3, 1], T_base_cam[:3, 2]
+    p0 = np.array([0.0, 0.0, 0.35])
+    a = rng.uniform(-1, 1, size=(n_frames, len(RADII) - 1, 3))
+    centres = np.empty((n_frames, len(RADII), 3))
+    centres[:, 0] = p0
+    centres[:, 1:] = p0 + 0.3 * a[..., :1] * x + 0.3 * a[..., 1:2] * y + depth_spread_m * a[..., 2:3] * z
+    return render_depth(centres, T_base_cam, rng), sphere_model(centres), T_base_cam
+
+
+def test_a_known_depth_scale_and_offset_are_recovered():
+    depth, surface, T_true = _scene(np.random.default_rng(3))
+    res = register_robot(_sensor(depth), K, surface)
+    assert res.ok, res.refused
+    d = res.depth
+    assert abs(d["scale"] - SCALE) <= SIGMA_BOUND * d["scale_sigma"]
+    assert abs(d["offset_mm"] - OFFSET_M * 1e3) <= SIGMA_BOUND * d["offset_sigma_mm"]
+    rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
+    bias_mm, bias_deg = _bias_bounds(depth)
+    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
+    assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+
+
+def test_the_same_depth_taken_as_exact_is_confidently_wrong():
+    """Why the depth is calibrated: without it, the 1.2 % scale pulls the camera far outside its own sigma."""
+    depth, surface, T_true = _scene(np.random.default_rng(3))
+    opts = MarkerlessOptions(depth_model="fixed", depth_sigma_m_at_1m=SIGMA_1M)
+    res = register_robot(_sensor(depth), K, surface, options=opts)
+    if res.ok:  # accepted: then far outside what it claims
+        _, trans_mm = pose_error(res.T_base_cam, T_true)
+        assert trans_mm > 3 * SIGMA_BOUND * res.sigma["translation_mm"]
+    assert "scale" not in res.depth
+
+
+@pytest.mark.parametrize("depth_spread_m", [0.15, 0.3])
+def test_arm_moving_in_depth_calibrates_it(depth_spread_m):
+    depth, surface, T_true = _flat_scene(np.random.default_rng(0), depth_spread_m)
+    res = register_robot(_sensor(depth), K, surface)
+    assert res.ok, res.refused
+    assert abs(res.depth["scale"] - SCALE) <= SIGMA_BOUND * res.depth["scale_sigma"]
+    _, trans_mm = pose_error(res.T_base_cam, T_true)
+    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + _bias_bounds(depth)[0]
+
+
+def test_every_frame_at_one_depth_is_refused_with_the_reason():
+    """Spheres kept at one distance: the scale and the offset cannot be told apart, and the answer would rest on
+    the prior alone."""
+    depth, surface, _ = _flat_scene(np.random.default_rng(0), depth_spread_m=0.0)
+    res = register_robot(_sensor(depth), K, surface)
+    assert not res.ok and res.T_base_cam is None
+    assert "depth scale and offset not observable" in res.refused
+    assert "span" in res.refused
+
+
+def test_depth_taken_as_exact_needs_no_depth_range():
+    depth, surface, T_true = _flat_scene(np.random.default_rng(0), depth_spread_m=0.0)
+    res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_model="fixed"))
+    assert res.ok, res.refused
+    _, trans_mm = pose_error(res.T_base_cam, T_true)
+    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + _bias_bounds(depth)[0]
+
+
+def test_noise_is_measured_on_the_static_background():
+    """The floor does not move: its depth's spread over frames is the sensor's noise, SIGMA_1M z^2."""
+    depth, _, _ = _scene(np.random.default_rng(4), n_frames=12)
+    z, sigma = depth_noise_curve(depth)
+    assert len(z) >= 5 and np.all(np.diff(z) > 0)
+    # a robust sigma of 12 samples per pixel, the median of thousands of pixels per bin: within 10 %
+    np.testing.assert_allclose(sigma, SIGMA_1M * z**2, rtol=0.1)
+
+
+def test_noise_curve_needs_frames_and_background():
+    assert len(depth_noise_curve(np.ones((2, 20, 20)))[0]) == 0
+    assert len(depth_noise_curve(np.zeros((10, 20, 20)))[0]) == 0
+
+
+def test_bad_depth_options_raise():
+    from handeye.core.errors import HandEyeInputError
+
+    with pytest.raises(HandEyeInputError, match="depth_model"):
+        MarkerlessOptions(depth_model="scale")
+    with pytest.raises(HandEyeInputError, match="prior"):
+        MarkerlessOptions(depth_scale_prior_sigma=0.0)
+    with pytest.raises(HandEyeInputError, match="depth_sigma_m_at_1m"):
+        MarkerlessOptions(depth_sigma_m_at_1m=-1.0)
