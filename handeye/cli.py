@@ -24,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
         compare,
         demo,
         detect,
+        import_recording,
         intrinsics,
         label,
         learned,
@@ -48,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
         markerless,
         demo,
         bag_poses,
+        import_recording,
         plan,
     ):
         module.add_parser(sub)

@@ -221,6 +221,11 @@ def calibrate_camera(
     q = ds.joints(t) if frames is None else ds.joints(t)[frames]
     if len(rel) == 0 or any(not r for r in rel):
         raise DatasetError(f"{ds.shard_dir(camera_id) / 'frames.csv'}: no data frames with depth")
+    if not np.isfinite(q).all():
+        raise DatasetError(
+            f"{ds.shard_dir(camera_id) / 'frames.csv'}: data frames without joint angles (imported from tf?); the "
+            "robot's surface is posed from them: import the joint states too"
+        )
     depth = np.stack([ds.depth_m(camera_id, r) for r in rel])
     K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     w, h = int(ds.meta["intrinsics"]["width"]), int(ds.meta["intrinsics"]["height"])

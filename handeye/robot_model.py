@@ -1,4 +1,8 @@
-"""The robot model of a dataset, for the front: its UR by name (``meta.json``), or any URDF with meshes."""
+"""The robot model of a dataset, for the front: its UR by name (``meta.json``), or any URDF with meshes.
+
+``meta["robot"]`` is a UR's name (``"ur5"``, the simulator's datasets) or, for an imported recording,
+``{"urdf": path, "package_dirs": [paths], "ee_frame": name}`` (``handeye import ... --urdf``).
+"""
 
 from __future__ import annotations
 
@@ -7,12 +11,40 @@ from pathlib import Path
 from handeye.core.dataset import Dataset
 from handeye.core.errors import ShapeError
 
-__all__ = ["dataset_robot"]
+__all__ = ["dataset_robot", "robot_meta"]
+
+
+def robot_meta(name: str | None = None, urdf=None, package_dirs=(), ee_frame: str = "tool0"):
+    """``meta["robot"]`` of a UR's name, or of a URDF (its path made absolute, so the dataset can move).
+
+    Raises
+    ------
+    HandEyeInputError
+        Neither or both given.
+    """
+    from handeye.core.errors import HandEyeInputError
+
+    if (name is None) == (urdf is None):
+        raise HandEyeInputError("give the robot as a UR's name (--robot ur5) or a URDF (--urdf robot.urdf)")
+    if name is not None:
+        return name
+    return {
+        "urdf": str(Path(urdf).resolve()),
+        "package_dirs": [str(Path(d).resolve()) for d in package_dirs],
+        "ee_frame": ee_frame,
+    }
+
+
+def load_robot_meta(entry):
+    """The :class:`sim.robot.Robot` of a ``meta["robot"]`` entry (:func:`sim.robot.load_robot_entry`)."""
+    from sim.robot import load_robot_entry
+
+    return load_robot_entry(entry)
 
 
 def dataset_robot(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), ee_frame: str = "tool0"):
-    """:func:`sim.robot.load_robot` of ``meta["robot"]``, or :func:`sim.robot.load_robot_urdf`, checked against
-    the dataset's joint count.
+    """:func:`sim.robot.load_robot` of ``meta["robot"]`` (a name or a recorded URDF), or
+    :func:`sim.robot.load_robot_urdf` of ``urdf``, checked against the dataset's joint count.
 
     Raises
     ------
@@ -21,9 +53,9 @@ def dataset_robot(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), 
     HandEyeInputError
         An unknown robot, a missing URDF or mesh (from ``sim.robot``).
     """
-    from sim.robot import load_robot, load_robot_urdf
+    from sim.robot import load_robot_urdf
 
-    robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot(ds.meta["robot"])
+    robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot_meta(ds.meta["robot"])
     if robot.nq != ds.meta["n_joints"]:
         raise ShapeError(
             f"{ds.root / 'meta.json'}: {ds.meta['n_joints']} joints, the robot model {robot.name} has {robot.nq}"

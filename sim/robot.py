@@ -319,3 +319,19 @@ def load_robot_urdf(urdf_path, package_dirs=(), ee_frame: str = "tool0", T_ee_re
     if not model.existFrame(ee_frame):
         raise HandEyeInputError(f"{path}: no frame {ee_frame!r} (the flange); pass ee_frame")
     return _robot(path.stem, model, visual, ee_frame, T_ee_ref)
+
+
+def load_robot_entry(entry) -> Robot:
+    """The robot of a dataset's ``meta["robot"]``: a UR's name, or ``{"urdf": path, "package_dirs": [...],
+    "ee_frame": name}`` (an imported recording's).
+
+    Raises
+    ------
+    HandEyeInputError
+        An entry of neither form, an unknown robot, a missing URDF or mesh.
+    """
+    if isinstance(entry, str):
+        return load_robot(entry)
+    if isinstance(entry, dict) and isinstance(entry.get("urdf"), str):
+        return load_robot_urdf(entry["urdf"], entry.get("package_dirs", ()), entry.get("ee_frame", "tool0"))
+    raise HandEyeInputError(f"meta.json: robot {str(entry)[:80]!r} is neither a UR's name nor {{'urdf': path, ...}}")

@@ -91,7 +91,9 @@ def test_readme_shell_examples_run(index, block, tmp_path):
     """Each of the README's example commands runs from a fresh folder and exits 0."""
     for name in ("handeye",):
         (tmp_path / name).symlink_to(ROOT / name)  # the shipped example files, as from the repository root
-    env = dict(os.environ, PYOPENGL_PLATFORM="egl", PYTHONPATH=str(ROOT))
+    # the console script beside this interpreter, as in the activated environment the README installs into
+    path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
+    env = dict(os.environ, PYOPENGL_PLATFORM="egl", PYTHONPATH=str(ROOT), PATH=path)
     run = subprocess.run(
         ["bash", "-euo", "pipefail", "-c", block], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
     )

@@ -5,6 +5,7 @@ Example
 ::
 
     handeye compare data/paper-sim --model runs/sim/reservoir
+    handeye compare data/my-cell --split all        # no model: the board's label against the markerless one
 
 ``--model`` is a directory with ``translation.pt`` and ``orientation.pt`` (as
 ``handeye learned run`` writes per strategy), or with ``keypoints.pt`` (``--family
@@ -33,7 +34,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("dataset", type=Path)
-    p.add_argument("--model", type=Path, required=True, help="directory with translation.pt and orientation.pt")
+    p.add_argument(
+        "--model",
+        type=Path,
+        help="directory with translation.pt and orientation.pt (or keypoints.pt); without it, the board's label "
+        "against the markerless label (a real cell: 'handeye label', then 'handeye markerless --write-labels')",
+    )
     p.add_argument("--split", default="test", choices=("test", "train", "all"))
     p.add_argument("--no-hybrid", action="store_true", help="leave out the markerless hybrid column")
     p.set_defaults(run=run)
@@ -138,6 +144,12 @@ def run(args: argparse.Namespace) -> int:
 
     from handeye.core.optional import require_package
 
+    if args.model is None:
+        from handeye.core.dataset import Dataset
+        from handeye.label_agreement import agreement_table
+
+        print(agreement_table(Dataset.open(args.dataset), args.split))
+        return 0
     require_package("torch", extra="learned", purpose="the learned calibration")
     from learned.data import load_frames
     from learned.experiment import camera_predictions, keypoint_camera_predictions, load_model

@@ -20,6 +20,13 @@ again. Then ``handeye label`` the result.
 offset and depth-to-colour extrinsic error drawn per placement (recorded in ``cameras.csv``), noise as
 the sensing principle grows it, correlated noise, flying pixels and holes. It replaces the depth term
 of ``--noise``.
+
+``handeye sim bag`` writes a generated dataset's placements as ROS 2 bags, as a real cell records them
+(:mod:`sim.bag_export`), so that ``handeye import bag`` can be checked against the truth::
+
+    handeye sim bag data/small --out bags/ --storage mcap
+    handeye import bag bags/cam_0000_data --calibration bags/cam_0000_calibration --robot ur5 \
+        --board board.json --out data/small-imported
 """
 
 from __future__ import annotations
@@ -74,7 +81,38 @@ def add_parser(sub) -> argparse.ArgumentParser:
     g.add_argument("--recordings", default="calibration,data", help="calibration,data (default) or one of them")
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(run=run)
+    b = simsub.add_parser(
+        "bag",
+        help="write a dataset's placements as ROS 2 bags, as a real cell records them",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    b.add_argument("dataset", type=Path)
+    b.add_argument("--out", type=Path, required=True, help="folder for the bags")
+    b.add_argument("--camera", type=int, nargs="+", help="placements (default all)")
+    b.add_argument("--storage", choices=("sqlite3", "mcap"), default="sqlite3")
+    b.add_argument("--depth-encoding", choices=("16UC1", "32FC1"), default="16UC1", help="millimetres or metres")
+    b.add_argument("--color", choices=("raw", "jpeg", "png"), default="raw", help="Image or CompressedImage")
+    b.add_argument("--board-out", type=Path, help="also write the dataset's board spec here (for --board)")
+    b.set_defaults(run=run_bag)
     return p
+
+
+def run_bag(args: argparse.Namespace) -> int:
+    """Run ``handeye sim bag``."""
+    from handeye.core.dataset import Dataset
+    from sim.bag_export import write_placement_bags
+
+    ds = Dataset.open(args.dataset)
+    for c in args.camera if args.camera is not None else range(len(ds)):
+        written = write_placement_bags(ds, c, args.out, args.storage, args.depth_encoding, args.color)
+        print(f"camera {c}: " + ", ".join(str(p) for p in written.values()))
+    if args.board_out is not None:
+        from classic.vision.board import BoardSpec
+
+        BoardSpec(**ds.meta["board"]).save(args.board_out)
+        print(f"written: {args.board_out}")
+    return 0
 
 
 def parse_noise(text: str):

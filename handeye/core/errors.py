@@ -97,6 +97,23 @@ class NoPairsError(BagError):
     """No camera sample has a robot pose within the time tolerance."""
 
 
+class RecordingError(HandEyeInputError):
+    """A recording (a ROS 2 bag or a folder of frames) cannot be imported as a dataset; the message names the
+    file or topic."""
+
+
+class JointNamesError(RecordingError):
+    """The recorded joint names do not cover the robot model's joints; both lists are named."""
+
+
+class ImageSizeError(RecordingError):
+    """An image's size is not its camera's (depth against ``camera_info``, colour against depth)."""
+
+
+class UnsynchronisedError(RecordingError):
+    """Streams that must be paired by time (depth, colour, joints) are further apart than the tolerance."""
+
+
 class WeakMotionWarning(UserWarning):
     """The motion set is poorly conditioned: the estimate will be noisy."""
 
