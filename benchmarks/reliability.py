@@ -29,10 +29,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -61,11 +63,17 @@ class Case:
     legit: bool = False
     skip: str = ""
     timeout_s: float = 120.0
+    hostile: bool = False
+    input_mb: float = 0.0
     # filled by run_case
     outcome: str = ""
     rc: int | None = None
     stderr: str = ""
     leftovers: list = field(default_factory=list)
+    peak_mb: float = 0.0
+    wall_s: float = 0.0
+    longest_line: int = 0
+    leaked: int = 0
 
 
 # ------------------------------------------------------------------ good inputs
@@ -632,6 +640,125 @@ def _garbage_run(mk: Maker) -> Path:
     return d
 
 
+# ------------------------------------------------------------------ hostile files
+
+#: The bounds a command must stay within on a hostile input of at most ``HOSTILE_INPUT_MB``.
+HOSTILE_INPUT_MB = 10.0
+HOSTILE_PEAK_MB = 1024.0
+HOSTILE_WALL_S = 30.0
+
+
+def _size_mb(path: Path) -> float:
+    path = Path(path)
+    if path.is_symlink() or not path.exists():
+        return 0.0
+    if path.is_file():
+        return path.stat().st_size / 2**20
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file() and not p.is_symlink()) / 2**20
+
+
+def build_hostile_cases(work: Path, good: dict) -> list[Case]:
+    """Every command that reads a user's file on the hostile corpus (:mod:`benchmarks.hostile_corpus`)."""
+    from benchmarks import hostile_corpus as hc
+
+    mk = Maker(work)
+    cases: list[Case] = []
+
+    def add(command, what, argv_of, path, names, legit=False):
+        out_dir = mk.folder()
+        cases.append(
+            Case(command, what, argv_of(out_dir), names, out_dir, legit, hostile=True, input_mb=_size_mb(path))
+        )
+
+    for name, data in (
+        ("png", hc.png_bomb()),
+        ("jpg", hc.jpeg_bomb()),
+        ("png", hc.png_bomb(bit_depth=16, colour_type=0)),
+    ):
+        folder = mk.folder() / f"bomb_{name}_{len(cases)}"
+        folder.mkdir()
+        (folder / f"bomb.{name}").write_bytes(data)
+        add(
+            "detect",
+            f"{name} bomb",
+            lambda o, f=folder: ["detect", f, "--board", good["board"], "-o", o / "d.json"],
+            folder,
+            ["bomb"],
+        )
+    for name, data in hc.pose_csvs().items():
+        path = mk.folder() / name
+        path.write_bytes(data)
+        add(
+            "calibrate POSES",
+            name,
+            lambda o, p=path: ["calibrate", p, "--setup", "eye-to-hand", "-o", o / "r.json"],
+            path,
+            [name],
+            name in hc.LEGIT_POSE_FILES,
+        )
+    start = mk.folder() / "nested_start.json"
+    start.write_text(hc.nested_json(100_000))
+    add(
+        "markerless --start",
+        "nested JSON",
+        lambda o: ["markerless", good["dataset"], "--start", start, "--camera", "0", "--quiet"],
+        start,
+        [start.name],
+    )
+    # labelling reads no depth, the markerless registration no colour: such a dataset is theirs to accept
+    unread = {"label DATASET": ("depth_bomb", "symlink_leaves"), "markerless DATASET": ("rgb_bomb",)}
+    for name, root in hc.hostile_datasets(good["dataset"], mk.folder()).items():
+        argvs = {
+            "label DATASET": lambda o, r=root: ["label", r, "--quiet"],
+            "markerless DATASET": lambda o, r=root: ["markerless", r, "--camera", "0", "--quiet"],
+        }
+        for command, argv_of in argvs.items():
+            add(command, name, argv_of, root, [root.name], name in unread[command])
+    for storage in ("sqlite3", "mcap"):
+        bag = hc.truncated_bag(mk.folder(), storage)
+        add(
+            "import bag",
+            f"truncated {storage}",
+            lambda o, b=bag: ["import", "bag", b, "--robot", "ur5", "--out", o / "ds"],
+            bag,
+            [bag.name],
+        )
+        add(
+            "bag-poses",
+            f"truncated {storage}",
+            lambda o, b=bag: ["bag-poses", b, "--base", "a", "--ee", "b", "--marker-topic", "/m", "-o", o / "p.csv"],
+            bag,
+            [bag.name],
+        )
+    folder = mk.folder() / "placement"
+    (folder / "rgb").mkdir(parents=True)
+    (folder / "depth").mkdir()
+    shutil.copy(good["camera"], folder / "intrinsics.json")
+    (folder / "joints.csv").write_text("frame,a\nf0,0.1\n")
+    (folder / "rgb" / "f0.png").write_bytes(hc.png_bomb())
+    (folder / "depth" / "f0.png").write_bytes(hc.png_bomb(bit_depth=16, colour_type=0))
+    add(
+        "import folder",
+        "png bombs",
+        lambda o: ["import", "folder", folder, "--robot", "ur5", "--out", o / "ds"],
+        folder,
+        ["f0.png"],
+    )
+    try:
+        models = hc.hostile_models(mk.folder())
+    except ImportError:
+        models = {}
+    for name, model in models.items():
+        add(
+            "compare --model",
+            name,
+            lambda o, m=model: ["compare", good["dataset"], "--model", m, "--no-hybrid"],
+            model,
+            [model.name],
+        )
+    return cases
+
+
 # ------------------------------------------------------------------ running and classifying
 
 
@@ -639,31 +766,61 @@ def _arg(a) -> bytes:
     return os.fsencode(a) if isinstance(a, (str, Path)) else a
 
 
+#: Runs argv[2:] and writes its peak resident memory (kB, the child's own: this wrapper is small) to argv[1].
+_PEAK_WRAPPER = (
+    "import resource, subprocess, sys; r = subprocess.run(sys.argv[2:]); "
+    "open(sys.argv[1], 'w').write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)); "
+    "sys.exit(r.returncode)"
+)
+
+
 def run_case(case: Case) -> Case:
     if case.skip:
         case.outcome = "not testable"
         return case
     before = set(case.out_dir.rglob("*"))
-    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONWARNINGS="ignore")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))  # no PYTHONWARNINGS: a leaked warning is counted
     cmd = [_arg(_python()), b"-m", b"handeye.cli", *map(_arg, case.argv)]
-    try:
-        r = subprocess.run(cmd, cwd=case.out_dir, env=env, capture_output=True, timeout=case.timeout_s)
-    except subprocess.TimeoutExpired:
+    if case.hostile:  # a small wrapper forks the command, so its peak memory does not start at this process's
+        cmd = [_arg(_python()), b"-c", _PEAK_WRAPPER.encode(), _arg(case.out_dir / ".peak_kb"), *cmd]
+    t0 = time.perf_counter()
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        proc = subprocess.Popen(cmd, cwd=case.out_dir, env=env, stdout=out, stderr=err)
+        timer = threading.Timer(case.timeout_s, proc.kill)
+        timer.start()
+        try:
+            _, status, usage = os.wait4(proc.pid, 0)  # this child's own peak memory, not the pool's
+        finally:
+            timer.cancel()
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        case.wall_s = time.perf_counter() - t0
+        case.peak_mb = usage.ru_maxrss / 1024.0  # kilobytes on Linux
+        peak_file = case.out_dir / ".peak_kb"
+        if case.hostile and peak_file.is_file():
+            case.peak_mb = int(peak_file.read_text()) / 1024.0
+            peak_file.unlink()
+        err.seek(0)
+        stderr = err.read()
+    if case.wall_s >= case.timeout_s:
         case.outcome = "timeout"
         return case
-    case.rc = r.returncode
-    case.stderr = r.stderr.decode("utf-8", "replace")
-    if r.returncode != 0:
+    case.rc = proc.returncode
+    case.stderr = stderr.decode("utf-8", "replace")
+    if case.rc != 0:
         case.leftovers = sorted(
             str(p.relative_to(case.out_dir)) for p in set(case.out_dir.rglob("*")) - before if p.is_file()
         )
     # progress lines (redrawn with a carriage return) are not messages
     lines = [ln for ln in case.stderr.split("\n") if ln.strip() and not ln.startswith("\r")]
+    case.longest_line = max((len(ln) for ln in lines), default=0)
+    case.leaked = sum(
+        bool(re.search(r"\w+Warning\b|warnings\.warn", ln)) and not ln.startswith("handeye ") for ln in lines
+    )
     if "Traceback" in case.stderr:
         case.outcome = "traceback"
-    elif r.returncode == 0:
+    elif case.rc == 0:
         case.outcome = "ok" if case.legit else "accepted"
-    elif r.returncode == 2:
+    elif case.rc == 2:
         clear = len(lines) == 1 and lines[0].startswith("handeye ") and any(n in lines[0] for n in case.names)
         case.outcome = "clear" if clear else "unclear"
     else:
@@ -688,6 +845,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=max(1, min(4, os.cpu_count() or 1)))
     ap.add_argument("--quick", action="store_true", help="fewer markerless cases")
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
+    ap.add_argument("--hostile-only", action="store_true", help="only the hostile corpus (with its cost)")
     args = ap.parse_args(argv)
     import numpy
 
@@ -701,9 +859,12 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     try:
         good = build_good_inputs(work)
-        cases = build_cases(work, good, args.quick)
+        cases = [] if args.hostile_only else build_cases(work, good, args.quick)
+        cases += build_hostile_cases(work, good)
         with ThreadPoolExecutor(args.workers) as pool:
             done = list(pool.map(run_case, cases))
+        hostile_ok = report_hostile(rep, [c for c in done if c.hostile], work)
+        done = [c for c in done if not c.hostile]
         wall = time.perf_counter() - t0
         rep.say(
             f"{len(done)} command lines, {wall:.0f} s; running as root: {'yes' if IS_ROOT else 'no'} "
@@ -771,7 +932,57 @@ def main(argv: list[str] | None = None) -> int:
                 if p.is_file() and not p.is_symlink():
                     os.chmod(p, 0o600)
             shutil.rmtree(work, ignore_errors=True)
-    return rep.write(args.out)
+    rep.write(args.out)
+    return 0 if hostile_ok else 1
+
+
+def report_hostile(rep: Report, done: list, work: Path) -> bool:
+    """The hostile corpus's table (per command: outcomes, longest error line, peak memory, time) and whether
+    every run met the targets: no traceback, unclear answer or leaked warning, no line over 300 characters,
+    inputs of at most 10 MB within 1 GB and 30 s."""
+    rep.say("## Hostile files")
+    rep.say()
+    rep.say(
+        f"Targets: 0 tracebacks, 0 unclear, 0 leaked warnings, no error line over 300 characters; an input of at "
+        f"most {HOSTILE_INPUT_MB:g} MB within {HOSTILE_PEAK_MB:g} MB of memory and {HOSTILE_WALL_S:g} s. Peak "
+        "memory: the command's process (ru_maxrss, Python and its imports included)."
+    )
+    rep.say()
+    rep.say(
+        "| command | inputs tried | clear | unclear | traceback | accepted | leaked warnings | longest line | "
+        "peak MB | max s |"
+    )
+    rep.say("|---|---|---|---|---|---|---|---|---|---|")
+    for command in dict.fromkeys(c.command for c in done):
+        mine = [c for c in done if c.command == command]
+        count = {k: sum(c.outcome == k for c in mine) for k in ("clear", "unclear", "traceback", "accepted")}
+        rep.say(
+            f"| {command} | {len(mine)} | {count['clear']} | {count['unclear']} | {count['traceback']} | "
+            f"{count['accepted']} | {sum(c.leaked for c in mine)} | {max(c.longest_line for c in mine)} | "
+            f"{max(c.peak_mb for c in mine):.0f} | {max(c.wall_s for c in mine):.1f} |"
+        )
+    bad = [
+        c for c in done
+        if c.outcome not in ("clear", "ok") or c.leaked or c.longest_line > 300
+        or (c.input_mb <= HOSTILE_INPUT_MB and (c.peak_mb > HOSTILE_PEAK_MB or c.wall_s > HOSTILE_WALL_S))
+    ]  # fmt: skip
+    rep.say()
+    rep.say(f"{len(done)} hostile inputs, {len(bad)} missing a target")
+    for c in bad:
+        last = [ln for ln in c.stderr.splitlines() if ln.strip()][-1:] or [""]
+        rep.say(
+            f"- {c.command}, {c.what}: {c.outcome}, {c.peak_mb:.0f} MB, {c.wall_s:.1f} s, leaked {c.leaked}: "
+            f"`{last[0].replace(str(work), '$TMP')[:300]}`"
+        )
+    rep.say()
+    rep.say("Every hostile case:")
+    rep.say()
+    for c in done:
+        rep.say(
+            f"- {c.command} | {c.what} | {c.outcome} | {c.input_mb:.2f} MB in | {c.peak_mb:.0f} MB | {c.wall_s:.1f} s"
+        )
+    rep.say()
+    return not bad
 
 
 if __name__ == "__main__":

@@ -7,10 +7,13 @@ calibrate`` works with only the core dependencies installed.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
+import warnings
 
 from handeye.core.errors import HandEyeInputError, MissingDependencyError
+from handeye.core.limits import one_line
 
 __all__ = ["main", "build_parser"]
 
@@ -64,13 +67,40 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     _quiet_opencv()
     try:
-        return int(args.run(args) or 0)
+        with _own_warnings(args.command):
+            return int(args.run(args) or 0)
     except (HandEyeInputError, MissingDependencyError) as exc:
-        print(f"handeye {args.command}: error: {exc}", file=sys.stderr)
+        print(one_line(f"handeye {args.command}: error: {exc}"), file=sys.stderr)
+        return 2
+    except RecursionError:  # a reader that missed its nesting limit: still one line, never a traceback
+        print(f"handeye {args.command}: error: an input is nested too deeply to read", file=sys.stderr)
         return 2
     except BrokenPipeError:  # the output was piped into a reader that stopped (``| head``): not an error of ours
         sys.stderr.close()
         return 0
+
+
+@contextlib.contextmanager
+def _own_warnings(command: str):
+    """Library warnings (numpy's overflow, OpenCV's, Pillow's) kept off the terminal; handeye's own warnings
+    (:mod:`handeye.core.errors`: weak motion, ...) printed as one line each after the command."""
+    import numpy as np
+
+    with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
+        warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            seen = set()
+            for w in caught:
+                text = one_line(f"handeye {command}: warning: {w.message}")
+                if _is_own(w.category) and text not in seen:
+                    seen.add(text)
+                    print(text, file=sys.stderr)
+
+
+def _is_own(category) -> bool:
+    return category.__module__.split(".")[0] in ("handeye", "classic", "sim", "learned")
 
 
 def _quiet_opencv() -> None:

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import BagError, BagTopicError, RecordingError
+from handeye.core.limits import check_image_bytes
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
 from handeye.ros_bag import IMAGE_TYPE, _connections, _messages, _open, _stamp_ns, image_array
 
@@ -48,6 +49,7 @@ def _decode_compressed(msg, where: str, depth: bool) -> np.ndarray:
         if "32fc1" in fmt:
             raise BagError(f"{where}: compressedDepth of 32FC1 (quantised inverse depth) is not read; record 16UC1")
         data = data[_COMPRESSED_DEPTH_HEADER:]
+    check_image_bytes(data.tobytes(), where, BagError)
     img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     if img is None:
         raise BagError(f"{where}: the compressed image ({msg.format!r}) cannot be decoded")

@@ -22,12 +22,14 @@ runs (the markerless registration needs them). Frames are matched by name, so no
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
 
 from handeye.core.dataset import pose_columns
 from handeye.core.errors import ImageSizeError, RecordingError
+from handeye.core.limits import check_image_bytes
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
 
 __all__ = ["INTRINSICS_NAMES", "read_frame_folder"]
@@ -83,11 +85,13 @@ def _read_color(path: Path) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as im:
+        data = path.read_bytes()
+        check_image_bytes(data, str(path), RecordingError)
+        with Image.open(io.BytesIO(data)) as im:
             if im.mode not in ("RGB", "RGBA", "L", "P"):
                 raise RecordingError(f"{path}: colour of mode {im.mode}; an 8-bit colour or grey image is needed")
             return np.array(im.convert("RGB"))
-    except (OSError, UnidentifiedImageError) as exc:
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
         raise RecordingError(f"{path}: cannot read the image ({exc})") from None
 
 
@@ -107,9 +111,11 @@ def _read_depth(path: Path, depth_unit_m: float) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as im:
+        data = path.read_bytes()
+        check_image_bytes(data, str(path), RecordingError)
+        with Image.open(io.BytesIO(data)) as im:
             arr = np.array(im)
-    except (OSError, UnidentifiedImageError) as exc:
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
         raise RecordingError(f"{path}: cannot read the image ({exc})") from None
     if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32):
         raise RecordingError(f"{path}: depth PNG of {arr.dtype} {arr.shape}; a 16-bit single-channel PNG is needed")

@@ -164,17 +164,13 @@ def read_start(path: str | Path) -> np.ndarray:
     HandEyeInputError
         Missing or unreadable file, or neither form (naming the file).
     """
-    import json
-
+    from handeye.core.jsonfile import read_json_file
     from handeye.core.validation import check_transforms
 
     path = Path(path)
     if not path.is_file():
         raise HandEyeInputError(f"{path}: no such start file")
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise HandEyeInputError(f"{path}: not a JSON file ({exc})") from None
+    doc = read_json_file(path, HandEyeInputError, "start file")
     doc = doc.get("T_base_cam", doc) if isinstance(doc, dict) else doc
     try:
         if isinstance(doc, dict):

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import BagError, BagTopicError, NotABagError
+from handeye.core.limits import check_image_size
 from handeye.core.optional import require_package
 from handeye.core.se3 import transform_from_pos_quat_xyzw
 from handeye.tf_tree import QUAT_NORM_TOL, TfTree
@@ -195,7 +196,10 @@ def _connections(reader, bag, topic: str, types: tuple, required: bool = True) -
     """The topic's connections, checked to carry one of ``types``."""
     conns = [c for c in reader.connections if c.topic == topic]
     if not conns and required:
-        have = ", ".join(f"{c.topic} ({c.msgtype})" for c in sorted(reader.connections, key=lambda c: c.topic))
+        topics = sorted({(c.topic, c.msgtype.split("/")[-1]) for c in reader.connections})
+        have = ", ".join(f"{t} ({m})" for t, m in topics[:8]) + (
+            f" and {len(topics) - 8} more" if len(topics) > 8 else ""
+        )
         raise BagTopicError(f"{bag}: no topic {topic!r}; the bag has: {have or 'no topics'}")
     wrong = sorted({c.msgtype for c in conns if c.msgtype not in types})
     if wrong:
@@ -338,6 +342,7 @@ def image_array(msg, order: str = "bgr") -> np.ndarray:
     channels, kind, native = IMAGE_ENCODINGS[msg.encoding]
     dtype = np.dtype(kind).newbyteorder(">" if msg.is_bigendian else "<")
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    check_image_size(w, h, f"image {msg.encoding}", BagError)
     data = np.asarray(msg.data, dtype=np.uint8)
     row = w * channels * dtype.itemsize
     if step < row or data.size < h * step:

@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from handeye.core.errors import HandEyeInputError
+from handeye.core.limits import check_image_bytes
 
 __all__ = ["ImageError", "IMAGE_SUFFIXES", "read_image", "list_images"]
 
@@ -46,6 +47,7 @@ def read_image(path: str | Path) -> np.ndarray:
     if data[:8].tobytes() == _PNG_SIGNATURE and _PNG_END not in data.tobytes():
         # refused before decoding: libpng would print its own error line on stderr first
         raise ImageError(f"{path}: a truncated PNG (its end chunk is missing)")
+    check_image_bytes(data.tobytes(), str(path), ImageError)  # a decompression bomb, refused from its header
     image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
     if image is None:
         raise ImageError(f"{path}: not a readable image (PNG, JPEG, BMP or TIFF expected)")

@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
 
         reasons = sorted({v.pose.reason for v in views.views})
         raise HandEyeInputError(
-            f"no image of {args.images} gave a board pose with the spec {args.board} "
-            f"({'; '.join(reasons[:3])}); check the dictionary and the square counts of the board file"
+            f"{args.board}: no image of {args.images} gave a board pose with this spec ({reasons[0][:100]}"
+            f"{f'; {len(reasons) - 1} other reasons' if len(reasons) > 1 else ''}); check its dictionary and square "
+            "counts"
         )
     return 0

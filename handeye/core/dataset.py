@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import io
 import json
 import os
 from dataclasses import dataclass, field
@@ -45,6 +46,14 @@ import numpy as np
 
 from handeye.core.errors import DatasetError
 from handeye.core.jsonfile import read_json_file
+from handeye.core.limits import (
+    MAX_DATASET_CAMERAS,
+    MAX_JOINTS,
+    check_csv_text,
+    check_image_bytes,
+    check_image_size,
+    shorten,
+)
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = [
@@ -207,11 +216,11 @@ def _parse(value: str, column: str, path: Path, row: int):
         number = int(value) if column in _INT_COLUMNS else float(value)
     except ValueError:
         kind = "an integer" if column in _INT_COLUMNS else "a number"
-        raise DatasetError(f"{path}: row {row} column {column}: {value!r} is not {kind}") from None
+        raise DatasetError(f"{path}: row {row} column {column}: {shorten(value)} is not {kind}") from None
     # write_table writes an unknown value as an empty cell, never nan or inf
     if isinstance(number, float) and not np.isfinite(number):
         raise DatasetError(
-            f"{path}: row {row} column {column}: {value!r} is not finite (an unknown value is an empty cell)"
+            f"{path}: row {row} column {column}: {shorten(value)} is not finite (an unknown value is an empty cell)"
         )
     return number
 
@@ -238,16 +247,20 @@ def read_table(path: str | Path, required: list[str]) -> dict:
     if not path.is_file():
         raise DatasetError(f"{path}: table missing")
     try:
-        with path.open(newline="") as f:
-            rows = list(csv.reader(f))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # csv.Error: a NUL byte, a field over the size limit
-        raise DatasetError(f"{path}: cannot read the table ({exc})") from None
+        text = path.read_bytes().decode("utf-8")
+        check_csv_text(enumerate(text.split("\n"), start=1), str(path), DatasetError)
+        rows = list(csv.reader(io.StringIO(text, newline="")))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # csv.Error: a field over the size limit
+        raise DatasetError(f"{path}: cannot read the table ({shorten(str(exc), 120)})") from None
     if not rows:
         raise DatasetError(f"{path}: empty table (no header)")
     header, body = rows[0], rows[1:]
     missing = [c for c in required if c not in header]
     if missing:
-        raise DatasetError(f"{path}: missing column(s) {', '.join(missing)} (header: {','.join(header[:12])}...)")
+        raise DatasetError(
+            f"{path}: missing column(s) {shorten(', '.join(missing), 80)} "
+            f"(header: {shorten(','.join(header[:12]), 80)})"
+        )
     columns = {c: [] for c in header}
     for r, values in enumerate(body, start=2):
         if len(values) != len(header):
@@ -332,9 +345,11 @@ def _read_png(path: Path) -> np.ndarray:
     if not path.is_file():
         raise DatasetError(f"{path}: image missing")
     try:
-        with Image.open(path) as im:
+        data = path.read_bytes()
+        check_image_bytes(data, str(path), DatasetError)
+        with Image.open(io.BytesIO(data)) as im:
             return np.array(im)
-    except (OSError, UnidentifiedImageError) as exc:
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
         raise DatasetError(f"{path}: cannot read the image ({exc})") from None
 
 
@@ -414,6 +429,32 @@ def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
 # ------------------------------------------------------------------ the dataset
 
 
+def _check_declared_sizes(meta: dict, path: Path) -> None:
+    """The sizes ``meta.json`` declares, within the limits and of the right types (before anything is sized
+    from them); the camera count is checked against ``cameras.csv`` when the table is read."""
+
+    def integer(value, name: str, low: int, high: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise DatasetError(f"{path}: {name} is {shorten(value)}; an integer from {low} to {high:,} is expected")
+        return value
+
+    integer(meta["cameras"], "cameras", 1, MAX_DATASET_CAMERAS)
+    integer(meta["n_joints"], "n_joints", 1, MAX_JOINTS)
+    for key in ("intrinsics", "calibration_intrinsics"):
+        intr = meta.get(key)
+        if intr is None:
+            continue
+        if not isinstance(intr, dict):
+            raise DatasetError(f"{path}: {key} is {shorten(intr)}, not an object")
+        w = integer(intr.get("width"), f"{key}.width", 1, 1 << 20)
+        h = integer(intr.get("height"), f"{key}.height", 1, 1 << 20)
+        check_image_size(w, h, f"{path}: {key}", DatasetError)
+    depth = meta["depth"]
+    scale = depth.get("scale_m") if isinstance(depth, dict) else None
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale < 1:
+        raise DatasetError(f"{path}: depth.scale_m is {shorten(scale)}; metres per unit between 0 and 1")
+
+
 @dataclass
 class Dataset:
     """A dataset directory, read lazily and validated.
@@ -457,6 +498,7 @@ class Dataset:
         for key in ("robot", "intrinsics", "depth", "n_joints", "cameras"):
             if key not in meta:
                 raise DatasetError(f"{path}: key {key!r} missing")
+        _check_declared_sizes(meta, path)
         return cls(root, meta)
 
     # -- tables

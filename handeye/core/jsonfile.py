@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from handeye.core.limits import MAX_JSON_DEPTH, check_json_depth
+
 __all__ = ["MAX_JSON_BYTES", "read_json_file"]
 
 #: A JSON file larger than this is refused before it is read (specs, detections and metadata take kilobytes).
@@ -46,8 +48,11 @@ def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON f
     except UnicodeDecodeError as exc:
         raise error(f"{path}: not UTF-8 text (byte {exc.start}), not a {what}") from None
     try:
-        return json.loads(text)
+        doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise error(f"{path}: not valid JSON ({exc}), not a {what}") from None
     except RecursionError:
-        raise error(f"{path}: JSON nested too deeply, not a {what}") from None
+        raise error(
+            f"{path}: JSON nested deeper than the parser allows (limit {MAX_JSON_DEPTH}), not a {what}"
+        ) from None
+    return check_json_depth(doc, str(path), error)

@@ -54,6 +54,14 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
+from handeye.core.limits import (
+    ABSURD_TRANSLATION_M,
+    MAX_JSON_DEPTH,
+    MAX_TEXT_FILE_BYTES,
+    check_csv_text,
+    check_json_depth,
+    shorten,
+)
 from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
 from handeye.core.se3 import (
     make_transform,
@@ -119,7 +127,7 @@ def _check_unit(q: np.ndarray, where: str) -> None:
 
 
 #: A pose file larger than this is refused before it is read (a few thousand poses take kilobytes).
-MAX_POSE_FILE_BYTES = 64 * 1024 * 1024
+MAX_POSE_FILE_BYTES = MAX_TEXT_FILE_BYTES
 
 
 def _check_file(path: Path) -> None:
@@ -150,6 +158,17 @@ def _read_text(path: Path) -> str:
         raise PoseFileError(f"{path}: not UTF-8 text (byte {exc.start}); save the pose file as UTF-8") from None
 
 
+def _read_json(path: Path):
+    """The parsed JSON of a pose file, or a :class:`PoseFileError` (not JSON, nested too deeply)."""
+    try:
+        doc = json.loads(_read_text(path))
+    except json.JSONDecodeError as exc:
+        raise PoseFileError(f"{path}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise PoseFileError(f"{path}: JSON nested deeper than the parser allows (limit {MAX_JSON_DEPTH})") from None
+    return check_json_depth(doc, str(path), PoseFileError)
+
+
 def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, list[int], dict]:
     """Raw columns per pose name ``(N, 6 or 7)``, the line numbers, and the rotation kind per name.
 
@@ -163,6 +182,7 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
     ]
     if not lines:
         raise PoseFileError(f"{path}: no header and no rows")
+    check_csv_text(lines, str(path), PoseFileError)
     header_line, header = lines[0][0], [h.strip() for h in next(csv.reader([lines[0][1]]))]
     col = {h: k for k, h in enumerate(header)}
     raw, kinds = {}, {}
@@ -188,7 +208,8 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
         if missing or not found:
             raise PoseFileError(
                 f"{path}, header (line {header_line}): columns for {name} not found; need {', '.join(xyz)} and "
-                f"one of: {' | '.join(', '.join(cols) for cols in options.values())}. Header is: {', '.join(header)}"
+                f"one of: {' | '.join(', '.join(cols) for cols in options.values())}. Header is: "
+                f"{shorten(', '.join(header), 120)}"
             )
         if len(found) > 1:
             raise PoseFileError(
@@ -206,11 +227,17 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
                     values[r, c] = float(row[col[cname]])
                 except ValueError:
                     raise PoseFileError(
-                        f"{path}, line {line_no}, column {cname}: {row[col[cname]]!r} is not a number"
+                        f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]])} is not a number"
                     ) from None
                 if not np.isfinite(values[r, c]):
                     raise PoseFileError(
-                        f"{path}, line {line_no}, column {cname}: {row[col[cname]].strip()!r} is not a finite number"
+                        f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]].strip())} is not a "
+                        "finite number"
+                    )
+                if c < 3 and abs(values[r, c]) > ABSURD_TRANSLATION_M * 1e3:
+                    raise PoseFileError(
+                        f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]].strip())} is absurd for a "
+                        f"translation (over {ABSURD_TRANSLATION_M:g} m in metres or in millimetres)"
                     )
         raw[name] = values
         kinds[name] = kind
@@ -289,10 +316,7 @@ def _pose_from_json(entry, quat_order: str, scale: float, where: str) -> np.ndar
 def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, ...] = POSE_NAMES):
     """Transforms of the pose names with the given quaternion order per name (and ``image`` if given)."""
     if path.suffix.lower() == ".json":
-        try:
-            doc = json.loads(_read_text(path))
-        except json.JSONDecodeError as exc:
-            raise PoseFileError(f"{path}: not valid JSON ({exc})") from None
+        doc = _read_json(path)
         if not isinstance(doc, dict) or not isinstance(doc.get("poses"), list):
             raise PoseFileError(f"{path}: expected an object with a 'poses' list")
         unit = units or doc.get("units", "m")
@@ -375,8 +399,8 @@ def read_pose_file(
         raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
     if path.suffix.lower() == ".json" and quat_order is None:
         try:
-            quat_order = json.loads(_read_text(path)).get("quaternion_order")
-        except (json.JSONDecodeError, AttributeError):
+            quat_order = _read_json(path).get("quaternion_order")
+        except (PoseFileError, AttributeError):  # read_pose_file's own parse names what is wrong
             quat_order = None
     order = quat_order or "xyzw"
     if order not in QUAT_ORDERS:
@@ -431,8 +455,8 @@ def read_robot_poses(path: str | Path, quat_order: str | None = None, units: str
     _check_file(path)
     if path.suffix.lower() == ".json" and quat_order is None:  # the file's own order, as read_pose_file reads it
         try:
-            quat_order = json.loads(_read_text(path)).get("quaternion_order")
-        except (json.JSONDecodeError, AttributeError):
+            quat_order = _read_json(path).get("quaternion_order")
+        except (PoseFileError, AttributeError):  # read_pose_file's own parse names what is wrong
             quat_order = None
     order = quat_order or "xyzw"
     if order not in QUAT_ORDERS:

@@ -17,6 +17,7 @@ from handeye.core.errors import (
     TooFewPosesError,
     UnitsError,
 )
+from handeye.core.limits import ABSURD_TRANSLATION_M
 
 __all__ = [
     "ROTATION_TOLERANCE",
@@ -159,7 +160,15 @@ def check_units_metres(T: np.ndarray, name: str, max_translation_m: float = MAX_
     ------
     UnitsError
     """
-    norms = np.linalg.norm(T[:, :3, 3], axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e308 squared: inf, which is absurd below
+        norms = np.linalg.norm(T[:, :3, 3], axis=1)
+    if norms.size and norms.max() > ABSURD_TRANSLATION_M:
+        i = int(np.argmax(norms))
+        largest = float(np.abs(T[i, :3, 3]).max())
+        raise UnitsError(
+            f"{name}[{i}] has a translation coordinate of {largest:.3g} m: absurd in any unit (no robot cell is "
+            f"{ABSURD_TRANSLATION_M:g} m wide, in metres or millimetres); the value is corrupt or not a pose"
+        )
     if norms.size and norms.max() > max_translation_m:
         i = int(np.argmax(norms))
         raise UnitsError(

@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from handeye.core.errors import PoseFileError
+from handeye.core.limits import MAX_JSON_DEPTH, MAX_TEXT_FILE_BYTES, check_json_depth
 from handeye.core.optional import require_package
 
 __all__ = ["YamlList", "YamlMap", "line_of", "load_yaml"]
@@ -105,16 +106,14 @@ def load_yaml(path: str | Path, error: type[Exception] = PoseFileError):
     MissingDependencyError
         PyYAML is not installed.
     """
-    from handeye.core.posefile import MAX_POSE_FILE_BYTES
-
     yaml = require_package("yaml", extra="ros", purpose="reading YAML files")
     path = Path(path)
     if path.is_dir():
         raise error(f"{path}: is a directory, not a YAML file")
     if not path.is_file():
         raise error(f"{path}: no such file")
-    if path.stat().st_size > MAX_POSE_FILE_BYTES:
-        raise error(f"{path}: {path.stat().st_size:,} bytes, too large (at most {MAX_POSE_FILE_BYTES:,})")
+    if path.stat().st_size > MAX_TEXT_FILE_BYTES:
+        raise error(f"{path}: {path.stat().st_size:,} bytes, too large (at most {MAX_TEXT_FILE_BYTES:,})")
     raw = path.read_bytes()
     if b"\x00" in raw:
         raise error(f"{path}: a binary file, not YAML text")
@@ -124,6 +123,8 @@ def load_yaml(path: str | Path, error: type[Exception] = PoseFileError):
         raise error(f"{path}: not UTF-8 text (byte {exc.start})") from None
     try:
         docs = [d for d in yaml.load_all(text, Loader=_loader(yaml)) if d is not None]
+    except RecursionError:
+        raise error(f"{path}: nested deeper than the parser allows (limit {MAX_JSON_DEPTH} levels)") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
         where = f", line {mark.line + 1}" if mark is not None else ""
@@ -131,4 +132,4 @@ def load_yaml(path: str | Path, error: type[Exception] = PoseFileError):
         raise error(f"{path}{where}: not valid YAML ({what})") from None
     if len(docs) > 1:
         raise error(f"{path}: holds {len(docs)} YAML documents (separated by '---'); keep one")
-    return docs[0] if docs else None
+    return check_json_depth(docs[0], str(path), error) if docs else None
