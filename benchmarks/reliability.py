@@ -661,7 +661,7 @@ def build_hostile_cases(work: Path, good: dict) -> list[Case]:
     """Every command that reads a user's file on the hostile corpus (:mod:`benchmarks.hostile_corpus`)."""
     from benchmarks import hostile_corpus as hc
 
-    mk = Maker(work)
+    mk = Maker(work / "hostile")  # its own folders beside the sweep's
     cases: list[Case] = []
 
     def add(command, what, argv_of, path, names, legit=False):

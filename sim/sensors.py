@@ -44,7 +44,10 @@ class DepthSensor:
     Attributes
     ----------
     name : str
-    principle : {"ideal", "active-stereo", "time-of-flight", "structured-light"}
+    principle : {"ideal", "active-stereo", "time-of-flight", "structured-light", "simulated-stereo"}
+        ``simulated-stereo`` measures the depth by matching two simulated infrared views of a dot pattern
+        (:mod:`sim.stereo`) instead of adding the parametric noise: its noise, holes and edge errors are
+        the matcher's.
     scale_sigma : float
         Spread of a unit's depth scale ``s - 1`` (one sigma, unitless), drawn per placement.
     offset_sigma_m : float
@@ -77,6 +80,8 @@ class DepthSensor:
         Share of each image lost in random blobs (specular spots, dropped matches).
     hole_blob_px : float
         Blob size, rendered pixels.
+    stereo_baseline_m : float
+        The stereo pair's baseline, metres (``simulated-stereo``).
     extrinsic_sigma_m : float
         Spread of the depth-to-colour extrinsic's translation error per axis, metres: the depth image is
         registered to the colour camera through a factory extrinsic that is off by this much.
@@ -102,16 +107,19 @@ class DepthSensor:
     hole_blob_fraction: float = 0.0
     hole_blob_px: float = 6.0
     extrinsic_sigma_m: float = 0.0
+    stereo_baseline_m: float = 0.0
     source: str = ""
 
     def __post_init__(self):
-        if self.principle not in ("ideal", "active-stereo", "time-of-flight", "structured-light"):
+        if self.principle not in ("ideal", "active-stereo", "time-of-flight", "structured-light", "simulated-stereo"):
             raise HandEyeInputError(f"sensor {self.name!r}: unknown principle {self.principle!r}")
         for key, value in asdict(self).items():
             if key in ("name", "principle", "source"):
                 continue
             if not np.isfinite(value) or value < 0:
                 raise HandEyeInputError(f"sensor {self.name!r}: {key} must be a finite value >= 0, got {value}")
+        if self.principle == "simulated-stereo" and not self.stereo_baseline_m > 0:
+            raise HandEyeInputError(f"sensor {self.name!r}: simulated-stereo needs stereo_baseline_m > 0")
         for key in ("correlated_fraction", "flying_fraction", "dark_hole_fraction", "hole_blob_fraction"):
             if getattr(self, key) > 1:
                 raise HandEyeInputError(f"sensor {self.name!r}: {key} is a fraction, got {getattr(self, key)}")
@@ -161,6 +169,22 @@ PROFILES: dict[str, DepthSensor] = {
         source="Intel RealSense D400 series datasheet (accuracy 2 % at 2 m, 50 mm baseline, 87 deg HFOV); "
         "Intel white paper 'Tuning depth cameras for best performance' (RMS error = z^2 subpixel / (f B), "
         "subpixel 0.08 px)",
+    ),
+    # the D435's geometry, its depth measured by OpenCV's semi-global block matching on two simulated infrared
+    # views of a dot pattern (sim/stereo.py) instead of the parametric noise: a check of the "d435" profile
+    "d435-sgbm": DepthSensor(
+        "d435-sgbm",
+        "simulated-stereo",
+        scale_sigma=0.02 / 3,
+        offset_sigma_m=0.002,
+        native_focal_px=_D4XX_FOCAL_PX,
+        stereo_baseline_m=0.050,
+        grazing_hole_deg=75.0,
+        dark_hole_fraction=0.3,
+        hole_blob_fraction=0.03,
+        extrinsic_sigma_m=0.0005,
+        source="the d435 profile's geometry (50 mm baseline, f = 447 px at 848x480) and systematic errors; the "
+        "matching is OpenCV's StereoSGBM (7x7 window), not Intel's D4 processor",
     ),
     "d455": DepthSensor(
         "d455",
@@ -362,6 +386,13 @@ def apply_sensor(
     depth = _shift_depth(depth, K, truth.t_colour_depth_m, sensor.edge_jump_m)
     valid = depth > 0
     z = np.where(valid, depth, 0.0)
+    if sensor.principle == "simulated-stereo":  # the matcher's depth: its noise, holes and edges
+        from sim.stereo import active_stereo_depth
+
+        native = sensor.native_focal_px / K[0, 0] if sensor.native_focal_px else 1.0
+        measured = active_stereo_depth(z, K, sensor.stereo_baseline_m * native, rng)
+        z = np.where(measured > 0, measured, 0.0)
+        valid = valid & (z > 0)
     # axial noise, part white and part correlated over the matching window (scaled to these pixels)
     sigma = sensor.sigma_m(z)
     length = sensor.correlation_px * (K[0, 0] / sensor.native_focal_px if sensor.native_focal_px else 1.0)

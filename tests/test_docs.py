@@ -98,3 +98,37 @@ def test_readme_shell_examples_run(index, block, tmp_path):
         ["bash", "-euo", "pipefail", "-c", block], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
     )
     assert run.returncode == 0, f"README bash block {index} failed:\n{run.stderr[-3000:]}"
+
+
+def _browser() -> str | None:
+    import shutil
+
+    names = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chromium-headless-shell")
+    return os.environ.get("HANDEYE_TEST_BROWSER") or next(filter(None, map(shutil.which, names)), None)
+
+
+@pytest.mark.skipif(_browser() is None, reason="no headless browser (chromium; .ci/run installs it)")
+def test_the_built_documentation_opens_in_a_browser(tmp_path):
+    """The site as mkdocs builds it: its index renders in headless Chromium with the navigation, the
+    README's headline and no script error."""
+    site = tmp_path / "site"
+    build = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(site)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert build.returncode == 0, build.stderr[-2000:]
+    run = subprocess.run(
+        [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr",
+         "--virtual-time-budget=5000", "--dump-dom", (site / "index.html").as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    dom = run.stdout
+    assert "Getting started" in dom and "Markerless" in dom  # the navigation
+    assert "md-content" in dom and "robot hand" in dom.lower()  # the page body, the index text
+    assert "Uncaught" not in run.stderr

@@ -12,7 +12,10 @@ neither ``sim``, ``classic`` nor the front; ``sim`` may use ``classic`` (ChArUco
 projection) but neither ``learned`` nor the front. Every ``import`` statement counts,
 also those inside functions: a lazy import is still an arrow.
 
-``python -m tests.test_layers`` prints the picture (arrows between layers, with counts).
+No circles either, between files: a module never imports, directly or through others, a module that
+imports it (:func:`import_circles`).
+
+``python -m tests.test_layers`` prints the picture (arrows between layers, with counts) and any circle.
 """
 
 from __future__ import annotations
@@ -123,6 +126,95 @@ def test_relative_imports_are_resolved():
     assert names == ["learned.model", "learned.data.load_frames"]
 
 
+def _module_files() -> dict:
+    return {module_name(p): p for p in project_files()}
+
+
+def file_graph() -> dict:
+    """Module to the project modules it imports (a name resolved to its module: ``a.b.f`` -> ``a.b``).
+
+    A package's ``__init__`` re-exporting its modules is not an arrow back: its edges to the modules inside it
+    are left out, as are edges from a module to its own package (``import classic`` inside ``classic.x``
+    reaches names the package lends, not a module that imports it back).
+    """
+    modules = _module_files()
+    graph = {}
+    for name, path in modules.items():
+        targets = set()
+        for _, imported in imported_modules(path):
+            parts = imported.split(".")
+            while parts and ".".join(parts) not in modules:
+                parts = parts[:-1]
+            target = ".".join(parts)
+            if not target or target == name:
+                continue
+            if path.name == "__init__.py" and target.startswith(name + "."):
+                continue
+            if modules[target].name == "__init__.py" and name.startswith(target + "."):
+                continue
+            targets.add(target)
+        graph[name] = targets
+    return graph
+
+
+def import_circles() -> list[list[str]]:
+    """The strongly connected groups of more than one module (Tarjan's algorithm, iterative)."""
+    graph = file_graph()
+    index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = counter[0]
+                    counter[0] += 1
+                    stack.append(child)
+                    on.add(child)
+                    work.append((child, iter(sorted(graph[child]))))
+                elif child in on:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                group = []
+                while True:
+                    member = stack.pop()
+                    on.discard(member)
+                    group.append(member)
+                    if member == node:
+                        break
+                if len(group) > 1:
+                    out.append(sorted(group))
+    return out
+
+
+def test_no_import_circles():
+    """No two files import each other, directly or round a longer circle (a lazy import counts)."""
+    assert import_circles() == []
+
+
+def test_the_circle_check_finds_a_circle():
+    a, b = REPO / "handeye" / "_circle_probe_a.py", REPO / "handeye" / "_circle_probe_b.py"
+    a.write_text("def f():\n    from handeye._circle_probe_b import g\n")
+    b.write_text("from handeye._circle_probe_a import f\n")
+    try:
+        circles = import_circles()
+    finally:
+        a.unlink()
+        b.unlink()
+    assert ["handeye._circle_probe_a", "handeye._circle_probe_b"] in circles
+
+
 def picture() -> str:
     counts = Counter((src, dst) for src, dst, *_ in arrows())
     lines = ["| from | to | imports | allowed |", "|---|---|---|---|"]
@@ -133,3 +225,5 @@ def picture() -> str:
 
 if __name__ == "__main__":
     print(picture())
+    for circle in import_circles():
+        print("circle:", " <-> ".join(circle))

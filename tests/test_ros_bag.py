@@ -289,7 +289,9 @@ def test_images_decoded_with_their_stamps(exact_bag):
 
 def test_bad_input_raises_named_errors(exact_bag, tmp_path):
     path, p = exact_bag[:2]
-    with pytest.raises(BagTopicError, match=r"recording: no topic '/nope'; the bag has: .*/marker_pose \(PoseStamped\)"):
+    with pytest.raises(
+        BagTopicError, match=r"recording: no topic '/nope'; the bag has: .*/marker_pose \(PoseStamped\)"
+    ):
         read_bag(path, "base_link", "tool0", marker_topic="/nope")
     with pytest.raises(BagTopicError, match="topic '/image' holds sensor_msgs/msg/Image; expected geometry_msgs"):
         read_bag(path, "base_link", "tool0", marker_topic="/image")

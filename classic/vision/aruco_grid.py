@@ -16,7 +16,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from classic.vision.board import BoardSpec, dictionary_id
+from classic.vision.dictionaries import dictionary_id
 
 __all__ = ["render_grid", "detect_grid", "marker_pixels", "WINDOW_MODULES"]
 
@@ -24,17 +24,17 @@ __all__ = ["render_grid", "detect_grid", "marker_pixels", "WINDOW_MODULES"]
 WINDOW_MODULES = 0.8
 
 
-def marker_pixels(spec: BoardSpec, pixels_per_square: int) -> int:
+def marker_pixels(spec, pixels_per_square: int) -> int:
     """Whole pixels per marker side at ``pixels_per_square`` pixels per marker pitch."""
     return max(1, int(round(spec.marker_length_m / spec.square_length_m * pixels_per_square)))
 
 
-def render_grid(spec: BoardSpec, pixels_per_square: int, margin_px: int = 0) -> np.ndarray:
+def render_grid(spec, pixels_per_square: int, margin_px: int = 0) -> np.ndarray:
     """Image of the marker grid, every marker at whole pixels.
 
     Parameters
     ----------
-    spec : BoardSpec
+    spec : classic.vision.board.BoardSpec
         Of kind ``"aruco_grid"``.
     pixels_per_square : int
         Pixels per marker pitch.
@@ -58,13 +58,13 @@ def render_grid(spec: BoardSpec, pixels_per_square: int, margin_px: int = 0) -> 
     return image
 
 
-def detect_grid(gray: np.ndarray, spec: BoardSpec):
+def detect_grid(gray: np.ndarray, spec):
     """Corners of the grid's markers found in the image.
 
     Parameters
     ----------
     gray : array of uint8, shape (H, W)
-    spec : BoardSpec
+    spec : classic.vision.board.BoardSpec
         Of kind ``"aruco_grid"``.
 
     Returns

@@ -19,44 +19,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handeye.core.errors import HandEyeInputError
+from classic.vision.dictionaries import BoardSpecError, _dictionary_size, dictionary_id
 
 __all__ = ["BoardSpec", "BoardSpecError", "KINDS", "dictionary_id"]
 
 #: Board kinds; ``"aruco-grid"`` is accepted for ``"aruco_grid"``.
 KINDS = ("charuco", "checkerboard", "aruco_grid")
-
-
-class BoardSpecError(HandEyeInputError):
-    """A board specification is invalid or cannot be read."""
-
-
-def dictionary_id(name: str) -> int:
-    """OpenCV's constant of an ArUco or AprilTag dictionary: ``"5X5_100"``, ``"DICT_APRILTAG_36h11"``, any case.
-
-    Parameters
-    ----------
-    name : str
-
-    Returns
-    -------
-    int
-
-    Raises
-    ------
-    BoardSpecError
-    """
-    key = str(name).upper()
-    key = key if key.startswith("DICT_") else "DICT_" + key
-    names = {k.upper(): k for k in dir(cv2.aruco) if k.startswith("DICT_") and isinstance(getattr(cv2.aruco, k), int)}
-    if key not in names:
-        known = sorted({k[5:] for k in names})
-        raise BoardSpecError(f"unknown ArUco dictionary {name!r}; known: {', '.join(known)}")
-    return int(getattr(cv2.aruco, names[key]))
-
-
-def _dictionary_size(name: str) -> int:
-    return int(cv2.aruco.getPredefinedDictionary(dictionary_id(name)).bytesList.shape[0])
 
 
 @dataclass(frozen=True)

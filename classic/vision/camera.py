@@ -8,13 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.core.errors import HandEyeInputError
+from handeye.core.errors import IntrinsicsError
 
 __all__ = ["CameraIntrinsics", "IntrinsicsError"]
-
-
-class IntrinsicsError(HandEyeInputError):
-    """Camera intrinsics are invalid or cannot be read."""
 
 
 @dataclass
@@ -92,7 +88,7 @@ class CameraIntrinsics:
         if path.suffix.lower() in (".yaml", ".yml"):
             from classic.vision.camera_yaml import load_intrinsics_yaml
 
-            return load_intrinsics_yaml(path)
+            return load_intrinsics_yaml(path, cls)
         from handeye.core.jsonfile import read_json_file
 
         doc = read_json_file(path, IntrinsicsError, "intrinsics file")

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from classic.vision.camera import CameraIntrinsics, IntrinsicsError
+from handeye.core.errors import IntrinsicsError
 from handeye.core.optional import require_package
 
 __all__ = ["YAML_SUFFIXES", "load_intrinsics_yaml", "write_camera_info_yaml", "write_opencv_yaml"]
@@ -151,17 +151,20 @@ def _size(path: Path, text: str, fs) -> tuple[int, int]:
     return int(values[0]), int(values[1])
 
 
-def load_intrinsics_yaml(path: str | Path) -> CameraIntrinsics:
+def load_intrinsics_yaml(path: str | Path, build):
     """Read intrinsics from a ROS camera_info or an OpenCV FileStorage YAML file.
 
     Parameters
     ----------
     path : str or Path
+    build : callable
+        ``build(K, dist, width, height)`` makes the result (:meth:`CameraIntrinsics.load` passes the class,
+        so that this module needs not import it); its :class:`IntrinsicsError` gets the file and line.
 
     Returns
     -------
-    CameraIntrinsics
-        ``K`` ``(3, 3)`` in pixels, ``dist`` (OpenCV's order), the image size (0 when the file has none).
+    What ``build`` returns, of ``K`` ``(3, 3)`` in pixels, ``dist`` (OpenCV's order), the image size (0 when
+    the file has none).
 
     Raises
     ------
@@ -206,7 +209,7 @@ def load_intrinsics_yaml(path: str | Path) -> CameraIntrinsics:
             )
         width, height = _size(path, text, fs)
         try:
-            return CameraIntrinsics(K.reshape(3, 3), dist, width, height)
+            return build(K.reshape(3, 3), dist, width, height)
         except IntrinsicsError as exc:
             raise _error(path, text, k_key, str(exc)) from None
     finally:
@@ -217,13 +220,14 @@ def _flow(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in np.ravel(values)) + "]"
 
 
-def write_camera_info_yaml(path: str | Path, intrinsics: CameraIntrinsics, camera_name: str = "camera") -> None:
+def write_camera_info_yaml(path: str | Path, intrinsics, camera_name: str = "camera") -> None:
     """Write a ROS camera_info YAML file (``camera_calibration``'s format, ``camera_info_url``).
 
     Parameters
     ----------
     path : str or Path
-    intrinsics : CameraIntrinsics
+    intrinsics : classic.vision.camera.CameraIntrinsics
+        Or anything with its ``K``, ``dist``, ``width`` and ``height``.
         5 coefficients (or 4, written with ``k3 = 0``) give ``plumb_bob``, 8 ``rational_polynomial``.
     camera_name : str
 
@@ -251,7 +255,7 @@ def write_camera_info_yaml(path: str | Path, intrinsics: CameraIntrinsics, camer
     )
 
 
-def write_opencv_yaml(path: str | Path, intrinsics: CameraIntrinsics) -> None:
+def write_opencv_yaml(path: str | Path, intrinsics) -> None:
     """Write an OpenCV FileStorage YAML file with ``cv2.FileStorage``.
 
     Keys ``camera_matrix``, ``distortion_coefficients`` (``!!opencv-matrix``,
@@ -260,7 +264,8 @@ def write_opencv_yaml(path: str | Path, intrinsics: CameraIntrinsics) -> None:
     Parameters
     ----------
     path : str or Path
-    intrinsics : CameraIntrinsics
+    intrinsics : classic.vision.camera.CameraIntrinsics
+        Or anything with its ``K``, ``dist``, ``width`` and ``height``.
     """
     cv2 = _cv2()
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)

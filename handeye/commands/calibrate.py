@@ -131,7 +131,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     from handeye.ros_exports import add_export_arguments
 
     add_export_arguments(p)
-    p.set_defaults(run=run)
+    p.set_defaults(run=run, command_parser=p)  # the report retypes the command from it
     return p
 
 

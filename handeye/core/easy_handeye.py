@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
-from handeye.core.posefile import UNIT_SCALE, PoseSet
+from handeye.core.poseset import UNIT_SCALE, PoseSet
 from handeye.core.se3 import invert_transform, make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform
 from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
 from handeye.core.yamlfile import YamlMap, line_of, load_yaml

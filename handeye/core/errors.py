@@ -97,6 +97,10 @@ class NoPairsError(BagError):
     """No camera sample has a robot pose within the time tolerance."""
 
 
+class IntrinsicsError(HandEyeInputError):
+    """Camera intrinsics are invalid or cannot be read."""
+
+
 class RecordingError(HandEyeInputError):
     """A recording (a ROS 2 bag or a folder of frames) cannot be imported as a dataset; the message names the
     file or topic."""

@@ -62,6 +62,7 @@ from handeye.core.limits import (
     check_json_depth,
     shorten,
 )
+from handeye.core.poseset import UNIT_SCALE, PoseSet
 from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
 from handeye.core.se3 import (
     make_transform,
@@ -85,35 +86,11 @@ __all__ = [
 
 POSE_NAMES = ("T_base_ee", "T_cam_target")
 QUAT_ORDERS = ("xyzw", "wxyz")
-UNIT_SCALE = {"m": 1.0, "mm": 1e-3}
 #: Rotation columns of robot controllers, and the translation unit those controllers report with them.
 ROBOT_CONTROLLER_UNITS = {"kuka_abc": "mm", "fanuc_wpr": "mm", "abb_quat": "mm"}
 #: Suffixes of easy_handeye sample lists (YAML; easy_handeye2 saves `<name>.samples`).
 YAML_SUFFIXES = (".yaml", ".yml", ".samples")
 _QUAT_NORM_TOL = 1e-3
-
-
-@dataclass
-class PoseSet:
-    """Paired poses read from a file.
-
-    Attributes
-    ----------
-    T_base_ee : array, shape (N, 4, 4)
-    T_cam_target : array, shape (N, 4, 4)
-    source : str
-    rows : list of int
-        The file's row (CSV line number, YAML line number, or JSON list index) of each pose, for messages.
-    frames : dict
-        Frame names the file gives, by the project's name (``base``, ``ee``, ``cam``, ``target``); empty
-        when it gives none (easy_handeye2 sample files may).
-    """
-
-    T_base_ee: np.ndarray
-    T_cam_target: np.ndarray
-    source: str
-    rows: list = field(default_factory=list)
-    frames: dict = field(default_factory=dict)
 
 
 def _quat(values: np.ndarray, order: str) -> np.ndarray:

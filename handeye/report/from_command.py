@@ -17,7 +17,8 @@ def command_line(args: argparse.Namespace, command: str = "calibrate") -> str:
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed by :func:`handeye.cli.build_parser`.
+        Parsed by :func:`handeye.cli.build_parser`; ``args.command_parser`` is the sub-command's parser (its
+        ``set_defaults``), whose options and defaults are read back.
     command : str
         The sub-command that parsed them.
 
@@ -27,11 +28,8 @@ def command_line(args: argparse.Namespace, command: str = "calibrate") -> str:
         ``handeye calibrate POSES --setup ... --report DIR``: the positionals, then every option whose
         value differs from its default, under its long name.
     """
-    from handeye.cli import build_parser
-
-    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     words = ["handeye", command]
-    for action in sub.choices[command]._actions:
+    for action in args.command_parser._actions:
         value = getattr(args, action.dest, None)
         if isinstance(action, argparse._HelpAction) or value is None:
             continue
