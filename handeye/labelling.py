@@ -34,7 +34,16 @@ from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
 from handeye.core.tables import markdown_table
 
-__all__ = ["LabelReport", "label_camera", "label_dataset", "label_summary", "label_table_markdown", "plot_label_errors"]
+__all__ = [
+    "LabelReport",
+    "PAPER_REPEAT_SHARE",
+    "paper_label",
+    "label_camera",
+    "label_dataset",
+    "label_summary",
+    "label_table_markdown",
+    "plot_label_errors",
+]
 
 
 def _board_and_intrinsics(ds: Dataset):
@@ -47,7 +56,53 @@ def _board_and_intrinsics(ds: Dataset):
     return BoardSpec(**ds.meta["board"]), CameraIntrinsics.from_dict(intr)
 
 
-def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dict, object]:
+#: The share of the detected views each of the paper's repeated calibrations uses (:func:`paper_label`).
+PAPER_REPEAT_SHARE = 0.8
+
+
+def paper_label(T_base_ee: np.ndarray, T_cam_target: np.ndarray, method: str, repeats: int, seed: int = 0):
+    """The seed paper's label: the closed form alone, "repeated at least five times", the repeats averaged.
+
+    The paper calibrates each camera pose with Tsai's method repeated at least five times and does not say
+    how the repeats differ or are combined. The reading here: each repeat solves the closed form (no
+    refinement) on a random :data:`PAPER_REPEAT_SHARE` of the detected views, as another session of the same
+    board would, and the label is their mean (translations averaged, rotations by the chordal mean).
+
+    Parameters
+    ----------
+    T_base_ee, T_cam_target : array, shape (N, 4, 4)
+        The detected views' flange and board poses.
+    method : str
+        The closed form (``"tsai"`` for the paper's).
+    repeats : int
+    seed : int
+
+    Returns
+    -------
+    X : array, shape (4, 4)
+        ``T_base_cam``.
+    spread : tuple of float
+        The repeats' RMS distance from their mean, degrees and millimetres (what the paper's repeats show).
+    """
+    import classic
+    from handeye.core.se3 import make_transform, project_to_so3
+
+    rng = np.random.default_rng(seed)
+    n = len(T_base_ee)
+    k = max(3, int(round(PAPER_REPEAT_SHARE * n)))
+    Xs = []
+    for _ in range(repeats):
+        pick = np.sort(rng.choice(n, min(k, n), replace=False))
+        res = classic.calibrate(T_base_ee[pick], T_cam_target[pick], setup="eye_to_hand", method=method, refine=False)
+        Xs.append(res.X)
+    Xs = np.array(Xs)
+    X = make_transform(project_to_so3(Xs[:, :3, :3].mean(axis=0)), Xs[:, :3, 3].mean(axis=0))  # chordal mean
+    rot = np.sqrt(np.mean([pose_error(x, X)[0] ** 2 for x in Xs]))
+    trans = np.sqrt(np.mean([pose_error(x, X)[1] ** 2 for x in Xs]))
+    return X, (float(rot), float(trans))
+
+
+def label_camera(ds: Dataset, camera_id: int, method: str = "park", repeats: int = 0) -> tuple[dict, object]:
     """Calibrate one camera pose from its calibration recording.
 
     Parameters
@@ -56,6 +111,10 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dic
     camera_id : int
     method : str
         Closed form of the pose-based solve.
+    repeats : int
+        0: this project's label (closed form, maximum likelihood, corner reprojection). At least 1: the seed
+        paper's (:func:`paper_label`): the closed form alone, repeated, averaged; no sigma (the repeats share
+        most of their views, so their spread says little of the error).
 
     Returns
     -------
@@ -80,6 +139,21 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park") -> tuple[dic
     try:
         if n == 0:
             raise HandEyeInputError("no calibration recording")
+        if repeats:
+            ok = [k for k, v in enumerate(views) if v.pose.ok]
+            if len(ok) < 3:
+                raise HandEyeInputError(f"{len(ok)} views with a board pose; at least 3 are needed")
+            T_cam_target = np.array([views[k].pose.T_cam_target for k in ok])
+            X, spread = paper_label(ds.poses(rows, "T_base_ee")[ok], T_cam_target, method, repeats, seed=camera_id)
+            out.update(poses_to_columns("T_base_cam_label", X))
+            out = {key: (v[0] if isinstance(v, np.ndarray) else v) for key, v in out.items()}
+            # no sigma: the repeats share most of their views, so their spread says little of the error
+            out.update(label_status="ok", label_views_used=len(ok))
+            T_base_cam_true = ds.truth()[camera_id]
+            if np.isfinite(T_base_cam_true).all():
+                rot, trans = pose_error(X, T_base_cam_true)
+                out.update(label_error_rot_deg=float(rot), label_error_trans_mm=float(trans))
+            return out, None
         cal = calibrate_from_views(
             Views(views, spec, intr, ds.shard_dir(camera_id), "recorded"),
             ds.poses(rows, "T_base_ee"),
@@ -131,13 +205,13 @@ def _label_one(args):
     import cv2
 
     cv2.setNumThreads(1)
-    root, camera_id, method = args
+    root, camera_id, method, repeats = args
     require_visible(Path(root) / "meta.json")  # a Ray worker on a machine that does not share the folder
-    return camera_id, label_camera(Dataset.open(root), camera_id, method)[0]
+    return camera_id, label_camera(Dataset.open(root), camera_id, method, repeats)[0]
 
 
 def _describe(args) -> str:
-    root, camera_id, method = args
+    root, camera_id, *_ = args
     return f"label camera {camera_id} of {root}"
 
 
@@ -149,6 +223,7 @@ def label_dataset(
     plot: bool = True,
     engine: str = "pool",
     address: str | None = None,
+    repeats: int = 0,
 ) -> LabelReport:
     """Label every camera pose of a dataset and write the labels, a report and a plot.
 
@@ -167,6 +242,9 @@ def label_dataset(
         Where the camera poses are labelled, one task each (:func:`handeye.core.engines.run_tasks`).
     address : str, optional
         A running Ray cluster; None starts a local one. Every node must see ``root`` at the same path.
+    repeats : int
+        0: this project's label; at least 1: the seed paper's, ``method``'s closed form repeated and averaged
+        (:func:`paper_label`; ``method="tsai", repeats=5`` is the paper's).
 
     Returns
     -------
@@ -183,7 +261,9 @@ def label_dataset(
     cams = ds.cameras()
     for c in range(len(ds)):
         ds.frames(c)  # validate every shard up front: fail before an hour of work, not after
-    jobs = [(str(ds.root.resolve()), c, method) for c in range(len(ds))]
+    if repeats < 0:
+        raise HandEyeInputError(f"repeats must be >= 0, got {repeats}")
+    jobs = [(str(ds.root.resolve()), c, method, repeats) for c in range(len(ds))]
     results = dict(
         run_tasks(
             _label_one,

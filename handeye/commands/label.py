@@ -35,6 +35,14 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("dataset", type=Path, help="dataset directory")
     add_engine_arguments(p, "labelling")
     p.add_argument("--method", default="park", help="closed form of the pose-based solve (default park)")
+    p.add_argument(
+        "--repeats",
+        type=int,
+        default=0,
+        help="the seed paper's labels: the closed form alone, repeated this many times on 80 %% of the views and "
+        "averaged ('--method tsai --repeats 5' is the paper's); default 0: this project's (closed form, maximum "
+        "likelihood, corner reprojection)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
     return p
@@ -54,7 +62,10 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         engine=args.engine,
         address=args.address,
+        repeats=args.repeats,
     )
+    if args.repeats:
+        print(f"the seed paper's labels: {args.method}'s closed form, {args.repeats} repeats averaged, no sigma")
     print(report.summary())
     print(
         f"written: {report.root / 'cameras.csv'} (label columns), {report.root / 'labels.md'}, "
