@@ -132,3 +132,33 @@ def test_the_built_documentation_opens_in_a_browser(tmp_path):
     assert "Getting started" in dom and "Markerless" in dom  # the navigation
     assert "md-content" in dom and "robot hand" in dom.lower()  # the page body, the index text
     assert "Uncaught" not in run.stderr
+
+
+def _documented_commands() -> list[tuple[str, str]]:
+    """Every ``handeye ...`` command line in the bash blocks of the README and the documentation, with its
+    file; continuation lines joined, comments dropped."""
+    out = []
+    for path in markdown_files():
+        for block in code_blocks(path, "bash"):
+            text = re.sub(r"\\\n\s*", " ", block)
+            for line in text.splitlines():
+                for part in re.split(r"&&|\|", line.split(" #")[0]):
+                    part = part.strip()
+                    if part.startswith("handeye "):
+                        out.append((path.relative_to(ROOT).as_posix(), part))
+    return out
+
+
+@pytest.mark.parametrize("where,command", _documented_commands(), ids=lambda v: v if "/" not in v else "")
+def test_documented_commands_parse(where, command):
+    """Every command the documentation prints parses with today's options (it may take hours to run, so it
+    is parsed, not run): a renamed or removed option fails here instead of in a reader's terminal."""
+    import shlex
+
+    from handeye.cli import build_parser
+
+    argv = shlex.split(command)[1:]
+    try:
+        build_parser().parse_args(argv)
+    except SystemExit as exc:
+        pytest.fail(f"{where}: {command!r} does not parse (exit {exc.code})")
