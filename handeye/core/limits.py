@@ -14,7 +14,6 @@ __all__ = [
     "MAX_CSV_LINE_CHARS",
     "MAX_CSV_COLUMNS",
     "MAX_DATASET_CAMERAS",
-    "MAX_DATASET_FRAMES",
     "MAX_JOINTS",
     "MAX_TEXT_FILE_BYTES",
     "MAX_MESSAGE_CHARS",
@@ -42,10 +41,9 @@ MAX_JSON_DEPTH = 64
 MAX_CSV_LINE_CHARS = 65_536
 #: A CSV with more columns than this is refused: a dataset frame table has 27 for a six-joint robot.
 MAX_CSV_COLUMNS = 1_000
-#: A dataset may declare at most this many camera placements (the largest preset has 1,000) ...
+#: A dataset may declare at most this many camera placements (the largest preset has 1,000); its frame tables
+#: are bounded by their files' size, read line by line under :data:`MAX_CSV_LINE_CHARS`.
 MAX_DATASET_CAMERAS = 100_000
-#: ... and at most this many frames per shard (a paper preset has 65).
-MAX_DATASET_FRAMES = 100_000
 #: A robot model or dataset of more joints is refused (humanoids have about 40).
 MAX_JOINTS = 64
 #: A text file (pose file, YAML) larger than this is refused before it is read: pose files take kilobytes.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 
 import numpy as np
@@ -28,7 +29,18 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
     results = json.loads((out / "results.json").read_text())
     assert {r["strategy"] for r in results["runs"]} == {"batch", "naive", "reservoir", "selection"}
     assert all(len(r["matrix"]) == 2 and len(r["matrix"][0]) == 2 for r in results["runs"])
+    # the paper's metric beside the mean: a root-mean-square is never below the mean of the same errors
+    for r in results["runs"]:
+        mean, rms = np.array(r["matrix"], dtype=float), np.array(r["rmse_matrix"], dtype=float)
+        both = np.isfinite(mean)
+        assert np.array_equal(both, np.isfinite(rms)) and np.all(rms[both] >= mean[both] - 1e-9)
     assert main(["learned", "report", str(out)]) == 0
+    assert "Final step in the paper's metric, against the baseline" in (out / "report.md").read_text()
+    rows = list(csv.DictReader((out / "final_step_rmse.csv").open()))
+    for net in ("translation", "orientation"):
+        base = next(float(r["mean"]) for r in rows if r["network"] == net and r["strategy"] == "batch")
+        for r in (r for r in rows if r["network"] == net):
+            assert float(r["minus_batch"]) == pytest.approx(float(r["mean"]) - base, abs=1e-9)
     for name in (
         "report.md",
         "final_step.csv",
