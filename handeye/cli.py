@@ -83,20 +83,15 @@ def main(argv: list[str] | None = None) -> int:
 @contextlib.contextmanager
 def _own_warnings(command: str):
     """Library warnings (numpy's overflow, OpenCV's, Pillow's) kept off the terminal; handeye's own warnings
-    (:mod:`handeye.core.errors`: weak motion, ...) printed as one line each after the command."""
+    (:mod:`handeye.core.errors`: weak motion, ...) printed as one line each after a command that succeeded."""
     import numpy as np
 
     with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
         warnings.simplefilter("always")
-        try:
-            yield
-        finally:
-            seen = set()
-            for w in caught:
-                text = one_line(f"handeye {command}: warning: {w.message}")
-                if _is_own(w.category) and text not in seen:
-                    seen.add(text)
-                    print(text, file=sys.stderr)
+        yield  # after an error its one line is all: a failed run's warnings are not its answer
+        own = [one_line(f"handeye {command}: warning: {w.message}") for w in caught if _is_own(w.category)]
+        for text in dict.fromkeys(own):
+            print(text, file=sys.stderr)
 
 
 def _is_own(category) -> bool:

@@ -219,6 +219,5 @@ def read_camera_bag(
     poses = None
     if tf_frames is not None:
         rec = read_bag(bag, tf_frames[0], tf_frames[1], tf_topic=tf_topic, tf_static_topic=tf_static_topic)
-        shift = (rec.origin_ns - origin) * 1e-9  # both are this bag's start: 0, kept for clarity
-        poses = PoseSamples(rec.robot_times_s + shift, rec.T_base_ee, f"{name}, tf {' -> '.join(rec.frames)}")
+        poses = PoseSamples(rec.robot_times_s, rec.T_base_ee, f"{name}, tf {' -> '.join(rec.frames)}")
     return RecordedPlacement(name, info, color, depth, joints, poses)

@@ -97,8 +97,7 @@ def paper_label(T_base_ee: np.ndarray, T_cam_target: np.ndarray, method: str, re
         Xs.append(res.X)
     Xs = np.array(Xs)
     X = make_transform(project_to_so3(Xs[:, :3, :3].mean(axis=0)), Xs[:, :3, 3].mean(axis=0))  # chordal mean
-    rot = np.sqrt(np.mean([pose_error(x, X)[0] ** 2 for x in Xs]))
-    trans = np.sqrt(np.mean([pose_error(x, X)[1] ** 2 for x in Xs]))
+    rot, trans = np.sqrt(np.mean(np.array([pose_error(x, X) for x in Xs]) ** 2, axis=0))
     return X, (float(rot), float(trans))
 
 
@@ -149,11 +148,7 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park", repeats: int
             out = {key: (v[0] if isinstance(v, np.ndarray) else v) for key, v in out.items()}
             # no sigma: the repeats share most of their views, so their spread says little of the error
             out.update(label_status="ok", label_views_used=len(ok))
-            T_base_cam_true = ds.truth()[camera_id]
-            if np.isfinite(T_base_cam_true).all():
-                rot, trans = pose_error(X, T_base_cam_true)
-                out.update(label_error_rot_deg=float(rot), label_error_trans_mm=float(trans))
-            return out, None
+            return _with_truth_error(out, ds, camera_id, X), None
         cal = calibrate_from_views(
             Views(views, spec, intr, ds.shard_dir(camera_id), "recorded"),
             ds.poses(rows, "T_base_ee"),
@@ -173,11 +168,16 @@ def label_camera(ds: Dataset, camera_id: int, method: str = "park", repeats: int
         label_sigma_rot_deg=rep.sigma["X_rotation_deg"],
         label_sigma_trans_mm=rep.sigma["X_translation_mm"],
     )
+    return _with_truth_error(out, ds, camera_id, cal.X), cal
+
+
+def _with_truth_error(out: dict, ds: Dataset, camera_id: int, T_base_cam: np.ndarray) -> dict:
+    """The label's error columns against the dataset's truth, where it has one."""
     T_base_cam_true = ds.truth()[camera_id]
     if np.isfinite(T_base_cam_true).all():
-        rot, trans = pose_error(cal.X, T_base_cam_true)
+        rot, trans = pose_error(T_base_cam, T_base_cam_true)
         out.update(label_error_rot_deg=float(rot), label_error_trans_mm=float(trans))
-    return out, cal
+    return out
 
 
 @dataclass

@@ -242,20 +242,18 @@ def nearest_in_time(ref_s: np.ndarray, other_s: np.ndarray, tolerance_s: float) 
         return np.zeros(len(ref_s), dtype=int), np.zeros(len(ref_s), dtype=bool)
     order = np.argsort(other_s, kind="stable")
     sorted_s = other_s[order]
-    k = (
-        np.clip(np.searchsorted(sorted_s, ref_s), 1, len(sorted_s) - 1)
-        if len(sorted_s) > 1
-        else np.zeros_like(ref_s, int)
-    )
+    k = np.minimum(np.searchsorted(sorted_s, ref_s), len(sorted_s) - 1)  # the first stamp at or after
     lo = np.maximum(k - 1, 0)
     pick = np.where(np.abs(sorted_s[lo] - ref_s) <= np.abs(sorted_s[k] - ref_s), lo, k)
     return order[pick], np.abs(sorted_s[pick] - ref_s) <= tolerance_s
 
 
 def _closest_gap(ref_s: np.ndarray, other_s: np.ndarray) -> float:
+    """The smallest time between any reference stamp and any other stamp (inf without both)."""
     if not len(other_s) or not len(ref_s):
         return np.inf
-    return float(np.min(np.abs(np.asarray(ref_s)[:, None] - np.asarray(other_s)[None, :])))
+    idx, _ = nearest_in_time(ref_s, other_s, np.inf)
+    return float(np.min(np.abs(np.asarray(other_s, dtype=float)[idx] - np.asarray(ref_s, dtype=float))))
 
 
 def joints_at(

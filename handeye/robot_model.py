@@ -35,13 +35,6 @@ def robot_meta(name: str | None = None, urdf=None, package_dirs=(), ee_frame: st
     }
 
 
-def load_robot_meta(entry):
-    """The :class:`sim.robot.Robot` of a ``meta["robot"]`` entry (:func:`sim.robot.load_robot_entry`)."""
-    from sim.robot import load_robot_entry
-
-    return load_robot_entry(entry)
-
-
 def dataset_robot(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), ee_frame: str = "tool0"):
     """:func:`sim.robot.load_robot` of ``meta["robot"]`` (a name or a recorded URDF), or
     :func:`sim.robot.load_robot_urdf` of ``urdf``, checked against the dataset's joint count.
@@ -53,9 +46,9 @@ def dataset_robot(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), 
     HandEyeInputError
         An unknown robot, a missing URDF or mesh (from ``sim.robot``).
     """
-    from sim.robot import load_robot_urdf
+    from sim.robot import load_robot_entry, load_robot_urdf
 
-    robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot_meta(ds.meta["robot"])
+    robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot_entry(ds.meta["robot"])
     if robot.nq != ds.meta["n_joints"]:
         raise ShapeError(
             f"{ds.root / 'meta.json'}: {ds.meta['n_joints']} joints, the robot model {robot.name} has {robot.nq}"

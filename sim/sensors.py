@@ -26,7 +26,7 @@ sensors.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage
@@ -169,22 +169,6 @@ PROFILES: dict[str, DepthSensor] = {
         source="Intel RealSense D400 series datasheet (accuracy 2 % at 2 m, 50 mm baseline, 87 deg HFOV); "
         "Intel white paper 'Tuning depth cameras for best performance' (RMS error = z^2 subpixel / (f B), "
         "subpixel 0.08 px)",
-    ),
-    # the D435's geometry, its depth measured by OpenCV's semi-global block matching on two simulated infrared
-    # views of a dot pattern (sim/stereo.py) instead of the parametric noise: a check of the "d435" profile
-    "d435-sgbm": DepthSensor(
-        "d435-sgbm",
-        "simulated-stereo",
-        scale_sigma=0.02 / 3,
-        offset_sigma_m=0.002,
-        native_focal_px=_D4XX_FOCAL_PX,
-        stereo_baseline_m=0.050,
-        grazing_hole_deg=75.0,
-        dark_hole_fraction=0.3,
-        hole_blob_fraction=0.03,
-        extrinsic_sigma_m=0.0005,
-        source="the d435 profile's geometry (50 mm baseline, f = 447 px at 848x480) and systematic errors; the "
-        "matching is OpenCV's StereoSGBM (7x7 window), not Intel's D4 processor",
     ),
     "d455": DepthSensor(
         "d455",
@@ -421,3 +405,19 @@ def apply_sensor(
         # the share of a unit normal above this threshold is the blob fraction
         holes |= blob > ndtri(1 - sensor.hole_blob_fraction)
     return np.where(holes | (out <= 0), 0.0, out)
+
+
+# the D435's geometry and systematic errors, its depth measured by OpenCV's semi-global block matching on two
+# simulated infrared views of a dot pattern (sim/stereo.py) instead of the parametric noise: a check of "d435"
+PROFILES["d435-sgbm"] = replace(
+    PROFILES["d435"],
+    name="d435-sgbm",
+    principle="simulated-stereo",
+    noise_quadratic_per_m=0.0,
+    correlated_fraction=0.0,
+    correlation_px=0.0,
+    flying_fraction=0.0,
+    stereo_baseline_m=0.050,
+    source="the d435 profile's geometry (50 mm baseline, f = 447 px at 848x480) and systematic errors; the "
+    "matching is OpenCV's StereoSGBM (7x7 window), not Intel's D4 processor",
+)

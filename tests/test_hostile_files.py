@@ -74,14 +74,8 @@ def test_label_and_markerless_refuse_bombs_in_a_dataset(small_copy, capfd):
     rewrite_manifest(shard)
     err = run(capfd, ["markerless", small_copy, "--camera", "0", "--quiet"])
     assert depth.name in err and "over the limit" in err
-    rc = main(["label", str(small_copy), "--quiet"])  # a label refused per camera, reported in the table
-    out, err = capfd.readouterr()
-    assert "Traceback" not in err and "Warning" not in err
-    assert rc in (0, 1, 2)
-    from handeye.core.dataset import Dataset
-
-    status = Dataset.open(small_copy).cameras()["label_status"][0] if rc != 2 else err
-    assert "over the limit" in str(status)
+    err = run(capfd, ["label", small_copy, "--quiet"])
+    assert cal.name in err and "over the limit" in err
 
 
 # ------------------------------------------------------------------ JSON and YAML
@@ -95,7 +89,7 @@ def test_deeply_nested_json_is_refused(tmp_path, capfd):
     moderately.write_text('{"T_base_cam": ' + "[" * 200 + "]" * 200 + "}")
     pytest.importorskip("pinocchio")
     err = run(capfd, ["markerless", tmp_path, "--start", moderately])
-    assert "nested deeper than 64 levels" in err or "start" in err
+    assert "start.json: nested deeper than 64 levels" in err
 
 
 def test_a_yaml_alias_bomb_is_refused(tmp_path, capfd):

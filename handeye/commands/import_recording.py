@@ -113,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
     from handeye.core.errors import HandEyeInputError
     from handeye.core.optional import require_package
     from handeye.recording_import import ImportOptions, import_recordings
-    from handeye.robot_model import load_robot_meta, robot_meta
+    from handeye.robot_model import robot_meta
+    from sim.robot import load_robot_entry
 
     require_package("pinocchio", extra="sim", purpose="the robot model")
     options = ImportOptions(
@@ -122,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
         max_frames=args.max_frames or None,
     )
     entry = robot_meta(args.robot, args.urdf, args.package_dir, args.ee)
-    robot = load_robot_meta(entry)
+    robot = load_robot_entry(entry)
     board = None
     if args.board is not None:
         from classic.vision.board import BoardSpec
