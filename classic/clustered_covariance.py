@@ -9,6 +9,13 @@ The sandwich (cluster-robust) estimate with one cluster per group counts each gr
 
 The plain ``s^2 H^{-1}`` (the residuals' own scatter) is kept as a floor: the larger of the two, by
 trace, is returned. Used by the markerless registration and the cross-frame keypoint solve.
+
+An error can also be shared along a second dimension across the groups: a depth sensor's bias that depends
+on the depth (a stereo matcher's pull toward whole disparities, a time-of-flight camera's wiggling) is the
+same in every frame at that depth, so frames agree with each other while all being off together. With
+``cross_group`` (the depth bin of each residual) the estimate is two-way clustered (Cameron, Gelbach & Miller,
+"Robust inference with multiway clustering", J. Business & Economic Statistics 29(2), 2011):
+``C = C_group + C_cross - C_both``, its negative eigenvalues set to zero.
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ def clustered_covariance(
     w: np.ndarray,
     group: np.ndarray | None = None,
     prior_information: np.ndarray | None = None,
+    cross_group: np.ndarray | None = None,
 ) -> np.ndarray:
     """Covariance of the parameters of a weighted least-squares fit, clustered by group.
 
@@ -41,6 +49,9 @@ def clustered_covariance(
         A Gaussian prior on the parameters as an extra, independent observation, in the units of ``J^T J``
         (its inverse times the residual variance is the prior's covariance): added to the information, and
         to the scores' variance times the residuals' variance.
+    cross_group : array of int, shape (M,), optional
+        A second clustering of the residuals (errors shared across the groups, such as a depth bin):
+        two-way clustered when given with ``group``.
 
     Returns
     -------
@@ -54,14 +65,28 @@ def clustered_covariance(
     plain = H_inv * variance
     if group is None:
         return plain
-    groups, where = np.unique(group, return_inverse=True)
-    k = len(groups)
-    if k < 2:
+    meat = _cluster_meat(Jw * r[:, None], group)
+    if meat is None:
         return plain
-    scores = np.zeros((k, J.shape[1]))
-    np.add.at(scores, where, Jw * r[:, None])
-    sandwich = H_inv @ (scores.T @ scores * k / (k - 1) + variance * prior) @ H_inv
+    if cross_group is not None:
+        cross = _cluster_meat(Jw * r[:, None], cross_group)
+        both = _cluster_meat(Jw * r[:, None], np.unique(np.c_[group, cross_group], axis=0, return_inverse=True)[1])
+        if cross is not None and both is not None:
+            value, vector = np.linalg.eigh(meat + cross - both)
+            meat = (vector * np.maximum(value, 0.0)) @ vector.T
+    sandwich = H_inv @ (meat + variance * prior) @ H_inv
     return sandwich if np.trace(sandwich) >= np.trace(plain) else plain
+
+
+def _cluster_meat(scores_per_residual: np.ndarray, group: np.ndarray) -> np.ndarray | None:
+    """``k / (k - 1) sum_g s_g s_g^T`` over the k clusters, None with fewer than two."""
+    labels, where = np.unique(np.asarray(group), return_inverse=True)
+    k = len(labels)
+    if k < 2:
+        return None
+    scores = np.zeros((k, scores_per_residual.shape[1]))
+    np.add.at(scores, where.reshape(-1), scores_per_residual)
+    return scores.T @ scores * k / (k - 1)
 
 
 def pose_sigma(covariance: np.ndarray, R_base_cam: np.ndarray) -> dict:

@@ -263,11 +263,15 @@ class SensorTruth:
     t_colour_depth_m : array, shape (3,)
         Error of the depth-to-colour extrinsic: the registered depth is that of a camera displaced by
         this much from the colour camera (colour camera frame), metres.
+    pattern_seed : int, optional
+        The unit's projected dot pattern (``simulated-stereo``): the same in every frame; None draws one
+        per frame.
     """
 
     scale: float = 1.0
     offset_m: float = 0.0
     t_colour_depth_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    pattern_seed: int | None = None
 
 
 def draw_systematic(sensor: DepthSensor, seed: int, camera_id: int) -> SensorTruth:
@@ -282,6 +286,7 @@ def draw_systematic(sensor: DepthSensor, seed: int, camera_id: int) -> SensorTru
         scale=float(1.0 + sensor.scale_sigma * z[0]),
         offset_m=float(sensor.offset_sigma_m * z[1]),
         t_colour_depth_m=sensor.extrinsic_sigma_m * z[2:5],
+        pattern_seed=int(rng.integers(2**31)),
     )
 
 
@@ -374,7 +379,10 @@ def apply_sensor(
         from sim.stereo import active_stereo_depth
 
         native = sensor.native_focal_px / K[0, 0] if sensor.native_focal_px else 1.0
-        measured = active_stereo_depth(z, K, sensor.stereo_baseline_m * native, rng)
+        up = max(1, int(round(native)))  # match at the sensor's own resolution, decimate to this one
+        measured = active_stereo_depth(
+            z, K, sensor.stereo_baseline_m * native / up, rng, upsample=up, pattern_seed=truth.pattern_seed
+        )
         z = np.where(measured > 0, measured, 0.0)
         valid = valid & (z > 0)
     # axial noise, part white and part correlated over the matching window (scaled to these pixels)

@@ -108,14 +108,26 @@ def moving_mask(depth_m: np.ndarray, static_m: np.ndarray, min_gap_m: float) -> 
     return valid & ((static_m <= 0) | (depth_m < static_m - min_gap_m))
 
 
-def depth_noise_curve(depth_m: np.ndarray, max_frames: int = 12, bins: int = 10) -> tuple[np.ndarray, np.ndarray]:
+def depth_noise_curve(
+    depth_m: np.ndarray, max_frames: int = 12, bins: int = 10, lag_px: int = 2
+) -> tuple[np.ndarray, np.ndarray]:
     """The sensor's depth noise against depth, measured on the static background of the frames.
 
-    The camera is static, so a background pixel's depth differs between frames only by the sensor's
-    noise: its robust spread over frames (1.4826 MAD) is that pixel's noise sigma, whatever the sensor's
-    principle (growing with depth squared for stereo, nearly constant for time of flight). The arm covers
-    a pixel in a few frames at most; the median ignores them. Pixels are binned by depth and each bin's
-    median sigma taken.
+    Two measures, the larger taken per depth bin:
+
+    - **over time**: the camera is static, so a background pixel's depth differs between frames only by
+      the sensor's noise: its robust spread over frames (1.4826 MAD) is that pixel's noise sigma, whatever
+      the sensor's principle (growing with depth squared for stereo, nearly constant for time of flight).
+      The arm covers a pixel in a few frames at most; the median ignores them.
+    - **over space**: an error that stays put from frame to frame (a stereo matcher's error under a fixed
+      projector pattern, a time-of-flight camera's multipath) has no spread over time. Across the image it
+      does: on a plane the inverse depth is affine in the pixel coordinates, so its second difference at a
+      lag of ``lag_px`` pixels, ``w(u - k) - 2 w(u) + w(u + k)``, is zero but for the noise (variance 6
+      sigma^2 for errors correlated over less than the lag), and the background's floor and walls are planes.
+      Taken in rows and columns of each frame where it shows the background, robustly (1.4826 MAD), so
+      the stencils that cross an edge do not count.
+
+    Pixels are binned by depth and each bin's median sigma taken.
 
     Parameters
     ----------
@@ -125,6 +137,8 @@ def depth_noise_curve(depth_m: np.ndarray, max_frames: int = 12, bins: int = 10)
         Frames used (spread over the recording): pixels with depth in all of them are measured.
     bins : int
         Depth bins (equal counts).
+    lag_px : int
+        Lag of the second difference (at least the sensor's correlation length in these pixels).
 
     Returns
     -------
@@ -145,9 +159,45 @@ def depth_noise_curve(depth_m: np.ndarray, max_frames: int = 12, bins: int = 10)
     z = use[:, valid]
     med = np.median(z, axis=0)
     sigma = 1.4826 * np.median(np.abs(z - med), axis=0)
+    spatial = _spatial_second_difference(use, med, valid, lag_px)  # (2 F, P): depth error units, NaN unusable
     order = np.argsort(med)
     chunks = np.array_split(order, min(bins, max(1, len(order) // 50)))
-    return np.array([np.median(med[c]) for c in chunks]), np.array([np.median(sigma[c]) for c in chunks])
+    z_bins, sigma_bins = [], []
+    for c in chunks:
+        s_time = float(np.median(sigma[c]))
+        d = spatial[:, c]
+        d = d[np.isfinite(d)]
+        s_space = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(6.0) if len(d) >= 50 else 0.0
+        z_bins.append(float(np.median(med[c])))
+        sigma_bins.append(max(s_time, s_space))
+    return np.array(z_bins), np.array(sigma_bins)
+
+
+def _spatial_second_difference(frames: np.ndarray, med: np.ndarray, valid: np.ndarray, lag: int) -> np.ndarray:
+    """Second differences of inverse depth along rows and columns at the valid pixels, in metres of depth.
+
+    A stencil counts where all three pixels show the background in that frame (within 2 cm of their median
+    depth over the frames) and lie within 5 % of the centre's depth (one surface); NaN elsewhere.
+    """
+    n, h, w = frames.shape
+    med_img = np.zeros((h, w))
+    med_img[valid] = med
+    background = (frames > 0) & (np.abs(frames - med_img) < 0.02) & valid
+    inv = np.where(background, 1.0 / np.where(background, frames, 1.0), np.nan)
+    out = []
+    for axis in (1, 2):
+        a, b = np.roll(inv, lag, axis=axis), np.roll(inv, -lag, axis=axis)
+        edge = np.zeros(inv.shape, dtype=bool)
+        sl = [slice(None)] * 3
+        sl[axis] = slice(0, lag)
+        edge[tuple(sl)] = True
+        sl[axis] = slice(inv.shape[axis] - lag, None)
+        edge[tuple(sl)] = True
+        with np.errstate(invalid="ignore"):
+            same = (np.abs(a - inv) < 0.05 * inv) & (np.abs(b - inv) < 0.05 * inv) & ~edge
+            d2 = np.where(same, (a - 2 * inv + b) / np.where(same, inv, 1.0) ** 2, np.nan)
+        out.append(d2[:, valid])
+    return np.concatenate(out, axis=0)
 
 
 def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> np.ndarray:

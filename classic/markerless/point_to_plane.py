@@ -65,6 +65,9 @@ class PlaneFit:
         asked for; the pose's ``covariance`` then includes their uncertainty.
     depth_covariance : array, shape (2, 2) or None
         Of ``(k, c)``.
+    depth_covariance_frames : array, shape (2, 2) or None
+        Of ``(k, c)``, clustered by frame only: what the frames' spread of depths leaves of them, without the
+        errors the frames share (whether the depth is observable at all is a question of geometry).
     """
 
     T_base_cam: np.ndarray
@@ -76,6 +79,7 @@ class PlaneFit:
     step_norm: float
     depth_correction: tuple | None = None
     depth_covariance: np.ndarray | None = None
+    depth_covariance_frames: np.ndarray | None = None
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -124,6 +128,7 @@ def solve_point_to_plane(
     direction_base: np.ndarray | None = None,
     depth_correction: tuple[float, float] | None = None,
     depth_prior_sigma: tuple[float, float] | None = None,
+    cross_group: np.ndarray | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -157,6 +162,9 @@ def solve_point_to_plane(
         Sigmas of a Gaussian prior on ``k`` about 1 and ``c`` about 0 (a datasheet's spread of the scale and
         the offset, metres): with few frames or little depth range the prior keeps them, and their
         uncertainty enters the pose's covariance. None: no prior.
+    cross_group : array of int, shape (N,), optional
+        A second clustering for the covariance (the depth bin of each match): the sensor's depth-dependent
+        error is shared by all frames (:func:`classic.clustered_covariance.clustered_covariance`).
 
     Returns
     -------
@@ -193,7 +201,9 @@ def solve_point_to_plane(
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     prior = None if depth is None else _prior_information(prior_precision, r, w)
-    cov = clustered_covariance(J, r, w, group, prior)
+    cov = clustered_covariance(J, r, w, group, prior, cross_group)
     if depth is None:
         return PlaneFit(T, cov, r, w, groups, steps, step_norm)
-    return PlaneFit(T, cov[:6, :6], r, w, groups, steps, step_norm, (float(depth[0]), float(depth[1])), cov[6:, 6:])
+    frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
+    correction = (float(depth[0]), float(depth[1]))
+    return PlaneFit(T, cov[:6, :6], r, w, groups, steps, step_norm, correction, cov[6:, 6:], frames[6:, 6:])

@@ -27,8 +27,13 @@ The sensor's depth scale and offset are estimated with the pose in the fine stag
 (``MarkerlessOptions.depth_model``): a real RGB-D camera's depth is off by a fraction of a percent and
 a few millimetres, which would otherwise pull the camera along its optical axis by millimetres while the
 fit reports a sigma of tenths. A prior of a datasheet's spread keeps them where the frames say little,
-and their uncertainty enters the pose's sigma. The depth noise is measured on the static background
-(:func:`classic.markerless.depth.depth_noise_curve`) unless the caller gives it.
+and their uncertainty enters the pose's sigma. The depth noise is measured on the static background, over time
+and across the image (:func:`classic.markerless.depth.depth_noise_curve`: a stereo matcher's error under a fixed
+projector pattern stays put over time), unless the caller gives it. The sigma counts frames, not pixels, as
+independent, and errors shared by all frames at one depth (a matcher's pull toward whole disparities) by
+clustering the residuals by depth bin as well (two-way,
+:func:`classic.clustered_covariance.clustered_covariance`); whether the depth scale and offset are observable
+at all is judged on the frames' spread alone.
 
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
@@ -166,6 +171,9 @@ class MarkerlessOptions:
     zbuffer_stride : int
         Image pixels per z-buffer pixel: 1 when the model's sample spacing is below the pixel
         footprint, 2 when below two (the front chooses the spacing to match).
+    depth_clusters : int
+        Depth bins (equal counts) of the covariance's second clustering: a sensor's depth-dependent error is
+        shared by every frame at that depth. Below 2: clustered by frame only.
     seed : int
     """
 
@@ -185,6 +193,7 @@ class MarkerlessOptions:
     max_points: int = 20000
     max_model_points: int = 300000
     zbuffer_stride: int = 1
+    depth_clusters: int = 12
     seed: int = 0
 
     def __post_init__(self):
@@ -228,8 +237,9 @@ class MarkerlessResult:
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
-        ``offset_sigma_mm``); ``range_m`` (the matched depths' 10th and 90th percentiles), and the noise
-        used (``noise_source``, ``noise_mm_at_median_depth``).
+        ``offset_sigma_mm``); ``observability``: the same sigmas from the frames' spread alone, which decide a
+        refusal for too little depth range; ``range_m`` (the matched depths' 10th and 90th percentiles), and the
+        noise used (``noise_source``, ``noise_mm_at_median_depth``).
     """
 
     T_base_cam: np.ndarray | None
@@ -496,6 +506,7 @@ class _Problem:
             direction_base=self.s.direction_base[m] if curved else None,
             depth_correction=(self.k, self.c) if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
+            cross_group=_depth_bins(q_obs[sel, 2], self.opts.depth_clusters),
         )
         if estimate_depth:
             self.k, self.c = fit.depth_correction
@@ -655,6 +666,7 @@ def register_robot(
         }
     )
     refused = None
+    observe = depth.get("observability", {})  # the frames' geometry alone decides whether the depth is observable
     if matched < opts.min_matched_fraction:
         refused = (
             f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
@@ -664,17 +676,25 @@ def register_robot(
         refused = f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth noise"
     elif step > 1e-4:
         refused = f"did not converge: last step {step:.2g} (rad + m)"
-    elif depth.get("scale_sigma", 0.0) > opts.max_depth_prior_share * opts.depth_scale_prior_sigma or (
-        depth.get("offset_sigma_mm", 0.0) > opts.max_depth_prior_share * opts.depth_offset_prior_sigma_m * 1e3
+    elif observe.get("scale_sigma", 0.0) > opts.max_depth_prior_share * opts.depth_scale_prior_sigma or (
+        observe.get("offset_sigma_mm", 0.0) > opts.max_depth_prior_share * opts.depth_offset_prior_sigma_m * 1e3
     ):
         refused = (
             f"depth scale and offset not observable: the matched depths span {depth['range_m'][0]:.2f}-"
-            f"{depth['range_m'][1]:.2f} m, which leaves the scale at {depth['scale_sigma']:.2%} and the offset at "
-            f"{depth['offset_sigma_mm']:.1f} mm (1 sigma; at most {opts.max_depth_prior_share:.0%} of the prior's "
+            f"{depth['range_m'][1]:.2f} m, which leaves the scale at {observe['scale_sigma']:.2%} and the offset at "
+            f"{observe['offset_sigma_mm']:.1f} mm (1 sigma; at most {opts.max_depth_prior_share:.0%} of the prior's "
             f"{opts.depth_scale_prior_sigma:.2%} and {opts.depth_offset_prior_sigma_m * 1e3:.1f} mm); move the arm "
             "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
         )
     return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag, depth)
+
+
+def _depth_bins(z: np.ndarray, bins: int) -> np.ndarray | None:
+    """Each depth's bin among ``bins`` of equal counts (None when ``bins`` < 2)."""
+    if bins < 2 or len(z) < 2 * bins:
+        return None
+    edges = np.quantile(z, np.linspace(0, 1, bins + 1)[1:-1])
+    return np.searchsorted(edges, z)
 
 
 def _depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_source: str, noise_mm: float) -> dict:
@@ -687,12 +707,17 @@ def _depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_sourc
     # s = 1 / k, o = -c / k; first order through the Jacobian of (s, o) in (k, c)
     G = np.array([[-1 / k**2, 0.0], [c / k**2, -1 / k]])
     C = G @ fit.depth_covariance @ G.T
+    F = G @ (fit.depth_covariance if fit.depth_covariance_frames is None else fit.depth_covariance_frames) @ G.T
     out.update(
         {
             "scale": float(1 / k),
             "scale_sigma": float(np.sqrt(max(C[0, 0], 0.0))),
             "offset_mm": float(-c / k * 1e3),
             "offset_sigma_mm": float(np.sqrt(max(C[1, 1], 0.0)) * 1e3),
+            "observability": {
+                "scale_sigma": float(np.sqrt(max(F[0, 0], 0.0))),
+                "offset_sigma_mm": float(np.sqrt(max(F[1, 1], 0.0)) * 1e3),
+            },
         }
     )
     return out

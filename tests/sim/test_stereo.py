@@ -70,3 +70,36 @@ def test_the_sgbm_profile_goes_through_apply_sensor():
     ok = (out > 0) & (np.abs(U - 150) < 90)
     # the unit's scale and offset on the matcher's depth
     assert np.median(out[ok] - (1.01 * depth[ok] + 0.002)) == pytest.approx(0, abs=3e-3)
+
+
+def test_the_depth_is_brought_up_exactly_on_a_plane_and_decimated_as_librealsense_does():
+    from sim.stereo import decimate_depth, upsample_depth
+
+    plane = tilted_plane(1.0)
+    fine = upsample_depth(plane, 2)
+    # the fine pixels' centres: u_fine = 2 (u + 0.5) - 0.5, inside the coarse image's interpolation range
+    uf = (np.arange(512) + 0.5) / 2 - 0.5
+    truth = 1.0 / (1 - 0.15 * (uf - 127.5) / 222)
+    inside = (uf >= 0) & (uf <= 255)
+    np.testing.assert_allclose(fine[100, inside], truth[inside], rtol=1e-12)  # 1/z is affine on a plane
+    # across an edge the nearest sample, never a depth between the two surfaces
+    step = np.where(U < 128, 1.0, 2.0)
+    assert set(np.unique(upsample_depth(step, 2))) == {1.0, 2.0}
+    # decimation: the median of each block's valid pixels, 0 where none is
+    block = np.array([[1.0, 0.0, 0.0, 0.0], [3.0, 2.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(decimate_depth(block, 2), [[2.0, 0.0]])
+
+
+def test_the_projector_pattern_is_fixed_to_the_unit():
+    """The same dots in every frame: a static scene's depth changes between frames by the image noise's effect
+    only, a third of what another pattern changes (measured: 0.9 against 2.6 mm mean at 1 m)."""
+    sensor = PROFILES["d435-sgbm"]
+    depth = tilted_plane(1.0)
+    a = apply_sensor(depth, K, sensor, SensorTruth(pattern_seed=5), np.random.default_rng(1))
+    b = apply_sensor(depth, K, sensor, SensorTruth(pattern_seed=5), np.random.default_rng(2))
+    c = apply_sensor(depth, K, sensor, SensorTruth(pattern_seed=6), np.random.default_rng(2))
+    both = (a > 0) & (b > 0) & (c > 0)
+    same_pattern = np.abs(a - b)[both]
+    other_pattern = np.abs(a - c)[both]
+    # (medians are 0 for both: the matcher locks many pixels to one disparity whatever the dots)
+    assert np.mean(same_pattern) < 0.5 * np.mean(other_pattern)
