@@ -179,23 +179,19 @@ def _spatial_second_difference(frames: np.ndarray, med: np.ndarray, valid: np.nd
     A stencil counts where all three pixels show the background in that frame (within 2 cm of their median
     depth over the frames) and lie within 5 % of the centre's depth (one surface); NaN elsewhere.
     """
-    n, h, w = frames.shape
-    med_img = np.zeros((h, w))
+    med_img = np.zeros(frames.shape[1:])
     med_img[valid] = med
     background = (frames > 0) & (np.abs(frames - med_img) < 0.02) & valid
     inv = np.where(background, 1.0 / np.where(background, frames, 1.0), np.nan)
     out = []
     for axis in (1, 2):
-        a, b = np.roll(inv, lag, axis=axis), np.roll(inv, -lag, axis=axis)
-        edge = np.zeros(inv.shape, dtype=bool)
-        sl = [slice(None)] * 3
-        sl[axis] = slice(0, lag)
-        edge[tuple(sl)] = True
-        sl[axis] = slice(inv.shape[axis] - lag, None)
-        edge[tuple(sl)] = True
+        n = inv.shape[axis]
+        centre, a, b = (inv.take(np.arange(lo, n - 2 * lag + lo), axis=axis) for lo in (lag, 0, 2 * lag))
+        d2 = np.full(inv.shape, np.nan)
         with np.errstate(invalid="ignore"):
-            same = (np.abs(a - inv) < 0.05 * inv) & (np.abs(b - inv) < 0.05 * inv) & ~edge
-            d2 = np.where(same, (a - 2 * inv + b) / np.where(same, inv, 1.0) ** 2, np.nan)
+            same = (np.abs(a - centre) < 0.05 * centre) & (np.abs(b - centre) < 0.05 * centre)
+            inner = np.where(same, (a - 2 * centre + b) / np.where(same, centre, 1.0) ** 2, np.nan)
+        d2[(slice(None),) * axis + (slice(lag, n - lag),)] = inner
         out.append(d2[:, valid])
     return np.concatenate(out, axis=0)
 

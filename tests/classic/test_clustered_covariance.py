@@ -45,10 +45,19 @@ def test_a_bias_shared_across_frames_is_counted_by_the_second_clustering():
     assert 0.75 < two_way / scatter < 1.25
 
 
-def test_without_a_second_clustering_the_estimate_is_unchanged():
+def test_one_way_is_the_sandwich_and_a_second_clustering_equal_to_the_first_changes_nothing():
+    """One way: ``H^-1 (k / (k - 1) sum_g s_g s_g^T) H^-1``, written out here; two-way with the same clusters
+    twice is ``C + C - C = C``."""
     rng = np.random.default_rng(1)
-    J = rng.normal(size=(300, 6))
-    r = rng.normal(size=300)
+    J = np.c_[np.ones(300), rng.normal(size=(300, 5))]  # a column the groups' shared errors add up in
+    r = rng.normal(size=300) + np.repeat(rng.normal(size=10), 30)  # a shared error per group: sandwich > plain
     w = np.ones(300)
     group = np.repeat(np.arange(10), 30)
-    np.testing.assert_array_equal(clustered_covariance(J, r, w, group), clustered_covariance(J, r, w, group, None))
+    scores = np.array([(J[group == g] * r[group == g, None]).sum(axis=0) for g in range(10)])
+    H_inv = np.linalg.inv(J.T @ J)
+    by_hand = H_inv @ (scores.T @ scores * 10 / 9) @ H_inv
+    one_way = clustered_covariance(J, r, w, group)
+    plain = H_inv * (r @ r) / (300 - 6)
+    assert np.trace(by_hand) > np.trace(plain)  # the sandwich, not the floor, is what comes back
+    np.testing.assert_allclose(one_way, by_hand, rtol=1e-10)
+    np.testing.assert_allclose(clustered_covariance(J, r, w, group, cross_group=group), one_way, rtol=1e-8, atol=1e-15)
