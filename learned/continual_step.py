@@ -73,6 +73,7 @@ def sample_error(
     fraction: float,
     rng: np.random.Generator,
     novelty: str = "frames",
+    sampling: str = "uniform",
 ):
     """Algorithm 2's novelty measure, and the number of frames it evaluated.
 
@@ -81,13 +82,14 @@ def sample_error(
     ``novelty="placement"`` (keypoint model): the error ``(mm, deg)`` of the one pose fitted to all of
     ``index`` (one camera pose's frames; ``fraction`` is not used and nothing is drawn): a pose from a
     10 % sample, five frames, is noise-dominated (a median of 23.6 mm where all 50 frames give 5.4 on
-    ``paper-sim``: ``benchmarks/keypoint_errors.py``).
+    ``paper-sim``: ``benchmarks/keypoint_errors.py``). ``sampling``: how the sample is drawn
+    (:func:`learned.replay.draw`).
     """
     if novelty not in NOVELTY:
         raise ValueError(f"unknown novelty measure {novelty!r}: use {', '.join(NOVELTY)}")
     if novelty == "placement":
         return placement_error(model, frames, index), len(index)
-    sample = random_fraction(index, fraction, rng)
+    sample = random_fraction(index, fraction, rng, sampling)
     e = errors(model, frames, sample)
     return (float(np.mean(e)) if e.ndim == 1 else e.mean(axis=0)), len(sample)
 
@@ -127,6 +129,7 @@ def continual_step(
     threshold=None,
     sample_fraction: float = 0.1,
     novelty: str = "frames",
+    sampling: str = "uniform",
 ) -> StepOutcome:
     """Algorithm 2's step (Algorithm 1's with ``threshold=None``) on the new frames ``current``.
 
@@ -146,6 +149,8 @@ def continual_step(
     sample_fraction : float
     novelty : {"frames", "placement"}
         The novelty measure (:func:`sample_error`).
+    sampling : {"uniform", "normal"}
+        How the novelty sample is drawn (the buffer draws as it was made to).
 
     Returns
     -------
@@ -153,7 +158,7 @@ def continual_step(
     """
     mean, n = None, 0
     if threshold is not None:
-        mean, n = sample_error(model, frames, current, sample_fraction, rng, novelty)
+        mean, n = sample_error(model, frames, current, sample_fraction, rng, novelty, sampling)
         mean = distributed.from_writer(mean)  # data-parallel: every rank takes rank 0's decision
         if not np.any(np.asarray(mean) > threshold):
             return StepOutcome(False, mean, n, 0)

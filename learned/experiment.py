@@ -227,6 +227,9 @@ def load_model(path: str | Path, expect: ModelConfig | None = None) -> Calibrati
 class RunRecord:
     """One strategy, network and repeat.
 
+    ``processed``: samples trained on, epochs times training-set sizes; ``trained_samples``: the training-set
+    sizes summed over the training calls, epochs aside (the seed paper's "data", Tables 2, 11 and 21).
+
     ``placements``: for the keypoint model, this repeat's model on the test camera placements, one pose
     each from all its frames against the truth: ``median_mm``, ``worst_mm``, ``median_deg``, ``worst_deg``
     (the per-camera tables show the last repeat's model only; one training run's median varies by
@@ -235,7 +238,10 @@ class RunRecord:
     frames against the label (:func:`learned.trainer.placement_error`), where the per-frame errors are
     far above the placements' (the forgetting finding, checked where the errors are of its thresholds'
     order). ``rmse_matrix``: as ``matrix`` with each cell the root-mean-square of the subset's per-frame errors,
-    the seed paper's metric (``matrix`` holds their mean).
+    the seed paper's metric (``matrix`` holds their mean). ``pose_matrix``: selection with the preset's
+    ``pose_steps`` (the paper's Tables 17-18), one entry per camera pose after the first time step:
+    ``{"camera", "novel", "matrix", "rmse_matrix"}``, the rows as in ``matrix`` and ``rmse_matrix``, after that
+    pose.
     """
 
     strategy: str
@@ -244,12 +250,14 @@ class RunRecord:
     matrix: list = field(default_factory=list)
     processed: int = 0
     stored: int = 0
+    trained_samples: int = 0
     evaluated: int = 0
     skipped: list = field(default_factory=list)
     wall_s: float = 0.0
     placements: dict = field(default_factory=dict)
     placement_matrix: list = field(default_factory=list)
     rmse_matrix: list = field(default_factory=list)
+    pose_matrix: list = field(default_factory=list)
 
 
 FAMILIES = ("regression", "keypoints")
@@ -269,15 +277,41 @@ def _split_keypoint_record(rec: "RunRecord") -> list:
             [[float(np.ravel(e)[col]) if np.ndim(e) else float(e) for e in row] for row in rec.matrix],
             rec.processed,
             rec.stored,
+            rec.trained_samples,
             rec.evaluated,
             list(rec.skipped),
             rec.wall_s,
             dict(rec.placements),
             [[float(np.ravel(e)[col]) for e in row] for row in rec.placement_matrix],
             [[float(np.ravel(e)[col]) if np.ndim(e) else float(e) for e in row] for row in rec.rmse_matrix],
+            [
+                {
+                    **p,
+                    "matrix": [float(np.ravel(e)[col]) for e in p["matrix"]],
+                    "rmse_matrix": [float(np.ravel(e)[col]) for e in p["rmse_matrix"]],
+                }
+                for p in rec.pose_matrix
+            ],
         )
         out.append(r)
     return out
+
+
+def _pose_recorder(strat, frames: FrameSet, regions: list, rec: "RunRecord"):
+    """Selection's ``after_pose``: the error on every test subset after each camera pose, into ``rec.pose_matrix``."""
+
+    def record(camera: int, novel: bool) -> None:
+        cells = [_subset_error(strat.model, frames, r) for r in regions]
+        rec.pose_matrix.append(
+            {
+                "camera": camera,
+                "novel": novel,
+                "matrix": [_json_error(mean) for mean, _ in cells],
+                "rmse_matrix": [_json_error(rms) for _, rms in cells],
+            }
+        )
+
+    return record
 
 
 def _replicated_state(strat) -> bytes:
@@ -424,18 +458,22 @@ def run_experiment(
             threshold_deg=preset.threshold_deg,
             replay_share=preset.selection_replay,
             novelty=preset.selection_novelty,
+            sampling=preset.sampling,
+            every_step=preset.batch_every_step,
         )
         rec, start = RunRecord(name, kind, rep), 0
         if state and u == state["unit"] and state.get("strategy"):
             strat.load_state_dict(state["strategy"])
             torch.set_rng_state(state["torch_rng"])
             rec, start = RunRecord(**state["partial"]), state["step"]
+        if name == "selection" and preset.pose_steps:
+            strat.after_pose = _pose_recorder(strat, frames, regions, rec)
         t0, spent = time.perf_counter(), rec.wall_s
         for k in range(start, len(steps)):
             strat.step(k, steps[k], frames, last=k == len(steps) - 1)
             if distributed.world_size() > 1:
                 distributed.check_same(_replicated_state(strat), f"{name} {kind} repeat {rep + 1} step {k + 1}")
-            trained = name != "batch" or k == len(steps) - 1
+            trained = name != "batch" or preset.batch_every_step or k == len(steps) - 1
             cells = [_subset_error(strat.model, frames, r) if trained else (float("nan"),) * 2 for r in regions]
             rec.matrix.append([_json_error(mean) for mean, _ in cells])
             rec.rmse_matrix.append([_json_error(rms) for _, rms in cells])
@@ -444,6 +482,7 @@ def run_experiment(
                     [_json_error(_subset_placement_error(strat.model, frames, r, trained)) for r in regions]
                 )
             rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
+            rec.trained_samples = strat.trained_samples
             rec.skipped, rec.wall_s = list(strat.skipped), spent + time.perf_counter() - t0
             if progress:
                 row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(regions, rec.matrix[-1]))

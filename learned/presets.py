@@ -7,10 +7,11 @@ works (re-exported there for compatibility).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from handeye.core.errors import HandEyeInputError
 from learned.model import ModelConfig
+from learned.protocol import PROTOCOLS
 from learned.trainer import TrainConfig
 
 __all__ = ["Preset", "PRESETS", "get_preset"]
@@ -71,6 +72,18 @@ class Preset:
         times, so that the model takes about as many optimiser steps (:meth:`train_configs`).
     keypoint_max_epoch_scale : float
         The most :attr:`keypoint_reference_frames` multiplies the keypoint epochs by.
+    protocol : {"handeye", "paper"}
+        The mode the fields below were set by (:meth:`with_protocol`, :mod:`learned.protocol`).
+    metric : {"mean", "rmse"}
+        The per-subset error the tables lead with (both are recorded).
+    sampling : {"uniform", "normal"}
+        How the buffer's and the novelty sample's frames are drawn (:func:`learned.replay.draw`).
+    batch_every_step : bool
+        The batch baseline retrained from scratch at every time step (the paper), or once at the last.
+    naive_batch_size : int, optional
+        The naive strategy's batch size; the others' when omitted.
+    pose_steps : bool
+        Record selection's error on every test subset after each camera pose (the paper's Tables 17-18).
     """
 
     name: str
@@ -101,6 +114,26 @@ class Preset:
     keypoint_shift_px: int = 0
     keypoint_reference_frames: int = 0
     keypoint_max_epoch_scale: float = 2.0
+    protocol: str = "handeye"
+    metric: str = "mean"
+    sampling: str = "uniform"
+    batch_every_step: bool = False
+    naive_batch_size: int | None = None
+    pose_steps: bool = False
+
+    def __post_init__(self):
+        if self.protocol not in PROTOCOLS:
+            raise HandEyeInputError(f"unknown protocol {self.protocol!r}: use {', '.join(PROTOCOLS)}")
+        if self.metric not in ("mean", "rmse"):
+            raise HandEyeInputError(f"unknown metric {self.metric!r}: use mean or rmse")
+        if self.sampling not in ("uniform", "normal"):
+            raise HandEyeInputError(f"unknown sampling {self.sampling!r}: use uniform or normal")
+
+    def with_protocol(self, name: str) -> "Preset":
+        """This preset in a protocol mode (:data:`learned.protocol.PROTOCOLS`): ``paper`` or ``handeye``."""
+        if name not in PROTOCOLS:
+            raise HandEyeInputError(f"unknown protocol {name!r}: use {', '.join(PROTOCOLS)}")
+        return replace(self, protocol=name, **PROTOCOLS[name])
 
     def frame_size(self, family: str = "regression") -> tuple:
         """``(width, height)`` the frames are loaded at for a model family (``regression`` or ``keypoints``)."""
@@ -155,6 +188,8 @@ class Preset:
             if self.keypoint_epochs:
                 first_e, later_e, batch_e = self.keypoint_epochs
             batch_size = self.keypoint_batch_size or batch_size
+        if strategy == "naive" and self.naive_batch_size:
+            batch_size = min(batch_size, int(self.naive_batch_size))
         first_e = batch_e if strategy == "batch" else first_e
         scale = self.epoch_scale(kind, n_train_frames)
         if scale != 1.0:
@@ -228,7 +263,7 @@ PRESETS = {
         keypoint_reference_frames=4200,
         repeats=3,
     ),
-    # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats): for a GPU
+    # the paper's scale (256x256 images, wider encoders, longer training, 3 repeats) and protocol: for a GPU
     "paper": Preset(
         "paper",
         (256, 256),
@@ -238,7 +273,7 @@ PRESETS = {
         later_epochs=25,
         batch_epochs=50,
         repeats=3,
-    ),
+    ).with_protocol("paper"),
 }
 
 

@@ -29,24 +29,50 @@ import torch
 from learned.data import FrameSet, concat
 from learned.safe_io import arrays_to_tensors, tensors_to_arrays
 
-__all__ = ["ReplayBuffer", "per_camera_sample", "random_fraction"]
+__all__ = ["ReplayBuffer", "per_camera_sample", "random_fraction", "draw", "SAMPLINGS"]
+
+#: How entries are drawn: ``uniform``, or ``normal`` (the seed paper's words, read as in :func:`draw`).
+SAMPLINGS = ("uniform", "normal")
 
 
-def random_fraction(index: np.ndarray, fraction: float, rng: np.random.Generator) -> np.ndarray:
+def draw(index: np.ndarray, k: int, rng: np.random.Generator, sampling: str = "uniform") -> np.ndarray:
+    """``k`` entries of ``index`` drawn without replacement (unsorted).
+
+    ``uniform``: every entry equally likely (``rng.choice``). ``normal``: the seed paper samples "using a
+    normal distribution" without saying of what; read here as entries weighed, in their order in
+    ``index`` (a pose's frames in recording order), by a normal density centred on the middle entry with a
+    standard deviation of a quarter of their count, then drawn without replacement in proportion to it.
+    """
+    index = np.asarray(index)
+    if sampling == "uniform":
+        return rng.choice(index, k, replace=False)
+    if sampling != "normal":
+        raise ValueError(f"unknown sampling {sampling!r}: use {', '.join(SAMPLINGS)}")
+    n = len(index)
+    z = (np.arange(n) - (n - 1) / 2.0) / max(n / 4.0, 1e-9)
+    w = np.exp(-0.5 * z**2)
+    return rng.choice(index, k, replace=False, p=w / w.sum())
+
+
+def random_fraction(
+    index: np.ndarray, fraction: float, rng: np.random.Generator, sampling: str = "uniform"
+) -> np.ndarray:
     """A random share of ``index`` (at least one), sorted; all of it for ``fraction >= 1`` (no draw)."""
     index = np.asarray(index)
     if fraction >= 1.0:
         return index
-    return np.sort(rng.choice(index, max(1, int(round(fraction * len(index)))), replace=False))
+    return np.sort(draw(index, max(1, int(round(fraction * len(index)))), rng, sampling))
 
 
-def per_camera_sample(index: np.ndarray, camera: np.ndarray, c1: int, rng: np.random.Generator) -> dict:
+def per_camera_sample(
+    index: np.ndarray, camera: np.ndarray, c1: int, rng: np.random.Generator, sampling: str = "uniform"
+) -> dict:
     """Class balance: up to ``c1`` random entries of ``index`` per camera pose (``camera[index]``), sorted."""
     index = np.asarray(index)
     out = {}
     for c in np.unique(camera[index]):
         idx = index[camera[index] == c]
-        out[int(c)] = np.sort(rng.choice(idx, min(c1, len(idx)), replace=False))
+        out[int(c)] = np.sort(draw(idx, min(c1, len(idx)), rng, sampling))
     return out
 
 
@@ -70,6 +96,8 @@ class ReplayBuffer(Mapping):
         unbounded.
     keep_samples : bool
         Hold the frames themselves (a :class:`~learned.data.FrameSet` per pose) rather than indices.
+    sampling : {"uniform", "normal"}
+        How a new pose's entries are drawn (:func:`draw`); a pose seen again merges uniformly.
 
     Notes
     -----
@@ -77,7 +105,12 @@ class ReplayBuffer(Mapping):
     in insertion order, ``len(buffer)`` counts camera poses and :attr:`size` counts entries.
     """
 
-    def __init__(self, per_class: int, max_size: int | None = None, keep_samples: bool = False):
+    def __init__(
+        self, per_class: int, max_size: int | None = None, keep_samples: bool = False, sampling: str = "uniform"
+    ):
+        if sampling not in SAMPLINGS:
+            raise ValueError(f"unknown sampling {sampling!r}: use {', '.join(SAMPLINGS)}")
+        self.sampling = sampling
         self.per_class = int(per_class)
         self.max_size = None if max_size is None else int(max_size)
         self.keep_samples = bool(keep_samples)
@@ -105,7 +138,7 @@ class ReplayBuffer(Mapping):
         replacement; one seen before merges its new frames reservoir-wise, so that its entries stay a
         uniform sample of all its frames seen (a hypergeometric draw of how many old entries stay).
         """
-        for c, idx in per_camera_sample(index, frames.camera, self.per_class, rng).items():
+        for c, idx in per_camera_sample(index, frames.camera, self.per_class, rng, self.sampling).items():
             n_new = int(np.sum(frames.camera[np.asarray(index)] == c))
             new = frames.subset(idx) if self.keep_samples else idx
             if c not in self._items:
@@ -156,6 +189,7 @@ class ReplayBuffer(Mapping):
             "per_class": self.per_class,
             "max_size": self.max_size,
             "keep_samples": self.keep_samples,
+            "sampling": self.sampling,
             "order": list(self._items),
             "seen": {str(c): n for c, n in self._seen.items()},
             "other": {},
@@ -176,6 +210,7 @@ class ReplayBuffer(Mapping):
         """Restore what :meth:`state_dict` gave (after a round trip through :mod:`learned.safe_io`)."""
         meta, tensors = state["meta"], state.get("tensors") or {}
         self.per_class, self.max_size, self.keep_samples = meta["per_class"], meta["max_size"], meta["keep_samples"]
+        self.sampling = meta.get("sampling", "uniform")  # buffers saved before the paper's mode drew uniformly
         self._seen = {int(c): int(n) for c, n in meta["seen"].items()}
         self._items = {}
         for c in meta["order"]:

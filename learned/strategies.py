@@ -5,7 +5,9 @@ steps (one region's training camera poses per step). All randomness comes from
 the generator it is given.
 
 - :class:`Batch`: the baseline, trained from scratch on all training data at the
-  last time step (the paper's baseline); nothing before.
+  last time step; nothing before. With ``every_step`` (the paper's mode), from
+  scratch on all the data seen so far at every time step, as the paper's Table 2
+  describes its baseline.
 - :class:`Naive`: fine-tuning on the current step's data only.
 - :class:`Reservoir`: Algorithm 1, reservoir buffer with class balance: the
   current step's data (a fraction ``c3``) plus ``c1`` stored samples from each
@@ -26,6 +28,11 @@ the generator it is given.
   region of 14 poses cost about five reservoir steps. With ``novelty="placement"``
   (keypoint model) a pose is judged by the one pose fitted to all its frames
   (:func:`learned.trainer.placement_error`) instead of its frames' mean error.
+  An ``after_pose(camera, novel)`` callback, when set, is called after each pose (the paper's
+  per-pose time steps, its Tables 17-18).
+
+``sampling`` (``uniform`` or the paper's ``normal``, :func:`learned.replay.draw`) decides how the
+buffer's entries and the novelty sample are drawn.
 
 The buffer is :class:`learned.replay.ReplayBuffer` (frame indices) and each step of reservoir and
 selection is :func:`learned.continual_step.continual_step`, the same code the online
@@ -73,11 +80,16 @@ class Strategy:
     later : TrainConfig
         Training of each later time step.
     rng : numpy.random.Generator
+    progress : bool
+    sampling : {"uniform", "normal"}
+        How the buffer draws its entries (:func:`learned.replay.draw`).
     model : CalibrationNet
     buffer : ReplayBuffer
         Camera id to stored frame indices (:mod:`learned.replay`; empty for batch and naive).
     processed : int
         Samples processed by training (epochs times training-set sizes).
+    trained_samples : int
+        Training-set sizes summed over the training calls, epochs aside (the seed paper's "data").
     evaluated : int
         Samples evaluated for novelty.
     skipped : list of int
@@ -91,9 +103,11 @@ class Strategy:
     later: TrainConfig
     rng: np.random.Generator
     progress: bool = False
+    sampling: str = "uniform"
     model: CalibrationNet = field(init=False)
     buffer: ReplayBuffer = field(init=False)
     processed: int = field(init=False, default=0)
+    trained_samples: int = field(init=False, default=0)
     evaluated: int = field(init=False, default=0)
     skipped: list = field(init=False, default_factory=list)
     trained_on: list = field(init=False, default_factory=list)
@@ -101,7 +115,7 @@ class Strategy:
 
     def __post_init__(self):
         self.model = make_network(self.config).to(default_device())
-        self.buffer = ReplayBuffer(getattr(self, "c1", 0))
+        self.buffer = ReplayBuffer(getattr(self, "c1", 0), sampling=self.sampling)
 
     @property
     def stored(self) -> int:
@@ -109,7 +123,7 @@ class Strategy:
         return self.buffer.size
 
     #: Attributes beyond the model, buffer and generator that a checkpoint keeps (JSON values).
-    _counters = ("processed", "evaluated", "skipped", "trained_on")
+    _counters = ("processed", "trained_samples", "evaluated", "skipped", "trained_on")
 
     def state_dict(self) -> dict:
         """Everything a resumed run needs between time steps: weights, buffer, generator, counters.
@@ -151,6 +165,7 @@ class Strategy:
             desc=f"{self.name} {self.config.kind} step {step + 1}",
         )
         self.processed += n
+        self.trained_samples += len(index)
         return n
 
     def step(self, step: int, cameras: list, frames: FrameSet, last: bool) -> None:
@@ -160,18 +175,20 @@ class Strategy:
 
 @dataclass
 class Batch(Strategy):
-    """The baseline: at the last time step, from scratch on all training data seen (nothing before)."""
+    """The baseline: from scratch on all training data seen, at the last time step (``every_step``: at each)."""
 
+    every_step: bool = False
     seen: list = field(init=False, default_factory=list)
     name = "batch"
     _counters = Strategy._counters + ("seen",)
 
     def step(self, step, cameras, frames, last):
         self.seen += list(cameras)
-        if last:
+        trains = last or self.every_step
+        if trains:
             self.model = make_network(self.config).to(default_device())
             self._train(frames, self._frames_of(frames, self.seen), 0)
-        self.trained_on.append(list(self.seen) if last else [])
+        self.trained_on.append(list(self.seen) if trains else [])
 
     @property
     def stored(self) -> int:
@@ -226,6 +243,8 @@ class Selection(Reservoir):
     replay_share: str = "region"
     novelty: str = "frames"
     name = "selection"
+    #: Called as ``after_pose(camera, novel)`` after each pose of a later step; not part of the state.
+    after_pose = None
 
     def __post_init__(self):
         super().__post_init__()
@@ -247,7 +266,7 @@ class Selection(Reservoir):
         threshold.
         """
         index = self._frames_of(frames, [camera])
-        mean, n = sample_error(self.model, frames, index, self.sample_fraction, self.rng, self.novelty)
+        mean, n = sample_error(self.model, frames, index, self.sample_fraction, self.rng, self.novelty, self.sampling)
         self.evaluated += n
         return bool(np.any(np.asarray(mean) > self.threshold)), mean
 
@@ -268,9 +287,12 @@ class Selection(Reservoir):
                 self.threshold,
                 self.sample_fraction,
                 self.novelty,
+                self.sampling,
             )
             self.evaluated += outcome.evaluated
             (novel if outcome.novel else self.skipped).append(int(c))
+            if self.after_pose is not None:
+                self.after_pose(int(c), bool(outcome.novel))
         self.trained_on.append(novel)
 
 

@@ -79,3 +79,32 @@ def make_frames(
         "truth",
         (w, h),
     )
+
+
+#: The counting tests' setting: three regions of 3 training poses and 1 test pose, 10 frames each, a small
+#: network, two epochs on the first step and one on each later step (the strategies' arithmetic is exact).
+FRAMES_PER_CAMERA = 10
+TRAIN_PER_REGION = 3
+
+
+def count_setting():
+    """``(preset, first, later)`` of the counting tests (imported here, so this module stays torch-free)."""
+    from learned.presets import Preset
+    from learned.trainer import TrainConfig
+
+    return (
+        Preset("count", (32, 32), (4, 8, 8), (16,), repeats=1),
+        TrainConfig(epochs=2, batch_size=16),
+        TrainConfig(epochs=1, batch_size=16),
+    )
+
+
+def count_frames() -> FrameSet:
+    """The counting tests' frames: three regions 120 deg apart."""
+    return make_frames(
+        np.random.default_rng(0),
+        regions=((0, 60), (120, 180), (240, 300)),
+        train_per_region=TRAIN_PER_REGION,
+        test_per_region=1,
+        frames_per_camera=FRAMES_PER_CAMERA,
+    )

@@ -8,26 +8,14 @@ import pytest
 pytest.importorskip("torch")
 
 from learned.experiment import time_steps  # noqa: E402
-from learned.presets import Preset  # noqa: E402
 from learned.strategies import make_strategy  # noqa: E402
-from learned.trainer import TrainConfig  # noqa: E402
-from tests.learned._synthetic import make_frames  # noqa: E402
+from tests.learned._synthetic import (  # noqa: E402
+    FRAMES_PER_CAMERA,
+    TRAIN_PER_REGION,
+    count_setting,
+)
 
-PRESET = Preset("count", (32, 32), (4, 8, 8), (16,), repeats=1)
-FIRST, LATER = TrainConfig(epochs=2, batch_size=16), TrainConfig(epochs=1, batch_size=16)
-FRAMES_PER_CAMERA = 10
-TRAIN_PER_REGION = 3
-
-
-@pytest.fixture(scope="module")
-def frames():
-    return make_frames(
-        np.random.default_rng(0),
-        regions=((0, 60), (120, 180), (240, 300)),
-        train_per_region=TRAIN_PER_REGION,
-        test_per_region=1,
-        frames_per_camera=FRAMES_PER_CAMERA,
-    )
+PRESET, FIRST, LATER = count_setting()
 
 
 def _run(name, frames, **params):
