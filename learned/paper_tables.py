@@ -10,7 +10,10 @@ subset's test frames.
 Only the figures the paper's text states are printed (:data:`PAPER_TEXT`); the cells of its tables are not
 in the text and are marked "not given in the text". Its findings are judged as the paper judges them
 (:func:`paper_findings`): each strategy's difference from the baseline in mm and deg, the data it trains on
-against the baseline's, and the camera poses selection eliminates.
+against the baseline's, and the camera poses selection eliminates. A difference is judged relative to each
+one's own baseline (the paper's networks reach about 1.5 mm, a CPU preset's about a hundred times more, and a
+millimetre means another thing at each level): a strategy is "as the paper" when its difference, as a share of
+its baseline, is at most the paper's and it trains on less data.
 """
 
 from __future__ import annotations
@@ -29,6 +32,9 @@ NOT_GIVEN = "not given in the text"
 #: baseline's; "eliminated" maps (mm, deg) thresholds to the poses eliminated (of "poses").
 PAPER_TEXT = {
     "sim": {
+        # not stated as such: its 3 mm / 4 deg thresholds are "double the best result acquired by training
+        # networks without CL", so the baseline is at about 1.5 mm / 2 deg
+        "baseline": (1.5, 2.0),
         "naive_diagonal_over_baseline": 1.5,
         "reservoir": {"minus_baseline": (1.5, 0.5), "less_data": 0.65},
         "selection": {"minus_baseline": (0.3, 1.1), "less_data": 0.75},
@@ -278,14 +284,17 @@ def judge(results: dict) -> list[dict]:
             cost = next(r for r in cost_rows(results) if r["strategy"] == strategy and r["network"] == net)
             less = 1 - cost["trained_samples_vs_baseline"]
             data = f"{less * 100:.0f} % less data" if less >= 0 else f"{-less * 100:.0f} % more data"
+            level = float(np.nanmean(base))
             given = text.get(strategy)
             if given:
                 p_diff, p_less = given["minus_baseline"][i], given["less_data"]
-                paper = f"{p_diff:+.1f} {u} with {p_less * 100:.0f} % less data"
-                verdict = "as the paper" if diff <= p_diff and less > 0 else "NOT as the paper"
+                p_rel = p_diff / text["baseline"][i]
+                paper = f"{p_diff:+.1f} {u} ({p_rel * 100:+.0f} % of its baseline) with {p_less * 100:.0f} % less data"
+                verdict = "as the paper" if diff / level <= p_rel and less > 0 else "NOT as the paper"
             else:
                 paper, verdict = "competitive with the baseline, less data", "-"
-            add("cost", net, f"{strategy} against the baseline", paper, f"{diff:+.2f} {u} with {data}", verdict)
+            ours = f"{diff:+.2f} {u} ({diff / level * 100:+.0f} % of the baseline) with {data}"
+            add("cost", net, f"{strategy} against the baseline", paper, ours, verdict)
         if "selection" in strategies:
             preset = results.get("preset", {})
             thr = float(preset.get("threshold_mm", 3.0) if net == "translation" else preset.get("threshold_deg", 4.0))

@@ -69,12 +69,13 @@ def test_the_findings_are_judged_by_the_papers_differences_and_data():
     real = PAPER_TEXT["real"]
     res = found[("translation", "reservoir against the baseline")]
     # +1.00 mm against the paper's +1.4, with 50 % less data: within its difference, as the paper
-    assert res["ours"] == "+1.00 mm with 50 % less data" and res["paper"] == "+1.4 mm with 48 % less data"
+    assert res["ours"] == "+1.00 mm (+50 % of the baseline) with 50 % less data"
+    assert res["paper"] == "+1.4 mm (+100 % of its baseline) with 48 % less data"
     assert res["verdict"] == "as the paper" and res["table"] == "21"
     res = found[("orientation", "reservoir against the baseline")]
     assert res["ours"].startswith("+2.00 deg") and res["verdict"] == "as the paper"  # paper +4.5 deg
     sel = found[("translation", "selection against the baseline")]
-    assert sel["ours"] == "+0.50 mm with 75 % less data" and sel["verdict"] == "as the paper"  # paper +1.0, 66 %
+    assert sel["ours"].startswith("+0.50 mm (+25 %") and sel["verdict"] == "as the paper"  # paper +71 %, 66 %
     naive = found[("translation", "naive forgets")]
     assert "S1 40.00 mm at the last step, 20.0x the baseline's 2.00" in naive["ours"]
     assert naive["verdict"] == "as the paper" and naive["table"] == "13"
@@ -85,8 +86,8 @@ def test_the_findings_are_judged_by_the_papers_differences_and_data():
     assert found[("translation", "the baseline's level")]["ours"] == "2.00 mm"
     lines = paper_findings(_results())
     assert (
-        "translation: reservoir against the baseline: +1.00 mm with 50 % less data (paper: +1.4 mm with 48 % "
-        "less data): as the paper" in lines
+        "translation: reservoir against the baseline: +1.00 mm (+50 % of the baseline) with 50 % less data "
+        "(paper: +1.4 mm (+100 % of its baseline) with 48 % less data): as the paper" in lines
     )
 
 
@@ -94,7 +95,7 @@ def test_a_difference_beyond_the_papers_is_not_called_as_the_paper():
     results = _results()
     for r in results["runs"]:
         if r["strategy"] == "reservoir" and r["network"] == "translation":
-            r["rmse_matrix"][-1] = [5.0, 5.0, 5.0]  # +3 mm against the paper's +1.4
+            r["rmse_matrix"][-1] = [5.0, 5.0, 5.0]  # +3 mm, +150 % of the baseline, against the paper's +100 %
     f = next(f for f in judge(results) if f["finding"] == "reservoir against the baseline")
     assert f["ours"].startswith("+3.00 mm") and f["verdict"] == "NOT as the paper"
 
