@@ -144,8 +144,9 @@ def _documented_commands() -> list[tuple[str, str]]:
             for line in text.splitlines():
                 for part in re.split(r"&&|\|", line.split(" #")[0]):
                     part = part.strip()
-                    if part.startswith("handeye "):
-                        out.append((path.relative_to(ROOT).as_posix(), part))
+                    launched = re.search(r"-m (handeye .*)", part)  # torchrun ... -m handeye ...
+                    if part.startswith("handeye ") or launched:
+                        out.append((path.relative_to(ROOT).as_posix(), part if not launched else launched[1]))
     return out
 
 
@@ -162,3 +163,89 @@ def test_documented_commands_parse(where, command):
         build_parser().parse_args(argv)
     except SystemExit as exc:
         pytest.fail(f"{where}: {command!r} does not parse (exit {exc.code})")
+
+
+def _benchmark_commands() -> list[tuple[str, str]]:
+    """Every ``python benchmarks/NAME.py ...`` command the README and the documentation print, in bash blocks
+    or in inline code, with its file; continuation lines joined."""
+    out = []
+    for path in markdown_files():
+        text = path.read_text()
+        pieces = [re.sub(r"\\\n\s*", " ", b) for b in code_blocks(path, "bash")]
+        pieces += [re.sub(r"\s+", " ", span) for span in re.findall(r"`(python benchmarks/[^`]+)`", text)]
+        for piece in pieces:
+            for line in piece.splitlines():
+                for part in re.split(r"&&|\|", line.split(" #")[0]):
+                    part = part.strip()
+                    if part.startswith("python benchmarks/"):
+                        out.append((path.relative_to(ROOT).as_posix(), part))
+    return sorted(set(out))
+
+
+class _Parsed(Exception):
+    """Raised once a benchmark's arguments parsed: nothing after the parse runs."""
+
+
+@pytest.mark.parametrize("where,command", _benchmark_commands(), ids=lambda v: v if "/" not in v else "")
+def test_documented_benchmark_commands_parse(where, command, monkeypatch):
+    """Every benchmark command the documentation prints parses with the script's own arguments (they run for
+    minutes to hours, so they are parsed, not run): a renamed or removed option fails here."""
+    import argparse
+    import runpy
+    import shlex
+
+    argv = shlex.split(command)[1:]
+    script = ROOT / argv[0]
+    assert script.is_file(), f"{where}: {argv[0]} does not exist"
+    original = argparse.ArgumentParser.parse_args
+
+    def parse_then_stop(self, args=None, namespace=None):
+        original(self, args, namespace)
+        raise _Parsed
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", parse_then_stop)
+    monkeypatch.setattr(sys, "argv", argv)
+    monkeypatch.chdir(ROOT)
+    try:
+        runpy.run_path(str(script), run_name="__main__")
+    except _Parsed:
+        return
+    except SystemExit as exc:
+        pytest.fail(f"{where}: {command!r} does not parse (exit {exc.code})")
+    pytest.fail(f"{where}: {script.name} ran to the end without parsing its arguments")
+
+
+def test_one_script_regenerates_every_printed_output(tmp_path, monkeypatch):
+    """``docs/make_examples.py`` finds the printed outputs (the README's and the getting-started page's) and
+    rewrites one that went stale; ``test_calibrate_example_prints_what_is_shown`` keeps them current."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_examples", DOCS / "make_examples.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 1]
+    stale = tmp_path / "README.md"
+    stale.write_text(README.read_text().replace("15 poses, method auto", "14 poses, method auto", 1))
+    text, changed = mod.regenerate(stale)
+    assert len(changed) == 1 and changed[0].startswith("handeye calibrate")
+    assert text == README.read_text() or "15 poses, method auto" in text  # rewritten from a fresh run
+    monkeypatch.setattr(mod, "FILES", (stale,))
+    assert mod.main(["--check"]) == 1 and "14 poses" in stale.read_text()  # --check changes nothing
+    assert mod.main([]) == 0 and "15 poses, method auto" in stale.read_text()
+
+
+def test_documented_installs_name_extras_the_project_has():
+    """Every ``pip install -e ".[...]"`` the documentation prints names optional dependencies pyproject.toml
+    defines (a renamed extra fails here, not in a reader's terminal)."""
+    import tomllib
+
+    extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    named = {
+        (path.name, extra.strip())
+        for path in markdown_files()
+        for group in re.findall(r'pip install[^\n]*?-e "\.\[([^\]]+)\]"', path.read_text())
+        for extra in group.split(",")
+    }
+    assert named, "no install commands found"
+    unknown = sorted((f, e) for f, e in named if e not in extras)
+    assert not unknown, f"extras not in pyproject.toml: {unknown}"

@@ -1,0 +1,75 @@
+"""Regenerate the example outputs the README and the documentation print, from the commands printed above them.
+
+Run from the repository root::
+
+    python docs/make_examples.py            # rewrite every example output in place
+    python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
+
+An example is a ``bash`` block whose ``handeye`` command is followed by a plain fenced block: that block is the
+command's output. The outputs are deterministic (seeded data, shipped example files); the tests
+(``tests/test_docs.py::test_calibrate_example_prints_what_is_shown``) compare them with a fresh run within the
+last printed digit, so an output that drifts fails CI until this script is run again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import re
+import shlex
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FILES = (ROOT / "README.md", ROOT / "docs" / "getting-started.md")
+#: A bash block with a ``handeye`` command, then a plain block: the command's output.
+EXAMPLE = re.compile(
+    r"(^```bash\n(?P<command>handeye [^\n]+)\n```\n\n(?:[^\n`][^\n]*\n)*?\n?```\n)(?P<output>.*?)(^```)", re.S | re.M
+)
+
+
+def run(command: str) -> str:
+    """What ``command`` (a ``handeye`` command line) prints, run in-process from the repository root."""
+    sys.path.insert(0, str(ROOT))
+    from handeye.cli import main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.chdir(ROOT):
+        status = main(shlex.split(command)[1:])
+    if status != 0:
+        raise SystemExit(f"{command!r} exited {status}")
+    return out.getvalue()
+
+
+def regenerate(path: Path) -> tuple[str, list[str]]:
+    """The file's text with every example output regenerated, and the commands whose output changed."""
+    text, changed = path.read_text(), []
+
+    def replace(m: re.Match) -> str:
+        output = run(m["command"])
+        if output != m["output"]:
+            changed.append(m["command"])
+        return m.group(1) + output + m.group(4)
+
+    return EXAMPLE.sub(replace, text), changed
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--check", action="store_true", help="change nothing; exit 1 where an output is not today's")
+    args = ap.parse_args(argv)
+    stale = 0
+    for path in FILES:
+        text, changed = regenerate(path)
+        for command in changed:
+            name = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+            print(f"{name}: the output of {command!r} {'differs' if args.check else 'rewritten'}")
+        if changed and not args.check:
+            path.write_text(text)
+        stale += len(changed)
+    return 1 if args.check and stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
