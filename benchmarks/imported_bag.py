@@ -28,16 +28,17 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
+from benchmarks._bands import BANDS_M  # noqa: E402
+from benchmarks._bands import WITH_BOARD as _WITH_BOARD  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
 from handeye.cli import main as cli  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.se3 import make_transform, so3_exp  # noqa: E402
 
-BANDS = {"0.7 m": (0.65, 0.75), "1.2 m": (1.15, 1.25), "1.8 m": (1.75, 1.85)}
-#: At 0.7 m the camera is inside the arm's reach: the simulator finds no board pose the arm can hold in its
-#: view (the board would have to be closer than the arm can fold), so that band has no calibration recording.
-WITH_BOARD = {"0.7 m": False, "1.2 m": True, "1.8 m": True}
+#: The bands as this script's --bands names them ("0.7 m"), from benchmarks/_bands.py.
+BANDS = {f"{k} m": v for k, v in BANDS_M.items()}
+WITH_BOARD = {f"{k} m": v for k, v in _WITH_BOARD.items()}
 
 
 def start_off(T: np.ndarray, rng, mm: float = 50.0, deg: float = 5.0) -> np.ndarray:

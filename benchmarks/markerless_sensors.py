@@ -44,6 +44,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
+from benchmarks._bands import BANDS_M  # noqa: E402
+from benchmarks._bands import WITH_BOARD as BANDS_WITH_BOARD  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
@@ -53,9 +55,9 @@ from sim.sensors import PROFILES, apply_sensor, draw_systematic  # noqa: E402
 
 WRONG_SIGMAS = 3.0
 #: Distance bands, camera to workspace centre (m); ``native`` keeps the preset's own.
-BANDS = {"native": None, "0.7": (0.65, 0.75), "1.2": (1.15, 1.25), "1.8": (1.75, 1.85)}
+BANDS = {"native": None, **BANDS_M}
 #: Bands where the simulator can record a board held by the arm (see the module docstring).
-WITH_BOARD = {"native": True, "0.7": False, "1.2": True, "1.8": True}
+WITH_BOARD = {"native": True, **BANDS_WITH_BOARD}
 
 
 def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:

@@ -51,7 +51,7 @@ def sweep_minutes(folder: Path) -> float:
     """Training and evaluation time of every run of a sweep, minutes (read back from its run folders)."""
     import json
 
-    from learned.report import load_results
+    from learned.results import load_results
 
     settings = json.loads((folder / "sweep.json").read_text())["settings"]
     return sum(r["wall_s"] for s in settings for r in load_results(folder / s["name"])["runs"]) / 60
@@ -60,7 +60,7 @@ def sweep_minutes(folder: Path) -> float:
 def run_mode(frames, preset, mode: str, where: str | None, out: Path, args) -> tuple[dict, float]:
     """One protocol run in ``mode``; its results and wall time (0 when read back from an earlier run)."""
     from learned.experiment import run_experiment
-    from learned.report import load_results
+    from learned.results import load_results
 
     p = preset.with_protocol(mode)
     if mode == "paper" and where == "real":

@@ -19,7 +19,8 @@ import numpy as np
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.tables import markdown_table
-from learned.paper_tables import NETS, PAPER_TEXT, UNIT, rmse, setting
+from learned.paper_tables import PAPER_TEXT, rmse, setting
+from learned.results import NETS, UNIT, load_results
 
 __all__ = [
     "DEFAULT_GRID",
@@ -85,15 +86,10 @@ def _sweep(frames, preset, settings: list, out: Path, strategies, **run) -> list
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    done = []
-    for name, label, changes in settings:
-        folder = out / name
-        if (folder / "results.json").exists():
-            done.append({"name": name, "label": label, **changes})
-            continue
-        run_experiment(frames, replace(preset, **changes), strategies, folder, **run)
-        done.append({"name": name, "label": label, **changes})
-        (out / "sweep.json").write_text(json.dumps({"settings": done}, indent=1))
+    for name, _, changes in settings:
+        if not (out / name / "results.json").exists():  # a finished setting is read back, not trained again
+            run_experiment(frames, replace(preset, **changes), strategies, out / name, **run)
+    done = [{"name": name, "label": label, **changes} for name, label, changes in settings]
     (out / "sweep.json").write_text(json.dumps({"settings": done}, indent=1))
     return done
 
@@ -118,8 +114,6 @@ def run_thresholds(frames, preset, out, pairs=DEFAULT_THRESHOLDS, **run) -> list
 
 
 def _load(out: Path) -> list[tuple[dict, dict]]:
-    from learned.report import load_results
-
     path = Path(out) / "sweep.json"
     if not path.exists():
         raise HandEyeInputError(f"{path}: missing; run the sweep first")

@@ -21,11 +21,10 @@ from __future__ import annotations
 import numpy as np
 
 from handeye.core.tables import markdown_table
+from learned.results import NETS, UNIT, mean_matrix, runs_of
 
 __all__ = ["PAPER_TEXT", "TABLES", "setting", "paper_tables", "paper_findings", "judge", "cost_rows", "rmse"]
 
-NETS = ("translation", "orientation")
-UNIT = {"translation": "mm", "orientation": "deg"}
 NOT_GIVEN = "not given in the text"
 
 #: What the paper's text states, per setting. Differences are (mm, deg); "less data" is a share of the
@@ -64,13 +63,9 @@ def setting(results: dict) -> str | None:
     return {6: "sim", 3: "real"}.get(len(results["regions"]))
 
 
-def _runs(results: dict, strategy: str, net: str) -> list[dict]:
-    return [r for r in results["runs"] if r["strategy"] == strategy and r["network"] == net]
-
-
 def rmse(results: dict, strategy: str, net: str) -> np.ndarray:
     """The step x subset RMSE matrix, mean over repeats."""
-    return np.array([r["rmse_matrix"] for r in _runs(results, strategy, net)], dtype=float).mean(axis=0)
+    return mean_matrix(results, strategy, net, "rmse_matrix")[0]
 
 
 def _final_mean(results: dict, strategy: str, net: str) -> float:
@@ -93,14 +88,15 @@ def _matrix_lines(results: dict, strategy: str, net: str, where: str | None) -> 
         given = PAPER_TEXT["real"]["naive_final_mm"]
         rows.append(["paper, final step", *[f"{given[s]:.2f}" for s in subsets]])
         paper = "its final step's cells are given in the text (last row)"
-    head = f"{_table_name(strategy if strategy != 'batch' else 'final', where, net)}{strategy}, {net} ({UNIT[net]})"
     if strategy == "batch":
         head = f"baseline retrained at every step, {net} ({UNIT[net]})"
+    else:
+        head = f"{_table_name(strategy, where, net)}{strategy}, {net} ({UNIT[net]})"
     return [f"#### {head}", "", f"The paper's cells: {paper}.", ""] + markdown_table(["step", *subsets], rows) + [""]
 
 
 def _pose_lines(results: dict, net: str, where: str | None) -> list[str]:
-    runs = _runs(results, "selection", net)
+    runs = runs_of(results, "selection", net)
     if not runs or not all(r.get("pose_matrix") for r in runs):
         return []
     subsets = [f"S{r + 1}" for r in results["regions"]]
@@ -159,11 +155,11 @@ def cost_rows(results: dict) -> list[dict]:
     for net in NETS:
         base = {}
         if "batch" in results["strategies"]:
-            b = _runs(results, "batch", net)
+            b = runs_of(results, "batch", net)
             base = {k: np.mean([r.get(k, 0) for r in b]) for k in ("trained_samples", "processed", "wall_s")}
             base["error"] = _final_mean(results, "batch", net)
         for strategy in results["strategies"]:
-            runs = _runs(results, strategy, net)
+            runs = runs_of(results, strategy, net)
             row = {"strategy": strategy, "network": net}
             for k in ("trained_samples", "processed", "wall_s", "stored"):
                 row[k] = float(np.mean([r.get(k, 0) for r in runs]))
@@ -244,6 +240,7 @@ def judge(results: dict) -> list[dict]:
         out.append({"table": name, "network": net, "finding": finding, "paper": paper, "ours": ours,
                     "verdict": verdict})  # fmt: skip
 
+    costs = {(r["strategy"], r["network"]): r for r in cost_rows(results)}
     for net in NETS:
         u, i = UNIT[net], NETS.index(net)
         base = rmse(results, "batch", net)[-1]
@@ -281,8 +278,7 @@ def judge(results: dict) -> list[dict]:
             if strategy not in strategies:
                 continue
             diff = _final_mean(results, strategy, net) - float(np.nanmean(base))
-            cost = next(r for r in cost_rows(results) if r["strategy"] == strategy and r["network"] == net)
-            less = 1 - cost["trained_samples_vs_baseline"]
+            less = 1 - costs[(strategy, net)]["trained_samples_vs_baseline"]
             data = f"{less * 100:.0f} % less data" if less >= 0 else f"{-less * 100:.0f} % more data"
             level = float(np.nanmean(base))
             given = text.get(strategy)
@@ -298,7 +294,7 @@ def judge(results: dict) -> list[dict]:
         if "selection" in strategies:
             preset = results.get("preset", {})
             thr = float(preset.get("threshold_mm", 3.0) if net == "translation" else preset.get("threshold_deg", 4.0))
-            skipped = np.mean([len(r["skipped"]) for r in _runs(results, "selection", net)])
+            skipped = np.mean([len(r["skipped"]) for r in runs_of(results, "selection", net)])
             poses = sum(len(s) for s in results["steps"][1:])
             given = text.get("eliminated", {}).get(net, {})
             if thr in given:

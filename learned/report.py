@@ -21,45 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.core.errors import HandEyeInputError
-from handeye.core.jsonfile import read_json_file
 from handeye.core.tables import markdown_table, write_csv
 from learned.paper_tables import paper_tables
+from learned.results import UNIT, has_rmse, load_results, mean_matrix, metric_key, runs_of
 
-__all__ = ["load_results", "write_report", "findings"]
-
-UNIT = {"translation": "mm", "orientation": "deg"}
-
-
-def load_results(run_dir: str | Path) -> dict:
-    """``results.json`` of a run directory, with a clear error when it is missing or not a results file."""
-    path = Path(run_dir) / "results.json"
-    if not path.exists():
-        raise HandEyeInputError(f"{path}: missing; run 'handeye learned run ... --out {run_dir}' first")
-    doc = read_json_file(path, HandEyeInputError, "run results file")
-    if not isinstance(doc, dict) or "runs" not in doc:
-        raise HandEyeInputError(f"{path}: not the results of 'handeye learned run' (no 'runs')")
-    return doc
-
-
-def _runs(results: dict, strategy: str, network: str) -> list[dict]:
-    return [r for r in results["runs"] if r["strategy"] == strategy and r["network"] == network]
-
-
-def mean_matrix(results: dict, strategy: str, network: str, key: str = "matrix") -> tuple[np.ndarray, np.ndarray]:
-    """Mean and standard deviation over repeats of the step x subset matrix (``key="rmse_matrix"``: of the RMS
-    errors, the paper's metric)."""
-    m = np.array([r[key] for r in _runs(results, strategy, network)], dtype=float)
-    return m.mean(axis=0), m.std(axis=0)
-
-
-def _has_rmse(results: dict) -> bool:
-    return all(r.get("rmse_matrix") for r in results["runs"])
+__all__ = ["write_report", "findings"]
 
 
 def _placement_matrix(results: dict, strategy: str, network: str) -> np.ndarray | None:
     """Mean over repeats of the keypoint model's step x subset placement matrix; None where it was not recorded."""
-    m = [r.get("placement_matrix") for r in _runs(results, strategy, network)]
+    m = [r.get("placement_matrix") for r in runs_of(results, strategy, network)]
     if not m or not all(m):
         return None
     return np.array(m, dtype=float).mean(axis=0)
@@ -103,8 +74,8 @@ def findings(results: dict) -> list[str]:
                 f"{'reproduced' if ratio <= 1.5 else 'NOT reproduced'}"
             )
         if "selection" in strategies and "reservoir" in strategies:
-            s = _runs(results, "selection", net)
-            r = _runs(results, "reservoir", net)
+            s = runs_of(results, "selection", net)
+            r = runs_of(results, "reservoir", net)
             skipped = np.mean([len(x["skipped"]) for x in s])
             proc_s, proc_r = np.mean([x["processed"] for x in s]), np.mean([x["processed"] for x in r])
             es = np.nanmean(mean_matrix(results, "selection", net)[0][-1])
@@ -136,8 +107,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     subsets = [f"S{r + 1}" for r in regions]
     repeats = results["preset"]["repeats"]
     family = results.get("family", "regression")
-    metric = results["preset"].get("metric", "mean")
-    key = "rmse_matrix" if metric == "rmse" and _has_rmse(results) else "matrix"
+    key = metric_key(results)
     what = "Root-mean-square (the paper's metric)" if key == "rmse_matrix" else "Mean"
     batch_when = (
         "batch trains from scratch on all data seen at every step"
@@ -198,7 +168,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
             final_rows.append([net, strategy, *mean[-1], float(np.nanmean(mean[-1]))])
         md += [f"### {net} ({UNIT[net]})", ""] + markdown_table(["strategy", *subsets, "mean"], md_rows) + [""]
     write_csv(run_dir / "final_step.csv", ["network", "strategy", *subsets, "mean"], final_rows)
-    if _has_rmse(results) and "batch" in results["strategies"]:
+    if has_rmse(results) and "batch" in results["strategies"]:
         rmse_rows = []
         for net in ("translation", "orientation"):
             base = np.nanmean(mean_matrix(results, "batch", net, "rmse_matrix")[0][-1])
@@ -212,7 +182,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     compute_rows, md_rows = [], []
     for strategy in results["strategies"]:
         for net in ("translation", "orientation"):
-            runs = _runs(results, strategy, net)
+            runs = runs_of(results, strategy, net)
             vals = [np.mean([r[k] for r in runs]) for k in ("stored", "processed", "evaluated", "wall_s")]
             skipped = np.mean([len(r["skipped"]) for r in runs])
             md_rows.append([strategy, net, *[f"{v:.0f}" for v in vals], f"{skipped:.1f}"])
@@ -327,7 +297,7 @@ def _figures(results: dict, run_dir: Path) -> None:
     import matplotlib.pyplot as plt
 
     regions = results["regions"]
-    key = "rmse_matrix" if results["preset"].get("metric") == "rmse" and _has_rmse(results) else "matrix"
+    key = metric_key(results)
     for net in ("translation", "orientation"):
         strategies = results["strategies"]
         fig, axes = plt.subplots(1, len(strategies), figsize=(3.6 * len(strategies), 3.2), sharey=True, squeeze=False)
