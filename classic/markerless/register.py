@@ -33,7 +33,9 @@ projector pattern stays put over time), unless the caller gives it. The sigma co
 independent, and errors shared by all frames at one depth (a matcher's pull toward whole disparities) by
 clustering the residuals by depth bin as well (two-way,
 :func:`classic.clustered_covariance.clustered_covariance`); whether the depth scale and offset are observable
-at all is judged on the frames' spread alone.
+at all is judged on the frames' spread alone. What the frames share beyond that is measured by solving their
+halves again, near against far and left against right (:mod:`classic.markerless.consistency`): their
+disagreement beyond their own noise enters the sigma.
 
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
@@ -50,6 +52,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from classic.clustered_covariance import pose_sigma
+from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
 from classic.markerless.point_to_plane import corrected_points, solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
@@ -174,6 +177,10 @@ class MarkerlessOptions:
     depth_clusters : int
         Depth bins (equal counts) of the covariance's second clustering: a sensor's depth-dependent error is
         shared by every frame at that depth. Below 2: clustered by frame only.
+    split_check : bool
+        Solve the frames' halves (near/far, left/right) again and add their disagreement beyond their own
+        noise to the sigma (:mod:`classic.markerless.consistency`): errors the frames share by depth or image
+        position, which the clustered covariance cannot see. True by default.
     seed : int
     """
 
@@ -194,6 +201,7 @@ class MarkerlessOptions:
     max_model_points: int = 300000
     zbuffer_stride: int = 1
     depth_clusters: int = 12
+    split_check: bool = True
     seed: int = 0
 
     def __post_init__(self):
@@ -224,9 +232,10 @@ class MarkerlessResult:
     covariance : array, shape (6, 6)
         Of the camera's rotation (rad, camera frame) and position (m, camera frame).
     sigma : dict
-        ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, the noise the
-        frame-clustered covariance sees and the model's sampling bias bound (``diagnostics``
-        ``sigma_noise`` and ``sigma_sampling``) in quadrature.
+        ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
+        the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
+        halves (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and in
+        translation the depth-to-colour extrinsic's uncertainty.
     residual_mm_per_frame : array, shape (N,)
         RMS point-to-plane residual of the matched points of each frame.
     matched_fraction : float
@@ -487,30 +496,48 @@ class _Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q_obs, q, has_depth, close
 
-    def _fit(self, T, idx, f, q_obs, close):
-        sel = np.flatnonzero(close)
-        expected = np.sqrt(self.sigma_z(q_obs[sel, 2]) ** 2 + self.opts.model_floor_m**2)
-        m = idx[sel]
+    def _solve(self, T, m, f, q_obs, iterations):
+        """Point-to-plane fit of fixed matches (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
+        and the current depth correction; returns the fit and the median expected residual."""
+        expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
         estimate_depth = self.opts.depth_model == "scale-offset"
         fit = solve_point_to_plane(
-            q_obs[sel] if estimate_depth else self.corrected(q_obs[sel]),
+            q_obs if estimate_depth else self.corrected(q_obs),
             self.s.points_base[m],
             self.s.normals_base[m],
             T,
-            scale_m=float(np.median(expected)) * 2,
+            scale_m=expected * 2,
             loss="cauchy",
-            group=f[sel],
-            iterations=3 if self.opts.depth_model == "fixed" else 5,
+            group=f,
+            iterations=iterations,
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
             depth_correction=(self.k, self.c) if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
-            cross_group=_depth_bins(q_obs[sel, 2], self.opts.depth_clusters),
+            cross_group=_depth_bins(q_obs[:, 2], self.opts.depth_clusters),
         )
-        if estimate_depth:
+        return fit, expected
+
+    def _fit(self, T, idx, f, q_obs, close):
+        sel = np.flatnonzero(close)
+        self.last_matches = (idx[sel], f[sel], q_obs[sel])
+        fit, expected = self._solve(T, *self.last_matches, iterations=3 if self.opts.depth_model == "fixed" else 5)
+        if fit.depth_correction is not None:
             self.k, self.c = fit.depth_correction
-        return fit, float(np.median(expected))
+        return fit, expected
+
+    def split_check(self, T, matches, depth_correction):
+        """The frames' halves solved again from the final matches: the sigma their disagreement adds
+        (:func:`classic.markerless.consistency.split_excess`)."""
+        m, f, q_obs = matches
+        self.k, self.c = depth_correction if depth_correction is not None else (1.0, 0.0)
+
+        def solve(mask):
+            fit, _ = self._solve(T, m[mask], f[mask], q_obs[mask], iterations=5)
+            return fit.T_base_cam, fit.covariance
+
+        return split_excess(solve, f, frame_splits(f, q_obs, self.n))
 
     def fine(self, T):
         """Projective point-to-plane, gate shrinking to 4 robust sigmas; returns (T, fit, last step, matched).
@@ -621,12 +648,13 @@ def register_robot(
         T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
         if fit is not None and (best is None or matched > best[0]):
-            best = (matched, name, T, fit, step, problem.final_geometry, problem.final_depth_range)
+            geometry, depth_range = problem.final_geometry, problem.final_depth_range
+            best = (matched, name, T, fit, step, geometry, depth_range, problem.last_matches)
         if fit is not None and matched >= opts.min_matched_fraction + 0.15:
             break  # a clear success: the other starts cannot do better than the noise
     if best is None:
         return refuse("did not converge: no start kept enough matched points")
-    matched, name, T, fit, step, (z_med, lever_m), depth_range = best
+    matched, name, T, fit, step, (z_med, lever_m), depth_range, matches = best
     inl = fit.weights > 0.5
     group = fit.group
     res_frame = np.array(
@@ -650,9 +678,12 @@ def register_robot(
     sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
     # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
     extrinsic_mm = np.sqrt(3) * opts.depth_extrinsic_sigma_m * 1e3
+    # what the frames share and differ in by depth or image position: the halves' disagreement
+    split = problem.split_check(T, matches, fit.depth_correction) if opts.split_check else None
+    split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
     sigma = {
-        "rotation_deg": float(np.hypot(noise_deg, sampling_deg)),
-        "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2)),
+        "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + split_deg**2)),
+        "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2 + split_mm**2)),
     }
     depth = _depth_summary(fit, opts, depth_range, problem.noise_source, noise_mm)
     diag.update(
@@ -663,6 +694,7 @@ def register_robot(
             "matched_points": int(inl.sum()),
             "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm_pose},
             "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
+            "sigma_consistency": split,
         }
     )
     refused = None
