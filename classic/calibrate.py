@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -19,7 +21,7 @@ from classic.daniilidis import _daniilidis_finish, _daniilidis_stats
 from classic.diagnostics import check_consistency, diagnose_motion
 from classic.horaud import _horaud_finish, _horaud_stats
 from classic.li import _li
-from classic.motions import accumulate, iter_motions, motions_from_poses
+from classic.motions import Motions, accumulate, iter_motions, motions_from_poses
 from classic.noise_model import NoiseModel, as_noise_model
 from classic.pairs import PAIRINGS, pair_indices
 from classic.park import _park_finish, _park_stats
@@ -133,15 +135,16 @@ def solve(
     return initial_estimate(robot_side_poses(T_base_ee, setup), T_cam_target, method, pairs)
 
 
-def _check_pair_consensus(A, B, X, model, setup, pairs, motions) -> None:
+def _check_pair_consensus(poses, X, model) -> None:
     """Refuse when poses that break the motion pairs' invariants move the least-squares X by several sigma."""
-    suspects = pair_consensus_suspects(A, B, pairs, motions if pairs == "all" else None)
+    A, B = poses.A_in, poses.B_in
+    suspects = pair_consensus_suspects(A, B, poses.pairs, poses.built_motions() if poses.pairs == "all" else None)
     keep = np.ones(len(A), dtype=bool)
     keep[suspects] = False
     if len(suspects) == 0 or keep.sum() < MIN_POSES:
         return
     X0, Y0 = best_start(A[keep], B[keep], initial_estimate, START_CANDIDATES)[1:]
-    clean = refine_xy(A[keep], B[keep], X0, Y0, noise=_subset_model(model, keep), setup=setup)
+    clean = refine_xy(A[keep], B[keep], X0, Y0, noise=_subset_model(model, keep), setup=poses.setup)
     shift = x_shift_sigma(X, clean.X, clean.covariance)
     if shift > MAX_SHIFT_SIGMA:
         refuse_shift(suspects, shift, len(A))
@@ -251,6 +254,70 @@ def calibrate(
     >>> bool(abs(res.T_base_cam - p.X_true).max() < 1e-9)
     True
     """
+    setup, loss = _checked_arguments(setup, method, pairs, loss, robust)
+    model = as_noise_model(noise)
+    poses = _Poses.validated(T_base_ee, T_cam_target, setup, pairs)
+    diagnostics: dict = {}
+    if robust:
+        poses = _reject_outliers(poses, rng, diagnostics)
+    _check_motion(poses, check, estimate_scale, diagnostics)
+    X, Y, scale0, name = _start(poses, method, estimate_scale)
+    name = ("ransac+" if robust else "") + name
+    ref, poses = _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics)
+    if refine:
+        X, Y = ref.X, ref.Y
+        name += "+ml" if model is not None and model.has_robot_noise else "+lm"
+        if check and loss == "linear":  # a robust loss handles outliers; least squares must not hide them
+            _check_fit(poses, ref, model, estimate_scale)
+    return _result(poses, X, Y, name, ref, model, loss, refine and robust, estimate_scale, diagnostics)
+
+
+# -- the stages of calibrate(), in its order
+
+
+@dataclass
+class _Poses:
+    """The validated poses as every stage reads them: the robot side ``A`` and the camera's ``B`` of all poses,
+    which of them are inliers, and the inliers' motion pairs, built once when a stage first asks for them."""
+
+    setup: str
+    pairs: str
+    T_base_ee: np.ndarray
+    B: np.ndarray
+    A: np.ndarray
+    inliers: np.ndarray
+
+    @classmethod
+    def validated(cls, T_base_ee, T_cam_target, setup, pairs) -> "_Poses":
+        T_base_ee, T_cam_target = _validated(T_base_ee, T_cam_target)
+        A = robot_side_poses(T_base_ee, setup)
+        return cls(setup, pairs, T_base_ee, T_cam_target, A, np.ones(len(A), dtype=bool))
+
+    def keeping(self, inliers: np.ndarray) -> "_Poses":
+        """The same poses with other inliers (their motions built afresh when asked for)."""
+        return _Poses(self.setup, self.pairs, self.T_base_ee, self.B, self.A, inliers)
+
+    @cached_property
+    def A_in(self) -> np.ndarray:
+        return self.A[self.inliers]
+
+    @cached_property
+    def B_in(self) -> np.ndarray:
+        return self.B[self.inliers]
+
+    @cached_property
+    def motions(self) -> Motions:
+        """The inliers' motion pairs (``pairs``): for the motion and consistency checks, the start, the pair
+        consensus."""
+        return motions_from_poses(self.A_in, self.B_in, *pair_indices(len(self.A_in), self.pairs))
+
+    def built_motions(self) -> Motions | None:
+        """:attr:`motions` if a stage has built them, else None (the caller builds only what it needs)."""
+        return self.__dict__.get("motions")
+
+
+def _checked_arguments(setup, method, pairs, loss, robust) -> tuple[str, str]:
+    """The setup's canonical name and the loss (``cauchy`` when robust unless given); unknown names raise."""
     setup = normalize_setup(setup)
     if pairs not in PAIRINGS:
         raise HandEyeInputError(f"unknown pairs {pairs!r}: use one of {PAIRINGS}")
@@ -259,89 +326,114 @@ def calibrate(
     loss = loss or ("cauchy" if robust else "linear")
     if loss not in LOSSES:
         raise HandEyeInputError(f"unknown loss {loss!r}: use one of {LOSSES}")
-    model = as_noise_model(noise)
-    T_base_ee, T_cam_target = _validated(T_base_ee, T_cam_target)
-    diagnostics: dict = {}
-    A = robot_side_poses(T_base_ee, setup)
-    B = T_cam_target
-    inliers = np.ones(len(A), dtype=bool)
-    if robust:
-        found = lmeds_inliers(A, B, rng)
-        inliers = found.inliers
-        if inliers.sum() < MIN_POSES:
-            raise TooFewPosesError(
-                f"only {int(inliers.sum())} of {len(A)} poses agree with each other after outlier rejection; "
-                f"at least {MIN_POSES} are needed. Check the pairing of robot and camera poses."
-            )
-        diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
-        diagnostics["lmeds_median_residual_mm"] = 1000 * found.median_residual_m
-    # motion first: on degenerate motion a closed-form fit is ill-posed, and the fit-based consistency test
-    # would blame the pairing for what is a lack of rotation
-    A_in, B_in = A[inliers], B[inliers]
-    motions = motions_from_poses(A_in, B_in, *pair_indices(len(A_in), pairs))  # once, for the checks and the start
+    return setup, loss
+
+
+def _reject_outliers(poses: _Poses, rng, diagnostics: dict) -> _Poses:
+    """Gross outliers flagged by least-median sampling over pose triples (:func:`classic.ransac.lmeds_inliers`)."""
+    found = lmeds_inliers(poses.A, poses.B, rng)
+    inliers = found.inliers
+    if inliers.sum() < MIN_POSES:
+        raise TooFewPosesError(
+            f"only {int(inliers.sum())} of {len(poses.A)} poses agree with each other after outlier rejection; "
+            f"at least {MIN_POSES} are needed. Check the pairing of robot and camera poses."
+        )
+    diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
+    diagnostics["lmeds_median_residual_mm"] = 1000 * found.median_residual_m
+    return poses.keeping(inliers)
+
+
+def _check_motion(poses: _Poses, check: bool, estimate_scale: bool, diagnostics: dict) -> None:
+    """Whether the rotations determine X (refused when degenerate and ``check``) and whether the robot's and
+    the camera's motions agree (refused when not).
+
+    Motion first: on degenerate motion a closed-form fit is ill-posed, and the fit-based consistency test
+    would blame the pairing for what is a lack of rotation.
+    """
+    T_base_ee, T_cam_target = poses.T_base_ee[poses.inliers], poses.B_in
+    # the warnings point at calibrate()'s caller: this stage and calibrate() lie between
     motion = diagnose_motion(
-        T_base_ee[inliers], T_cam_target[inliers], setup, pairs, raise_on_degenerate=check, motions=motions
+        T_base_ee,
+        T_cam_target,
+        poses.setup,
+        poses.pairs,
+        raise_on_degenerate=check,
+        motions=poses.motions,
+        stacklevel=4,
     )
     if check and not estimate_scale:  # the consistency fit assumes metric camera poses
         diagnostics["consistency"] = check_consistency(
-            T_base_ee[inliers], T_cam_target[inliers], setup, pairs, motions=motions
+            T_base_ee, T_cam_target, poses.setup, poses.pairs, motions=poses.motions
         )
     diagnostics["motion"] = motion.to_dict()
 
-    scale0 = 1.0
+
+def _start(poses: _Poses, method: str, estimate_scale: bool) -> tuple[np.ndarray, np.ndarray, float, str]:
+    """The closed form the refinement starts from: ``(X, Y, scale, name)``."""
+    A, B, pairs = poses.A_in, poses.B_in, poses.pairs
     if estimate_scale:
-        X, Y, scale0 = scaled_start(A_in, B_in, pairs)
-        name = "park+scale"
-    elif method == "auto":
-        start, X, Y = best_start(
-            A_in, B_in, lambda a, b, m: initial_estimate(a, b, m, pairs, motions), START_CANDIDATES
-        )
-        name = f"auto({start})"
-    else:
-        X, Y = initial_estimate(A_in, B_in, method, pairs, motions)
-        name = method
-    name = ("ransac+" if robust else "") + name
+        X, Y, scale0 = scaled_start(A, B, pairs)
+        return X, Y, scale0, "park+scale"
+    if method == "auto":
+        solve = lambda a, b, m: initial_estimate(a, b, m, pairs, poses.motions)  # noqa: E731
+        start, X, Y = best_start(A, B, solve, START_CANDIDATES)
+        return X, Y, 1.0, f"auto({start})"
+    X, Y = initial_estimate(A, B, method, pairs, poses.motions)
+    return X, Y, 1.0, method
+
+
+def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics):
+    """The maximum-likelihood refinement (:func:`classic.refine.refine_xy`; evaluated at the start only
+    without ``refine``); robust, the loss's own outliers join the sampling's and the inliers are refit by
+    least squares. Returns the refinement and the poses with their final inliers."""
     ref = refine_xy(
-        A_in,
-        B_in,
+        poses.A_in,
+        poses.B_in,
         X,
         Y,
         loss=loss,
-        noise=_subset_model(model, inliers),
+        noise=_subset_model(model, poses.inliers),
         max_iterations=50 if refine else 0,
-        setup=setup,
+        setup=poses.setup,
         estimate_scale=estimate_scale and refine,
         scale0=scale0,
     )
-    if refine and robust:
-        # the robust loss's own outliers join the sampling's, and the inliers are refit by least squares:
-        # a Cauchy loss down-weights good poses a little too, which costs efficiency
-        bad, _ = suspect_poses(ref.whitened)
-        if len(bad) and len(A_in) - len(bad) >= MIN_POSES:
-            idx = np.flatnonzero(inliers)
-            inliers[idx[bad]] = False
-            diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
-            A_in, B_in = A[inliers], B[inliers]
-        ref = refine_xy(
-            A_in,
-            B_in,
-            ref.X,
-            ref.Y,
-            loss="linear",
-            noise=_subset_model(model, inliers),
-            setup=setup,
-            estimate_scale=estimate_scale,
-            scale0=ref.scale,
-        )
-    if refine:
-        X, Y = ref.X, ref.Y
-        name += "+ml" if model is not None and model.has_robot_noise else "+lm"
-        if check and loss == "linear":  # a robust loss handles outliers; least squares must not hide them
-            B_fit = B_in.copy()
-            B_fit[:, :3, 3] *= ref.scale
-            check_contamination(ref.whitened, np.concatenate(pose_residuals(A_in, B_fit, X, Y), axis=1), ref.jacobian)
-            if not estimate_scale:
-                _check_pair_consensus(A_in, B_in, X, _consensus_model(model, ref), setup, pairs, motions)
+    if not (refine and robust):
+        return ref, poses
+    # a Cauchy loss down-weights good poses a little too, which costs efficiency
+    bad, _ = suspect_poses(ref.whitened)
+    if len(bad) and len(poses.A_in) - len(bad) >= MIN_POSES:
+        inliers = poses.inliers.copy()
+        inliers[np.flatnonzero(inliers)[bad]] = False
+        diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
+        poses = poses.keeping(inliers)
+    ref = refine_xy(
+        poses.A_in,
+        poses.B_in,
+        ref.X,
+        ref.Y,
+        loss="linear",
+        noise=_subset_model(model, poses.inliers),
+        setup=poses.setup,
+        estimate_scale=estimate_scale,
+        scale0=ref.scale,
+    )
+    return ref, poses
+
+
+def _check_fit(poses: _Poses, ref, model, estimate_scale: bool) -> None:
+    """Refuse a least-squares fit that outlier poses pulled off (:mod:`classic.contamination`)."""
+    B_fit = poses.B_in.copy()
+    B_fit[:, :3, 3] *= ref.scale
+    check_contamination(
+        ref.whitened, np.concatenate(pose_residuals(poses.A_in, B_fit, ref.X, ref.Y), axis=1), ref.jacobian
+    )
+    if not estimate_scale:
+        _check_pair_consensus(poses, ref.X, _consensus_model(model, ref))
+
+
+def _result(poses, X, Y, name, ref, model, loss, refit, estimate_scale, diagnostics) -> CalibrationResult:
+    """The result: the noise estimate, the refinement's record, every pose's residual (outliers too)."""
     diagnostics["noise_estimate"] = {
         "rotation_deg": float(np.degrees(ref.sigma_rot_rad)),
         "translation_mm": 1000 * ref.sigma_trans_m,
@@ -350,7 +442,7 @@ def calibrate(
     diagnostics["noise_model"] = ref.noise_model
     diagnostics["refinement"] = {
         "loss": loss,
-        "then": "least squares on the inliers" if refine and robust else None,
+        "then": "least squares on the inliers" if refit else None,
         "iterations": ref.iterations,
         "converged": bool(ref.converged),
         "cost_initial": ref.cost_initial,
@@ -360,14 +452,14 @@ def calibrate(
     scale = ref.scale if estimate_scale else 1.0
     if estimate_scale:
         diagnostics["scale"] = {"value": ref.scale, "sigma": ref.scale_sigma}
-    B_eval = B
+    B_eval = poses.B
     if scale != 1.0:
-        B_eval = B.copy()
+        B_eval = poses.B.copy()
         B_eval[:, :3, 3] *= scale
-    r_rot, r_trans = pose_residuals(A, B_eval, X, Y)
+    r_rot, r_trans = pose_residuals(poses.A, B_eval, X, Y)
     residuals = PoseResiduals(
         rotation_deg=np.degrees(np.linalg.norm(r_rot, axis=1)),
         translation_mm=1000 * np.linalg.norm(r_trans, axis=1),
-        inliers=inliers,
+        inliers=poses.inliers,
     )
-    return CalibrationResult(setup, name, X, Y, residuals, ref.covariance, diagnostics)
+    return CalibrationResult(poses.setup, name, X, Y, residuals, ref.covariance, diagnostics)

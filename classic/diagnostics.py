@@ -252,6 +252,7 @@ def diagnose_motion(
     pairs: str = "all",
     raise_on_degenerate: bool = True,
     motions: Motions | None = None,
+    stacklevel: int = 2,
 ) -> MotionDiagnostics:
     """Measure how well a pose set determines X; warn on weak data, refuse degenerate data.
 
@@ -264,6 +265,8 @@ def diagnose_motion(
         Raise :class:`DegenerateMotionError` when X is not determined.
     motions : Motions, optional
         The pose pairs' motions when already computed (``A_j A_i^-1``, ``B_j B_i^-1`` for ``pairs``).
+    stacklevel : int
+        Of the warnings: 2 points at the caller's line; a library function calling this one adds its depth.
 
     Returns
     -------
@@ -326,5 +329,5 @@ def diagnose_motion(
             f"[{axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f}] in the {frame} frame): rotate about other axes too"
         )
     for text in diag.warnings:
-        warnings.warn(text, WeakMotionWarning, stacklevel=3)
+        warnings.warn(text, WeakMotionWarning, stacklevel=stacklevel)
     return diag
