@@ -34,8 +34,8 @@ independent, and errors shared by all frames at one depth (a matcher's pull towa
 clustering the residuals by depth bin as well (two-way,
 :func:`classic.clustered_covariance.clustered_covariance`); whether the depth scale and offset are observable
 at all is judged on the frames' spread alone. What the frames share beyond that is measured by solving their
-halves again, near against far and left against right (:mod:`classic.markerless.consistency`): their
-disagreement beyond their own noise enters the sigma.
+groups again, by depth and by the arm's image column (:mod:`classic.markerless.consistency`): their
+scatter beyond their own noise enters the sigma.
 
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
@@ -178,8 +178,8 @@ class MarkerlessOptions:
         Depth bins (equal counts) of the covariance's second clustering: a sensor's depth-dependent error is
         shared by every frame at that depth. Below 2: clustered by frame only.
     split_check : bool
-        Solve the frames' halves (near/far, left/right) again and add their disagreement beyond their own
-        noise to the sigma (:mod:`classic.markerless.consistency`): errors the frames share by depth or image
+        Solve groups of the frames (by depth, by the arm's image column) again and add their scatter beyond
+        their own noise to the sigma (:mod:`classic.markerless.consistency`): errors the frames share by depth or image
         position, which the clustered covariance cannot see. True by default.
     seed : int
     """
@@ -234,7 +234,7 @@ class MarkerlessResult:
     sigma : dict
         ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
         the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
-        halves (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and in
+        groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and in
         translation the depth-to-colour extrinsic's uncertainty.
     residual_mm_per_frame : array, shape (N,)
         RMS point-to-plane residual of the matched points of each frame.
@@ -528,7 +528,7 @@ class _Problem:
         return fit, expected
 
     def split_check(self, T, matches, depth_correction):
-        """The frames' halves solved again from the final matches: the sigma their disagreement adds
+        """Groups of the frames solved again from the final matches: the sigma their scatter adds
         (:func:`classic.markerless.consistency.split_excess`)."""
         m, f, q_obs = matches
         self.k, self.c = depth_correction if depth_correction is not None else (1.0, 0.0)
@@ -678,7 +678,7 @@ def register_robot(
     sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
     # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
     extrinsic_mm = np.sqrt(3) * opts.depth_extrinsic_sigma_m * 1e3
-    # what the frames share and differ in by depth or image position: the halves' disagreement
+    # what the frames share and differ in by depth or image position: the groups' scatter
     split = problem.split_check(T, matches, fit.depth_correction) if opts.split_check else None
     split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
     sigma = {
