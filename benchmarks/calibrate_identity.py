@@ -112,8 +112,8 @@ def same(a: dict, b: dict) -> tuple[bool, str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--against", default="HEAD", help="the git revision to compare with (default HEAD)")
-    ap.add_argument("--repeats", type=int, default=5, help="runs of the workload per tree; the best is kept")
-    ap.add_argument("--rounds", type=int, default=3, help="alternating rounds of both trees")
+    ap.add_argument("--repeats", type=int, default=10, help="runs of the workload per tree; the best is kept")
+    ap.add_argument("--rounds", type=int, default=5, help="alternating rounds of both trees")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
