@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._report import Report  # noqa: E402
 
-#: name -> (make_problem arguments, calibrate arguments)
+#: name -> ((poses, setup) of make_problem, its noise and outlier arguments, calibrate's arguments)
 CASES = {
     "eye-to-hand, 15 poses": ((15, "eye_to_hand"), {"camera_noise": (0.1, 0.5)}, {}),
     "eye-in-hand, 20 poses": ((20, "eye_in_hand"), {"camera_noise": (0.1, 0.5)}, {}),

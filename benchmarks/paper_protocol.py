@@ -21,6 +21,7 @@ mode's run in the paper's full layout (every table of the report) is written bes
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -49,8 +50,6 @@ def demote(markdown: str, by: int = 2) -> str:
 
 def sweep_minutes(folder: Path) -> float:
     """Training and evaluation time of every run of a sweep, minutes (read back from its run folders)."""
-    import json
-
     from learned.results import load_results
 
     settings = json.loads((folder / "sweep.json").read_text())["settings"]

@@ -22,6 +22,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
 FILES = (ROOT / "README.md", ROOT / "docs" / "getting-started.md")
 #: A bash block with a ``handeye`` command, then a plain block: the command's output.
 EXAMPLE = re.compile(
@@ -31,7 +32,6 @@ EXAMPLE = re.compile(
 
 def run(command: str) -> str:
     """What ``command`` (a ``handeye`` command line) prints, run in-process from the repository root."""
-    sys.path.insert(0, str(ROOT))
     from handeye.cli import main
 
     out = io.StringIO()

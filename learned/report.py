@@ -23,7 +23,7 @@ import numpy as np
 
 from handeye.core.tables import markdown_table, write_csv
 from learned.paper_tables import paper_tables
-from learned.results import UNIT, has_rmse, load_results, mean_matrix, metric_key, runs_of
+from learned.results import NETS, UNIT, has_rmse, load_results, mean_matrix, metric_key, runs_of
 
 __all__ = ["write_report", "findings"]
 
@@ -46,7 +46,7 @@ def findings(results: dict) -> list[str]:
     """The paper's three findings, checked on these results, each with its numbers."""
     lines = []
     strategies = results["strategies"]
-    for net in ("translation", "orientation"):
+    for net in NETS:
         u = UNIT[net]
         if "naive" in strategies:
             m, _ = mean_matrix(results, "naive", net)
@@ -122,7 +122,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
         f"(after training on region k); {batch_when}.",
         "",
     ]
-    for net in ("translation", "orientation"):
+    for net in NETS:
         for strategy in results["strategies"]:
             mean, std = mean_matrix(results, strategy, net, key)
             rows, md_rows = [], []
@@ -154,7 +154,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     # final step against the baseline
     md += ["## Final step per test subset (tables 9-10)", ""]
     final_rows = []
-    for net in ("translation", "orientation"):
+    for net in NETS:
         md_rows = []
         for strategy in results["strategies"]:
             mean, std = mean_matrix(results, strategy, net, key)
@@ -170,7 +170,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     write_csv(run_dir / "final_step.csv", ["network", "strategy", *subsets, "mean"], final_rows)
     if has_rmse(results) and "batch" in results["strategies"]:
         rmse_rows = []
-        for net in ("translation", "orientation"):
+        for net in NETS:
             base = np.nanmean(mean_matrix(results, "batch", net, "rmse_matrix")[0][-1])
             for strategy in results["strategies"]:
                 rm = mean_matrix(results, strategy, net, "rmse_matrix")[0][-1]
@@ -181,7 +181,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     # data and compute
     compute_rows, md_rows = [], []
     for strategy in results["strategies"]:
-        for net in ("translation", "orientation"):
+        for net in NETS:
             runs = runs_of(results, strategy, net)
             vals = [np.mean([r[k] for r in runs]) for k in ("stored", "processed", "evaluated", "wall_s")]
             skipped = np.mean([len(r["skipped"]) for r in runs])
@@ -298,7 +298,7 @@ def _figures(results: dict, run_dir: Path) -> None:
 
     regions = results["regions"]
     key = metric_key(results)
-    for net in ("translation", "orientation"):
+    for net in NETS:
         strategies = results["strategies"]
         fig, axes = plt.subplots(1, len(strategies), figsize=(3.6 * len(strategies), 3.2), sharey=True, squeeze=False)
         for ax, strategy in zip(axes[0], strategies):
@@ -316,7 +316,7 @@ def _figures(results: dict, run_dir: Path) -> None:
         fig.savefig(run_dir / f"steps_{net}.png", dpi=110)
         plt.close(fig)
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
-    for ax, net in zip(axes, ("translation", "orientation")):
+    for ax, net in zip(axes, NETS):
         width = 0.8 / len(results["strategies"])
         for i, strategy in enumerate(results["strategies"]):
             mean, std = mean_matrix(results, strategy, net, key)

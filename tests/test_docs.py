@@ -134,19 +134,27 @@ def test_the_built_documentation_opens_in_a_browser(tmp_path):
     assert "Uncaught" not in run.stderr
 
 
+def _command_parts(path: Path, inline: str | None = None):
+    """Each command of the file's bash blocks (and of its inline code spans that start with ``inline``):
+    continuation lines joined, comments dropped, split at ``&&`` and ``|``."""
+    pieces = [re.sub(r"\\\n\s*", " ", block) for block in code_blocks(path, "bash")]
+    if inline:
+        pieces += [re.sub(r"\s+", " ", span) for span in re.findall(rf"`({re.escape(inline)}[^`]+)`", path.read_text())]
+    for piece in pieces:
+        for line in piece.splitlines():
+            for part in re.split(r"&&|\|", line.split(" #")[0]):
+                yield part.strip()
+
+
 def _documented_commands() -> list[tuple[str, str]]:
     """Every ``handeye ...`` command line in the bash blocks of the README and the documentation, with its
-    file; continuation lines joined, comments dropped."""
+    file (``torchrun ... -m handeye ...``: the ``handeye`` part)."""
     out = []
     for path in markdown_files():
-        for block in code_blocks(path, "bash"):
-            text = re.sub(r"\\\n\s*", " ", block)
-            for line in text.splitlines():
-                for part in re.split(r"&&|\|", line.split(" #")[0]):
-                    part = part.strip()
-                    launched = re.search(r"-m (handeye .*)", part)  # torchrun ... -m handeye ...
-                    if part.startswith("handeye ") or launched:
-                        out.append((path.relative_to(ROOT).as_posix(), part if not launched else launched[1]))
+        for part in _command_parts(path):
+            launched = re.search(r"-m (handeye .*)", part)
+            if part.startswith("handeye ") or launched:
+                out.append((path.relative_to(ROOT).as_posix(), part if not launched else launched[1]))
     return out
 
 
@@ -167,19 +175,16 @@ def test_documented_commands_parse(where, command):
 
 def _benchmark_commands() -> list[tuple[str, str]]:
     """Every ``python benchmarks/NAME.py ...`` command the README and the documentation print, in bash blocks
-    or in inline code, with its file; continuation lines joined."""
-    out = []
-    for path in markdown_files():
-        text = path.read_text()
-        pieces = [re.sub(r"\\\n\s*", " ", b) for b in code_blocks(path, "bash")]
-        pieces += [re.sub(r"\s+", " ", span) for span in re.findall(r"`(python benchmarks/[^`]+)`", text)]
-        for piece in pieces:
-            for line in piece.splitlines():
-                for part in re.split(r"&&|\|", line.split(" #")[0]):
-                    part = part.strip()
-                    if part.startswith("python benchmarks/"):
-                        out.append((path.relative_to(ROOT).as_posix(), part))
-    return sorted(set(out))
+    or in inline code, with its file."""
+    prefix = "python benchmarks/"
+    return sorted(
+        {
+            (path.relative_to(ROOT).as_posix(), part)
+            for path in markdown_files()
+            for part in _command_parts(path, inline=prefix)
+            if part.startswith(prefix)
+        }
+    )
 
 
 class _Parsed(Exception):

@@ -115,10 +115,13 @@ def split_excess(
         groups = [g for g in np.unique(label) if g >= 0]
         answers = [solve(label[frame] == g) for g in groups]
         G = len(answers)
-        T_0 = answers[0][0]
+        R_base_cam_0, t_base_cam_0 = answers[0][0][:3, :3], answers[0][0][:3, 3]
         # each answer as a right perturbation of the first, camera frame (the covariances' frame)
         d = np.array(
-            [np.r_[so3_log(T_0[:3, :3].T @ T[:3, :3]), T_0[:3, :3].T @ (T[:3, 3] - T_0[:3, 3])] for T, _ in answers]
+            [
+                np.r_[so3_log(R_base_cam_0.T @ T_base_cam[:3, :3]), R_base_cam_0.T @ (T_base_cam[:3, 3] - t_base_cam_0)]
+                for T_base_cam, _ in answers
+            ]
         )
         d -= d.mean(axis=0)
         C = sum(c for _, c in answers)

@@ -496,9 +496,9 @@ class _Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q_obs, q, has_depth, close
 
-    def _solve(self, T, m, f, q_obs, iterations):
+    def _solve(self, T, m, f, q_obs, iterations, depth_start):
         """Point-to-plane fit of fixed matches (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
-        and the current depth correction; returns the fit and the median expected residual."""
+        and the depth correction ``depth_start`` ``(k, c)``; returns the fit and the median expected residual."""
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
         estimate_depth = self.opts.depth_model == "scale-offset"
@@ -513,7 +513,7 @@ class _Problem:
             iterations=iterations,
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
-            depth_correction=(self.k, self.c) if estimate_depth else None,
+            depth_correction=depth_start if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
             cross_group=_depth_bins(q_obs[:, 2], self.opts.depth_clusters),
         )
@@ -522,7 +522,8 @@ class _Problem:
     def _fit(self, T, idx, f, q_obs, close):
         sel = np.flatnonzero(close)
         self.last_matches = (idx[sel], f[sel], q_obs[sel])
-        fit, expected = self._solve(T, *self.last_matches, iterations=3 if self.opts.depth_model == "fixed" else 5)
+        iterations = 3 if self.opts.depth_model == "fixed" else 5
+        fit, expected = self._solve(T, *self.last_matches, iterations=iterations, depth_start=(self.k, self.c))
         if fit.depth_correction is not None:
             self.k, self.c = fit.depth_correction
         return fit, expected
@@ -531,10 +532,10 @@ class _Problem:
         """Groups of the frames solved again from the final matches: the sigma their scatter adds
         (:func:`classic.markerless.consistency.split_excess`)."""
         m, f, q_obs = matches
-        self.k, self.c = depth_correction if depth_correction is not None else (1.0, 0.0)
+        start = depth_correction if depth_correction is not None else (1.0, 0.0)
 
         def solve(mask):
-            fit, _ = self._solve(T, m[mask], f[mask], q_obs[mask], iterations=5)
+            fit, _ = self._solve(T, m[mask], f[mask], q_obs[mask], iterations=5, depth_start=start)
             return fit.T_base_cam, fit.covariance
 
         return split_excess(solve, f, frame_splits(f, q_obs, self.n))
@@ -678,25 +679,7 @@ def register_robot(
     sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
     # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
     extrinsic_mm = np.sqrt(3) * opts.depth_extrinsic_sigma_m * 1e3
-    # what the frames share and differ in by depth or image position: the groups' scatter
-    split = problem.split_check(T, matches, fit.depth_correction) if opts.split_check else None
-    split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
-    sigma = {
-        "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + split_deg**2)),
-        "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2 + split_mm**2)),
-    }
     depth = _depth_summary(fit, opts, depth_range, problem.noise_source, noise_mm)
-    diag.update(
-        {
-            "inlier_rms_mm": rms_mm,
-            "expected_rms_mm": expected_mm,
-            "last_step": float(step),
-            "matched_points": int(inl.sum()),
-            "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm_pose},
-            "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
-            "sigma_consistency": split,
-        }
-    )
     refused = None
     observe = depth.get("observability", {})  # the frames' geometry alone decides whether the depth is observable
     if matched < opts.min_matched_fraction:
@@ -718,6 +701,24 @@ def register_robot(
             f"{opts.depth_scale_prior_sigma:.2%} and {opts.depth_offset_prior_sigma_m * 1e3:.1f} mm); move the arm "
             "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
         )
+    # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
+    split = problem.split_check(T, matches, fit.depth_correction) if opts.split_check and not refused else None
+    split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
+    sigma = {
+        "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + split_deg**2)),
+        "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2 + split_mm**2)),
+    }
+    diag.update(
+        {
+            "inlier_rms_mm": rms_mm,
+            "expected_rms_mm": expected_mm,
+            "last_step": float(step),
+            "matched_points": int(inl.sum()),
+            "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm_pose},
+            "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
+            "sigma_consistency": split,
+        }
+    )
     return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag, depth)
 
 

@@ -150,6 +150,8 @@ def test_a_start_outside_the_basin_is_refused_not_answered(scene):
         else:
             assert res.T_base_cam is None
             assert any(w in res.refused for w in ("basin", "converge", "residual"))
+            # a refusal is not solved again in groups: no answer, no split check
+            assert res.diagnostics.get("sigma_consistency") is None
 
 
 def test_no_robot_in_view_is_refused_with_the_reason(rng):

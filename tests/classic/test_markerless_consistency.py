@@ -1,4 +1,4 @@
-"""The split check: the frames' halves solved again, their disagreement beyond their noise added to the sigma."""
+"""The split check: groups of the frames solved again, their scatter beyond their noise added to the sigma."""
 
 from __future__ import annotations
 
@@ -83,7 +83,7 @@ def test_frames_are_grouped_by_depth_and_by_image_column():
     assert frame_splits(f, np.c_[np.zeros((len(f), 2)), np.ones(len(f))], few) == {}
 
 
-def test_the_registration_adds_the_halves_disagreement_to_its_sigma():
+def test_the_registration_adds_the_groups_scatter_to_its_sigma():
     """On the analytic scene (12 frames: three groups of four), the sigma is the noise, the sampling bound and
     the groups' scatter in quadrature; without the check it is the first two only, and the answer the same."""
     depth, surface, T_true = _scene(np.random.default_rng(5), n_frames=12)
