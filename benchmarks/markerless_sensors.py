@@ -21,7 +21,9 @@ drawn per placement, noise as its principle grows it, correlated noise, flying p
 twice, the scale and offset unknown to the method both times:
 
 - **self-calibrated**: the default, estimating the depth scale and offset with the pose and measuring the noise
-  on the static background (``MarkerlessOptions()``, with the profile's depth-to-colour extrinsic sigma);
+  on the static background (``MarkerlessOptions()``, with the profile's depth-to-colour extrinsic sigma and,
+  for the stereo profiles, their ``f B``, with which the matcher's pull toward whole disparities is estimated
+  too: what ``handeye markerless --sensor NAME`` does);
 - **depth taken as exact**: ``depth_model="fixed"`` and the depth noise assumed to be 1 mm at 1 m, as the
   registration did before it calibrated the depth.
 
@@ -111,7 +113,11 @@ def run_profile(ds, surface, stride, cams, sensor, seed):
     K = np.array(ds.meta["intrinsics"]["K"])
     T_true = ds.truth()
     modes = {
-        "self-calibrated": MarkerlessOptions(zbuffer_stride=stride, depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m),
+        "self-calibrated": MarkerlessOptions(
+            zbuffer_stride=stride,
+            depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
+            stereo_fb_px_m=sensor.stereo_fb_px_m,
+        ),
         "depth taken as exact": MarkerlessOptions(
             zbuffer_stride=stride, depth_model="fixed", depth_sigma_m_at_1m=0.001
         ),

@@ -81,7 +81,8 @@ class DepthSensor:
     hole_blob_px : float
         Blob size, rendered pixels.
     stereo_baseline_m : float
-        The stereo pair's baseline, metres (``simulated-stereo``).
+        The stereo pair's baseline, metres (``active-stereo``, ``simulated-stereo``): with ``native_focal_px``
+        the disparity constant ``f B`` (:attr:`stereo_fb_px_m`).
     extrinsic_sigma_m : float
         Spread of the depth-to-colour extrinsic's translation error per axis, metres: the depth image is
         registered to the colour camera through a factory extrinsic that is off by this much.
@@ -123,6 +124,18 @@ class DepthSensor:
         for key in ("correlated_fraction", "flying_fraction", "dark_hole_fraction", "hole_blob_fraction"):
             if getattr(self, key) > 1:
                 raise HandEyeInputError(f"sensor {self.name!r}: {key} is a fraction, got {getattr(self, key)}")
+
+    @property
+    def stereo_fb_px_m(self) -> float | None:
+        """The disparity constant ``f B`` of a stereo sensor at its own resolution (pixels x metres), else None.
+
+        What the registration needs to model the matcher's pull toward whole disparities
+        (:class:`classic.markerless.MarkerlessOptions` ``stereo_fb_px_m``).
+        """
+        stereo = self.principle in ("active-stereo", "simulated-stereo")
+        if stereo and self.stereo_baseline_m > 0 and self.native_focal_px > 0:
+            return float(self.native_focal_px * self.stereo_baseline_m)
+        return None
 
     def sigma_m(self, z_m: np.ndarray) -> np.ndarray:
         """Axial noise sigma at depth ``z_m`` (metres), any shape."""
@@ -166,6 +179,7 @@ PROFILES: dict[str, DepthSensor] = {
         dark_hole_fraction=0.3,
         hole_blob_fraction=0.03,
         extrinsic_sigma_m=0.0005,
+        stereo_baseline_m=0.050,
         source="Intel RealSense D400 series datasheet (accuracy 2 % at 2 m, 50 mm baseline, 87 deg HFOV); "
         "Intel white paper 'Tuning depth cameras for best performance' (RMS error = z^2 subpixel / (f B), "
         "subpixel 0.08 px)",
@@ -184,6 +198,7 @@ PROFILES: dict[str, DepthSensor] = {
         dark_hole_fraction=0.3,
         hole_blob_fraction=0.03,
         extrinsic_sigma_m=0.0005,
+        stereo_baseline_m=0.095,
         source="Intel RealSense D455 datasheet (accuracy 2 % at 4 m, 95 mm baseline, 87 deg HFOV); "
         "the D435's subpixel RMS",
     ),
@@ -380,8 +395,16 @@ def apply_sensor(
 
         native = sensor.native_focal_px / K[0, 0] if sensor.native_focal_px else 1.0
         up = max(1, int(round(native)))  # match at the sensor's own resolution, decimate to this one
+        # a stereo unit's scale error is its calibration's f B against the true one: the infrared views see the
+        # true baseline B / s, the camera turns disparity into depth with its own f B (z_obs = f B / d, which is
+        # s times the depth of the true geometry), so its matcher's disparity is f B / z_obs, as on the real camera
         measured = active_stereo_depth(
-            z, K, sensor.stereo_baseline_m * native / up, rng, upsample=up, pattern_seed=truth.pattern_seed
+            z,
+            K,
+            sensor.stereo_baseline_m * native / up / truth.scale,
+            rng,
+            upsample=up,
+            pattern_seed=truth.pattern_seed,
         )
         z = np.where(measured > 0, measured, 0.0)
         valid = valid & (z > 0)
@@ -425,7 +448,6 @@ PROFILES["d435-sgbm"] = replace(
     correlated_fraction=0.0,
     correlation_px=0.0,
     flying_fraction=0.0,
-    stereo_baseline_m=0.050,
     source="the d435 profile's geometry (50 mm baseline, f = 447 px at 848x480) and systematic errors; the "
     "matching is OpenCV's StereoSGBM (7x7 window), not Intel's D4 processor",
 )

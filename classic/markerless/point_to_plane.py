@@ -22,6 +22,16 @@ columns of the Jacobian are ``n_cam . q_obs`` and ``n_cam . r``. The robot's siz
 ``k`` is fixed by the arm's size in the image as much as by its depth; ``c`` apart from the camera's
 position along its axis by the rays' spread across the image and the arm's range of depths.
 
+An active-stereo sensor errs in disparity, not in depth, and its matcher's sub-pixel interpolation pulls
+the disparity towards whole pixels ("pixel locking"): an error periodic in the disparity ``d = f B / z``
+with a period of one pixel, ``e(d) = a sin(2 pi d) + b cos(2 pi d)`` to first order. With the sensor's
+disparity constant ``f B`` (pixels x metres) given, ``(a, b)`` are estimated too (10 parameters): the
+true depth is ``z = z_a + z_a^2 / (f B k) e(f B k / z_a)`` with ``z_a = k z_obs + c``. The camera converts
+its disparity with its own ``f B``; its scale error ``k`` is that constant's error against the true one, so
+the matcher's disparity is ``f B k / z_a``. One pixel of disparity spans ``z^2 / (f B)`` of depth: 60 mm at
+1.15 m for a D435 (447 px x 50 mm), so the arm's range of depths covers several periods and ``(a, b)`` are
+observable apart from the scale and offset.
+
 The covariance is the sandwich (cluster-robust) estimate with one cluster per
 frame: neighbouring pixels of one frame share the model's discretisation and
 the sensor's systematic error, so counting them as independent would make
@@ -39,7 +49,7 @@ from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from handeye.core.se3 import make_transform, so3_exp
 
-__all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points"]
+__all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points", "pixel_locking_basis"]
 
 
 @dataclass
@@ -60,13 +70,14 @@ class PlaneFit:
     steps : int
     step_norm : float
         Size of the last update: rotation (rad) plus translation (m).
-    depth_correction : (float, float) or None
+    depth_correction : tuple of float or None
         ``(k, c)``: the estimated correction ``q = k q_obs + c r`` (``k = 1 / s``, ``c = -o / s``), when
-        asked for; the pose's ``covariance`` then includes their uncertainty.
-    depth_covariance : array, shape (2, 2) or None
-        Of ``(k, c)``.
-    depth_covariance_frames : array, shape (2, 2) or None
-        Of ``(k, c)``, clustered by frame only: what the frames' spread of depths leaves of them, without the
+        asked for; ``(k, c, a, b)`` with the stereo matcher's pixel locking ``(a, b)`` (pixels); the pose's
+        ``covariance`` then includes their uncertainty.
+    depth_covariance : array, shape (D, D) or None
+        Of ``depth_correction`` (``D`` = 2 or 4).
+    depth_covariance_frames : array, shape (D, D) or None
+        The same, clustered by frame only: what the frames' spread of depths leaves of them, without the
         errors the frames share (whether the depth is observable at all is a question of geometry).
     """
 
@@ -87,14 +98,44 @@ def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
     return T @ make_transform(so3_exp(xi[:3]), xi[3:])
 
 
-def corrected_points(q_obs: np.ndarray, k: float, c: float) -> np.ndarray:
-    """``k q_obs + c r``: observed camera-frame points with the depth correction, ``r = q_obs / z_obs``."""
-    return q_obs * (k + c / q_obs[:, 2])[:, None]
+def pixel_locking_basis(z_m: np.ndarray, k: float, stereo_fb_px_m: float) -> np.ndarray:
+    """Depth change of one pixel of disparity error, times ``(sin, cos)`` of the matcher's disparity phase.
+
+    Parameters
+    ----------
+    z_m : array, shape (N,)
+        Depths with the scale and offset corrected, ``k z_obs + c``, metres.
+    k : float
+        The scale correction (the sensor's ``f B`` over the true one).
+    stereo_fb_px_m : float
+        The sensor's disparity constant ``f B``, pixels x metres.
+
+    Returns
+    -------
+    array, shape (N, 2)
+        ``z^2 / (f B k) (sin, cos)(2 pi f B k / z)``, metres per pixel.
+    """
+    fb = stereo_fb_px_m * k
+    phase = 2 * np.pi * fb / z_m
+    return (z_m**2 / fb)[:, None] * np.stack([np.sin(phase), np.cos(phase)], axis=1)
 
 
-def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None):
+def corrected_points(q_obs: np.ndarray, k: float, c: float, a: float = 0.0, b: float = 0.0, stereo_fb_px_m=None):
+    """Observed camera-frame points with the depth correction, on their rays ``r = q_obs / z_obs``.
+
+    ``k q_obs + c r``, and with ``stereo_fb_px_m`` the pixel locking ``(a, b)`` (pixels) removed as well
+    (:func:`pixel_locking_basis`). ``q_obs`` has shape (N, 3); so has the result.
+    """
+    if stereo_fb_px_m is None:
+        return q_obs * (k + c / q_obs[:, 2])[:, None]
+    z_a = k * q_obs[:, 2] + c
+    z = z_a + pixel_locking_basis(z_a, k, stereo_fb_px_m) @ np.array([a, b])
+    return q_obs * (z / q_obs[:, 2])[:, None]
+
+
+def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None):
     R, t = T[:3, :3], T[:3, 3]
-    p_cam = q_obs if depth is None else corrected_points(q_obs, *depth)
+    p_cam = q_obs if depth is None else corrected_points(q_obs, *depth, stereo_fb_px_m=stereo_fb_px_m)
     x_base = p_cam @ R.T + t
     if shape is None:
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
@@ -104,8 +145,29 @@ def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None):
     cols = [np.cross(p_cam, n_cam), n_cam]
     if depth is not None:
         ray = q_obs / q_obs[:, 2:3]
-        cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], np.einsum("ij,ij->i", n_cam, ray)[:, None]]
+        n_ray = np.einsum("ij,ij->i", n_cam, ray)[:, None]
+        if stereo_fb_px_m is None:
+            cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], n_ray]
+        else:
+            cols.append(n_ray * _depth_jacobian(q_obs[:, 2], depth, stereo_fb_px_m))
     return r, np.hstack(cols)
+
+
+def _depth_jacobian(z_obs, depth, stereo_fb_px_m):
+    """``dz / d(k, c, a, b)`` of the corrected depth, shape (N, 4); the locking's phase moves with ``k`` and ``c``.
+
+    ``z = z_a + z_a^2 / fb (a sin p + b cos p)``, ``p = 2 pi fb / z_a``, ``z_a = k z_obs + c``, ``fb = f B k``.
+    """
+    k, c, a, b = depth
+    z_a = k * z_obs + c
+    fb = stereo_fb_px_m * k
+    phase = 2 * np.pi * fb / z_a
+    sin, cos = np.sin(phase), np.cos(phase)
+    e, de = a * sin + b * cos, a * cos - b * sin  # the disparity error and its derivative over the phase
+    dz_dza = 1 + 2 * z_a / fb * e - 2 * np.pi * de
+    dz_dfb = -((z_a / fb) ** 2) * e + 2 * np.pi * z_a / fb * de
+    basis = (z_a**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
+    return np.column_stack([dz_dza * z_obs + dz_dfb * stereo_fb_px_m, dz_dza, basis])
 
 
 def _prior_information(precision: np.ndarray, r: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -129,6 +191,8 @@ def solve_point_to_plane(
     depth_correction: tuple[float, float] | None = None,
     depth_prior_sigma: tuple[float, float] | None = None,
     cross_group: np.ndarray | None = None,
+    stereo_fb_px_m: float | None = None,
+    pixel_locking_prior_px: float = 0.25,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -165,6 +229,13 @@ def solve_point_to_plane(
     cross_group : array of int, shape (N,), optional
         A second clustering for the covariance (the depth bin of each match): the sensor's depth-dependent
         error is shared by all frames (:func:`classic.clustered_covariance.clustered_covariance`).
+    stereo_fb_px_m : float, optional
+        With ``depth_correction``: the active-stereo sensor's disparity constant ``f B`` (pixels x metres);
+        its matcher's pixel locking ``(a, b)`` is estimated too (10 parameters; ``depth_correction`` may
+        then start it as ``(k, c, a, b)``).
+    pixel_locking_prior_px : float
+        Sigma of a Gaussian prior on ``a`` and ``b`` about 0, pixels (a parabola-fitting matcher's
+        locking reaches a few tenths of a pixel).
 
     Returns
     -------
@@ -173,13 +244,19 @@ def solve_point_to_plane(
     T = np.array(T_base_cam, dtype=float)
     shape = None if curvatures is None else (curvatures, direction_base)
     depth = None if depth_correction is None else np.array(depth_correction, dtype=float)
-    n_par = 6 if depth is None else 8
+    fb = None if depth is None else stereo_fb_px_m
+    if depth is not None:
+        depth = depth[:2] if fb is None else np.r_[depth, np.zeros(4 - len(depth))]  # the locking starts at 0
+    n_par = 6 if depth is None else 6 + len(depth)
     prior_precision = np.zeros(n_par)
     if depth is not None and depth_prior_sigma is not None:
-        prior_precision[6:] = 1.0 / np.square(np.asarray(depth_prior_sigma, dtype=float))
+        prior_precision[6:8] = 1.0 / np.square(np.asarray(depth_prior_sigma, dtype=float))
+    if fb is not None:
+        prior_precision[8:] = 1.0 / pixel_locking_prior_px**2
+    prior_mean = None if depth is None else np.r_[1.0, np.zeros(len(depth) - 1)]
     step_norm, steps = np.inf, 0
     for steps in range(1, iterations + 1):
-        r, J = _linearise(p_cam, m_base, n_base, T, shape, depth)
+        r, J = _linearise(p_cam, m_base, n_base, T, shape, depth, fb)
         w = loss_weights(r / scale_m, loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
@@ -187,17 +264,17 @@ def solve_point_to_plane(
             # the prior in the residuals' units: their variance over the prior's
             P = _prior_information(prior_precision, r, w)
             H = H + P
-            g = g + P @ np.r_[np.zeros(6), depth - (1.0, 0.0)]
+            g = g + P @ np.r_[np.zeros(6), depth - prior_mean]
         # a ridge of 1e-12 relative: a direction the data do not fix stays put instead of running away
         xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(n_par), g)
         T = apply_right(T, xi[:6])
         step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6]))
         if depth is not None:
             depth = depth + xi[6:]
-            step_norm += float(abs(xi[6]) + abs(xi[7]))
+            step_norm += float(abs(xi[6]) + abs(xi[7]))  # the scale and offset; the locking's pixels not
         if step_norm < tol:
             break
-    r, J = _linearise(p_cam, m_base, n_base, T, shape, depth)
+    r, J = _linearise(p_cam, m_base, n_base, T, shape, depth, fb)
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     prior = None if depth is None else _prior_information(prior_precision, r, w)
@@ -205,5 +282,5 @@ def solve_point_to_plane(
     if depth is None:
         return PlaneFit(T, cov, r, w, groups, steps, step_norm)
     frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
-    correction = (float(depth[0]), float(depth[1]))
+    correction = tuple(float(x) for x in depth)
     return PlaneFit(T, cov[:6, :6], r, w, groups, steps, step_norm, correction, cov[6:, 6:], frames[6:, 6:])

@@ -27,7 +27,10 @@ The sensor's depth scale and offset are estimated with the pose in the fine stag
 (``MarkerlessOptions.depth_model``): a real RGB-D camera's depth is off by a fraction of a percent and
 a few millimetres, which would otherwise pull the camera along its optical axis by millimetres while the
 fit reports a sigma of tenths. A prior of a datasheet's spread keeps them where the frames say little,
-and their uncertainty enters the pose's sigma. The depth noise is measured on the static background, over time
+and their uncertainty enters the pose's sigma. For an active-stereo sensor (``stereo_fb_px_m``) the
+matcher's pull toward whole disparities is estimated as well: OpenCV's matcher on a D435's geometry
+(:mod:`sim.stereo`) moves the depth at 1.5 m by up to 2 cm this way, periodically in depth, which no scale
+and offset absorb. The depth noise is measured on the static background, over time
 and across the image (:func:`classic.markerless.depth.depth_noise_curve`: a stereo matcher's error under a fixed
 projector pattern stays put over time), unless the caller gives it. The sigma counts frames, not pixels, as
 independent, and errors shared by all frames at one depth (a matcher's pull toward whole disparities) by
@@ -149,6 +152,13 @@ class MarkerlessOptions:
     max_depth_prior_share : float
         Refused when the data leave the depth scale's or offset's sigma above this share of its prior's: the
         frames span too little range of depth to calibrate it, and the answer would rest on the datasheet.
+    stereo_fb_px_m : float or None
+        An active-stereo sensor's disparity constant ``f B``: its depth camera's focal length in pixels at the
+        resolution it matches at, times its baseline in metres (a D435 at 848x480: about 447 x 0.050). Given,
+        the matcher's sub-pixel bias periodic in disparity (pixel locking) is estimated with the scale and
+        offset and reported (:mod:`classic.markerless.point_to_plane`). None (the default): not modelled.
+    pixel_locking_prior_px : float
+        Spread of that bias before the data, pixels (0.25 by default).
     depth_extrinsic_sigma_m : float
         Uncertainty of the depth-to-colour extrinsic per axis, metres (a sensor profile's figure): the
         registration finds the depth camera, the board and the learned model the colour camera; added to
@@ -188,6 +198,8 @@ class MarkerlessOptions:
     depth_model: str = "scale-offset"
     depth_scale_prior_sigma: float = 0.01
     depth_offset_prior_sigma_m: float = 0.005
+    stereo_fb_px_m: float | None = None
+    pixel_locking_prior_px: float = 0.25
     max_depth_prior_share: float = 0.5
     depth_extrinsic_sigma_m: float = 0.0
     min_moving_pixels: int = 200
@@ -213,6 +225,16 @@ class MarkerlessOptions:
                 "depth_model 'scale-offset' needs positive prior sigmas of the scale and offset; a sensor known "
                 "exactly is depth_model='fixed'"
             )
+        fb = self.stereo_fb_px_m
+        if fb is not None:
+            if not (np.isfinite(fb) and fb > 0):
+                raise HandEyeInputError(f"stereo_fb_px_m must be None or a positive disparity constant, got {fb}")
+            if self.depth_model != "scale-offset":
+                raise HandEyeInputError(
+                    "stereo_fb_px_m models the stereo matcher's bias; it needs depth_model='scale-offset'"
+                )
+            if not self.pixel_locking_prior_px > 0:
+                raise HandEyeInputError(f"pixel_locking_prior_px must be positive, got {self.pixel_locking_prior_px}")
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
@@ -248,7 +270,9 @@ class MarkerlessResult:
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
         ``offset_sigma_mm``); ``observability``: the same sigmas from the frames' spread alone, which decide a
         refusal for too little depth range; ``range_m`` (the matched depths' 10th and 90th percentiles), and the
-        noise used (``noise_source``, ``noise_mm_at_median_depth``).
+        noise used (``noise_source``, ``noise_mm_at_median_depth``). With ``stereo_fb_px_m``, ``pixel_locking_px``:
+        the matcher's disparity error ``sin`` and ``cos`` coefficients (pixels) with their sigmas, and its
+        ``amplitude``.
     """
 
     T_base_cam: np.ndarray | None
@@ -320,7 +344,7 @@ class _Problem:
 
     def __init__(self, depth_m, K, surface, opts):
         self.K, self.s, self.opts = K, surface, opts
-        self.k, self.c = 1.0, 0.0  # the depth correction q = k q_obs + c r, estimated by the fine stage
+        self.depth = (1.0, 0.0)  # the depth correction (k, c[, a, b]), estimated by the fine stage
         if opts.depth_sigma_m_at_1m is not None:
             self.noise_z, self.noise_sigma, self.noise_source = None, None, "given"
         else:
@@ -380,9 +404,9 @@ class _Problem:
 
     def corrected(self, q_obs):
         """Observed camera-frame points with the current depth correction."""
-        if self.k == 1.0 and self.c == 0.0:
+        if self.depth == (1.0, 0.0):
             return q_obs
-        return corrected_points(q_obs, self.k, self.c)
+        return corrected_points(q_obs, *self.depth, stereo_fb_px_m=self.opts.stereo_fb_px_m)
 
     # -- visibility
 
@@ -516,6 +540,8 @@ class _Problem:
             depth_correction=depth_start if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
             cross_group=_depth_bins(q_obs[:, 2], self.opts.depth_clusters),
+            stereo_fb_px_m=self.opts.stereo_fb_px_m,
+            pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
         )
         return fit, expected
 
@@ -523,9 +549,9 @@ class _Problem:
         sel = np.flatnonzero(close)
         self.last_matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
-        fit, expected = self._solve(T, *self.last_matches, iterations=iterations, depth_start=(self.k, self.c))
+        fit, expected = self._solve(T, *self.last_matches, iterations=iterations, depth_start=self.depth)
         if fit.depth_correction is not None:
-            self.k, self.c = fit.depth_correction
+            self.depth = fit.depth_correction
         return fit, expected
 
     def split_check(self, T, matches, depth_correction):
@@ -644,7 +670,7 @@ def register_robot(
         return refuse("no start: the moving pixels of too few frames to align centroids, and none was given")
     best = None
     for name, T_start in starts.items():
-        problem.k, problem.c = 1.0, 0.0
+        problem.depth = (1.0, 0.0)
         T = problem.coarse(np.asarray(T_start, dtype=float))
         T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
@@ -736,11 +762,12 @@ def _depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_sourc
     out["range_m"] = [float(depth_range[0]), float(depth_range[1])]
     if fit.depth_correction is None:
         return out
-    k, c = fit.depth_correction
+    k, c = fit.depth_correction[:2]
     # s = 1 / k, o = -c / k; first order through the Jacobian of (s, o) in (k, c)
     G = np.array([[-1 / k**2, 0.0], [c / k**2, -1 / k]])
-    C = G @ fit.depth_covariance @ G.T
-    F = G @ (fit.depth_covariance if fit.depth_covariance_frames is None else fit.depth_covariance_frames) @ G.T
+    C = G @ fit.depth_covariance[:2, :2] @ G.T
+    frames = fit.depth_covariance if fit.depth_covariance_frames is None else fit.depth_covariance_frames
+    F = G @ frames[:2, :2] @ G.T
     out.update(
         {
             "scale": float(1 / k),
@@ -753,4 +780,13 @@ def _depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_sourc
             },
         }
     )
+    if len(fit.depth_correction) == 4:  # the stereo matcher's disparity error a sin(2 pi d) + b cos(2 pi d)
+        (a, b), L = fit.depth_correction[2:], fit.depth_covariance[2:, 2:]
+        out["pixel_locking_px"] = {
+            "sin": a,
+            "cos": b,
+            "sin_sigma": float(np.sqrt(max(L[0, 0], 0.0))),
+            "cos_sigma": float(np.sqrt(max(L[1, 1], 0.0))),
+            "amplitude": float(np.hypot(a, b)),
+        }
     return out

@@ -60,7 +60,17 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "--sensor",
         default=None,
         help="the depth camera's profile (d435, d455, l515, azure-kinect, zivid): its depth-to-colour extrinsic "
-        "uncertainty enters the sigma (default: the dataset's simulated sensor, if any)",
+        "uncertainty enters the sigma, and a stereo camera's matcher bias is modelled with its f B (default: the "
+        "dataset's simulated sensor, if any)",
+    )
+    p.add_argument(
+        "--stereo-fb",
+        type=float,
+        default=None,
+        metavar="PX_M",
+        help="an active-stereo camera's disparity constant: its depth stream's focal length in pixels times the "
+        "baseline in metres (a D435 at 848x480: 447 x 0.050 = 22.35); its matcher's pull toward whole "
+        "disparities is estimated with the depth (default: the sensor profile's; 0: not modelled)",
     )
     p.add_argument("-o", "--out", type=Path, help="write the results as JSON")
     p.add_argument(
@@ -86,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
     start = read_start(args.start) if args.start else None
-    extrinsic_m = _extrinsic_sigma_m(args)
+    extrinsic_m, stereo_fb = _sensor_terms(args)
     out = markerless_dataset(
         args.dataset,
         args.camera,
@@ -95,7 +105,10 @@ def run(args: argparse.Namespace) -> int:
         urdf=args.urdf,
         package_dirs=args.package_dir,
         options=MarkerlessOptions(
-            depth_sigma_m_at_1m=args.depth_noise, depth_model=args.depth_model, depth_extrinsic_sigma_m=extrinsic_m
+            depth_sigma_m_at_1m=args.depth_noise,
+            depth_model=args.depth_model,
+            depth_extrinsic_sigma_m=extrinsic_m,
+            stereo_fb_px_m=stereo_fb,
         ),
         progress=not args.quiet,
     )
@@ -109,12 +122,27 @@ def run(args: argparse.Namespace) -> int:
     return 0 if all(r.ok for r in out.results.values()) else 1
 
 
-def _extrinsic_sigma_m(args: argparse.Namespace) -> float:
-    """The depth-to-colour extrinsic's sigma per axis: of ``--sensor``, else of the dataset's simulated sensor."""
+def _sensor_terms(args: argparse.Namespace) -> tuple[float, float | None]:
+    """The depth-to-colour extrinsic's sigma per axis and a stereo camera's ``f B`` (None: not modelled).
+
+    Of ``--sensor``, else of the dataset's simulated sensor; ``--stereo-fb`` overrides the second (0: None).
+    The matcher's bias is modelled only with the depth self-calibrated (``--depth-model scale-offset``).
+    """
     from handeye.core.dataset import Dataset
-    from sim.sensors import sensor_profile
+    from handeye.core.errors import HandEyeInputError
+    from sim.sensors import DepthSensor, sensor_profile
 
     if args.sensor is not None:
-        return sensor_profile(args.sensor).extrinsic_sigma_m
-    recorded = Dataset.open(args.dataset).meta.get("recipe", {}).get("sensor")
-    return float(recorded.get("extrinsic_sigma_m", 0.0)) if isinstance(recorded, dict) else 0.0
+        sensor = sensor_profile(args.sensor)
+    else:
+        recorded = Dataset.open(args.dataset).meta.get("recipe", {}).get("sensor")
+        sensor = DepthSensor.from_dict(recorded) if isinstance(recorded, dict) else None
+    extrinsic_m = sensor.extrinsic_sigma_m if sensor is not None else 0.0
+    fb = sensor.stereo_fb_px_m if sensor is not None else None
+    if args.stereo_fb is not None:
+        if not args.stereo_fb >= 0:
+            raise HandEyeInputError(
+                f"--stereo-fb must be a disparity constant >= 0 (0: not modelled), got {args.stereo_fb}"
+            )
+        fb = args.stereo_fb or None
+    return extrinsic_m, (fb if args.depth_model == "scale-offset" else None)

@@ -138,3 +138,38 @@ def test_posed_surface_carries_curvatures_that_move_with_the_links():
     names = [name for name, _, _ in surface.parts]
     upper = first & (posed.part == names.index(next(n for n in names if n.startswith("upper_arm"))))
     assert 1 / 0.07 <= np.median(posed.curvatures[upper, 0]) <= 1 / 0.05
+
+
+def test_a_stereo_sensor_has_its_matchers_bias_estimated_unless_told_not_to(small_dataset, tmp_path, capsys):
+    """``--sensor d435`` models the matcher's pull toward whole disparities with the profile's f B (447 px x 50 mm);
+    ``--stereo-fb`` sets another camera's, 0 turns it off; the rendered depth has none, so none is found."""
+    from handeye.cli import main
+
+    runs = {}
+    for name, extra in (("profile", []), ("off", ["--stereo-fb", "0"])):
+        out = tmp_path / f"{name}.json"
+        assert (
+            main(
+                [
+                    "markerless",
+                    str(small_dataset[0]),
+                    "--camera",
+                    "1",
+                    "--sensor",
+                    "d435",
+                    "-o",
+                    str(out),
+                    "--quiet",
+                    *extra,
+                ]
+            )
+            == 0
+        )
+        runs[name] = json.loads(out.read_text())["cameras"]["1"]
+    locking = runs["profile"]["depth"]["pixel_locking_px"]
+    assert abs(locking["sin"]) <= SIGMA_BOUND * locking["sin_sigma"]
+    assert abs(locking["cos"]) <= SIGMA_BOUND * locking["cos_sigma"]
+    assert "pixel_locking_px" not in runs["off"]["depth"]
+    capsys.readouterr()
+    assert main(["markerless", str(small_dataset[0]), "--camera", "1", "--stereo-fb", "-1", "--quiet"]) != 0
+    assert "--stereo-fb must be a disparity constant >= 0" in capsys.readouterr().err

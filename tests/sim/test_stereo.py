@@ -72,6 +72,30 @@ def test_the_sgbm_profile_goes_through_apply_sensor():
     assert np.median(out[ok] - (1.01 * depth[ok] + 0.002)) == pytest.approx(0, abs=3e-3)
 
 
+def _locking(scale: float) -> np.ndarray:
+    """The first harmonic ``(sin, cos)`` of the reported depth's disparity error over its own disparity phase."""
+    sensor = PROFILES["d435-sgbm"]
+    depth = tilted_plane(1.0)
+    out = apply_sensor(depth, K, sensor, SensorTruth(scale, 0.0, np.zeros(3), pattern_seed=3), np.random.default_rng(4))
+    ok = (out > 0) & (np.abs(U - 150) < 90)
+    fb = sensor.stereo_fb_px_m
+    d_obs = fb / out[ok]
+    err_px = d_obs - fb / (scale * depth[ok])  # against the camera's own conversion of the true disparity
+    phase = 2 * np.pi * d_obs
+    A = np.column_stack([np.ones_like(phase), np.sin(phase), np.cos(phase)])
+    return np.linalg.lstsq(A, err_px, rcond=None)[0][1:]
+
+
+def test_the_matchers_pull_toward_whole_disparities_follows_the_cameras_own_f_b():
+    """A stereo unit's scale error is its f B calibration's: the matcher works on the true geometry and the camera
+    converts with its own f B, so the pull toward whole disparities is periodic in ``f B / z_obs`` whatever the
+    scale (what the registration's ``stereo_fb_px_m`` relies on). A scale applied after the matching instead would
+    move the phase by 2 % of 21 px, 0.4 of a period, between these two units."""
+    low, high = _locking(0.98), _locking(1.02)
+    assert np.hypot(*low) > 0.05 and np.hypot(*high) > 0.05  # OpenCV's matcher locks by about 0.2 px
+    assert np.hypot(*(low - high)) < 0.3 * np.hypot(*low)
+
+
 def test_the_depth_is_brought_up_exactly_on_a_plane_and_decimated_as_librealsense_does():
     from sim.stereo import decimate_depth, upsample_depth
 
