@@ -122,9 +122,11 @@ def _tf_messages(stamps_ns, T_base_ee, rng) -> tuple[list, np.ndarray, np.ndarra
     return msgs, composed, _as_written(T_base_mount)
 
 
-@pytest.fixture(scope="module", params=list(STORAGES))
-def exact_bag(request, tmp_path_factory):
-    """A bag of an eye-to-hand problem: robot at 100 Hz, the 12 camera poses at 12 of its stamps, 2 outside."""
+def write_exact_bag(path, storage: str) -> tuple:
+    """A bag of an eye-to-hand problem at ``path``: robot at 100 Hz, the 12 camera poses at 12 of its stamps,
+    2 outside (``/tf``, ``/tf_static``, ``/marker_pose``, ``/marker_tf``, ``/image``). Returns the path, the
+    problem, the robot stamps, (T_base_ee as composed, T_base_mount), the camera stamps and the image pixels.
+    """
     rng = np.random.default_rng(0)
     p = make_problem(12, "eye_to_hand", rng)
     cam_stamps = EPOCH_NS + 250 * MS + 500 * MS * np.arange(12)
@@ -155,9 +157,14 @@ def exact_bag(request, tmp_path_factory):
         ("/image", img, int(cam_stamps[2]), _image(int(cam_stamps[2]), "mono8", pix[0, ..., 0], pad=3)),
         ("/image", img, int(cam_stamps[3]), _image(int(cam_stamps[3]), "16UC1", depth)),
     ]
-    path = tmp_path_factory.mktemp(request.param) / "recording"
-    _write(path, request.param, msgs)
+    _write(path, storage, msgs)
     return path, p, robot_stamps, (composed, T_base_mount), cam_stamps, (pix, depth)
+
+
+@pytest.fixture(scope="module", params=list(STORAGES))
+def exact_bag(request, tmp_path_factory):
+    """:func:`write_exact_bag` in each storage."""
+    return write_exact_bag(tmp_path_factory.mktemp(request.param) / "recording", request.param)
 
 
 def test_tf_chain_is_the_written_chain_composed(exact_bag):

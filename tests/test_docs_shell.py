@@ -1,0 +1,564 @@
+"""The documentation's bash blocks (``docs/**/*.md``), executed as written wherever that takes seconds.
+
+Every ```bash block of the documentation is classified in :data:`BLOCKS` (a block added without a
+classification fails ``test_every_docs_bash_block_is_classified``):
+
+``a``
+    Runs here as written, in seconds: :func:`test_docs_bash_block_runs` writes stand-ins of the files the
+    block names into a fresh folder, runs the block there with ``bash -euo pipefail -c`` (the environment's
+    ``bin`` first on ``PATH``, ``HOME`` a fresh folder beside it, so ``~/ws/src`` and ``~/.ros2/...`` are the
+    stand-ins'), asserts exit 0 and that every file or folder the block names as an output (``-o``,
+    ``--out``, ``--report``, ``--export-*``, ``--board-out``) exists.
+``b``
+    Runs as written but takes minutes to hours (it renders a paper preset, trains with the ``cpu`` preset,
+    or is a benchmark): not executed; its commands are parsed by today's argument parsers
+    (``tests/test_docs.py``: ``test_documented_commands_parse``, ``test_documented_benchmark_commands_parse``).
+``c``
+    Cannot run here (it creates a virtual environment and installs from the network).
+
+The commands are the documentation's, unchanged. Two kinds of line are left out of the executed text and
+checked instead: ``pip install -e ".[extras]"`` (every requirement of those extras is installed in this
+environment) and ``ros2 launch FILE`` (no ROS here: the launch file the block's earlier command exported
+exists, is Python defining ``generate_launch_description`` and reads back as the exported transform).
+
+The stand-ins are smaller than what the documentation describes, so that the commands run as written on
+less data:
+
+- ``images/``, ``robot.csv``, ``camera.json``: ten rendered eye-in-hand views of the 7x5 ChArUco board the
+  images guide prints (:func:`classic.vision.synthetic.make_image_dataset`); ``detections.json`` detected
+  from them; ``camera_info.yaml`` the same camera as ROS writes it;
+- ``data/paper-sim``: 16 camera placements (2 regions of 7 train + 1 test), 4 configurations each, at the
+  ``small`` preset's image sizes, labelled (the real preset has 108 placements of 50 configurations);
+  ``runs/sim/reservoir``: a model trained on it with the ``tiny`` learned preset (seconds, not the ``cpu``
+  preset's minutes);
+- ``data/my-cell`` and the bags ``data_0/ cal_0/ ...``: two placements rendered as a D435 reports depth
+  and written as ROS 2 bags by :mod:`sim.bag_export` (``placement_0/``: the same as frame folders);
+  ``my_arm.urdf``: the UR5's URDF, its meshes under ``~/ws/src``; ``guess.json``: the first placement's
+  truth 2 cm and 2 degrees off;
+- ``kuka_poses.csv``, ``my_eob_calib.samples``, ``recording/``: pose files and a bag written from
+  synthetic problems (the builders of ``test_posefile_controllers``, ``test_cli_ros``, ``test_ros_bag``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.test_docs import DOCS, ROOT, code_blocks
+
+#: Left out of the executed text (checked instead): no network, no ROS installation here.
+DROPPED = ("pip install", "ros2 launch")
+#: Options whose value a command writes (a file or a folder).
+OUTPUT_OPTIONS = ("-o", "--out", "--report", "--board-out", "--export-easy-handeye", "--export-launch", "--export-urdf")
+
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    """One bash block: how its first command (after any ``pip install``) starts, its kind (a, b, c), why b
+    and c are not run, and for a the function that writes its stand-ins into the folder it runs in."""
+
+    first: str
+    kind: str
+    why: str = ""
+    prepare: Callable | None = None
+
+
+# --------------------------------------------------------------------------- stand-ins, built once a session
+
+
+def _have(*modules: str) -> None:
+    for m in modules:
+        pytest.importorskip(m)
+
+
+@pytest.fixture(scope="session")
+def image_recording(tmp_path_factory):
+    """Ten eye-in-hand views of the 7x5 ChArUco board (images/, robot.csv, board.json, camera.json) and
+    detections.json detected from them with those intrinsics, as ``test_cli_vision`` renders them."""
+    _have("cv2")
+    from classic.vision.synthetic import make_image_dataset
+    from handeye.cli import main
+
+    folder = tmp_path_factory.mktemp("images")
+    make_image_dataset(folder, 10, "eye_in_hand", rng=np.random.default_rng(7), noise_gray=2.0)
+    argv = ["detect", str(folder / "images"), "--board", str(folder / "board.json")]
+    assert main([*argv, "--intrinsics", str(folder / "camera.json"), "-o", str(folder / "detections.json")]) == 0
+    return folder
+
+
+@pytest.fixture(scope="session")
+def paper_sim_standin(tmp_path_factory):
+    """data/paper-sim at 16 placements of 4 configurations (the ``small`` preset's sizes), labelled, and a
+    reservoir model trained on it with the ``tiny`` learned preset."""
+    _have("pyrender", "pinocchio", "torch")
+    from handeye.cli import main
+    from handeye.labelling import label_dataset
+    from sim.cameras import PRESETS
+    from sim.generate import generate
+
+    root = tmp_path_factory.mktemp("paper-sim")
+    # 16 placements: the block names cameras 14 and 15; 4 configurations: with 3, the registration refuses 7 of
+    # the 16 placements and the block's 'handeye markerless data/paper-sim --write-labels' exits 1
+    preset = dataclasses.replace(
+        PRESETS["small"], name="paper-sim-standin", train_per_region=(7, 7), test_per_region=(1, 1), configurations=4
+    )
+    generate(root / "data", preset, seed=0, workers=2, progress=False)
+    label_dataset(root / "data", workers=2, progress=False)
+    argv = ["learned", "run", "--data", str(root / "data"), "--preset", "tiny", "--strategies", "reservoir"]
+    assert main([*argv, "--out", str(root / "runs"), "--quiet"]) == 0
+    return root / "data", root / "runs" / "reservoir"
+
+
+@pytest.fixture(scope="session")
+def d435_cell(tmp_path_factory):
+    """Two placements as a D435 reports depth (``test_import_recording``'s recipe, colour and board views
+    both 480x480 so that a frame folder's one intrinsics file serves both), written as ROS 2 bags, the board
+    file, and the bags imported (``data/my-cell``)."""
+    _have("pyrender", "pinocchio", "rosbags")
+    from classic.vision.board import BoardSpec
+    from handeye.cli import main
+    from handeye.core.dataset import Dataset
+    from sim.bag_export import write_placement_bags
+    from sim.generate import NoiseModel, generate
+    from tests.test_import_recording import PRESET
+
+    root = tmp_path_factory.mktemp("cell")
+    preset = dataclasses.replace(PRESET, name="cell", image_size=(480, 480), configurations=8)
+    noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
+    generate(root / "sim", preset, seed=5, noise=noise, workers=2, progress=False, sensor="d435")
+    ds = Dataset.open(root / "sim")
+    bags = [write_placement_bags(ds, c, root / "bags") for c in range(2)]
+    BoardSpec(**ds.meta["board"]).save(root / "board.json")
+    argv = ["import", "bag", *(str(b["data"]) for b in bags), "--calibration", *(str(b["calibration"]) for b in bags)]
+    assert main([*argv, "--robot", "ur5", "--board", str(root / "board.json"), "--out", str(root / "my-cell")]) == 0
+    return ds, bags, root / "board.json", root / "my-cell"
+
+
+@pytest.fixture(scope="session")
+def mpl_config(tmp_path_factory):
+    """One matplotlib cache for every block (each runs with a fresh HOME)."""
+    return tmp_path_factory.mktemp("mpl")
+
+
+def _my_arm(folder: Path, home: Path) -> None:
+    """my_arm.urdf: the UR5's URDF, its package:// meshes under ~/ws/src (``--package-dir ~/ws/src``)."""
+    _have("example_robot_data")
+    import example_robot_data as erd
+
+    loader = erd.robots_loader.UR5Loader()
+    shutil.copy(loader.df_path, folder / "my_arm.urdf")
+    share = Path(loader.model_path).resolve().parents[1]  # holds example-robot-data/, the package
+    (home / "ws" / "src").mkdir(parents=True)
+    (home / "ws" / "src" / "example-robot-data").symlink_to(share / "example-robot-data")
+
+
+def _guess(folder: Path, ds) -> None:
+    """guess.json: the first placement's true T_base_cam, 2 cm and 2 degrees off (a rough guess)."""
+    import json
+
+    from handeye.core.se3 import make_transform, so3_exp
+
+    T = make_transform(so3_exp(np.radians([2.0, 0.0, 0.0])), [0.02, 0.0, 0.0]) @ ds.truth()[0]
+    (folder / "guess.json").write_text(json.dumps({"T_base_cam": T.tolist()}))
+
+
+def _copy(src: Path, dst: Path) -> None:
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    (shutil.copytree if src.is_dir() else shutil.copy)(src, dst)
+
+
+def _repository_files(folder: Path) -> None:
+    """``handeye/data/...`` as from the repository root (the shipped example files)."""
+    (folder / "handeye").symlink_to(ROOT / "handeye")
+
+
+# --------------------------------------------------------------------------- per-block stand-ins
+
+
+def _board_of(block: str, kind: str | None, scratch: Path):
+    """The board a block's ``handeye board`` line (of ``--kind kind``) prints, written in a scratch folder."""
+    from classic.vision.board import BoardSpec
+    from handeye.cli import main
+
+    line = next(
+        ln.split(" #")[0]
+        for ln in block.splitlines()
+        if ln.startswith("handeye board") and (kind is None or f"--kind {kind}" in ln)
+    )
+    argv = shlex.split(line)[1:]
+    out = argv.index("-o") + 1
+    scratch.mkdir()
+    argv[out] = str(scratch / argv[out])
+    assert main(argv) == 0
+    return BoardSpec.load((scratch / argv[out]).with_suffix(".json"))
+
+
+def _images_guide_0(folder, home, block, request):
+    rec = request.getfixturevalue("image_recording")
+    from classic.vision.board import BoardSpec
+
+    assert _board_of(block, None, home.parent / "board") == BoardSpec.load(rec / "board.json"), (
+        "the stand-in images show another board than the one the block prints"
+    )
+    _copy(rec / "images", folder / "images")
+    _copy(rec / "robot.csv", folder / "robot.csv")
+
+
+def _images_guide_1(folder, home, block, request):
+    """camera.json, and images/ of the ArUco grid the block prints (four views)."""
+    rec = request.getfixturevalue("image_recording")
+    from classic.vision.camera import CameraIntrinsics
+    from classic.vision.synthetic import make_image_dataset
+
+    spec = _board_of(block, "aruco-grid", home.parent / "board")
+    make_image_dataset(
+        home.parent / "grid",
+        4,
+        spec=spec,
+        intr=CameraIntrinsics.load(rec / "camera.json"),
+        rng=np.random.default_rng(3),
+    )
+    _copy(home.parent / "grid" / "images", folder / "images")
+    _copy(rec / "camera.json", folder / "camera.json")
+
+
+def _markerless_guide_0(folder, home, block, request):
+    data, model = request.getfixturevalue("paper_sim_standin")
+    ds, _, _, my_cell = request.getfixturevalue("d435_cell")
+    _copy(data, folder / "data" / "paper-sim")
+    _copy(model, folder / "runs" / "sim" / "reservoir")
+    _copy(my_cell, folder / "data" / "my-cell")
+    _guess(folder, ds)
+    _my_arm(folder, home)
+
+
+def _markerless_guide_2(folder, home, block, request):
+    ds, bags, board, _ = request.getfixturevalue("d435_cell")
+    for c, b in enumerate(bags):
+        _copy(b["data"], folder / f"data_{c}")
+        _copy(b["calibration"], folder / f"cal_{c}")
+    _copy(board, folder / "board.json")
+    _guess(folder, ds)
+    _my_arm(folder, home)
+
+
+def _markerless_guide_3(folder, home, block, request):
+    """placement_0/, placement_1/: frame folders (data frames as test_import_recording writes them, PNG and
+    NPY depth) with calibration/ (the board views and their joints), and board.json."""
+    from PIL import Image
+
+    from tests.test_import_recording import _write_folder
+
+    ds, _, board, _ = request.getfixturevalue("d435_cell")
+    for c in range(2):
+        placement = folder / f"placement_{c}"
+        _write_folder(ds, c, placement, npy=bool(c))
+        rows = ds.select(c, "calibration")
+        (placement / "calibration" / "rgb").mkdir(parents=True)
+        names = [str(n) for n in ds.meta["joint_names"]]
+        lines = ["frame," + ",".join(names)]
+        for k, (rgb, q) in enumerate(zip(rows["rgb"], ds.joints(rows))):
+            lines.append(f"b{k:03d}," + ",".join(repr(float(v)) for v in q))
+            Image.fromarray(ds.rgb(c, rgb)).save(placement / "calibration" / "rgb" / f"b{k:03d}.png")
+        (placement / "calibration" / "joints.csv").write_text("\n".join(lines) + "\n")
+    _copy(board, folder / "board.json")
+
+
+def _real_cell_0(folder, home, block, request):
+    """kuka_poses.csv: a KUKA export (mm, A B C degrees) of an eye-to-hand problem."""
+    from handeye.core.synthetic import make_problem
+    from tests.test_posefile_controllers import _controller_file
+
+    path = _controller_file(home, "kuka", make_problem(8, "eye_to_hand", np.random.default_rng(6)))
+    shutil.move(path, folder / "kuka_poses.csv")
+
+
+def _real_cell_1(folder, home, block, request):
+    """my_eob_calib.samples: an easy_handeye2 eye-on-base sample list with the block's frame names; the
+    easy_handeye2 calibrations folder under ~/.ros2 (easy_handeye2 creates it)."""
+    _have("yaml")
+    from handeye.core.easy_handeye import write_easy_handeye_samples
+    from handeye.core.synthetic import make_problem
+    from tests.test_cli_ros import FRAMES
+
+    p = make_problem(10, "eye_to_hand", np.random.default_rng(21))
+    write_easy_handeye_samples(
+        folder / "my_eob_calib.samples", p.T_base_ee, p.T_cam_target, "eye_to_hand", frames=FRAMES
+    )
+    (home / ".ros2" / "easy_handeye2" / "calibrations").mkdir(parents=True)
+
+
+def _real_cell_2(folder, home, block, request):
+    """images/, board.json and camera_info.yaml (the images' camera as ROS writes it)."""
+    rec = request.getfixturevalue("image_recording")
+    from classic.vision.camera import CameraIntrinsics
+    from classic.vision.camera_yaml import write_camera_info_yaml
+
+    _copy(rec / "images", folder / "images")
+    _copy(rec / "board.json", folder / "board.json")
+    write_camera_info_yaml(folder / "camera_info.yaml", CameraIntrinsics.load(rec / "camera.json"))
+
+
+def _real_cell_3(folder, home, block, request):
+    """recording/: a ROS 2 bag of tf and marker poses (test_ros_bag's)."""
+    _have("rosbags")
+    from tests.test_ros_bag import write_exact_bag
+
+    write_exact_bag(folder / "recording", "sqlite3")
+
+
+def _real_cell_4(folder, home, block, request):
+    rec = request.getfixturevalue("image_recording")
+    _repository_files(folder)
+    for name in ("images", "robot.csv", "camera.json", "board.json", "detections.json"):
+        _copy(rec / name, folder / name)
+
+
+def _getting_started_1(folder, home, block, request):
+    _repository_files(folder)
+
+
+def _nothing(folder, home, block, request):
+    """The block makes its own inputs."""
+    if "handeye sim" in block:
+        _have("pyrender", "pinocchio")
+
+
+_PAPER_PRESET = (
+    "renders the paper-sim preset (108 placements, 7,020 frames: 5 minutes on 2 cores, docs/benchmarks/simulation.md) "
+    "and labels it"
+)
+_CPU_TRAINING = "trains with the cpu learned preset: 1 min 43 s for the four strategies even on an 8-frame stand-in"
+
+#: Every bash block of docs/**/*.md, by file and index among the file's bash blocks.
+BLOCKS: dict[tuple[str, int], Block] = {
+    ("docs/benchmarks/classic.md", 0): Block(
+        "python benchmarks/calibrate_identity.py",
+        "b",
+        "a benchmark (its workload 50 times in each of two trees, about a minute) that adds a git worktree of "
+        "revision d0acac4 to the repository under test: the suite leaves .git alone (and CI clones may be shallow)",
+    ),
+    ("docs/benchmarks/markerless.md", 0): Block(
+        "python benchmarks/markerless_sensors.py",
+        "b",
+        "a benchmark: renders paper-real and paper-sim placements at three distances for each sensor profile",
+    ),
+    ("docs/benchmarks/markerless.md", 1): Block(
+        "python benchmarks/imported_bag.py",
+        "b",
+        "a benchmark: renders 12 placements at three distances, writes them as bags, imports and registers "
+        "them (74 s of rendering alone in benchmarks/results/imported_bag.md)",
+    ),
+    ("docs/getting-started.md", 0): Block(
+        "python3 -m venv .venv",
+        "c",
+        "creates a virtual environment and installs torch and the project from the network; then the demo "
+        "(minutes) and the whole test suite",
+    ),
+    ("docs/getting-started.md", 1): Block(
+        "handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _getting_started_1
+    ),
+    ("docs/guides/beyond-one-machine.md", 0): Block(
+        "handeye sim generate --preset small --out data/small --engine ray",
+        "b",
+        "renders the dense-sim preset (1,000 placements) on a running Ray cluster and trains the paper learned "
+        "preset with torchrun: hours",
+    ),
+    ("docs/guides/images.md", 0): Block("handeye board --squares 7x5", "a", "", _images_guide_0),
+    ("docs/guides/images.md", 1): Block("handeye board --kind checkerboard", "a", "", _images_guide_1),
+    ("docs/guides/learned.md", 0): Block("handeye learned run --data data/paper-sim --preset cpu", "b", _CPU_TRAINING),
+    ("docs/guides/learned.md", 1): Block(
+        "handeye learned run",
+        "b",
+        "trains the keypoint family with the cpu learned preset: more than 7 minutes even on the small preset",
+    ),
+    ("docs/guides/markerless.md", 0): Block(
+        "handeye markerless data/paper-sim --camera 14 15", "a", "", _markerless_guide_0
+    ),
+    ("docs/guides/markerless.md", 1): Block(
+        "handeye sim generate --preset paper-real",
+        "b",
+        "renders the paper-real preset with the D435 profile (24 placements, 2,400 data frames: minutes), then "
+        "two markerless passes over its 24 placements",
+    ),
+    ("docs/guides/markerless.md", 2): Block("handeye import bag data_0/ data_1/", "a", "", _markerless_guide_2),
+    ("docs/guides/markerless.md", 3): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
+    ("docs/guides/markerless.md", 4): Block("handeye sim generate --preset small", "a", "", _nothing),
+    ("docs/guides/markerless.md", 5): Block(
+        "handeye markerless data/paper-sim-noisy",
+        "b",
+        "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy alone even on an "
+        "8-frame stand-in",
+    ),
+    ("docs/guides/real-cell.md", 0): Block("handeye calibrate kuka_poses.csv", "a", "", _real_cell_0),
+    ("docs/guides/real-cell.md", 1): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1),
+    ("docs/guides/real-cell.md", 2): Block("handeye detect images/", "a", "", _real_cell_2),
+    ("docs/guides/real-cell.md", 3): Block("handeye bag-poses recording/", "a", "", _real_cell_3),
+    ("docs/guides/real-cell.md", 4): Block(
+        "handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _real_cell_4
+    ),
+    ("docs/guides/real-cell.md", 5): Block("handeye plan", "a", "", _nothing),
+    ("docs/guides/simulate-label.md", 0): Block("handeye sim generate --preset paper-sim", "b", _PAPER_PRESET),
+    ("docs/reproduce-paper.md", 0): Block(
+        "handeye sim generate --preset paper-sim",
+        "b",
+        _PAPER_PRESET + "; then the paper protocol's training, ablation and thresholds (10 to 30 minutes each)",
+    ),
+    ("docs/reproduce-paper.md", 1): Block(
+        "handeye sim generate --preset paper-sim", "b", _PAPER_PRESET + "; then paper-real and two protocol benchmarks"
+    ),
+    ("docs/reproduce-paper.md", 2): Block("handeye sim generate --preset small", "a", "", _nothing),
+}
+
+
+# --------------------------------------------------------------------------- the blocks as the docs print them
+
+
+def docs_bash_blocks() -> dict[tuple[str, int], str]:
+    """Every ```bash block of docs/**/*.md, by (file, index in the file)."""
+    return {
+        (p.relative_to(ROOT).as_posix(), i): b
+        for p in sorted(DOCS.rglob("*.md"))
+        for i, b in enumerate(code_blocks(p, "bash"))
+    }
+
+
+def _commands(text: str) -> list[str]:
+    """The block's command lines: continuations joined, comments and blank lines dropped."""
+    joined = re.sub(r"\\\n\s*", " ", text)
+    return [ln.split(" #")[0].strip() for ln in joined.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+
+
+def executed_text(block: str) -> tuple[str, list[str]]:
+    """The block without its ``pip install`` and ``ros2 launch`` lines, and those lines."""
+    kept, dropped = [], []
+    for line in block.splitlines():
+        (dropped if line.startswith(DROPPED) else kept).append(line)
+    return "\n".join(kept) + "\n", [ln.split(" #")[0].strip() for ln in dropped]
+
+
+def _outputs(text: str) -> list[str]:
+    """What the commands write: the value after each of :data:`OUTPUT_OPTIONS`."""
+    out = []
+    for command in _commands(text):
+        words = shlex.split(command)
+        out += [words[k + 1] for k, w in enumerate(words[:-1]) if w in OUTPUT_OPTIONS]
+    return out
+
+
+def test_every_docs_bash_block_is_classified():
+    """Each bash block of the documentation has a row in BLOCKS (a new one fails here until it is run or
+    said why not), each row a block, each row's first command the block's."""
+    blocks = docs_bash_blocks()
+    assert set(blocks) - set(BLOCKS) == set(), "bash blocks without a classification in BLOCKS"
+    assert set(BLOCKS) - set(blocks) == set(), "rows of BLOCKS without a bash block (moved or removed?)"
+    for key, block in BLOCKS.items():
+        assert block.kind in "abc" and len(block.kind) == 1, key
+        first = next(c for c in _commands(blocks[key]) if not c.startswith("pip install"))
+        assert first.startswith(block.first), f"{key}: its first command is {first!r}"
+        assert (block.kind == "a") == (block.prepare is not None), key
+        assert block.kind == "a" or block.why, f"{key}: say why it is not run"
+
+
+def test_the_documentation_states_the_count():
+    """The page on how the documentation is tested gives the figures of BLOCKS: how many run, and a row per
+    block that does not, with its kind."""
+    kinds = [b.kind for b in BLOCKS.values()]
+    text = (DOCS / "benchmarks" / "index.md").read_text()
+    stated = f"{kinds.count('a')} of the {len(kinds)} bash blocks run as written"
+    assert stated in " ".join(text.split()), f"docs/benchmarks/index.md should say '{stated}'"
+    rows = re.findall(r"^\| `([^`]+)` \| ([abc]) \|", text, flags=re.M)
+    expected = [
+        (f"{path.removeprefix('docs/')}#{index}", b.kind) for (path, index), b in BLOCKS.items() if b.kind != "a"
+    ]
+    assert sorted(rows) == sorted(expected), "docs/benchmarks/index.md: the table of blocks not run"
+
+
+def _extras_installed(line: str) -> None:
+    """Every requirement of the extras a ``pip install -e ".[...]"`` line names is installed here."""
+    import tomllib
+
+    from packaging.requirements import Requirement
+
+    extras = re.search(r'-e "\.\[([^\]]+)\]"', line)
+    assert extras, f"{line!r}: not an install of the project's extras"
+    defined = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    for extra in extras[1].split(","):
+        for spec in defined[extra.strip()]:
+            req = Requirement(spec)
+            if req.marker is not None and not req.marker.evaluate():
+                continue
+            try:
+                version = importlib.metadata.version(req.name)
+            except importlib.metadata.PackageNotFoundError:
+                pytest.fail(f"{line!r}: {req.name} (extra {extra}) is not installed")
+            assert req.specifier.contains(version, prereleases=True), f"{req.name} {version} not {req.specifier}"
+
+
+def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -> None:
+    """The file ``ros2 launch FILE`` would start: exported, Python with generate_launch_description, reading
+    back as the transform exported beside it."""
+    import ast
+
+    from handeye.core.easy_handeye import read_easy_handeye_calibration
+    from handeye.core.ros_launch import read_static_tf_launch
+
+    path = folder / shlex.split(line)[2]
+    assert path.is_file(), f"{line!r}: {path.name} was not exported"
+    tree = ast.parse(path.read_text())
+    assert "generate_launch_description" in {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
+    T, parent, child = read_static_tf_launch(path)
+    calib = read_easy_handeye_calibration(next((home / ".ros2").rglob("*.calib")))
+    np.testing.assert_allclose(T, calib.T_parent_cam, atol=1e-9)
+    assert (parent, child) == (calib.parent_frame, calib.child_frame)
+
+
+def _executed() -> list:
+    blocks = docs_bash_blocks()
+    return [
+        pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}")
+        for key, b in BLOCKS.items()
+        if b.kind == "a" and key in blocks
+    ]
+
+
+@pytest.mark.parametrize("key,block", _executed())
+def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
+    """The block, as written, from a folder of stand-ins: exit 0 and every output it names written."""
+    folder, home = tmp_path / "cwd", tmp_path / "home"
+    folder.mkdir()
+    home.mkdir()
+    BLOCKS[key].prepare(folder, home, block, request)
+    text, dropped = executed_text(block)
+    path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
+    env = dict(
+        os.environ,
+        PYOPENGL_PLATFORM="egl",
+        PYTHONPATH=str(ROOT),
+        PATH=path,
+        HOME=str(home),
+        MPLCONFIGDIR=str(mpl_config),
+    )
+    run = subprocess.run(
+        ["bash", "-euo", "pipefail", "-c", text], cwd=folder, env=env, capture_output=True, text=True, timeout=900
+    )
+    assert run.returncode == 0, f"{key} failed (exit {run.returncode}):\n{run.stdout[-2000:]}\n{run.stderr[-3000:]}"
+    for out in _outputs(text):
+        target = home / out[2:] if out.startswith("~/") else folder / out
+        assert target.exists(), f"{key}: {out} was not written"
+    for line in dropped:
+        if line.startswith("pip install"):
+            _extras_installed(line)
+        else:
+            _launch_file_is_what_ros2_launch_runs(folder, home, line)
