@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime
+import shlex
 import sys
 
 from benchmarks._machine import machine
@@ -26,7 +27,7 @@ class Report:
         self.lines: list[str] = []
         args = argv if argv is not None else sys.argv[1:]
         self.say(f"# {title}")
-        self.say("command: python " + script + "".join(f" {a}" for a in args))
+        self.say("command: python " + shlex.join([script, *args]))  # quoted as a shell takes it back
         self.say(f"machine: {machine()}")
         self.say(f"{versions}; {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
         self.say()
