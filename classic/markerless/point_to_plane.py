@@ -115,9 +115,15 @@ def pixel_locking_basis(z_m: np.ndarray, k: float, stereo_fb_px_m: float) -> np.
     array, shape (N, 2)
         ``z^2 / (f B k) (sin, cos)(2 pi f B k / z)``, metres per pixel.
     """
+    fb, sin, cos = _locking_phase(z_m, k, stereo_fb_px_m)
+    return (z_m**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
+
+
+def _locking_phase(z_a, k, stereo_fb_px_m):
+    """``f B k`` and the sine and cosine of the matcher's disparity phase ``2 pi f B k / z_a``."""
     fb = stereo_fb_px_m * k
-    phase = 2 * np.pi * fb / z_m
-    return (z_m**2 / fb)[:, None] * np.stack([np.sin(phase), np.cos(phase)], axis=1)
+    phase = 2 * np.pi * fb / z_a
+    return fb, np.sin(phase), np.cos(phase)
 
 
 def corrected_points(q_obs: np.ndarray, k: float, c: float, a: float = 0.0, b: float = 0.0, stereo_fb_px_m=None):
@@ -160,9 +166,7 @@ def _depth_jacobian(z_obs, depth, stereo_fb_px_m):
     """
     k, c, a, b = depth
     z_a = k * z_obs + c
-    fb = stereo_fb_px_m * k
-    phase = 2 * np.pi * fb / z_a
-    sin, cos = np.sin(phase), np.cos(phase)
+    fb, sin, cos = _locking_phase(z_a, k, stereo_fb_px_m)
     e, de = a * sin + b * cos, a * cos - b * sin  # the disparity error and its derivative over the phase
     dz_dza = 1 + 2 * z_a / fb * e - 2 * np.pi * de
     dz_dfb = -((z_a / fb) ** 2) * e + 2 * np.pi * z_a / fb * de
