@@ -70,7 +70,9 @@ def clustered_covariance(
         return plain
     if cross_group is not None:
         cross = _cluster_meat(Jw * r[:, None], cross_group)
-        both = _cluster_meat(Jw * r[:, None], np.unique(np.c_[group, cross_group], axis=0, return_inverse=True)[1])
+        g = np.unique(np.asarray(group), return_inverse=True)[1].reshape(-1)
+        c = np.unique(np.asarray(cross_group), return_inverse=True)[1].reshape(-1)
+        both = _cluster_meat(Jw * r[:, None], g * (int(c.max()) + 1) + c)  # the pairs, as one integer each
         if cross is not None and both is not None:
             value, vector = np.linalg.eigh(meat + cross - both)
             meat = (vector * np.maximum(value, 0.0)) @ vector.T
@@ -84,8 +86,8 @@ def _cluster_meat(scores_per_residual: np.ndarray, group: np.ndarray) -> np.ndar
     k = len(labels)
     if k < 2:
         return None
-    scores = np.zeros((k, scores_per_residual.shape[1]))
-    np.add.at(scores, where.reshape(-1), scores_per_residual)
+    where = where.reshape(-1)
+    scores = np.stack([np.bincount(where, column, minlength=k) for column in scores_per_residual.T], axis=1)
     return scores.T @ scores * k / (k - 1)
 
 

@@ -139,9 +139,33 @@ def corrected_points(q_obs: np.ndarray, k: float, c: float, a: float = 0.0, b: f
     return q_obs * (z / q_obs[:, 2])[:, None]
 
 
+def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
+    """:func:`corrected_points` with the locking, and ``dz / d(k, c, a, b)`` (N, 4), the phase computed once.
+
+    ``z = z_a + z_a^2 / fb (a sin p + b cos p)``, ``p = 2 pi fb / z_a``, ``z_a = k z_obs + c``, ``fb = f B k``:
+    the locking's phase moves with ``k`` and ``c``.
+    """
+    k, c, a, b = depth
+    z_obs = q_obs[:, 2]
+    z_a = k * z_obs + c
+    fb, sin, cos = _locking_phase(z_a, k, stereo_fb_px_m)
+    e, de = a * sin + b * cos, a * cos - b * sin  # the disparity error and its derivative over the phase
+    z = z_a + z_a**2 / fb * e
+    dz_dza = 1 + 2 * z_a / fb * e - 2 * np.pi * de
+    dz_dfb = -((z_a / fb) ** 2) * e + 2 * np.pi * z_a / fb * de
+    basis = (z_a**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
+    jacobian = np.column_stack([dz_dza * z_obs + dz_dfb * stereo_fb_px_m, dz_dza, basis])
+    return q_obs * (z / z_obs)[:, None], jacobian
+
+
 def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None):
     R, t = T[:3, :3], T[:3, 3]
-    p_cam = q_obs if depth is None else corrected_points(q_obs, *depth, stereo_fb_px_m=stereo_fb_px_m)
+    if depth is None:
+        p_cam = q_obs
+    elif stereo_fb_px_m is None:
+        p_cam = corrected_points(q_obs, *depth)
+    else:
+        p_cam, dz = _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m)
     x_base = p_cam @ R.T + t
     if shape is None:
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
@@ -155,23 +179,8 @@ def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=
         if stereo_fb_px_m is None:
             cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], n_ray]
         else:
-            cols.append(n_ray * _depth_jacobian(q_obs[:, 2], depth, stereo_fb_px_m))
+            cols.append(n_ray * dz)
     return r, np.hstack(cols)
-
-
-def _depth_jacobian(z_obs, depth, stereo_fb_px_m):
-    """``dz / d(k, c, a, b)`` of the corrected depth, shape (N, 4); the locking's phase moves with ``k`` and ``c``.
-
-    ``z = z_a + z_a^2 / fb (a sin p + b cos p)``, ``p = 2 pi fb / z_a``, ``z_a = k z_obs + c``, ``fb = f B k``.
-    """
-    k, c, a, b = depth
-    z_a = k * z_obs + c
-    fb, sin, cos = _locking_phase(z_a, k, stereo_fb_px_m)
-    e, de = a * sin + b * cos, a * cos - b * sin  # the disparity error and its derivative over the phase
-    dz_dza = 1 + 2 * z_a / fb * e - 2 * np.pi * de
-    dz_dfb = -((z_a / fb) ** 2) * e + 2 * np.pi * z_a / fb * de
-    basis = (z_a**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
-    return np.column_stack([dz_dza * z_obs + dz_dfb * stereo_fb_px_m, dz_dza, basis])
 
 
 def _prior_information(precision: np.ndarray, r: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -197,6 +206,7 @@ def solve_point_to_plane(
     cross_group: np.ndarray | None = None,
     stereo_fb_px_m: float | None = None,
     pixel_locking_prior_px: float = 0.25,
+    covariance: bool = True,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -240,6 +250,9 @@ def solve_point_to_plane(
     pixel_locking_prior_px : float
         Sigma of a Gaussian prior on ``a`` and ``b`` about 0, pixels (a parabola-fitting matcher's
         locking reaches a few tenths of a pixel).
+    covariance : bool
+        False: skip the covariances (the fit's covariance fields are None), for the passes of an iteration
+        whose matches are about to change.
 
     Returns
     -------
@@ -281,10 +294,12 @@ def solve_point_to_plane(
     r, J = _linearise(p_cam, m_base, n_base, T, shape, depth, fb)
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
+    correction = None if depth is None else tuple(float(x) for x in depth)
+    if not covariance:
+        return PlaneFit(T, None, r, w, groups, steps, step_norm, correction)
     prior = None if depth is None else _prior_information(prior_precision, r, w)
     cov = clustered_covariance(J, r, w, group, prior, cross_group)
     if depth is None:
         return PlaneFit(T, cov, r, w, groups, steps, step_norm)
     frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
-    correction = tuple(float(x) for x in depth)
     return PlaneFit(T, cov[:6, :6], r, w, groups, steps, step_norm, correction, cov[6:, 6:], frames[6:, 6:])

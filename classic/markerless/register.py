@@ -489,6 +489,7 @@ class _Problem:
                     scale_m=window / 3,
                     loss="cauchy",
                     iterations=2,
+                    covariance=False,
                 )
                 moved = pose_error(T, fit.T_base_cam)
                 T = fit.T_base_cam
@@ -520,7 +521,7 @@ class _Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q_obs, q, has_depth, close
 
-    def _solve(self, T, m, f, q_obs, iterations, depth_start):
+    def _solve(self, T, m, f, q_obs, iterations, depth_start, covariance=True):
         """Point-to-plane fit of fixed matches (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
         and the depth correction ``depth_start`` ``(k, c)``; returns the fit and the median expected residual."""
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
@@ -542,14 +543,17 @@ class _Problem:
             cross_group=_depth_bins(q_obs[:, 2], self.opts.depth_clusters),
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
+            covariance=covariance,
         )
         return fit, expected
 
-    def _fit(self, T, idx, f, q_obs, close):
+    def _fit(self, T, idx, f, q_obs, close, covariance=True):
         sel = np.flatnonzero(close)
         self.last_matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
-        fit, expected = self._solve(T, *self.last_matches, iterations=iterations, depth_start=self.depth)
+        fit, expected = self._solve(
+            T, *self.last_matches, iterations=iterations, depth_start=self.depth, covariance=covariance
+        )
         if fit.depth_correction is not None:
             self.depth = fit.depth_correction
         return fit, expected
@@ -584,7 +588,7 @@ class _Problem:
                 visible_idx = idx
             if close.sum() < 50:
                 return T, None, np.inf, 0.0
-            fit, expected = self._fit(T, idx, f, q_obs, close)
+            fit, expected = self._fit(T, idx, f, q_obs, close, covariance=False)  # the matches change next
             T, step = fit.T_base_cam, fit.step_norm
             inl = fit.weights > 0.5
             scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)

@@ -1,0 +1,65 @@
+"""The point-splat z-buffer keeps, in every pixel of every frame, the nearest front-facing point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from classic.markerless.visibility import project, visible_points
+
+K = np.array([[100.0, 0.0, 31.5], [0.0, 100.0, 23.5], [0.0, 0.0, 1.0]])
+H, W = 48, 64
+
+
+def _brute_force(p_cam, frame):
+    """The nearest point of each (frame, pixel), by a loop over the points."""
+    best: dict[tuple[int, int, int], int] = {}
+    uv = np.rint(project(p_cam, K)).astype(int)
+    for i, ((u, v), f, z) in enumerate(zip(uv, frame, p_cam[:, 2])):
+        if z <= 0.05 or not (0 <= u < W and 0 <= v < H):
+            continue
+        k = (int(f), int(v), int(u))
+        if k not in best or z < p_cam[best[k], 2]:
+            best[k] = i
+    return {k: best[k] for k in sorted(best)}
+
+
+def test_nearest_point_per_pixel_as_a_loop_finds_it():
+    rng = np.random.default_rng(3)
+    n = 4000
+    frame = rng.integers(0, 3, n)
+    # few pixels for many points, so that most pixels hold several; depths distinct
+    p = np.c_[rng.uniform(-0.1, 0.1, (n, 2)), rng.uniform(0.2, 1.0, n)]
+    p[:, :2] *= p[:, 2:]  # inside the view at every depth
+    p[:5, 2] = 0.01  # behind the near plane
+    expected = _brute_force(p, frame)
+    got = visible_points(p, None, frame, K, H, W)
+    assert list(got) == list(expected.values())  # one per covered pixel, in pixel order
+
+
+def test_an_occluded_surface_is_hidden_and_back_faces_dropped():
+    # two parallel squares on the optical axis, 0.5 m and 0.8 m away, facing the camera
+    g = np.stack(np.meshgrid(np.linspace(-0.05, 0.05, 40), np.linspace(-0.05, 0.05, 40)), -1).reshape(-1, 2)
+    near = np.c_[g, np.full(len(g), 0.5)]
+    far = np.c_[g * 3, np.full(len(g), 0.8)]  # wider: its rim shows round the near one
+    p = np.r_[near, far]
+    n = np.tile([0.0, 0.0, -1.0], (len(p), 1))
+    seen = visible_points(p, n, np.zeros(len(p), int), K, H, W)
+    uv_near = np.rint(project(near, K)).astype(int)
+    uv_far = np.rint(project(p[seen[seen >= len(g)]], K)).astype(int)
+    covered = {tuple(x) for x in uv_near}
+    assert seen[seen < len(g)].size == len(covered)
+    assert not covered & {tuple(x) for x in uv_far}, "a far point kept in a pixel the near square covers"
+    assert visible_points(p, -n, np.zeros(len(p), int), K, H, W).size == 0  # all facing away
+
+
+def test_nothing_in_view_is_an_empty_answer():
+    p = np.array([[0.0, 0.0, -1.0], [5.0, 0.0, 1.0]])
+    assert visible_points(p, None, np.zeros(2, int), K, H, W).size == 0
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_few_points(n):
+    p = np.tile([0.0, 0.0, 1.0], (n, 1))
+    p[:, 2] += np.arange(n) * 0.1
+    assert list(visible_points(p, None, np.zeros(n, int), K, H, W)) == [0]
