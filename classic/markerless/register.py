@@ -191,6 +191,13 @@ class MarkerlessOptions:
         Solve groups of the frames (by depth, by the arm's image column) again and add their scatter beyond
         their own noise to the sigma (:mod:`classic.markerless.consistency`): errors the frames share by depth or image
         position, which the clustered covariance cannot see. True by default.
+    static_parts : bool
+        Fit the parts of the robot that do not move over the recording (the base, a joint held still) as
+        well. False (the default): the fine stage fits the moving parts only. A static part is seen the same
+        way in every frame, so whatever error the sensor makes on it (an active-stereo unit's fixed projector
+        pattern, multipath, a flat-field error) is one error repeated in every frame: it biases the pose and
+        the frames cannot reveal it. The moving parts, seen anew in every frame, carry the calibration. With no
+        part moving, the static ones are used.
     seed : int
     """
 
@@ -214,6 +221,7 @@ class MarkerlessOptions:
     zbuffer_stride: int = 1
     depth_clusters: int = 12
     split_check: bool = True
+    static_parts: bool = False
     seed: int = 0
 
     def __post_init__(self):
@@ -265,6 +273,8 @@ class MarkerlessResult:
     start : str
         Which start led to the answer.
     diagnostics : dict
+        Among others ``fitted_parts``: ``"moving"`` (the fine stage fitted the parts that move over the recording)
+        or ``"all"`` (``static_parts``, or no part moved).
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
@@ -384,6 +394,8 @@ class _Problem:
             cent = sums[k, seen] / count[k, seen, None]
             spread[k] = np.sqrt(((cent - cent.mean(0)) ** 2).sum(1).mean()) if len(cent) > 1 else 0.0
         self.moving_part = spread[surface.part] > 0.02
+        # the model points the fine stage fits: the moving parts' (MarkerlessOptions.static_parts)
+        self.fitted_part = self.moving_part if self.moving_part.any() and not opts.static_parts else None
         # the coarse stages work on a subset of the model (their windows are centimetres)
         m = len(surface.frame)
         self.coarse_subset = (
@@ -547,6 +559,10 @@ class _Problem:
         )
         return fit, expected
 
+    def _fitted(self, idx, close):
+        """The matches the fine stage fits: ``close`` ones on the parts it fits (``static_parts``)."""
+        return close if self.fitted_part is None else close & self.fitted_part[idx]
+
     def _fit(self, T, idx, f, q_obs, close, covariance=True):
         sel = np.flatnonzero(close)
         self.last_matches = (idx[sel], f[sel], q_obs[sel])
@@ -586,9 +602,10 @@ class _Problem:
             idx, f, q_obs, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
             if full:
                 visible_idx = idx
-            if close.sum() < 50:
+            fitted = self._fitted(idx, close)
+            if fitted.sum() < 50:
                 return T, None, np.inf, 0.0
-            fit, expected = self._fit(T, idx, f, q_obs, close, covariance=False)  # the matches change next
+            fit, expected = self._fit(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
             T, step = fit.T_base_cam, fit.step_norm
             inl = fit.weights > 0.5
             scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
@@ -596,12 +613,13 @@ class _Problem:
                 break
         # the final association, fresh z-buffer: one more fit on it, and the matched fraction
         idx, f, q_obs, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
-        if close.sum() < 50:
+        fitted = self._fitted(idx, close)
+        if fitted.sum() < 50:
             return T, None, np.inf, 0.0
-        fit, _ = self._fit(T, idx, f, q_obs, close)
+        fit, _ = self._fit(T, idx, f, q_obs, fitted)
         q = self.corrected(q_obs)
         step = max(step, fit.step_norm)
-        matched_q = q[close]
+        matched_q = q[fitted]  # what calibrated the depth
         self.final_geometry = (
             float(np.median(matched_q[:, 2])),
             float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
@@ -744,6 +762,7 @@ def register_robot(
             "expected_rms_mm": expected_mm,
             "last_step": float(step),
             "matched_points": int(inl.sum()),
+            "fitted_parts": "all" if problem.fitted_part is None else "moving",
             "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm_pose},
             "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
             "sigma_consistency": split,

@@ -72,6 +72,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "baseline in metres (a D435 at 848x480: 447 x 0.050 = 22.35); its matcher's pull toward whole "
         "disparities is estimated with the depth (default: the sensor profile's; 0: not modelled)",
     )
+    p.add_argument(
+        "--static-parts",
+        action="store_true",
+        help="fit the robot's parts that do not move over the recording as well (the base; default: the moving "
+        "parts only, since a static part's depth error is the same in every frame and the frames cannot reveal it)",
+    )
     p.add_argument("-o", "--out", type=Path, help="write the results as JSON")
     p.add_argument(
         "--write-labels",
@@ -109,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
             depth_model=args.depth_model,
             depth_extrinsic_sigma_m=extrinsic_m,
             stereo_fb_px_m=stereo_fb,
+            static_parts=args.static_parts,
         ),
         progress=not args.quiet,
     )

@@ -15,6 +15,7 @@ from handeye.core.metrics import pose_error
 from tests.classic.test_markerless import (
     RADII,
     SIGMA_1M,
+    H,
     K,
     _bias_bounds,
     _look_at,
@@ -205,3 +206,38 @@ def test_bad_stereo_options_raise():
         MarkerlessOptions(stereo_fb_px_m=STEREO_FB_PX_M, depth_model="fixed")
     with pytest.raises(HandEyeInputError, match="pixel_locking_prior_px"):
         MarkerlessOptions(stereo_fb_px_m=STEREO_FB_PX_M, pixel_locking_prior_px=0.0)
+
+
+def _frozen_error_on_the_base(depth, centres, T_base_cam, push_m):
+    """The sensor's error on the static sphere (part 0): the same in every frame, growing across the image's rows
+    to ``push_m`` at the sphere's lower rim (as a fixed projector pattern's matching error stays on a static
+    surface)."""
+    base_only = render_depth(centres[:, :1], T_base_cam)
+    floor_only = render_depth(centres[:, :1] + [0.0, 0.0, 5.0], T_base_cam)
+    on_base = (base_only > 0) & (base_only < floor_only - 1e-6) & (np.abs(depth - base_only) < 0.01)
+    rows = np.nonzero(on_base[0].any(axis=1))[0]
+    v = (np.arange(H)[:, None] - rows.min()) / max(rows.max() - rows.min(), 1)
+    return np.where(on_base, depth + push_m * v, depth)
+
+
+def test_a_static_parts_frozen_error_is_left_out():
+    """The static base is seen the same way in every frame: a sensor error on it (2 cm at its rim) repeats in every
+    frame, so the frames cannot reveal it. Left out (the default), the moving parts give the truth within their
+    sigma; fitted, the base pulls the camera more than twice as far as that bound allows."""
+    rng = np.random.default_rng(3)
+    T_base_cam = _look_at(np.array([1.2, -0.6, 0.9]), np.array([0.0, 0.0, 0.35]))
+    centres = np.empty((12, len(RADII), 3))
+    centres[:, 0] = [0, 0, 0.09]
+    centres[:, 1:] = rng.uniform([-0.3, -0.3, 0.25], [0.3, 0.3, 0.65], size=(12, 3, 3))
+    depth = _frozen_error_on_the_base(render_depth(centres, T_base_cam, rng), centres, T_base_cam, 0.02)
+    surface = sphere_model(centres)
+    bias_mm, bias_deg = _bias_bounds(depth)
+    res = register_robot(_sensor(depth), K, surface)
+    assert res.ok, res.refused
+    rot_deg, trans_mm = pose_error(res.T_base_cam, T_base_cam)
+    bound_mm = SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
+    assert trans_mm <= bound_mm
+    assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+    fitted = register_robot(_sensor(depth), K, surface, options=MarkerlessOptions(static_parts=True))
+    if fitted.ok:  # refused would be right too
+        assert pose_error(fitted.T_base_cam, T_base_cam)[1] > 2 * bound_mm

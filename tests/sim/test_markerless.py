@@ -173,3 +173,15 @@ def test_a_stereo_sensor_has_its_matchers_bias_estimated_unless_told_not_to(smal
     capsys.readouterr()
     assert main(["markerless", str(small_dataset[0]), "--camera", "1", "--stereo-fb", "-1", "--quiet"]) != 0
     assert "--stereo-fb must be a disparity constant >= 0" in capsys.readouterr().err
+
+
+def test_static_parts_are_left_out_unless_asked_for(small_dataset, tmp_path):
+    """The result says which parts the fine stage fitted: the moving ones by default, all with --static-parts."""
+    from handeye.cli import main
+
+    fitted = {}
+    for name, extra in (("default", []), ("static", ["--static-parts"])):
+        out = tmp_path / f"{name}.json"
+        assert main(["markerless", str(small_dataset[0]), "--camera", "1", "-o", str(out), "--quiet", *extra]) == 0
+        fitted[name] = json.loads(out.read_text())["cameras"]["1"]["diagnostics"]["fitted_parts"]
+    assert fitted == {"default": "moving", "static": "all"}
