@@ -358,7 +358,7 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "python benchmarks/imported_bag.py",
         "b",
         "a benchmark: renders 12 placements at three distances, writes them as bags, imports and registers "
-        "them (74 s of rendering alone in benchmarks/results/imported_bag.md)",
+        "them (a minute of rendering alone in benchmarks/results/imported_bag.md)",
     ),
     ("docs/getting-started.md", 0): Block(
         "python3 -m venv .venv",

@@ -59,8 +59,9 @@ class PlaneFit:
     Attributes
     ----------
     T_base_cam : array, shape (4, 4)
-    covariance : array, shape (6, 6)
-        Of ``(omega, v)``, the right perturbation in the camera frame (radians, metres).
+    covariance : array, shape (6, 6), or None
+        Of ``(omega, v)``, the right perturbation in the camera frame (radians, metres); None when the fit was
+        asked for none (``covariance=False``), as are the depth correction's.
     residuals_m : array, shape (N,)
         Signed point-to-plane residuals at the solution.
     weights : array, shape (N,)
