@@ -65,14 +65,15 @@ def clustered_covariance(
     plain = H_inv * variance
     if group is None:
         return plain
-    meat = _cluster_meat(Jw * r[:, None], group)
+    scores = Jw * r[:, None]
+    g, n_g = _codes(group)
+    meat = _cluster_meat(scores, g, n_g)
     if meat is None:
         return plain
     if cross_group is not None:
-        cross = _cluster_meat(Jw * r[:, None], cross_group)
-        g = np.unique(np.asarray(group), return_inverse=True)[1].reshape(-1)
-        c = np.unique(np.asarray(cross_group), return_inverse=True)[1].reshape(-1)
-        both = _cluster_meat(Jw * r[:, None], g * (int(c.max()) + 1) + c)  # the pairs, as one integer each
+        c, n_c = _codes(cross_group)
+        cross = _cluster_meat(scores, c, n_c)
+        both = _cluster_meat(scores, *_codes(g * n_c + c))  # the (group, cross_group) pairs, one integer each
         if cross is not None and both is not None:
             value, vector = np.linalg.eigh(meat + cross - both)
             meat = (vector * np.maximum(value, 0.0)) @ vector.T
@@ -80,14 +81,18 @@ def clustered_covariance(
     return sandwich if np.trace(sandwich) >= np.trace(plain) else plain
 
 
-def _cluster_meat(scores_per_residual: np.ndarray, group: np.ndarray) -> np.ndarray | None:
-    """``k / (k - 1) sum_g s_g s_g^T`` over the k clusters, None with fewer than two."""
+def _codes(group: np.ndarray) -> tuple[np.ndarray, int]:
+    """Each residual's cluster as 0..k-1, and k."""
     labels, where = np.unique(np.asarray(group), return_inverse=True)
-    k = len(labels)
+    return where.reshape(-1), len(labels)
+
+
+def _cluster_meat(scores_per_residual: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray | None:
+    """``k / (k - 1) sum_g s_g s_g^T`` over the k clusters (``codes`` from :func:`_codes`), None with fewer
+    than two."""
     if k < 2:
         return None
-    where = where.reshape(-1)
-    scores = np.stack([np.bincount(where, column, minlength=k) for column in scores_per_residual.T], axis=1)
+    scores = np.stack([np.bincount(codes, column, minlength=k) for column in scores_per_residual.T], axis=1)
     return scores.T @ scores * k / (k - 1)
 
 

@@ -238,8 +238,7 @@ def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> 
             return np.where(z > 0, 1.0 / z, np.nan)
 
     centre = inverse(padded[n, v, u])
-    tol = np.asarray(tolerance_m)
-    tol_inv = (tol[edge] if tol.ndim else tol) * centre**2  # d(1/z) = dz / z^2
+    tol_inv = np.broadcast_to(tolerance_m, depth_m.shape)[edge] * centre**2  # d(1/z) = dz / z^2
     on_a_surface = np.zeros(len(n), dtype=bool)
     for dv, du in ((0, 1), (1, 0), (1, 1), (1, -1)):
         a, b = inverse(padded[n, v + dv, u + du]), inverse(padded[n, v - dv, u - du])

@@ -116,15 +116,16 @@ def pixel_locking_basis(z_m: np.ndarray, k: float, stereo_fb_px_m: float) -> np.
     array, shape (N, 2)
         ``z^2 / (f B k) (sin, cos)(2 pi f B k / z)``, metres per pixel.
     """
-    fb, sin, cos = _locking_phase(z_m, k, stereo_fb_px_m)
-    return (z_m**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
+    return _locking_terms(z_m, k, stereo_fb_px_m)[3]
 
 
-def _locking_phase(z_a, k, stereo_fb_px_m):
-    """``f B k`` and the sine and cosine of the matcher's disparity phase ``2 pi f B k / z_a``."""
+def _locking_terms(z_a, k, stereo_fb_px_m):
+    """``f B k``, the sine and cosine of the matcher's disparity phase ``2 pi f B k / z_a``, and the basis
+    ``z_a^2 / (f B k) (sin, cos)`` of :func:`pixel_locking_basis`."""
     fb = stereo_fb_px_m * k
     phase = 2 * np.pi * fb / z_a
-    return fb, np.sin(phase), np.cos(phase)
+    sin, cos = np.sin(phase), np.cos(phase)
+    return fb, sin, cos, (z_a**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
 
 
 def corrected_points(q_obs: np.ndarray, k: float, c: float, a: float = 0.0, b: float = 0.0, stereo_fb_px_m=None):
@@ -149,12 +150,11 @@ def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
     k, c, a, b = depth
     z_obs = q_obs[:, 2]
     z_a = k * z_obs + c
-    fb, sin, cos = _locking_phase(z_a, k, stereo_fb_px_m)
+    fb, sin, cos, basis = _locking_terms(z_a, k, stereo_fb_px_m)
     e, de = a * sin + b * cos, a * cos - b * sin  # the disparity error and its derivative over the phase
-    z = z_a + z_a**2 / fb * e
+    z = z_a + basis @ np.array([a, b])  # as corrected_points
     dz_dza = 1 + 2 * z_a / fb * e - 2 * np.pi * de
     dz_dfb = -((z_a / fb) ** 2) * e + 2 * np.pi * z_a / fb * de
-    basis = (z_a**2 / fb)[:, None] * np.stack([sin, cos], axis=1)
     jacobian = np.column_stack([dz_dza * z_obs + dz_dfb * stereo_fb_px_m, dz_dza, basis])
     return q_obs * (z / z_obs)[:, None], jacobian
 

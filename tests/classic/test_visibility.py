@@ -63,3 +63,22 @@ def test_few_points(n):
     p = np.tile([0.0, 0.0, 1.0], (n, 1))
     p[:, 2] += np.arange(n) * 0.1
     assert list(visible_points(p, None, np.zeros(n, int), K, H, W)) == [0]
+
+
+@pytest.mark.parametrize("tolerance", [0.004, np.full((2, 1, 1), 0.004)])
+def test_a_pixel_between_two_surfaces_is_mixed_and_a_slanted_plane_is_not(tolerance):
+    """``mixed_pixels``: a depth step (1.0 m to 1.5 m) with one pixel at 1.3 m between them is flagged; the
+    step's own pixels are not, away from that pixel and the image's border rows (whose vertical neighbours are
+    missing); a plane slanted across the image has no mixed pixel (its inverse depth is affine in the pixel)."""
+    from classic.markerless.depth import mixed_pixels
+
+    step = np.full((H, W), 1.0)
+    step[:, W // 2 :] = 1.5
+    step[10, W // 2] = 1.3
+    v, u = np.mgrid[0:H, 0:W].astype(float)
+    plane = 1.0 / (1.0 + 0.004 * (u - W / 2) + 0.002 * (v - H / 2))
+    mixed = mixed_pixels(np.stack([step, plane]), tolerance)
+    assert mixed[0, 10, W // 2]
+    flagged = {tuple(x) for x in np.argwhere(mixed[0])}
+    assert all(u in (W // 2 - 1, W // 2) and (v in (0, H - 1) or abs(v - 10) <= 1) for v, u in flagged), flagged
+    assert not mixed[1].any()
