@@ -7,6 +7,7 @@ import shlex
 import sys
 
 from benchmarks._machine import machine
+from handeye.core.smoke import NOTICE, smoke_test
 
 
 class Report:
@@ -30,7 +31,18 @@ class Report:
         self.say("command: python " + shlex.join([script, *args]))  # quoted as a shell takes it back
         self.say(f"machine: {machine()}")
         self.say(f"{versions}; {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
+        if smoke_test():
+            self.say(f"SMOKE RUN: {NOTICE}")
         self.say()
+
+    @staticmethod
+    def cut(args, **sizes) -> None:
+        """In a smoke run (:mod:`handeye.core.smoke`), each ``args.NAME`` cut to at most ``sizes[NAME]``
+        (a None, "all", becomes ``sizes[NAME]``): a benchmark's own sizes, as the presets cut theirs."""
+        if smoke_test():
+            for name, most in sizes.items():
+                value = getattr(args, name)
+                setattr(args, name, most if value is None else min(value, most))
 
     def say(self, s: str = "") -> None:
         """Print a line and keep it."""

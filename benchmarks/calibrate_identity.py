@@ -116,6 +116,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=5, help="alternating rounds of both trees")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args(argv)
+    Report.cut(args, repeats=1, rounds=1)
     with tempfile.TemporaryDirectory() as tmp:
         old = Path(tmp) / "old"
         subprocess.run(

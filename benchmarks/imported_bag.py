@@ -180,6 +180,7 @@ def main() -> int:
     ap.add_argument("--work", type=Path, help="keep the datasets and bags here (default: a temporary folder)")
     ap.add_argument("--out", help="write the report here")
     args = ap.parse_args()
+    Report.cut(args, placements=1, frames=10)
     import handeye
 
     report = Report(

@@ -184,6 +184,7 @@ def main():
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_sensors.md"))
     args = ap.parse_args()
+    Report.cut(args, max_placements=1)
     rep = Report("Markerless calibration on real sensors' depth", "benchmarks/markerless_sensors.py", None, versions())
     emit = rep.say
     emit(

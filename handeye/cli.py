@@ -14,6 +14,7 @@ import warnings
 
 from handeye.core.errors import HandEyeInputError, MissingDependencyError
 from handeye.core.limits import one_line
+from handeye.core.smoke import NOTICE, smoke_test
 
 __all__ = ["main", "build_parser"]
 
@@ -66,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     """
     args = build_parser().parse_args(argv)
     _quiet_opencv()
+    if smoke_test():
+        print(f"handeye {args.command}: {NOTICE}", file=sys.stderr)
     try:
         with _own_warnings(args.command):
             return int(args.run(args) or 0)

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 
 from handeye.core.errors import HandEyeInputError
+from handeye.core.smoke import smoke_test
 from learned.model import ModelConfig
 from learned.protocol import PROTOCOLS
 from learned.trainer import TrainConfig
@@ -134,6 +135,26 @@ class Preset:
         if name not in PROTOCOLS:
             raise HandEyeInputError(f"unknown protocol {name!r}: use {', '.join(PROTOCOLS)}")
         return replace(self, protocol=name, **PROTOCOLS[name])
+
+    def smoke(self) -> "Preset":
+        """This preset cut to a smoke run's size (:mod:`handeye.core.smoke`): the ``tiny`` preset's 32x32
+        frames and networks, one stage in the keypoint model, 2 epochs first and 1 later, one repeat; the same
+        name, protocol, strategy parameters and thresholds."""
+        return replace(
+            self,
+            image_size=(32, 32),
+            channels=(8, 16, 32),
+            hidden=(64, 32),
+            first_epochs=2,
+            later_epochs=1,
+            batch_epochs=2,
+            keypoint_epochs=(2, 1, 2) if self.keypoint_epochs else None,
+            keypoint_image_size=None,
+            keypoint_channels=(8,),
+            keypoint_average_epochs=0,
+            keypoint_reference_frames=0,
+            repeats=1,
+        )
 
     def frame_size(self, family: str = "regression") -> tuple:
         """``(width, height)`` the frames are loaded at for a model family (``regression`` or ``keypoints``)."""
@@ -278,7 +299,8 @@ PRESETS = {
 
 
 def get_preset(name: str) -> Preset:
-    """The preset called ``name``; an unknown name is refused with the known ones."""
+    """The preset called ``name``, in a smoke run (:func:`handeye.core.smoke.smoke_test`) cut to its
+    :meth:`Preset.smoke` size; an unknown name is refused with the known ones."""
     if name not in PRESETS:
         raise HandEyeInputError(f"unknown learned preset {name!r}: use {', '.join(PRESETS)}")
-    return PRESETS[name]
+    return PRESETS[name].smoke() if smoke_test() else PRESETS[name]

@@ -17,12 +17,13 @@ in 4 scenes, the robot standing at different places and headings in the lab
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform
+from handeye.core.smoke import smoke_test
 
 __all__ = ["CameraPreset", "CameraSet", "PRESETS", "get_preset", "look_at", "place_cameras"]
 
@@ -105,6 +106,18 @@ class CameraPreset:
             del doc["scenes"]
         return doc
 
+    def smoke(self) -> "CameraPreset":
+        """This preset cut to a smoke run's size (:mod:`handeye.core.smoke`): at most 2 train and 1 test
+        placements per region, 6 configurations and 10 calibration views; the same name, robot, regions,
+        distances, image sizes and scenes."""
+        return replace(
+            self,
+            train_per_region=tuple(min(int(n), 2) for n in self.train_per_region),
+            test_per_region=tuple(min(int(n), 1) for n in self.test_per_region),
+            configurations=min(self.configurations, 6),
+            calibration_views=min(self.calibration_views, 10),
+        )
+
     @property
     def n_cameras(self) -> int:
         """Camera poses in all."""
@@ -181,7 +194,8 @@ PRESETS = {
 
 
 def get_preset(name: str) -> CameraPreset:
-    """A preset by name.
+    """A preset by name; in a smoke run (:func:`handeye.core.smoke.smoke_test`) cut to its
+    :meth:`CameraPreset.smoke` size.
 
     Raises
     ------
@@ -190,7 +204,7 @@ def get_preset(name: str) -> CameraPreset:
     """
     if name not in PRESETS:
         raise HandEyeInputError(f"unknown preset {name!r}: use one of {', '.join(PRESETS)}")
-    return PRESETS[name]
+    return PRESETS[name].smoke() if smoke_test() else PRESETS[name]
 
 
 def look_at(position: np.ndarray, target: np.ndarray, up: np.ndarray = np.array([0.0, 0.0, 1.0])) -> np.ndarray:

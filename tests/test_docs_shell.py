@@ -1,4 +1,4 @@
-"""The documentation's bash blocks (``docs/**/*.md``), executed as written wherever that takes seconds.
+"""The documentation's bash blocks (``docs/**/*.md``), every one executed as written.
 
 Every ```bash block of the documentation is classified in :data:`BLOCKS` (a block added without a
 classification fails ``test_every_docs_bash_block_is_classified``):
@@ -10,11 +10,15 @@ classification fails ``test_every_docs_bash_block_is_classified``):
     stand-ins'), asserts exit 0 and that every file or folder the block names as an output (``-o``,
     ``--out``, ``--report``, ``--export-*``, ``--board-out``) exists.
 ``b``
-    Runs as written but takes minutes to hours (it renders a paper preset, trains with the ``cpu`` preset,
-    or is a benchmark): not executed; its commands are parsed by today's argument parsers
-    (``tests/test_docs.py``: ``test_documented_commands_parse``, ``test_documented_benchmark_commands_parse``).
+    Runs as written for minutes to hours at full size (it renders a paper preset, trains with the ``cpu``
+    preset, or is a benchmark): executed the same way, as written, in a smoke run
+    (``HANDEYE_SMOKE_TEST=1``, :mod:`handeye.core.smoke`: every preset and benchmark size cut to seconds,
+    the same commands, code paths and files).
 ``c``
-    Cannot run here (it creates a virtual environment and installs from the network).
+    The install (``docs/getting-started.md``, the README's first block): :func:`test_the_install_block_runs`
+    runs its first command as written in a clone of the repository (a fresh virtual environment, the
+    project installed from the package registries, then the demo in a smoke run); its second command is
+    ``.ci/run``'s own, which CI runs.
 
 The commands are the documentation's, unchanged. Two kinds of line are left out of the executed text and
 checked instead: ``pip install -e ".[extras]"`` (every requirement of those extras is installed in this
@@ -27,16 +31,20 @@ less data:
 - ``images/``, ``robot.csv``, ``camera.json``: ten rendered eye-in-hand views of the 7x5 ChArUco board the
   images guide prints (:func:`classic.vision.synthetic.make_image_dataset`); ``detections.json`` detected
   from them; ``camera_info.yaml`` the same camera as ROS writes it;
-- ``data/paper-sim``: 16 camera placements (2 regions of 7 train + 1 test), 4 configurations each, at the
-  ``small`` preset's image sizes, labelled (the real preset has 108 placements of 50 configurations);
-  ``runs/sim/reservoir``: a model trained on it with the ``tiny`` learned preset (seconds, not the ``cpu``
-  preset's minutes);
+- ``data/paper-sim`` (and ``data/paper-sim-noisy`` where a block reads that without rendering it): 16
+  camera placements (2 regions of 7 train + 1 test), 4 configurations each, at the ``small`` preset's image
+  sizes, labelled (the real preset has 108 placements of 50 configurations); ``runs/sim/reservoir``: a
+  model trained on it with the ``tiny`` learned preset (seconds, not the ``cpu`` preset's minutes);
 - ``data/my-cell`` and the bags ``data_0/ cal_0/ ...``: two placements rendered as a D435 reports depth
   and written as ROS 2 bags by :mod:`sim.bag_export` (``placement_0/``: the same as frame folders);
   ``my_arm.urdf``: the UR5's URDF, its meshes under ``~/ws/src``; ``guess.json``: the first placement's
   truth 2 cm and 2 degrees off;
 - ``kuka_poses.csv``, ``my_eob_calib.samples``, ``recording/``: pose files and a bag written from
-  synthetic problems (the builders of ``test_posefile_controllers``, ``test_cli_ros``, ``test_ros_bag``).
+  synthetic problems (the builders of ``test_posefile_controllers``, ``test_cli_ros``, ``test_ros_bag``);
+- ``benchmarks/``: the repository's scripts, linked, beside an empty ``results/`` (a benchmark's ``--out``
+  lands in the test's folder); for ``calibrate_identity.py``, which adds a git worktree of an earlier
+  revision, the folder is a git clone of the repository (its committed tree) instead;
+- a running Ray cluster (``ray start --head``, stopped after the block) for the block that joins one.
 """
 
 from __future__ import annotations
@@ -55,7 +63,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.test_docs import DOCS, ROOT, code_blocks
+from handeye.core.smoke import ENV as SMOKE_ENV
+from handeye.core.smoke import NOTICE as SMOKE_NOTICE
+from tests.test_docs import DOCS, README, ROOT, code_blocks
 
 #: Left out of the executed text (checked instead): no network, no ROS installation here.
 DROPPED = ("pip install", "ros2 launch")
@@ -66,7 +76,8 @@ OUTPUT_OPTIONS = ("-o", "--out", "--report", "--board-out", "--export-easy-hande
 @dataclasses.dataclass(frozen=True)
 class Block:
     """One bash block: how its first command (after any ``pip install``) starts, its kind (a, b, c), why b
-    and c are not run, and for a the function that writes its stand-ins into the folder it runs in."""
+    and c take too long at full size, and for a and b the function that writes its stand-ins into the folder
+    it runs in."""
 
     first: str
     kind: str
@@ -335,10 +346,44 @@ def _nothing(folder, home, block, request):
         _have("pyrender", "pinocchio")
 
 
-_PAPER_PRESET = (
-    "renders the paper-sim preset (108 placements, 7,020 frames: 5 minutes on 2 cores, docs/benchmarks/simulation.md) "
-    "and labels it"
-)
+def _benchmarks(folder, home, block, request):
+    """benchmarks/: the repository's scripts, linked, beside an empty results/ (the --out lands here)."""
+    _nothing(folder, home, block, request)
+    (folder / "benchmarks" / "results").mkdir(parents=True)
+    for script in (ROOT / "benchmarks").glob("*.py"):
+        (folder / "benchmarks" / script.name).symlink_to(script)
+
+
+def _clone(folder, home, block, request):
+    """The folder a git clone of the repository (its committed tree), holding the revision ``--against``
+    names: the benchmark adds a worktree of it to the clone, not to the repository under test."""
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("the repository is not a git checkout")
+    revision = re.search(r"--against (\S+)", block)[1]
+    if subprocess.run(["git", "-C", str(ROOT), "cat-file", "-e", f"{revision}^{{commit}}"]).returncode:
+        pytest.skip(f"this checkout's history lacks {revision} (a shallow clone)")
+    subprocess.run(["git", "clone", "-q", "--shared", str(ROOT), str(folder)], check=True)
+
+
+def _paper_sim(folder, home, block, request):
+    """data/paper-sim, or data/paper-sim-noisy when the block reads that: the labelled stand-in."""
+    data, _ = request.getfixturevalue("paper_sim_standin")
+    name = "paper-sim-noisy" if "data/paper-sim-noisy" in block else "paper-sim"
+    _copy(data, folder / "data" / name)
+
+
+def _ray_head(folder, home, block, request):
+    """A running Ray cluster of 2 CPUs on this machine (``ray start --head``), stopped after the block."""
+    _nothing(folder, home, block, request)
+    _have("ray")
+    ray = str(Path(sys.executable).parent / "ray")
+    start = [ray, "start", "--head", "--num-cpus", "2", "--object-store-memory", str(256 * 2**20)]
+    start += ["--include-dashboard", "false", "--disable-usage-stats"]
+    request.addfinalizer(lambda: subprocess.run([ray, "stop", "--force"], capture_output=True, timeout=120))
+    subprocess.run(start, check=True, capture_output=True, timeout=300, env=dict(os.environ, HOME=str(home)))
+
+
+_PAPER_PRESET = "renders the paper-sim preset (108 placements, 7,020 frames: 5 minutes on 2 cores) and labels it"
 _CPU_TRAINING = "trains with the cpu learned preset: 1 min 43 s for the four strategies even on an 8-frame stand-in"
 
 #: Every bash block of docs/**/*.md, by file and index among the file's bash blocks.
@@ -346,19 +391,20 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/benchmarks/classic.md", 0): Block(
         "python benchmarks/calibrate_identity.py",
         "b",
-        "a benchmark (its workload 50 times in each of two trees, about a minute) that adds a git worktree of "
-        "revision d0acac4 to the repository under test: the suite leaves .git alone (and CI clones may be shallow)",
+        "a benchmark: the workload 50 times in each of two trees, about a minute",
+        _clone,
     ),
     ("docs/benchmarks/markerless.md", 0): Block(
         "python benchmarks/markerless_sensors.py",
         "b",
-        "a benchmark: renders paper-real and paper-sim placements at three distances for each sensor profile",
+        "a benchmark: renders paper-real and paper-sim placements at three distances per sensor profile (40 min)",
+        _benchmarks,
     ),
     ("docs/benchmarks/markerless.md", 1): Block(
         "python benchmarks/imported_bag.py",
         "b",
-        "a benchmark: renders 12 placements at three distances, writes them as bags, imports and registers "
-        "them (a minute of rendering alone in benchmarks/results/imported_bag.md)",
+        "a benchmark: renders 12 placements at three distances, writes them as bags, imports and registers them",
+        _benchmarks,
     ),
     ("docs/getting-started.md", 0): Block(
         "python3 -m venv .venv",
@@ -372,16 +418,25 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/beyond-one-machine.md", 0): Block(
         "handeye sim generate --preset small --out data/small --engine ray",
         "b",
-        "renders the dense-sim preset (1,000 placements) on a running Ray cluster and trains the paper learned "
-        "preset with torchrun: hours",
+        "renders on a local Ray cluster and trains the paper learned preset with torchrun: hours on CPUs",
+        _paper_sim,
+    ),
+    ("docs/guides/beyond-one-machine.md", 1): Block(
+        "handeye sim generate --preset dense-sim --out data/dense-sim --engine ray --address auto",
+        "b",
+        "renders and labels the 1,000 placements of dense-sim on a running Ray cluster: 3.4 core-hours",
+        _ray_head,
     ),
     ("docs/guides/images.md", 0): Block("handeye board --squares 7x5", "a", "", _images_guide_0),
     ("docs/guides/images.md", 1): Block("handeye board --kind checkerboard", "a", "", _images_guide_1),
-    ("docs/guides/learned.md", 0): Block("handeye learned run --data data/paper-sim --preset cpu", "b", _CPU_TRAINING),
+    ("docs/guides/learned.md", 0): Block(
+        "handeye learned run --data data/paper-sim --preset cpu", "b", _CPU_TRAINING, _paper_sim
+    ),
     ("docs/guides/learned.md", 1): Block(
         "handeye learned run",
         "b",
         "trains the keypoint family with the cpu learned preset: more than 7 minutes even on the small preset",
+        _paper_sim,
     ),
     ("docs/guides/markerless.md", 0): Block(
         "handeye markerless data/paper-sim --camera 14 15", "a", "", _markerless_guide_0
@@ -389,8 +444,9 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/markerless.md", 1): Block(
         "handeye sim generate --preset paper-real",
         "b",
-        "renders the paper-real preset with the D435 profile (24 placements, 2,400 data frames: minutes), then "
-        "two markerless passes over its 24 placements",
+        "renders paper-real with the D435 profile (2,400 data frames: minutes), then two markerless passes over "
+        "24 placements",
+        _nothing,
     ),
     ("docs/guides/markerless.md", 2): Block("handeye import bag data_0/ data_1/", "a", "", _markerless_guide_2),
     ("docs/guides/markerless.md", 3): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
@@ -398,8 +454,8 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/markerless.md", 5): Block(
         "handeye markerless data/paper-sim-noisy",
         "b",
-        "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy alone even on an "
-        "8-frame stand-in",
+        "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy even on 8 frames",
+        _paper_sim,
     ),
     ("docs/guides/real-cell.md", 0): Block("handeye calibrate kuka_poses.csv", "a", "", _real_cell_0),
     ("docs/guides/real-cell.md", 1): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1),
@@ -409,14 +465,20 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _real_cell_4
     ),
     ("docs/guides/real-cell.md", 5): Block("handeye plan", "a", "", _nothing),
-    ("docs/guides/simulate-label.md", 0): Block("handeye sim generate --preset paper-sim", "b", _PAPER_PRESET),
+    ("docs/guides/simulate-label.md", 0): Block(
+        "handeye sim generate --preset paper-sim", "b", _PAPER_PRESET, _nothing
+    ),
     ("docs/reproduce-paper.md", 0): Block(
         "handeye sim generate --preset paper-sim",
         "b",
         _PAPER_PRESET + "; then the paper protocol's training, ablation and thresholds (10 to 30 minutes each)",
+        _nothing,
     ),
     ("docs/reproduce-paper.md", 1): Block(
-        "handeye sim generate --preset paper-sim", "b", _PAPER_PRESET + "; then paper-real and two protocol benchmarks"
+        "handeye sim generate --preset paper-sim",
+        "b",
+        _PAPER_PRESET + "; then paper-real and two protocol benchmarks",
+        _benchmarks,
     ),
     ("docs/reproduce-paper.md", 2): Block("handeye sim generate --preset small", "a", "", _nothing),
 }
@@ -467,8 +529,8 @@ def test_every_docs_bash_block_is_classified():
         assert block.kind in "abc" and len(block.kind) == 1, key
         first = next(c for c in _commands(blocks[key]) if not c.startswith("pip install"))
         assert first.startswith(block.first), f"{key}: its first command is {first!r}"
-        assert (block.kind == "a") == (block.prepare is not None), key
-        assert block.kind == "a" or block.why, f"{key}: say why it is not run"
+        assert (block.kind in "ab") == (block.prepare is not None), key
+        assert block.kind == "a" or block.why, f"{key}: say why it does not run at full size"
 
 
 def test_the_documentation_states_the_count():
@@ -476,8 +538,11 @@ def test_the_documentation_states_the_count():
     block that does not, with its kind."""
     kinds = [b.kind for b in BLOCKS.values()]
     text = (DOCS / "benchmarks" / "index.md").read_text()
-    stated = f"{kinds.count('a')} of the {len(kinds)} bash blocks run as written"
-    assert stated in " ".join(text.split()), f"docs/benchmarks/index.md should say '{stated}'"
+    stated = (
+        f"all {len(kinds)} bash blocks run as written: {kinds.count('a')} at full size, {kinds.count('b')} in a "
+        f"smoke run and {kinds.count('c')} in a fresh virtual environment"
+    )
+    assert stated.lower() in " ".join(text.split()).lower(), f"docs/benchmarks/index.md should say '{stated}'"
     rows = re.findall(r"^\| `([^`]+)` \| ([abc]) \|", text, flags=re.M)
     expected = [
         (f"{path.removeprefix('docs/')}#{index}", b.kind) for (path, index), b in BLOCKS.items() if b.kind != "a"
@@ -529,13 +594,14 @@ def _executed() -> list:
     return [
         pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}")
         for key, b in BLOCKS.items()
-        if b.kind == "a" and key in blocks
+        if b.kind in "ab" and key in blocks
     ]
 
 
 @pytest.mark.parametrize("key,block", _executed())
 def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
-    """The block, as written, from a folder of stand-ins: exit 0 and every output it names written."""
+    """The block, as written, from a folder of stand-ins (a b block in a smoke run): exit 0 and every output
+    it names written."""
     folder, home = tmp_path / "cwd", tmp_path / "home"
     folder.mkdir()
     home.mkdir()
@@ -550,10 +616,15 @@ def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
         HOME=str(home),
         MPLCONFIGDIR=str(mpl_config),
     )
+    env.pop(SMOKE_ENV, None)
+    if BLOCKS[key].kind == "b":
+        env[SMOKE_ENV] = "1"
     run = subprocess.run(
         ["bash", "-euo", "pipefail", "-c", text], cwd=folder, env=env, capture_output=True, text=True, timeout=900
     )
     assert run.returncode == 0, f"{key} failed (exit {run.returncode}):\n{run.stdout[-2000:]}\n{run.stderr[-3000:]}"
+    if BLOCKS[key].kind == "b" and "handeye " in text:  # the run said it is a smoke run
+        assert SMOKE_NOTICE in run.stderr, f"{key}: the smoke run did not say so"
     for out in _outputs(text):
         target = home / out[2:] if out.startswith("~/") else folder / out
         assert target.exists(), f"{key}: {out} was not written"
@@ -562,3 +633,35 @@ def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
             _extras_installed(line)
         else:
             _launch_file_is_what_ros2_launch_runs(folder, home, line)
+
+
+#: What pip prints when no package registry can be reached (then the install test skips).
+_OFFLINE = ("NewConnectionError", "Temporary failure in name resolution", "Network is unreachable", "No route to host")
+
+
+def test_the_install_block_runs(tmp_path, mpl_config):
+    """The install block (``docs/getting-started.md``, the README's first block), as written: its first
+    command in a clone of the repository (a fresh virtual environment, torch and the project installed from
+    the package registries, then ``handeye demo`` in a smoke run), its second ``.ci/run``'s own command."""
+    block = docs_bash_blocks()[("docs/getting-started.md", 0)]
+    readme = next(b for b in code_blocks(README, "bash") if "pip install" in b)
+    assert _commands(readme) == _commands(block), "the README and getting-started print different installs"
+    main_job, tests = _commands(block)
+    assert (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1] == tests, ".ci/run runs another command"
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("the repository is not a git checkout")
+    clone, home = tmp_path / "clone", tmp_path / "home"
+    home.mkdir()
+    subprocess.run(["git", "clone", "-q", "--shared", str(ROOT), str(clone)], check=True)
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH", "PYTHONHOME")}
+    env.update(PYOPENGL_PLATFORM="egl", HOME=str(home), MPLCONFIGDIR=str(mpl_config), **{SMOKE_ENV: "1"})
+    run = subprocess.run(
+        ["bash", "-euo", "pipefail", "-c", main_job], cwd=clone, env=env, capture_output=True, text=True, timeout=1800
+    )
+    if run.returncode and any(s in run.stdout + run.stderr for s in _OFFLINE):
+        pytest.skip("no package registry reachable: " + run.stderr.strip().splitlines()[-1])
+    failed = f"the install failed (exit {run.returncode}):\n{run.stdout[-2000:]}\n{run.stderr[-3000:]}"
+    assert run.returncode == 0, failed
+    assert SMOKE_NOTICE in run.stderr, "the demo did not run in a smoke run"
+    assert (clone / ".venv" / "bin" / "handeye").is_file(), "the console script was not installed"
+    assert (clone / "runs" / "demo").is_dir() and any((clone / "runs" / "demo").iterdir()), "the demo wrote nothing"
