@@ -16,7 +16,9 @@ Run from the repository root, on datasets rendered with the default sensor noise
    and success rate per case.
 3. Basin (``--basin-data``): starts perturbed from the truth by (mm, deg), success
    meaning an accepted answer within 1 mm / 0.1 deg; an accepted answer outside that is a
-   wrong answer, counted apart from refusals. Once with the centroid start tried beside the
+   wrong answer, counted apart from refusals, and among those the ones also beyond 3 predicted
+   sigmas (a wrong basin, where the others lie outside the fixed bound but within the method's
+   own precision). Once with the centroid start tried beside the
    given one (the default), once with the given start alone (the coarse stage's own basin).
 
 Prints markdown tables and writes them to ``--results``.
@@ -138,7 +140,7 @@ def basin(ds, surface, opts, cells, trials, centroid, rng):
     truth = ds.truth()
     cams = list(range(len(ds)))
     draws = {cell: [(rng.normal(size=3), rng.normal(size=3)) for _ in range(trials)] for cell in cells}
-    counts = {cell: [0, 0, 0] for cell in cells}  # good, wrong, refused
+    counts = {cell: [0, 0, 0, 0] for cell in cells}  # good, wrong, refused, wrong and beyond 3 sigma
     for c in cams:
         mine = [k for k in range(trials) if k % len(cams) == c]
         if not mine:
@@ -157,7 +159,10 @@ def basin(ds, surface, opts, cells, trials, centroid, rng):
                     counts[(mm, deg)][2] += 1
                     continue
                 rot, tr = pose_error(res.T_base_cam, truth[c])
-                counts[(mm, deg)][0 if rot <= SUCCESS_DEG and tr <= SUCCESS_MM else 1] += 1
+                good = rot <= SUCCESS_DEG and tr <= SUCCESS_MM
+                counts[(mm, deg)][0 if good else 1] += 1
+                far = rot > 3 * res.sigma["rotation_deg"] or tr > 3 * res.sigma["translation_mm"]
+                counts[(mm, deg)][3] += int(not good and far)
     return {cell: (*counts[cell], trials) for cell in cells}
 
 
@@ -276,10 +281,10 @@ def main(argv=None):
                 f"{'centroid start tried beside the given one' if centroid else 'the given start alone'}"
             )
             emit()
-            emit("| start off by | success | wrong answer | refused |")
-            emit("|---|---|---|---|")
-            for (mm, deg), (g, wr, rf, n) in basin(bds, bsurface, bopts, cells, trials, centroid, rng).items():
-                emit(f"| {mm} mm, {deg} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {rf} |")
+            emit("| start off by | success | wrong answer | of which beyond 3 sigma | refused |")
+            emit("|---|---|---|---|---|")
+            for (mm, deg), (g, wr, rf, w3, n) in basin(bds, bsurface, bopts, cells, trials, centroid, rng).items():
+                emit(f"| {mm} mm, {deg} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {w3} | {rf} |")
     args.results.parent.mkdir(parents=True, exist_ok=True)
     args.results.write_text("\n".join(lines) + "\n")
     print(f"written: {args.results}")
