@@ -369,3 +369,21 @@ DDP_PREDICTION_RTOL = 1e-2
 #: errors and the final summaries, relative. The same mechanism over some 60 training calls; measured
 #: 1.5e-3, as one process on 1 thread against 2 (1.1e-3).
 DDP_RUN_RTOL = 1e-2
+
+# --------------------------------------------------------------------------
+# Real recordings (benchmarks/data/real, tests/test_real_recordings.py)
+# --------------------------------------------------------------------------
+
+#: The median hold-out prediction error of a real recording's default fit (camera pose predicted from the
+#: robot pose, fit on the other poses) over the RMS of the same fit's residuals on all poses. For Gaussian
+#: residuals the median of an error's norm is 0.89 of its RMS (Maxwell distribution: 1.54 over 1.73
+#: sigma per axis) and a held-out pose adds the estimate's own error, a factor sqrt(1 + p / n) = 1.15 for
+#: the 12 parameters and 42 poses; 1.5 leaves room for the heavier tails of a real recording. A wrong fit
+#: (the wrong setup) predicts with errors many times its residual's scale, or is refused.
+HOLDOUT_OVER_RESIDUAL = 1.5
+#: A pose read from a real recording's file: its rotation block orthonormal to this (the files print
+#: 17 significant digits, and the readers re-orthonormalise within their printed-rotation tolerance).
+RECORDED_ROTATION = 1e-9
+#: Distances of a metric recording: a robot flange and a target seen by a camera lie between 1 cm and 5 m
+#: from their frames' origins; millimetres read as metres land at 1000 times that.
+METRIC_RANGE_M = (0.01, 5.0)
