@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions
+from classic._linear import check_motions, resolve_near_half_turns, split_near_half_turns
 from classic.motions import Motions, motions_from_transforms
 from handeye.core.se3 import (
     make_transform,
@@ -80,7 +80,7 @@ def _block(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return P.reshape(-1, 4)
 
 
-def _daniilidis_stats(m: Motions) -> dict:
+def _daniilidis_core(m: Motions) -> dict:
     # S = [[P, 0], [Q, P]] per motion, so S^T S = [[P^T P + Q^T Q, Q^T P], [P^T Q, P^T P]] summed
     a, a_d = _dual(m.q_A, m.t_A)
     b, b_d = _dual(m.q_B, m.t_B)
@@ -95,7 +95,11 @@ def _daniilidis_stats(m: Motions) -> dict:
     return {"M": M}
 
 
+_daniilidis_stats = split_near_half_turns(_daniilidis_core)
+
+
 def _daniilidis_finish(st: dict) -> np.ndarray:
+    st = resolve_near_half_turns(_daniilidis_core, st)
     _, V = np.linalg.eigh(st["M"])
     v1, v2 = V[:, 0], V[:, 1]
     u1, w1, u2, w2 = v1[:4], v1[4:], v2[:4], v2[4:]

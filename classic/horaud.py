@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions, translation_from_stats, translation_stats
+from classic._linear import (
+    check_motions,
+    resolve_near_half_turns,
+    split_near_half_turns,
+    translation_from_stats,
+    translation_stats,
+)
 from classic.motions import Motions, motions_from_transforms
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
 
@@ -44,7 +50,7 @@ def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return _horaud_finish(_horaud_stats(motions_from_transforms(A, B)))
 
 
-def _horaud_stats(m: Motions) -> dict:
+def _horaud_core(m: Motions) -> dict:
     # L(a) - W(b) written out with d = a - b and s = a + b ((w, x, y, z) indices 0..3)
     d = quat_xyzw_to_wxyz(m.q_A) - quat_xyzw_to_wxyz(m.q_B)
     s = m.q_A[:, :3] + m.q_B[:, :3]  # s1, s2, s3
@@ -58,7 +64,11 @@ def _horaud_stats(m: Motions) -> dict:
     return {"M": D.T @ D, **translation_stats(m)}
 
 
+_horaud_stats = split_near_half_turns(_horaud_core)
+
+
 def _horaud_finish(st: dict) -> np.ndarray:
+    st = resolve_near_half_turns(_horaud_core, st)
     _, vecs = np.linalg.eigh(st["M"])
     R_X = matrix_from_quat_xyzw(quat_wxyz_to_xyzw(vecs[:, 0]))
     return make_transform(R_X, translation_from_stats(st, R_X))

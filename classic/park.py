@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions, translation_from_stats, translation_stats
+from classic._linear import (
+    check_motions,
+    resolve_near_half_turns,
+    split_near_half_turns,
+    translation_from_stats,
+    translation_stats,
+)
 from classic.motions import Motions, motions_from_transforms
 from handeye.core.se3 import make_transform, project_to_so3
 
@@ -43,10 +49,14 @@ def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return _park_finish(_park_stats(motions_from_transforms(A, B)))
 
 
-def _park_stats(m: Motions) -> dict:
+def _park_core(m: Motions) -> dict:
     return {"M": m.rotvec_B.T @ m.rotvec_A, **translation_stats(m)}
 
 
+_park_stats = split_near_half_turns(_park_core)
+
+
 def _park_finish(st: dict) -> np.ndarray:
+    st = resolve_near_half_turns(_park_core, st)
     R_X = project_to_so3(st["M"].T)
     return make_transform(R_X, translation_from_stats(st, R_X))

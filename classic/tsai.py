@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic._linear import check_motions, translation_from_stats, translation_stats
+from classic._linear import (
+    check_motions,
+    resolve_near_half_turns,
+    split_near_half_turns,
+    translation_from_stats,
+    translation_stats,
+)
 from classic.motions import Motions, motions_from_transforms
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
 
@@ -45,7 +51,7 @@ def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return _tsai_finish(_tsai_stats(motions_from_transforms(A, B)))
 
 
-def _tsai_stats(m: Motions) -> dict:
+def _tsai_core(m: Motions) -> dict:
     s = 2.0 * (m.q_A[:, :3] + m.q_B[:, :3])
     d = 2.0 * (m.q_B[:, :3] - m.q_A[:, :3])
     # normal equations of [s]x x = d: sum [s]x^T [s]x = sum(|s|^2) I - s^T s, sum [s]x^T d = -sum s x d
@@ -61,7 +67,11 @@ def _tsai_stats(m: Motions) -> dict:
     return {"G": np.trace(sTs) * np.eye(3) - sTs, "rhs": -(np.ones(len(m)) @ s_x_d), **translation_stats(m)}
 
 
+_tsai_stats = split_near_half_turns(_tsai_core)
+
+
 def _tsai_finish(st: dict) -> np.ndarray:
+    st = resolve_near_half_turns(_tsai_core, st)
     x = np.linalg.lstsq(st["G"], st["rhs"], rcond=None)[0]
     P_X = 2.0 * x / np.sqrt(1.0 + x @ x)
     q_v = 0.5 * P_X
