@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2
 
-from classic.motions import Motions, motions_from_poses
+from classic.motions import Motions, motions_from_poses, near_half_turn
 from classic.pairs import pair_indices
 from handeye.core.errors import ContaminatedPosesError
 from handeye.core.se3 import so3_log
@@ -151,7 +151,11 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", mo
         disp.append(np.sum(axis * t, axis=1))
     d_ang = np.abs(ang[0] - ang[1])
     screw = (ang[0] > _SCREW_MIN_ANGLE_RAD) & (ang[1] > _SCREW_MIN_ANGLE_RAD)
-    d_disp = np.where(screw, np.abs(disp[0] - disp[1]), 0.0)
+    # near a half turn noise sets each side's axis sign (w >= 0) on its own, and t . axis with it:
+    # compare magnitudes there (classic.motions.near_half_turn)
+    flip = near_half_turn(m)
+    d_disp = np.where(flip, np.abs(np.abs(disp[0]) - np.abs(disp[1])), np.abs(disp[0] - disp[1]))
+    d_disp = np.where(screw, d_disp, 0.0)
     score = d_ang / max(float(np.median(d_ang)), 1e-12)
     if screw.any():
         score = score + d_disp / max(float(np.median(d_disp[screw])), 1e-12)
