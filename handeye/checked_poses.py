@@ -18,7 +18,13 @@ __all__ = ["FIT_RATIO", "load_poses"]
 FIT_RATIO = 10.0
 
 
-def load_poses(path: str | Path, setup: str, quat_order: str | None = None, units: str | None = None) -> PoseSet:
+def load_poses(
+    path: str | Path,
+    setup: str,
+    quat_order: str | None = None,
+    units: str | None = None,
+    camera_frame: str | None = None,
+) -> PoseSet:
     """Read a pose file and refuse it if its quaternions are in the other order.
 
     Relative rotation angles cannot reveal a permuted quaternion order (they
@@ -34,6 +40,8 @@ def load_poses(path: str | Path, setup: str, quat_order: str | None = None, unit
     setup : {"eye_to_hand", "eye_in_hand"}
     quat_order : {"xyzw", "wxyz"}, optional
     units : {"m", "mm"}, optional
+    camera_frame : {"optical", "ros-body"}, optional
+        The frame of the camera poses (:func:`handeye.core.posefile.read_pose_file`).
 
     Returns
     -------
@@ -47,9 +55,9 @@ def load_poses(path: str | Path, setup: str, quat_order: str | None = None, unit
     from handeye.core.validation import MIN_POSES
 
     if Path(path).suffix.lower() in YAML_SUFFIXES:  # easy_handeye: quaternions named x, y, z, w; no order to test
-        poses = read_pose_file(path, units=units, setup=setup)
+        poses = read_pose_file(path, units=units, setup=setup, camera_frame=camera_frame)
     else:
-        poses = read_pose_file(path, quat_order=quat_order, units=units)
+        poses = read_pose_file(path, quat_order=quat_order, units=units, camera_frame=camera_frame)
     if len(poses.T_base_ee) < MIN_POSES:
         raise PoseFileError(
             f"{path}: {len(poses.T_base_ee)} pose pair(s); a hand-eye calibration needs at least {MIN_POSES} "
@@ -64,7 +72,9 @@ def load_poses(path: str | Path, setup: str, quat_order: str | None = None, unit
     other = QUAT_ORDERS[1 - QUAT_ORDERS.index(order)] if order in QUAT_ORDERS else "wxyz"
     for names in (POSE_NAMES[:1], POSE_NAMES[1:], POSE_NAMES):
         try:
-            alt = read_pose_file(path, quat_order=quat_order, units=units, swap_order_of=names)
+            alt = read_pose_file(
+                path, quat_order=quat_order, units=units, swap_order_of=names, camera_frame=camera_frame
+            )
         except PoseFileError:
             continue
         residual = fit_residual_m(alt.T_base_ee, alt.T_cam_target, setup)

@@ -21,8 +21,17 @@ outlier views.
 
 The pose file may also be an easy_handeye / easy_handeye2 sample list
 (``.yaml``, ``.yml``, ``.samples``; :mod:`handeye.core.easy_handeye`), read for
-``--setup``. After a successful calibration the camera pose can be written for
-ROS (:mod:`handeye.ros_exports`)::
+``--setup``, or OpenCV FileStorage YAML pose pairs (``%YAML:1.0``, camodocal's
+``TransformPairsInput.yml``; :mod:`handeye.core.opencv_pose_pairs`). Two text
+files of 4x4 matrices, robot poses in one and camera poses in the other
+(:mod:`handeye.core.matrix_poses`)::
+
+    handeye calibrate --robot-poses robot.txt --camera-poses camera.txt --setup eye-in-hand --units mm
+
+(``--robot-inverse`` / ``--camera-inverse`` where a file holds the inverse poses).
+Camera poses in a ROS body frame (``camera_link``, x forward) are refused unless
+``--camera-frame ros-body`` converts them (:mod:`handeye.core.camera_frame`).
+After a successful calibration the camera pose can be written for ROS (:mod:`handeye.ros_exports`)::
 
     handeye calibrate my_eob_calib.samples --setup eye-to-hand --frames base_link camera_color_optical_frame \\
         --export-easy-handeye my_eob_calib.calib --export-launch handeye_tf.launch.py --export-urdf camera_joint.urdf
@@ -72,6 +81,29 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "--robot-poses",
         type=Path,
         help="with --detections: CSV/JSON of T_base_ee per image (an 'image' column pairs them by name)",
+    )
+    p.add_argument(
+        "--camera-poses",
+        type=Path,
+        help="with --robot-poses: a text file of 4x4 matrices T_cam_target (16 numbers a line, or 4 lines "
+        "each), paired in order with the robot file's T_base_ee, also 4x4 matrices (handeye.core.matrix_poses)",
+    )
+    p.add_argument(
+        "--robot-inverse",
+        action="store_true",
+        help="with --camera-poses: the robot file holds T_ee_base (the base in the flange, as Tabb's "
+        "robot_cali.txt), not T_base_ee",
+    )
+    p.add_argument(
+        "--camera-inverse",
+        action="store_true",
+        help="with --camera-poses: the camera file holds T_target_cam, not T_cam_target",
+    )
+    p.add_argument(
+        "--camera-frame",
+        choices=["optical", "ros-body"],
+        help="frame of the file's camera poses: optical (z forward, OpenCV), or ros-body (camera_link, x "
+        "forward), converted to optical; default optical, refused when the targets say ros-body",
     )
     p.add_argument(
         "--no-reprojection",
@@ -171,6 +203,14 @@ def run(args: argparse.Namespace) -> int:
     from handeye.ros_exports import check_export_arguments
 
     check_export_arguments(args)
+    if args.camera_poses is not None:
+        if args.poses is not None or args.detections is not None or args.robot_poses is None:
+            raise HandEyeInputError("give --camera-poses with --robot-poses (two matrix files), without a pose file")
+        return _run_poses(args)
+    if args.robot_inverse or args.camera_inverse:
+        raise HandEyeInputError("--robot-inverse and --camera-inverse go with --robot-poses and --camera-poses")
+    if args.detections is not None and args.camera_frame is not None:
+        raise HandEyeInputError("--camera-frame is for pose files; detections are in the optical frame already")
     if args.detections is not None or args.robot_poses is not None:
         if args.poses is not None or args.detections is None or args.robot_poses is None:
             raise HandEyeInputError("give either a pose file, or --detections with --robot-poses")
@@ -261,7 +301,23 @@ def _run_poses(args: argparse.Namespace) -> int:
     from handeye.ros_exports import write_exports
 
     setup = normalize_setup(args.setup)
-    poses = load_poses(args.poses, setup, quat_order=args.quat_order, units=args.units)
+    if args.camera_poses is not None:
+        from handeye.core.matrix_poses import read_matrix_pose_pairs
+
+        poses = read_matrix_pose_pairs(
+            args.robot_poses,
+            args.camera_poses,
+            units=args.units,
+            invert_robot=args.robot_inverse,
+            invert_camera=args.camera_inverse,
+            camera_frame=args.camera_frame,
+        )
+        source = f"--robot-poses {args.robot_poses} --camera-poses {args.camera_poses}"
+    else:
+        poses = load_poses(
+            args.poses, setup, quat_order=args.quat_order, units=args.units, camera_frame=args.camera_frame
+        )
+        source = str(args.poses)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = classic.calibrate(
@@ -280,7 +336,7 @@ def _run_poses(args: argparse.Namespace) -> int:
     x_name, y_name = UNKNOWN_NAMES[setup]
     sig = res.sigma
     lines = [
-        f"handeye calibrate {args.poses} --setup {setup.replace('_', '-')} --method {args.method}",
+        f"handeye calibrate {source} --setup {setup.replace('_', '-')} --method {args.method}",
         f"{len(poses.T_base_ee)} poses, method {res.method}",
         _fmt_pose(x_name, res.X),
         f"    1-sigma: {sig['X_rotation_deg']:.4f} deg, {sig['X_translation_mm']:.3f} mm",

@@ -35,7 +35,15 @@ each pose given as ``matrix`` (4x4), ``translation`` + ``quaternion`` (order
 
 YAML (``.yaml``, ``.yml``, ``.samples``): an easy_handeye (ROS 1) or
 easy_handeye2 (ROS 2) sample list, read by :mod:`handeye.core.easy_handeye`;
-its robot transforms depend on the setup, so give ``setup``.
+its robot transforms depend on the setup, so give ``setup``. A YAML file whose
+first line is ``%YAML:1.0`` is OpenCV FileStorage: camodocal's pose pairs
+``T1_i`` (``T_base_ee``) and ``T2_i`` (``T_cam_target``), read by
+:mod:`handeye.core.opencv_pose_pairs`. Text files of 4x4 matrices (robot poses
+in one file, camera poses in another) are read by :mod:`handeye.core.matrix_poses`.
+
+Camera poses are in the optical frame (z forward). Poses that say they are in a
+ROS body frame (``camera_link``, x forward) are refused unless ``camera_frame``
+names the frame (:mod:`handeye.core.camera_frame`).
 
 Units: metres by default (millimetres for the robot controllers' columns);
 ``units="mm"`` converts. A quaternion that is not unit is reported with its
@@ -53,6 +61,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.core.camera_frame import check_camera_frame, check_camera_frame_name, to_optical
 from handeye.core.errors import PoseFileError
 from handeye.core.limits import (
     ABSURD_TRANSLATION_M,
@@ -62,6 +71,7 @@ from handeye.core.limits import (
     check_json_depth,
     shorten,
 )
+from handeye.core.opencv_yaml import is_opencv_yaml
 from handeye.core.poseset import UNIT_SCALE, PoseSet
 from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
 from handeye.core.se3 import (
@@ -334,13 +344,16 @@ def read_pose_file(
     units: str | None = None,
     swap_order_of: tuple[str, ...] = (),
     setup: str | None = None,
+    camera_frame: str | None = None,
 ) -> PoseSet:
-    """Read paired ``T_base_ee`` and ``T_cam_target`` from a CSV, JSON or easy_handeye YAML file.
+    """Read paired ``T_base_ee`` and ``T_cam_target`` from a CSV, JSON, easy_handeye or OpenCV YAML file.
 
     Parameters
     ----------
     path : str or Path
-        ``.csv``, ``.json``, or ``.yaml``/``.yml``/``.samples`` (formats in this module's docstring).
+        ``.csv``, ``.json``, or ``.yaml``/``.yml``/``.samples`` (formats in this module's docstring); a YAML
+        file whose first line is ``%YAML:1.0`` is OpenCV FileStorage pose pairs
+        (:func:`handeye.core.opencv_pose_pairs.read_opencv_pose_pairs`).
     quat_order : {"xyzw", "wxyz"}, optional
         Order of positional quaternions (JSON ``quaternion`` lists, CSV
         ``.q0 .. .q3`` columns). Overrides the JSON's ``quaternion_order``;
@@ -355,10 +368,15 @@ def read_pose_file(
         For YAML sample files only: easy_handeye records ``T_ee_base`` as the
         robot transform of an eye-on-base (eye-to-hand) calibration and
         ``T_base_ee`` for eye-in-hand (:mod:`handeye.core.easy_handeye`).
+    camera_frame : {"optical", "ros-body"}, optional
+        The frame of the camera poses. ``None``: optical, refused when the targets say it is a ROS body
+        frame (x forward; :func:`handeye.core.camera_frame.check_camera_frame`); ``"ros-body"``: converted
+        to the optical frame; ``"optical"``: taken as is.
 
     Returns
     -------
     PoseSet
+        Camera poses in the optical frame.
 
     Raises
     ------
@@ -368,10 +386,15 @@ def read_pose_file(
     """
     path = Path(path)
     _check_file(path)
+    check_camera_frame_name(camera_frame)
+    if path.suffix.lower() in YAML_SUFFIXES and is_opencv_yaml(path):
+        from handeye.core.opencv_pose_pairs import read_opencv_pose_pairs
+
+        return read_opencv_pose_pairs(path, units=units, camera_frame=camera_frame)
     if path.suffix.lower() in YAML_SUFFIXES:
         from handeye.core.easy_handeye import read_easy_handeye_samples
 
-        return read_easy_handeye_samples(path, setup=setup, units=units)
+        return _in_optical_frame(read_easy_handeye_samples(path, setup=setup, units=units), camera_frame)
     if quat_order is not None and quat_order not in QUAT_ORDERS:
         raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
     if path.suffix.lower() == ".json" and quat_order is None:
@@ -384,7 +407,16 @@ def read_pose_file(
         raise PoseFileError(f"{path}: quaternion_order {order!r} not understood; use one of {QUAT_ORDERS}")
     other = QUAT_ORDERS[1 - QUAT_ORDERS.index(order)]
     poses, rows, _ = _parse(path, {n: (other if n in swap_order_of else order) for n in POSE_NAMES}, units)
-    return PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows)
+    return _in_optical_frame(PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows), camera_frame)
+
+
+def _in_optical_frame(poses: PoseSet, camera_frame: str | None) -> PoseSet:
+    """The pose set with its camera poses in the optical frame (checked when the frame is not given)."""
+    if camera_frame is None:
+        check_camera_frame(poses.T_cam_target, poses.source)
+        return poses
+    poses.T_cam_target = to_optical(poses.T_cam_target, camera_frame)
+    return poses
 
 
 @dataclass
