@@ -6,6 +6,9 @@ Shipped (``benchmarks/data/real/<name>/``, each with a ``SOURCE`` file: origin, 
 - ``camodocal_artag``: 42 pose pairs, a static camera and an AR tag on the flange (eye-to-hand),
   jhu-lcsr/handeye_calib_camodocal, BSD-2-Clause. Its camera poses are in the ROS body frame
   ``camera_link`` (x forward); :func:`load_camodocal` turns them into the optical frame.
+- ``ethz_robot_arm``: a robot arm with an SR300 on its hand (eye-in-hand), an AprilTag grid, streams of
+  robot poses (50 Hz) and camera poses (30 Hz) while it moves, ethz-asl/hand_eye_calibration, BSD-3-Clause;
+  :func:`load_ethz_stream` estimates the clocks' offset and pairs them.
 
 Read from a path (no licence file, so not shipped; the documentation says where to get them):
 
@@ -20,7 +23,7 @@ The benchmarks are not part of the installed package: the files are found beside
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +53,8 @@ class Recording:
         An image recording's detections (all views; ``T_base_ee`` and ``T_cam_target`` hold the accepted ones).
     T_base_ee_all : array, shape (V, 4, 4) or None
         An image recording's robot pose of every view, accepted or not.
+    view_index : array of int, shape (N,) or None
+        An image recording's view (index into ``views.views``) of each pose.
     notes : list of str
     """
 
@@ -60,7 +65,19 @@ class Recording:
     source: str
     views: object | None = None
     T_base_ee_all: np.ndarray | None = None
+    view_index: np.ndarray | None = None
     notes: list = field(default_factory=list)
+
+    def subset(self, idx: np.ndarray) -> "Recording":
+        """The recording cut to the poses ``idx`` (a note says so)."""
+        n = len(self.T_base_ee)
+        return replace(
+            self,
+            T_base_ee=self.T_base_ee[idx],
+            T_cam_target=self.T_cam_target[idx],
+            view_index=None if self.view_index is None else self.view_index[idx],
+            notes=[*self.notes, f"cut to {len(idx)} of its {n} poses"],
+        )
 
 
 def load_camodocal(folder: str | Path | None = None) -> Recording:
@@ -88,6 +105,59 @@ def load_camodocal(folder: str | Path | None = None) -> Recording:
         T_cam_target=pairs.T_cam_target,
         source="jhu-lcsr/handeye_calib_camodocal e387f66, example/TransformPairsInput.yml, BSD-2-Clause (shipped)",
         notes=["camera poses in camera_link (ROS body frame), turned into the optical frame"],
+    )
+
+
+#: Every how many camera poses of the ETH stream one is paired (1,703 poses at 30 Hz: about 100 pairs, 0.57 s
+#: apart, so that neighbouring pairs' errors are not the same error twice).
+ETHZ_STRIDE = 17
+
+
+def load_ethz_stream(folder: str | Path | None = None, stride: int = ETHZ_STRIDE) -> Recording:
+    """ETH's robot-arm streams, paired: the clocks' offset estimated, the robot interpolated at camera times.
+
+    Parameters
+    ----------
+    folder : str or Path, optional
+        Default: the shipped copy, ``benchmarks/data/real/ethz_robot_arm``.
+    stride : int
+        Every ``stride``-th camera pose is paired.
+
+    Returns
+    -------
+    Recording
+        ``T_base_ee`` interpolated (:class:`classic.RobotStream`) at the camera times shifted by the offset
+        that :func:`classic.calibrate_stream` estimates on the same pairs; ``T_cam_target`` the inverse of the
+        file's camera-in-target poses.
+    """
+    import warnings
+
+    import classic
+    from handeye.core.se3 import invert_transform, transform_from_pos_quat_xyzw
+
+    folder = Path(folder) if folder is not None else DATA / "ethz_robot_arm"
+    robot = np.loadtxt(folder / "robot_arm_complete_bag_color_and_ir_base_link_sr300_hinge.csv", delimiter=",")
+    camera = np.loadtxt(folder / "robot_arm_complete_bag_color_and_ir_target_ir.csv", delimiter=",")[::stride]
+    t0 = robot[0, 0]  # seconds since 1970 lose their microseconds in differences of float64: shift first
+    t_robot, t_cam = robot[:, 0] - t0, camera[:, 0] - t0
+    T_base_ee = transform_from_pos_quat_xyzw(robot[:, 1:4], robot[:, 4:8])
+    T_cam_target = invert_transform(transform_from_pos_quat_xyzw(camera[:, 1:4], camera[:, 4:8]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = classic.calibrate_stream(t_robot, T_base_ee, t_cam, T_cam_target, setup="eye_in_hand")
+    offset = res.diagnostics["time_offset"]
+    used = np.asarray(offset["poses_used"])
+    T_paired, _ = classic.RobotStream(t_robot, T_base_ee).at(t_cam[used] + offset["value_s"])
+    return Recording(
+        name="ethz_robot_arm",
+        setup="eye_in_hand",
+        T_base_ee=T_paired,
+        T_cam_target=T_cam_target[used],
+        source="ethz-asl/hand_eye_calibration 966cd92, robot_arm_w_color_camera_real.zip, BSD-3-Clause (shipped)",
+        notes=[
+            f"streams paired: every {stride}th camera pose, the robot interpolated at camera time "
+            f"{offset['value_s'] * 1e3:+.1f} +- {offset['sigma_s'] * 1e3:.1f} ms (calibrate_stream on the same poses)"
+        ],
     )
 
 
@@ -142,5 +212,6 @@ def load_rwhe_folder(folder: str | Path, squares: tuple[int, int] | None = None,
         source=f"github.com/ihtishamaliktk/RWHE-Calib Datasets/{folder.name}, no licence (read from {folder})",
         views=views,
         T_base_ee_all=T_base_ee_all,
+        view_index=np.array(ok, dtype=int),
         notes=[views.intrinsics_report, f"{len(ok)} of {len(views.views)} views with a pose"],
     )

@@ -36,7 +36,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import classic  # noqa: E402
-from benchmarks._real_data import Recording, load_camodocal, load_rwhe_folder  # noqa: E402
+from benchmarks._real_data import Recording, load_camodocal, load_ethz_stream, load_rwhe_folder  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
 from classic.calibrate import initial_estimate  # noqa: E402
 from handeye.core.errors import HandEyeInputError  # noqa: E402
@@ -156,7 +156,7 @@ def image_method(rec: Recording):
     from classic.vision.views import Views
     from handeye.image_calibration import calibrate_from_views
 
-    ok = [k for k, v in enumerate(rec.views.views) if v.pose.ok]
+    ok = rec.view_index
 
     def fit(idx) -> Fit:
         keep = [ok[i] for i in idx]
@@ -320,10 +320,17 @@ def report_recording(r: Report, rec: Recording, rows: dict) -> None:
 
 def recordings(args) -> list:
     """The shipped recordings, and those named on the command line."""
-    recs = [] if args.no_shipped else [load_camodocal()]
+    recs = [] if args.no_shipped else [load_camodocal(), load_ethz_stream()]
     for folder in args.rwhe or []:
         print(f"detecting {folder} ...", file=sys.stderr, flush=True)
         recs.append(load_rwhe_folder(folder, progress=True))
+    if args.max_poses:
+        recs = [
+            rec.subset(np.unique(np.linspace(0, len(rec.T_base_ee) - 1, args.max_poses).round().astype(int)))
+            if len(rec.T_base_ee) > args.max_poses
+            else rec
+            for rec in recs
+        ]
     return recs
 
 
@@ -335,10 +342,11 @@ def main(argv=None) -> int:
     p.add_argument("--splits", type=int, default=30, help="hold-out splits (80 %% fit, 20 %% predicted)")
     p.add_argument("--halves", type=int, default=10, help="random splits into two disjoint halves")
     p.add_argument("--no-opencv", action="store_true", help="leave OpenCV's methods out")
+    p.add_argument("--max-poses", type=int, default=None, help="at most this many poses per recording, evenly")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="benchmarks/results/real_recordings.md")
     args = p.parse_args(argv)
-    Report.cut(args, splits=2, halves=1)
+    Report.cut(args, splits=2, halves=1, max_poses=16)
     import scipy
 
     versions = f"python {sys.version.split()[0]}, numpy {np.__version__}, scipy {scipy.__version__}"
