@@ -27,7 +27,14 @@ def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
     the orthogonal polar factor of ``M^T`` (computed by SVD); then
     ``(R_A - I) t_X = R_X t_B - t_A``. Same algebra as OpenCV's
-    ``CALIB_HAND_EYE_PARK``.
+    ``CALIB_HAND_EYE_PARK`` (agreement to 1e-3 of the noise on motions below 120 degrees,
+    tests/classic/test_opencv_agreement.py).
+
+    Near a half turn ``alpha_k = R_X beta_k`` needs both logs on the same branch: noise can
+    put a rotation of ``pi - e`` about ``n`` on one side and ``pi - e'`` about ``-n`` on the
+    other, and the pair then pulls ``R_X`` the wrong way. Beyond 150 degrees the camera side's
+    quaternion sign is aligned to the robot side's (:mod:`classic._linear`) and its log taken
+    on that branch (an angle past ``pi`` where needed).
 
     Parameters
     ----------
