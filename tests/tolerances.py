@@ -398,6 +398,8 @@ METRIC_RANGE_M = (0.01, 5.0)
 #: ``sqrt(2 (t_cam^2 + t_robot^2)) + L s_m``, with ``L`` the largest camera-to-target distance (the
 #: lever a rotation error moves a translation by). A closed form that uses all pairs does no worse
 #: than one pair; SIGMA_BOUND (4) sigma of a 3-D error's norm, sqrt(3) per-axis sigmas, for the tail.
+#: (Not Tsai where X itself turns by nearly 180 degrees: its parameter P_X / sqrt(4 - |P_X|^2) is
+#: singular there, 1.2 degrees at X = 179.94 degrees, OpenCV's 0.9; the tests' sets have X away from it.)
 #: Measured at most 0.10 of this in rotation and translation (7 methods, 4 kinds of set, 2 setups,
 #: 10 seeds); a pair of opposite quaternion signs moved Tsai and Daniilidis by 2 to 180 degrees (2 to
 #: 160 times the rotation bound, 1.1 degrees at the tests' noise).
@@ -405,5 +407,3 @@ HALF_TURN_PAIR_SIGMAS = SIGMA_BOUND * np.sqrt(3.0)
 #: Issue 39's target, not a noise bound: each closed form within 1 degree of OpenCV's same method, or
 #: closer to the truth than OpenCV's, on motions up to 180 degrees.
 OPENCV_SAME_METHOD_DEG = 1.0
-#: (Not Tsai where X itself turns by nearly 180 degrees: its parameter P_X / sqrt(4 - |P_X|^2) is
-#: singular there, 1.2 degrees at X = 179.94 degrees, OpenCV's 0.9; the tests' sets have X away from it.)
