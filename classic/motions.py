@@ -55,7 +55,7 @@ def _rotvec_keeping_sign(q: np.ndarray) -> np.ndarray:
     ``log(q_A) = R_X log(q_B)`` for a pair whose signs were aligned.
     """
     v = q[..., :3]
-    s = np.sqrt(np.einsum("...i,...i->...", v, v))
+    s = np.linalg.norm(v, axis=-1)  # as handeye.core.se3.rotvec_from_quat_xyzw, to the last bit for w >= 0
     theta = 2.0 * np.arctan2(s, q[..., 3])
     small = s < 1e-12
     scale = np.where(small, 2.0, theta / np.where(small, 1.0, s))
