@@ -7,7 +7,11 @@ Three kinds share one spec and one contract, corner ids and their target-frame c
   with an even number of rows);
 - ``"checkerboard"``: a plain chessboard; its two inner-corner counts must differ in parity, so
   that a 180 degree turn of the board is told apart (:mod:`classic.vision.checkerboard`);
-- ``"aruco_grid"``: an ArUco or AprilTag marker grid (:mod:`classic.vision.aruco_grid`).
+- ``"aruco_grid"``: an ArUco or AprilTag marker grid (:mod:`classic.vision.aruco_grid`);
+- ``"circles"`` and ``"asymmetric_circles"``: circle grids, symmetric and asymmetric
+  (:mod:`classic.vision.circle_grid`): ``squares_x`` circles a row, ``squares_y`` rows,
+  ``square_length_m`` the spacing ``s`` (OpenCV's ``squareSize``), ``marker_length_m`` the circle
+  diameter; the "corners" are the circles' centres.
 """
 
 from __future__ import annotations
@@ -23,8 +27,10 @@ from classic.vision.dictionaries import BoardSpecError, _dictionary_size, dictio
 
 __all__ = ["BoardSpec", "BoardSpecError", "KINDS", "dictionary_id"]
 
-#: Board kinds; ``"aruco-grid"`` is accepted for ``"aruco_grid"``.
-KINDS = ("charuco", "checkerboard", "aruco_grid")
+#: Board kinds; ``"aruco-grid"`` is accepted for ``"aruco_grid"``, ``"asymmetric-circles"`` alike.
+KINDS = ("charuco", "checkerboard", "aruco_grid", "circles", "asymmetric_circles")
+#: Kinds without ArUco markers (no dictionary).
+_NO_MARKERS = ("checkerboard", "circles", "asymmetric_circles")
 
 
 @dataclass(frozen=True)
@@ -74,8 +80,14 @@ class BoardSpec:
             raise BoardSpecError(f"legacy must be true or false, got {self.legacy!r}")
         if self.legacy and kind != "charuco":
             raise BoardSpecError(f"legacy is a ChArUco pattern switch; a {kind} board has none")
-        name = {"charuco": "ChArUco board", "checkerboard": "checkerboard", "aruco_grid": "marker grid"}[kind]
-        least = 3 if kind == "checkerboard" else 2
+        name = {
+            "charuco": "ChArUco board",
+            "checkerboard": "checkerboard",
+            "aruco_grid": "marker grid",
+            "circles": "circle grid",
+            "asymmetric_circles": "asymmetric circle grid",
+        }[kind]
+        least = 3 if kind in _NO_MARKERS else 2
         if int(self.squares_x) < least or int(self.squares_y) < least:
             raise BoardSpecError(
                 f"a {name} needs at least {least}x{least} squares, got {self.squares_x}x{self.squares_y}"
@@ -91,6 +103,9 @@ class BoardSpec:
                     "corner order is ambiguous; use one even and one odd square count (e.g. 10x7)"
                 )
             return
+        if kind in ("circles", "asymmetric_circles"):
+            self._check_circles(name)
+            return
         if not 0 < self.marker_length_m < self.square_length_m:
             raise BoardSpecError(
                 f"marker length {self.marker_length_m} m must be positive and smaller than the square length "
@@ -103,6 +118,36 @@ class BoardSpec:
                 f"a {self.squares_x}x{self.squares_y} {name} needs {n_markers} markers; "
                 f"dictionary {self.dictionary} has {size}"
             )
+
+    def _check_circles(self, name: str) -> None:
+        """The circle grid's own rules: diameter below the spacing, an order that a view can fix."""
+        if not 0 < self.marker_length_m < self.square_length_m:
+            raise BoardSpecError(
+                f"circle diameter {self.marker_length_m} m must be positive and smaller than the spacing "
+                f"{self.square_length_m} m (swapped?)"
+            )
+        if self.kind == "circles" and self.squares_x == self.squares_y:
+            raise BoardSpecError(
+                f"a {self.squares_x}x{self.squares_y} {name} looks the same turned by 90 degrees; use different "
+                "counts of circles a row and of rows (e.g. 7x6)"
+            )
+        if self.kind == "asymmetric_circles" and self.squares_y % 2 == 0:
+            raise BoardSpecError(
+                f"a {name} of {self.squares_y} rows looks the same turned by 180 degrees, so its circle order is "
+                "ambiguous; use an odd number of rows (e.g. 4x11)"
+            )
+
+    @classmethod
+    def circle_grid(
+        cls, cols: int, rows: int, spacing_m: float, diameter_m: float, asymmetric: bool = False
+    ) -> "BoardSpec":
+        """A grid of ``cols`` circles a row, ``rows`` rows, ``diameter_m`` wide (:mod:`classic.vision.circle_grid`).
+
+        ``spacing_m`` is ``s``: the distance between neighbours of a symmetric grid; for an asymmetric grid
+        (OpenCV's pattern) the rows' pitch, circles of one row being ``2 s`` apart.
+        """
+        kind = "asymmetric_circles" if asymmetric else "circles"
+        return cls(cols, rows, spacing_m, diameter_m, "", kind=kind)
 
     @classmethod
     def checkerboard(cls, squares_x: int, squares_y: int, square_length_m: float) -> "BoardSpec":
@@ -123,23 +168,28 @@ class BoardSpec:
 
     @property
     def n_markers(self) -> int:
-        """Markers on the board (0 for a checkerboard)."""
+        """Markers on the board (0 for a checkerboard or a circle grid)."""
         return {
             "charuco": (self.squares_x * self.squares_y) // 2,
-            "checkerboard": 0,
             "aruco_grid": self.squares_x * self.squares_y,
-        }[self.kind]
+        }.get(self.kind, 0)
 
     @property
     def n_corners(self) -> int:
-        """Number of corner ids: inner corners, or 4 per marker of a marker grid."""
+        """Number of corner ids: inner corners, 4 per marker of a marker grid, or the circles of a grid."""
         if self.kind == "aruco_grid":
             return 4 * self.n_markers
+        if self.kind in ("circles", "asymmetric_circles"):
+            return self.squares_x * self.squares_y
         return (self.squares_x - 1) * (self.squares_y - 1)
 
     @property
     def size_m(self) -> tuple[float, float]:
         """Board width and height in metres (a marker grid: outer marker edge to outer marker edge)."""
+        if self.kind == "circles":
+            return (self.squares_x + 1) * self.square_length_m, (self.squares_y + 1) * self.square_length_m
+        if self.kind == "asymmetric_circles":
+            return (2 * self.squares_x + 1) * self.square_length_m, (self.squares_y + 1) * self.square_length_m
         gap = self.square_length_m - self.marker_length_m if self.kind == "aruco_grid" else 0.0
         return self.squares_x * self.square_length_m - gap, self.squares_y * self.square_length_m - gap
 
@@ -152,9 +202,13 @@ class BoardSpec:
             ChArUco and checkerboard: inner corner ``k = r (squares_x - 1) + c`` at ``((c + 1) L, (r + 1) L, 0)``.
             Marker grid: corner ``k = 4 i + j`` of marker ``i = r squares_x + c`` at ``(c L, r L, 0)`` plus
             ``(0, 0), (m, 0), (m, m), (0, m)`` for ``j = 0..3`` (OpenCV's top-left, clockwise), ``L`` the pitch,
-            ``m`` the marker side.
+            ``m`` the marker side. Circle grids: the circles' centres (:mod:`classic.vision.circle_grid`).
         """
         L = self.square_length_m
+        if self.kind in ("circles", "asymmetric_circles"):
+            from classic.vision.circle_grid import circle_centres
+
+            return circle_centres(self.kind, int(self.squares_x), int(self.squares_y), L)
         if self.kind == "aruco_grid":
             i, j = np.divmod(np.arange(self.n_corners), 4)
             r, c = np.divmod(i, self.squares_x)
@@ -172,8 +226,8 @@ class BoardSpec:
         BoardSpecError
             For a checkerboard, which has no OpenCV board object.
         """
-        if self.kind == "checkerboard":
-            raise BoardSpecError("a checkerboard has no OpenCV aruco board")
+        if self.kind in _NO_MARKERS:
+            raise BoardSpecError(f"a {self.kind.replace('_', ' ')} board has no OpenCV aruco board")
         d = cv2.aruco.getPredefinedDictionary(dictionary_id(self.dictionary))
         size = (int(self.squares_x), int(self.squares_y))
         if self.kind == "aruco_grid":
@@ -210,6 +264,10 @@ class BoardSpec:
             from classic.vision.aruco_grid import render_grid
 
             return render_grid(self, n, int(margin_px))
+        if self.kind in ("circles", "asymmetric_circles"):
+            from classic.vision.circle_grid import render_circle_grid
+
+            return render_circle_grid(self, n, int(margin_px))
         w = self.squares_x * n + 2 * margin_px
         h = self.squares_y * n + 2 * margin_px
         return self.cv_board().generateImage((w, h), marginSize=int(margin_px), borderBits=1)
@@ -246,7 +304,9 @@ class BoardSpec:
         kind = str(doc.get("kind", doc.get("type", "charuco"))).lower().replace("-", "_")
         fields = ["squares_x", "squares_y", "square_length_m"]
         if kind != "checkerboard":
-            fields += ["marker_length_m", "dictionary"]
+            fields += ["marker_length_m"]
+        if kind not in _NO_MARKERS:
+            fields += ["dictionary"]
         missing = [f for f in fields if f not in doc]
         if missing:
             raise BoardSpecError(f"{path}: missing {', '.join(missing)}")

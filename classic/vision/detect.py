@@ -82,7 +82,8 @@ class ViewPose:
 
 def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
     """Detect the board's corners, sub-pixel: ChArUco (``CharucoDetector``), checkerboard
-    (:mod:`classic.vision.checkerboard`) or marker grid (:mod:`classic.vision.aruco_grid`).
+    (:mod:`classic.vision.checkerboard`), marker grid (:mod:`classic.vision.aruco_grid`) or circle grid
+    (:mod:`classic.vision.circle_grid`: the circles' centres).
 
     Parameters
     ----------
@@ -101,6 +102,11 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> Detection:
         from classic.vision.checkerboard import detect_checkerboard
 
         ids, corners, reason = detect_checkerboard(gray, spec.squares_x, spec.squares_y)
+        return Detection(ids, corners, 0, size, reason)
+    if spec.kind in ("circles", "asymmetric_circles"):
+        from classic.vision.circle_grid import detect_circle_grid
+
+        ids, corners, reason = detect_circle_grid(gray, spec)
         return Detection(ids, corners, 0, size, reason)
     if spec.kind == "aruco_grid":
         from classic.vision.aruco_grid import detect_grid

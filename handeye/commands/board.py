@@ -8,9 +8,14 @@ Example
     handeye board --kind checkerboard --squares 10x7 --square 0.025 -o checker.png
     handeye board --kind aruco-grid --squares 5x4 --square 0.05 --marker 0.04 --dictionary APRILTAG_36h11 -o grid.png
     handeye board --legacy --squares 6x6 --square 0.04 --marker 0.03 -o legacy.png
+    handeye board --kind asymmetric-circles --squares 4x11 --square 0.02 --marker 0.015 -o acircles.png
 
 For ``aruco-grid``, ``--squares`` counts markers and ``--square`` is the marker pitch (marker plus gap).
 A checkerboard needs one even and one odd square count (its corner order is otherwise ambiguous).
+For ``circles`` and ``asymmetric-circles``, ``--squares`` is circles a row x rows, ``--square`` the
+spacing (an asymmetric grid's row pitch; circles of a row are twice that apart) and ``--marker`` the
+circle diameter; an asymmetric grid needs an odd number of rows, a symmetric one two different counts
+(:mod:`classic.vision.circle_grid`).
 
 writes ``board.png`` (print it at 100 % scale, at the given dpi) and
 ``board.json`` (the spec every other command reads). Measure a printed square
@@ -39,7 +44,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--kind",
         default="charuco",
-        choices=["charuco", "checkerboard", "aruco-grid"],
+        choices=["charuco", "checkerboard", "aruco-grid", "circles", "asymmetric-circles"],
         help="board kind (default charuco)",
     )
     p.add_argument("--legacy", action="store_true", help="ChArUco: OpenCV's legacy pattern (setLegacyPattern)")
@@ -74,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
     kind = args.kind.replace("-", "_")
     if kind == "checkerboard":
         spec = BoardSpec.checkerboard(sx, sy, args.square)
+    elif kind in ("circles", "asymmetric_circles"):
+        spec = BoardSpec.circle_grid(sx, sy, args.square, args.marker, asymmetric=kind == "asymmetric_circles")
     else:
         dictionary = args.dict or ("APRILTAG_36h11" if kind == "aruco_grid" else "5X5_100")
         spec = BoardSpec(sx, sy, args.square, args.marker, dictionary, kind=kind, legacy=bool(args.legacy))
@@ -104,9 +111,13 @@ def run(args: argparse.Namespace) -> int:
     spec.save(json_path)
     w_m, h_m = spec.size_m
     what = f"{spec.kind}{' (legacy)' if spec.legacy else ''} board {sx}x{sy} squares of {1000 * args.square:.1f} mm"
-    if spec.kind != "checkerboard":
+    if spec.kind in ("circles", "asymmetric_circles"):
+        what = f"{spec.kind.replace('_', ' ')[:-1]} grid {sx}x{sy} circles of {1000 * args.marker:.1f} mm, spacing "
+        what += f"{1000 * args.square:.1f} mm"
+    elif spec.kind != "checkerboard":
         what += f", markers {1000 * args.marker:.1f} mm, dictionary {spec.dictionary}"
-    print(f"{what}: {1000 * w_m:.0f} x {1000 * h_m:.0f} mm, {spec.n_corners} corners")
+    points = "circles" if "circles" in spec.kind else "corners"
+    print(f"{what}: {1000 * w_m:.0f} x {1000 * h_m:.0f} mm, {spec.n_corners} {points}")
     print(f"  written: {args.output} ({image.shape[1]}x{image.shape[0]} px at {args.dpi:g} dpi; print at 100 %)")
     print(f"  written: {json_path}")
     return 0

@@ -43,7 +43,7 @@ def test_old_spec_files_are_charuco(tmp_path):
 @pytest.mark.parametrize(
     "fields,match",
     [
-        ({"kind": "circles"}, "unknown board kind"),
+        ({"kind": "ring_grid"}, "unknown board kind"),
         ({"kind": "checkerboard", "squares_x": 8, "squares_y": 6}, "ambiguous"),
         ({"kind": "checkerboard", "squares_x": 7, "squares_y": 7}, "ambiguous"),
         ({"kind": "checkerboard", "squares_x": 2, "squares_y": 3}, "at least 3x3"),
