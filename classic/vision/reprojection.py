@@ -24,18 +24,28 @@ fixed, also with ``refine_intrinsics=True``, which refines ``fx, fy, cx, cy, k1,
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from classic.least_squares import covariance_from_jacobian, fit_least_squares, sigma_of_blocks
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
+from classic.vision.robot_noise import (
+    DOMINANCE_FACTOR,
+    RobotNoiseEstimate,
+    RobotPoseErrorWarning,
+    estimate_robot_noise,
+    view_covariances,
+)
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import hat, invert_transform, make_transform, so3_exp
 from handeye.core.setups import normalize_setup, robot_side_poses
 
-__all__ = ["ReprojectionResult", "OUTLIER_VIEW_FACTOR", "project", "refine_reprojection"]
+__all__ = ["ReprojectionResult", "OUTLIER_VIEW_FACTOR", "project", "refine_reprojection", "robot_pose_jacobian"]
 
 #: A view whose RMS exceeds this multiple of the median view RMS (and 1 px) is flagged as an outlier.
 OUTLIER_VIEW_FACTOR = 3.0
@@ -57,11 +67,20 @@ class ReprojectionResult:
     outlier_views : list of int
         Views whose RMS exceeds ``OUTLIER_VIEW_FACTOR`` times the median (and 1 px).
     covariance : array, shape (P, P)
-        Of the parameters (X, Y, [intrinsics]), from the Jacobian at the optimum. With fixed
-        intrinsics it leaves out their own uncertainty: intrinsics calibrated from few views bias X
-        by more than this predicts; refine them (``refine_intrinsics=True``) to include it.
+        Of the parameters (X, Y, [intrinsics]), from the Jacobian at the optimum: ``(G^T S^-1 G)^-1`` under
+        the estimated corner noise and robot pose error (:mod:`classic.vision.robot_noise`), or
+        ``s^2 (G^T G)^-1`` when no robot error is found or modelled. With fixed intrinsics it leaves
+        out their own uncertainty: intrinsics calibrated from few views bias X by more than this
+        predicts; refine them (``refine_intrinsics=True``) to include it.
     sigma : dict
         ``X_rotation_deg``, ``X_translation_mm``, ``Y_rotation_deg``, ``Y_translation_mm``.
+    robot_noise : RobotNoiseEstimate or None
+        The estimated corner noise and robot pose error (None when not modelled).
+    diagnostics : dict
+        ``robot_noise`` (``corner_sigma_px``, ``robot_rotation_deg``, ``robot_translation_mm`` per axis, or
+        None with ``robot_noise_reason``), ``detection_rms_px``, ``robot_dominates`` and its ``warning``.
+    warnings : list of str
+        The warnings the fit gave (also issued as :class:`~classic.vision.robot_noise.RobotPoseErrorWarning`).
     """
 
     X: np.ndarray
@@ -72,6 +91,9 @@ class ReprojectionResult:
     outlier_views: list
     covariance: np.ndarray
     sigma: dict = field(default_factory=dict)
+    robot_noise: RobotNoiseEstimate | None = None
+    diagnostics: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
 
 def project(p_cam: np.ndarray, fx: float, fy: float, cx: float, cy: float, dist: np.ndarray) -> np.ndarray:
@@ -145,8 +167,28 @@ def _reprojection_jacobian(
     RxRa = R_X.T @ R_A
     dp[:, :, 6:9] = -(RxRa @ hat(Ryp))
     dp[:, :, 9:12] = RxRa
+    J = (_pixel_jacobian(p, intr) @ dp).reshape(2 * m, 12)
+    if not with_intrinsics:
+        return J
     fx, fy, cx, cy, k1, k2, p1, p2, k3 = intr
-    Z = p[:, 2]
+    x, y = p[:, 0] / p[:, 2], p[:, 1] / p[:, 2]
+    r2 = x * x + y * y
+    radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    Ji = np.zeros((m, 2, 9))
+    Ji[:, 0, 0], Ji[:, 1, 1], Ji[:, 0, 2], Ji[:, 1, 3] = xd, yd, 1.0, 1.0
+    for col, r_pow in ((4, r2), (5, r2 * r2), (8, r2**3)):  # k1, k2, k3
+        Ji[:, 0, col], Ji[:, 1, col] = fx * x * r_pow, fy * y * r_pow
+    Ji[:, 0, 6], Ji[:, 1, 6] = fx * 2 * x * y, fy * (r2 + 2 * y * y)  # p1
+    Ji[:, 0, 7], Ji[:, 1, 7] = fx * (r2 + 2 * x * x), fy * 2 * x * y  # p2
+    return np.concatenate([J, Ji.reshape(2 * m, 9)], axis=1)
+
+
+def _pixel_jacobian(p: np.ndarray, intr: np.ndarray) -> np.ndarray:
+    """d(u, v) / d(point in the camera frame) of the pinhole with ``(k1, k2, p1, p2, k3)``, shape (M, 2, 3)."""
+    fx, fy, cx, cy, k1, k2, p1, p2, k3 = intr
+    m, Z = len(p), p[:, 2]
     x, y = p[:, 0] / Z, p[:, 1] / Z
     dxy = np.zeros((m, 2, 3))
     dxy[:, 0, 0] = dxy[:, 1, 1] = 1.0 / Z
@@ -160,19 +202,48 @@ def _reprojection_jacobian(
     dd[:, 0, 1] = 2 * x * y * dradial + 2 * p1 * x + 2 * p2 * y
     dd[:, 1, 0] = 2 * x * y * dradial + 2 * p1 * x + 2 * p2 * y
     dd[:, 1, 1] = radial + 2 * y * y * dradial + 6 * p1 * y + 2 * p2 * x
-    duv = np.array([fx, fy])[None, :, None] * dd  # (m, 2, 2)
-    J = (duv @ dxy @ dp).reshape(2 * m, 12)
-    if not with_intrinsics:
-        return J
-    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-    Ji = np.zeros((m, 2, 9))
-    Ji[:, 0, 0], Ji[:, 1, 1], Ji[:, 0, 2], Ji[:, 1, 3] = xd, yd, 1.0, 1.0
-    for col, r_pow in ((4, r2), (5, r2 * r2), (8, r2**3)):  # k1, k2, k3
-        Ji[:, 0, col], Ji[:, 1, col] = fx * x * r_pow, fy * y * r_pow
-    Ji[:, 0, 6], Ji[:, 1, 6] = fx * 2 * x * y, fy * (r2 + 2 * y * y)  # p1
-    Ji[:, 0, 7], Ji[:, 1, 7] = fx * (r2 + 2 * x * x), fy * 2 * x * y  # p2
-    return np.concatenate([J, Ji.reshape(2 * m, 9)], axis=1)
+    return np.array([fx, fy])[None, :, None] * dd @ dxy
+
+
+def robot_pose_jacobian(
+    A: np.ndarray, X: np.ndarray, Y: np.ndarray, p_target: np.ndarray, intr: np.ndarray, setup: str
+) -> np.ndarray:
+    """The corners' pixel Jacobian w.r.t. an error ``[w, n]`` of their view's robot pose ``T_base_ee``.
+
+    The error is :mod:`classic.noise_model`'s: ``R <- R exp(w)`` (flange frame), ``t <- t + n`` (base frame) on
+    ``T_base_ee``. With ``q = R_A (R_Y p + t_Y) + t_A`` and ``p_cam = R_X^T (q - t_X)``: eye-to-hand
+    (``A = T_base_ee``) ``dq/dw = -R_A [R_Y p + t_Y]x``, ``dq/dn = I``; eye-in-hand (``A = T_ee_base``, the
+    error on its inverse) ``dq/dw = [q]x``, ``dq/dn = -R_A``. Distortion: the first five coefficients (a
+    full model's further ones are left out of this Jacobian, which only weighs the views).
+
+    Parameters
+    ----------
+    A : array, shape (M, 4, 4)
+        Robot-side pose (:func:`handeye.core.setups.robot_side_poses`) of each corner's view.
+    X, Y : array, shape (4, 4)
+    p_target : array, shape (M, 3)
+    intr : array, shape (9,)
+        ``fx, fy, cx, cy, k1, k2, p1, p2, k3``.
+    setup : {"eye_to_hand", "eye_in_hand"}
+
+    Returns
+    -------
+    array, shape (2M, 6)
+        Rows ``u_0, v_0, u_1, ...``; columns ``w`` (rad) then ``n`` (m).
+    """
+    R_X, t_X, R_Y, t_Y = X[:3, :3], X[:3, 3], Y[:3, :3], Y[:3, 3]
+    R_A, t_A = A[:, :3, :3], A[:, :3, 3]
+    y = p_target @ R_Y.T + t_Y
+    q = np.einsum("mab,mb->ma", R_A, y) + t_A
+    dq = np.zeros((len(q), 3, 6))
+    if setup == "eye_to_hand":
+        dq[:, :, :3] = -(R_A @ hat(y))
+        dq[:, :, 3:] = np.eye(3)
+    else:
+        dq[:, :, :3] = hat(q)
+        dq[:, :, 3:] = -R_A
+    p = (q - t_X) @ R_X
+    return (_pixel_jacobian(p, intr) @ (R_X.T @ dq)).reshape(-1, 6)
 
 
 def _pose(T0: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -191,6 +262,7 @@ def refine_reprojection(
     refine_intrinsics: bool = False,
     loss: str = "linear",
     loss_scale_px: float = 1.0,
+    robot_noise: str = "estimate",
 ) -> ReprojectionResult:
     """Refine X and Y (and optionally the intrinsics) on corner reprojection error.
 
@@ -213,6 +285,13 @@ def refine_reprojection(
         scipy's loss on each pixel residual.
     loss_scale_px : float
         Where the robust loss starts to bend, pixels.
+    robot_noise : {"estimate", "none"}
+        ``estimate``: the corners of a view share its robot pose error; the corner noise and the robot's
+        rotation and translation error are estimated from the residuals (REML), X and Y refitted by
+        generalised least squares and the covariance is that model's (:mod:`classic.vision.robot_noise`); a
+        :class:`~classic.vision.robot_noise.RobotPoseErrorWarning` when the residuals are beyond
+        ``DOMINANCE_FACTOR`` times the detection's own. With the linear loss only (a robust loss keeps the
+        plain model). ``none``: every corner independent, the robot exact.
 
     Returns
     -------
@@ -224,6 +303,8 @@ def refine_reprojection(
         Mismatched counts, or fewer than 3 views with corners.
     """
     setup = normalize_setup(setup)
+    if robot_noise not in ("estimate", "none"):
+        raise HandEyeInputError(f"robot_noise must be 'estimate' or 'none', got {robot_noise!r}")
     n_views = len(T_base_ee)
     if not (len(corner_ids) == len(corners_px) == n_views):
         raise HandEyeInputError(
@@ -261,15 +342,20 @@ def refine_reprojection(
         return _reprojection_jacobian(A[view], X, Y, p_target, intr, refine_intrinsics)
 
     n_params = 12 + (9 if refine_intrinsics else 0)
+    jac = "2-point" if full_model else jacobian
     fit = fit_least_squares(
-        residuals,
-        "2-point" if full_model else jacobian,
-        n_params,
-        loss=loss,
-        loss_scale=loss_scale_px,
-        max_evaluations=200,
-        tol=1e-12,
+        residuals, jac, n_params, loss=loss, loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12
     )
+    robot, warned = None, []
+    if robot_noise == "estimate" and loss == "linear":
+        starts = np.concatenate([[0], np.cumsum([2 * len(ids) for ids in corner_ids])])
+        rows = [slice(a, b) for a, b in zip(starts[:-1], starts[1:]) if b > a]
+
+        def robot_jacobian(params):
+            X, Y, intr = unpack(params)
+            return robot_pose_jacobian(A[view], X, Y, p_target, intr, setup)
+
+        fit, robot, cov = _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit)
     X, Y, intr = unpack(fit.x)
     r = fit.residuals.reshape(-1, 2)
     sq = np.sum(r**2, axis=1)
@@ -278,21 +364,112 @@ def refine_reprojection(
     has = np.bincount(view, minlength=n_views) > 0
     med = float(np.median(per_view[has]))
     outliers = [int(k) for k in np.flatnonzero(has & (per_view > max(OUTLIER_VIEW_FACTOR * med, 1.0)))]
-    if loss == "linear":
-        s2 = float(np.sum(sq)) / max(2 * len(uv) - n_params, 1)  # per-axis variance, dof-corrected
-    else:
-        # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
-        s2 = float(np.median(sq)) / 1.3863
-    cov = covariance_from_jacobian(fit.jacobian, fit.weights, s2)
-    sigma = sigma_of_blocks(cov)
+    rms = float(np.sqrt(np.mean(sq)))
+    if robot is None or not robot.has_robot_error:
+        if loss == "linear":
+            s2 = float(np.sum(sq)) / max(2 * len(uv) - n_params, 1)  # per-axis variance, dof-corrected
+        else:
+            # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
+            s2 = float(np.median(sq)) / 1.3863
+        cov = covariance_from_jacobian(fit.jacobian, fit.weights, s2)
+    diagnostics = _robot_diagnostics(robot, rms, robot_noise, loss)
+    if diagnostics.get("robot_dominates"):
+        warned.append(diagnostics["warning"])
+        warnings.warn(diagnostics["warning"], RobotPoseErrorWarning, stacklevel=2)
     K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
     return ReprojectionResult(
         X,
         Y,
         CameraIntrinsics(K, np.concatenate([intr[4:9], tail]), intrinsics.width, intrinsics.height),
-        float(np.sqrt(np.mean(sq))),
+        rms,
         per_view,
         outliers,
         cov,
-        sigma,
+        sigma_of_blocks(cov),
+        robot,
+        diagnostics,
+        warned,
     )
+
+
+def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
+    """The REML estimate of the variance components, then the generalised least-squares fit under it.
+
+    The estimate is taken once, at the unweighted fit: REML's residual term ``r^T P r`` (``P G = 0``) is the
+    same wherever a linear model is linearised, and the weighted optimum moves X and Y by about their
+    sigma, which changes ``G`` and ``J_i`` by a negligible fraction.
+
+    Parameters
+    ----------
+    residuals, jac : callable
+        The pixel residuals and their Jacobian (or "2-point") of the parameter increment.
+    robot_jacobian : callable
+        ``params -> (2M, 6)``: :func:`robot_pose_jacobian` at those parameters.
+    rows : list of slice
+        Each view's rows of the residual vector (views with corners only).
+    fit : LeastSquaresFit
+        The unweighted fit.
+
+    Returns
+    -------
+    fit : LeastSquaresFit
+        The weighted fit, with its residuals and Jacobian unwhitened.
+    estimate : RobotNoiseEstimate
+    covariance : array, shape (P, P) or None
+        ``(G^T S^-1 G)^-1`` under the estimate at the weighted fit; None when it finds no robot error.
+    """
+    J_rob = robot_jacobian(fit.x)
+    estimate = estimate_robot_noise(
+        [J_rob[s] for s in rows], [fit.jacobian[s] for s in rows], [fit.residuals[s] for s in rows]
+    )
+    if not estimate.has_robot_error:
+        return fit, estimate, None
+    x0 = fit.x
+    W = [_inverse_cholesky(S) for S in view_covariances([J_rob[s] for s in rows], estimate)]
+
+    def whitened(d):
+        v = residuals(x0 + d)
+        return np.concatenate([w @ v[s] for w, s in zip(W, rows)])
+
+    def whitened_jacobian(d):
+        Jm = jac(x0 + d)
+        return np.concatenate([w @ Jm[s] for w, s in zip(W, rows)])
+
+    # increments about where the unweighted fit ended; every row belongs to one view, so the whitened
+    # residuals keep the rows' layout
+    numeric = isinstance(jac, str)
+    gls = fit_least_squares(whitened, jac if numeric else whitened_jacobian, len(x0), max_evaluations=200)
+    x = x0 + gls.x
+    if numeric:  # unwhiten scipy's finite differences: G_i = W_i^-1 (W_i G_i)
+        G = np.concatenate([np.linalg.solve(w, gls.jacobian[s]) for w, s in zip(W, rows)])
+    else:
+        G = np.asarray(jac(x))
+    J_rob = robot_jacobian(x)
+    W = [_inverse_cholesky(S) for S in view_covariances([J_rob[s] for s in rows], estimate)]
+    Gw = np.concatenate([w @ G[s] for w, s in zip(W, rows)])
+    fit = dataclasses.replace(gls, x=x, residuals=residuals(x), jacobian=G)
+    return fit, estimate, np.linalg.inv(Gw.T @ Gw)
+
+
+def _inverse_cholesky(S: np.ndarray) -> np.ndarray:
+    """``W`` with ``W^T W = S^-1``: the inverse of ``S``'s lower Cholesky factor."""
+    return solve_triangular(np.linalg.cholesky(S), np.eye(len(S)), lower=True)
+
+
+def _robot_diagnostics(robot: RobotNoiseEstimate | None, rms_px: float, robot_noise: str, loss: str) -> dict:
+    """What the result says of the robot's pose error, and the warning when it dominates the residuals."""
+    if robot is None:
+        why = "not asked for" if robot_noise == "none" else f"not modelled with the robust loss {loss!r}"
+        return {"robot_noise": None, "robot_noise_reason": why}
+    out = {"robot_noise": robot.describe()}
+    detection_rms = np.sqrt(2.0) * robot.sigma_px  # 2-D RMS the corners' detection alone leaves
+    out["detection_rms_px"] = float(detection_rms)
+    out["robot_dominates"] = bool(rms_px > DOMINANCE_FACTOR * detection_rms)
+    if out["robot_dominates"]:
+        d = robot.describe()
+        out["warning"] = (
+            f"the robot's pose error dominates: {rms_px:.2f} px RMS per corner against {detection_rms:.3f} px for "
+            f"the corner detection alone; the sigma includes an estimated robot error of "
+            f"{d['robot_rotation_deg']:.4f} deg / {d['robot_translation_mm']:.3f} mm per axis"
+        )
+    return out

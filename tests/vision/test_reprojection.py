@@ -139,10 +139,12 @@ def test_predicted_sigma_matches_monte_carlo(setup):
 
 @pytest.mark.parametrize("setup", SETUPS)
 def test_sigma_is_the_covariance_of_the_reprojection_model(setup):
-    """result.sigma = sqrt(trace) of s^2 (J^T J)^-1 blocks, J our own Jacobian: units deg and mm, order X then Y."""
+    """result.sigma = sqrt(trace) of s^2 (J^T J)^-1 blocks, J our own Jacobian: units deg and mm, order X then Y.
+
+    The corners-only model (``robot_noise="none"``); the robot's error is tested in test_robot_noise.py."""
     p = _problem(setup, 8)
     ids, uv = _corners(p, PIXEL_NOISE, np.random.default_rng(8))
-    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, setup=setup)
+    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, setup=setup, robot_noise="none")
     J = handeye_jacobian(p.T_base_ee, ids, res.X, res.Y, setup)
     n_points = sum(len(i) for i in ids)
     ours = predicted_block_sigma(J, per_axis_sigma_px(res.rms_px, n_points, 12))
