@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -14,7 +15,6 @@ from classic.contamination import (
     check_contamination,
     pair_consensus_suspects,
     refuse_shift,
-    suspect_poses,
     x_shift_sigma,
 )
 from classic.daniilidis import _daniilidis_finish, _daniilidis_stats
@@ -23,6 +23,7 @@ from classic.horaud import _horaud_finish, _horaud_stats
 from classic.li import _li
 from classic.motions import Motions, accumulate, iter_motions, motions_from_poses
 from classic.noise_model import NoiseModel, as_noise_model
+from classic.outlier_screen import ACCEPT_SHIFT_SIGMA, Screening, fit_shift_sigma, screen_poses
 from classic.pairs import PAIRINGS, pair_indices
 from classic.park import _park_finish, _park_stats
 from classic.ransac import lmeds_inliers
@@ -32,7 +33,13 @@ from classic.result import CalibrationResult, PoseResiduals
 from classic.shah import _shah
 from classic.starts import START_CANDIDATES, best_start, scaled_start
 from classic.tsai import _tsai_finish, _tsai_stats
-from handeye.core.errors import HandEyeInputError, TooFewPosesError
+from handeye.core.errors import (
+    ContaminatedPosesError,
+    HandEyeInputError,
+    InconsistentPosesError,
+    SuspectPosesWarning,
+    TooFewPosesError,
+)
 from handeye.core.setups import normalize_setup, robot_side_poses
 from handeye.core.validation import MIN_POSES, check_no_duplicates, check_paired, check_transforms, check_units_metres
 
@@ -194,8 +201,13 @@ def calibrate(
     optionally flag gross outliers by least-median sampling; solve in closed
     form by ``method`` (by default the better of Park and Shah); refine X and Y
     jointly by maximum likelihood under the noise model (:mod:`classic.refine`);
-    refuse a non-robust fit that outlier poses pulled off
-    (:mod:`classic.contamination`); report per-pose residuals and the covariance.
+    test every pose against a fit without it (:mod:`classic.outlier_screen`: a
+    clean set has a pose named with probability at most
+    :data:`classic.outlier_screen.OUTLIER_ALPHA`, 0.1 %, whatever its size);
+    refuse a non-robust fit that the named poses move by more than
+    :data:`classic.outlier_screen.ACCEPT_SHIFT_SIGMA` (2) of its sigma, and name
+    them otherwise (a :class:`SuspectPosesWarning` and
+    ``diagnostics["suspect_poses"]``); report per-pose residuals and the covariance.
 
     Parameters
     ----------
@@ -214,10 +226,13 @@ def calibrate(
         Refine (default). Without it the closed form is returned and the
         covariance is evaluated at it.
     robust : bool
-        Flag gross outliers by least-median sampling, fit on the inliers, and
-        refine with a Cauchy loss (unless ``loss`` says otherwise). With neither
-        this nor a robust ``loss``, a set with gross outliers is refused
-        (:class:`ContaminatedPosesError`).
+        Leave out the poses the outlier test names (:mod:`classic.outlier_screen`:
+        candidates from least-median sampling and a Cauchy fit, each confirmed by
+        an F test against a least-squares fit without it, so a clean set loses a
+        pose with probability at most 0.1 % whatever its size) and return least
+        squares on the rest. Without it (and with a linear ``loss``), a set whose
+        named poses move the answer by more than 2 sigma is refused
+        (:class:`ContaminatedPosesError`, naming them).
     loss : {"linear", "huber", "cauchy"}, optional
         Loss of the refinement; default ``linear``, or ``cauchy`` when robust.
     noise : (float, float) or NoiseModel, optional
@@ -246,6 +261,10 @@ def calibrate(
     DegenerateMotionError, ContaminatedPosesError
         All subclasses of :class:`ValueError`.
 
+    Warns
+    -----
+    WeakMotionWarning, SuspectPosesWarning
+
     Examples
     --------
     >>> from handeye.core.synthetic import make_problem
@@ -260,15 +279,25 @@ def calibrate(
     diagnostics: dict = {}
     if robust:
         poses = _reject_outliers(poses, rng, diagnostics)
-    _check_motion(poses, check, estimate_scale, diagnostics)
+    try:
+        _check_motion(poses, check, estimate_scale, diagnostics)
+    except InconsistentPosesError as err:
+        if robust:
+            raise
+        _refuse_named_behind(err, poses, model, rng, estimate_scale)
     X, Y, scale0, name = _start(poses, method, estimate_scale)
     name = ("ransac+" if robust else "") + name
     ref, poses = _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics)
     if refine:
         X, Y = ref.X, ref.Y
         name += "+ml" if model is not None and model.has_robot_noise else "+lm"
-        if check and loss == "linear":  # a robust loss handles outliers; least squares must not hide them
-            _check_fit(poses, ref, model, estimate_scale)
+    if check and not robust:
+        # every pose judged against a fit without it; least squares must not hide an outlier, a robust
+        # loss is told which poses it had to discount
+        screening = _screen(poses, ref if refine else None, model, rng, estimate_scale)
+        _name_or_refuse(screening, (X, Y), diagnostics, refuse=refine and loss == "linear")
+    if refine and check and loss == "linear":
+        _check_fit(poses, ref, model, estimate_scale)
     return _result(poses, X, Y, name, ref, model, loss, refine and robust, estimate_scale, diagnostics)
 
 
@@ -384,8 +413,9 @@ def _start(poses: _Poses, method: str, estimate_scale: bool) -> tuple[np.ndarray
 
 def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics):
     """The maximum-likelihood refinement (:func:`classic.refine.refine_xy`; evaluated at the start only
-    without ``refine``); robust, the loss's own outliers join the sampling's and the inliers are refit by
-    least squares. Returns the refinement and the poses with their final inliers."""
+    without ``refine``); robust, the robust loss's fit on the sampling's inliers starts the outlier test
+    (:func:`classic.outlier_screen.screen_poses`) and the poses it does not name are refit by least
+    squares. Returns the refinement and the poses with their final inliers."""
     ref = refine_xy(
         poses.A_in,
         poses.B_in,
@@ -400,25 +430,125 @@ def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, di
     )
     if not (refine and robust):
         return ref, poses
-    # a Cauchy loss down-weights good poses a little too, which costs efficiency
-    bad, _ = suspect_poses(ref.whitened)
-    if len(bad) and len(poses.A_in) - len(bad) >= MIN_POSES:
-        inliers = poses.inliers.copy()
-        inliers[np.flatnonzero(inliers)[bad]] = False
-        diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
-        poses = poses.keeping(inliers)
-    ref = refine_xy(
-        poses.A_in,
-        poses.B_in,
-        ref.X,
-        ref.Y,
-        loss="linear",
-        noise=_subset_model(model, poses.inliers),
+    # the sampling's flags are a generous first cut (three times the median residual): each pose is tested
+    # against a least-squares fit without it, and only the named ones stay out
+    screening = screen_poses(poses.A, poses.B, ref, poses.setup, model=model, estimate_scale=estimate_scale)
+    inliers = np.ones(len(poses.A), dtype=bool)
+    inliers[screening.outliers] = False
+    diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
+    _record_screening(screening, diagnostics)
+    return screening.reference, poses.keeping(inliers)
+
+
+def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screening:
+    """The outlier test of a non-robust fit: a robust fit (least-median sampling on all poses, Shah's closed
+    form and a Cauchy loss on its inliers) to find candidates, then :func:`classic.outlier_screen.screen_poses`."""
+    found = lmeds_inliers(poses.A, poses.B, rng)
+    keep = found.inliers if found.inliers.sum() >= MIN_POSES else np.ones(len(poses.A), dtype=bool)
+    A, B = poses.A[keep], poses.B[keep]
+    if estimate_scale:
+        X0, Y0, scale0 = scaled_start(A, B, poses.pairs)
+    else:
+        (X0, Y0), scale0 = initial_estimate(A, B, "shah"), 1.0  # on poses: no motion pairs to build
+    robust_fit = refine_xy(
+        A,
+        B,
+        X0,
+        Y0,
+        loss="cauchy",
+        noise=_subset_model(model, keep),
         setup=poses.setup,
         estimate_scale=estimate_scale,
-        scale0=ref.scale,
+        scale0=scale0,
     )
-    return ref, poses
+    return screen_poses(
+        poses.A, poses.B, robust_fit, poses.setup, model=model, fit_all=fit_all, estimate_scale=estimate_scale
+    )
+
+
+def _refuse_named_behind(err: InconsistentPosesError, poses: _Poses, model, rng, estimate_scale: bool) -> None:
+    """A set refused as inconsistent: when at most a quarter of its poses are named by the outlier test and
+    the rest is consistent, refuse naming them (:class:`ContaminatedPosesError`); else re-raise ``err``."""
+    screening = _screen(poses, None, model, rng, estimate_scale)
+    out = screening.outliers
+    n = len(poses.A)
+    if not 0 < len(out) <= n // 4:
+        raise err
+    keep = np.ones(n, dtype=bool)
+    keep[out] = False
+    try:
+        check_consistency(poses.T_base_ee[keep], poses.B[keep], poses.setup, poses.pairs)
+    except InconsistentPosesError:
+        raise err from None
+    raise ContaminatedPosesError(
+        f"the robot and camera poses disagree ({err}) because of {_count(out, 'pose')} beyond the outlier bound: "
+        f"{_suspects_text(screening)}; without {_them(out)} the rest is consistent. Check "
+        f"{_them(out, 'that pose', 'those poses')}, remove {_them(out)}, or calibrate with robust=True "
+        "(CLI: --robust) to fit without them."
+    ) from err
+
+
+def _count(items, noun: str) -> str:
+    return f"1 {noun}" if len(items) == 1 else f"{len(items)} {noun}s"
+
+
+def _them(items, one: str = "it", many: str = "them") -> str:
+    return one if len(items) == 1 else many
+
+
+def _record_screening(screening: Screening, diagnostics: dict) -> None:
+    diagnostics["suspect_poses"] = screening.describe()
+    diagnostics["outlier_test"] = screening.summary()
+
+
+def _suspects_text(screening: Screening) -> str:
+    parts = []
+    for d in screening.describe()[:8]:
+        parts.append(
+            f"pose {d['index']} ({d['block']} off: residual {d['translation_mm']:.1f} mm, {d['rotation_deg']:.2f} deg; "
+            f"{max(d['n_sigma_rotation'], d['n_sigma_translation']):.1f} sigma, bound {d['bound_n_sigma']:.1f})"
+        )
+    more = len(screening.outliers) - len(parts)
+    return ", ".join(parts) + (f" and {more} more" if more > 0 else "")
+
+
+def _name_or_refuse(screening: Screening, XY, diagnostics: dict, refuse: bool) -> None:
+    """Name the poses beyond the bound; refuse a least-squares fit that they move by more than
+    :data:`classic.outlier_screen.ACCEPT_SHIFT_SIGMA` of the fit without them."""
+    _record_screening(screening, diagnostics)
+    if len(screening.outliers) == 0:
+        return
+    fit = _XY(*XY)
+    shift = fit_shift_sigma(fit, screening.reference)
+    diagnostics["outlier_test"]["shift_sigma"] = shift
+    out = screening.outliers
+    n = len(screening.residual_deg)
+    head = (
+        f"{_count(out, 'pose')} of {n} {'lies' if len(out) == 1 else 'lie'} beyond the outlier bound (a clean set "
+        f"of {n} poses has any pose beyond it with probability {screening.alpha:g}): {_suspects_text(screening)}. "
+        f"Leaving {_them(out)} out moves the answer by {shift:.1f} sigma"
+    )
+    if refuse and shift > ACCEPT_SHIFT_SIGMA:
+        diagnostics["outlier_test"]["action"] = "refused"
+        raise ContaminatedPosesError(
+            f"{head}, so the least-squares answer with {_them(out)} is refused. Check "
+            f"{_them(out, 'that pose', 'those poses')} (a bad board detection, a flipped marker, a robot pose "
+            f"recorded before the arm settled, a mis-typed row), remove {_them(out)}, or calibrate with robust=True "
+            "(CLI: --robust) to fit without them."
+        )
+    diagnostics["outlier_test"]["action"] = "named"
+    warnings.warn(
+        f"{head} (at most {ACCEPT_SHIFT_SIGMA:g}), so it is returned with {_them(out)}; check "
+        f"{_them(out, 'that pose', 'those poses')}.",
+        SuspectPosesWarning,
+        stacklevel=3,
+    )
+
+
+@dataclass
+class _XY:
+    X: np.ndarray
+    Y: np.ndarray
 
 
 def _check_fit(poses: _Poses, ref, model, estimate_scale: bool) -> None:

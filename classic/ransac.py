@@ -7,6 +7,14 @@ camera-to-target distance turning an angle into the displacement it causes
 at the target. The hypothesis with the least median ``d`` wins (no threshold
 to tune, valid below 50 % outliers); the set is refit on its inliers and
 poses with ``d > INLIER_FACTOR * median(d)`` are flagged as outliers.
+
+The sampling stops once an all-inlier triple has been drawn with probability
+:data:`CONFIDENCE` at the inlier fraction the best hypothesis so far shows
+(the usual adaptive count ``log(1 - p) / log(1 - w^3)``), after at least
+:data:`MIN_ITERATIONS` triples: a clean set needs a few dozen triples, not the
+full budget. The flags are a generous first cut (three times the median
+residual trims a few good poses of a small set); :mod:`classic.outlier_screen`
+tests each pose against a stated bound before anything is excluded.
 """
 
 from __future__ import annotations
@@ -19,10 +27,14 @@ from classic.residuals import pose_residuals
 from classic.shah import _shah
 from handeye.core.errors import DegenerateMotionError
 
-__all__ = ["INLIER_FACTOR", "RansacResult", "lmeds_inliers", "pose_error_m"]
+__all__ = ["INLIER_FACTOR", "CONFIDENCE", "MIN_ITERATIONS", "RansacResult", "lmeds_inliers", "pose_error_m"]
 
 #: Poses with a residual above this multiple of the median residual are outliers.
 INLIER_FACTOR = 3.0
+#: Probability of having drawn at least one all-inlier triple when the sampling stops.
+CONFIDENCE = 0.99999
+#: Triples drawn at least, whatever the inlier fraction seems to be.
+MIN_ITERATIONS = 30
 
 
 @dataclass
@@ -86,8 +98,10 @@ def lmeds_inliers(
     rng : numpy.random.Generator, optional
         Default ``np.random.default_rng(0)``: results are reproducible.
     iterations : int
-        Number of pose triples tried; 150 finds an all-inlier triple with
-        probability above 0.99999 at 30 % outliers and 0.9999 at 45 %.
+        Most pose triples tried; 150 finds an all-inlier triple with
+        probability above 0.99999 at 30 % outliers and 0.9999 at 45 %. Fewer are
+        drawn when the best hypothesis's inlier fraction says :data:`CONFIDENCE`
+        is reached (at least :data:`MIN_ITERATIONS`).
 
     Returns
     -------
@@ -97,15 +111,20 @@ def lmeds_inliers(
     n = len(A)
     L = float(np.median(np.linalg.norm(B[:, :3, 3], axis=1)))
     best, best_med = None, np.inf
-    for _ in range(iterations):
+    needed = iterations
+    tried = 0
+    while tried < min(iterations, max(needed, MIN_ITERATIONS)):
+        tried += 1
         idx = rng.choice(n, 3, replace=False)
         try:
             X, Y = _solve(A[idx], B[idx])
         except np.linalg.LinAlgError:
             continue
-        med = float(np.median(pose_error_m(A, B, X, Y, L)))
+        d = pose_error_m(A, B, X, Y, L)
+        med = float(np.median(d))
         if med < best_med:
             best, best_med = (X, Y), med
+            needed = _needed_iterations(float(np.mean(d <= INLIER_FACTOR * med)))
     if best is None:
         raise DegenerateMotionError("no triple of poses gave a solution: the motions are degenerate")
     d = pose_error_m(A, B, *best, L)
@@ -115,4 +134,12 @@ def lmeds_inliers(
     d = pose_error_m(A, B, X, Y, L)
     med = float(np.median(d))
     inliers = d <= INLIER_FACTOR * med
-    return RansacResult(inliers=inliers, residual_m=d, median_residual_m=med, iterations=iterations)
+    return RansacResult(inliers=inliers, residual_m=d, median_residual_m=med, iterations=tried)
+
+
+def _needed_iterations(inlier_fraction: float) -> int:
+    """Triples to draw for one all-inlier triple with probability :data:`CONFIDENCE`."""
+    miss = 1.0 - inlier_fraction**3
+    if miss <= 0.0:
+        return 0
+    return int(np.ceil(np.log(1.0 - CONFIDENCE) / np.log(miss)))

@@ -122,5 +122,9 @@ class WeakMotionWarning(UserWarning):
     """The motion set is poorly conditioned: the estimate will be noisy."""
 
 
+class SuspectPosesWarning(UserWarning):
+    """Some poses lie beyond the outlier bound but barely move the answer: it is returned, the poses named."""
+
+
 class MissingDependencyError(ImportError):
     """An optional dependency is missing; the message names the extra to install."""
