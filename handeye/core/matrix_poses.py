@@ -175,6 +175,7 @@ def read_matrix_pose_pairs(
     invert_robot: bool = False,
     invert_camera: bool = False,
     camera_frame: str | None = None,
+    camera_units: str | None = None,
 ) -> PoseSet:
     """Read paired poses from two matrix files: ``T_base_ee`` from one, ``T_cam_target`` from the other.
 
@@ -187,12 +188,16 @@ def read_matrix_pose_pairs(
     camera_path : str or Path
         Target poses in the camera ``T_cam_target`` (``T_target_cam`` with ``invert_camera``).
     units : {"m", "mm"}, optional
-        Translation unit of both files; default metres, checked.
+        Translation unit of the robot file, and of the camera file unless ``camera_units`` is given;
+        default metres, checked.
     invert_robot, invert_camera : bool
         The file holds the inverse poses.
     camera_frame : {"optical", "ros-body"}, optional
         The frame of the camera poses (after ``invert_camera``); ``None``: optical, refused when the targets
         say it is a ROS body frame (:func:`~handeye.core.camera_frame.check_camera_frame`).
+    camera_units : {"m", "mm"}, optional
+        Translation unit of the camera file when it differs from the robot file's (a controller's
+        millimetres beside PnP poses in metres).
 
     Returns
     -------
@@ -206,7 +211,7 @@ def read_matrix_pose_pairs(
     """
     check_camera_frame_name(camera_frame)
     T_base_ee, rows = read_pose_matrices(robot_path, units, invert_robot, "T_base_ee")
-    T_cam_target, _ = read_pose_matrices(camera_path, units, invert_camera, "T_cam_target")
+    T_cam_target, _ = read_pose_matrices(camera_path, camera_units or units, invert_camera, "T_cam_target")
     if len(T_base_ee) != len(T_cam_target):
         raise PoseFileError(
             f"{robot_path} holds {len(T_base_ee)} robot poses, {camera_path} {len(T_cam_target)} camera poses: "
