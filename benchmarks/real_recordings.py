@@ -270,9 +270,12 @@ def report_recording(r: Report, rec: Recording, rows: dict) -> None:
     for note in rec.notes:
         r.say(f"note: {note}")
     r.say()
-    ref = rows[DEFAULT].fit
+    ref_name = DEFAULT if not rows[DEFAULT].fit.refusal else ROBUST
+    ref = rows[ref_name].fit
+    r.say(f"spread: each X against the {ref_name}'s")
+    r.say()
     r.say(
-        "| method | X translation [m] | X quaternion xyzw | from default: deg / mm | residual RMS: deg / mm "
+        "| method | X translation [m] | X quaternion xyzw | spread: deg / mm | residual RMS: deg / mm "
         "| hold-out median: deg / mm | halves: diff / sigma rot, trans (RMS) | refused (all; hold-out) |"
     )
     r.say("|---|---|---|---|---|---|---|---|")
