@@ -277,20 +277,24 @@ def calibrate(
     model = as_noise_model(noise)
     poses = _Poses.validated(T_base_ee, T_cam_target, setup, pairs)
     diagnostics: dict = {}
+    held = []
     if robust:
         poses = _reject_outliers(poses, rng, diagnostics)
-    try:
-        _check_motion(poses, check, estimate_scale, diagnostics)
-    except InconsistentPosesError as err:
-        if robust:
-            raise
-        _refuse_named_behind(err, poses, model, rng, estimate_scale)
+        held = _check_motion_held(poses, check, estimate_scale, diagnostics)
+    else:
+        try:
+            _check_motion(poses, check, estimate_scale, diagnostics)
+        except InconsistentPosesError as err:
+            _refuse_named_behind(err, poses, model, rng, estimate_scale)
+    sampled = poses.inliers
     X, Y, scale0, name = _start(poses, method, estimate_scale)
     name = ("ransac+" if robust else "") + name
     ref, poses = _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics)
     if refine:
         X, Y = ref.X, ref.Y
         name += "+ml" if model is not None and model.has_robot_noise else "+lm"
+    if robust:
+        _motion_of_final_inliers(poses, sampled, held, diagnostics)
     if check and not robust:
         # every pose judged against a fit without it; least squares must not hide an outlier, a robust
         # loss is told which poses it had to discount
@@ -397,6 +401,27 @@ def _check_motion(poses: _Poses, check: bool, estimate_scale: bool, diagnostics:
     diagnostics["motion"] = motion.to_dict()
 
 
+def _check_motion_held(poses: _Poses, check: bool, estimate_scale: bool, diagnostics: dict) -> list:
+    """Robust: :func:`_check_motion` of the sampling's inliers, its warnings held until the final inliers are
+    known (the sampling's cut is generous: "only 5 poses" may not hold of the final fit)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _check_motion(poses, check, estimate_scale, diagnostics)
+    return caught
+
+
+def _motion_of_final_inliers(poses: _Poses, sampled: np.ndarray, held: list, diagnostics: dict) -> None:
+    """The held motion warnings when the final inliers are the sampling's, else the final inliers' motion."""
+    if np.array_equal(poses.inliers, sampled):
+        for w in held:
+            warnings.warn(w.message, w.category, stacklevel=3)
+        return
+    motion = diagnose_motion(
+        poses.T_base_ee[poses.inliers], poses.B_in, poses.setup, poses.pairs, raise_on_degenerate=False, stacklevel=4
+    )
+    diagnostics["motion"] = motion.to_dict()
+
+
 def _start(poses: _Poses, method: str, estimate_scale: bool) -> tuple[np.ndarray, np.ndarray, float, str]:
     """The closed form the refinement starts from: ``(X, Y, scale, name)``."""
     A, B, pairs = poses.A_in, poses.B_in, poses.pairs
@@ -480,16 +505,20 @@ def _refuse_named_behind(err: InconsistentPosesError, poses: _Poses, model, rng,
         check_consistency(poses.T_base_ee[keep], poses.B[keep], poses.setup, poses.pairs)
     except InconsistentPosesError:
         raise err from None
-    raise ContaminatedPosesError(
-        f"the robot and camera poses disagree ({err}) because of {_count(out, 'pose')} beyond the outlier bound: "
-        f"{_suspects_text(screening)}; without {_them(out)} the rest is consistent. Check "
-        f"{_them(out, 'that pose', 'those poses')}, remove {_them(out)}, or calibrate with robust=True "
-        "(CLI: --robust) to fit without them."
+    raise _naming(
+        ContaminatedPosesError(
+            f"{'Pose' if len(out) == 1 else 'Poses'} beyond the outlier bound make the set inconsistent "
+            f"(alpha {screening.alpha:g} for {n} poses): {_suspects_text(screening)}. Check or remove {_them(out)}, "
+            "or use robust=True (CLI: --robust) to fit without."
+        ),
+        out,
     ) from err
 
 
-def _count(items, noun: str) -> str:
-    return f"1 {noun}" if len(items) == 1 else f"{len(items)} {noun}s"
+def _naming(error: ContaminatedPosesError, poses) -> ContaminatedPosesError:
+    """The error with the named poses' indices as ``error.poses`` (the CLI adds their file rows)."""
+    error.poses = [int(k) for k in poses]
+    return error
 
 
 def _them(items, one: str = "it", many: str = "them") -> str:
@@ -501,15 +530,19 @@ def _record_screening(screening: Screening, diagnostics: dict) -> None:
     diagnostics["outlier_test"] = screening.summary()
 
 
-def _suspects_text(screening: Screening) -> str:
+def _suspects_text(screening: Screening, most: int = 3) -> str:
+    """``pose 3: translation 1799.0 mm / 0.12 deg, 921 sigma (bound 7.1)`` for the first ``most`` named poses."""
     parts = []
-    for d in screening.describe()[:8]:
-        parts.append(
-            f"pose {d['index']} ({d['block']} off: residual {d['translation_mm']:.1f} mm, {d['rotation_deg']:.2f} deg; "
-            f"{max(d['n_sigma_rotation'], d['n_sigma_translation']):.1f} sigma, bound {d['bound_n_sigma']:.1f})"
+    for d in screening.describe()[:most]:
+        sigma = max(d["n_sigma_rotation"], d["n_sigma_translation"])
+        size = (
+            f"translation {d['translation_mm']:.1f} mm / {d['rotation_deg']:.2f} deg"
+            if d["block"] == "translation"
+            else f"rotation {d['rotation_deg']:.2f} deg / {d['translation_mm']:.1f} mm"
         )
+        parts.append(f"pose {d['index']}: {size}, {sigma:.0f} sigma (bound {d['bound_n_sigma']:.1f})")
     more = len(screening.outliers) - len(parts)
-    return ", ".join(parts) + (f" and {more} more" if more > 0 else "")
+    return "; ".join(parts) + (f"; and {more} more" if more > 0 else "")
 
 
 def _name_or_refuse(screening: Screening, XY, diagnostics: dict, refuse: bool) -> None:
@@ -524,22 +557,20 @@ def _name_or_refuse(screening: Screening, XY, diagnostics: dict, refuse: bool) -
     out = screening.outliers
     n = len(screening.residual_deg)
     head = (
-        f"{_count(out, 'pose')} of {n} {'lies' if len(out) == 1 else 'lie'} beyond the outlier bound (a clean set "
-        f"of {n} poses has any pose beyond it with probability {screening.alpha:g}): {_suspects_text(screening)}. "
-        f"Leaving {_them(out)} out moves the answer by {shift:.1f} sigma"
+        f"{'Pose' if len(out) == 1 else 'Poses'} beyond the outlier bound (alpha {screening.alpha:g} for {n} poses): "
+        f"{_suspects_text(screening)}. Without {_them(out)} the answer moves by {shift:.1f} sigma"
     )
     if refuse and shift > ACCEPT_SHIFT_SIGMA:
         diagnostics["outlier_test"]["action"] = "refused"
-        raise ContaminatedPosesError(
-            f"{head}, so the least-squares answer with {_them(out)} is refused. Check "
-            f"{_them(out, 'that pose', 'those poses')} (a bad board detection, a flipped marker, a robot pose "
-            f"recorded before the arm settled, a mis-typed row), remove {_them(out)}, or calibrate with robust=True "
-            "(CLI: --robust) to fit without them."
+        raise _naming(
+            ContaminatedPosesError(
+                f"{head}: refused. Check or remove {_them(out)}, or use robust=True (CLI: --robust) to fit without."
+            ),
+            out,
         )
     diagnostics["outlier_test"]["action"] = "named"
     warnings.warn(
-        f"{head} (at most {ACCEPT_SHIFT_SIGMA:g}), so it is returned with {_them(out)}; check "
-        f"{_them(out, 'that pose', 'those poses')}.",
+        f"{head} (at most {ACCEPT_SHIFT_SIGMA:g}): returned with {_them(out)}; check {_them(out)}.",
         SuspectPosesWarning,
         stacklevel=3,
     )
