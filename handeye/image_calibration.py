@@ -13,7 +13,14 @@ import numpy as np
 
 from handeye.core.errors import LengthMismatchError, PoseFileError
 
-__all__ = ["ImageCalibration", "pair_robot_poses", "calibrate_from_views", "pnp_noise_model"]
+__all__ = [
+    "ImageCalibration",
+    "HalvesCheck",
+    "pair_robot_poses",
+    "calibrate_from_views",
+    "pnp_noise_model",
+    "halves_check",
+]
 
 
 @dataclass
@@ -130,6 +137,7 @@ def calibrate_from_views(
     robust: bool = False,
     reprojection: bool = True,
     refine_intrinsics: bool = False,
+    robot_noise: str = "estimate",
 ) -> ImageCalibration:
     """Calibrate from detected views: pose-based solve, then the corner-reprojection refinement.
 
@@ -147,6 +155,10 @@ def calibrate_from_views(
         Run the reprojection refinement.
     refine_intrinsics : bool
         Refine the intrinsics too.
+    robot_noise : {"estimate", "none"}
+        The refinement's model of the robot's pose error
+        (:func:`classic.vision.reprojection.refine_reprojection`): estimated from the residuals and
+        carried into the sigma, or none (every corner independent, the robot exact).
 
     Returns
     -------
@@ -180,6 +192,128 @@ def calibrate_from_views(
             res.Y,
             setup=setup,
             refine_intrinsics=refine_intrinsics,
+            robot_noise=robot_noise,
         )
         images = [views.views[k].image for k in keep]
     return ImageCalibration(res, rep, images, rejected)
+
+
+@dataclass
+class HalvesCheck:
+    """Two disjoint halves of the views fitted apart: their disagreement against their own sigma.
+
+    Each half's X is ``calibrate_from_views``'s (the reprojection refinement's, with its sigma); the two
+    are independent, so their difference has the covariance ``C_a + C_b`` and an honest sigma gives ratios
+    near 1 (the RMS of ``|d| / sqrt(tr(C_a + C_b))`` is 1 for a Gaussian ``d``); an overconfident one gives
+    ratios of its overconfidence.
+
+    Attributes
+    ----------
+    disagreement_deg, disagreement_mm : array, shape (S,)
+        Rotation and translation between the two halves' X, per split.
+    predicted_deg, predicted_mm : array, shape (S,)
+        ``sqrt(sigma_a^2 + sigma_b^2)`` of the halves' reported 1-sigma, per split.
+    halves : list of (list of str, list of str)
+        The images of each split's two halves.
+    """
+
+    disagreement_deg: np.ndarray
+    disagreement_mm: np.ndarray
+    predicted_deg: np.ndarray
+    predicted_mm: np.ndarray
+    halves: list
+
+    @property
+    def ratio_rotation(self) -> float:
+        """RMS disagreement over RMS predicted sigma, rotation."""
+        return float(np.sqrt(np.mean(self.disagreement_deg**2) / np.mean(self.predicted_deg**2)))
+
+    @property
+    def ratio_translation(self) -> float:
+        """RMS disagreement over RMS predicted sigma, translation."""
+        return float(np.sqrt(np.mean(self.disagreement_mm**2) / np.mean(self.predicted_mm**2)))
+
+    def to_dict(self) -> dict:
+        """JSON-ready (deg, mm)."""
+        return {
+            "ratio_rotation": self.ratio_rotation,
+            "ratio_translation": self.ratio_translation,
+            "disagreement_deg": self.disagreement_deg.tolist(),
+            "disagreement_mm": self.disagreement_mm.tolist(),
+            "predicted_deg": self.predicted_deg.tolist(),
+            "predicted_mm": self.predicted_mm.tolist(),
+        }
+
+
+def halves_check(
+    views,
+    T_base_ee: np.ndarray,
+    setup: str,
+    method: str = "park",
+    n_splits: int = 1,
+    rng: np.random.Generator | None = None,
+    refine_intrinsics: bool = False,
+    robot_noise: str = "estimate",
+) -> HalvesCheck:
+    """Fit two disjoint halves of the views apart and compare their disagreement with their sigma.
+
+    The first split takes the accepted views alternately (even and odd, in recording order, so that both
+    halves span the recording); further splits are random halves drawn with ``rng``. Each half is
+    calibrated as :func:`calibrate_from_views` does (pose-based solve, reprojection refinement with the
+    robot's pose error estimated).
+
+    Parameters
+    ----------
+    views : classic.vision.views.Views
+    T_base_ee : array, shape (len(views.views), 4, 4)
+        Robot pose of every view, paired.
+    setup : {"eye_to_hand", "eye_in_hand"}
+    method : str
+        Closed form of the pose-based solve.
+    n_splits : int
+        Splits to average over (the ratios are RMS over them).
+    rng : numpy.random.Generator, optional
+        For the random splits; default ``np.random.default_rng(0)``.
+    refine_intrinsics : bool
+    robot_noise : {"estimate", "none"}
+        As :func:`calibrate_from_views` takes it ("none" shows what the corners-only sigma claims).
+
+    Returns
+    -------
+    HalvesCheck
+
+    Raises
+    ------
+    HandEyeInputError
+        Fewer than 6 accepted views (a half needs 3), or a half the calibration refuses.
+    """
+    from dataclasses import replace
+
+    from handeye.core.errors import HandEyeInputError
+    from handeye.core.metrics import pose_error
+
+    rng = np.random.default_rng(0) if rng is None else rng
+    accepted = [k for k, v in enumerate(views.views) if v.pose.ok]
+    if len(accepted) < 6:
+        raise HandEyeInputError(f"the halves check needs at least 6 views with a pose, got {len(accepted)}")
+    rows = {name: [] for name in ("dr", "dt", "pr", "pt")}
+    halves = []
+    for split in range(n_splits):
+        order = np.array(accepted) if split == 0 else rng.permutation(accepted)
+        parts = (sorted(order[0::2].tolist()), sorted(order[1::2].tolist()))
+        fits = []
+        for part in parts:
+            sub = replace(views, views=[views.views[k] for k in part])
+            fits.append(
+                calibrate_from_views(
+                    sub, T_base_ee[part], setup, method, refine_intrinsics=refine_intrinsics, robot_noise=robot_noise
+                )
+            )
+        (a, b), s = fits, [f.reprojection.sigma for f in fits]
+        rot, trans = pose_error(a.X, b.X)
+        rows["dr"].append(float(rot))
+        rows["dt"].append(float(trans))
+        rows["pr"].append(float(np.hypot(s[0]["X_rotation_deg"], s[1]["X_rotation_deg"])))
+        rows["pt"].append(float(np.hypot(s[0]["X_translation_mm"], s[1]["X_translation_mm"])))
+        halves.append(tuple([views.views[k].image for k in part] for part in parts))
+    return HalvesCheck(*(np.array(rows[name]) for name in ("dr", "dt", "pr", "pt")), halves)
