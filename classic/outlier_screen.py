@@ -17,14 +17,16 @@ So every pose is judged against a fit that does not contain it, with the scale s
    the fit contains, by its deleted (leave-one-out, first order) residual ``(I - H_ii)^-1 w_i``, of
    covariance ``(I - H_ii)^-1`` in whitened units. Its six components (rotation in the target frame,
    translation in the camera frame, whitened by the noise model) are each divided by their own standard
-   deviation: the model's, times a variance factor from the reference poses' residuals of that component
-   (``n - 2`` degrees of freedom, each residual's leverage and the judged pose's own share taken out), so
-   each is Student's t under the model whatever the set's size and whatever the noise's scale per
-   axis (a PnP pose's depth noise ten times its lateral noise, a model given with the wrong scale): the
-   bound widens on a small set, whose spreads are themselves uncertain. A pose is named when a component's
-   two-sided p-value is below ``alpha / (6 N)`` (Bonferroni over six components and N poses), so a clean
-   set has some pose named with probability at most ``alpha`` (:data:`OUTLIER_ALPHA`). The bound, in
-   sigmas: 15.4 at 8 poses, 7.2 at 15, 5.4 at 40 (``scipy.stats.t.isf(alpha / (12 N), N - 3)``).
+   deviation: the model's, times a variance factor estimated from the reference poses' residuals, one
+   per group of components (:data:`GROUPS`: the rotation's three; the translation across the line of
+   sight; along it), each residual's leverage and the judged pose's own share taken out. So each
+   component is Student's t under the model, whatever the set's size and whatever the noise's scale per
+   group (a PnP pose's depth noise ten times its lateral noise, a model given with the wrong scale): the
+   bound widens on a small set, whose spreads are themselves uncertain. A pose is named when a
+   component's two-sided p-value is below ``alpha / (6 N)`` (Bonferroni over six components and N
+   poses), so a clean set has some pose named with probability at most ``alpha``
+   (:data:`OUTLIER_ALPHA`). The bound in sigmas (rotation / translation across / along the line of
+   sight): 5.8 / 7.1 / 15.4 at 8 poses, 5.1 / 5.5 / 7.2 at 15, 4.8 / 5.0 / 5.4 at 40.
 4. The named poses replace the candidates and 2-3 repeat until the named set settles; the last
    reference fit is the fit of the same poses without the named ones (:attr:`Screening.reference`).
 
@@ -104,11 +106,12 @@ def pose_tests(
 ) -> PoseTest:
     """Test each pose's residual against a least-squares fit on the ``reference`` poses (see the module).
 
-    .. math:: t_{ik} = e_{ik} / \\sqrt{P_{i,kk} f_k}, \\qquad
-              f_k = \\sum_{j \\ne i} w_{jk}^2 / \\sum_{j \\ne i} (1 - H_{jj,kk}),
+    .. math:: t_{ik} = e_{ik} / \\sqrt{P_{i,kk} f_{g(k)}}, \\qquad
+              f_g = \\sum_{j \\ne i} \\sum_{l \\in g} w_{jl}^2 \\Big/ \\sum_{j \\ne i} \\sum_{l \\in g} (1 - H_{jj,ll}),
 
     with ``e_i`` the pose's whitened prediction or deleted residual, ``P_i`` its covariance in model units,
-    ``w_j`` the reference poses' whitened residuals and ``H`` the hat matrix.
+    ``w_j`` the reference poses' whitened residuals, ``H`` the hat matrix and ``g(k)`` the group of component
+    k (:data:`GROUPS`).
 
     Parameters
     ----------
@@ -142,12 +145,13 @@ def pose_tests(
     cov_w = np.where(inside[:, :, None], _inverse_psd(eye - G), eye + G)
     e_w = np.where(inside, np.einsum("nij,nj->ni", cov_w, w), w)  # deleted (inside) or prediction residual
     var = np.maximum(np.einsum("nii->ni", cov_w), 1e-300)  # its variance per component, in model units
-    # each component's variance factor over the reference poses: E[w_jk^2] = f_k (1 - h_jk)
+    # each group's variance factor over the reference poses, E[w_jk^2] = f_g (1 - h_jk): rotation; translation
+    # across the line of sight (x, y); along it (z)
     keep = 1.0 - np.clip(np.einsum("nii->ni", G), 0.0, 1.0)
-    rss = np.sum(w[reference] ** 2, axis=0)
-    nu = np.sum(keep[reference], axis=0)
-    rss_i = np.where(inside, rss - w**2, rss)
-    dof = np.maximum(np.where(inside, nu - keep, nu), 1.0)
+    rss = _pooled(np.sum(w[reference] ** 2, axis=0))
+    nu = _pooled(np.sum(keep[reference], axis=0))
+    rss_i = np.where(inside, rss - _pooled(w**2), rss)
+    dof = np.maximum(np.where(inside, nu - _pooled(keep), nu), 1.0)
     factor = np.maximum(rss_i / dof, 1e-300)
     t = np.abs(e_w) / np.sqrt(var * factor)  # Student t with dof degrees of freedom under the model
     p_comp = 2.0 * student_t.sf(t, dof)
@@ -158,6 +162,19 @@ def pose_tests(
     rows = np.arange(n)[:, None]
     p_value = np.minimum(1.0, 6.0 * p_comp.min(axis=1))
     return PoseTest(n_sigma=t[rows, worst], bound_n_sigma=bound[rows, worst], p_value=p_value, dof=dof[rows, worst])
+
+
+#: The components that share a variance factor: the rotation's three (in the target frame, which turns with
+#: every pose); the translation's across the line of sight (camera x and y); along it (z), where a PnP pose
+#: is several times poorer.
+GROUPS = (0, 0, 0, 1, 1, 2)
+
+
+def _pooled(x: np.ndarray) -> np.ndarray:
+    """Sums of ``x`` (..., 6) over each component's group, broadcast back to the components."""
+    g = np.asarray(GROUPS)
+    sums = np.stack([np.sum(x[..., g == k], axis=-1) for k in range(3)], axis=-1)
+    return sums[..., g]
 
 
 def _inverse_psd(M: np.ndarray) -> np.ndarray:
@@ -227,8 +244,9 @@ class Screening:
         keep = np.ones(len(self.residual_deg), dtype=bool)
         keep[self.outliers] = False
         return {
-            "test": "per-pose F(3, nu) tests of the rotation and the translation residual against a least-squares "
-            "fit without the pose, Bonferroni over 2 x N",
+            "test": "each pose's six residual components against a least-squares fit without it, Student's t with "
+            "the spread of the other poses (rotation; translation across, along the line of sight), "
+            "Bonferroni over 6 x N",
             "alpha": self.alpha,
             "poses": len(keep),
             "reference_poses": int(keep.sum()),
@@ -289,7 +307,7 @@ def screen_poses(
     setup: str,
     model: NoiseModel | None = None,
     fit_all: Refinement | None = None,
-    alpha: float = OUTLIER_ALPHA,
+    alpha: float | None = None,
     estimate_scale: bool = False,
 ) -> Screening:
     """Name the poses beyond the bound (see the module).
@@ -307,8 +325,8 @@ def screen_poses(
         The caller's noise model for all N poses; None: estimated from the residuals by each fit.
     fit_all : classic.refine.Refinement, optional
         The least-squares fit on all N poses, when the caller has it (no refit when nothing is a candidate).
-    alpha : float
-        Probability that a clean set has a pose named.
+    alpha : float, optional
+        Probability that a clean set has a pose named; default :data:`OUTLIER_ALPHA` (read at the call).
     estimate_scale : bool
         The fits also estimate a scale of the camera translations.
 
@@ -317,6 +335,7 @@ def screen_poses(
     Screening
     """
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    alpha = OUTLIER_ALPHA if alpha is None else float(alpha)
     n = len(A)
     most = n - max(MIN_REFERENCE_POSES, (n + 1) // 2)
     candidates = _candidates(A, B, robust_fit, model, setup, estimate_scale, most)

@@ -45,7 +45,7 @@ poses: give the optical axis its own, larger, millimetres).
 Outliers: every pose is tested against a least-squares fit without it, each of its six
 residual components against Student's t with that component's spread over the other
 poses (Bonferroni over the set: a clean set of any size has a pose named with
-probability 0.1 %; the bound is about 15 sigma at 8 poses, 7 at 15, 5.4 at 40). The
+probability 0.1 %; the bound is 6-15 sigma at 8 poses, 5-7 at 15, 5 at 40). The
 poses beyond it are printed with their index and file row (or image). When leaving
 them out moves the answer by more than 2 of its sigmas, the answer is refused (exit
 2, the poses named); otherwise it is printed with them and the named poses.
