@@ -466,8 +466,10 @@ def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, di
 
 
 def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screening:
-    """The outlier test of a non-robust fit: a robust fit (least-median sampling on all poses, Shah's closed
-    form and a Cauchy loss on its inliers) to find candidates, then :func:`classic.outlier_screen.screen_poses`."""
+    """The outlier test of a non-robust fit: a fit no single pose pulls off (least-median sampling on all poses,
+    then Shah's closed form and least squares on its inliers, which leave the gross outliers out) to find
+    candidates, then :func:`classic.outlier_screen.screen_poses`. Least squares, not a Cauchy loss: scipy's
+    robust losses take an SVD per step, 0.2 s a step at 200 poses here."""
     found = lmeds_inliers(poses.A, poses.B, rng)
     keep = found.inliers if found.inliers.sum() >= MIN_POSES else np.ones(len(poses.A), dtype=bool)
     A, B = poses.A[keep], poses.B[keep]
@@ -480,7 +482,7 @@ def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screeni
         B,
         X0,
         Y0,
-        loss="cauchy",
+        loss="linear",
         noise=_subset_model(model, keep),
         setup=poses.setup,
         estimate_scale=estimate_scale,

@@ -5,8 +5,9 @@ scales are estimated from the residuals, one robot pose moved by 1.8 m inflates 
 until its own residual looks ordinary: the answer moves by a quarter of a metre and its sigma with it.
 So every pose is judged against a fit that does not contain it, with the scale set by the other poses:
 
-1. **Candidates.** A least-median start (:func:`classic.ransac.lmeds_inliers`) refined with a Cauchy
-   loss and median-based scales is a fit no single pose can pull off. The poses whose whitened residual
+1. **Candidates.** A fit on the inliers of least-median sampling (:func:`classic.ransac.lmeds_inliers`,
+   which leaves the gross outliers out: the default) or a Cauchy-loss fit on them (``robust=True``) is a
+   fit no single pose can pull off. The poses whose whitened residual
    against it lies beyond a loose bound (chi-square with 6 degrees of freedom at
    ``1 - CANDIDATE_ALPHA / N``, its common factor from the median) are candidates. The loose bound costs
    a refit at most; no pose is named on it.
@@ -319,7 +320,7 @@ def screen_poses(
     B : array, shape (N, 4, 4)
         ``T_cam_target``.
     robust_fit : classic.refine.Refinement
-        A fit no single pose can pull off (a Cauchy refinement from a least-median start), on any subset.
+        A fit no single pose can pull off (on the inliers of least-median sampling), on any subset.
     setup : {"eye_to_hand", "eye_in_hand"}
     model : NoiseModel, optional
         The caller's noise model for all N poses; None: estimated from the residuals by each fit.
