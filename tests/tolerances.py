@@ -444,6 +444,9 @@ ROBOT_ESTIMATE_RTOL = 0.15
 #: with this robot error is 3 to 5 times too small and fails it.
 HALVES_TRIALS = 10
 HALVES_RATIO_TOL = 3.0 * np.sqrt(1.0 / (2 * HALVES_TRIALS))
+#: The same bound on the RMS of error / sigma over 10 trials of the refinement's other paths (intrinsics
+#: refined, a full distortion model): |RMS - 1| <= 3 sqrt(1 / 20) = 0.67; corners-only it is 3 to 5.
+FEW_TRIALS_SIGMA_RMS_TOL = 3.0 * np.sqrt(1.0 / (2 * 10))
 
 # --------------------------------------------------------------------------
 # Outliers named against a fit without them (tests/classic/test_outliers_default.py)

@@ -29,14 +29,15 @@ class SyntheticRecording:
     setup: str
 
 
-def corner_views(setup: str, n_views: int, rng: np.random.Generator, robot_error=ROBOT_ERROR):
+def corner_views(setup: str, n_views: int, rng: np.random.Generator, robot_error=ROBOT_ERROR, intr=INTR):
     """Corner ids and pixels per view, the recorded robot poses, and the true X and Y.
 
-    The corners come from the true poses; ``make_problem`` then moves the recorded ``T_base_ee`` by
-    ``robot_error`` (deg, mm per axis: ``R <- R exp(w)``, ``t <- t + n``), which the solver is not told.
+    The corners come from the true poses through ``intr``; ``make_problem`` then moves the recorded
+    ``T_base_ee`` by ``robot_error`` (deg, mm per axis: ``R <- R exp(w)``, ``t <- t + n``), which the solver
+    is not told.
     """
     p = make_problem(n_views, setup, rng, robot_noise=robot_error)
-    ids, uv = zip(*(corners_in_image(T, INTR, CORNER_NOISE_PX, rng) for T in p.T_cam_target @ CENTRE))
+    ids, uv = zip(*(corners_in_image(T, intr, CORNER_NOISE_PX, rng) for T in p.T_cam_target @ CENTRE))
     return list(ids), list(uv), p.T_base_ee, p.X_true, p.Y_true @ CENTRE
 
 

@@ -20,6 +20,7 @@ from handeye.core.setups import robot_side_poses
 from handeye.image_calibration import halves_check
 from tests.tolerances import (
     EXACT_ROBOT_SIGMA_FACTOR,
+    FEW_TRIALS_SIGMA_RMS_TOL,
     HALVES_RATIO_TOL,
     HALVES_TRIALS,
     JACOBIAN_RTOL,
@@ -109,6 +110,35 @@ def test_an_exact_robot_keeps_the_corners_sigma(setup):
         assert np.all(ratio <= EXACT_ROBOT_SIGMA_FACTOR), ratio
         assert np.all(ratio >= 1 / EXACT_ROBOT_SIGMA_FACTOR), ratio
         assert not caught and not res.diagnostics["robot_dominates"] and res.warnings == []
+
+
+@pytest.mark.parametrize("path", ["refine_intrinsics", "rational_distortion"])
+def test_the_model_holds_on_the_other_paths(path):
+    """Intrinsics refined (21 parameters), and a rational model (OpenCV's projection, finite differences)."""
+    from classic.vision.camera import CameraIntrinsics
+
+    dist = np.concatenate([INTR.dist, [0.01, 0.0, 0.0]])  # k4 != 0: the rational model
+    intr = INTR if path == "refine_intrinsics" else CameraIntrinsics(INTR.K, dist, INTR.width, INTR.height)
+    z = []
+    for trial in range(10):
+        ids, uv, T_base_ee, X, Y = corner_views("eye_in_hand", 20, np.random.default_rng([43, trial]), intr=intr)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RobotPoseErrorWarning)
+            res = refine_reprojection(
+                T_base_ee,
+                ids,
+                uv,
+                SPEC,
+                intr,
+                X,
+                Y,
+                setup="eye_in_hand",
+                refine_intrinsics=path == "refine_intrinsics",
+            )
+        z.append(_errors_over_sigma(res, X, Y))
+    rms = np.sqrt(np.mean(np.square(z), axis=0))
+    assert np.all(np.abs(rms - 1.0) <= FEW_TRIALS_SIGMA_RMS_TOL), rms
+    assert res.covariance.shape == ((21, 21) if path == "refine_intrinsics" else (12, 12))
 
 
 def test_halves_disagree_by_their_sigma():
