@@ -290,6 +290,7 @@ def _run_detections(args: argparse.Namespace) -> int:
     ]
     for image, reason in out.rejected.items():
         lines.append(f"  rejected {image}: {reason}")
+    lines += _suspect_lines(res.diagnostics, list(out.images))  # the pose-based fit's outliers, by image
     rep = out.reprojection
     if rep is not None:
         lines += [
