@@ -41,7 +41,14 @@ from handeye.core.errors import (
     TooFewPosesError,
 )
 from handeye.core.setups import normalize_setup, robot_side_poses
-from handeye.core.validation import MIN_POSES, check_no_duplicates, check_paired, check_transforms, check_units_metres
+from handeye.core.validation import (
+    MIN_POSES,
+    check_no_duplicates,
+    check_paired,
+    check_target_distance,
+    check_transforms,
+    check_units_metres,
+)
 
 __all__ = ["AXXB_METHODS", "AXYB_METHODS", "METHODS", "DEFAULT_METHOD", "calibrate", "initial_estimate", "solve"]
 
@@ -139,6 +146,7 @@ def solve(
     if pairs not in PAIRINGS:
         raise HandEyeInputError(f"unknown pairs {pairs!r}: use one of {PAIRINGS}")
     T_base_ee, T_cam_target = _validated(T_base_ee, T_cam_target)
+    check_target_distance(T_cam_target)
     return initial_estimate(robot_side_poses(T_base_ee, setup), T_cam_target, method, pairs)
 
 
@@ -276,6 +284,8 @@ def calibrate(
     setup, loss = _checked_arguments(setup, method, pairs, loss, robust)
     model = as_noise_model(noise)
     poses = _Poses.validated(T_base_ee, T_cam_target, setup, pairs)
+    if not estimate_scale:  # a scale-free camera (monocular SLAM) may have any distance
+        check_target_distance(poses.B)
     diagnostics: dict = {}
     held = []
     if robust:

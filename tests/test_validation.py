@@ -247,6 +247,19 @@ def test_millimetre_translations_are_refused(problem, which):
         _calibrate(problem, T_base_ee=T_ee, T_cam_target=T_ct)
 
 
+def test_metres_read_as_millimetres_are_refused(problem):
+    """Camera translations 1000 times too small (metres read with --units mm) put the board a fraction of a
+    millimetre from the lens: refused as a units mistake, not calibrated (it used to exit 0, wrong)."""
+    T_ct = problem.T_cam_target.copy()
+    T_ct[:, :3, 3] /= 1000.0
+    with pytest.raises(UnitsError, match="1000 times too small") as exc:
+        validation.check_target_distance(T_ct)
+    assert "--units mm" in str(exc.value)
+    with pytest.raises(UnitsError, match="T_cam_target"):
+        _calibrate(problem, T_cam_target=T_ct)
+    validation.check_target_distance(problem.T_cam_target)  # the same poses in metres pass
+
+
 def test_metre_translations_pass_the_units_check(problem):
     validation.check_units_metres(problem.T_base_ee, "T_base_ee")
     validation.check_units_metres(problem.T_cam_target, "T_cam_target")

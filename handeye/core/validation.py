@@ -22,6 +22,8 @@ from handeye.core.limits import ABSURD_TRANSLATION_M
 __all__ = [
     "ROTATION_TOLERANCE",
     "MAX_TRANSLATION_M",
+    "MIN_TARGET_DISTANCE_M",
+    "check_target_distance",
     "MIN_POSES",
     "check_transforms",
     "check_paired",
@@ -33,6 +35,9 @@ __all__ = [
 ROTATION_TOLERANCE = 1e-6
 #: Translations beyond this (metres) are taken as a units mistake (millimetres?).
 MAX_TRANSLATION_M = 20.0
+#: A target nearer the camera than this (metres) in most poses is a units mistake (metres read as millimetres):
+#: no camera focuses on a calibration board a centimetre from its lens, and a board that near fills no view.
+MIN_TARGET_DISTANCE_M = 0.01
 #: The fewest poses any hand-eye problem accepts.
 MIN_POSES = 3
 
@@ -175,6 +180,35 @@ def check_units_metres(T: np.ndarray, name: str, max_translation_m: float = MAX_
             f"{name}[{i}] has a translation of {norms[i]:.1f} m; handeye works in metres and this "
             "looks like millimetres. Convert the translations to metres (divide by 1000); pose files "
             "read with units='mm' (CLI: --units mm) are converted for you."
+        )
+
+
+def check_target_distance(T_cam_target: np.ndarray, name: str = "T_cam_target") -> None:
+    """Refuse camera poses whose target lies nearer the lens than any camera can see it: a units mistake.
+
+    Metres read as millimetres (``--units mm`` on a file in metres) divide every translation by 1000: a
+    board 0.6 m away becomes 0.6 mm away, and a calibration on it is silently wrong. The median distance
+    is judged, so one bad pose is left to the outlier test.
+
+    Parameters
+    ----------
+    T_cam_target : array, shape (N, 4, 4)
+    name : str
+
+    Raises
+    ------
+    UnitsError
+        When the median target distance is below :data:`MIN_TARGET_DISTANCE_M`.
+    """
+    norms = np.linalg.norm(np.asarray(T_cam_target, dtype=float)[:, :3, 3], axis=1)
+    if norms.size == 0:
+        return
+    median = float(np.median(norms))
+    if median < MIN_TARGET_DISTANCE_M:
+        raise UnitsError(
+            f"{name}: the target is {1000 * median:.3g} mm from the camera (median over {norms.size} poses); no "
+            f"camera sees a board nearer than {1000 * MIN_TARGET_DISTANCE_M:g} mm. The translations look 1000 times "
+            "too small: metres read as millimetres? Read the file without --units mm (units='m')."
         )
 
 
