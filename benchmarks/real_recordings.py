@@ -298,11 +298,7 @@ def report_recording(r: Report, rec: Recording, rows: dict) -> None:
         r.say(f"| {name} | {t} | {q} | {spread} | {res} | {hold} | {halves} | {refused} |")
     r.say()
     r.say(f"answers {answers}, refusals {refusals} (on all {n} poses)")
-    for name, row in rows.items():
-        if row.fit.refusal:
-            r.say(f"- {name} refused: {row.fit.refusal}")
-        for reason in row.holdout_reasons[:2]:
-            r.say(f"- {name}, hold-out refusal ({row.holdout_refused} of the splits): {reason}")
+    _say_refusals(r, rows)
     r.say()
     r.say(
         "Sigma against disjoint halves (methods with a sigma): RMS over the splits of |X1 - X2| / "
@@ -319,6 +315,18 @@ def report_recording(r: Report, rec: Recording, rows: dict) -> None:
                 f"| {row.halves_refused} |"
             )
     r.say()
+
+
+def _say_refusals(r, rows: dict) -> None:
+    """Each distinct refusal once, with the methods that gave it (the refined closed forms refuse alike)."""
+    by_reason: dict[str, list[str]] = {}
+    for name, row in rows.items():
+        if row.fit.refusal:
+            by_reason.setdefault(row.fit.refusal, []).append(f"{name} (all poses)")
+        for reason in row.holdout_reasons[:2]:
+            by_reason.setdefault(reason, []).append(f"{name} (hold-out, {row.holdout_refused} of the splits)")
+    for reason, names in by_reason.items():
+        r.say(f"- refused by {', '.join(names)}: {reason}")
 
 
 def recordings(args) -> list:

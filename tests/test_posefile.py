@@ -140,7 +140,7 @@ def test_missing_file_and_bad_json(tmp_path):
 @pytest.mark.parametrize(
     "content, message",
     [
-        (b"\x00\x01\x02binary\xff\xfe", "a binary file, not a text pose file"),
+        (b"\x00\x01\x02binary\xff\xfe", "a binary file, not a pose file"),
         (b"T_base_ee.x\n\xe9\xe9\n", "not UTF-8 text"),
     ],
 )

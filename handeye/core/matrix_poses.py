@@ -38,9 +38,10 @@ import numpy as np
 
 from handeye.core.camera_frame import check_camera_frame, check_camera_frame_name, to_optical
 from handeye.core.errors import PoseFileError
-from handeye.core.limits import MAX_TEXT_FILE_BYTES, shorten
+from handeye.core.limits import shorten
 from handeye.core.pose_matrices import checked_pose_matrix, scaled_to_metres
 from handeye.core.poseset import PoseSet
+from handeye.core.textfile import read_text
 
 __all__ = ["read_matrix_pose_pairs", "read_pose_matrices"]
 
@@ -50,19 +51,7 @@ _COMMENT = re.compile(r"(#|%|//).*$")
 
 def _number_lines(path: Path) -> list[tuple[int, list[float]]]:
     """``(line number, numbers)`` of every line that holds any, or a :class:`PoseFileError` naming the line."""
-    if path.is_dir():
-        raise PoseFileError(f"{path}: is a directory, not a pose matrix file")
-    if not path.is_file():
-        raise PoseFileError(f"{path}: no such file")
-    if path.stat().st_size > MAX_TEXT_FILE_BYTES:
-        raise PoseFileError(f"{path}: {path.stat().st_size:,} bytes, too large (at most {MAX_TEXT_FILE_BYTES:,})")
-    raw = path.read_bytes()
-    if b"\x00" in raw:
-        raise PoseFileError(f"{path}: a binary file, not a text file of pose matrices")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise PoseFileError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    text = read_text(path, "pose matrix file")
     out = []
     for number, line in enumerate(text.splitlines(), start=1):
         body = _COMMENT.sub("", line).replace("[", " ").replace("]", " ").strip()

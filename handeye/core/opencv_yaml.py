@@ -41,7 +41,8 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
-from handeye.core.limits import MAX_JSON_DEPTH, MAX_TEXT_FILE_BYTES, shorten
+from handeye.core.limits import MAX_JSON_DEPTH, shorten
+from handeye.core.textfile import read_text
 from handeye.core.yamlfile import YamlList, YamlMap
 
 __all__ = ["OPENCV_YAML_HEADER", "is_opencv_yaml", "load_opencv_yaml", "parse_opencv_yaml"]
@@ -313,19 +314,7 @@ def load_opencv_yaml(path: str | Path, error: type[Exception] = PoseFileError) -
     error
     """
     path = Path(path)
-    if path.is_dir():
-        raise error(f"{path}: is a directory, not a YAML file")
-    if not path.is_file():
-        raise error(f"{path}: no such file")
-    if path.stat().st_size > MAX_TEXT_FILE_BYTES:
-        raise error(f"{path}: {path.stat().st_size:,} bytes, too large (at most {MAX_TEXT_FILE_BYTES:,})")
-    raw = path.read_bytes()
-    if b"\x00" in raw:
-        raise error(f"{path}: a binary file, not YAML text")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise error(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    text = read_text(path, "YAML file", error)
     if not text.lstrip().startswith("%YAML"):
         raise error(f"{path}, line 1: no '{OPENCV_YAML_HEADER}' header; not an OpenCV FileStorage YAML file")
     return parse_opencv_yaml(text, str(path), error)

@@ -81,6 +81,7 @@ from handeye.core.se3 import (
     quat_wxyz_to_xyzw,
     so3_exp,
 )
+from handeye.core.textfile import check_text_file, read_text
 
 __all__ = [
     "POSE_NAMES",
@@ -119,30 +120,12 @@ MAX_POSE_FILE_BYTES = MAX_TEXT_FILE_BYTES
 
 def _check_file(path: Path) -> None:
     """One line for each way a path is not a readable pose file."""
-    if path.is_dir():
-        raise PoseFileError(f"{path}: is a directory, not a pose file")
-    if not path.exists():
-        raise PoseFileError(f"{path}: no such file")
-    if not path.is_file():
-        raise PoseFileError(f"{path}: not a regular file")
-    size = path.stat().st_size
-    if size > MAX_POSE_FILE_BYTES:
-        raise PoseFileError(f"{path}: {size:,} bytes, too large for a pose file (at most {MAX_POSE_FILE_BYTES:,})")
+    check_text_file(path, "pose file", max_bytes=MAX_POSE_FILE_BYTES)
 
 
 def _read_text(path: Path) -> str:
     """The file's text (UTF-8), or a :class:`PoseFileError` naming the file."""
-    _check_file(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise PoseFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if b"\x00" in raw:
-        raise PoseFileError(f"{path}: a binary file, not a text pose file (CSV or JSON)")
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise PoseFileError(f"{path}: not UTF-8 text (byte {exc.start}); save the pose file as UTF-8") from None
+    return read_text(path, "pose file", max_bytes=MAX_POSE_FILE_BYTES, hint="; save the pose file as UTF-8")
 
 
 def _read_json(path: Path):

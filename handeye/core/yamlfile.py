@@ -12,8 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from handeye.core.errors import PoseFileError
-from handeye.core.limits import MAX_JSON_DEPTH, MAX_TEXT_FILE_BYTES, check_json_depth
+from handeye.core.limits import MAX_JSON_DEPTH, check_json_depth
 from handeye.core.optional import require_package
+from handeye.core.textfile import read_text
 
 __all__ = ["YamlList", "YamlMap", "line_of", "load_yaml"]
 
@@ -108,19 +109,7 @@ def load_yaml(path: str | Path, error: type[Exception] = PoseFileError):
     """
     yaml = require_package("yaml", extra="ros", purpose="reading YAML files")
     path = Path(path)
-    if path.is_dir():
-        raise error(f"{path}: is a directory, not a YAML file")
-    if not path.is_file():
-        raise error(f"{path}: no such file")
-    if path.stat().st_size > MAX_TEXT_FILE_BYTES:
-        raise error(f"{path}: {path.stat().st_size:,} bytes, too large (at most {MAX_TEXT_FILE_BYTES:,})")
-    raw = path.read_bytes()
-    if b"\x00" in raw:
-        raise error(f"{path}: a binary file, not YAML text")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise error(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    text = read_text(path, "YAML file", error)
     try:
         docs = [d for d in yaml.load_all(text, Loader=_loader(yaml)) if d is not None]
     except RecursionError:
