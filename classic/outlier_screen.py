@@ -48,17 +48,20 @@ from classic.contamination import RESIDUAL_FLOOR, x_shift_sigma
 from classic.noise_model import NoiseModel, residual_covariances
 from classic.refine import Refinement, pose_residual_jacobian, refine_xy
 from classic.residuals import pose_residuals
+from handeye.core.se3 import so3_log
 
 __all__ = [
     "OUTLIER_ALPHA",
     "CANDIDATE_ALPHA",
     "ACCEPT_SHIFT_SIGMA",
     "MIN_REFERENCE_POSES",
+    "GROSS_FACTOR",
     "PoseTest",
     "Screening",
     "pose_tests",
     "screen_poses",
     "fit_shift_sigma",
+    "shift_vector",
 ]
 
 #: Probability that a clean pose set (the noise model holding) has any pose named, whatever its size.
@@ -68,6 +71,12 @@ CANDIDATE_ALPHA = 0.5
 #: The default returns a fit with named poses only when leaving them out moves X and Y by at most this
 #: many sigmas of the fit without them (Mahalanobis distance of each's six parameters); beyond, it refuses.
 ACCEPT_SHIFT_SIGMA = 2.0
+#: A named pose is *gross* when its most significant component lies beyond this many times its bound: beyond
+#: the bound even if that pose's noise were this many times the set's (a scale mixture; a PnP pose seen at 60 deg
+#: has several times a frontal one's rotation error). On clean PnP sets (0.1-0.3 px corners, tilts to 60 deg,
+#: 8/15/40 poses) the largest ratio measured was 4.0 in 360 sets (benchmarks/outliers.py). Only a gross pose
+#: that moves the answer by more than ACCEPT_SHIFT_SIGMA gets the fit refused (:mod:`classic.calibrate`).
+GROSS_FACTOR = 6.0
 #: Fewest poses a reference fit keeps (and at least half the set): below, fewer candidates are taken.
 MIN_REFERENCE_POSES = 5
 #: Rounds of naming and refitting at most.
@@ -219,6 +228,12 @@ class Screening:
     alpha: float
     rounds: int
 
+    @property
+    def gross(self) -> np.ndarray:
+        """The named poses beyond :data:`GROSS_FACTOR` times their bound (array of int)."""
+        ratio = np.max(self.test.n_sigma / self.test.bound_n_sigma, axis=1)
+        return np.asarray([k for k in self.outliers if ratio[k] >= GROSS_FACTOR], dtype=int)
+
     def describe(self) -> list[dict]:
         """One JSON-ready dict per named pose: index, residuals, n-sigma and bound per block, p-value."""
         out = []
@@ -236,6 +251,7 @@ class Screening:
                     "bound_n_sigma": float(bound[worst]),
                     "block": _BLOCKS[worst],
                     "p_value": float(self.test.p_value[k]),
+                    "gross": bool(np.max(ns / bound) >= GROSS_FACTOR),
                 }
             )
         return out
@@ -375,6 +391,24 @@ def screen_poses(
         alpha=alpha,
         rounds=rounds,
     )
+
+
+def shift_vector(fit, reference) -> np.ndarray:
+    """``fit`` relative to ``reference`` in the covariance's parameters ``[w_X, v_X, w_Y, v_Y]``.
+
+    Parameters
+    ----------
+    fit, reference : objects with ``X``, ``Y`` (arrays, shape (4, 4))
+
+    Returns
+    -------
+    array, shape (12,)
+        ``w = log(R R_ref^T)`` (rad), ``v = t - t_ref`` (m), X's then Y's.
+    """
+    parts = []
+    for T, T_ref in ((fit.X, reference.X), (fit.Y, reference.Y)):
+        parts += [so3_log(T[:3, :3] @ T_ref[:3, :3].T), T[:3, 3] - T_ref[:3, 3]]
+    return np.concatenate(parts)
 
 
 def fit_shift_sigma(fit, reference: Refinement) -> float:
