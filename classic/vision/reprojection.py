@@ -35,10 +35,10 @@ from classic.least_squares import covariance_from_jacobian, fit_least_squares, s
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
 from classic.vision.robot_noise import (
-    DOMINANCE_FACTOR,
     RobotNoiseEstimate,
     RobotPoseErrorWarning,
     estimate_robot_noise,
+    robot_dominates,
     view_covariances,
 )
 from handeye.core.errors import HandEyeInputError
@@ -290,7 +290,8 @@ def refine_reprojection(
         rotation and translation error are estimated from the residuals (REML), X and Y refitted by
         generalised least squares and the covariance is that model's (:mod:`classic.vision.robot_noise`); a
         :class:`~classic.vision.robot_noise.RobotPoseErrorWarning` when the residuals are beyond
-        ``DOMINANCE_FACTOR`` times the detection's own. With the linear loss only (a robust loss keeps the
+        ``DOMINANCE_FACTOR`` times the detection's own and above ``DOMINANCE_FLOOR_PX`` (0.01 px:
+        exact corners leave rounding). With the linear loss only (a robust loss keeps the
         plain model). ``none``: every corner independent, the robot exact.
 
     Returns
@@ -464,7 +465,7 @@ def _robot_diagnostics(robot: RobotNoiseEstimate | None, rms_px: float, robot_no
     out = {"robot_noise": robot.describe()}
     detection_rms = np.sqrt(2.0) * robot.sigma_px  # 2-D RMS the corners' detection alone leaves
     out["detection_rms_px"] = float(detection_rms)
-    out["robot_dominates"] = bool(rms_px > DOMINANCE_FACTOR * detection_rms)
+    out["robot_dominates"] = robot_dominates(rms_px, detection_rms)
     if out["robot_dominates"]:
         d = robot.describe()
         out["warning"] = (

@@ -36,6 +36,8 @@ from scipy.optimize import minimize
 __all__ = [
     "RobotNoiseEstimate",
     "RobotPoseErrorWarning",
+    "DOMINANCE_FLOOR_PX",
+    "robot_dominates",
     "DOMINANCE_FACTOR",
     "estimate_robot_noise",
     "view_covariances",
@@ -44,6 +46,10 @@ __all__ = [
 #: The robot's pose error is said to dominate when the corners' RMS residual exceeds this multiple of the RMS
 #: the corner detection alone would leave (``sqrt(2) sigma_px`` for 2-D residuals).
 DOMINANCE_FACTOR = 3.0
+#: ... and also exceeds this absolute RMS (px): below, the residual is rounding and the solver's tolerance (exact
+#: synthetic corners leave about 1e-6 px), not a robot error worth a warning. A tenth of the 0.1 px that a good
+#: sub-pixel corner detector reaches.
+DOMINANCE_FLOOR_PX = 0.01
 
 # the search's units: ratios of milliradians and millimetres to pixels
 _UNITS = np.array([1.0, 1e-3, 1e-3])
@@ -55,6 +61,24 @@ _UNUSABLE = 1e300
 # the search's tolerances: 1e-3 in (mrad, mm per px) and 1e-3 in -2 log L, far below what the data can tell
 # (a 1-sigma change of a variance component changes -2 log L by about 1)
 _SEARCH = {"xatol": 1e-3, "fatol": 1e-3, "maxiter": 2000}
+
+
+def robot_dominates(rms_px: float, detection_rms_px: float) -> bool:
+    """Whether the corners' RMS residual says the robot's pose error dominates.
+
+    Parameters
+    ----------
+    rms_px : float
+        RMS residual per corner of the fit (px, 2-D).
+    detection_rms_px : float
+        RMS the corner detection alone would leave (``sqrt(2) sigma_px``).
+
+    Returns
+    -------
+    bool
+        ``rms_px`` above :data:`DOMINANCE_FACTOR` times ``detection_rms_px`` and above :data:`DOMINANCE_FLOOR_PX`.
+    """
+    return bool(rms_px > DOMINANCE_FACTOR * detection_rms_px and rms_px > DOMINANCE_FLOOR_PX)
 
 
 class RobotPoseErrorWarning(UserWarning):
