@@ -219,10 +219,13 @@ def calibrate(
     test every pose against a fit without it (:mod:`classic.outlier_screen`: a
     clean set has a pose named with probability at most
     :data:`classic.outlier_screen.OUTLIER_ALPHA`, 0.1 %, whatever its size);
-    refuse a non-robust fit that the named poses move by more than
-    :data:`classic.outlier_screen.ACCEPT_SHIFT_SIGMA` (2) of its sigma, and name
-    them otherwise (a :class:`SuspectPosesWarning` and
-    ``diagnostics["suspect_poses"]``); report per-pose residuals and the covariance.
+    when the named poses move a non-robust fit by more than
+    :data:`classic.outlier_screen.ACCEPT_SHIFT_SIGMA` (2) of its sigma, refuse if
+    one is gross (:data:`classic.outlier_screen.GROSS_FACTOR`, 6, times its bound),
+    else return the fit without them; within 2 sigma return the fit with them, its
+    covariance widened to reach the fit without them; always name them (a
+    :class:`SuspectPosesWarning` and ``diagnostics["suspect_poses"]``); report
+    per-pose residuals and the covariance.
 
     Parameters
     ----------
@@ -247,7 +250,8 @@ def calibrate(
         pose with probability at most 0.1 % whatever its size) and return least
         squares on the rest. Without it (and with a linear ``loss``), a set whose
         named poses move the answer by more than 2 sigma is refused
-        (:class:`ContaminatedPosesError`, naming them).
+        (:class:`ContaminatedPosesError`, naming them) when one of them is gross,
+        and fitted without them otherwise.
     loss : {"linear", "huber", "cauchy"}, optional
         Loss of the refinement; default ``linear``, or ``cauchy`` when robust.
     noise : (float, float) or NoiseModel, optional
