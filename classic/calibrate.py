@@ -622,7 +622,8 @@ def _name_or_refuse(screening: Screening, ref, poses: _Poses, XY, diagnostics: d
     grow = float(np.sqrt(np.max(np.diag(widened.covariance) / np.maximum(np.diag(ref.covariance), 1e-300))))
     test["sigma_widened_by"] = grow
     warnings.warn(
-        f"{head} (at most {ACCEPT_SHIFT_SIGMA:g}): returned with {_them(out)}, its sigma widened to cover the fit "
+        f"{head}{f' (at most {ACCEPT_SHIFT_SIGMA:g})' if not big else ' (not a least-squares fit: kept)'}: returned "
+        f"with {_them(out)}, its sigma widened to cover the fit "
         f"without {_them(out)} (up to {grow:.2f}x); check {_them(out)}.",
         SuspectPosesWarning,
         stacklevel=3,
