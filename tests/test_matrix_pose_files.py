@@ -302,3 +302,16 @@ def test_command_takes_two_matrix_files(tmp_path, problem, capsys):
     assert main([*args, "--units", "mm"]) != 0  # read as T_base_ee, the poses fit no hand-eye model
     assert main(["calibrate", "--camera-poses", str(camera), "--setup", "eye-to-hand"]) != 0
     assert "give --camera-poses with --robot-poses" in capsys.readouterr().err
+
+
+def test_report_of_two_matrix_files_names_both(tmp_path, problem, capsys):
+    """The HTML report of a calibration from two matrix files names them (it said 'pose file None')."""
+    robot, camera = tmp_path / "robot.txt", tmp_path / "camera.txt"
+    robot.write_text(_rows16(problem.T_base_ee))
+    camera.write_text(_rows16(problem.T_cam_target))
+    report = tmp_path / "report"
+    args = ["calibrate", "--robot-poses", str(robot), "--camera-poses", str(camera), "--setup", "eye-to-hand"]
+    assert main([*args, "--report", str(report)]) == 0, capsys.readouterr().err
+    html = (report / "index.html").read_text()
+    assert "pose file None" not in html
+    assert f"pose files {robot} (robot) and {camera} (camera)" in html

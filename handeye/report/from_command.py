@@ -96,7 +96,9 @@ def report_poses(
         T_cam_target,
         setup,
         command_line(args),
-        f"pose file {args.poses}",
+        f"pose file {args.poses}"
+        if getattr(args, "camera_poses", None) is None
+        else f"pose files {args.robot_poses} (robot) and {args.camera_poses} (camera)",
         fit,
         pairs=args.pairs,
         warnings=list(warnings),
