@@ -32,6 +32,7 @@ from handeye.core.dataset import (
 from handeye.core.engines import check_engine, require_visible, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.tables import markdown_table
 
 __all__ = [
@@ -286,7 +287,7 @@ def label_dataset(
         table[col] = table[col].astype(int)
     with dataset_lock(ds.root, "handeye label"):
         write_table(ds.cameras_path, table, camera_table_columns(table))
-    (ds.root / "labels.md").write_text(label_table_markdown(table) + "\n")
+    write_text_atomic(ds.root / "labels.md", label_table_markdown(table) + "\n")
     if plot:
         plot_label_errors(table, ds.root / "label_errors.png")
     return LabelReport(ds.root, table, time.perf_counter() - t0)

@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from classic.vision.dictionaries import BoardSpecError, _dictionary_size, dictionary_id
+from handeye.core.safe_write import write_text_atomic
 
 __all__ = ["BoardSpec", "BoardSpecError", "KINDS", "dictionary_id"]
 
@@ -284,7 +285,7 @@ class BoardSpec:
 
     def save(self, path: str | Path) -> None:
         """Write the spec as JSON."""
-        Path(path).write_text(json.dumps({"type": self.kind, **self.to_dict()}, indent=2) + "\n")
+        write_text_atomic(path, json.dumps({"type": self.kind, **self.to_dict()}, indent=2) + "\n")
 
     @classmethod
     def load(cls, path: str | Path) -> "BoardSpec":

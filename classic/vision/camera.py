@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import IntrinsicsError
+from handeye.core.safe_write import write_text_atomic
 
 __all__ = ["CameraIntrinsics", "IntrinsicsError"]
 
@@ -61,7 +62,7 @@ class CameraIntrinsics:
 
             write_opencv_yaml(path, self)
             return
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        write_text_atomic(path, json.dumps(self.to_dict(), indent=2) + "\n")
 
     @classmethod
     def from_dict(cls, doc: dict) -> "CameraIntrinsics":

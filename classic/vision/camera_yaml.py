@@ -39,6 +39,7 @@ import numpy as np
 
 from handeye.core.errors import IntrinsicsError
 from handeye.core.optional import require_package
+from handeye.core.safe_write import write_text_atomic
 
 __all__ = ["YAML_SUFFIXES", "load_intrinsics_yaml", "write_camera_info_yaml", "write_opencv_yaml"]
 
@@ -243,7 +244,8 @@ def write_camera_info_yaml(path: str | Path, intrinsics, camera_name: str = "cam
     if model is None:
         raise IntrinsicsError(f"{dist.size} distortion coefficients: camera_info has no model for them (5 or 8)")
     P = np.hstack([intrinsics.K, np.zeros((3, 1))])
-    Path(path).write_text(
+    write_text_atomic(
+        path,
         f"image_width: {int(intrinsics.width)}\n"
         f"image_height: {int(intrinsics.height)}\n"
         f"camera_name: {camera_name}\n"
@@ -251,7 +253,7 @@ def write_camera_info_yaml(path: str | Path, intrinsics, camera_name: str = "cam
         f"distortion_model: {model}\n"
         f"distortion_coefficients:\n  rows: 1\n  cols: {dist.size}\n  data: {_flow(dist)}\n"
         f"rectification_matrix:\n  rows: 3\n  cols: 3\n  data: {_flow(np.eye(3))}\n"
-        f"projection_matrix:\n  rows: 3\n  cols: 4\n  data: {_flow(P)}\n"
+        f"projection_matrix:\n  rows: 3\n  cols: 4\n  data: {_flow(P)}\n",
     )
 
 

@@ -23,6 +23,7 @@ from classic.vision.detect import Detection, ViewPose, detect_board, estimate_po
 from classic.vision.images import list_images, read_image
 from classic.vision.intrinsics import IntrinsicsResult, calibrate_intrinsics
 from handeye.core.errors import HandEyeInputError
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = ["View", "Views", "DetectionsFileError", "detect_folder"]
@@ -104,7 +105,7 @@ class Views:
             "image_folder": str(folder),
             "views": [v.to_dict() for v in self.views],
         }
-        path.write_text(json.dumps(doc, indent=1) + "\n")
+        write_text_atomic(path, json.dumps(doc, indent=1) + "\n")
         csv_path = path.with_suffix(".csv")
         with csv_path.open("w", newline="") as f:
             w = csv.writer(f)

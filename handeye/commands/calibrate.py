@@ -66,6 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments, describe_noise, noise_model_from_args
 
 __all__ = ["add_parser", "run"]
@@ -331,7 +332,7 @@ def _run_detections(args: argparse.Namespace) -> int:
         if str(args.output) == "-":
             print(text)
         else:
-            args.output.write_text(text + "\n")
+            write_text_atomic(args.output, text + "\n")
             print(f"  written: {args.output}")
     if args.report is not None:
         from handeye.report.from_command import report_images
@@ -481,7 +482,7 @@ def _run_poses(args: argparse.Namespace) -> int:
         if str(args.output) == "-":
             print(text)
         else:
-            args.output.write_text(text + "\n")
+            write_text_atomic(args.output, text + "\n")
             print(f"  written: {args.output}", file=out)
     if args.report is not None:
         from handeye.report.from_command import report_poses

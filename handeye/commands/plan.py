@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments
 
 __all__ = ["add_parser", "run"]
@@ -211,7 +212,7 @@ def _write_csv(path: Path, planned, command: str) -> None:
         ]
         lines.append(",".join([str(k + 1)] + [f"{v:.12g}" for v in values]))
     # a file name that is not UTF-8 lands in the comment escaped, not as a crash after the file was opened
-    path.write_text("\n".join(lines) + "\n", errors="backslashreplace")
+    write_text_atomic(path, "\n".join(lines) + "\n", errors="backslashreplace")
 
 
 def run(args: argparse.Namespace) -> int:

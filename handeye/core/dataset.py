@@ -54,6 +54,7 @@ from handeye.core.limits import (
     check_image_size,
     shorten,
 )
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 
 __all__ = [
@@ -292,25 +293,22 @@ def _format(value) -> str:
 
 
 def write_table(path: str | Path, table: dict, columns: list[str] | None = None) -> None:
-    """Write columns as CSV atomically (a temporary file renamed over the target)."""
+    """Write columns as CSV atomically (:func:`handeye.core.safe_write.write_text_atomic`)."""
     path = Path(path)
     columns = list(table) if columns is None else columns
     n = len(next(iter(table.values()))) if table else 0
-    tmp = path.with_name(path.name + ".tmp")
-    with tmp.open("w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns)
-        for i in range(n):
-            writer.writerow([_format(table[c][i]) if c in table else "" for c in columns])
-    os.replace(tmp, path)
+    buffer = io.StringIO(newline="")
+    writer = csv.writer(buffer)
+    writer.writerow(columns)
+    for i in range(n):
+        writer.writerow([_format(table[c][i]) if c in table else "" for c in columns])
+    write_text_atomic(path, buffer.getvalue())
 
 
 def write_json_atomic(path: str | Path, doc: dict) -> None:
-    """Write JSON atomically."""
+    """Write JSON atomically (:func:`handeye.core.safe_write.write_text_atomic`)."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=2) + "\n")
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(doc, indent=2) + "\n")
 
 
 # ------------------------------------------------------------------ images

@@ -47,6 +47,7 @@ import numpy as np
 
 from handeye.core.errors import PoseFileError
 from handeye.core.poseset import UNIT_SCALE, PoseSet
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import invert_transform, make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform
 from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
 from handeye.core.yamlfile import YamlMap, line_of, load_yaml
@@ -359,7 +360,7 @@ def _dump(path: Path, header: str, doc: dict) -> None:
 
     yaml = require_package("yaml", extra="ros", purpose="writing easy_handeye files")
     text = yaml.safe_dump(doc, sort_keys=False, default_flow_style=False, allow_unicode=True)
-    Path(path).write_text("".join(f"# {line}\n" for line in header.splitlines()) + text)
+    write_text_atomic(path, "".join(f"# {line}\n" for line in header.splitlines()) + text)
 
 
 def write_easy_handeye_calibration(

@@ -69,6 +69,11 @@ class PoseFileError(HandEyeInputError):
     """A pose file cannot be read; the message names the file and row."""
 
 
+class OutputFileError(HandEyeInputError):
+    """An output path that cannot take a file (a directory, a device, a FIFO, a missing folder) or a write
+    that failed (a full disk, no permission); nothing is left half-written."""
+
+
 class TruthFileError(HandEyeInputError):
     """A truth file (JSON of true poses by frame name) cannot be read; the message names the file."""
 

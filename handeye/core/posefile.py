@@ -74,6 +74,7 @@ from handeye.core.limits import (
 from handeye.core.opencv_yaml import is_opencv_yaml
 from handeye.core.poseset import UNIT_SCALE, PoseSet
 from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import (
     make_transform,
     matrix_from_quat_xyzw,
@@ -477,4 +478,4 @@ def write_pose_csv(path: str | Path, T_base_ee: np.ndarray, T_cam_target: np.nda
     t2, q2 = pos_quat_xyzw_from_transform(T_cam_target)
     for row in np.concatenate([t1, q1, t2, q2], axis=1):
         lines.append(",".join(f"{v:.17g}" for v in row))  # 17 digits: a float64 reads back exactly
-    Path(path).write_text("\n".join(lines) + "\n")
+    write_text_atomic(path, "\n".join(lines) + "\n")

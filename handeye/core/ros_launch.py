@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform
 
 __all__ = ["check_frame_name", "read_static_tf_launch", "write_static_tf_launch"]
@@ -97,14 +98,15 @@ def write_static_tf_launch(
     t, q = pos_quat_xyzw_from_transform(np.asarray(T_parent_child, dtype=float))
     pairs = [f'"{arg}", "{float(v)!r}",' for arg, v in zip(_NUMBER_ARGS, [*t, *q])]
     node_name = "handeye_" + re.sub(r"[^A-Za-z0-9_]", "_", f"{parent}_to_{child}")
-    Path(path).write_text(
+    write_text_atomic(
+        path,
         _TEMPLATE.format(
             x_name=x_name or f"T_{parent}_{child}",
             parent=parent,
             child=child,
             node_name=node_name,
             numbers="\n                ".join(pairs),
-        )
+        ),
     )
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from handeye.core.errors import PoseFileError
 from handeye.core.robot_angles import matrix_from_urdf_rpy, urdf_rpy_from_matrix
 from handeye.core.ros_launch import check_frame_name
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import make_transform
 
 __all__ = ["read_urdf_joint", "write_urdf_joint"]
@@ -61,14 +62,15 @@ def write_urdf_joint(
     rpy = " ".join(repr(float(v)) for v in urdf_rpy_from_matrix(T[:3, :3]))
     name = joint_name or f"{parent}_to_{child}"
     label = x_name or f"T_{parent}_{child}"
-    Path(path).write_text(
+    write_text_atomic(
+        path,
         f"<!-- written by handeye: {label}, the pose of link '{child}' in link '{parent}'; "
         f"xyz in metres, rpy in radians (fixed axes X, Y, Z) -->\n"
         f'<joint name={quoteattr(name)} type="fixed">\n'
         f"  <parent link={quoteattr(parent)}/>\n"
         f"  <child link={quoteattr(child)}/>\n"
         f'  <origin xyz="{xyz}" rpy="{rpy}"/>\n'
-        f"</joint>\n"
+        f"</joint>\n",
     )
 
 

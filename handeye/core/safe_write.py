@@ -1,0 +1,135 @@
+"""Write an output file whole or not at all, and only where a regular file belongs.
+
+Every file a command writes goes through :func:`write_text_atomic` or :func:`write_bytes_atomic`:
+
+- the target is checked first (:func:`check_output_path`): a directory, a device, a FIFO or a socket is
+  refused in one line (renaming a temporary file over ``/dev/null`` would replace the device), and so is a
+  path whose folder does not exist;
+- a symbolic link is followed on purpose: the file it points to is replaced and the link kept, as an
+  editor saving through a link does;
+- the data go to a temporary file beside the target, flushed to disk, then renamed over it
+  (``os.replace``, atomic on one file system): a reader sees the old file or the new one, never a part;
+- any ``OSError`` (a full disk, no permission, a read-only folder) removes the temporary file and raises
+  :class:`handeye.core.errors.OutputFileError` naming the path and the cause, so a rerun starts clean.
+
+Written here because the standard library has the pieces (``tempfile``, ``os.replace``) but not the checks.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import tempfile
+from pathlib import Path
+
+from handeye.core.errors import OutputFileError
+
+__all__ = ["check_output_path", "write_bytes_atomic", "write_text_atomic"]
+
+
+def check_output_path(path: str | Path) -> Path:
+    """The regular file a write to ``path`` replaces: symbolic links followed, anything else refused.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Path
+        The path to write (the link's target for a symbolic link).
+
+    Raises
+    ------
+    OutputFileError
+        A directory, device, FIFO or socket, a dangling or looping link, or a folder that does not exist.
+    """
+    path = Path(path)
+    target = path
+    if path.is_symlink():
+        try:
+            target = path.resolve(strict=True)
+        except (OSError, RuntimeError):
+            raise OutputFileError(f"{path}: a symbolic link to nothing that exists; remove it or name another file")
+    try:
+        mode = target.stat().st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as exc:
+        raise OutputFileError(f"{path}: cannot write here ({exc.strerror or exc})") from None
+    if mode is not None and not stat.S_ISREG(mode):
+        kind = (
+            "a directory"
+            if stat.S_ISDIR(mode)
+            else "a FIFO"
+            if stat.S_ISFIFO(mode)
+            else "a device"
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "not a regular file"
+        )
+        raise OutputFileError(f"{path}: {kind}, not a file to write; name a file")
+    if not target.parent.is_dir():
+        raise OutputFileError(f"{path}: the folder {target.parent} does not exist; create it or name another file")
+    return target
+
+
+def _mode_for(target: Path) -> int:
+    """The new file's permissions: the old file's, or what ``open`` would give under the umask."""
+    try:
+        return stat.S_IMODE(target.stat().st_mode)
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` whole, or raise with nothing changed.
+
+    Parameters
+    ----------
+    path : str or Path
+    data : bytes
+
+    Returns
+    -------
+    Path
+        The file written (a symbolic link's target).
+
+    Raises
+    ------
+    OutputFileError
+    """
+    target = check_output_path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, _mode_for(target))
+        os.replace(tmp, target)
+    except OSError as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise OutputFileError(f"{path}: cannot write ({exc.strerror or exc}); nothing was written") from None
+    return target
+
+
+def write_text_atomic(path: str | Path, text: str, errors: str = "strict") -> Path:
+    """Write ``text`` (UTF-8) to ``path`` whole, or raise with nothing changed (:func:`write_bytes_atomic`).
+
+    Parameters
+    ----------
+    path : str or Path
+    text : str
+    errors : str
+        Encoding error handler (``"backslashreplace"`` for text holding undecodable file names).
+
+    Returns
+    -------
+    Path
+    """
+    return write_bytes_atomic(path, text.encode("utf-8", errors=errors))
