@@ -22,6 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from classic.shah import translations_axyb
+from handeye.core.se3 import make_transform, project_to_so3
+
 __all__ = ["AMBIGUITY_TOLERANCE_RAD", "commuting_half_turns", "half_turn", "solve_translations"]
 
 #: A half turn is taken to commute with the motions when its axis, carried into the target frame by every
@@ -80,7 +83,8 @@ def commuting_half_turns(R_cam_target: np.ndarray, tolerance_rad: float = AMBIGU
 
 
 def solve_translations(A: np.ndarray, B: np.ndarray, R_X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``X`` and ``Y`` of ``A_i Y = X B_i`` for a given ``R_X``: ``R_Y`` the chordal mean, translations linear.
+    """``X`` and ``Y`` of ``A_i Y = X B_i`` for a given ``R_X``: ``R_Y`` the chordal mean, the translations by
+    :func:`classic.shah.translations_axyb`.
 
     Parameters
     ----------
@@ -91,14 +95,7 @@ def solve_translations(A: np.ndarray, B: np.ndarray, R_X: np.ndarray) -> tuple[n
     -------
     X, Y : array, shape (4, 4)
     """
-    M = np.einsum("nji,jk,nkl->il", A[:, :3, :3], R_X, B[:, :3, :3])  # sum R_A^T R_X R_B
-    u, _, vt = np.linalg.svd(M)
-    R_Y = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
-    # R_A t_Y - t_X = R_X t_B - t_A
-    lhs = np.concatenate([A[:, :3, :3], np.broadcast_to(-np.eye(3), (len(A), 3, 3))], axis=2).reshape(-1, 6)
-    rhs = (np.einsum("ij,nj->ni", R_X, B[:, :3, 3]) - A[:, :3, 3]).reshape(-1)
-    t = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
-    X, Y = np.eye(4), np.eye(4)
-    X[:3, :3], X[:3, 3] = R_X, t[3:]
-    Y[:3, :3], Y[:3, 3] = R_Y, t[:3]
-    return X, Y
+    R_Y = project_to_so3(np.einsum("nji,jk,nkl->il", A[:, :3, :3], R_X, B[:, :3, :3]))  # sum R_A^T R_X R_B
+    # A_i Y = X B_i is Shah's A_i X' = Y' B_i with X' = Y, Y' = X: R_A t_Y - t_X = R_X t_B - t_A
+    t_Y, t_X = translations_axyb(A, B, R_X)
+    return make_transform(R_X, t_X), make_transform(R_Y, t_Y)

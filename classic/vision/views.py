@@ -10,6 +10,7 @@ detections file, so the pair can be moved together.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import sys
 from dataclasses import dataclass, field
@@ -107,34 +108,36 @@ class Views:
         }
         write_text_atomic(path, json.dumps(doc, indent=1) + "\n")
         csv_path = path.with_suffix(".csv")
-        with csv_path.open("w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(
-                [
-                    "image",
-                    "n_corners",
-                    "rms_px",
-                    "T_cam_target.x",
-                    "T_cam_target.y",
-                    "T_cam_target.z",
-                    "T_cam_target.qx",
-                    "T_cam_target.qy",
-                    "T_cam_target.qz",
-                    "T_cam_target.qw",
-                    "reason",
-                ]
+        buffer = io.StringIO(newline="")
+        # the table built in memory, then written whole (handeye.core.safe_write)
+        w = csv.writer(buffer)
+        w.writerow(
+            [
+                "image",
+                "n_corners",
+                "rms_px",
+                "T_cam_target.x",
+                "T_cam_target.y",
+                "T_cam_target.z",
+                "T_cam_target.qx",
+                "T_cam_target.qy",
+                "T_cam_target.qz",
+                "T_cam_target.qw",
+                "reason",
+            ]
+        )
+        for v in self.views:
+            d = v.to_dict()
+            pose = (
+                d["T_cam_target"]["translation_m"] + d["T_cam_target"]["quaternion_xyzw"]
+                if "T_cam_target" in d
+                else [""] * 7
             )
-            for v in self.views:
-                d = v.to_dict()
-                pose = (
-                    d["T_cam_target"]["translation_m"] + d["T_cam_target"]["quaternion_xyzw"]
-                    if "T_cam_target" in d
-                    else [""] * 7
-                )
-                rms = "" if d["rms_px"] is None else f"{d['rms_px']:.4f}"
-                w.writerow(
-                    [v.image, d["n_corners"], rms, *[f"{x:.9g}" if x != "" else "" for x in pose], v.pose.reason or ""]
-                )
+            rms = "" if d["rms_px"] is None else f"{d['rms_px']:.4f}"
+            w.writerow(
+                [v.image, d["n_corners"], rms, *[f"{x:.9g}" if x != "" else "" for x in pose], v.pose.reason or ""]
+            )
+        write_text_atomic(csv_path, buffer.getvalue())
         return csv_path
 
     @classmethod
