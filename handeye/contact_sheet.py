@@ -9,6 +9,7 @@ import numpy as np
 from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError
 from handeye.core.metrics import pose_error
+from handeye.core.safe_write import write_figure_atomic
 from handeye.core.se3 import invert_transform
 
 __all__ = ["contact_sheet"]
@@ -107,6 +108,8 @@ def contact_sheet(root: str | Path, camera_id: int, path: str | Path, n_data: in
             ax.set_title(f"calibration {cal['frame'][k]}: {len(det.ids)} corners", fontsize=8)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        write_figure_atomic(fig, path, dpi=100)
+    finally:
+        plt.close(fig)
     return title

@@ -22,7 +22,7 @@ import numpy as np
 from handeye.core.dataset import (
     CAMERA_COLUMNS,
     LABEL_COLUMNS,
-    MARKERLESS_COLUMNS,
+    LABEL_LOCK_WAIT_S,
     Dataset,
     camera_table_columns,
     dataset_lock,
@@ -32,7 +32,7 @@ from handeye.core.dataset import (
 from handeye.core.engines import check_engine, require_visible, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
-from handeye.core.safe_write import write_text_atomic
+from handeye.core.safe_write import check_output_path, write_figure_atomic, write_text_atomic
 from handeye.core.tables import markdown_table
 
 __all__ = [
@@ -201,6 +201,10 @@ class LabelReport:
         """Median and worst label error, failures."""
         return label_summary(self.table)
 
+    def failed(self) -> list[tuple[int, str]]:
+        """The camera placements whose label failed, with the reason: ``[(camera_id, status), ...]``."""
+        return [(int(c), str(s)) for c, s in zip(self.table["camera_id"], self.table["label_status"]) if s != "ok"]
+
 
 def _label_one(args):
     import cv2
@@ -225,6 +229,7 @@ def label_dataset(
     engine: str = "pool",
     address: str | None = None,
     repeats: int = 0,
+    lock_wait_s: float = LABEL_LOCK_WAIT_S,
 ) -> LabelReport:
     """Label every camera pose of a dataset and write the labels, a report and a plot.
 
@@ -246,6 +251,10 @@ def label_dataset(
     repeats : int
         0: this project's label; at least 1: the seed paper's, ``method``'s closed form repeated and averaged
         (:func:`paper_label`; ``method="tsai", repeats=5`` is the paper's).
+    lock_wait_s : float
+        How long to wait for another writer of the dataset (``handeye markerless --write-labels``) before
+        refusing (:func:`handeye.core.dataset.dataset_lock`); the labels are computed first, then
+        ``cameras.csv`` is read, updated and written under the lock.
 
     Returns
     -------
@@ -259,7 +268,10 @@ def label_dataset(
     t0 = time.perf_counter()
     check_engine(engine, address, workers)
     ds = Dataset.open(root)
-    cams = ds.cameras()
+    outputs = [ds.cameras_path, ds.root / "labels.md"] + ([ds.root / "label_errors.png"] if plot else [])
+    for path in outputs:  # a target that cannot take a file is refused before the work, not after it
+        check_output_path(path)
+    ds.cameras()
     for c in range(len(ds)):
         ds.frames(c)  # validate every shard up front: fail before an hour of work, not after
     if repeats < 0:
@@ -278,19 +290,38 @@ def label_dataset(
             describe=_describe,
         )
     )
-    table = {k: v for k, v in cams.items() if k in CAMERA_COLUMNS or k in MARKERLESS_COLUMNS}
-    for col in LABEL_COLUMNS:
-        table[col] = np.array(
-            [results[c][col] for c in range(len(ds))], dtype=object if col == "label_status" else float
-        )
+    labels = {
+        col: np.array([results[c][col] for c in range(len(ds))], dtype=object if col == "label_status" else float)
+        for col in LABEL_COLUMNS
+    }
     for col in ("label_views_used", "label_views_total"):
-        table[col] = table[col].astype(int)
-    with dataset_lock(ds.root, "handeye label"):
+        labels[col] = labels[col].astype(int)
+    # cameras.csv read again under the lock and written before it is released: another writer's columns
+    # (markerless labels written while this labelled) are kept, never lost
+    with dataset_lock(ds.root, "handeye label", wait_s=lock_wait_s):
+        table = _merge_labels(Dataset.open(ds.root), ds, labels)
         write_table(ds.cameras_path, table, camera_table_columns(table))
-    write_text_atomic(ds.root / "labels.md", label_table_markdown(table) + "\n")
-    if plot:
-        plot_label_errors(table, ds.root / "label_errors.png")
+        write_text_atomic(ds.root / "labels.md", label_table_markdown(table) + "\n")
+        if plot:
+            plot_label_errors(table, ds.root / "label_errors.png")
     return LabelReport(ds.root, table, time.perf_counter() - t0)
+
+
+def _merge_labels(now: Dataset, before: Dataset, labels: dict) -> dict:
+    """The camera table as it is now, with the label columns replaced; refused if its placements changed."""
+    table = dict(now.cameras())
+    old = before.cameras()
+    same = len(now) == len(before) and all(
+        np.array_equal(np.asarray(table[c]), np.asarray(old[c]), equal_nan=np.asarray(old[c]).dtype.kind == "f")
+        for c in CAMERA_COLUMNS
+    )
+    if not same:
+        raise DatasetError(
+            f"{now.cameras_path}: the camera placements changed while labelling (another process rewrote the "
+            "dataset); no labels written, rerun handeye label"
+        )
+    table.update(labels)
+    return table
 
 
 def label_summary(table: dict) -> str:
@@ -375,5 +406,7 @@ def plot_label_errors(table: dict, path: str | Path) -> None:
     axes[0].set_title("classic label against truth per camera pose (colour: region; red line: failed)")
     axes[1].set_xlabel("camera pose")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        write_figure_atomic(fig, path, dpi=110)
+    finally:
+        plt.close(fig)

@@ -340,27 +340,46 @@ def markerless_dataset(
     return run
 
 
-def write_markerless_labels(root: str | Path, run: MarkerlessRun) -> Path:
+def write_markerless_labels(root: str | Path, run: MarkerlessRun, lock_wait_s: float | None = None) -> Path:
     """Write the accepted results as the dataset's markerless labels (``cameras.csv``, other columns kept).
 
     Cameras not in ``run`` keep the markerless label they had (or get none); a refused camera gets a NaN
-    pose and ``markerless_status`` ``refused: <reason>``.
+    pose and ``markerless_status`` ``refused: <reason>``. ``cameras.csv`` is read, updated and written
+    under the dataset's lock (:func:`handeye.core.dataset.dataset_lock`), so the label columns another
+    writer wrote meanwhile are kept.
+
+    Parameters
+    ----------
+    root : str or Path
+    run : MarkerlessRun
+    lock_wait_s : float, optional
+        How long to wait for another writer (``handeye label``) before refusing; None:
+        :data:`handeye.core.dataset.LABEL_LOCK_WAIT_S`.
 
     Returns
     -------
     Path
         The camera table written.
     """
+    from handeye.core.dataset import LABEL_LOCK_WAIT_S, dataset_lock
+
+    root = Dataset.open(root).root
+    # read, changed and written under the lock: a label run writing cameras.csv meanwhile keeps its columns
+    wait_s = LABEL_LOCK_WAIT_S if lock_wait_s is None else lock_wait_s
+    with dataset_lock(root, "handeye markerless --write-labels", wait_s=wait_s):
+        return _write_markerless_columns(Dataset.open(root), run)
+
+
+def _write_markerless_columns(ds: Dataset, run: MarkerlessRun) -> Path:
+    """The camera table read now, its markerless columns replaced by ``run``'s, written (under the lock)."""
     from handeye.core.dataset import (
         MARKERLESS_COLUMNS,
         camera_table_columns,
-        dataset_lock,
         pose_columns,
         poses_to_columns,
         write_table,
     )
 
-    ds = Dataset.open(root)
     cams = dict(ds.cameras())
     n = len(ds)
     if "T_base_cam_markerless.x" not in cams:
@@ -381,6 +400,5 @@ def write_markerless_labels(root: str | Path, run: MarkerlessRun) -> Path:
         err = run.errors.get(c, (np.nan, np.nan))
         cols["markerless_error_rot_deg"][c], cols["markerless_error_trans_mm"][c] = err
     cams.update(cols)
-    with dataset_lock(ds.root, "handeye markerless --write-labels"):
-        write_table(ds.cameras_path, cams, camera_table_columns(cams))
+    write_table(ds.cameras_path, cams, camera_table_columns(cams))
     return ds.cameras_path

@@ -13,6 +13,7 @@ import numpy as np
 
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
+from handeye.core.safe_write import write_bytes_atomic, write_text_atomic
 from handeye.core.se3 import invert_transform
 
 __all__ = ["render_view", "default_intrinsics"]
@@ -164,12 +165,15 @@ def make_image_dataset(
     rows = ["image,T_base_ee.x,T_base_ee.y,T_base_ee.z,T_base_ee.qx,T_base_ee.qy,T_base_ee.qz,T_base_ee.qw"]
     for k in range(n_views):
         name = f"view_{k:03d}.png"
-        cv2.imwrite(str(folder / "images" / name), render_view(spec, intr, p.T_cam_target[k], noise_gray, rng))
+        _, png = cv2.imencode(".png", render_view(spec, intr, p.T_cam_target[k], noise_gray, rng))
+        write_bytes_atomic(folder / "images" / name, png.tobytes())  # cv2.imwrite says nothing when it fails
         t, q = pos_quat_xyzw_from_transform(p.T_base_ee[k])
         rows.append(",".join([name] + [f"{v:.12g}" for v in (*t, *q)]))
-    (folder / "robot.csv").write_text("\n".join(rows) + "\n")
+    write_text_atomic(folder / "robot.csv", "\n".join(rows) + "\n")
     spec.save(folder / "board.json")
     intr.save(folder / "camera.json")
     x_name, y_name = UNKNOWN_NAMES[setup]
-    (folder / "truth.json").write_text(json.dumps({x_name: p.X_true.tolist(), y_name: p.Y_true.tolist()}, indent=2))
+    write_text_atomic(
+        folder / "truth.json", json.dumps({x_name: p.X_true.tolist(), y_name: p.Y_true.tolist()}, indent=2)
+    )
     return p

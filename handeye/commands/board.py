@@ -71,7 +71,13 @@ def run(args: argparse.Namespace) -> int:
     import cv2
 
     from classic.vision.board import BoardSpec, BoardSpecError
+    from handeye.core.safe_write import check_output_path, write_bytes_atomic
 
+    json_path = args.output.with_suffix(".json")
+    if json_path == args.output:
+        raise BoardSpecError(f"{args.output}: the spec is written beside the image as .json; name the image .png")
+    for path in (args.output, json_path):  # both targets checked before anything is written
+        check_output_path(path)
     try:
         sx, sy = (int(v) for v in args.squares.lower().split("x"))
     except ValueError:
@@ -92,14 +98,7 @@ def run(args: argparse.Namespace) -> int:
         ok = False
     if not ok:
         raise BoardSpecError(f"{args.output}: cannot encode an image with suffix {args.output.suffix!r}; use .png")
-    if not args.output.parent.is_dir():
-        raise BoardSpecError(f"{args.output}: the folder {args.output.parent} does not exist")
-    if args.output.is_dir():
-        raise BoardSpecError(f"{args.output}: is a directory; give a .png file name")
-    try:
-        args.output.write_bytes(png.tobytes())
-    except OSError as exc:
-        raise BoardSpecError(f"{args.output}: cannot write the image ({exc.strerror or exc})") from None
+    write_bytes_atomic(args.output, png.tobytes())
     printed_square_m = spec.pixels_per_square(ppm) / ppm
     if abs(printed_square_m - spec.square_length_m) > 0.001 * spec.square_length_m:
         print(
@@ -107,7 +106,6 @@ def run(args: argparse.Namespace) -> int:
             f"{1000 * printed_square_m:.3f} mm, not {1000 * spec.square_length_m:.3f} mm; measure the print "
             "and correct square_length_m / marker_length_m in the JSON"
         )
-    json_path = args.output.with_suffix(".json")
     spec.save(json_path)
     w_m, h_m = spec.size_m
     what = f"{spec.kind}{' (legacy)' if spec.legacy else ''} board {sx}x{sy} squares of {1000 * args.square:.1f} mm"

@@ -50,7 +50,13 @@ def run(args: argparse.Namespace) -> int:
     from classic.vision.board import BoardSpec
     from classic.vision.camera import CameraIntrinsics
     from classic.vision.views import detect_folder
+    from handeye.core.safe_write import check_output_path
 
+    # every target checked before the detection: a bad one is refused in one line, not after the work
+    check_output_path(args.output)
+    check_output_path(args.output.with_suffix(".csv"))
+    if not args.intrinsics:
+        check_output_path(args.output.parent / "camera.json")
     spec = BoardSpec.load(args.board)
     intr = CameraIntrinsics.load(args.intrinsics) if args.intrinsics else None
     views, calibrated = detect_folder(args.images, spec, intr)

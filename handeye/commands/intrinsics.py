@@ -47,7 +47,9 @@ def run(args: argparse.Namespace) -> int:
     from classic.vision.images import list_images, read_image
     from classic.vision.intrinsics import calibrate_intrinsics
     from handeye.core.errors import HandEyeInputError
+    from handeye.core.safe_write import check_output_path
 
+    check_output_path(args.output)  # refused before the calibration, not after it
     spec = BoardSpec.load(args.board)
     files = list_images(args.images)
     detections = [detect_board(read_image(f), spec) for f in files]

@@ -12,6 +12,11 @@ eye-to-hand solve, corner-reprojection refinement. Writes the label, its
 diagnostics and its error against the truth (when known) into
 ``cameras.csv``, a per-camera report ``labels.md`` and the plot
 ``label_errors.png``, and prints the summary.
+
+Exits 2 when any camera placement's calibration fails (too few board views, poses in millimetres,
+identical poses...): the failed placements and their reasons are printed, the other placements' labels
+are still written. Waits up to two minutes, saying so, for another writer of the dataset (``handeye
+markerless --write-labels``) before writing ``cameras.csv``.
 """
 
 from __future__ import annotations
@@ -71,4 +76,31 @@ def run(args: argparse.Namespace) -> int:
         f"written: {report.root / 'cameras.csv'} (label columns), {report.root / 'labels.md'}, "
         f"{report.root / 'label_errors.png'} ({report.wall_s:.1f} s)"
     )
+    failed = report.failed()
+    if failed:
+        import sys
+
+        from handeye.core.limits import one_line
+
+        n = len(report.table["camera_id"])
+        reasons = "; ".join(f"{c}: {_short(why)}" for c, why in failed[:2])
+        more = f"; {len(failed) - 2} more" if len(failed) > 2 else ""
+        print(
+            one_line(
+                f"handeye label: {len(failed)} of {n} camera placements failed, camera "
+                f"{', '.join(str(c) for c, _ in failed)} ({reasons}{more}: see labels.md); the "
+                f"other {n - len(failed)} labels are written to {report.root / 'cameras.csv'}; fix those recordings "
+                "and rerun"
+            ),
+            file=sys.stderr,
+        )
+        return 2
     return 0
+
+
+def _short(status: str, limit: int = 40) -> str:
+    """A failure's reason cut to its first clause, for the one-line summary."""
+    text = status.removeprefix("failed: ")
+    for stop in ("; ", ". ", ": "):
+        text = text.split(stop)[0]
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -101,6 +101,13 @@ def run(args: argparse.Namespace) -> int:
 
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
+    from handeye.core.dataset import Dataset
+    from handeye.core.safe_write import check_output_path
+
+    if args.out:  # a target that cannot take a file is refused before the work, not after it
+        check_output_path(args.out)
+    if args.write_labels:
+        check_output_path(Dataset.open(args.dataset).cameras_path)
     start = read_start(args.start) if args.start else None
     extrinsic_m, stereo_fb = _sensor_terms(args)
     out = markerless_dataset(

@@ -81,6 +81,7 @@ __all__ = [
     "encode_depth",
     "decode_depth",
     "dataset_lock",
+    "LABEL_LOCK_WAIT_S",
 ]
 
 FORMAT = "handeye-dataset"
@@ -354,41 +355,86 @@ def _read_png(path: Path) -> np.ndarray:
 # ------------------------------------------------------------------ manifests
 
 
+#: How long ``handeye label`` and ``handeye markerless --write-labels`` wait for another writer of the dataset
+#: before they refuse: their update of ``cameras.csv`` takes seconds, so a longer wait means a stuck writer.
+LABEL_LOCK_WAIT_S = 120.0
+
+
 @contextlib.contextmanager
-def dataset_lock(root: str | Path, what: str):
-    """Hold the dataset directory's write lock (``root/.lock``) for the duration, or refuse at once.
+def dataset_lock(root: str | Path, what: str, wait_s: float = 0.0):
+    """Hold the dataset directory's write lock (``root/.lock``) for the duration, or refuse.
 
     Two writers on one dataset (two ``handeye sim generate`` runs on one ``--out``, a labelling during a
-    generation) would interleave shards and tables; the second is refused with a clear message instead.
-    The lock is an advisory ``flock``: released by the system when the process ends, however it ends.
+    generation, ``handeye label`` and ``handeye markerless --write-labels`` updating ``cameras.csv``) would
+    interleave shards and tables or lose each other's columns; the second waits or is refused instead. A
+    writer that updates a file reads it inside the block, so its read, change and write are one step. The
+    lock is an advisory ``flock``: released by the system when the process ends, however it ends.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset directory.
+    what : str
+        Who holds the lock, for the message another writer gets.
+    wait_s : float
+        0 (default): refuse at once when another process holds the lock (``sim generate``, imports).
+        Otherwise wait up to this many seconds, saying once on stderr whom it waits for.
 
     Raises
     ------
     DatasetError
-        When another process holds the lock.
+        When another process holds the lock (after ``wait_s``), or the lock file cannot be opened
+        (a read-only folder, no such directory).
     """
     import fcntl
+    import sys
+    import time
 
     path = Path(root) / ".lock"
-    with path.open("a+") as f:
+    try:
+        f = path.open("a+")
+    except OSError as exc:
+        raise DatasetError(
+            f"{root}: cannot open the dataset's lock file {path} ({exc.strerror or exc}); a writable dataset "
+            "folder is needed"
+        ) from None
+    with f:
+        deadline = time.monotonic() + max(0.0, float(wait_s))
+        told = False
+        while True:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                f.seek(0)
+                holder = f.read().strip() or "another process"
+                if time.monotonic() >= deadline:
+                    still = f" still, after {wait_s:g} s" if wait_s > 0 else ""
+                    raise DatasetError(
+                        f"{root}: {holder} is writing this dataset{still}; wait for it to finish, or use another "
+                        f"directory (lock {path})"
+                    ) from None
+                if not told:
+                    print(f"{what}: waiting for {holder} (lock {path})...", file=sys.stderr, flush=True)
+                    told = True
+                time.sleep(0.05)
+            except OSError as exc:
+                raise DatasetError(f"{root}: cannot lock {path} ({exc.strerror or exc})") from None
         try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
             f.seek(0)
-            holder = f.read().strip() or "another process"
-            raise DatasetError(
-                f"{root}: {holder} is writing this dataset; wait for it to finish, or use another "
-                f"directory (lock {path})"
-            ) from None
-        f.seek(0)
-        f.truncate()
-        f.write(f"{what} (pid {os.getpid()})")
-        f.flush()
+            f.truncate()
+            f.write(f"{what} (pid {os.getpid()})")
+            f.flush()
+        except OSError:
+            pass  # the holder's name is for messages only; the lock itself is held
         try:
             yield
         finally:
-            f.seek(0)
-            f.truncate()
+            try:
+                f.seek(0)
+                f.truncate()
+            except OSError:
+                pass
             fcntl.flock(f, fcntl.LOCK_UN)
 
 

@@ -24,7 +24,13 @@ from pathlib import Path
 
 from handeye.core.errors import OutputFileError
 
-__all__ = ["check_output_path", "write_bytes_atomic", "write_text_atomic"]
+__all__ = [
+    "check_output_folder",
+    "check_output_path",
+    "write_bytes_atomic",
+    "write_figure_atomic",
+    "write_text_atomic",
+]
 
 
 def check_output_path(path: str | Path) -> Path:
@@ -70,7 +76,42 @@ def check_output_path(path: str | Path) -> Path:
         raise OutputFileError(f"{path}: {kind}, not a file to write; name a file")
     if not target.parent.is_dir():
         raise OutputFileError(f"{path}: the folder {target.parent} does not exist; create it or name another file")
+    if not os.access(target.parent, os.W_OK | os.X_OK):
+        raise OutputFileError(
+            f"{path}: cannot write in the folder {target.parent} (permission denied); name another file"
+        )
     return target
+
+
+def check_output_folder(path: str | Path) -> Path:
+    """A folder that files can be written into (created later if missing): checked before the work starts.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputFileError
+        ``path`` exists and is not a folder, or the nearest folder that exists above it cannot be written.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputFileError(f"{path}: exists and is not a folder; name a folder for the files")
+    existing = path
+    while not existing.exists():
+        if existing.is_symlink():
+            raise OutputFileError(f"{path}: a symbolic link to nothing that exists ({existing}); name another folder")
+        existing = existing.parent
+    if not existing.is_dir():
+        raise OutputFileError(f"{path}: {existing} is not a folder; name another folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputFileError(f"{path}: cannot write in {existing} (permission denied); name another folder")
+    return path
 
 
 def _mode_for(target: Path) -> int:
@@ -101,20 +142,24 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
     OutputFileError
     """
     target = check_output_path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    tmp = None
     try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
         os.chmod(tmp, _mode_for(target))
         os.replace(tmp, target)
-    except OSError as exc:
+    except BaseException as exc:  # a full disk, or Ctrl-C: no temporary file left behind either way
         try:
-            os.unlink(tmp)
+            if tmp is not None:
+                os.unlink(tmp)
         except OSError:
             pass
-        raise OutputFileError(f"{path}: cannot write ({exc.strerror or exc}); nothing was written") from None
+        if isinstance(exc, OSError):
+            raise OutputFileError(f"{path}: cannot write ({exc.strerror or exc}); nothing was written") from None
+        raise
     return target
 
 
@@ -133,3 +178,26 @@ def write_text_atomic(path: str | Path, text: str, errors: str = "strict") -> Pa
     Path
     """
     return write_bytes_atomic(path, text.encode("utf-8", errors=errors))
+
+
+def write_figure_atomic(fig, path: str | Path, **savefig_kwargs) -> Path:
+    """Render a matplotlib figure in memory and write it whole (:func:`write_bytes_atomic`).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or Path
+        The image format is the suffix's (``.png`` when there is none).
+    **savefig_kwargs
+        Passed to ``fig.savefig`` (``dpi``, ``bbox_inches``...).
+
+    Returns
+    -------
+    Path
+    """
+    import io
+
+    buffer = io.BytesIO()
+    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    fig.savefig(buffer, format=fmt, **savefig_kwargs)
+    return write_bytes_atomic(path, buffer.getvalue())

@@ -43,6 +43,7 @@ frame table (the simulator) calls :meth:`ShardWriter.write_rgb`,
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -60,7 +61,7 @@ from handeye.core.dataset import (
     write_manifest,
     write_table,
 )
-from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.errors import DatasetError, HandEyeInputError, OutputFileError
 
 __all__ = ["ShardWriter"]
 
@@ -152,10 +153,14 @@ class ShardWriter:
     # -- the temporary folder
 
     def __enter__(self) -> "ShardWriter":
-        if self.partial.exists():  # left by a killed writer: start the shard again
-            shutil.rmtree(self.partial)
-        (self.partial / "rgb").mkdir(parents=True)
-        (self.partial / "depth").mkdir()
+        try:
+            if self.partial.exists():  # left by a killed writer: start the shard again
+                shutil.rmtree(self.partial)
+            (self.partial / "rgb").mkdir(parents=True)
+            (self.partial / "depth").mkdir()
+        except OSError as exc:
+            shutil.rmtree(self.partial, ignore_errors=True)
+            raise OutputFileError(f"{self.partial}: cannot create the shard's folder ({exc.strerror or exc})") from None
         self._rows, self._frames_written, self._open = [], False, True
         return self
 
@@ -211,7 +216,7 @@ class ShardWriter:
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
             raise HandEyeInputError(f"rgb {name!r}: expected uint8 of shape (H, W, 3), got {rgb.dtype} {rgb.shape}")
         rel, path = self._path("rgb", name)
-        Image.fromarray(rgb).save(path, compress_level=self.png_compress_level)
+        self._write_png(path, Image.fromarray(rgb))
         return rel
 
     def write_depth(self, name: str, depth_m: np.ndarray) -> str:
@@ -235,8 +240,24 @@ class ShardWriter:
         if depth_m.ndim != 2:
             raise HandEyeInputError(f"depth {name!r}: expected shape (H, W), got {depth_m.shape}")
         rel, path = self._path("depth", name)
-        Image.fromarray(encode_depth(depth_m, self.depth_scale_m)).save(path, compress_level=self.png_compress_level)
+        self._write_png(path, Image.fromarray(encode_depth(depth_m, self.depth_scale_m)))
         return rel
+
+    def _write_png(self, path: Path, image) -> None:
+        """Encode in memory, then write; a failed write (a full disk) names the file and its cause.
+
+        The file lies in the shard's temporary folder, which the failed ``with`` block removes whole, so
+        no part of it is ever published; no per-file rename is needed here.
+        """
+        buffer = io.BytesIO()
+        image.save(buffer, format="PNG", compress_level=self.png_compress_level)
+        try:
+            with open(path, "wb") as f:
+                f.write(buffer.getbuffer())
+        except OSError as exc:
+            raise OutputFileError(
+                f"{path}: cannot write ({exc.strerror or exc}); the shard is not published, rerun to write it"
+            ) from None
 
     def write_frames(self, table: dict, n_frames: dict | None = None) -> None:
         """Write the shard's frame table (``frames.csv``, columns :func:`handeye.core.dataset.frame_columns`).
@@ -331,6 +352,9 @@ class ShardWriter:
 
     def _publish(self) -> None:
         write_manifest(self.partial, self.camera_id, self._n_frames)
-        if self.final.exists():  # a half-written shard of an older layout: replaced
-            shutil.rmtree(self.final)
-        os.replace(self.partial, self.final)
+        try:
+            if self.final.exists():  # a half-written shard of an older layout: replaced
+                shutil.rmtree(self.final)
+            os.replace(self.partial, self.final)
+        except OSError as exc:
+            raise OutputFileError(f"{self.final}: cannot publish the shard ({exc.strerror or exc}); rerun") from None

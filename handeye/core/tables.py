@@ -7,7 +7,10 @@ its rows as lists of cells and hands them here, so a table is written one way ev
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
+
+from handeye.core.safe_write import write_text_atomic
 
 __all__ = ["markdown_table", "write_csv"]
 
@@ -53,8 +56,9 @@ def write_csv(path: str | Path, headers: list, rows: list) -> Path:
     Path
     """
     path = Path(path)
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(headers)
-        w.writerows(rows)
+    buffer = io.StringIO(newline="")  # built in memory, written whole (handeye.core.safe_write)
+    w = csv.writer(buffer)
+    w.writerow(headers)
+    w.writerows(rows)
+    write_text_atomic(path, buffer.getvalue())
     return path

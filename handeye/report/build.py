@@ -1,4 +1,8 @@
-"""Write the report: the figures as PNG files, then one self-contained ``index.html`` that embeds them."""
+"""Write the report: the figures as PNG files, then one self-contained ``index.html`` that embeds them.
+
+Every file is written whole or not at all (:mod:`handeye.core.safe_write`); a failed write raises
+:class:`handeye.core.errors.OutputFileError` naming the file.
+"""
 
 from __future__ import annotations
 
@@ -12,6 +16,8 @@ from typing import Callable
 
 import numpy as np
 
+from handeye.core.errors import OutputFileError
+from handeye.core.safe_write import check_output_folder, write_text_atomic
 from handeye.core.setups import robot_side_poses
 from handeye.report import html
 from handeye.report import sections as sec
@@ -133,8 +139,11 @@ def write_report(folder: str | Path, data: ReportData) -> Path:
     from handeye.report.figures import holdout_figure, motion_figure, residuals_figure
     from handeye.report.frames3d import frames_figure
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = check_output_folder(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputFileError(f"{folder}: cannot create the report folder ({exc.strerror or exc})") from None
     res, setup = data.result, data.setup
     inl = res.residuals.inliers
     final = _final(data)
@@ -183,7 +192,7 @@ def write_report(folder: str | Path, data: ReportData) -> Path:
     foot = f"Written by <code>handeye calibrate --report</code>; {escape(_versions())}."
     page = html.page("Hand-eye calibration report", sub, sections, foot)
     index = folder / "index.html"
-    index.write_text(page, encoding="utf-8")
+    write_text_atomic(index, page)
     doc = {
         "command": data.command,
         "source": data.source,
@@ -203,5 +212,5 @@ def write_report(folder: str | Path, data: ReportData) -> Path:
             }
             for o in overlays
         ]
-    (folder / "report.json").write_text(json.dumps(doc, indent=1) + "\n")
+    write_text_atomic(folder / "report.json", json.dumps(doc, indent=1) + "\n")
     return index

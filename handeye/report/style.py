@@ -69,7 +69,7 @@ def pyplot():
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Write a figure as PNG and close it.
+    """Write a figure as PNG (whole or not at all, :func:`handeye.core.safe_write.write_figure_atomic`) and close it.
 
     Parameters
     ----------
@@ -83,7 +83,11 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     """
     import matplotlib.pyplot as plt
 
+    from handeye.core.safe_write import write_figure_atomic
+
     path = Path(path)
-    fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.12)
-    plt.close(fig)
+    try:
+        write_figure_atomic(fig, path, dpi=dpi, bbox_inches="tight", pad_inches=0.12)
+    finally:
+        plt.close(fig)
     return path
