@@ -6,6 +6,8 @@ import json
 from pathlib import Path
 
 from handeye.core.limits import MAX_JSON_DEPTH, check_json_depth
+from handeye.core.numbers import loads_json
+from handeye.core.textfile import file_kind
 
 __all__ = ["MAX_JSON_BYTES", "read_json_file"]
 
@@ -27,7 +29,8 @@ def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON f
     Raises
     ------
     error
-        A directory, no such file, over :data:`MAX_JSON_BYTES`, unreadable, not UTF-8, not JSON.
+        A directory, no such file, a FIFO or device, over :data:`MAX_JSON_BYTES`, unreadable, not UTF-8, not
+        JSON, a number outside the grammar of :mod:`handeye.core.numbers` (``NaN``, 5,000 digits).
     """
     path = Path(path)
     if path.is_dir():
@@ -35,7 +38,7 @@ def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON f
     if not path.exists():
         raise error(f"{path}: no such {what}")
     if not path.is_file():
-        raise error(f"{path}: not a regular file, not a {what}")
+        raise error(f"{path}: {file_kind(path)}, not a file; give a {what}")
     size = path.stat().st_size
     if size > MAX_JSON_BYTES:
         raise error(f"{path}: {size:,} bytes, too large for a {what} (at most {MAX_JSON_BYTES:,})")
@@ -48,7 +51,7 @@ def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON f
     except UnicodeDecodeError as exc:
         raise error(f"{path}: not UTF-8 text (byte {exc.start}), not a {what}") from None
     try:
-        doc = json.loads(text)
+        doc = loads_json(text, str(path), error)
     except json.JSONDecodeError as exc:
         raise error(f"{path}: not valid JSON ({exc}), not a {what}") from None
     except RecursionError:

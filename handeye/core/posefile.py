@@ -71,6 +71,7 @@ from handeye.core.limits import (
     check_json_depth,
     shorten,
 )
+from handeye.core.numbers import CSV_CELL_SPACES, float_array, loads_json, parse_float
 from handeye.core.opencv_yaml import is_opencv_yaml
 from handeye.core.poseset import UNIT_SCALE, PoseSet
 from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
@@ -132,7 +133,8 @@ def _read_text(path: Path) -> str:
 def _read_json(path: Path):
     """The parsed JSON of a pose file, or a :class:`PoseFileError` (not JSON, nested too deeply)."""
     try:
-        doc = json.loads(_read_text(path))
+        # NaN and Infinity parse, for float_array to refuse naming the pose entry
+        doc = loads_json(_read_text(path), str(path), PoseFileError, constants=True)
     except json.JSONDecodeError as exc:
         raise PoseFileError(f"{path}: not valid JSON ({exc})") from None
     except RecursionError:
@@ -194,17 +196,8 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
             if len(row) != len(header):
                 raise PoseFileError(f"{path}, line {line_no}: {len(row)} fields, header has {len(header)}")
             for c, cname in enumerate(cols):
-                try:
-                    values[r, c] = float(row[col[cname]])
-                except ValueError:
-                    raise PoseFileError(
-                        f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]])} is not a number"
-                    ) from None
-                if not np.isfinite(values[r, c]):
-                    raise PoseFileError(
-                        f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]].strip())} is not a "
-                        "finite number"
-                    )
+                cell = row[col[cname]].strip(CSV_CELL_SPACES)
+                values[r, c] = parse_float(cell, f"{path}, line {line_no}, column {cname}", PoseFileError)
                 if c < 3 and abs(values[r, c]) > ABSURD_TRANSLATION_M * 1e3:
                     raise PoseFileError(
                         f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]].strip())} is absurd for a "
@@ -255,28 +248,26 @@ def _to_transforms(values: np.ndarray, kind: str, quat_order: str, scale: float,
 def _pose_from_json(entry, quat_order: str, scale: float, where: str) -> np.ndarray:
     if not isinstance(entry, dict):
         raise PoseFileError(f"{where}: expected an object with 'matrix' or 'translation' + 'quaternion'/'rotvec'")
-    for key in ("matrix", "translation", "quaternion", "rotvec"):
-        try:
-            finite = key not in entry or np.isfinite(np.asarray(entry[key], dtype=float)).all()
-        except (TypeError, ValueError):
-            continue  # not numbers: reported below with the shape or the value
-        if not finite:
-            raise PoseFileError(f"{where}: '{key}' {entry[key]} holds NaN or infinity")
+    arrays = {
+        key: float_array(entry[key], f"{where}.{key}", PoseFileError)
+        for key in ("matrix", "translation", "quaternion", "rotvec")
+        if key in entry
+    }
     try:
-        if "matrix" in entry:
-            T = np.asarray(entry["matrix"], dtype=float)
+        if "matrix" in arrays:
+            T = arrays["matrix"]
             if T.shape != (4, 4):
                 raise PoseFileError(f"{where}: 'matrix' must be 4x4, got shape {T.shape}")
             T = T.copy()
             T[:3, 3] *= scale
             return T
-        t = np.asarray(entry["translation"], dtype=float) * scale
-        if "quaternion" in entry:
-            q = _quat(np.asarray(entry["quaternion"], dtype=float), quat_order)
+        t = arrays["translation"] * scale
+        if "quaternion" in arrays:
+            q = _quat(arrays["quaternion"], quat_order)
             _check_unit(q, where)
             return make_transform(matrix_from_quat_xyzw(q), t)
-        if "rotvec" in entry:
-            return make_transform(so3_exp(np.asarray(entry["rotvec"], dtype=float)), t)
+        if "rotvec" in arrays:
+            return make_transform(so3_exp(arrays["rotvec"]), t)
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, PoseFileError):
             raise

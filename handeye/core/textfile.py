@@ -7,12 +7,42 @@ binary file and a file in another encoding are refused the same way, in one line
 
 from __future__ import annotations
 
+import stat
 from pathlib import Path
 
 from handeye.core.errors import PoseFileError
 from handeye.core.limits import MAX_TEXT_FILE_BYTES
 
-__all__ = ["check_text_file", "read_text"]
+__all__ = ["check_text_file", "file_kind", "read_text"]
+
+
+def file_kind(path: str | Path) -> str:
+    """What a path that exists but is not a regular file is, for a message: "a FIFO", "a device", ...
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    str
+        "a directory", "a FIFO (named pipe)", "a character device", "a block device", "a socket", or
+        "not a regular file".
+    """
+    try:
+        mode = Path(path).stat().st_mode
+    except OSError:
+        return "not a regular file"
+    for test, name in (
+        (stat.S_ISDIR, "a directory"),
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return name
+    return "not a regular file"
 
 
 def check_text_file(
@@ -46,7 +76,7 @@ def check_text_file(
     if not path.exists():
         raise error(f"{path}: no such file")
     if not path.is_file():
-        raise error(f"{path}: not a regular file")
+        raise error(f"{path}: {file_kind(path)}, not a file; give a {what}")
     size = path.stat().st_size
     if size > max_bytes:
         raise error(f"{path}: {size:,} bytes, too large for a {what} (at most {max_bytes:,})")

@@ -1,0 +1,279 @@
+"""The one number grammar of every file handeye reads: what CSV, JSON and YAML writers produce, nothing else.
+
+Python's ``float()`` reads far more than a file should hold: ``float("0_2")`` is 2.0, ``float("２")`` (full
+width) and ``float("٢")`` (Arabic-Indic) are 2.0, ``float(" 1 ")`` is 1.0, ``float("nan")`` is NaN, and
+``int()`` of a 5,000-digit string stops with a traceback. A number in a user's file is read here instead:
+
+* a number is an optional sign, ASCII digits with an optional fraction, or a fraction alone, and an optional
+  exponent: ``[+-]?(\\d+(\\.\\d*)?|\\.\\d+)([eE][+-]?\\d+)?`` (ASCII digits only); an integer is
+  ``[+-]?\\d+``;
+* at most :data:`MAX_NUMBER_CHARS` characters (float64 needs 24; longer is refused before it is converted);
+* no surrounding spaces (a CSV reader strips the spaces around a cell before it calls this), no digit
+  separators (``_``), no hexadecimal, no words: ``nan``, ``inf`` and ``infinity`` are refused, as is a
+  number beyond float64's range (``1e400``). Every reader refuses a non-finite value anyway, and the tables
+  that can hold an unknown value write it as an empty cell, never as ``nan``.
+
+:func:`parse_float` and :func:`parse_int` read one cell; :func:`loads_json` parses JSON with the same
+rules (the hooks of :func:`json.loads`), so a JSON integer of thousands of digits or a ``NaN`` constant is
+refused in one line naming the file and, where it can be told, the line; :func:`float_array` reads a JSON
+value that should hold numbers (nested lists of numbers), refusing booleans and checking strings.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import numpy as np
+
+from handeye.core.errors import HandEyeInputError
+from handeye.core.limits import MAX_JSON_DEPTH, shorten
+
+__all__ = [
+    "MAX_NUMBER_CHARS",
+    "CSV_CELL_SPACES",
+    "NumberError",
+    "number_problem",
+    "is_number_text",
+    "parse_float",
+    "parse_int",
+    "loads_json",
+    "float_array",
+]
+
+#: A number written with more characters than this is refused before it is converted: float64 needs at most
+#: 24 (``-2.2250738585072014e-308``); 64 leaves room for zero padding and integers up to 10^63.
+MAX_NUMBER_CHARS = 64
+
+#: The spaces a CSV reader strips around a cell before reading its number (``1.0, 2.0`` is common); only these
+#: ASCII ones, so that a non-breaking or ideographic space is still refused.
+CSV_CELL_SPACES = " \t"
+
+_FLOAT = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_INT = re.compile(r"[+-]?\d+", re.ASCII)
+_WORDS = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity", ".nan", ".inf"}
+_WORDS |= {"+.inf", "-.inf"}
+
+
+class NumberError(HandEyeInputError):
+    """A value that is not a number in the grammar of :mod:`handeye.core.numbers` (the default error)."""
+
+
+def number_problem(text: str, integer: bool = False) -> str | None:
+    """Why ``text`` is not a number of the grammar (``None`` when it is one).
+
+    Parameters
+    ----------
+    text : str
+    integer : bool
+        Whether only an integer (``[+-]?\\d+``) is accepted.
+
+    Returns
+    -------
+    str or None
+        A short reason, to follow the value in a message ("is not a number (...)").
+    """
+    if not isinstance(text, str):
+        return f"a {type(text).__name__}, not text"
+    if len(text) > MAX_NUMBER_CHARS:
+        return f"more than the {MAX_NUMBER_CHARS} characters a number is written with"
+    if (_INT if integer else _FLOAT).fullmatch(text):
+        return None
+    if text == "":
+        return "an empty value"
+    if text != text.strip():
+        return "spaces around it"
+    if text.lower() in _WORDS:
+        return "NaN and infinity are not accepted; an unknown value is left empty where the format allows"
+    if integer and _FLOAT.fullmatch(text):
+        return "an integer is expected"
+    if "_" in text:
+        return "'_' digit separators are not read"
+    if any(ch.isdigit() and not "0" <= ch <= "9" for ch in text):
+        return "digits other than ASCII 0-9"
+    if text.lower().lstrip("+-").startswith(("0x", "0o", "0b")):
+        return "hexadecimal, octal and binary are not read"
+    return "an integer such as 12 or -3 is expected" if integer else "write it as 1.5, -2, or 3e-4"
+
+
+def is_number_text(text: str) -> bool:
+    """Whether ``text`` is a number of the grammar (an integer or a decimal/scientific number)."""
+    return number_problem(text) is None
+
+
+_OVERFLOW = "beyond the range of a 64-bit float"
+
+
+def _fail(text: str, where: str, reason: str, error: type[Exception]):
+    finite = isinstance(text, str) and (text.lower() in _WORDS or reason == _OVERFLOW)
+    return error(f"{where}: {shorten(text)} is not a {'finite ' if finite else ''}number ({reason})")
+
+
+def parse_float(text: str, where: str, error: type[Exception] = NumberError) -> float:
+    """A finite float from ``text`` in the grammar of this module.
+
+    Parameters
+    ----------
+    text : str
+        The value as written (a CSV cell already stripped of the spaces around it).
+    where : str
+        The file, line or row and column, for the message.
+    error : type of Exception
+        Raised with one line: ``"<where>: '<text>' is not a number (<reason>)"``.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    error
+        Not the grammar, too long, or beyond float64's range.
+    """
+    reason = number_problem(text)
+    if reason is not None:
+        raise _fail(text, where, reason, error)
+    value = float(text)
+    if not math.isfinite(value):
+        raise _fail(text, where, _OVERFLOW, error)
+    return value
+
+
+def parse_int(text: str, where: str, error: type[Exception] = NumberError) -> int:
+    """An integer from ``text`` (``[+-]?\\d+``, at most :data:`MAX_NUMBER_CHARS` characters).
+
+    Parameters
+    ----------
+    text : str
+    where : str
+    error : type of Exception
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    error
+    """
+    reason = number_problem(text, integer=True)
+    if reason is not None:
+        raise _fail(text, where, reason, error)
+    return int(text)
+
+
+class _JsonNumber(Exception):
+    """Raised inside :func:`json.loads` by the number hooks; carries the token and the reason."""
+
+    def __init__(self, token: str, reason: str):
+        super().__init__(token)
+        self.token, self.reason = token, reason
+
+
+def _json_float(token: str) -> float:
+    if len(token) > MAX_NUMBER_CHARS:
+        raise _JsonNumber(token, f"more than the {MAX_NUMBER_CHARS} characters a number is written with")
+    value = float(token)
+    if not math.isfinite(value):
+        raise _JsonNumber(token, _OVERFLOW)
+    return value
+
+
+def _json_int(token: str) -> int:
+    if len(token) > MAX_NUMBER_CHARS:
+        raise _JsonNumber(token, f"more than the {MAX_NUMBER_CHARS} characters a number is written with")
+    return int(token)
+
+
+def _json_constant(token: str):
+    raise _JsonNumber(token, "NaN and Infinity are not JSON numbers; write a number, or null where allowed")
+
+
+def loads_json(text: str, where: str, error: type[Exception] = NumberError, constants: bool = False):
+    """``json.loads`` with the number grammar: long numbers, ``NaN`` and ``Infinity`` refused in one line.
+
+    JSON's own grammar already admits only ASCII digits with no separators; this bounds the length (a
+    5,000-digit integer), refuses numbers beyond float64 (``1e400``) and the non-standard constants
+    ``NaN``, ``Infinity`` and ``-Infinity`` that Python's parser would accept.
+
+    Parameters
+    ----------
+    text : str
+    where : str
+        The file, for the message (the line is added when the number occurs once in the text).
+    error : type of Exception
+    constants : bool
+        Parse ``NaN`` and ``Infinity`` to floats, for a reader that checks every number it takes with
+        :func:`float_array` and names the entry (a pose file); by default they are refused here.
+
+    Returns
+    -------
+    object
+        The document.
+
+    Raises
+    ------
+    error
+        A refused number (naming it, and its line where it can be told).
+    json.JSONDecodeError, RecursionError
+        Not JSON, or nested too deeply: left to the caller, who names the file.
+    """
+    try:
+        hook = float if constants else _json_constant
+        return json.loads(text, parse_float=_json_float, parse_int=_json_int, parse_constant=hook)
+    except _JsonNumber as exc:
+        line = ""
+        if text.count(exc.token) == 1:
+            line = f", line {text.count(chr(10), 0, text.index(exc.token)) + 1}"
+        raise error(f"{where}{line}: {shorten(exc.token)} is not a number ({exc.reason})") from None
+
+
+def float_array(value, where: str, error: type[Exception] = NumberError) -> np.ndarray:
+    """A float64 array of a parsed JSON or YAML value that should hold numbers (a number or nested lists).
+
+    Numbers are taken as they are (booleans refused: ``true`` is not 1.0); a string is read with
+    :func:`parse_float` (``"1.5"`` reads, ``"0_2"`` does not), where :func:`numpy.asarray` would take
+    ``"0_2"`` and full-width digits.
+
+    Parameters
+    ----------
+    value : number, str or nested lists of them
+    where : str
+        The file and entry, for the message.
+    error : type of Exception
+
+    Returns
+    -------
+    array of float64
+        The shape of the nested lists (ragged lists raise ``error``).
+
+    Raises
+    ------
+    error
+        A boolean, a string that is not a number, a non-finite number, another type, or ragged lists.
+    """
+
+    def convert(v, depth: int):
+        if isinstance(v, bool):
+            raise error(f"{where}: {v!r} is a boolean, not a number")
+        if isinstance(v, (int, float, np.integer, np.floating)):
+            if isinstance(v, (int, np.integer)) and abs(int(v)) >= 10**MAX_NUMBER_CHARS:
+                raise error(f"{where}: an integer of {len(str(int(v))):,} digits is not a number handeye reads")
+            if not math.isfinite(float(v)):
+                raise error(f"{where}: {v!r} is not a finite number")
+            return float(v)
+        if isinstance(v, str):
+            return parse_float(v, where, error)
+        if isinstance(v, (list, tuple)) and depth < MAX_JSON_DEPTH:
+            return [convert(item, depth + 1) for item in v]
+        if v is None:
+            raise error(f"{where}: null where a number is expected")
+        raise error(f"{where}: {shorten(v)} is not a number")
+
+    try:
+        return np.array(convert(value, 0), dtype=np.float64)
+    except ValueError as exc:
+        if isinstance(exc, HandEyeInputError) or isinstance(exc, error):
+            raise
+        raise error(f"{where}: lists of unequal lengths where a matrix or vector of numbers is expected") from None
