@@ -108,20 +108,54 @@ def observe(ds: Dataset, c: int, sensor, seed: int):
     return depth, ds.joints(t), truth
 
 
-def run_profile(ds, surface, stride, cams, sensor, seed):
-    """Per placement and mode: (status, err_deg, err_mm, sigma_deg, sigma_mm, s, depth dict, truth)."""
-    K = np.array(ds.meta["intrinsics"]["K"])
+def parse_intrinsics_error(text: str) -> dict:
+    """``fx=0.007,cx=3``: the relative focal errors (``fx``, ``fy``) and the principal point's (``cx``, ``cy``, px)."""
+    out = {"fx": 0.0, "fy": 0.0, "cx": 0.0, "cy": 0.0}
+    for item in filter(None, text.split(",")):
+        key, _, value = item.partition("=")
+        if key.strip() not in out:
+            raise argparse.ArgumentTypeError(f"--intrinsics-error: unknown key {key!r} (fx, fy, cx, cy)")
+        try:
+            out[key.strip()] = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"--intrinsics-error: {item!r} is not key=number") from None
+    return out
+
+
+def told_intrinsics(K: np.ndarray, error: dict | None) -> np.ndarray:
+    """The camera matrix the method is told: the true ``K`` with ``error`` (:func:`parse_intrinsics_error`)."""
+    K = np.array(K, dtype=float)
+    if error:
+        K[0, 0] *= 1 + error["fx"]
+        K[1, 1] *= 1 + error["fy"]
+        K[0, 2] += error["cx"]
+        K[1, 2] += error["cy"]
+    return K
+
+
+def run_profile(ds, surface, stride, cams, sensor, seed, intrinsics_error=None, modes=None):
+    """Per placement and mode: (status, err_deg, err_mm, sigma_deg, sigma_mm, s, depth dict, truth, intrinsics).
+
+    ``intrinsics_error``: the method is told a camera matrix this far off the one the depth was rendered with
+    (:func:`told_intrinsics`); ``"self-calibrated"`` takes it with a factory camera matrix's uncertainty
+    (:data:`classic.markerless.intrinsics.INTRINSICS_PRIORS`), ``"self-calibrated, intrinsics taken as exact"``
+    as exact.
+    """
+    K = told_intrinsics(ds.meta["intrinsics"]["K"], intrinsics_error)
     T_true = ds.truth()
-    modes = {
-        "self-calibrated": MarkerlessOptions(
-            zbuffer_stride=stride,
-            depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
-            stereo_fb_px_m=sensor.stereo_fb_px_m,
-        ),
+    self_calibrated = MarkerlessOptions(
+        zbuffer_stride=stride,
+        depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
+        stereo_fb_px_m=sensor.stereo_fb_px_m,
+    )
+    all_modes = {
+        "self-calibrated": self_calibrated,
+        "self-calibrated, intrinsics taken as exact": replace(self_calibrated, intrinsics_model="fixed"),
         "depth taken as exact": MarkerlessOptions(
-            zbuffer_stride=stride, depth_model="fixed", depth_sigma_m_at_1m=0.001
+            zbuffer_stride=stride, depth_model="fixed", depth_sigma_m_at_1m=0.001, intrinsics_model="fixed"
         ),
     }
+    modes = {m: all_modes[m] for m in (modes or ("self-calibrated", "depth taken as exact"))}
     rows = {m: [] for m in modes}
     for c in cams:
         depth, q, truth = observe(ds, c, sensor, seed)
@@ -133,10 +167,21 @@ def run_profile(ds, surface, stride, cams, sensor, seed):
             if res.ok:
                 rot, mm = pose_error(res.T_base_cam, T_true[c])
                 rows[mode].append(
-                    ("ok", rot, mm, res.sigma["rotation_deg"], res.sigma["translation_mm"], dt, res.depth, truth)
+                    (
+                        "ok",
+                        rot,
+                        mm,
+                        res.sigma["rotation_deg"],
+                        res.sigma["translation_mm"],
+                        dt,
+                        res.depth,
+                        truth,
+                        res.intrinsics,
+                    )
                 )
             else:
-                rows[mode].append(("refused", np.nan, np.nan, np.nan, np.nan, dt, res.depth, truth))
+                rows[mode].append(("refused", np.nan, np.nan, np.nan, np.nan, dt, res.depth, truth, res.intrinsics))
+            print(f"  camera {c}, {mode}: {rows[mode][-1][:6]} {res.refused or ''}", file=sys.stderr, flush=True)
     return rows
 
 
@@ -182,6 +227,18 @@ def main():
     ap.add_argument("--split", default="test", help="test (default), train or all")
     ap.add_argument("--max-placements", type=int, help="at most this many per dataset, spread over its placements")
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
+    ap.add_argument(
+        "--intrinsics-error",
+        type=parse_intrinsics_error,
+        help="tell the method a camera matrix this far off the true one: fx=0.007,fy=0.007,cx=3,cy=0 "
+        "(relative focal errors, principal point in pixels)",
+    )
+    ap.add_argument(
+        "--modes",
+        default="self-calibrated,depth taken as exact",
+        help="comma-separated: self-calibrated, 'self-calibrated, intrinsics taken as exact' (written with a "
+        "semicolon: 'self-calibrated; intrinsics taken as exact'), depth taken as exact",
+    )
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_sensors.md"))
     args = ap.parse_args()
     Report.cut(args, max_placements=1)
@@ -194,6 +251,12 @@ def main():
     )
     if not args.data and not args.presets:
         ap.error("give --data or --presets")
+    if args.intrinsics_error:
+        emit(
+            "\nThe method is told a camera matrix off the one the depth was rendered with: "
+            + ", ".join(f"{k} {v:+g}" + (" px" if k in ("cx", "cy") else "") for k, v in args.intrinsics_error.items())
+            + " (fx, fy relative)."
+        )
     roots = list(args.data)
     for preset in args.presets:
         for band in args.bands:
@@ -235,7 +298,8 @@ def main():
         emit("|---|---|---|---|---|---|---|---|---|")
         for name in args.profiles.split(","):
             sensor = PROFILES[name]
-            rows = run_profile(ds, surface, stride, cams, sensor, args.seed)
+            modes = [m.strip().replace(";", ",") for m in args.modes.split(",")]
+            rows = run_profile(ds, surface, stride, cams, sensor, args.seed, args.intrinsics_error, modes)
             for mode, r in rows.items():
                 emit(summary_row(f"{name}, {mode}", r))
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -32,6 +32,10 @@ the matcher's disparity is ``f B k / z_a``. One pixel of disparity spans ``z^2 /
 1.15 m for a D435 (447 px x 50 mm), so the arm's range of depths covers several periods and ``(a, b)`` are
 observable apart from the scale and offset.
 
+With ``intrinsics_K_ref`` the depth camera's intrinsics ``(f_x, f_y, c_x, c_y)`` are estimated too, under a
+Gaussian prior (:mod:`classic.markerless.intrinsics`): each observed point keeps its pixel and depth, its ray
+moves with them, and their columns of the Jacobian are ``z n_cam[:2] . d(x_n, y_n) / d theta``.
+
 The covariance is the sandwich (cluster-robust) estimate with one cluster per
 frame: neighbouring pixels of one frame share the model's discretisation and
 the sensor's systematic error, so counting them as independent would make
@@ -47,6 +51,7 @@ import numpy as np
 from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
+from classic.markerless.intrinsics import rays_for
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points", "pixel_locking_basis"]
@@ -79,7 +84,12 @@ class PlaneFit:
         Of ``depth_correction`` (``D`` = 2 or 4).
     depth_covariance_frames : array, shape (D, D) or None
         The same, clustered by frame only: what the frames' spread of depths leaves of them, without the
-        errors the frames share (whether the depth is observable at all is a question of geometry).
+        errors the frames share (whether the depth is observable at all is a question of geometry); with the
+        intrinsics estimated, given them (conditional), so that it judges the depth range alone.
+    intrinsics : array, shape (4,) or None
+        The estimated ``(f_x, f_y, c_x, c_y)``, pixels, when asked for (``intrinsics_K_ref``).
+    intrinsics_covariance, intrinsics_covariance_frames : array, shape (4, 4) or None
+        Their covariance, two-way and frame-clustered as the depth's.
     """
 
     T_base_cam: np.ndarray
@@ -92,6 +102,9 @@ class PlaneFit:
     depth_correction: tuple | None = None
     depth_covariance: np.ndarray | None = None
     depth_covariance_frames: np.ndarray | None = None
+    intrinsics: np.ndarray | None = None
+    intrinsics_covariance: np.ndarray | None = None
+    intrinsics_covariance_frames: np.ndarray | None = None
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -159,8 +172,10 @@ def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
     return q_obs * (z / z_obs)[:, None], jacobian
 
 
-def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None):
+def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None, intrinsics=None):
     R, t = T[:3, :3], T[:3, 3]
+    if intrinsics is not None:  # (K_ref, theta): the points' rays with the intrinsics theta
+        q_obs, dray = rays_for(q_obs, *intrinsics)
     if depth is None:
         p_cam = q_obs
     elif stereo_fb_px_m is None:
@@ -181,6 +196,8 @@ def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=
             cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], n_ray]
         else:
             cols.append(n_ray * dz)
+    if intrinsics is not None:
+        cols.append(p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1]))
     return r, np.hstack(cols)
 
 
@@ -208,6 +225,9 @@ def solve_point_to_plane(
     stereo_fb_px_m: float | None = None,
     pixel_locking_prior_px: float = 0.25,
     covariance: bool = True,
+    intrinsics_K_ref: np.ndarray | None = None,
+    intrinsics_start: np.ndarray | None = None,
+    intrinsics_prior: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -254,6 +274,14 @@ def solve_point_to_plane(
     covariance : bool
         False: skip the covariances (the fit's covariance fields are None), for the passes of an iteration
         whose matches are about to change.
+    intrinsics_K_ref : array, shape (3, 3), optional
+        The camera matrix ``p_cam`` was back-projected with; given, the intrinsics ``(f_x, f_y, c_x, c_y)``
+        are estimated with the pose (4 more parameters, :mod:`classic.markerless.intrinsics`).
+    intrinsics_start : array, shape (4,), optional
+        Their start, pixels (those of ``intrinsics_K_ref`` by default).
+    intrinsics_prior : (array (4,), array (4,)), optional
+        Mean and sigmas of a Gaussian prior on them, pixels (the camera matrix given and its stated
+        uncertainty). None: no prior.
 
     Returns
     -------
@@ -265,42 +293,73 @@ def solve_point_to_plane(
     fb = None if depth is None else stereo_fb_px_m
     if depth is not None:
         depth = depth[:2] if fb is None else np.r_[depth, np.zeros(4 - len(depth))]  # the locking starts at 0
-    n_par = 6 if depth is None else 6 + len(depth)
-    prior_precision = np.zeros(n_par)
-    if depth is not None and depth_prior_sigma is not None:
-        prior_precision[6:8] = 1.0 / np.square(np.asarray(depth_prior_sigma, dtype=float))
-    if fb is not None:
-        prior_precision[8:] = 1.0 / pixel_locking_prior_px**2
-    prior_mean = None if depth is None else np.r_[1.0, np.zeros(len(depth) - 1)]
+    n_depth = 0 if depth is None else len(depth)
+    K_ref = None if intrinsics_K_ref is None else np.asarray(intrinsics_K_ref, dtype=float)
+    theta = None
+    if K_ref is not None:
+        ref = np.array([K_ref[0, 0], K_ref[1, 1], K_ref[0, 2], K_ref[1, 2]])
+        theta = ref.copy() if intrinsics_start is None else np.array(intrinsics_start, dtype=float)
+    n_par = 6 + n_depth + (0 if theta is None else 4)
+    prior_precision, prior_mean = np.zeros(n_par), np.zeros(n_par)
+    if depth is not None:
+        prior_mean[6] = 1.0
+        if depth_prior_sigma is not None:
+            prior_precision[6:8] = 1.0 / np.square(np.asarray(depth_prior_sigma, dtype=float))
+        if fb is not None:
+            prior_precision[8:10] = 1.0 / pixel_locking_prior_px**2
+    if theta is not None and intrinsics_prior is not None:
+        prior_mean[6 + n_depth :] = np.asarray(intrinsics_prior[0], dtype=float)
+        prior_precision[6 + n_depth :] = 1.0 / np.square(np.asarray(intrinsics_prior[1], dtype=float))
+    has_prior = bool(prior_precision.any())
+
+    def params():
+        return np.r_[np.zeros(6), [] if depth is None else depth, [] if theta is None else theta]
+
+    def linearise():
+        return _linearise(p_cam, m_base, n_base, T, shape, depth, fb, None if theta is None else (K_ref, theta))
+
     step_norm, steps = np.inf, 0
     for steps in range(1, iterations + 1):
-        r, J = _linearise(p_cam, m_base, n_base, T, shape, depth, fb)
+        r, J = linearise()
         w = loss_weights(r / scale_m, loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
-        if depth is not None:
+        if has_prior:
             # the prior in the residuals' units: their variance over the prior's
             P = _prior_information(prior_precision, r, w)
             H = H + P
-            g = g + P @ np.r_[np.zeros(6), depth - prior_mean]
+            g = g + P @ np.where(prior_precision > 0, params() - prior_mean, 0.0)
         # a ridge of 1e-12 relative: a direction the data do not fix stays put instead of running away
         xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(n_par), g)
         T = apply_right(T, xi[:6])
         step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6]))
         if depth is not None:
-            depth = depth + xi[6:]
+            depth = depth + xi[6 : 6 + n_depth]
             step_norm += float(abs(xi[6]) + abs(xi[7]))  # the scale and offset; the locking's pixels not
+        if theta is not None:
+            theta = theta + xi[6 + n_depth :]
+            # the focal lengths relative, the principal point over the focal length (radians of the rays)
+            pass  # step_norm += float(np.sum(np.abs(xi[6 + n_depth :] / theta[[0, 1, 0, 1]])))
         if step_norm < tol:
             break
-    r, J = _linearise(p_cam, m_base, n_base, T, shape, depth, fb)
+    r, J = linearise()
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     correction = None if depth is None else tuple(float(x) for x in depth)
+    fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=theta)
     if not covariance:
-        return PlaneFit(T, None, r, w, groups, steps, step_norm, correction)
-    prior = None if depth is None else _prior_information(prior_precision, r, w)
+        return fit
+    prior = _prior_information(prior_precision, r, w) if has_prior else None
     cov = clustered_covariance(J, r, w, group, prior, cross_group)
-    if depth is None:
-        return PlaneFit(T, cov, r, w, groups, steps, step_norm)
+    fit.covariance = cov[:6, :6]
+    if n_par == 6:
+        return fit
     frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
-    return PlaneFit(T, cov[:6, :6], r, w, groups, steps, step_norm, correction, cov[6:, 6:], frames[6:, 6:])
+    d, e = slice(6, 6 + n_depth), slice(6 + n_depth, n_par)
+    if depth is not None:
+        fit.depth_covariance, fit.depth_covariance_frames = cov[d, d], frames[d, d]
+        if theta is not None:  # the depth's spread given the intrinsics: the depth range's part alone
+            fit.depth_covariance_frames = frames[d, d] - frames[d, e] @ np.linalg.pinv(frames[e, e]) @ frames[e, d]
+    if theta is not None:
+        fit.intrinsics_covariance, fit.intrinsics_covariance_frames = cov[e, e], frames[e, e]
+    return fit

@@ -40,6 +40,15 @@ at all is judged on the frames' spread alone. What the frames share beyond that 
 groups again, by depth and by the arm's image column (:mod:`classic.markerless.consistency`): their
 scatter beyond their own noise enters the sigma.
 
+The depth camera's intrinsics ``(f_x, f_y, c_x, c_y)`` are estimated with the pose and the depth in the fine
+stage as well (``MarkerlessOptions.intrinsics_model``, :mod:`classic.markerless.intrinsics`): a factory camera
+matrix off by 0.7 % in focal length and 3 px in the principal point moved the camera by 10 mm at 1.2 m while the
+fit reported a sigma of tenths. The camera matrix given is their prior's mean, its stated uncertainty
+(``intrinsics_prior_sigma``, a datasheet default per sensor profile) the prior's spread: where the arm's
+positions across the image and in depth determine a parameter, the frames decide it; where they do not, it stays
+near the value given and its uncertainty enters the pose's covariance. Each one's posterior over prior sigma
+is reported (:attr:`MarkerlessResult.intrinsics`).
+
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
 otherwise it is refused with the reason (:attr:`MarkerlessResult.refused`),
@@ -57,6 +66,7 @@ from scipy.spatial import cKDTree
 from classic.clustered_covariance import pose_sigma
 from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
+from classic.markerless.intrinsics import camera_matrix, intrinsics_summary, intrinsics_vector, rays_for
 from classic.markerless.point_to_plane import corrected_points, solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
@@ -159,6 +169,17 @@ class MarkerlessOptions:
         offset and reported (:mod:`classic.markerless.point_to_plane`). None (the default): not modelled.
     pixel_locking_prior_px : float
         Spread of that bias before the data, pixels (0.25 by default).
+    intrinsics_model : {"estimate", "fixed"}
+        ``"estimate"`` (the default) estimates the depth camera's ``(f_x, f_y, c_x, c_y)`` with the pose, under a
+        prior of the camera matrix given and ``intrinsics_prior_sigma``; ``"fixed"`` takes the camera matrix as
+        exact.
+    intrinsics_prior_sigma : tuple of 4 float
+        Stated uncertainty of the camera matrix given: ``f_x`` and ``f_y`` relative, ``c_x`` and ``c_y`` in pixels
+        (one sigma; a factory-calibrated D435-class camera's 0.7 % and 3 px by default,
+        :data:`classic.markerless.intrinsics.INTRINSICS_PRIORS` per profile).
+    intrinsics_determined_share : float
+        A parameter counts as determined by the frames where they leave its sigma below this share of the
+        prior's (reported, not a refusal: an undetermined one stays near the value given, its prior in the sigma).
     depth_extrinsic_sigma_m : float
         Uncertainty of the depth-to-colour extrinsic per axis, metres (a sensor profile's figure): the
         registration finds the depth camera, the board and the learned model the colour camera; added to
@@ -208,6 +229,9 @@ class MarkerlessOptions:
     stereo_fb_px_m: float | None = None
     pixel_locking_prior_px: float = 0.25
     max_depth_prior_share: float = 0.5
+    intrinsics_model: str = "estimate"
+    intrinsics_prior_sigma: tuple = (0.007, 0.007, 3.0, 3.0)
+    intrinsics_determined_share: float = 0.5
     depth_extrinsic_sigma_m: float = 0.0
     min_moving_pixels: int = 200
     min_matched_fraction: float = 0.6
@@ -243,6 +267,16 @@ class MarkerlessOptions:
                 )
             if not self.pixel_locking_prior_px > 0:
                 raise HandEyeInputError(f"pixel_locking_prior_px must be positive, got {self.pixel_locking_prior_px}")
+        if self.intrinsics_model not in ("estimate", "fixed"):
+            raise HandEyeInputError(f"intrinsics_model must be 'estimate' or 'fixed', got {self.intrinsics_model!r}")
+        prior = np.asarray(self.intrinsics_prior_sigma, dtype=float)
+        if self.intrinsics_model == "estimate" and not (
+            prior.shape == (4,) and np.all(np.isfinite(prior)) and np.all(prior > 0)
+        ):
+            raise HandEyeInputError(
+                "intrinsics_model 'estimate' needs four positive prior sigmas (fx, fy relative; cx, cy pixels), got "
+                f"{self.intrinsics_prior_sigma!r}; a camera matrix known exactly is intrinsics_model='fixed'"
+            )
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
@@ -283,6 +317,12 @@ class MarkerlessResult:
         noise used (``noise_source``, ``noise_mm_at_median_depth``). With ``stereo_fb_px_m``, ``pixel_locking_px``:
         the matcher's disparity error ``sin`` and ``cos`` coefficients (pixels) with their sigmas, and its
         ``amplitude``.
+    intrinsics : dict
+        The depth camera's intrinsics as the registration found them: ``model`` (``"estimated"`` or ``"fixed"``),
+        ``given`` (``f_x, f_y, c_x, c_y`` of the camera matrix given), and when estimated per name (``fx``,
+        ``fy``, ``cx``, ``cy``) the ``estimate``, its ``change`` from the value given, ``sigma``,
+        ``prior_sigma``, ``ratio`` (what the frames leave of the sigma over the prior's) and ``determined``
+        (the ratio below ``intrinsics_determined_share``); pixels.
     """
 
     T_base_cam: np.ndarray | None
@@ -294,6 +334,7 @@ class MarkerlessResult:
     start: str
     diagnostics: dict = field(default_factory=dict)
     depth: dict = field(default_factory=dict)
+    intrinsics: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -316,6 +357,7 @@ class MarkerlessResult:
             "matched_fraction": self.matched_fraction,
             "sigma": self.sigma,
             "depth": self.depth,
+            "intrinsics": self.intrinsics,
             "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
             "diagnostics": self.diagnostics,
         }
@@ -355,6 +397,14 @@ class _Problem:
     def __init__(self, depth_m, K, surface, opts):
         self.K, self.s, self.opts = K, surface, opts
         self.depth = (1.0, 0.0)  # the depth correction (k, c[, a, b]), estimated by the fine stage
+        # the camera matrix given, which back-projects the depth once (self.P), and the intrinsics estimated,
+        # which project the model (self.K)
+        self.K_given = K
+        self.theta_given = intrinsics_vector(K)
+        self.theta = self.theta_given
+        self.estimate_intrinsics = opts.intrinsics_model == "estimate"
+        relative = np.array([self.theta_given[0], self.theta_given[1], 1.0, 1.0])
+        self.intrinsics_prior_sigma = np.asarray(opts.intrinsics_prior_sigma, dtype=float) * relative
         if opts.depth_sigma_m_at_1m is not None:
             self.noise_z, self.noise_sigma, self.noise_source = None, None, "given"
         else:
@@ -414,8 +464,16 @@ class _Problem:
             return np.full(np.shape(z), self.noise_sigma[0])
         return np.interp(z, self.noise_z, self.noise_sigma)
 
+    def set_intrinsics(self, theta):
+        """Project the model with the intrinsics ``theta`` ``(f_x, f_y, c_x, c_y)`` from now on."""
+        self.theta = np.asarray(theta, dtype=float)
+        self.K = camera_matrix(self.theta)
+
     def corrected(self, q_obs):
-        """Observed camera-frame points with the current depth correction."""
+        """Observed camera-frame points with the current intrinsics and depth correction."""
+        if not np.array_equal(self.theta, self.theta_given):
+            with np.errstate(invalid="ignore", divide="ignore"):  # points without depth stay NaN
+                q_obs = rays_for(q_obs, self.K_given, self.theta)[0]
         if self.depth == (1.0, 0.0):
             return q_obs
         return corrected_points(q_obs, *self.depth, stereo_fb_px_m=self.opts.stereo_fb_px_m)
@@ -533,14 +591,26 @@ class _Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q_obs, q, has_depth, close
 
-    def _solve(self, T, m, f, q_obs, iterations, depth_start, covariance=True):
-        """Point-to-plane fit of fixed matches (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
-        and the depth correction ``depth_start`` ``(k, c)``; returns the fit and the median expected residual."""
+    def _solve(self, T, m, f, q_obs, iterations, depth_start, covariance=True, intrinsics_start=None):
+        """Point-to-plane fit of fixed matches (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``,
+        the depth correction ``depth_start`` ``(k, c)`` and the intrinsics ``intrinsics_start`` (the current
+        ones by default); returns the fit and the median expected residual."""
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
         estimate_depth = self.opts.depth_model == "scale-offset"
+        if estimate_depth or self.estimate_intrinsics:
+            observed = q_obs  # as back-projected with the camera matrix given; the fit corrects it
+        else:
+            observed = self.corrected(q_obs)
+        intrinsics = {}
+        if self.estimate_intrinsics:
+            intrinsics = {
+                "intrinsics_K_ref": self.K_given,
+                "intrinsics_start": self.theta if intrinsics_start is None else intrinsics_start,
+                "intrinsics_prior": (self.theta_given, self.intrinsics_prior_sigma),
+            }
         fit = solve_point_to_plane(
-            q_obs if estimate_depth else self.corrected(q_obs),
+            observed,
             self.s.points_base[m],
             self.s.normals_base[m],
             T,
@@ -556,6 +626,7 @@ class _Problem:
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
             covariance=covariance,
+            **intrinsics,
         )
         return fit, expected
 
@@ -572,16 +643,20 @@ class _Problem:
         )
         if fit.depth_correction is not None:
             self.depth = fit.depth_correction
+        if fit.intrinsics is not None:
+            self.set_intrinsics(fit.intrinsics)
         return fit, expected
 
-    def split_check(self, T, matches, depth_correction):
+    def split_check(self, T, matches, depth_correction, intrinsics=None):
         """Groups of the frames solved again from the final matches: the sigma their scatter adds
         (:func:`classic.markerless.consistency.split_excess`)."""
         m, f, q_obs = matches
         start = depth_correction if depth_correction is not None else (1.0, 0.0)
 
         def solve(mask):
-            fit, _ = self._solve(T, m[mask], f[mask], q_obs[mask], iterations=5, depth_start=start)
+            fit, _ = self._solve(
+                T, m[mask], f[mask], q_obs[mask], iterations=5, depth_start=start, intrinsics_start=intrinsics
+            )
             return fit.T_base_cam, fit.covariance
 
         return split_excess(solve, f, frame_splits(f, q_obs, self.n))
@@ -693,6 +768,7 @@ def register_robot(
     best = None
     for name, T_start in starts.items():
         problem.depth = (1.0, 0.0)
+        problem.set_intrinsics(problem.theta_given)
         T = problem.coarse(np.asarray(T_start, dtype=float))
         T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
@@ -750,7 +826,11 @@ def register_robot(
             "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
         )
     # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
-    split = problem.split_check(T, matches, fit.depth_correction) if opts.split_check and not refused else None
+    split = (
+        problem.split_check(T, matches, fit.depth_correction, fit.intrinsics)
+        if opts.split_check and not refused
+        else None
+    )
     split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
     sigma = {
         "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + split_deg**2)),
@@ -768,7 +848,19 @@ def register_robot(
             "sigma_consistency": split,
         }
     )
-    return MarkerlessResult(None if refused else T, refused, cov, sigma, res_frame, matched, name, diag, depth)
+    intrinsics = {"model": "fixed", "given": [float(x) for x in problem.theta_given]}
+    if fit.intrinsics is not None:
+        intrinsics = intrinsics_summary(
+            fit.intrinsics,
+            fit.intrinsics_covariance,
+            fit.intrinsics_covariance_frames,
+            K,
+            problem.intrinsics_prior_sigma,
+            opts.intrinsics_determined_share,
+        )
+    return MarkerlessResult(
+        None if refused else T, refused, cov, sigma, res_frame, matched, name, diag, depth, intrinsics
+    )
 
 
 def _depth_bins(z: np.ndarray, bins: int) -> np.ndarray | None:
