@@ -31,7 +31,7 @@ from classic.outlier_screen import (
     screen_poses,
     shift_vector,
 )
-from classic.pairs import PAIRINGS, pair_indices
+from classic.pairs import PAIRINGS, describe_pairs, pair_indices
 from classic.park import _park_finish, _park_stats
 from classic.ransac import lmeds_inliers
 from classic.refine import LOSSES, refine_xy
@@ -308,6 +308,7 @@ def calibrate(
         except InconsistentPosesError as err:
             _refuse_named_behind(err, poses, model, rng, estimate_scale)
     sampled = poses.inliers
+    diagnostics["pairs"] = describe_pairs(len(poses.A_in), pairs)
     X, Y, scale0, name = _start(poses, method, estimate_scale)
     name = ("ransac+" if robust else "") + name
     ref, poses = _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics)

@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2
 
-from classic.motions import Motions, motions_from_poses, near_half_turn
-from classic.pairs import pair_indices
+from classic.motions import Motions, iter_motions, near_half_turn
+from classic.pairs import pair_indices, unique_sorted
 from handeye.core.errors import ContaminatedPosesError
 from handeye.core.se3 import so3_log
 
@@ -74,7 +74,9 @@ def suspect_poses(whitened: np.ndarray, alpha: float = CONTAMINATION_ALPHA) -> t
     return bad[np.argsort(-z[bad])], np.sqrt(z)
 
 
-def leave_one_out_shift(jacobian: np.ndarray, whitened: np.ndarray, pose: int, variance: float = 1.0) -> float:
+def leave_one_out_shift(
+    jacobian: np.ndarray, whitened: np.ndarray, pose: int, variance: float = 1.0, normal: np.ndarray | None = None
+) -> float:
     """How far, in sigmas of ``X``, the fit moves when one pose is left out (first order).
 
     Parameters
@@ -85,6 +87,8 @@ def leave_one_out_shift(jacobian: np.ndarray, whitened: np.ndarray, pose: int, v
     pose : int
     variance : float
         Common variance factor of the whitened residuals.
+    normal : array, shape (P, P), optional
+        ``J^T J`` when the caller has it (one product for every pose it tests, not one each).
 
     Returns
     -------
@@ -93,7 +97,7 @@ def leave_one_out_shift(jacobian: np.ndarray, whitened: np.ndarray, pose: int, v
     """
     J = np.asarray(jacobian, dtype=float)
     rows = slice(6 * pose, 6 * pose + 6)
-    H = J.T @ J
+    H = J.T @ J if normal is None else normal
     Ji = J[rows]
     shift = np.linalg.lstsq(H - Ji.T @ Ji, Ji.T @ np.asarray(whitened, dtype=float)[pose], rcond=None)[0][:6]
     C_X = variance * np.linalg.pinv(H)[:6, :6]
@@ -106,6 +110,8 @@ PAIR_SUSPECT_FACTOR = 4.0
 PAIR_PARTNERS = 24
 #: Motion angle below which a pair's screw axis is too ill-defined for its displacement to count.
 _SCREW_MIN_ANGLE_RAD = np.radians(5.0)
+#: Motion pairs built at once by :func:`pair_consensus_suspects`.
+_CHUNK = 4096
 
 
 def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", motions_all=None) -> np.ndarray:
@@ -129,19 +135,72 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", mo
         Suspect poses (may be empty).
     """
     n = len(A)
+    i, j = _consensus_pairs(n)
+    score = _pair_scores(A, B, i, j, motions_all)
+    per_pose = _median_per_pose(n, i, j, score)
+    return np.flatnonzero(per_pose > PAIR_SUSPECT_FACTOR * np.median(per_pose))
+
+
+def _consensus_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs of the consensus test: all up to ``2 PAIR_PARTNERS + 1`` poses, else each pose with
+    :data:`PAIR_PARTNERS` others spread over the set (enough for a median, linear in N); (K,) each."""
     if n <= 2 * PAIR_PARTNERS + 1:
-        i, j = pair_indices(n, "all")
-    else:  # each pose with PAIR_PARTNERS others spread over the set: enough for a median, linear in N
-        offsets = np.unique(np.linspace(1, n - 1, PAIR_PARTNERS).astype(int))
-        k = np.repeat(np.arange(n), len(offsets))
-        other = (k + np.tile(offsets, n)) % n
-        code = np.unique(np.minimum(k, other) * n + np.maximum(k, other))  # each pair once, in (i, j) order
-        i, j = code // n, code % n
+        return pair_indices(n, "all")
+    offsets = np.unique(np.linspace(1, n - 1, PAIR_PARTNERS).astype(int))
+    k = np.repeat(np.arange(n), len(offsets))
+    other = (k + np.tile(offsets, n)) % n
+    code = unique_sorted(np.minimum(k, other) * n + np.maximum(k, other))  # each pair once, in (i, j) order
+    return code // n, code % n
+
+
+def _pair_scores(A, B, i, j, motions_all) -> np.ndarray:
+    """Per pair, the angle and screw-displacement mismatches, each over its median over the pairs; (K,)."""
+    n = len(A)
     if motions_all is not None and len(motions_all) == n * (n - 1) // 2:
         idx = i * n - i * (i + 1) // 2 + (j - i - 1)  # position of (i, j) in numpy's triu order
         m = Motions(motions_all.q_A[idx], motions_all.t_A[idx], motions_all.q_B[idx], motions_all.t_B[idx])
-    else:
-        m = motions_from_poses(A, B, i, j)
+        ang, disp, flip = _pair_invariants(m)
+    else:  # chunk by chunk: a large set's pairs' motions are never all held at once
+        ang = [np.empty(len(i)), np.empty(len(i))]
+        disp = [np.empty(len(i)), np.empty(len(i))]
+        flip = np.empty(len(i), dtype=bool)
+        for start, m in zip(range(0, len(i), _CHUNK), iter_motions(A, B, i, j, _CHUNK)):
+            part = slice(start, start + _CHUNK)
+            a, d, flip[part] = _pair_invariants(m)
+            for side in (0, 1):
+                ang[side][part], disp[side][part] = a[side], d[side]
+    d_ang = np.abs(ang[0] - ang[1])
+    screw = (ang[0] > _SCREW_MIN_ANGLE_RAD) & (ang[1] > _SCREW_MIN_ANGLE_RAD)
+    d_disp = np.where(flip, np.abs(np.abs(disp[0]) - np.abs(disp[1])), np.abs(disp[0] - disp[1]))
+    del ang, disp, flip
+    d_disp = np.where(screw, d_disp, 0.0)
+    score = d_ang / max(float(np.median(d_ang)), 1e-12)
+    if screw.any():
+        score = score + d_disp / max(float(np.median(d_disp[screw])), 1e-12)
+    return score
+
+
+def _median_per_pose(n: int, i: np.ndarray, j: np.ndarray, score: np.ndarray) -> np.ndarray:
+    """Per pose, the median score of the pairs it is in: the scores listed under both their poses, sorted; (N,)."""
+    pose = np.concatenate([i, j])
+    order = np.argsort(pose, kind="stable")  # runs: i is sorted already
+    pose = pose[order]
+    sc = np.concatenate([score, score])[order]
+    del order
+    start = np.searchsorted(pose, np.arange(n))
+    count = np.bincount(pose, minlength=n)
+    # one row per pose, its scores sorted (padded with inf): the per-row sort of a (N, 2 PAIR_PARTNERS)
+    # table is several times faster than sorting all scores by pose and score
+    table = np.full((n, int(count.max(initial=1))), np.inf)
+    table[pose, np.arange(len(pose)) - start[pose]] = sc
+    table.sort(axis=1)
+    rows = np.arange(n)
+    return 0.5 * (table[rows, (count - 1) // 2] + table[rows, count // 2])
+
+
+def _pair_invariants(m: Motions) -> tuple[list, list, np.ndarray]:
+    """Per pair, the rotation angles ``[robot, camera]`` (K,), the screw displacements ``t . axis``
+    ``[robot, camera]`` (K,), and whether the pair is near a half turn (K,) of bool."""
     ang = []
     disp = []
     for q, t, angle in ((m.q_A, m.t_A, m.angles_A), (m.q_B, m.t_B, m.angles_B)):
@@ -149,27 +208,9 @@ def pair_consensus_suspects(A: np.ndarray, B: np.ndarray, pairs: str = "all", mo
         ang.append(angle)
         axis = q[:, :3] * np.sign(q[:, 3:4] + (q[:, 3:4] == 0)) / np.maximum(s, 1e-300)[:, None]
         disp.append(np.sum(axis * t, axis=1))
-    d_ang = np.abs(ang[0] - ang[1])
-    screw = (ang[0] > _SCREW_MIN_ANGLE_RAD) & (ang[1] > _SCREW_MIN_ANGLE_RAD)
     # near a half turn noise sets each side's axis sign (w >= 0) on its own, and t . axis with it:
     # compare magnitudes there (classic.motions.near_half_turn)
-    flip = near_half_turn(m)
-    d_disp = np.where(flip, np.abs(np.abs(disp[0]) - np.abs(disp[1])), np.abs(disp[0] - disp[1]))
-    d_disp = np.where(screw, d_disp, 0.0)
-    score = d_ang / max(float(np.median(d_ang)), 1e-12)
-    if screw.any():
-        score = score + d_disp / max(float(np.median(d_disp[screw])), 1e-12)
-    # per pose, the median over its pairs: sort the scores of the pairs listed under both their poses
-    pose = np.concatenate([i, j])
-    sc = np.concatenate([score, score])
-    order = np.lexsort((sc, pose))
-    pose, sc = pose[order], sc[order]
-    start = np.searchsorted(pose, np.arange(n))
-    count = np.bincount(pose, minlength=n)
-    lo = start + (count - 1) // 2
-    hi = start + count // 2
-    per_pose = 0.5 * (sc[lo] + sc[hi])
-    return np.flatnonzero(per_pose > PAIR_SUSPECT_FACTOR * np.median(per_pose))
+    return ang, disp, near_half_turn(m)
 
 
 def x_shift_sigma(X: np.ndarray, X_ref: np.ndarray, covariance_ref: np.ndarray) -> float:
@@ -233,8 +274,10 @@ def check_contamination(
     if jacobian is not None:
         d2 = np.sum(np.asarray(whitened, dtype=float) ** 2, axis=1)
         variance = max(float(np.median(d2)) / chi2.median(_DOF), 1e-300)
+        J = np.asarray(jacobian, dtype=float)
+        normal = J.T @ J
         for i in bad:
-            shifts[i] = leave_one_out_shift(jacobian, whitened, int(i), variance)
+            shifts[i] = leave_one_out_shift(J, whitened, int(i), variance, normal)
         bad = bad[shifts[bad] > MAX_SHIFT_SIGMA]
         if len(bad) == 0:
             return

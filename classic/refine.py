@@ -315,7 +315,7 @@ class _Problem:
             cols.append(c)
         if self.with_offset:
             cols.append((robot_residual_jacobian(A, X, Y, self.setup, self._B(s)) @ rate[:, :, None]))
-        J = np.concatenate(cols, axis=2)
+        J = cols[0] if len(cols) == 1 else np.concatenate(cols, axis=2)
         return np.einsum("nij,njk->nik", self.W, J).reshape(-1, self.n_params)
 
 
@@ -432,8 +432,7 @@ def refine_xy(
             A_now, _ = A_of(dt)
             r_rot, r_t = pose_residuals(A_now, _scaled(B, s), X, Y)
             old = (model.camera_rot_rad, model.camera_trans_m)
-            Jw = fit.jacobian * np.sqrt(fit.weights)[:, None]
-            hat = np.einsum("ij,ij->i", Jw @ np.linalg.pinv(Jw.T @ Jw), Jw).reshape(n, 6)
+            hat = _leverages(fit.jacobian, None if loss == "linear" else fit.weights).reshape(n, 6)
             s_r, s_t = _scales(r_rot, r_t, weights_pose, robust=robust, n_params=prob.n_params, leverage=hat)
             model = _camera_model(s_r, s_t)
             changed = float(max(abs(s_r / old[0] - 1.0), np.max(np.abs(np.asarray(s_t) / np.asarray(old[1]) - 1.0))))
@@ -496,6 +495,27 @@ def refine_xy(
         jacobian=J,
         model=model,
     )
+
+
+#: Rows of a Jacobian whose leverages :func:`_leverages` takes at once (10,000 poses): a larger set's in blocks.
+_LEVERAGE_ROWS = 60_000
+
+
+def _leverages(J: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+    """Diagonal of the hat matrix ``Jw (Jw^T Jw)^+ Jw^T``, ``Jw = J sqrt(weights)``; shape (M,).
+
+    Block by block beyond :data:`_LEVERAGE_ROWS` rows, so a large set never holds two more copies of its
+    Jacobian (with unit weights, a least-squares fit's, ``Jw`` is ``J`` itself: ``J * 1.0`` is exact).
+    """
+    Jw = J if weights is None else J * np.sqrt(weights)[:, None]
+    P = np.linalg.pinv(Jw.T @ Jw)
+    if len(Jw) <= _LEVERAGE_ROWS:
+        return np.einsum("ij,ij->i", Jw @ P, Jw)
+    out = np.empty(len(Jw))
+    for a in range(0, len(Jw), _LEVERAGE_ROWS):
+        part = Jw[a : a + _LEVERAGE_ROWS]
+        out[a : a + _LEVERAGE_ROWS] = np.einsum("ij,ij->i", part @ P, part)
+    return out
 
 
 def _scaled(B: np.ndarray, s: float) -> np.ndarray:

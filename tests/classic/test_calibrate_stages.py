@@ -30,7 +30,7 @@ def builds(monkeypatch):
         count["n"] += 1
         return real(*args, **kwargs)
 
-    for module in (front, contamination, diagnostics):
+    for module in (front, diagnostics):
         monkeypatch.setattr(module, "motions_from_poses", counted)
     real_iter = motions.iter_motions
 
@@ -38,7 +38,9 @@ def builds(monkeypatch):
         count["n"] += 1
         return real_iter(*args, **kwargs)
 
-    monkeypatch.setattr(front, "iter_motions", counted_iter)
+    # the pair consensus builds its own pairs' motions chunk by chunk (classic.contamination)
+    for module in (front, contamination):
+        monkeypatch.setattr(module, "iter_motions", counted_iter)
     return count
 
 
