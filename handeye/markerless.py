@@ -165,25 +165,33 @@ def read_start(path: str | Path) -> np.ndarray:
         Missing or unreadable file, or neither form (naming the file).
     """
     from handeye.core.jsonfile import read_json_file
+    from handeye.core.numbers import float_array
     from handeye.core.validation import check_transforms
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise HandEyeInputError(f"{path}: no such start file")
-    doc = read_json_file(path, HandEyeInputError, "start file")
+    doc = read_json_file(path, HandEyeInputError, "start file")  # a FIFO or device is named as such there
     doc = doc.get("T_base_cam", doc) if isinstance(doc, dict) else doc
-    try:
-        if isinstance(doc, dict):
-            T = transform_from_pos_quat_xyzw(
-                np.array(doc["translation_m"], dtype=float), np.array(doc["quaternion_xyzw"], dtype=float)
-            )
-        else:
-            T = np.array(doc, dtype=float)
-    except (KeyError, TypeError, ValueError):
-        raise HandEyeInputError(
-            f'{path}: expected {{"T_base_cam": 4x4 matrix}} or {{"translation_m": [x, y, z], '
-            f'"quaternion_xyzw": [x, y, z, w]}}'
-        ) from None
+    expected = (
+        f'{path}: expected {{"T_base_cam": 4x4 matrix}} or {{"translation_m": [x, y, z], '
+        f'"quaternion_xyzw": [x, y, z, w]}}'
+    )
+    if isinstance(doc, dict):
+        if "translation_m" not in doc or "quaternion_xyzw" not in doc:
+            raise HandEyeInputError(expected)
+        t = float_array(doc["translation_m"], f"{path}: translation_m", HandEyeInputError)
+        q = float_array(doc["quaternion_xyzw"], f"{path}: quaternion_xyzw", HandEyeInputError)
+        if t.shape != (3,) or q.shape != (4,):
+            raise HandEyeInputError(expected)
+        norm = float(np.linalg.norm(q))
+        if norm < 1e-6:  # normalising would divide by zero: it is no rotation at all, not "NaN or infinity"
+            raise HandEyeInputError(f"{path}: quaternion_xyzw {q.tolist()} is a zero quaternion, not a rotation")
+        T = transform_from_pos_quat_xyzw(t, q)  # normalised there, as before
+    else:
+        T = float_array(doc, f"{path}: T_base_cam", HandEyeInputError)
+        if T.shape != (4, 4):
+            raise HandEyeInputError(expected)
     return check_transforms(T, f"{path}: T_base_cam")[0]
 
 

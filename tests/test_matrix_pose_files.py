@@ -262,7 +262,7 @@ def test_inverse_files_and_millimetres(tmp_path, problem):
         ("3\n" + "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n" * 2, "line 1: the file says 3 matrices but holds 2"),
         ("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1 x 0 0 0 1\n", "line 2: 'x' is not a number"),
         ("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1 0 0 0 0\n", "line 2: 15 numbers"),
-        ("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 nan\n", "line 2: the matrix holds NaN"),
+        ("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 nan\n", "line 2: 'nan' is not a finite"),
         ("1 0 0 0 0 1 0 0 0 0 2 0 0 0 0 1\n", "line 1: the rotation block is not a rotation"),
         ("", "no numbers"),
     ],

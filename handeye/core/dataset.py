@@ -39,6 +39,7 @@ import csv
 import io
 import json
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -54,8 +55,10 @@ from handeye.core.limits import (
     check_image_size,
     shorten,
 )
+from handeye.core.numbers import CSV_CELL_SPACES, NONFINITE_WORDS, parse_float, parse_int
 from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
+from handeye.core.textfile import file_kind
 
 __all__ = [
     "FORMAT",
@@ -209,20 +212,32 @@ def columns_to_poses(table: dict, name: str, where: str = "") -> np.ndarray:
 # ------------------------------------------------------------------ tables
 
 
+#: A pose translation in a dataset table (metres) beyond this is refused as absurd: a dataset records one robot
+#: cell, a few metres across; a 100 m translation is a corrupted or hand-edited cell (``1_000``, millimetres).
+MAX_TABLE_TRANSLATION_M = 100.0
+_TRANSLATION_COLUMN = re.compile(r"T_\w+\.[xyz]", re.ASCII)
+
+
 def _parse(value: str, column: str, path: Path, row: int):
+    """One cell: text, an int, a float (numbers in :mod:`handeye.core.numbers`'s grammar), or unknown if empty.
+
+    write_table writes an unknown value as an empty cell, never nan or inf; those words are refused.
+    """
     if column in _STR_COLUMNS:
         return value
+    value = value.strip(CSV_CELL_SPACES)
     if value == "":
         return None if column in _INT_COLUMNS else np.nan
-    try:
-        number = int(value) if column in _INT_COLUMNS else float(value)
-    except ValueError:
-        kind = "an integer" if column in _INT_COLUMNS else "a number"
-        raise DatasetError(f"{path}: row {row} column {column}: {shorten(value)} is not {kind}") from None
-    # write_table writes an unknown value as an empty cell, never nan or inf
-    if isinstance(number, float) and not np.isfinite(number):
+    where = f"{path}: row {row} column {column}"
+    if value.lower() in NONFINITE_WORDS:
+        raise DatasetError(f"{where}: {shorten(value)} is not finite (an unknown value is an empty cell)")
+    if column in _INT_COLUMNS:
+        return parse_int(value, where, DatasetError)
+    number = parse_float(value, where, DatasetError)
+    if abs(number) > MAX_TABLE_TRANSLATION_M and _TRANSLATION_COLUMN.fullmatch(column):
         raise DatasetError(
-            f"{path}: row {row} column {column}: {shorten(value)} is not finite (an unknown value is an empty cell)"
+            f"{where}: {shorten(value)} m is absurd for a translation (over {MAX_TABLE_TRANSLATION_M:g} m); "
+            "the table holds metres"
         )
     return number
 
@@ -246,10 +261,12 @@ def read_table(path: str | Path, required: list[str]) -> dict:
         Missing file, missing column, a value that does not parse, a ragged row.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise DatasetError(f"{path}: {file_kind(path)}, not a file; the table must be a regular CSV file")
     if not path.is_file():
         raise DatasetError(f"{path}: table missing")
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = path.read_bytes().decode("utf-8-sig")  # a byte-order mark (spreadsheets write one) dropped
         check_csv_text(enumerate(text.split("\n"), start=1), str(path), DatasetError)
         rows = list(csv.reader(io.StringIO(text, newline="")))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:  # csv.Error: a field over the size limit

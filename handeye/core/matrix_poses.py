@@ -38,7 +38,7 @@ import numpy as np
 
 from handeye.core.camera_frame import check_camera_frame, check_camera_frame_name, to_optical
 from handeye.core.errors import PoseFileError
-from handeye.core.limits import shorten
+from handeye.core.numbers import parse_float
 from handeye.core.pose_matrices import checked_pose_matrix, scaled_to_metres
 from handeye.core.poseset import PoseSet
 from handeye.core.textfile import read_text
@@ -62,10 +62,7 @@ def _number_lines(path: Path) -> list[tuple[int, list[float]]]:
         for token in _SEPARATORS.split(body):
             if not token:
                 continue
-            try:
-                values.append(float(token))
-            except ValueError:
-                raise PoseFileError(f"{path}, line {number}: {shorten(token)} is not a number") from None
+            values.append(parse_float(token, f"{path}, line {number}", PoseFileError))
         out.append((number, values))
     return out
 

@@ -33,8 +33,10 @@ from handeye.core.limits import MAX_JSON_DEPTH, shorten
 __all__ = [
     "MAX_NUMBER_CHARS",
     "CSV_CELL_SPACES",
+    "NONFINITE_WORDS",
     "NumberError",
     "number_problem",
+    "number_message",
     "is_number_text",
     "parse_float",
     "parse_int",
@@ -52,8 +54,12 @@ CSV_CELL_SPACES = " \t"
 
 _FLOAT = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _INT = re.compile(r"[+-]?\d+", re.ASCII)
-_WORDS = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity", ".nan", ".inf"}
-_WORDS |= {"+.inf", "-.inf"}
+#: The words (lower case) that spell NaN or infinity in Python, JSON and YAML: never a number here.
+NONFINITE_WORDS = frozenset(
+    {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity", ".nan", ".inf", "+.inf"}
+    | {"-.inf"}
+)
+_WORDS = NONFINITE_WORDS
 
 
 class NumberError(HandEyeInputError):
@@ -87,14 +93,14 @@ def number_problem(text: str, integer: bool = False) -> str | None:
     if text.lower() in _WORDS:
         return "NaN and infinity are not accepted; an unknown value is left empty where the format allows"
     if integer and _FLOAT.fullmatch(text):
-        return "an integer is expected"
+        return "it has a fraction or an exponent"
     if "_" in text:
         return "'_' digit separators are not read"
     if any(ch.isdigit() and not "0" <= ch <= "9" for ch in text):
         return "digits other than ASCII 0-9"
     if text.lower().lstrip("+-").startswith(("0x", "0o", "0b")):
         return "hexadecimal, octal and binary are not read"
-    return "an integer such as 12 or -3 is expected" if integer else "write it as 1.5, -2, or 3e-4"
+    return "write it as 12 or -3" if integer else "write it as 1.5, -2, or 3e-4"
 
 
 def is_number_text(text: str) -> bool:
@@ -105,9 +111,27 @@ def is_number_text(text: str) -> bool:
 _OVERFLOW = "beyond the range of a 64-bit float"
 
 
-def _fail(text: str, where: str, reason: str, error: type[Exception]):
+def number_message(text: str, reason: str, integer: bool = False) -> str:
+    """``"'<text>' is not a number (<reason>)"`` ("an integer", "a finite number" where those fit).
+
+    Parameters
+    ----------
+    text : str
+    reason : str
+        From :func:`number_problem`.
+    integer : bool
+
+    Returns
+    -------
+    str
+    """
     finite = isinstance(text, str) and (text.lower() in _WORDS or reason == _OVERFLOW)
-    return error(f"{where}: {shorten(text)} is not a {'finite ' if finite else ''}number ({reason})")
+    noun = "an integer" if integer else "a finite number" if finite else "a number"
+    return f"{shorten(text)} is not {noun} ({reason})"
+
+
+def _fail(text: str, where: str, reason: str, error: type[Exception], integer: bool = False):
+    return error(f"{where}: {number_message(text, reason, integer)}")
 
 
 def parse_float(text: str, where: str, error: type[Exception] = NumberError) -> float:
@@ -159,7 +183,7 @@ def parse_int(text: str, where: str, error: type[Exception] = NumberError) -> in
     """
     reason = number_problem(text, integer=True)
     if reason is not None:
-        raise _fail(text, where, reason, error)
+        raise _fail(text, where, reason, error, integer=True)
     return int(text)
 
 

@@ -52,7 +52,7 @@ __all__ = ["PAIR_KEYS", "read_opencv_pose_pairs"]
 PAIR_KEYS = ("T1_{}", "T2_{}")
 #: A frameCount above this is refused before any key is looked up (a recording holds tens of poses).
 MAX_FRAME_COUNT = 1_000_000
-_PAIR_KEY = re.compile(r"^T[12]_(\d+)$")
+_PAIR_KEY = re.compile(r"^T[12]_(\d{1,9})$", re.ASCII)  # ASCII digits: T1_٢ is not pair 2
 
 
 def read_opencv_pose_pairs(

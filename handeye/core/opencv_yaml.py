@@ -42,6 +42,7 @@ import numpy as np
 
 from handeye.core.errors import PoseFileError
 from handeye.core.limits import MAX_JSON_DEPTH, shorten
+from handeye.core.numbers import number_problem
 from handeye.core.textfile import read_text
 from handeye.core.yamlfile import YamlList, YamlMap
 
@@ -89,21 +90,23 @@ def _strip_comment(text: str) -> str:
 
 
 def _scalar(text: str):
-    """A plain or quoted scalar: int, float (``.Nan``, ``.Inf`` too) or str."""
+    """A plain or quoted scalar: int, float (``.Nan``, ``.Inf`` too) or str.
+
+    Numbers follow :mod:`handeye.core.numbers`; anything else (``0_2``, full-width digits, ``1e400``, 5,000
+    digits) stays a string, which a matrix's ``data`` and the readers refuse as "not a number" with its line.
+    ``.Nan`` and ``.Inf`` are OpenCV's own spelling and read as floats; every reader refuses them as non-finite.
+    """
     text = text.strip()
     if len(text) >= 2 and text[0] == text[-1] and text[0] in "\"'":
         return text[1:-1]
     low = text.lower()
     if low in _SPECIAL:
         return _SPECIAL[low]
-    try:
+    if number_problem(text, integer=True) is None:
         return int(text)
-    except ValueError:
-        pass
-    try:
+    if number_problem(text) is None and np.isfinite(float(text)):
         return float(text)
-    except ValueError:
-        return text
+    return text  # not a number of handeye.core.numbers (0_2, full-width digits, 1e400): a string
 
 
 def _split_flow(body: str) -> list[str]:

@@ -5,18 +5,42 @@ Mappings come back as :class:`YamlMap` (a ``dict``) and sequences as
 :class:`YamlList` (a ``list``), each knowing its own line and the line of each
 key or item; scalars are plain Python values (YAML's safe schema: no tags that
 build objects). A duplicate key is refused, as the YAML specification says.
+Numbers follow :mod:`handeye.core.numbers`: a scalar YAML 1.1 would take for a
+number in another form (``0_2``, ``0x10``, ``017`` as octal, ``1:30``, ``1e999``)
+is refused naming its line (``017`` reads as 17), and ``1e-05`` reads as a
+number, as YAML 1.2 says. ``.nan`` and ``.inf`` read as floats: the readers
+refuse them naming the field.
 """
 
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 
 from handeye.core.errors import PoseFileError
 from handeye.core.limits import MAX_JSON_DEPTH, check_json_depth
+from handeye.core.numbers import number_message, number_problem
 from handeye.core.optional import require_package
 from handeye.core.textfile import read_text
 
 __all__ = ["YamlList", "YamlMap", "line_of", "load_yaml"]
+
+#: A number of the grammar of :mod:`handeye.core.numbers`; PyYAML's YAML 1.1 takes some of them for strings
+#: (``1e-05`` with no dot, ``-2.5e3`` with no exponent sign), YAML 1.2 and every writer for numbers.
+_PLAIN_FLOAT = re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?$")
+
+
+#: YAML's spelling of NaN and infinity: read as floats, for the reader to refuse naming the field.
+_YAML_SPECIAL = {".nan": float("nan"), ".inf": float("inf"), "+.inf": float("inf"), "-.inf": float("-inf")}
+
+
+class _NumberError(Exception):
+    """A scalar YAML 1.1 reads as a number, in a form :mod:`handeye.core.numbers` refuses."""
+
+    def __init__(self, message: str, line: int):
+        super().__init__(message)
+        self.line = line
 
 
 class YamlMap(dict):
@@ -81,8 +105,28 @@ def _loader(yaml):
         out.item_lines = [child.start_mark.line + 1 for child in node.value]
         return out
 
+    def number(kind: str):
+        def construct(loader, node):
+            # YAML 1.1 reads 0_2 as 2, 0x10 as 16, 017 as 15 and 1:30 as 90: reread the source text strictly
+            text = loader.construct_scalar(node)
+            if kind == "float" and text.lower() in _YAML_SPECIAL:  # YAML's own spelling; readers name the field
+                return _YAML_SPECIAL[text.lower()]
+            reason = number_problem(text, integer=kind == "int")
+            if reason is None:
+                value = int(text) if kind == "int" else float(text)
+                if kind == "int" or math.isfinite(value):
+                    return value
+                reason = "beyond the range of a 64-bit float"
+            raise _NumberError(number_message(text, reason, kind == "int"), node.start_mark.line + 1)
+
+        return construct
+
     LineLoader.add_constructor("tag:yaml.org,2002:map", mapping)
     LineLoader.add_constructor("tag:yaml.org,2002:seq", sequence)
+    LineLoader.add_constructor("tag:yaml.org,2002:int", number("int"))
+    LineLoader.add_constructor("tag:yaml.org,2002:float", number("float"))
+    # YAML 1.1 takes 1e-05 (no dot) for a string; YAML 1.2 and every writer take it for a number
+    LineLoader.add_implicit_resolver("tag:yaml.org,2002:float", _PLAIN_FLOAT, list("-+.0123456789"))
     return LineLoader
 
 
@@ -112,6 +156,8 @@ def load_yaml(path: str | Path, error: type[Exception] = PoseFileError):
     text = read_text(path, "YAML file", error)
     try:
         docs = [d for d in yaml.load_all(text, Loader=_loader(yaml)) if d is not None]
+    except _NumberError as exc:
+        raise error(f"{path}, line {exc.line}: {exc}") from None
     except RecursionError:
         raise error(f"{path}: nested deeper than the parser allows (limit {MAX_JSON_DEPTH} levels)") from None
     except yaml.YAMLError as exc:
