@@ -73,6 +73,20 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "disparities is estimated with the depth (default: the sensor profile's; 0: not modelled)",
     )
     p.add_argument(
+        "--intrinsics",
+        choices=("estimate", "fixed"),
+        default="estimate",
+        help="estimate the depth camera's fx, fy, cx, cy with the pose under a prior of the camera matrix given "
+        "(default; each reported with its sigma and whether the frames determined it), or take them as exact",
+    )
+    p.add_argument(
+        "--intrinsics-sigma",
+        default=None,
+        metavar="FX,FY,CX,CY",
+        help="the camera matrix's stated uncertainty, one sigma: focal lengths relative, principal point in pixels "
+        "(default: the --sensor profile's, else a factory calibration's 0.007,0.007,3,3)",
+    )
+    p.add_argument(
         "--static-parts",
         action="store_true",
         help="fit the robot's parts that do not move over the recording as well (the base; default: the moving "
@@ -123,6 +137,8 @@ def run(args: argparse.Namespace) -> int:
             depth_extrinsic_sigma_m=extrinsic_m,
             stereo_fb_px_m=stereo_fb,
             static_parts=args.static_parts,
+            intrinsics_model=args.intrinsics,
+            intrinsics_prior_sigma=_intrinsics_sigma(args),
         ),
         progress=not args.quiet,
     )
@@ -134,6 +150,24 @@ def run(args: argparse.Namespace) -> int:
     if args.write_labels:
         print(f"written: {write_markerless_labels(args.dataset, out)} (markerless label columns)")
     return 0 if all(r.ok for r in out.results.values()) else 1
+
+
+def _intrinsics_sigma(args: argparse.Namespace) -> tuple:
+    """``--intrinsics-sigma``, else the ``--sensor`` profile's stated uncertainty of the camera matrix."""
+    from classic.markerless.intrinsics import INTRINSICS_PRIORS
+    from handeye.core.errors import HandEyeInputError
+
+    if args.intrinsics_sigma is None:
+        return INTRINSICS_PRIORS.get(args.sensor or "factory", INTRINSICS_PRIORS["factory"])
+    try:
+        values = tuple(float(x) for x in args.intrinsics_sigma.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 4 or not all(0 < v < float("inf") for v in values):
+        raise HandEyeInputError(
+            f"--intrinsics-sigma must be four positive numbers FX,FY,CX,CY, got {args.intrinsics_sigma!r}"
+        )
+    return values
 
 
 def _sensor_terms(args: argparse.Namespace) -> tuple[float, float | None]:

@@ -106,3 +106,17 @@ def test_bad_intrinsics_options_raise():
     with pytest.raises(HandEyeInputError, match="prior sigmas"):
         MarkerlessOptions(intrinsics_prior_sigma=(0.007, 0.007, 0.0, 3.0))
     MarkerlessOptions(intrinsics_model="fixed", intrinsics_prior_sigma=(0, 0, 0, 0))  # not used: no error
+
+
+def test_the_command_takes_the_sensors_prior_or_a_stated_one():
+    from argparse import Namespace
+
+    from classic.markerless.intrinsics import INTRINSICS_PRIORS
+    from handeye.commands.markerless import _intrinsics_sigma
+
+    assert _intrinsics_sigma(Namespace(intrinsics_sigma=None, sensor="zivid")) == INTRINSICS_PRIORS["zivid"]
+    assert _intrinsics_sigma(Namespace(intrinsics_sigma=None, sensor=None)) == INTRINSICS_PRIORS["factory"]
+    assert _intrinsics_sigma(Namespace(intrinsics_sigma="0.01,0.01,2,2", sensor="d435")) == (0.01, 0.01, 2.0, 2.0)
+    for bad in ("0.01,0.01,2", "0.01,0.01,2,nan", "0.01,0,2,2", "a,b,c,d"):
+        with pytest.raises(HandEyeInputError, match="intrinsics-sigma"):
+            _intrinsics_sigma(Namespace(intrinsics_sigma=bad, sensor=None))
