@@ -66,12 +66,29 @@ class CameraIntrinsics:
 
     @classmethod
     def from_dict(cls, doc: dict) -> "CameraIntrinsics":
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`; numbers in the grammar of :mod:`handeye.core.numbers`.
+
+        Raises
+        ------
+        IntrinsicsError
+            A value that is not a number (``"0_2"``, ``true``), a size that is not a whole number of pixels.
+        """
+        from handeye.core.numbers import float_array, parse_int
+
+        def pixels(name: str) -> int:
+            value = doc.get(name, 0)
+            if isinstance(value, str):
+                return parse_int(value, name, IntrinsicsError)
+            whole = isinstance(value, int) or (isinstance(value, float) and value.is_integer())
+            if isinstance(value, bool) or not whole or value < 0:
+                raise IntrinsicsError(f"{name} is {value!r}, not a whole number of pixels")
+            return int(value)
+
         return cls(
-            np.array(doc["K"], dtype=float),
-            np.array(doc.get("dist", np.zeros(5)), dtype=float),
-            int(doc.get("width", 0)),
-            int(doc.get("height", 0)),
+            float_array(doc["K"], "K", IntrinsicsError),
+            float_array(doc.get("dist", [0.0] * 5), "dist", IntrinsicsError),
+            pixels("width"),
+            pixels("height"),
         )
 
     @classmethod

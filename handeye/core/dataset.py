@@ -55,7 +55,8 @@ from handeye.core.limits import (
     check_image_size,
     shorten,
 )
-from handeye.core.numbers import CSV_CELL_SPACES, NONFINITE_WORDS, parse_float, parse_int
+from handeye.core.numbers import CSV_CELL_SPACES, NONFINITE_WORDS, float_array, parse_float, parse_int
+from handeye.core.pose_matrices import checked_pose_matrix
 from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import pos_quat_xyzw_from_transform, transform_from_pos_quat_xyzw
 from handeye.core.textfile import file_kind
@@ -475,10 +476,18 @@ def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
     if not manifest.is_file():
         return False, f"{manifest}: missing (shard half-written)"
     try:
-        files = json.loads(manifest.read_text())["files"]
-    except (json.JSONDecodeError, KeyError, OSError) as exc:
-        return False, f"{manifest}: unreadable ({exc})"
+        doc = json.loads(manifest.read_text(encoding="utf-8"))
+    except (ValueError, OSError, RecursionError) as exc:  # ValueError: JSON, UTF-8, an integer of 5,000 digits
+        return False, f"{manifest}: unreadable ({' '.join(str(exc).split())[:120]})"
+    files = doc.get("files") if isinstance(doc, dict) else None
+    if not isinstance(files, dict):
+        what = "no 'files'" if not isinstance(doc, dict) or "files" not in doc else f"'files' a {type(files).__name__}"
+        return False, f"{manifest}: not a shard manifest ({what}; an object with files: {{path: bytes}} is needed)"
     for rel, size in files.items():
+        if isinstance(size, bool) or not isinstance(size, int) or size < 0:
+            return False, f"{manifest}: the size of {rel[:80]!r} is {str(size)[:40]!r}, not a number of bytes"
+        if Path(rel).is_absolute() or ".." in Path(rel).parts or not rel:
+            return False, f"{manifest}: lists {rel[:80]!r}, not a path inside the shard"
         p = shard_dir / rel
         if not p.is_file():
             return False, f"{p}: listed in the manifest but missing"
@@ -488,6 +497,34 @@ def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
 
 
 # ------------------------------------------------------------------ the dataset
+
+
+#: A focal length (pixels) outside [width / 100, 1000 width] is no camera's: fields of view of 177.7 to 0.06
+#: degrees (``2 atan(width / 2 f)``); a fisheye of 170 degrees has f near width / 23.
+FOCAL_RANGE_WIDTHS = (0.01, 1000.0)
+
+
+def _check_camera_matrix(K, width: int, where: str) -> None:
+    """A camera matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]`` of numbers, each focal length plausible.
+
+    Raises
+    ------
+    DatasetError
+        Naming ``where``: not a 3x3 matrix of finite numbers (a NaN is named as such), a focal length outside
+        :data:`FOCAL_RANGE_WIDTHS` times the width.
+    """
+    if K is None:
+        raise DatasetError(f"{where}: missing; the camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] is needed")
+    K = float_array(K, where, DatasetError)  # a NaN or Infinity is named here, not downstream
+    if K.shape != (3, 3):
+        raise DatasetError(f"{where}: shape {K.shape}, a camera matrix is 3x3")
+    low, high = FOCAL_RANGE_WIDTHS[0] * width, FOCAL_RANGE_WIDTHS[1] * width
+    for name, f in (("fx", K[0, 0]), ("fy", K[1, 1])):
+        if not low <= f <= high:
+            raise DatasetError(
+                f"{where}: {name} = {f:.6g} px is no camera's for a width of {width} px (expected "
+                f"{low:g} to {high:g} px, a field of view of 177.7 to 0.06 degrees)"
+            )
 
 
 def _check_declared_sizes(meta: dict, path: Path) -> None:
@@ -510,6 +547,12 @@ def _check_declared_sizes(meta: dict, path: Path) -> None:
         w = integer(intr.get("width"), f"{key}.width", 1, 1 << 20)
         h = integer(intr.get("height"), f"{key}.height", 1, 1 << 20)
         check_image_size(w, h, f"{path}: {key}", DatasetError)
+        _check_camera_matrix(intr.get("K"), w, f"{path}: {key}.K")
+        if intr.get("dist") is not None:
+            float_array(intr["dist"], f"{path}: {key}.dist", DatasetError)  # numbers, finite
+    if meta.get("T_ee_ref") is not None:
+        where = f"{path}: T_ee_ref"
+        checked_pose_matrix(float_array(meta["T_ee_ref"], where, DatasetError), where, DatasetError)
     depth = meta["depth"]
     scale = depth.get("scale_m") if isinstance(depth, dict) else None
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale < 1:

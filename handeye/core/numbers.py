@@ -104,8 +104,8 @@ def number_problem(text: str, integer: bool = False) -> str | None:
 
 
 def is_number_text(text: str) -> bool:
-    """Whether ``text`` is a number of the grammar (an integer or a decimal/scientific number)."""
-    return number_problem(text) is None
+    """Whether ``text`` is a number :func:`parse_float` reads: the grammar, within float64's range."""
+    return number_problem(text) is None and math.isfinite(float(text))
 
 
 _OVERFLOW = "beyond the range of a 64-bit float"
@@ -250,7 +250,7 @@ def loads_json(text: str, where: str, error: type[Exception] = NumberError, cons
         line = ""
         if text.count(exc.token) == 1:
             line = f", line {text.count(chr(10), 0, text.index(exc.token)) + 1}"
-        raise error(f"{where}{line}: {shorten(exc.token)} is not a number ({exc.reason})") from None
+        raise error(f"{where}{line}: {number_message(exc.token, exc.reason)}") from None
 
 
 def float_array(value, where: str, error: type[Exception] = NumberError) -> np.ndarray:

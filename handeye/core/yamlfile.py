@@ -35,6 +35,9 @@ _PLAIN_FLOAT = re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0
 _YAML_SPECIAL = {".nan": float("nan"), ".inf": float("inf"), "+.inf": float("inf"), "-.inf": float("-inf")}
 
 
+_OVERFLOW = "beyond the range of a 64-bit float"
+
+
 class _NumberError(Exception):
     """A scalar YAML 1.1 reads as a number, in a form :mod:`handeye.core.numbers` refuses."""
 
@@ -111,13 +114,12 @@ def _loader(yaml):
             text = loader.construct_scalar(node)
             if kind == "float" and text.lower() in _YAML_SPECIAL:  # YAML's own spelling; readers name the field
                 return _YAML_SPECIAL[text.lower()]
-            reason = number_problem(text, integer=kind == "int")
-            if reason is None:
-                value = int(text) if kind == "int" else float(text)
-                if kind == "int" or math.isfinite(value):
-                    return value
-                reason = "beyond the range of a 64-bit float"
-            raise _NumberError(number_message(text, reason, kind == "int"), node.start_mark.line + 1)
+            if kind == "int" and number_problem(text, integer=True) is None:
+                return int(text)
+            reason = number_problem(text)  # the message says "not a number": 0_4 may have been meant as 0.4
+            if reason is None and math.isfinite(float(text)):
+                return float(text)
+            raise _NumberError(number_message(text, reason or _OVERFLOW), node.start_mark.line + 1)
 
         return construct
 
