@@ -197,16 +197,13 @@ def _truth_lines(path: Path | None, named: tuple) -> list[str]:
 
     if path is None:
         return []
-    from handeye.core.errors import TruthFileError
-    from handeye.core.jsonfile import read_json_file
+    from handeye.truthfile import read_truth
 
-    truth = read_json_file(path, TruthFileError, "truth file (JSON of 4x4 poses by frame name)")
-    if not isinstance(truth, dict):
-        raise TruthFileError(f"{path}: not a truth file (a JSON object of 4x4 poses by frame name is needed)")
+    truth = read_truth(path, tuple(name for name, _ in named))  # checked: rotations, metres, strict numbers
     lines = []
     for name, T in named:
         if name in truth:
-            rot, trans = pose_error(T, np.asarray(truth[name], dtype=float))
+            rot, trans = pose_error(T, truth[name])
             lines.append(f"  error vs truth {name}: {float(rot):.4f} deg, {float(trans):.3f} mm")
     return lines
 
