@@ -80,20 +80,20 @@ def run(args: argparse.Namespace) -> int:
     if failed:
         import sys
 
-        from handeye.core.limits import one_line
+        from handeye.core.limits import MAX_MESSAGE_CHARS, one_line
 
         n = len(report.table["camera_id"])
-        reasons = "; ".join(f"{c}: {_short(why)}" for c, why in failed[:2])
-        more = f"; {len(failed) - 2} more" if len(failed) > 2 else ""
-        print(
-            one_line(
-                f"handeye label: {len(failed)} of {n} camera placements failed, camera "
-                f"{', '.join(str(c) for c, _ in failed)} ({reasons}{more}: see labels.md); the "
-                f"other {n - len(failed)} labels are written to {report.root / 'cameras.csv'}; fix those recordings "
-                "and rerun"
-            ),
-            file=sys.stderr,
+        ids = ", ".join(str(c) for c, _ in failed)
+        head = f"handeye label: {len(failed)} of {n} camera placements failed, camera {ids} ("
+        tail = (
+            f"; see labels.md); the other {n - len(failed)} labels are written to {report.root / 'cameras.csv'}; "
+            "fix those recordings and rerun"
         )
+        reasons = "; ".join(f"{c}: {_short(why)}" for c, why in failed[:2])
+        room = max(20, MAX_MESSAGE_CHARS - len(head) - len(tail))  # the path whole, the reasons cut to fit
+        if len(reasons) > room:
+            reasons = reasons[: room - 3] + "..."
+        print(one_line(head + reasons + tail), file=sys.stderr)
         return 2
     return 0
 
