@@ -24,7 +24,7 @@ def load_results(run_dir: str | Path) -> dict:
     path = Path(run_dir) / "results.json"
     if not path.exists():
         raise HandEyeInputError(f"{path}: missing; run 'handeye learned run ... --out {run_dir}' first")
-    doc = read_json_file(path, HandEyeInputError, "run results file")
+    doc = read_json_file(path, HandEyeInputError, "run results file", constants=True)  # NaN: a metric undefined
     if not isinstance(doc, dict) or "runs" not in doc:
         raise HandEyeInputError(f"{path}: not the results of 'handeye learned run' (no 'runs')")
     return doc

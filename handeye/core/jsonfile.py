@@ -15,7 +15,7 @@ __all__ = ["MAX_JSON_BYTES", "read_json_file"]
 MAX_JSON_BYTES = 64 * 1024 * 1024
 
 
-def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON file"):
+def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON file", constants: bool = False):
     """The parsed document of ``path``, or ``error`` (a :class:`HandEyeInputError` subclass) naming the file.
 
     Parameters
@@ -25,6 +25,9 @@ def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON f
         The exception raised, e.g. :class:`handeye.core.errors.DatasetError`.
     what : str
         What the file should be, for the message ("board file", "detections file").
+    constants : bool
+        Read ``NaN`` and ``Infinity`` as floats: only for handeye's own result files, whose writers record an
+        undefined metric so (:func:`handeye.core.numbers.loads_json`); a user's file refuses them.
 
     Raises
     ------
@@ -51,7 +54,7 @@ def read_json_file(path: str | Path, error: type[Exception], what: str = "JSON f
     except UnicodeDecodeError as exc:
         raise error(f"{path}: not UTF-8 text (byte {exc.start}), not a {what}") from None
     try:
-        doc = loads_json(text, str(path), error)
+        doc = loads_json(text, str(path), error, constants=constants)
     except json.JSONDecodeError as exc:
         raise error(f"{path}: not valid JSON ({exc}), not a {what}") from None
     except RecursionError:
