@@ -25,7 +25,17 @@ twice, the scale and offset unknown to the method both times:
   for the stereo profiles, their ``f B``, with which the matcher's pull toward whole disparities is estimated
   too: what ``handeye markerless --sensor NAME`` does);
 - **depth taken as exact**: ``depth_model="fixed"`` and the depth noise assumed to be 1 mm at 1 m, as the
-  registration did before it calibrated the depth.
+  registration did before it calibrated the depth (the camera matrix taken as exact too).
+
+The self-calibrated mode estimates the depth camera's intrinsics with the pose as well (the default since issue
+41); ``--modes`` adds ``"self-calibrated; intrinsics taken as exact"`` (the camera matrix fixed, as before).
+``--intrinsics-error fx=0.007,fy=0.007,cx=3`` tells the method a camera matrix that far off the one the depth was
+rendered with (focal lengths relative, principal point in pixels), a factory calibration's error; the
+intrinsics' errors against the truth are printed under the table::
+
+    python benchmarks/markerless_sensors.py --presets paper-real paper-sim --bands 1.2 --max-placements 5 \
+        --profiles d435 --modes "self-calibrated; intrinsics taken as exact,self-calibrated" \
+        --intrinsics-error fx=0.007,fy=0.007,cx=3 --out benchmarks/results/markerless_intrinsics.md
 
 A placement accepted more than 3 predicted sigmas from the truth is a wrong answer reported as a success: the
 defect this benchmark counts. The ChArUco label of the same placements (from the colour images, which the depth
@@ -211,6 +221,25 @@ def summary_row(name: str, rows: list) -> str:
     return "| " + " | ".join(cells) + " |"
 
 
+def intrinsics_line(name: str, rows: list, K_true: np.ndarray) -> str | None:
+    """The estimated intrinsics against the true camera matrix, medians over the accepted placements (None when
+    they were taken as exact)."""
+    ok = [r for r in rows if r[0] == "ok" and r[8].get("model") == "estimated"]
+    if not ok:
+        return None
+    truth = {"fx": K_true[0, 0], "fy": K_true[1, 1], "cx": K_true[0, 2], "cy": K_true[1, 2]}
+    cells = []
+    for key in ("fx", "fy", "cx", "cy"):
+        err = np.array([r[8][key]["estimate"] - truth[key] for r in ok])
+        sd = np.array([r[8][key]["sigma"] for r in ok])
+        ratio = np.array([r[8][key]["ratio"] for r in ok])
+        cells.append(
+            f"{key} {np.median(np.abs(err)):.2f} px (sigma {np.median(sd):.2f}, ratio {np.median(ratio):.2f}, "
+            f"determined {sum(r[8][key]['determined'] for r in ok)}/{len(ok)})"
+        )
+    return f"- {name}: intrinsics' error, median: " + "; ".join(cells)
+
+
 def versions() -> str:
     import scipy
 
@@ -296,12 +325,19 @@ def main():
             "| scale error | offset error | s per placement |"
         )
         emit("|---|---|---|---|---|---|---|---|---|")
+        notes = []
         for name in args.profiles.split(","):
             sensor = PROFILES[name]
             modes = [m.strip().replace(";", ",") for m in args.modes.split(",")]
             rows = run_profile(ds, surface, stride, cams, sensor, args.seed, args.intrinsics_error, modes)
             for mode, r in rows.items():
                 emit(summary_row(f"{name}, {mode}", r))
+            K_true = np.array(ds.meta["intrinsics"]["K"])
+            notes += filter(None, (intrinsics_line(f"{name}, {m}", r, K_true) for m, r in rows.items()))
+        if notes:  # after the table, which they would cut
+            emit()
+            for line in notes:
+                emit(line)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     return rep.write(str(args.out))
 
