@@ -2,15 +2,20 @@
 
 One pass over the bag (sqlite3 or MCAP storage, read with ``rosbags``: no ROS installation) reads
 
-* the depth topic: ``sensor_msgs/msg/Image`` in ``16UC1``/``mono16`` (millimetres, or ``depth_unit_m`` per
-  unit) or ``32FC1`` (metres), or ``sensor_msgs/msg/CompressedImage`` of image_transport's
-  ``compressedDepth`` PNG form (16-bit);
+* the depth topic: ``sensor_msgs/msg/Image`` in ``16UC1``/``mono16`` (millimetres) or ``32FC1`` (metres), or
+  ``sensor_msgs/msg/CompressedImage`` of image_transport's ``compressedDepth`` PNG form (16-bit); another unit
+  with ``depth_unit_m``. A frame whose valid depth is implausible in that unit (its median outside
+  :data:`handeye.recording_checks.DEPTH_MEDIAN_RANGE_M`: millimetres in a 32FC1 image) is refused with the unit
+  that fits, as is a depth topic without one valid pixel;
 * the colour topic: ``sensor_msgs/msg/Image`` (``rgb8``, ``bgr8``, ``mono8``, ...) or ``CompressedImage``
   (JPEG or PNG);
 * the ``camera_info`` topic of the camera the depth is registered to (the colour camera's): size, ``K``,
-  plumb_bob or rational_polynomial distortion; every message must agree;
-* ``sensor_msgs/msg/JointState`` (names matched to the robot model's joints) and/or tf (the flange's pose
-  in the base, chained through ``/tf`` and ``/tf_static``: :mod:`handeye.tf_tree`).
+  plumb_bob or rational_polynomial distortion; every message must agree; a ``K`` no camera has (``fx`` of
+  1e-300, the principal point outside the image) is refused naming the field
+  (:func:`handeye.recording_checks.check_camera_matrix`);
+* ``sensor_msgs/msg/JointState`` (names matched to the robot model's joints; a name listed twice in a message
+  is refused) and/or tf (the flange's pose in the base, chained through ``/tf`` and ``/tf_static``:
+  :mod:`handeye.tf_tree`).
 
 Stamps are the messages' header stamps, seconds since the bag's start, so every stream shares the
 sensor's clock. A topic that is missing or holds another type is a :class:`BagTopicError` listing the
@@ -25,6 +30,7 @@ import numpy as np
 
 from handeye.core.errors import BagError, BagTopicError, RecordingError
 from handeye.core.limits import check_image_bytes
+from handeye.recording_checks import check_camera_matrix, check_depth_frame, check_depth_stream, check_joint_names
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
 from handeye.ros_bag import IMAGE_TYPE, _connections, _messages, _open, _stamp_ns, image_array
 
@@ -78,18 +84,21 @@ def _color(msg, msgtype: str, where: str) -> np.ndarray:
     return np.repeat(img[..., None], 3, axis=2) if img.ndim == 2 else img
 
 
-def _depth(msg, msgtype: str, where: str, depth_unit_m: float) -> np.ndarray:
+def _depth(msg, msgtype: str, where: str, depth_unit_m: float | None) -> np.ndarray:
+    """Depth in metres (0 or NaN: none), its unit checked against the plausible range."""
     if msgtype == COMPRESSED_TYPE:
-        return _decode_compressed(msg, where, depth=True).astype(np.float32) * np.float32(depth_unit_m)
-    try:
-        img = image_array(msg)
-    except BagError as exc:
-        raise BagError(f"{where}: {exc}") from None
-    if img.ndim != 2 or img.dtype == np.uint8:
-        raise BagError(f"{where}: depth of encoding {msg.encoding!r}; read: 16UC1/mono16 (units) or 32FC1 (metres)")
-    if img.dtype == np.uint16:
-        return img.astype(np.float32) * np.float32(depth_unit_m)
-    return img.astype(np.float32)
+        img = _decode_compressed(msg, where, depth=True)
+    else:
+        try:
+            img = image_array(msg)
+        except BagError as exc:
+            raise BagError(f"{where}: {exc}") from None
+        if img.ndim != 2 or img.dtype == np.uint8:
+            raise BagError(f"{where}: depth of encoding {msg.encoding!r}; read: 16UC1/mono16 (units) or 32FC1 (metres)")
+    unit = depth_unit_m if depth_unit_m is not None else (1e-3 if img.dtype == np.uint16 else 1.0)
+    depth = img.astype(np.float32) * np.float32(unit)
+    check_depth_frame(depth, unit, where)
+    return depth
 
 
 def _intrinsics(msg, where: str):
@@ -102,6 +111,7 @@ def _intrinsics(msg, where: str):
         raise BagError(f"{where}: distortion model {model!r} is not read; read: {', '.join(ROS_DISTORTION_MODELS)}")
     if d.size == 0:
         d = np.zeros(5)
+    check_camera_matrix(msg.k, msg.width, msg.height, where)
     try:
         return CameraIntrinsics(np.asarray(msg.k, dtype=float).reshape(3, 3), d, int(msg.width), int(msg.height))
     except IntrinsicsError as exc:
@@ -115,7 +125,7 @@ def read_camera_bag(
     depth_topic: str | None = None,
     joints_topic: str | None = "/joint_states",
     tf_frames: tuple | None = None,
-    depth_unit_m: float = 1e-3,
+    depth_unit_m: float | None = None,
     tf_topic: str = "/tf",
     tf_static_topic: str = "/tf_static",
 ) -> RecordedPlacement:
@@ -135,8 +145,9 @@ def read_camera_bag(
         ``sensor_msgs/msg/JointState``; None reads no joints (then ``tf_frames`` is needed).
     tf_frames : (str, str), optional
         ``(base_frame, ee_frame)``: ``T_base_ee`` from tf instead of the joints' forward kinematics.
-    depth_unit_m : float
-        Metres per unit of 16-bit depth (1e-3: millimetres, the ROS convention ``REP 118``).
+    depth_unit_m : float, optional
+        Metres per unit of the depth as recorded; None: the encoding's convention (``REP 118``): 1e-3
+        (millimetres) for 16-bit depth, 1 (metres) for 32FC1.
     tf_topic, tf_static_topic : str
 
     Returns
@@ -146,15 +157,18 @@ def read_camera_bag(
     Raises
     ------
     NotABagError, BagTopicError, BagError
-        Naming the bag and topic.
+        Naming the bag and topic; a record the bag's storage cannot read.
     RecordingError
-        Neither joints nor tf asked for; a topic without messages.
+        Neither joints nor tf asked for; a topic without messages; depth in another unit than ``depth_unit_m``
+        (the unit that fits named) or without a valid pixel; a joint name twice in a message.
+    IntrinsicsError
+        A ``camera_info`` no camera has, naming the field.
     """
     from handeye.ros_bag import read_bag
 
     if joints_topic is None and tf_frames is None:
         raise RecordingError(f"{bag}: give the joint states topic or the tf base and flange frames")
-    if not (np.isfinite(depth_unit_m) and depth_unit_m > 0):
+    if depth_unit_m is not None and not (np.isfinite(depth_unit_m) and depth_unit_m > 0):
         raise RecordingError(f"depth_unit_m must be finite and > 0, got {depth_unit_m!r}")
     image_types = (IMAGE_TYPE, COMPRESSED_TYPE)
     with _open(bag) as reader:
@@ -167,6 +181,7 @@ def read_camera_bag(
         if joints_topic:
             conns += _connections(reader, name, joints_topic, (JOINTS_TYPE,))
         streams = {t: {"stamps": [], "items": []} for t in (color_topic, info_topic, depth_topic, joints_topic) if t}
+        joint_samples = []
         joint_names = None
         info = None
         for conn, msg in _messages(reader, name, conns):
@@ -181,6 +196,7 @@ def read_camera_bag(
                 continue
             if conn.topic == joints_topic:
                 names = [str(n) for n in msg.name]
+                check_joint_names(names, where)
                 pos = np.asarray(msg.position, dtype=float)
                 if len(pos) != len(names):
                     raise BagError(f"{where}: {len(names)} joint names and {len(pos)} positions")
@@ -191,6 +207,7 @@ def read_camera_bag(
                         continue  # a partial message (some drivers publish joint groups apart)
                     pos = pos[[names.index(n) for n in joint_names]]
                 item = pos
+                joint_samples.append(f"the message stamped {stamp} ns")
             elif conn.topic == depth_topic:
                 item = _depth(msg, conn.msgtype, where, depth_unit_m)
             else:
@@ -203,6 +220,8 @@ def read_camera_bag(
             raise BagTopicError(f"{name}: topic {topic!r} has no messages")
     if info is None:
         raise BagTopicError(f"{name}: topic {info_topic!r} has no messages")
+    if depth_topic:
+        check_depth_stream(streams[depth_topic]["items"], f"{name}, {depth_topic}")
 
     def seconds(topic):
         return (np.asarray(streams[topic]["stamps"], dtype=np.int64) - origin) * 1e-9
@@ -214,7 +233,11 @@ def read_camera_bag(
     joints = None
     if joints_topic:
         joints = JointSamples(
-            seconds(joints_topic), joint_names, np.array(streams[joints_topic]["items"]), f"{name}, {joints_topic}"
+            seconds(joints_topic),
+            joint_names,
+            np.array(streams[joints_topic]["items"]),
+            f"{name}, {joints_topic}",
+            joint_samples,
         )
     poses = None
     if tf_frames is not None:

@@ -25,6 +25,10 @@ sets the two side by side.
 
 from __future__ import annotations
 
+import json
+import os
+import shutil
+import socket
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +39,6 @@ from handeye.core.dataset import (
     CAMERA_COLUMNS,
     FORMAT,
     FORMAT_VERSION,
-    dataset_lock,
     write_json_atomic,
     write_table,
 )
@@ -47,6 +50,7 @@ from handeye.core.errors import (
     RecordingError,
     UnsynchronisedError,
 )
+from handeye.recording_checks import check_depth_frame, check_depth_stream, check_joint_values
 
 __all__ = [
     "DEPTH_SCALE_M",
@@ -65,6 +69,10 @@ __all__ = [
 
 #: Metres per unit of the dataset's 16-bit depth PNGs: 0.1 mm, up to 6.55 m (the simulator's).
 DEPTH_SCALE_M = 1e-4
+#: The temporary folder an import writes beside its target and renames to it when complete (then host and pid).
+_TMP_PREFIX = ".{name}.importing-"
+#: The furthest depth the dataset's 16-bit PNGs hold, metres (beyond it a pixel is stored as no depth).
+MAX_DEPTH_M = DEPTH_SCALE_M * np.iinfo(np.uint16).max
 #: More than this fraction of a recording's frames without a partner within the tolerance is refused as
 #: unsynchronised streams (a few dropped frames are ordinary; most of them mean clocks or topics that disagree).
 MAX_DROPPED_FRACTION = 0.5
@@ -109,12 +117,19 @@ class JointSamples:
     q : array, shape (M, J)
         Radians (metres for prismatic joints).
     source : str
+    sample_names : list of str
+        Each sample's name (a message's stamp, a table's frame), for messages.
     """
 
     times_s: np.ndarray
     names: list
     q: np.ndarray
     source: str
+    sample_names: list = field(default_factory=list)
+
+    def __post_init__(self):
+        if not self.sample_names:
+            self.sample_names = [f"sample at {t:.6f} s" for t in np.asarray(self.times_s, dtype=float).reshape(-1)]
 
 
 @dataclass
@@ -318,6 +333,15 @@ def _robot_poses(part: RecordedPlacement, robot, query_s: np.ndarray, tolerance_
     names = [str(x) for x in list(robot.model.names)[1:]]
     q, keep = np.full((n, len(names)), np.nan), np.ones(n, dtype=bool)
     if part.joints is not None:
+        j = part.joints
+        model = getattr(robot, "model", None)
+        lower, upper = (None, None) if model is None else (model.lowerPositionLimit, model.upperPositionLimit)
+        if lower is not None and (len(lower) != len(names) or len(upper) != len(names)):
+            lower, upper = None, None  # joints of several coordinates (continuous): no per-name limits
+        samples = j.sample_names
+        if len(samples) != len(j.q):  # samples dropped or added after reading: name them by their stamps
+            samples = [f"sample at {t:.6f} s" for t in np.asarray(j.times_s, dtype=float).reshape(-1)]
+        check_joint_values(j.source, list(j.names), j.q, samples, names, lower, upper)
         q, keep = joints_at(part.joints, names, query_s, tolerance_s)
     if part.poses is not None:
         from handeye.time_pairing import pair_by_time
@@ -374,6 +398,18 @@ def _check_size(image: np.ndarray, intrinsics, what: str, where: str, hint: str)
     if (w, h) != (int(intrinsics.width), int(intrinsics.height)):
         raise ImageSizeError(
             f"{where}: {what} is {w}x{h}, the camera_info is for {int(intrinsics.width)}x{int(intrinsics.height)}{hint}"
+        )
+
+
+def _check_depth_in_range(depth_m: np.ndarray, where: str) -> None:
+    """Refuse a frame most of whose valid depth is beyond what the dataset's 16-bit PNGs hold (it would be lost)."""
+    valid = np.isfinite(depth_m) & (depth_m > 0)
+    beyond = valid & (depth_m > MAX_DEPTH_M)
+    if beyond.sum() > MAX_DROPPED_FRACTION * valid.sum():
+        raise RecordingError(
+            f"{where}: {beyond.sum()} of {valid.sum()} valid depth pixels are beyond {MAX_DEPTH_M:.2f} m, the "
+            f"furthest the dataset stores: tenths of a millimetre read as millimetres (pass --depth-unit 0.0001), or a "
+            "camera too far from the robot"
         )
 
 
@@ -442,12 +478,17 @@ def assemble(part: RecordedPlacement, robot, options: ImportOptions) -> tuple[li
         ": record the depth registered to the colour camera (RealSense: align_depth.enable:=true; Azure Kinect: "
         "depth_mode with the point cloud in the colour camera) and give that camera's camera_info"
     )
+    if part.depth is not None:
+        check_depth_stream([lead.images[order[i]] for i in kept], lead.source)
     frames = []
     for i in kept:
         depth = None
         if part.depth is not None:
             depth = lead.images[order[i]]
-            _check_size(depth, intr, "the depth image", f"{lead.source}, {lead.names[order[i]]}", hint)
+            where = f"{lead.source}, {lead.names[order[i]]}"
+            _check_size(depth, intr, "the depth image", where, hint)
+            check_depth_frame(depth, 1.0, where)
+            _check_depth_in_range(depth, where)
         rgb = part.color.images[color_idx[i]]
         _check_size(rgb, intr, "the colour image", f"{part.color.source}, {part.color.names[color_idx[i]]}", "")
         if part.depth is not None:
@@ -521,6 +562,10 @@ def import_recordings(
 ) -> ImportReport:
     """Write recorded camera placements as a dataset.
 
+    The dataset is written into a temporary folder beside ``out`` (``.NAME.importing-HOST-PID``) and renamed to
+    ``out`` when complete: an import that fails (a bad frame, a full disk) leaves nothing behind and can be rerun,
+    and one that was killed leaves only its temporary folder, which the next import into ``out`` removes.
+
     Parameters
     ----------
     out : str or Path
@@ -547,53 +592,131 @@ def import_recordings(
     Raises
     ------
     DatasetError
-        ``out`` holds files already.
+        ``out`` holds files already (said to be an unfinished import's when it is one); the dataset cannot be
+        written (a full disk, a read-only folder: nothing is left behind).
     RecordingError
         And its subclasses, naming the recording (see :func:`assemble`).
     """
-    from handeye.core.shard_writer import ShardWriter
-
     t0 = time.perf_counter()
     options = options or ImportOptions()
     out = Path(out)
     if not placements:
         raise RecordingError("no recording to import")
-    if out.exists() and any(out.iterdir()):
-        raise DatasetError(f"{out}: not empty; import into a new directory")
+    _check_target(out)
     if board is None and any(p.calibration is not None for p in placements):
         raise RecordingError("calibration recordings need the board (--board board.json, from 'handeye board')")
-    out.mkdir(parents=True, exist_ok=True)
     meta = _meta(placements, robot, robot_meta, board, [p.source for p in placements], options, generator)
-    counts = []
-    with dataset_lock(out, generator):
-        write_json_atomic(out / "meta.json", meta)
-        iterator = placements
-        if progress:
-            from tqdm import tqdm
-
-            iterator = tqdm(placements, desc=f"import {out.name}", unit="placement")
-        for camera_id, part in enumerate(iterator):
-            data, dropped = assemble(part, robot, options)
-            cal, cal_dropped = ([], 0) if part.calibration is None else assemble(part.calibration, robot, options)
-            with ShardWriter(
-                out, camera_id, region=0, split="test", n_joints=robot.nq, depth_scale_m=DEPTH_SCALE_M
-            ) as shard:
-                for f in cal:
-                    shard.add_frame("calibration", f["T_base_ee"], f["rgb"], q=f["q"])
-                for f in data:
-                    shard.add_frame(
-                        "data",
-                        f["T_base_ee"],
-                        f["rgb"],
-                        depth_m=f["depth_m"],
-                        q=f["q"],
-                        T_base_ref=f["T_base_ee"] @ robot.T_ee_ref,
-                    )
-            counts.append(
-                {"source": part.source, "data": len(data), "calibration": len(cal), "dropped": dropped + cal_dropped}
-            )
-        n = len(placements)
-        table = {c: np.full(n, np.nan) for c in CAMERA_COLUMNS}
-        table.update(camera_id=np.arange(n), region=np.zeros(n, dtype=int), split=np.array(["test"] * n, dtype=object))
-        write_table(out / "cameras.csv", table, CAMERA_COLUMNS)
+    target = Path(os.path.abspath(out))  # "." and "data/" have a name and a parent
+    _remove_stale_temporaries(target)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.parent / f"{_TMP_PREFIX.format(name=target.name)}{socket.gethostname()}-{os.getpid()}"
+        if tmp.exists():  # this process's own (its pid reused): nobody else writes it
+            shutil.rmtree(tmp)
+        tmp.mkdir()
+    except OSError as exc:
+        raise DatasetError(
+            f"{out}: cannot create the dataset beside it ({exc.strerror or exc}: {exc.filename})"
+        ) from None
+    try:
+        counts = _write_dataset(tmp, placements, robot, meta, options, generator, progress, out.name)
+        try:
+            os.rename(tmp, target)  # replaces an empty directory; refused where another writer filled ``out``
+        except OSError as exc:
+            raise DatasetError(
+                f"{out}: cannot publish the import ({exc.strerror or exc}); another process wrote this directory "
+                "meanwhile, or it is not writable; nothing was written"
+            ) from None
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise DatasetError(
+            f"{out}: the import failed writing {exc.filename or 'the dataset'} ({exc.strerror or exc}); nothing was "
+            "written, rerun when it is fixed"
+        ) from None
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     return ImportReport(out, counts, time.perf_counter() - t0)
+
+
+def _write_dataset(
+    root: Path, placements: list, robot, meta: dict, options: ImportOptions, generator: str, progress: bool, name: str
+) -> list:
+    """Write meta.json, one shard per placement and cameras.csv into ``root``; the frame counts per placement."""
+    from handeye.core.shard_writer import ShardWriter
+
+    counts = []
+    write_json_atomic(root / "meta.json", meta)
+    iterator = placements
+    if progress:
+        from tqdm import tqdm
+
+        iterator = tqdm(placements, desc=f"import {name}", unit="placement")
+    for camera_id, part in enumerate(iterator):
+        data, dropped = assemble(part, robot, options)
+        cal, cal_dropped = ([], 0) if part.calibration is None else assemble(part.calibration, robot, options)
+        shard = ShardWriter(root, camera_id, region=0, split="test", n_joints=robot.nq, depth_scale_m=DEPTH_SCALE_M)
+        with shard:
+            for f in cal:
+                shard.add_frame("calibration", f["T_base_ee"], f["rgb"], q=f["q"])
+            for f in data:
+                shard.add_frame(
+                    "data",
+                    f["T_base_ee"],
+                    f["rgb"],
+                    depth_m=f["depth_m"],
+                    q=f["q"],
+                    T_base_ref=f["T_base_ee"] @ robot.T_ee_ref,
+                )
+        counts.append(
+            {"source": part.source, "data": len(data), "calibration": len(cal), "dropped": dropped + cal_dropped}
+        )
+    n = len(placements)
+    table = {c: np.full(n, np.nan) for c in CAMERA_COLUMNS}
+    table.update(camera_id=np.arange(n), region=np.zeros(n, dtype=int), split=np.array(["test"] * n, dtype=object))
+    write_table(root / "cameras.csv", table, CAMERA_COLUMNS)
+    return counts
+
+
+def _check_target(out: Path) -> None:
+    """Refuse a target that is not a new or empty directory, saying when it is an unfinished import's leftover."""
+    if out.exists() and not out.is_dir():
+        raise DatasetError(f"{out}: not a directory; import into a new directory")
+    try:
+        entries = list(out.iterdir()) if out.exists() else []
+    except OSError as exc:
+        raise DatasetError(f"{out}: cannot list it ({exc.strerror or exc})") from None
+    if not entries:
+        return
+    meta = out / "meta.json"
+    if meta.is_file() and not (out / "cameras.csv").exists():
+        try:
+            recipe = json.loads(meta.read_text()).get("recipe", {})
+            unfinished = str(recipe.get("generator", "")).startswith("handeye import")
+        except (OSError, ValueError, AttributeError, RecursionError):
+            unfinished = False
+        if unfinished:
+            raise DatasetError(
+                f"{out}: an unfinished import left this folder (meta.json, no cameras.csv); remove it (rm -r {out}) "
+                "and rerun"
+            )
+    raise DatasetError(f"{out}: not empty; import into a new directory")
+
+
+def _remove_stale_temporaries(out: Path) -> None:
+    """Remove the temporary folders of imports into ``out`` on this host whose process has ended (killed)."""
+    prefix = _TMP_PREFIX.format(name=out.name) + socket.gethostname() + "-"
+    try:
+        siblings = [p for p in out.parent.iterdir() if p.name.startswith(prefix)] if out.parent.is_dir() else []
+    except OSError:
+        return
+    for p in siblings:
+        pid = p.name[len(prefix) :]
+        if not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(p, ignore_errors=True)
+        except (PermissionError, OverflowError, ValueError):
+            continue

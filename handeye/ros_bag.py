@@ -185,7 +185,9 @@ def _open(bag):
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except (AnyReaderError, OSError, KeyError, ValueError) as exc:
-        raise NotABagError(f"{path}: cannot be read as a ROS 2 bag ({exc})") from None
+        raise NotABagError(f"{path}: cannot be read as a ROS 2 bag ({_reason(exc)})") from None
+    except Exception as exc:  # a corrupt record in the storage (rosbags' struct, overflow and memory errors)
+        raise NotABagError(f"{path}: the bag's storage is corrupt ({_reason(exc)})") from None
     try:
         yield reader
     finally:
@@ -207,13 +209,32 @@ def _connections(reader, bag, topic: str, types: tuple, required: bool = True) -
     return conns
 
 
+def _reason(exc: BaseException) -> str:
+    """An exception as a short reason for a one-line message (its type where its text is empty)."""
+    text = " ".join(str(exc).split())[:120]
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
 def _messages(reader, bag, conns):
-    """``(connection, message)`` in bag order, deserialisation errors naming the topic."""
-    for conn, _, raw in reader.messages(connections=conns):
+    """``(connection, message)`` in bag order; a record the storage cannot read or a message that cannot be
+    decoded is a :class:`BagError` naming the bag (and the topic)."""
+    records = iter(reader.messages(connections=conns))
+    count = 0
+    while True:
         try:
-            yield conn, reader.deserialize(raw, conn.msgtype)
+            conn, _, raw = next(records)
+        except StopIteration:
+            return
+        except Exception as exc:  # MCAP chunks and records, sqlite pages: rosbags, struct, zstd, overflow errors
+            raise BagError(
+                f"{bag}: the bag's storage is corrupt after {count} messages: a record cannot be read ({_reason(exc)})"
+            ) from None
+        count += 1
+        try:
+            message = reader.deserialize(raw, conn.msgtype)
         except Exception as exc:  # rosbags raises its own and struct errors on corrupt data
-            raise BagError(f"{bag}: a message on {conn.topic} cannot be decoded ({exc})") from None
+            raise BagError(f"{bag}: a message on {conn.topic} cannot be decoded ({_reason(exc)})") from None
+        yield conn, message
 
 
 def _stamp_ns(header) -> int:

@@ -20,8 +20,11 @@ Examples
 Each recording is one camera placement (``camera_id`` in the order given). Depth frames are paired with
 the colour frame nearest in time and the robot's state at their stamp (joints interpolated between
 samples within ``--joint-tolerance``); the data frames are undistorted to a pinhole; a recording whose
-streams are mostly further apart than the tolerances is refused. Details: :mod:`handeye.recording_import`,
-:mod:`handeye.import_bag`, :mod:`handeye.import_folder`.
+streams are mostly further apart than the tolerances is refused, as is a recording in a unit it does not say
+(depth in millimetres where metres are read: pass ``--depth-unit``; joints in degrees), a ``camera_info`` no
+camera has, a joint named twice. The dataset is written beside ``--out`` and renamed to it when complete, so
+a failed import leaves nothing behind and a rerun works. Details: :mod:`handeye.recording_import`,
+:mod:`handeye.import_bag`, :mod:`handeye.import_folder`, :mod:`handeye.recording_checks`.
 """
 
 from __future__ import annotations
@@ -45,8 +48,10 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--depth-unit",
         type=float,
-        default=1e-3,
-        help="metres per unit of 16-bit depth (default 0.001: millimetres, the ROS convention)",
+        default=None,
+        help="metres per unit of the recorded depth (default: 0.001, millimetres, for 16-bit depth and integer "
+        ".npy; 1, metres, for 32FC1 and float .npy, the ROS convention); a depth that looks like another unit is "
+        "refused with the one that fits",
     )
     p.add_argument(
         "--max-frames",

@@ -1,0 +1,394 @@
+"""``handeye import``: recordings in the wrong unit, impossible joints and intrinsics, corrupt storage refused.
+
+Each recording is a bag (or folder) of four 8x6 frames written here with ``rosbags``: a flat depth of
+0.812 m, UR5 joint states stamped with the frames, the colour camera's ``camera_info``. One field at a time
+is made wrong (millimetres in 32FC1, degrees in the joints, fx = 1e-300, a corrupt MCAP record, ...) and
+the import must refuse it in one line naming the file or topic, the frame and the field; the same
+recording with the field right (or the option that says its unit) imports the truth.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import socket
+import struct
+import tracemalloc
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+pytest.importorskip("pinocchio")
+
+from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
+from rosbags.typesys import Stores, get_typestore  # noqa: E402
+
+from classic.vision.camera import CameraIntrinsics  # noqa: E402
+from classic.vision.camera_yaml import write_camera_info_yaml  # noqa: E402
+from handeye.cli import main  # noqa: E402
+from handeye.core.dataset import Dataset, shard_is_complete  # noqa: E402
+from handeye.core.errors import BagError, DatasetError, HandEyeInputError, IntrinsicsError, RecordingError  # noqa: E402
+from handeye.core.limits import MAX_MESSAGE_CHARS  # noqa: E402
+from handeye.import_bag import read_camera_bag  # noqa: E402
+from handeye.import_folder import read_frame_folder  # noqa: E402
+from handeye.recording_checks import DEPTH_MEDIAN_RANGE_M  # noqa: E402
+from handeye.recording_import import import_recordings  # noqa: E402
+from sim.robot import load_robot  # noqa: E402
+from tests.tolerances import DEPTH_QUANTUM_M  # noqa: E402
+
+TS = get_typestore(Stores.ROS2_HUMBLE)
+MSG = TS.types
+EPOCH_NS = 1_700_000_000 * 10**9
+COLOR, DEPTH, INFO, JOINTS = (
+    "/camera/color/image_raw",
+    "/camera/aligned_depth_to_color/image_raw",
+    "/camera/color/camera_info",
+    "/joint_states",
+)
+UR5 = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+W, H, N = 8, 6, 4
+K = np.array([[10.0, 0.0, 3.5], [0.0, 10.0, 2.5], [0.0, 0.0, 1.0]])
+#: The scene: a flat depth of this many metres, inside DEPTH_MEDIAN_RANGE_M.
+DEPTH_M = 0.812
+#: The joints at the four frames (radians), well inside the UR5's limits.
+Q = np.array([0.1, -1.2, 1.0, -0.5, 1.5, 0.3]) + 0.05 * np.arange(N)[:, None]
+
+
+def _header(stamp: int, frame: str = "camera_color_optical_frame"):
+    return MSG["std_msgs/msg/Header"](MSG["builtin_interfaces/msg/Time"](stamp // 10**9, stamp % 10**9), frame)
+
+
+def _image(stamp: int, encoding: str, pixels: np.ndarray):
+    rows = np.ascontiguousarray(pixels).reshape(pixels.shape[0], -1).view(np.uint8)
+    return MSG["sensor_msgs/msg/Image"](
+        _header(stamp), pixels.shape[0], pixels.shape[1], encoding, 0, rows.shape[1], rows.reshape(-1)
+    )
+
+
+def _info(stamp: int, k: np.ndarray, width: int, height: int):
+    roi = MSG["sensor_msgs/msg/RegionOfInterest"](0, 0, 0, 0, False)
+    P = np.concatenate([k, np.zeros((3, 1))], axis=1).reshape(-1)
+    return MSG["sensor_msgs/msg/CameraInfo"](
+        _header(stamp), height, width, "plumb_bob", np.zeros(5), k.reshape(-1), np.eye(3).reshape(-1), P, 0, 0, roi
+    )
+
+
+def write_bag(path, storage="sqlite3", depth=DEPTH_M * 1e3, encoding="16UC1", q=Q, names=UR5, k=K, size=(W, H)):
+    """A bag of N frames: colour, depth (a constant ``depth`` in the encoding's values), camera_info, joints."""
+    dtype = "<u2" if encoding == "16UC1" else "<f4"
+    messages = []
+    for i in range(N):
+        s = EPOCH_NS + i * 500_000_000
+        messages += [
+            (COLOR, "sensor_msgs/msg/Image", s, _image(s, "rgb8", np.full((H, W, 3), 90 + i, np.uint8))),
+            (DEPTH, "sensor_msgs/msg/Image", s, _image(s, encoding, np.full((H, W), depth, dtype))),
+            (INFO, "sensor_msgs/msg/CameraInfo", s, _info(s, np.asarray(k, float), *size)),
+            (
+                JOINTS,
+                "sensor_msgs/msg/JointState",
+                s,
+                MSG["sensor_msgs/msg/JointState"](
+                    _header(s, ""), list(names), np.asarray(q[i], float), np.zeros(0), np.zeros(0)
+                ),
+            ),
+        ]
+    plugin = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}[storage]
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        conns = {}
+        for topic, msgtype, stamp, msg in messages:
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, msgtype, typestore=TS)
+            writer.write(conns[topic], stamp, TS.serialize_cdr(msg, msgtype))
+    return path
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("ur5")
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and len(err) <= MAX_MESSAGE_CHARS + 1 and "Traceback" not in err, err
+    return err
+
+
+def _import_bag(bag, out, *extra) -> int:
+    return main(["import", "bag", str(bag), "--robot", "ur5", "--out", str(out), "--quiet", *extra])
+
+
+# ------------------------------------------------------------------ depth units (issue 40, item 6)
+
+
+def test_float_depth_in_millimetres_is_refused_with_the_unit_that_fits(tmp_path, capsys):
+    bag = write_bag(tmp_path / "mm32", encoding="32FC1", depth=DEPTH_M * 1e3)
+    assert _import_bag(bag, tmp_path / "a") == 2
+    err = _one_line(capsys)
+    assert "depth looks like millimetres" in err and "--depth-unit 0.001" in err and DEPTH in err
+    assert not (tmp_path / "a").exists()
+    assert _import_bag(bag, tmp_path / "b", "--depth-unit", "0.001") == 0
+    ds = Dataset.open(tmp_path / "b")
+    rows = ds.select(0, "data")
+    assert len(rows["frame"]) == N
+    assert np.abs(ds.depth_m(0, rows["depth"][0]) - DEPTH_M).max() <= DEPTH_QUANTUM_M + 1e-6  # + float32
+
+
+def test_16_bit_depth_in_metres_and_empty_depth_are_refused(tmp_path):
+    with pytest.raises(RecordingError, match=r"depth looks like metres .*--depth-unit 1 "):
+        read_camera_bag(write_bag(tmp_path / "m16", depth=1), COLOR, INFO, DEPTH)
+    with pytest.raises(RecordingError, match=f"none of the {N} depth frames has a valid pixel"):
+        read_camera_bag(write_bag(tmp_path / "zero", depth=0), COLOR, INFO, DEPTH)
+    with pytest.raises(RecordingError, match=f"none of the {N} depth frames"):
+        read_camera_bag(write_bag(tmp_path / "nan", encoding="32FC1", depth=np.nan), COLOR, INFO, DEPTH)
+    part = read_camera_bag(write_bag(tmp_path / "ok32", encoding="32FC1", depth=DEPTH_M), COLOR, INFO, DEPTH)
+    assert np.all(part.depth.images[0] == np.float32(DEPTH_M))  # the convention: 32FC1 in metres
+    lo, hi = DEPTH_MEDIAN_RANGE_M
+    assert lo < DEPTH_M < hi and not lo < DEPTH_M * 1e3 < hi and not lo < DEPTH_M * 1e-3 < hi
+
+
+def _joint_lines(q: np.ndarray, names: list = UR5) -> list:
+    """joints.csv's lines: a header and one row per frame f0, f1, ..."""
+    return ["frame," + ",".join(names)] + [f"f{i}," + ",".join(repr(float(v)) for v in row) for i, row in enumerate(q)]
+
+
+def _folder(root, depth=None, joints=None, intrinsics=K, size=(W, H)):
+    """A placement folder of N frames; ``depth(i)`` an array saved as .npy (default a 16-bit mm PNG)."""
+    from PIL import Image
+
+    (root / "rgb").mkdir(parents=True)
+    (root / "depth").mkdir()
+    write_camera_info_yaml(root / "intrinsics.yaml", CameraIntrinsics(np.asarray(intrinsics), np.zeros(5), *size))
+    (root / "joints.csv").write_text("\n".join(joints or _joint_lines(Q)) + "\n")
+    for i in range(N):
+        Image.fromarray(np.full((H, W, 3), 90, np.uint8)).save(root / "rgb" / f"f{i}.png")
+        if depth is None:
+            Image.fromarray(np.full((H, W), round(DEPTH_M * 1e3), np.uint16)).save(root / "depth" / f"f{i}.png")
+        else:
+            np.save(root / "depth" / f"f{i}.npy", depth(i))
+    return root
+
+
+def test_folder_npy_depth_in_millimetres_and_its_fix(tmp_path):
+    folder = _folder(tmp_path / "p", depth=lambda i: np.full((H, W), DEPTH_M * 1e3, np.float32))
+    with pytest.raises(RecordingError, match=r"f0\.npy: depth looks like millimetres .*--depth-unit 0\.001"):
+        read_frame_folder(folder)
+    part = read_frame_folder(folder, depth_unit_m=1e-3)
+    assert np.allclose(part.depth.images[0], DEPTH_M, atol=1e-6)
+    assert np.allclose(read_frame_folder(_folder(tmp_path / "png")).depth.images[0], DEPTH_M, atol=1e-6)
+
+
+def test_npy_header_declaring_a_huge_image_is_refused_before_reading(tmp_path):
+    folder = _folder(tmp_path / "p", depth=lambda i: np.full((H, W), DEPTH_M, np.float32))
+    path = folder / "depth" / "f2.npy"
+    header = {"descr": "<f4", "fortran_order": False, "shape": (100_000, 100_000)}
+    with path.open("wb") as f:
+        np.lib.format.write_array_header_1_0(f, header)
+        f.write(b"\0" * 64)
+    tracemalloc.start()
+    with pytest.raises(RecordingError, match=r"f2\.npy: the \.npy header: declares 100000x100000 pixels"):
+        read_frame_folder(folder)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 50e6  # the 40 GB it declares never allocated
+    with path.open("wb") as f:  # a plausible size, but the data cut short
+        np.lib.format.write_array_header_1_0(f, dict(header, shape=(H, W)))
+        f.write(b"\0" * 8)
+    with pytest.raises(RecordingError, match="truncated"):
+        read_frame_folder(folder)
+
+
+# ------------------------------------------------------------------ joints (item 7)
+
+
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        (np.nan, r"joint 'elbow_joint' is nan \(1 such samples\); a joint angle must be a finite number"),
+        (np.inf, r"joint 'elbow_joint' is inf"),
+        (1e300, r"joint 'elbow_joint' is 1e\+300, beyond its limits \[-3.142, 3.142\] rad"),
+    ],
+)
+def test_impossible_joint_values_are_refused_naming_topic_stamp_and_joint(tmp_path, robot, value, message):
+    q = Q.copy()
+    q[2, 2] = value
+    part = read_camera_bag(write_bag(tmp_path / "bag", q=q), COLOR, INFO, DEPTH)
+    stamp = EPOCH_NS + 2 * 500_000_000
+    with pytest.raises(RecordingError, match=rf"{JOINTS}, the message stamped {stamp} ns: {message}"):
+        import_recordings(tmp_path / "out", [part], robot, "ur5")
+    assert not (tmp_path / "out").exists()
+
+
+def test_joints_in_degrees_are_named_as_degrees(tmp_path, robot, capsys):
+    part = read_camera_bag(write_bag(tmp_path / "bag", q=np.rad2deg(Q)), COLOR, INFO, DEPTH)
+    stamp = EPOCH_NS + 500_000_000  # the first sample beyond a limit: 8.59 "radians" of shoulder_pan_joint
+    with pytest.raises(RecordingError, match=rf"stamped {stamp} ns: joint 'shoulder_pan_joint' is 8.59437, .*degrees"):
+        import_recordings(tmp_path / "out", [part], robot, "ur5")
+    folder = _folder(tmp_path / "p", joints=_joint_lines(np.rad2deg(Q)))
+    assert main(["import", "folder", str(folder), "--robot", "ur5", "--out", str(tmp_path / "f"), "--quiet"]) == 2
+    err = _one_line(capsys)
+    assert "joints.csv, frame 'f1': joint 'shoulder_pan_joint'" in err and "degrees" in err
+
+
+def test_a_joint_named_twice_is_refused_and_an_unused_joint_is_not_checked(tmp_path, robot):
+    names = UR5[:3] + ["elbow_joint"] + UR5[3:]
+    q = np.insert(Q, 3, 0.0, axis=1)
+    with pytest.raises(RecordingError, match=rf"{JOINTS} at stamp {EPOCH_NS}: joint 'elbow_joint' is listed twice"):
+        read_camera_bag(write_bag(tmp_path / "dup", q=q, names=names), COLOR, INFO, DEPTH)
+    with pytest.raises(RecordingError, match=r"joints.csv, header: joint 'elbow_joint' is listed twice"):
+        read_frame_folder(_folder(tmp_path / "p", joints=_joint_lines(q, names)))
+    gripper = np.concatenate([Q, np.full((N, 1), np.nan)], axis=1)  # a joint the model has not: not used
+    part = read_camera_bag(write_bag(tmp_path / "g", q=gripper, names=UR5 + ["finger"]), COLOR, INFO, DEPTH)
+    report = import_recordings(tmp_path / "out", [part], robot, "ur5")
+    assert report.frames[0]["data"] == N
+    ds = Dataset.open(tmp_path / "out")
+    assert np.array_equal(ds.joints(ds.select(0, "data")), Q)
+
+
+# ------------------------------------------------------------------ intrinsics (item 9)
+
+
+def _with(r, c, value):
+    k = K.copy()
+    k[r, c] = value
+    return k
+
+
+@pytest.mark.parametrize(
+    "k, size, message",
+    [
+        (_with(0, 0, 1e-300), (W, H), r"fx = 1e-300 pixels gives a 180-degree field of view"),
+        (_with(1, 1, 1e300), (W, H), r"fy = 1e\+300 pixels gives a 3.44e-298-degree field of view"),
+        (_with(0, 0, -10.0), (W, H), r"fx is -10; a focal length must be > 0"),
+        (_with(0, 2, np.nan), (W, H), r"cx \(K\[0\]\[2\]\) is nan"),
+        (_with(0, 2, 812.0), (W, H), r"cx = 812 is outside the image \(0 to 8 pixels\)"),
+        (K.T, (W, H), r"K\[2\]\[0\] is 3.5; a camera matrix is"),
+        (_with(2, 2, 2.0), (W, H), r"K\[2\]\[2\] is 2, not 1"),
+        (np.zeros((3, 3)), (W, H), r"K is all zero: the camera is not calibrated"),
+        (K, (0, H), r"width 0 and height 6"),
+    ],
+)
+def test_camera_info_no_camera_has_is_refused_naming_the_field(tmp_path, k, size, message):
+    bag = write_bag(tmp_path / "bag", k=k, size=size)
+    with pytest.raises(IntrinsicsError, match=rf"{INFO} at stamp {EPOCH_NS}: {message}"):
+        read_camera_bag(bag, COLOR, INFO, DEPTH)
+
+
+def test_intrinsics_file_no_camera_has_is_refused(tmp_path):
+    with pytest.raises(IntrinsicsError, match=r"intrinsics.yaml: fx = 1e-300 pixels"):
+        read_frame_folder(_folder(tmp_path / "a", intrinsics=_with(0, 0, 1e-300)))
+    with pytest.raises(IntrinsicsError, match=r"intrinsics.yaml: cy = -2.5 is outside the image"):
+        read_frame_folder(_folder(tmp_path / "b", intrinsics=_with(1, 2, -2.5)))
+    assert read_frame_folder(_folder(tmp_path / "c")).intrinsics.width == W
+
+
+# ------------------------------------------------------------------ corrupt storage and manifests (item 11)
+
+
+def _mcap_records(data: bytes):
+    """(offset, opcode, length) of the top-level MCAP records after the 8-byte magic."""
+    k = 8
+    while k + 9 <= len(data):
+        op, n = data[k], struct.unpack_from("<Q", data, k + 1)[0]
+        yield k, op, n
+        if op == 0x0F:  # the footer's magic follows
+            return
+        k += 9 + n
+
+
+def _corrupt(data: bytes, how: str) -> bytes:
+    data = bytearray(data)
+    if how == "checksum":  # the first chunk's CRC of its records: rosbags checks it when it reads the chunk
+        k = next(off for off, op, _ in _mcap_records(bytes(data)) if op == 0x06)
+        struct.pack_into("<I", data, k + 9 + 24, 12345)  # after start, end, uncompressed size (u64 each)
+    else:  # the header record's length: rosbags' reader allocates from it when it opens the file
+        struct.pack_into("<Q", data, 9, 2**63 - 1)
+    return bytes(data)
+
+
+@pytest.mark.parametrize("how", ["checksum", "length"])
+def test_a_corrupt_mcap_record_is_one_line(tmp_path, capsys, how):
+    bag = write_bag(tmp_path / "bag", storage="mcap")
+    mcap = next(bag.glob("*.mcap"))
+    mcap.write_bytes(_corrupt(mcap.read_bytes(), how))
+    with pytest.raises(BagError, match="storage is corrupt"):
+        read_camera_bag(bag, COLOR, INFO, DEPTH)
+    assert _import_bag(bag, tmp_path / "out") == 2
+    assert "storage is corrupt" in _one_line(capsys)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.fixture(scope="module")
+def imported(tmp_path_factory):
+    root = tmp_path_factory.mktemp("imported")
+    bag = write_bag(root / "bag")
+    assert _import_bag(bag, root / "ds") == 0
+    return root / "ds"
+
+
+@pytest.mark.parametrize(
+    "manifest, message",
+    [
+        ("[1, 2]", r"not a shard manifest \(no 'files'"),
+        ('"files"', r"not a shard manifest \(no 'files'"),
+        ('{"files": ["frames.csv"]}', r"not a shard manifest \('files' a list"),
+        ('{"files": {"frames.csv": "12"}}', r"the size of 'frames.csv' is '12', not a number of bytes"),
+        ('{"files": {"../../meta.json": 1}}', r"lists '../../meta.json', not a path inside the shard"),
+        ("[" * 100_000, r"unreadable"),
+    ],
+)
+def test_a_manifest_of_the_wrong_type_is_one_line(imported, tmp_path, capsys, manifest, message):
+    import shutil
+
+    ds = shutil.copytree(imported, tmp_path / "ds")
+    shard = ds / "shards" / "cam_0000"
+    assert shard_is_complete(shard) == (True, "")
+    (shard / "manifest.json").write_text(manifest)
+    ok, why = shard_is_complete(shard)
+    assert not ok and why.startswith(str(shard / "manifest.json")) and __import__("re").search(message, why)
+    with pytest.raises(DatasetError, match=message):
+        Dataset.open(ds).select(0, "data")
+
+
+# ------------------------------------------------------------------ a failed import leaves nothing (item 3)
+
+
+def test_a_failed_import_leaves_nothing_and_the_rerun_works(tmp_path, robot, monkeypatch, capsys):
+    good = read_camera_bag(write_bag(tmp_path / "good"), COLOR, INFO, DEPTH)
+    bad = read_camera_bag(write_bag(tmp_path / "bad"), COLOR, INFO, DEPTH)
+    bad.depth.images[-1] = np.full((H + 1, W), np.float32(DEPTH_M))  # found when its frames are assembled
+    out = tmp_path / "ds"
+    with pytest.raises(HandEyeInputError, match="the depth image is 8x7, the camera_info is for 8x6"):
+        import_recordings(out, [good, bad], robot, "ur5")  # the first shard was written
+    assert sorted(os.listdir(tmp_path)) == ["bad", "good"]  # no dataset, no temporary folder
+
+    from handeye.core import shard_writer
+
+    def full_disk(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.partial / "rgb" / "data_000.png"))
+
+    with monkeypatch.context() as m:
+        m.setattr(shard_writer.ShardWriter, "add_frame", full_disk)
+        with pytest.raises(DatasetError, match=r"the import failed writing .*No space left on device.*nothing was"):
+            import_recordings(out, [good], robot, "ur5")
+    assert sorted(os.listdir(tmp_path)) == ["bad", "good"]
+    out.mkdir()  # an empty target is fine
+    assert import_recordings(out, [good, good], robot, "ur5").frames[1]["data"] == N
+    assert len(Dataset.open(out)) == 2 and sorted(os.listdir(tmp_path)) == ["bad", "ds", "good"]
+    with pytest.raises(DatasetError, match="not empty; import into a new directory"):
+        import_recordings(out, [good], robot, "ur5")
+
+
+def test_an_unfinished_import_is_named_and_a_killed_ones_folder_removed(tmp_path, robot):
+    good = read_camera_bag(write_bag(tmp_path / "good"), COLOR, INFO, DEPTH)
+    out = tmp_path / "ds"
+    out.mkdir()
+    (out / "meta.json").write_text(json.dumps({"recipe": {"generator": "handeye import bag"}}))
+    with pytest.raises(DatasetError, match=rf"{out}: an unfinished import left this folder .*rm -r {out}"):
+        import_recordings(out, [good], robot, "ur5")
+    (out / "meta.json").unlink()
+    dead = tmp_path / f".ds.importing-{socket.gethostname()}-{2**22 + 7}"  # above Linux's largest pid
+    (dead / "shards").mkdir(parents=True)
+    import_recordings(out, [good], robot, "ur5")
+    assert not dead.exists() and sorted(os.listdir(tmp_path)) == ["ds", "good"]
