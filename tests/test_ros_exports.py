@@ -84,7 +84,7 @@ def test_urdf_joint_found_by_name_in_a_whole_robot(tmp_path):
     "old, new, message",
     [
         ('"--qw", ', '"--qw_", ', r"line 24: argument '--qw_' not understood"),
-        ('"--x", "', '"--x", "x', r"line 18: --x 'x.*' is not a number"),
+        ('"--x", "', '"--x", "x', r"line 18: --x: 'x.*' is not a number"),
         ('                "--qw", ', '                # "--qw", ', r"line 24: .* has no value|missing --qw"),
         ("def generate", "def generate(", r"line \d+: not a Python launch file"),
         ('executable="static_transform_publisher"', 'executable="other"', r"0 static_transform_publisher nodes"),

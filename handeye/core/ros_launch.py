@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import PoseFileError
+from handeye.core.numbers import parse_float
 from handeye.core.safe_write import write_text_atomic
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, pos_quat_xyzw_from_transform
 
@@ -185,13 +186,7 @@ def read_static_tf_launch(path: str | Path) -> tuple[np.ndarray, str, str]:
     numbers = []
     for flag in _NUMBER_ARGS:
         text, line = values[flag]
-        try:
-            number = float(text)
-        except ValueError:
-            raise PoseFileError(f"{path}, line {line}: {flag} {text!r} is not a number") from None
-        if not np.isfinite(number):
-            raise PoseFileError(f"{path}, line {line}: {flag} {text!r} is not finite")
-        numbers.append(number)
+        numbers.append(parse_float(text, f"{path}, line {line}: {flag}", PoseFileError))
     q = np.array(numbers[3:])
     if abs(np.linalg.norm(q) - 1.0) > _QUAT_NORM_TOL:
         raise PoseFileError(

@@ -26,6 +26,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from handeye.core.errors import PoseFileError
+from handeye.core.numbers import parse_float
 from handeye.core.robot_angles import matrix_from_urdf_rpy, urdf_rpy_from_matrix
 from handeye.core.ros_launch import check_frame_name
 from handeye.core.safe_write import write_text_atomic
@@ -76,11 +77,9 @@ def write_urdf_joint(
 
 def _triple(path: Path, origin: ET.Element, key: str, line: int) -> np.ndarray:
     text = origin.get(key, "0 0 0")  # URDF: a missing xyz or rpy is zero
-    try:
-        values = np.array([float(v) for v in text.split()])
-    except ValueError:
-        raise PoseFileError(f"{path}, line {line}: origin {key}={text!r} is not three numbers") from None
-    if values.shape != (3,) or not np.isfinite(values).all():
+    where = f"{path}, line {line}: origin {key}"
+    values = np.array([parse_float(v, where, PoseFileError) for v in text.split()])
+    if values.shape != (3,):
         raise PoseFileError(f"{path}, line {line}: origin {key}={text!r} is not three finite numbers")
     return values
 
