@@ -281,3 +281,44 @@ def test_start_zero_quaternion_is_called_one(tmp_path):
     _one_line(info, "start.json: translation_m", "'0_1'")
     path.write_text(json.dumps({"translation_m": [0.1, 0.2, 0.9], "quaternion_xyzw": [0, 0, 0, 1]}))
     np.testing.assert_array_equal(read_start(path)[:3, 3], [0.1, 0.2, 0.9])
+
+
+# ------------------------------------------------------------------ vision files
+
+
+@pytest.mark.parametrize(
+    "field, value, expect",
+    [
+        ("squares_x", '"0_7"', "squares_x: '0_7' is not an integer"),
+        ("squares_x", "7.5", "squares_x: 7.5 is not a whole number"),
+        ("square_length_m", '"\uff10.03"', "square_length_m: '\uff10.03' is not a number"),
+        ("square_length_m", "true", "square_length_m: True is a boolean"),
+    ],
+)
+def test_board_file_refuses_numbers_python_would_take(tmp_path, field, value, expect):
+    from classic.vision.board import BoardSpec, BoardSpecError
+
+    doc = {"kind": "checkerboard", "squares_x": 7, "squares_y": 5, "square_length_m": 0.03}
+    path = tmp_path / "board.json"
+    path.write_text(json.dumps(doc).replace(f'"{field}": {json.dumps(doc[field])}', f'"{field}": {value}'))
+    with pytest.raises(BoardSpecError) as info:
+        BoardSpec.load(path)
+    _one_line(info, "board.json", expect)
+    assert str(info.value).count("board.json") == 1
+
+
+def test_intrinsics_file_refuses_a_string_number_python_would_take(tmp_path):
+    from classic.vision.camera import CameraIntrinsics, IntrinsicsError
+
+    path = tmp_path / "camera.json"
+    good = {"K": [[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]], "dist": [0] * 5, "width": 640, "height": 480}
+    path.write_text(json.dumps(good))
+    assert CameraIntrinsics.load(path).K[0, 0] == 600.0
+    path.write_text(json.dumps({**good, "K": [["6_00", 0, 320], [0, 600.0, 240], [0, 0, 1]]}))
+    with pytest.raises(IntrinsicsError) as info:
+        CameraIntrinsics.load(path)
+    _one_line(info, "camera.json", "'6_00' is not a number")
+    path.write_text(json.dumps({**good, "width": "６４０"}))
+    with pytest.raises(IntrinsicsError) as info:
+        CameraIntrinsics.load(path)
+    _one_line(info, "camera.json", "width", "not an integer")

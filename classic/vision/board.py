@@ -314,17 +314,19 @@ class BoardSpec:
         legacy = doc.get("legacy", False)
         if not isinstance(legacy, bool):
             raise BoardSpecError(f"{path}: legacy must be true or false, got {legacy!r}")
+        from handeye.core.numbers import as_float, as_int
+
         try:
             return cls(
-                int(doc["squares_x"]),
-                int(doc["squares_y"]),
-                float(doc["square_length_m"]),
-                float(doc.get("marker_length_m", 0.0)),
+                as_int(doc["squares_x"], f"{path}: squares_x", BoardSpecError),
+                as_int(doc["squares_y"], f"{path}: squares_y", BoardSpecError),
+                as_float(doc["square_length_m"], f"{path}: square_length_m", BoardSpecError),
+                as_float(doc.get("marker_length_m", 0.0), f"{path}: marker_length_m", BoardSpecError),
                 str(doc.get("dictionary", "")),
                 kind,
                 legacy,
             )
         except BoardSpecError as exc:
-            raise BoardSpecError(f"{path}: {exc}") from None
+            raise BoardSpecError(exc if str(exc).startswith(str(path)) else f"{path}: {exc}") from None
         except (TypeError, ValueError) as exc:
             raise BoardSpecError(f"{path}: not a valid board spec ({exc})") from None

@@ -73,16 +73,13 @@ class CameraIntrinsics:
         IntrinsicsError
             A value that is not a number (``"0_2"``, ``true``), a size that is not a whole number of pixels.
         """
-        from handeye.core.numbers import float_array, parse_int
+        from handeye.core.numbers import as_int, float_array
 
         def pixels(name: str) -> int:
-            value = doc.get(name, 0)
-            if isinstance(value, str):
-                return parse_int(value, name, IntrinsicsError)
-            whole = isinstance(value, int) or (isinstance(value, float) and value.is_integer())
-            if isinstance(value, bool) or not whole or value < 0:
-                raise IntrinsicsError(f"{name} is {value!r}, not a whole number of pixels")
-            return int(value)
+            value = as_int(doc.get(name, 0), name, IntrinsicsError)
+            if value < 0:
+                raise IntrinsicsError(f"{name} is {value}, not a number of pixels")
+            return value
 
         return cls(
             float_array(doc["K"], "K", IntrinsicsError),

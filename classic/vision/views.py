@@ -150,6 +150,7 @@ class Views:
             Naming the file.
         """
         from handeye.core.jsonfile import read_json_file
+        from handeye.core.numbers import as_float, as_int, float_array
 
         path = Path(path)
         doc = read_json_file(path, DetectionsFileError, "detections file")
@@ -158,21 +159,28 @@ class Views:
             intr = CameraIntrinsics.from_dict(doc["intrinsics"])
             views = []
             for v in doc["views"]:
+                where = f"{path}: view {v.get('image', len(views))!r}"
+                ids = float_array(v["ids"], f"{where} ids", DetectionsFileError)
+                if ids.size and (ids != np.round(ids)).any():
+                    raise DetectionsFileError(f"{where} ids: not whole numbers")
                 det = Detection(
-                    np.array(v["ids"], dtype=int),
-                    np.array(v["corners_px"], dtype=float).reshape(-1, 2),
-                    int(v.get("n_markers", 0)),
-                    tuple(v["image_size"]),
+                    ids.astype(int),
+                    float_array(v["corners_px"], f"{where} corners_px", DetectionsFileError).reshape(-1, 2),
+                    as_int(v.get("n_markers", 0), f"{where} n_markers", DetectionsFileError),
+                    tuple(as_int(s, f"{where} image_size", DetectionsFileError) for s in v["image_size"]),
                 )
                 T = None
                 if "T_cam_target" in v:
                     T = transform_from_pos_quat_xyzw(
-                        np.array(v["T_cam_target"]["translation_m"]), np.array(v["T_cam_target"]["quaternion_xyzw"])
+                        float_array(v["T_cam_target"]["translation_m"], f"{where} translation_m", DetectionsFileError),
+                        float_array(v["T_cam_target"]["quaternion_xyzw"], f"{where} quaternion", DetectionsFileError),
                     )
-                rms = np.nan if v["rms_px"] is None else float(v["rms_px"])
+                rms = np.nan if v["rms_px"] is None else as_float(v["rms_px"], f"{where} rms_px", DetectionsFileError)
                 views.append(View(v["image"], det, ViewPose(T, rms, len(det.ids), v["reason"])))
         except FileNotFoundError:
             raise DetectionsFileError(f"{path}: no such detections file") from None
+        except DetectionsFileError:
+            raise  # names the file and the view already
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
             raise DetectionsFileError(f"{path}: not a handeye detections file ({type(exc).__name__}: {exc})") from None
         return cls(views, spec, intr, (path.parent / doc["image_folder"]).resolve(), doc.get("intrinsics_report", ""))

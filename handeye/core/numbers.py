@@ -42,6 +42,8 @@ __all__ = [
     "parse_int",
     "loads_json",
     "float_array",
+    "as_float",
+    "as_int",
 ]
 
 #: A number written with more characters than this is refused before it is converted: float64 needs at most
@@ -301,3 +303,57 @@ def float_array(value, where: str, error: type[Exception] = NumberError) -> np.n
         if isinstance(exc, HandEyeInputError) or isinstance(exc, error):
             raise
         raise error(f"{where}: lists of unequal lengths where a matrix or vector of numbers is expected") from None
+
+
+def as_float(value, where: str, error: type[Exception] = NumberError) -> float:
+    """One finite number of a parsed JSON or YAML document (a number, or a string in the grammar).
+
+    Parameters
+    ----------
+    value : int, float or str
+    where : str
+    error : type of Exception
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    error
+        A boolean, a list, null, a string outside the grammar, a non-finite number.
+    """
+    out = float_array(value, where, error)
+    if out.ndim != 0:
+        raise error(f"{where}: a list where one number is expected")
+    return float(out)
+
+
+def as_int(value, where: str, error: type[Exception] = NumberError) -> int:
+    """One integer of a parsed JSON or YAML document: an integer, a float with no fraction, or a digit string.
+
+    Parameters
+    ----------
+    value : int, float or str
+    where : str
+    error : type of Exception
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    error
+        A boolean, a fraction (``7.5``: never rounded silently), a string outside ``[+-]?\\d+``, another type.
+    """
+    if isinstance(value, str):
+        return parse_int(value, where, error)
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        if abs(int(value)) >= 10**MAX_NUMBER_CHARS:
+            raise error(f"{where}: an integer of {len(str(int(value))):,} digits is not a number handeye reads")
+        return int(value)
+    number = as_float(value, where, error)
+    if not number.is_integer():
+        raise error(f"{where}: {number!r} is not a whole number")
+    return int(number)
