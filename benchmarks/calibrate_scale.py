@@ -38,29 +38,43 @@ from handeye.core.synthetic import make_problem  # noqa: E402
 CAMERA_NOISE = (0.1, 1.0)
 
 
-def _measured(argv: list[str]) -> tuple[int, float, float, str]:
-    """``handeye`` with ``argv`` in a child that prints its own ``ru_maxrss`` (kB) last on stderr."""
-    code = (
-        "import resource, sys\n"
-        "from handeye.cli import main\n"
-        "try:\n"
-        "    rc = main(sys.argv[1:])\n"
-        "except SystemExit as e:\n"
-        "    rc = e.code if isinstance(e.code, int) else 1\n"
-        "sys.stderr.write('\\nMAXRSS_KB %d\\n' % resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"
-        "sys.exit(rc)\n"
-    )
+#: The child that runs ``handeye ARGS`` (``cli``) or ``classic.calibrate`` on the benchmark's set of N poses
+#: (``classic N``), then prints its own peak memory (ru_maxrss, kB) and CPU seconds last on stderr.
+CHILD = r"""
+import resource, sys, time, warnings
+t0 = time.perf_counter()
+if sys.argv[1] == "cli":
+    from handeye.cli import main
+    try:
+        rc = main(sys.argv[2:])
+    except SystemExit as e:
+        rc = e.code if isinstance(e.code, int) else 1
+else:
+    import numpy as np
+    import classic
+    from handeye.core.synthetic import make_problem
+    p = make_problem(int(sys.argv[2]), "eye_to_hand", rng=np.random.default_rng(1), camera_noise=CAMERA_NOISE)
+    warnings.simplefilter("ignore")
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True)
-    seconds = time.perf_counter() - t0
-    peak = float("nan")
-    message = ""
+    classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_to_hand")
+    rc = 0
+u = resource.getrusage(resource.RUSAGE_SELF)
+sys.stderr.write("\nMEASURED %d %.3f %.3f\n" % (u.ru_maxrss, u.ru_utime + u.ru_stime, time.perf_counter() - t0))
+sys.exit(rc)
+""".replace("CAMERA_NOISE", repr(CAMERA_NOISE))
+
+
+def _measured(args: list[str]) -> dict:
+    """The child on ``args``: exit status, wall and CPU seconds, peak MB, the last other line of its stderr."""
+    proc = subprocess.run([sys.executable, "-c", CHILD, *args], capture_output=True, text=True)
+    out = {"rc": proc.returncode, "peak_mb": np.nan, "cpu_s": np.nan, "wall_s": np.nan, "message": ""}
     for line in proc.stderr.splitlines():
-        if line.startswith("MAXRSS_KB "):
-            peak = int(line.split()[1]) / 1024
+        if line.startswith("MEASURED "):
+            kb, cpu, wall = line.split()[1:]
+            out.update(peak_mb=int(kb) / 1024, cpu_s=float(cpu), wall_s=float(wall))
         elif line.strip():
-            message = line.strip()
-    return proc.returncode, seconds, peak, message
+            out["message"] = line.strip()
+    return out
 
 
 def _x_error(result: dict, X_true: np.ndarray) -> tuple[float, float, float]:
@@ -88,28 +102,39 @@ def main(argv=None) -> int:
         f"numpy {np.__version__}",
     )
     rep.say(
-        f"Synthetic eye-to-hand sets, camera noise {CAMERA_NOISE[0]} deg / {CAMERA_NOISE[1]} mm per axis; "
-        "each calibrated by `handeye calibrate POSES.csv --setup eye-to-hand -o RESULT.json` (default "
-        "`--pairs all`) in a process of its own. Peak MB: that process's ru_maxrss; seconds: its wall clock "
-        "(Python start and the CSV's parsing included). X error over sigma: Mahalanobis distance of X's error "
-        "in the reported covariance (chi, 6 dof: 3.4 at 95 %, 4.6 at 99.9 %). Targets: 10^5 poses within 1 GB "
-        "and 30 s."
+        f"Synthetic eye-to-hand sets, camera noise {CAMERA_NOISE[0]} deg / {CAMERA_NOISE[1]} mm per axis, "
+        "each run twice, in a process of its own: `handeye calibrate POSES.csv --setup eye-to-hand -o RESULT.json` "
+        "(default `--pairs all`; the CSV's parsing and the JSON's writing included), and `classic.calibrate` alone "
+        "on the same poses as arrays. Peak MB: the process's ru_maxrss (Python and its libraries included); "
+        "s: wall clock of the command (of the call, for classic.calibrate); CPU: user + system seconds of the "
+        "process; load: the machine's 1-minute load average before the run (the machine is shared; wall time "
+        "grows with it). X error / sigma: Mahalanobis distance of X's error in the reported covariance (chi with "
+        "6 dof: 3.4 at 95 %, 4.6 at 99.9 %). Targets (issue 40): 10^5 poses within 1 GB and 30 s."
     )
     rep.say()
     rep.say(
-        "| poses | pairs (rule) | exit | seconds | peak MB | X error deg | X error mm | X 1-sigma deg / mm "
-        "| error / sigma |"
+        "| poses | pairs (rule) | CLI exit | CLI s / CPU s | CLI peak MB | calibrate s / CPU s | calibrate peak MB "
+        "| load | X error deg / mm | X 1-sigma deg / mm | error / sigma |"
     )
-    rep.say("|---|---|---|---|---|---|---|---|---|")
+    rep.say("|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.sizes:
             p = make_problem(n, "eye_to_hand", rng=np.random.default_rng(1), camera_noise=CAMERA_NOISE)
             path = os.path.join(tmp, f"poses_{n}.csv")
             out = os.path.join(tmp, f"result_{n}.json")
             write_pose_csv(path, p.T_base_ee, p.T_cam_target, comment=f"calibrate_scale: {n} synthetic poses")
-            rc, seconds, peak, message = _measured(["calibrate", path, "--setup", "eye-to-hand", "-o", out])
-            if rc != 0:
-                rep.say(f"| {n:,} | | {rc} | {seconds:.1f} | {peak:.0f} | {message[:120]} | | | |")
+            load = os.getloadavg()[0]
+            t0 = time.perf_counter()
+            cli = _measured(["cli", "calibrate", path, "--setup", "eye-to-hand", "-o", out])
+            cli["wall_s"] = time.perf_counter() - t0  # the whole command, Python's start included
+            alone = _measured(["classic", str(n)])
+            row = (
+                f"| {n:,} | {{pairs}} | {cli['rc']} | {cli['wall_s']:.1f} / {cli['cpu_s']:.1f} | "
+                f"{cli['peak_mb']:.0f} | "
+                f"{alone['wall_s']:.1f} / {alone['cpu_s']:.1f} | {alone['peak_mb']:.0f} | {load:.1f} | "
+            )
+            if cli["rc"] != 0:
+                rep.say(row.format(pairs="") + f"{cli['message'][:120]} | | |")
                 continue
             with open(out) as f:
                 result = json.load(f)
@@ -117,9 +142,8 @@ def main(argv=None) -> int:
             deg, mm, z = _x_error(result, p.X_true)
             sig = result["sigma"]
             rep.say(
-                f"| {n:,} | {pairs.get('n_pairs', 0):,} ({pairs.get('rule', '?')}) | {rc} | {seconds:.1f} | "
-                f"{peak:.0f} | {deg:.5f} | {mm:.4f} | {sig['X_rotation_deg']:.5f} / {sig['X_translation_mm']:.4f} | "
-                f"{z:.2f} |"
+                row.format(pairs=f"{pairs.get('n_pairs', 0):,} ({pairs.get('rule', '?')})")
+                + f"{deg:.5f} / {mm:.4f} | {sig['X_rotation_deg']:.5f} / {sig['X_translation_mm']:.4f} | {z:.2f} |"
             )
     return rep.write(args.out)
 
