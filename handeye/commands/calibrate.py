@@ -72,9 +72,15 @@ from handeye.noise_args import add_noise_arguments, describe_noise, noise_model_
 __all__ = ["add_parser", "run"]
 
 
+def _most_all_pairs(max_pairs: int) -> int:
+    """The most poses whose pairs are all taken under ``max_pairs``."""
+    return int((1 + (1 + 8 * max_pairs) ** 0.5) // 2)
+
+
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
     from classic.calibrate import DEFAULT_METHOD, METHODS
+    from classic.pairs import MAX_PAIRS
 
     p = sub.add_parser(
         "calibrate",
@@ -140,7 +146,17 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="eye-to-hand: static camera, target on the flange; eye-in-hand: camera on the flange",
     )
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"closed form (default {DEFAULT_METHOD})")
-    p.add_argument("--pairs", default="all", choices=["all", "consecutive"], help="motion pairs for AX=XB methods")
+    p.add_argument(
+        "--pairs",
+        default="all",
+        choices=["all", "consecutive"],
+        help="motion pairs for the AX=XB starts and the motion checks: all (default) takes every pair up to "
+        f"{MAX_PAIRS:,} ({_most_all_pairs(MAX_PAIRS)} poses); beyond, each pose is paired with the poses k index "
+        f"strides away (mod N), k = {MAX_PAIRS:,} // N: stride 1 and golden-ratio spread strides in [2, N/2], "
+        "so the pairs keep the set's rotation diversity and memory stays linear (the result's "
+        "diagnostics['pairs'] states them); "
+        "consecutive: the N-1 pairs of neighbouring rows",
+    )
     p.add_argument(
         "--no-refine", action="store_true", help="skip the refinement (maximum likelihood under the noise model)"
     )
@@ -468,6 +484,12 @@ def _run_poses(args: argparse.Namespace) -> int:
         f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
         f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg"
     )
+    pairs = res.diagnostics.get("pairs", {})
+    if pairs.get("rule") == "bounded":
+        lines.append(
+            f"  motion pairs: {pairs['n_pairs']:,} of {pairs['all_pairs']:,} (bounded: each pose with the poses "
+            f"{len(pairs['strides'])} index strides away; --pairs help)"
+        )
     for w in caught:
         if w.category.__name__ != "SuspectPosesWarning":  # the lines above name those poses
             lines.append(f"  warning: {w.message}")
