@@ -241,6 +241,13 @@ def test_a_fifo_is_named_as_such(tmp_path):
     with pytest.raises(HandEyeInputError) as info:
         read_start(start)
     _one_line(info, "start.json: a FIFO (named pipe), not a file")
+    os.mkfifo(tmp_path / "meta.json")
+    with pytest.raises(DatasetError) as info:
+        Dataset.open(tmp_path)
+    _one_line(info, "meta.json: a FIFO (named pipe), not a file")
+    with pytest.raises(DatasetError) as info:
+        read_table("/dev/null", CAMERA_COLUMNS)
+    _one_line(info, "/dev/null: a character device, not a file")
 
 
 @pytest.mark.parametrize(

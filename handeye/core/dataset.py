@@ -359,6 +359,8 @@ def decode_depth(units: np.ndarray, scale_m: float) -> np.ndarray:
 def _read_png(path: Path) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
+    if path.exists() and not path.is_file():
+        raise DatasetError(f"{path}: {file_kind(path)}, not a file; an image must be a regular PNG file")
     if not path.is_file():
         raise DatasetError(f"{path}: image missing")
     try:
@@ -589,6 +591,8 @@ class Dataset:
         if not root.is_dir():
             raise DatasetError(f"{root}: no such dataset directory")
         path = root / "meta.json"
+        if path.exists() and not path.is_file():
+            raise DatasetError(f"{path}: {file_kind(path)}, not a file; meta.json must be a regular JSON file")
         if not path.is_file():
             raise DatasetError(f"{path}: missing; not a handeye dataset (generate one with 'handeye sim generate')")
         meta = read_json_file(path, DatasetError, "dataset meta file")
