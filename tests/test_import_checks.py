@@ -75,25 +75,29 @@ def _info(stamp: int, k: np.ndarray, width: int, height: int):
     )
 
 
-def write_bag(path, storage="sqlite3", depth=DEPTH_M * 1e3, encoding="16UC1", q=Q, names=UR5, k=K, size=(W, H)):
-    """A bag of N frames: colour, depth (a constant ``depth`` in the encoding's values), camera_info, joints."""
+def write_bag(path, storage="sqlite3", depth=DEPTH_M * 1e3, encoding="16UC1", infos=None, joints=None):
+    """A bag of N frames: colour, depth (a constant ``depth`` in the encoding's values), camera_info, joints.
+
+    ``infos``: ``{topic: (K, (width, height))}``, camera_info topics besides INFO (K and W x H);
+    ``joints``: ``{topic: (q (N, J), names)}``, JointState topics besides JOINTS (Q of UR5).
+    """
     dtype = "<u2" if encoding == "16UC1" else "<f4"
+    infos = {INFO: (K, (W, H)), **(infos or {})}
+    joints = {JOINTS: (Q, UR5), **(joints or {})}
     messages = []
     for i in range(N):
         s = EPOCH_NS + i * 500_000_000
         messages += [
             (COLOR, "sensor_msgs/msg/Image", s, _image(s, "rgb8", np.full((H, W, 3), 90 + i, np.uint8))),
             (DEPTH, "sensor_msgs/msg/Image", s, _image(s, encoding, np.full((H, W), depth, dtype))),
-            (INFO, "sensor_msgs/msg/CameraInfo", s, _info(s, np.asarray(k, float), *size)),
-            (
-                JOINTS,
-                "sensor_msgs/msg/JointState",
-                s,
-                MSG["sensor_msgs/msg/JointState"](
-                    _header(s, ""), list(names), np.asarray(q[i], float), np.zeros(0), np.zeros(0)
-                ),
-            ),
         ]
+        for topic, (k, size) in infos.items():
+            messages.append((topic, "sensor_msgs/msg/CameraInfo", s, _info(s, np.asarray(k, float), *size)))
+        for topic, (q, names) in joints.items():
+            state = MSG["sensor_msgs/msg/JointState"](
+                _header(s, ""), list(names), np.asarray(q[i], float), np.zeros(0), np.zeros(0)
+            )
+            messages.append((topic, "sensor_msgs/msg/JointState", s, state))
     plugin = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}[storage]
     with Writer(path, version=9, storage_plugin=plugin) as writer:
         conns = {}
@@ -202,44 +206,54 @@ def test_npy_header_declaring_a_huge_image_is_refused_before_reading(tmp_path):
 # ------------------------------------------------------------------ joints (item 7)
 
 
-@pytest.mark.parametrize(
-    "value, message",
-    [
-        (np.nan, r"joint 'elbow_joint' is nan \(1 such samples\); a joint angle must be a finite number"),
-        (np.inf, r"joint 'elbow_joint' is inf"),
-        (1e300, r"joint 'elbow_joint' is 1e\+300, beyond its limits \[-3.142, 3.142\] rad"),
-    ],
-)
-def test_impossible_joint_values_are_refused_naming_topic_stamp_and_joint(tmp_path, robot, value, message):
+#: A bag whose joint topics each hold one impossible value of elbow_joint at the third frame, and what is said.
+BAD_JOINTS = {
+    "/nan": (np.nan, r"joint 'elbow_joint' is nan \(1 such samples\); a joint angle must be a finite number"),
+    "/inf": (np.inf, r"joint 'elbow_joint' is inf"),
+    "/huge": (1e300, r"joint 'elbow_joint' is 1e\+300, beyond its limits \[-3.142, 3.142\] rad"),
+    "/degrees": (np.nan, r"joint 'shoulder_pan_joint' is 8.59437, beyond its limits .*look like degrees"),
+    "/twice": (np.nan, r"joint 'elbow_joint' is listed twice"),
+}
+
+
+def _bad(value):
     q = Q.copy()
     q[2, 2] = value
-    part = read_camera_bag(write_bag(tmp_path / "bag", q=q), COLOR, INFO, DEPTH)
-    stamp = EPOCH_NS + 2 * 500_000_000
-    with pytest.raises(RecordingError, match=rf"{JOINTS}, the message stamped {stamp} ns: {message}"):
+    return q, UR5
+
+
+@pytest.fixture(scope="module")
+def bad_joints(tmp_path_factory):
+    topics = {t: _bad(v) for t, (v, _) in BAD_JOINTS.items()}
+    topics["/degrees"] = (np.rad2deg(Q), UR5)
+    topics["/twice"] = (np.insert(Q, 3, 0.0, axis=1), UR5[:3] + ["elbow_joint"] + UR5[3:])
+    topics["/gripper"] = (np.concatenate([Q, np.full((N, 1), np.nan)], axis=1), UR5 + ["finger"])
+    return write_bag(tmp_path_factory.mktemp("joints") / "bag", joints=topics)
+
+
+@pytest.mark.parametrize("topic", ["/nan", "/inf", "/huge", "/degrees"])
+def test_impossible_joint_values_are_refused_naming_topic_stamp_and_joint(bad_joints, tmp_path, robot, topic):
+    part = read_camera_bag(bad_joints, COLOR, INFO, DEPTH, topic)
+    stamp = EPOCH_NS + (500_000_000 if topic == "/degrees" else 2 * 500_000_000)  # the first sample beyond
+    with pytest.raises(RecordingError, match=rf"{topic}, the message stamped {stamp} ns: {BAD_JOINTS[topic][1]}"):
         import_recordings(tmp_path / "out", [part], robot, "ur5")
     assert not (tmp_path / "out").exists()
 
 
-def test_joints_in_degrees_are_named_as_degrees(tmp_path, robot, capsys):
-    part = read_camera_bag(write_bag(tmp_path / "bag", q=np.rad2deg(Q)), COLOR, INFO, DEPTH)
-    stamp = EPOCH_NS + 500_000_000  # the first sample beyond a limit: 8.59 "radians" of shoulder_pan_joint
-    with pytest.raises(RecordingError, match=rf"stamped {stamp} ns: joint 'shoulder_pan_joint' is 8.59437, .*degrees"):
-        import_recordings(tmp_path / "out", [part], robot, "ur5")
+def test_joints_in_degrees_in_a_folder_are_one_line(tmp_path, capsys):
     folder = _folder(tmp_path / "p", joints=_joint_lines(np.rad2deg(Q)))
     assert main(["import", "folder", str(folder), "--robot", "ur5", "--out", str(tmp_path / "f"), "--quiet"]) == 2
     err = _one_line(capsys)
     assert "joints.csv, frame 'f1': joint 'shoulder_pan_joint'" in err and "degrees" in err
 
 
-def test_a_joint_named_twice_is_refused_and_an_unused_joint_is_not_checked(tmp_path, robot):
-    names = UR5[:3] + ["elbow_joint"] + UR5[3:]
-    q = np.insert(Q, 3, 0.0, axis=1)
-    with pytest.raises(RecordingError, match=rf"{JOINTS} at stamp {EPOCH_NS}: joint 'elbow_joint' is listed twice"):
-        read_camera_bag(write_bag(tmp_path / "dup", q=q, names=names), COLOR, INFO, DEPTH)
+def test_a_joint_named_twice_is_refused_and_an_unused_joint_is_not_checked(bad_joints, tmp_path, robot):
+    with pytest.raises(RecordingError, match=rf"/twice at stamp {EPOCH_NS}: {BAD_JOINTS['/twice'][1]}"):
+        read_camera_bag(bad_joints, COLOR, INFO, DEPTH, "/twice")
+    q, names = np.insert(Q, 3, 0.0, axis=1), UR5[:3] + ["elbow_joint"] + UR5[3:]
     with pytest.raises(RecordingError, match=r"joints.csv, header: joint 'elbow_joint' is listed twice"):
         read_frame_folder(_folder(tmp_path / "p", joints=_joint_lines(q, names)))
-    gripper = np.concatenate([Q, np.full((N, 1), np.nan)], axis=1)  # a joint the model has not: not used
-    part = read_camera_bag(write_bag(tmp_path / "g", q=gripper, names=UR5 + ["finger"]), COLOR, INFO, DEPTH)
+    part = read_camera_bag(bad_joints, COLOR, INFO, DEPTH, "/gripper")  # NaN in a joint the model has not
     report = import_recordings(tmp_path / "out", [part], robot, "ur5")
     assert report.frames[0]["data"] == N
     ds = Dataset.open(tmp_path / "out")
@@ -255,24 +269,29 @@ def _with(r, c, value):
     return k
 
 
-@pytest.mark.parametrize(
-    "k, size, message",
-    [
-        (_with(0, 0, 1e-300), (W, H), r"fx = 1e-300 pixels gives a 180-degree field of view"),
-        (_with(1, 1, 1e300), (W, H), r"fy = 1e\+300 pixels gives a 3.44e-298-degree field of view"),
-        (_with(0, 0, -10.0), (W, H), r"fx is -10; a focal length must be > 0"),
-        (_with(0, 2, np.nan), (W, H), r"cx \(K\[0\]\[2\]\) is nan"),
-        (_with(0, 2, 812.0), (W, H), r"cx = 812 is outside the image \(0 to 8 pixels\)"),
-        (K.T, (W, H), r"K\[2\]\[0\] is 3.5; a camera matrix is"),
-        (_with(2, 2, 2.0), (W, H), r"K\[2\]\[2\] is 2, not 1"),
-        (np.zeros((3, 3)), (W, H), r"K is all zero: the camera is not calibrated"),
-        (K, (0, H), r"width 0 and height 6"),
-    ],
-)
-def test_camera_info_no_camera_has_is_refused_naming_the_field(tmp_path, k, size, message):
-    bag = write_bag(tmp_path / "bag", k=k, size=size)
-    with pytest.raises(IntrinsicsError, match=rf"{INFO} at stamp {EPOCH_NS}: {message}"):
-        read_camera_bag(bag, COLOR, INFO, DEPTH)
+#: camera_info topics of K (and W x H) no camera has, and what is said.
+BAD_INFOS = {
+    "/fx_tiny": (_with(0, 0, 1e-300), (W, H), r"fx = 1e-300 pixels gives a 180-degree field of view"),
+    "/fy_huge": (_with(1, 1, 1e300), (W, H), r"fy = 1e\+300 pixels gives a 3.44e-298-degree field of view"),
+    "/fx_negative": (_with(0, 0, -10.0), (W, H), r"fx is -10; a focal length must be > 0"),
+    "/cx_nan": (_with(0, 2, np.nan), (W, H), r"cx \(K\[0\]\[2\]\) is nan"),
+    "/cx_outside": (_with(0, 2, 812.0), (W, H), r"cx = 812 is outside the image \(0 to 8 pixels\)"),
+    "/transposed": (K.T, (W, H), r"K\[2\]\[0\] is 3.5; a camera matrix is"),
+    "/scaled": (_with(2, 2, 2.0), (W, H), r"K\[2\]\[2\] is 2, not 1"),
+    "/uncalibrated": (np.zeros((3, 3)), (W, H), r"K is all zero: the camera is not calibrated"),
+    "/no_size": (K, (0, H), r"width 0 and height 6"),
+}
+
+
+@pytest.fixture(scope="module")
+def bad_infos(tmp_path_factory):
+    return write_bag(tmp_path_factory.mktemp("infos") / "bag", infos={t: v[:2] for t, v in BAD_INFOS.items()})
+
+
+@pytest.mark.parametrize("topic", list(BAD_INFOS))
+def test_camera_info_no_camera_has_is_refused_naming_the_field(bad_infos, topic):
+    with pytest.raises(IntrinsicsError, match=rf"{topic} at stamp {EPOCH_NS}: {BAD_INFOS[topic][2]}"):
+        read_camera_bag(bad_infos, COLOR, topic, DEPTH)
 
 
 def test_intrinsics_file_no_camera_has_is_refused(tmp_path):
@@ -314,16 +333,16 @@ def test_a_corrupt_mcap_record_is_one_line(tmp_path, capsys, how):
     mcap.write_bytes(_corrupt(mcap.read_bytes(), how))
     with pytest.raises(BagError, match="storage is corrupt"):
         read_camera_bag(bag, COLOR, INFO, DEPTH)
-    assert _import_bag(bag, tmp_path / "out") == 2
-    assert "storage is corrupt" in _one_line(capsys)
-    assert not (tmp_path / "out").exists()
+    if how == "checksum":  # and through the command: one line, nothing written
+        assert _import_bag(bag, tmp_path / "out") == 2
+        assert "storage is corrupt" in _one_line(capsys)
+        assert not (tmp_path / "out").exists()
 
 
 @pytest.fixture(scope="module")
-def imported(tmp_path_factory):
+def imported(tmp_path_factory, robot):
     root = tmp_path_factory.mktemp("imported")
-    bag = write_bag(root / "bag")
-    assert _import_bag(bag, root / "ds") == 0
+    import_recordings(root / "ds", [read_camera_bag(write_bag(root / "bag"), COLOR, INFO, DEPTH)], robot, "ur5")
     return root / "ds"
 
 
