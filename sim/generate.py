@@ -445,7 +445,16 @@ def generate(
     Raises
     ------
     DatasetError
-        ``out`` holds a dataset made with other options.
+        ``out`` holds a dataset made with other options, or cannot be created or written (a read-only
+        folder, a full disk, an unopenable lock file): the path and the cause named; a rerun resumes.
+
+    Notes
+    -----
+    The rendering workers die with this process, however it ends (``kill -9`` included: see
+    :mod:`handeye.core.pool`), so none writes into ``out`` after the dataset's lock is released. With
+    ``engine="ray"`` and a local cluster started for the call, Ray's own processes share this process's
+    fate and its workers end with their raylet; on a standing cluster (``address``) Ray ends the tasks of
+    a driver that died.
     """
     t0 = time.perf_counter()
     preset = get_preset(preset) if isinstance(preset, str) else preset
@@ -473,46 +482,81 @@ def generate(
     blocking = next((p for p in out.parents if p.exists()), None)
     if blocking is not None and not blocking.is_dir():
         raise DatasetError(f"{out}: cannot be created, {blocking} is a file; choose another --out")
-    out.mkdir(parents=True, exist_ok=True)
-    with dataset_lock(out, "handeye sim generate"):
-        meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m, sensor)
-        _check_or_write_meta(out, meta)
-        if not (out / "cameras.csv").exists():
-            write_table(
-                out / "cameras.csv",
-                table := _camera_table(place_cameras(preset, np.random.default_rng(seed)), sensor, seed),
-                camera_table_columns(table),
-            )
-        report = GenerationReport(out)
-        pending = []
-        for c in range(preset.n_cameras) if cameras is None else cameras:
-            shard = ShardWriter(out, c)
-            if shard.complete:
-                report.skipped.append(c)
-                continue
-            if shard.final.exists() or shard.partial.exists():
-                report.regenerated.append(c)
-            pending.append(c)
-        # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
-        # context of the process, so the caller's process never holds one
-        for c, n in run_tasks(
-            _work,
-            [(c, str(out.resolve())) for c in pending],
-            engine,
-            workers,
-            address,
-            progress,
-            desc=f"render {out.name}",
-            unit="camera",
-            initializer=_init_worker,
-            initargs=(meta,),
-            isolate=True,
-            describe=_describe,
-        ):
-            report.rendered.append(c)
-            report.frames += n
-        report.rendered.sort()
-        if cameras is not None:
-            report.left = sum(not ShardWriter(out, c).complete for c in range(preset.n_cameras))
-        report.wall_s = time.perf_counter() - t0
-        return report
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DatasetError(
+            f"{out}: cannot create the dataset folder ({exc.strerror or exc}); choose a writable --out"
+        ) from None
+    try:
+        with dataset_lock(out, "handeye sim generate"):
+            meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m, sensor)
+            return _render(out, preset, meta, seed, sensor, cameras, engine, workers, address, progress, t0)
+    except OSError as exc:  # a read or write the system refused (full disk, permissions, a vanished folder)
+        raise _io_failure(out, exc) from None
+
+
+def _io_failure(out: Path, exc: OSError) -> DatasetError:
+    """A failed read or write of a generation as one :class:`DatasetError` naming the path, cause and fix."""
+    where = exc.filename if exc.filename is not None else out
+    notes = "".join(f" ({note})" for note in getattr(exc, "__notes__", ()))
+    return DatasetError(
+        f"{where}: {exc.strerror or exc}{notes}; the complete shards of {out} are kept: fix the cause and run "
+        "the same command again to resume"
+    )
+
+
+def _render(
+    out: Path,
+    preset: CameraPreset,
+    meta: dict,
+    seed: int,
+    sensor: DepthSensor | None,
+    cameras: Sequence[int] | None,
+    engine: str,
+    workers: int | None,
+    address: str | None,
+    progress: bool,
+    t0: float,
+) -> GenerationReport:
+    """The part of :func:`generate` under the dataset's lock: meta, camera table, then the missing shards."""
+    _check_or_write_meta(out, meta)
+    if not (out / "cameras.csv").exists():
+        write_table(
+            out / "cameras.csv",
+            table := _camera_table(place_cameras(preset, np.random.default_rng(seed)), sensor, seed),
+            camera_table_columns(table),
+        )
+    report = GenerationReport(out)
+    pending = []
+    for c in range(preset.n_cameras) if cameras is None else cameras:
+        shard = ShardWriter(out, c)
+        if shard.complete:
+            report.skipped.append(c)
+            continue
+        if shard.final.exists() or shard.partial.exists():
+            report.regenerated.append(c)
+        pending.append(c)
+    # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
+    # context of the process, so the caller's process never holds one
+    for c, n in run_tasks(
+        _work,
+        [(c, str(out.resolve())) for c in pending],
+        engine,
+        workers,
+        address,
+        progress,
+        desc=f"render {out.name}",
+        unit="camera",
+        initializer=_init_worker,
+        initargs=(meta,),
+        isolate=True,
+        describe=_describe,
+    ):
+        report.rendered.append(c)
+        report.frames += n
+    report.rendered.sort()
+    if cameras is not None:
+        report.left = sum(not ShardWriter(out, c).complete for c in range(preset.n_cameras))
+    report.wall_s = time.perf_counter() - t0
+    return report

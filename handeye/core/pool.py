@@ -5,6 +5,12 @@ survive a fork), so ``fn``, ``initializer`` and the tasks must be picklable
 (module-level functions, plain data), and a script calling :func:`run_pool`
 must guard its entry point with ``if __name__ == "__main__":``.
 
+Workers die with the process that started them, however it ends (``kill -9`` included), so no worker
+writes into a dataset after its writer lost the dataset's lock: on Linux each worker asks the kernel for
+``SIGKILL`` when its parent dies (``prctl(PR_SET_PDEATHSIG)``), before it imports the work's modules;
+elsewhere a watchdog thread polls the parent every :data:`PARENT_POLL_S`; everywhere a worker checks
+its parent before each task.
+
 Example::
 
     from handeye.core.pool import run_pool
@@ -19,13 +25,66 @@ Example::
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
+import os
+import pickle
+import signal
 import sys
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
+from multiprocessing.reduction import ForkingPickler
 
 from handeye.core.optional import require_package
 
-__all__ = ["run_pool"]
+__all__ = ["run_pool", "PARENT_POLL_S"]
+
+#: Where the kernel cannot kill a worker with its parent (not Linux): seconds between a watchdog's checks.
+PARENT_POLL_S = 0.5
+#: ``PR_SET_PDEATHSIG`` of ``<sys/prctl.h>``: the signal a process receives when its parent dies.
+_PR_SET_PDEATHSIG = 1
+#: In a worker process: the pid of the process that started it; None in any other process.
+_PARENT: int | None = None
+
+
+def _arm_parent_death_signal() -> bool:
+    """Ask Linux to SIGKILL this process when its parent dies; False where that is not available."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):  # no libc or no prctl (a static or unusual runtime)
+        return False
+
+
+def _exit_if_orphaned() -> None:
+    """End this worker at once when the process that started it is gone (its work is no longer wanted)."""
+    if _PARENT is not None and os.getppid() != _PARENT:
+        os._exit(1)
+
+
+def _watch_parent() -> None:
+    while True:
+        _exit_if_orphaned()
+        time.sleep(PARENT_POLL_S)
+
+
+def _start_worker(parent_pid: int, payload: bytes) -> None:
+    """A pool worker's initializer: die with the parent, then run the caller's initializer.
+
+    The caller's ``(initializer, initargs)`` arrive pickled, so that the parent-death signal is armed
+    before their modules (rendering, torch, ...) are imported, which can take seconds.
+    """
+    global _PARENT
+    _PARENT = parent_pid
+    if not _arm_parent_death_signal():
+        threading.Thread(target=_watch_parent, name="handeye-parent-watchdog", daemon=True).start()
+    _exit_if_orphaned()  # the parent died before the signal was armed
+    initializer, initargs = pickle.loads(payload)
+    if initializer is not None:
+        initializer(*initargs)
 
 
 class _Named:
@@ -35,6 +94,7 @@ class _Named:
         self.fn, self.describe = fn, describe
 
     def __call__(self, task):
+        _exit_if_orphaned()  # between tasks: a fallback where the parent-death signal is not available
         try:
             return self.fn(task)
         except Exception as exc:
@@ -72,7 +132,8 @@ def run_pool(
     ordered : bool
         Results in the order of the tasks; False (default) yields each as it completes.
     initializer : callable, optional
-        Called once in each worker process with ``initargs`` (in this process when run in it).
+        Called once in each worker process with ``initargs`` (in this process when run in it), after the
+        worker has armed its death with this process.
     initargs : tuple
     isolate : bool
         Run in a worker process even with ``workers=1`` (work that must not touch this process's state,
@@ -113,7 +174,10 @@ def run_pool(
                 initializer(*initargs)
             results = map(call, tasks)
         else:
-            pool = multiprocessing.get_context("spawn").Pool(min(workers, len(tasks)), initializer, initargs)
+            payload = bytes(ForkingPickler.dumps((initializer, initargs)))  # as the pool pickles its arguments
+            pool = multiprocessing.get_context("spawn").Pool(
+                min(workers, len(tasks)), _start_worker, (os.getpid(), payload)
+            )
             results = (pool.imap if ordered else pool.imap_unordered)(call, tasks)
         for result in results:
             if bar is not None:
