@@ -80,9 +80,13 @@ def check_export_arguments(args: argparse.Namespace) -> None:
             )
         for name in args.frames:
             check_frame_name(name)
+    from handeye.core.safe_write import check_output_path
+
     for path in paths:
         if path is not None and not Path(path).parent.is_dir():
             raise HandEyeInputError(f"{path}: its folder {Path(path).parent} does not exist")
+        if path is not None:
+            check_output_path(path)  # a directory, FIFO or device refused before calibrating
     if getattr(args, "export_easy_handeye", None) is not None:
         from handeye.core.optional import require_package
 

@@ -219,9 +219,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     from classic.target_views import ViewLimits
     from handeye.core.errors import HandEyeInputError
+    from handeye.core.safe_write import check_output_path
     from handeye.core.setups import normalize_setup
     from handeye.planning import limits_for, plan_next_poses, sample_candidates, unknowns_for_plan, view_distances
 
+    if args.output is not None:
+        check_output_path(args.output)  # refused before the planning, not after it
     setup = normalize_setup(args.setup)
     if args.n < 1:
         raise HandEyeInputError(f"--n must be at least 1, got {args.n}")

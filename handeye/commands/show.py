@@ -37,8 +37,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Run the command."""
     from handeye.contact_sheet import contact_sheet
+    from handeye.core.safe_write import check_output_path
 
     out = args.output or Path(f"cam{args.camera}.png")
+    check_output_path(out)  # refused before the images are read
     text = contact_sheet(args.dataset, args.camera, out)
     print(text)
     print(f"written: {out}")
