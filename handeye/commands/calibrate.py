@@ -240,6 +240,7 @@ def run(args: argparse.Namespace) -> int:
     from handeye.ros_exports import check_export_arguments
 
     check_export_arguments(args)
+    _check_outputs(args)
     if args.camera_poses is not None:
         if args.poses is not None or args.detections is not None or args.robot_poses is None:
             raise HandEyeInputError("give --camera-poses with --robot-poses (two matrix files), without a pose file")
@@ -257,6 +258,19 @@ def run(args: argparse.Namespace) -> int:
     if args.poses is None:
         raise HandEyeInputError("give a pose file, or --detections with --robot-poses")
     return _run_poses(args)
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse an ``-o`` or ``--report`` target that cannot take the files before calibrating, not after."""
+    from handeye.core.safe_write import check_output_folder, check_output_path
+
+    if args.output is not None and str(args.output) != "-":
+        check_output_path(args.output)
+    if args.report is not None:
+        check_output_folder(args.report)
+        for name in ("index.html", "report.json"):
+            if (args.report / name).exists() or (args.report / name).is_symlink():
+                check_output_path(args.report / name)
 
 
 def _robot_noise_lines(rep) -> list[str]:
