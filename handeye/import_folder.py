@@ -37,6 +37,7 @@ import numpy as np
 from handeye.core.dataset import pose_columns
 from handeye.core.errors import ImageSizeError, RecordingError
 from handeye.core.limits import check_image_bytes, check_image_size
+from handeye.core.numbers import CSV_CELL_SPACES, parse_float
 from handeye.recording_checks import check_camera_matrix, check_depth_frame, check_depth_stream, check_joint_names
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
 
@@ -67,18 +68,12 @@ def _read_joints_csv(path: Path) -> tuple[list, list, np.ndarray]:
             continue
         if len(row) != len(header):
             raise RecordingError(f"{path}: row {r} has {len(row)} values for {len(header)} columns")
-        numbers = []
-        for column, cell in zip(header[1:], row[1:]):
-            try:
-                numbers.append(float(cell))
-            except ValueError:
-                raise RecordingError(f"{path}: row {r}, column {column!r}: {cell[:40]!r} is not a number") from None
-            if not np.isfinite(numbers[-1]):
-                raise RecordingError(
-                    f"{path}: row {r} (frame {row[0].strip()!r}), column {column!r}: {cell.strip()[:40]!r} is not a "
-                    "finite number"
-                )
-        names.append(row[0].strip())
+        frame = row[0].strip()
+        numbers = [
+            parse_float(cell.strip(CSV_CELL_SPACES), f"{path}: row {r} (frame {frame!r}), column {c!r}", RecordingError)
+            for c, cell in zip(header[1:], row[1:])
+        ]
+        names.append(frame)
         values.append(numbers)
     if not names:
         raise RecordingError(f"{path}: no rows")

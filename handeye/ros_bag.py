@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import BagError, BagTopicError, NotABagError
-from handeye.core.limits import check_image_size
+from handeye.core.limits import ABSURD_TRANSLATION_M, check_image_size
 from handeye.core.optional import require_package
 from handeye.core.se3 import transform_from_pos_quat_xyzw
 from handeye.tf_tree import QUAT_NORM_TOL, TfTree
@@ -286,7 +286,9 @@ def read_bag(
     FramesNotConnectedError
         The frames are not connected in the tf tree; the frames reachable from the base are listed.
     BagError
-        Undecodable messages, a frame with two parents, a non-unit quaternion, a chain that never moves.
+        Undecodable messages or a corrupt record, a frame with two parents, a non-unit quaternion, a marker
+        position that is not finite or beyond :data:`handeye.core.limits.ABSURD_TRANSLATION_M`, a chain that
+        never moves.
     """
     with _open(bag) as reader:
         name = str(reader.paths[0])
@@ -329,6 +331,14 @@ def read_bag(
             raise BagError(
                 f"{name}, {marker_topic}: the message stamped {stamps[bad[0]]} ns has an orientation of "
                 f"norm {norm[bad[0]]:.4g}, not 1 ({len(bad)} such messages)"
+            )
+        t = np.asarray(cam["t"], dtype=float)
+        far = np.flatnonzero(~(np.abs(t).max(axis=1) <= ABSURD_TRANSLATION_M))
+        if len(far):
+            raise BagError(
+                f"{name}, {marker_topic}: the message stamped {stamps[far[0]]} ns has a position of "
+                f"{t[far[0]].tolist()} m: not finite or beyond {ABSURD_TRANSLATION_M:g} m (metres are read; "
+                f"{len(far)} such messages)"
             )
         order = np.argsort(stamps, kind="stable")
         rec.camera_times_s = (stamps[order] - origin) * 1e-9

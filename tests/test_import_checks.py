@@ -247,6 +247,17 @@ def test_joints_in_degrees_in_a_folder_are_one_line(tmp_path, capsys):
     assert "joints.csv, frame 'f1': joint 'shoulder_pan_joint'" in err and "degrees" in err
 
 
+@pytest.mark.parametrize(
+    "cell, reason", [("nan", "is not a finite number"), ("0_2", r"is not a number \('_' digit separators")]
+)
+def test_a_joint_cell_that_is_no_number_is_named(tmp_path, cell, reason):
+    lines = _joint_lines(Q)
+    lines[3] = lines[3].rsplit(",", 1)[0] + "," + cell  # frame f2, the last column
+    where = r"joints.csv: row 4 \(frame 'f2'\), column 'wrist_3_joint'"
+    with pytest.raises(RecordingError, match=rf"{where}: '{cell}' {reason}"):
+        read_frame_folder(_folder(tmp_path / "p", joints=lines))
+
+
 def test_a_joint_named_twice_is_refused_and_an_unused_joint_is_not_checked(bad_joints, tmp_path, robot):
     with pytest.raises(RecordingError, match=rf"/twice at stamp {EPOCH_NS}: {BAD_JOINTS['/twice'][1]}"):
         read_camera_bag(bad_joints, COLOR, INFO, DEPTH, "/twice")
@@ -258,6 +269,34 @@ def test_a_joint_named_twice_is_refused_and_an_unused_joint_is_not_checked(bad_j
     assert report.frames[0]["data"] == N
     ds = Dataset.open(tmp_path / "out")
     assert np.array_equal(ds.joints(ds.select(0, "data")), Q)
+
+
+def test_a_marker_position_that_is_not_finite_is_refused(tmp_path):
+    """bag-poses: a PoseStamped of NaN or 1e300 metres is named by its stamp, not written as a pose."""
+    from handeye.ros_bag import read_bag
+
+    tf, ps = "tf2_msgs/msg/TFMessage", "geometry_msgs/msg/PoseStamped"
+    messages = []
+    for i, x in enumerate([0.1, 0.2, 0.3, np.nan]):
+        s = EPOCH_NS + i * 500_000_000
+        tr = MSG["geometry_msgs/msg/Transform"](
+            MSG["geometry_msgs/msg/Vector3"](0.1 * i, 0.0, 0.5), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
+        )
+        edge = MSG["geometry_msgs/msg/TransformStamped"](_header(s, "base"), "ee", tr)
+        messages.append((tf, "/tf", s, MSG[tf]([edge])))
+        pose = MSG["geometry_msgs/msg/Pose"](
+            MSG["geometry_msgs/msg/Point"](x, 0.0, 0.8), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
+        )
+        messages.append((ps, "/marker", s, MSG[ps](_header(s), pose)))
+    with Writer(tmp_path / "bag", version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        conns = {}
+        for msgtype, topic, stamp, msg in messages:
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, msgtype, typestore=TS)
+            writer.write(conns[topic], stamp, TS.serialize_cdr(msg, msgtype))
+    stamp = EPOCH_NS + 3 * 500_000_000
+    with pytest.raises(BagError, match=rf"/marker: the message stamped {stamp} ns has a position of \[nan, 0.0, 0.8\]"):
+        read_bag(tmp_path / "bag", "base", "ee", marker_topic="/marker")
 
 
 # ------------------------------------------------------------------ intrinsics (item 9)
