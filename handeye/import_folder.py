@@ -36,7 +36,7 @@ import numpy as np
 
 from handeye.core.dataset import pose_columns
 from handeye.core.errors import ImageSizeError, RecordingError
-from handeye.core.limits import check_image_bytes, check_image_size
+from handeye.core.limits import ABSURD_TRANSLATION_M, check_image_bytes, check_image_size
 from handeye.core.numbers import CSV_CELL_SPACES, parse_float
 from handeye.recording_checks import check_camera_matrix, check_depth_frame, check_depth_stream, check_joint_names
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
@@ -171,6 +171,12 @@ def _robot_streams(table: Path, frames: list, columns: list, values: np.ndarray)
         if np.any(np.abs(norms - 1) > 1e-3):
             bad = int(np.flatnonzero(np.abs(norms - 1) > 1e-3)[0])
             raise RecordingError(f"{table}: frame {frames[bad]!r}: quaternion of norm {norms[bad]:.4g}, not 1")
+        far = np.flatnonzero(np.abs(v[:, :3]).max(axis=1) > ABSURD_TRANSLATION_M)
+        if len(far):
+            raise RecordingError(
+                f"{table}: frame {frames[far[0]]!r}: T_base_ee's position {v[far[0], :3].tolist()} is beyond "
+                f"{ABSURD_TRANSLATION_M:g} m (metres are read)"
+            )
         return None, PoseSamples(times, transform_from_pos_quat_xyzw(v[:, :3], v[:, 3:]), str(table))
     return JointSamples(times, list(columns), values, str(table), [f"frame {f!r}" for f in frames]), None
 

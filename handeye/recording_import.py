@@ -606,7 +606,7 @@ def import_recordings(
     if board is None and any(p.calibration is not None for p in placements):
         raise RecordingError("calibration recordings need the board (--board board.json, from 'handeye board')")
     meta = _meta(placements, robot, robot_meta, board, [p.source for p in placements], options, generator)
-    target = Path(os.path.abspath(out))  # "." and "data/" have a name and a parent
+    target = Path(os.path.realpath(out))  # "." has a name and a parent; a link to an empty folder is followed
     _remove_stale_temporaries(target)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)

@@ -157,6 +157,15 @@ def _joint_lines(q: np.ndarray, names: list = UR5) -> list:
     return ["frame," + ",".join(names)] + [f"f{i}," + ",".join(repr(float(v)) for v in row) for i, row in enumerate(q)]
 
 
+def test_depth_beyond_what_the_dataset_stores_is_refused(tmp_path, robot):
+    """Tenths of a millimetre read as millimetres: 8.12 m, plausible for a sensor, beyond the dataset's 16-bit
+    0.1 mm PNGs (6.55 m): refused, where it would have been stored as no depth."""
+    part = read_camera_bag(write_bag(tmp_path / "bag", depth=DEPTH_M * 1e4), COLOR, INFO, DEPTH)
+    with pytest.raises(RecordingError, match=rf"{W * H} of {W * H} valid depth pixels are beyond 6.55 m.*0\.0001"):
+        import_recordings(tmp_path / "out", [part], robot, "ur5")
+    assert not (tmp_path / "out").exists()
+
+
 def _folder(root, depth=None, joints=None, intrinsics=K, size=(W, H)):
     """A placement folder of N frames; ``depth(i)`` an array saved as .npy (default a 16-bit mm PNG)."""
     from PIL import Image
