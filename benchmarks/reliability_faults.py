@@ -482,16 +482,19 @@ def _kind(path: Path) -> str:
 PRECIOUS = "a file of the user's that no command may destroy\n"
 
 
-def _target_check(path: Path, kind: str, precious: Path | None = None):
-    """A check that the output target ``path`` is still a ``kind`` (and ``precious``'s content unchanged)."""
+def _target_check(path: Path, kind: str, keep: Path | None = None, keep_on_failure: Path | None = None):
+    """A check that the output target ``path`` is still a ``kind``, that ``keep`` (a user's file inside a target
+    folder) is unchanged whatever the run did, and ``keep_on_failure`` (the file a symlink target points to)
+    unchanged when the run failed."""
 
     def check(f: Fault) -> str:
         now = _kind(path)
         if now != kind:
             return f"{path.name}: the {kind} became a {now}"
-        if precious is not None and precious.exists() and precious.is_file() and f.rc != 0:
-            if precious.read_text(errors="replace") != PRECIOUS:
-                return f"{precious.name} changed by a failed run"
+        for p, always in ((keep, True), (keep_on_failure, False)):
+            if p is not None and (always or f.rc != 0):
+                if not p.is_file() or p.read_text(errors="replace") != PRECIOUS:
+                    return f"{p.name} changed or removed" + ("" if always else " by a failed run")
         return ""
 
     return check
@@ -572,7 +575,7 @@ def gen_targets(w: Work) -> list:
                 continue  # a file target is the normal case
             d = w.folder()
             t = d / name
-            precious = None
+            precious = on_failure = None
             legit = what in ("symlink to a file", "dangling symlink", "missing folder")
             if what == "symlink to a file":
                 real = d / ("real" if is_dir else "real" + suffix)
@@ -580,6 +583,7 @@ def gen_targets(w: Work) -> list:
                     real.mkdir()
                 else:
                     real.write_text(PRECIOUS)
+                    on_failure = real
                 t.symlink_to(real)
                 kind = "link"
             elif what == "dangling symlink":
@@ -602,11 +606,11 @@ def gen_targets(w: Work) -> list:
                     what = "non-empty directory"
             elif what == "regular file":
                 t.write_text(PRECIOUS)
-                precious, kind = t, "file"
+                on_failure, kind = t, "file"
             else:
                 t = d / "missing" / name
                 kind = None
-            check = _target_check(t, kind, precious) if kind else None
+            check = _target_check(t, kind, precious, on_failure) if kind else None
             out.append(
                 Fault(
                     "targets",
@@ -625,7 +629,7 @@ def gen_targets(w: Work) -> list:
         root = w.dataset()
         t = root / "labels.md"
         t.unlink(missing_ok=True)
-        precious = None
+        precious = on_failure = None
         if what == "FIFO":
             os.mkfifo(t)
             kind = "fifo"
@@ -642,7 +646,7 @@ def gen_targets(w: Work) -> list:
             real = root.parent / "real.md"
             real.write_text(PRECIOUS)
             t.symlink_to(real)
-            kind = "link"
+            on_failure, kind = real, "link"
         else:
             t.symlink_to(root.parent / "nowhere" / "labels.md")
             kind = "link"
@@ -656,7 +660,7 @@ def gen_targets(w: Work) -> list:
                 root.parent,
                 legit=what.startswith(("symlink", "dangling")),
                 timeout_s=120,
-                check=_target_check(t, kind, precious),
+                check=_target_check(t, kind, precious, on_failure),
             )
         )
     return out
