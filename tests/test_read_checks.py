@@ -329,3 +329,16 @@ def test_intrinsics_file_refuses_a_string_number_python_would_take(tmp_path):
     with pytest.raises(IntrinsicsError) as info:
         CameraIntrinsics.load(path)
     _one_line(info, "camera.json", "width", "not an integer")
+
+
+@pytest.mark.parametrize("bad", ["0612", "0x264"])
+def test_camera_yaml_refuses_integers_opencv_reads_in_another_base(tmp_path, bad):
+    from classic.vision.camera import CameraIntrinsics, IntrinsicsError
+
+    path = tmp_path / "camera_info.yaml"
+    text = (DATA / "camera_info.yaml").read_text()
+    assert "data: [612.5," in text
+    path.write_text(text.replace("data: [612.5,", f"data: [{bad},"))
+    with pytest.raises(IntrinsicsError) as info:  # OpenCV alone reads 0612 as 394 and 0x264 as 612
+        CameraIntrinsics.load(path)
+    _one_line(info, "camera_info.yaml, line 7", f"'{bad}' is not a decimal number")

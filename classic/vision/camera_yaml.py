@@ -61,6 +61,29 @@ def _line_of(text: str, key: str) -> int:
     return next((k for k, line in enumerate(text.splitlines(), start=1) if pattern.match(line)), 0)
 
 
+#: Integers OpenCV's YAML parser reads in another base (``strtol`` base 0): ``0612`` is 394, ``0x264`` is 612.
+_OTHER_BASE = re.compile(r"(?<![\w.+-])[+-]?0(?:[xX][0-9a-fA-F]+|[0-7]+)(?![\w.])")
+_QUOTED = re.compile(r"\"[^\"]*\"|'[^']*'")
+
+
+def _check_number_forms(path: Path, text: str) -> None:
+    """Refuse the integers OpenCV would read as octal or hexadecimal, naming the line (:mod:`handeye.core.numbers`
+    reads decimal only: a camera matrix entry ``0612`` must not become 394 pixels).
+
+    Raises
+    ------
+    IntrinsicsError
+    """
+    for number, line in enumerate(text.splitlines(), start=1):
+        body = _QUOTED.sub("", line.split("#", 1)[0])
+        found = _OTHER_BASE.search(body)
+        if found:
+            raise IntrinsicsError(
+                f"{path}, line {number}: {found.group(0)!r} is not a decimal number (OpenCV would read it as "
+                "octal or hexadecimal); write it in decimal without leading zeros"
+            )
+
+
 def _error(path: Path, text: str, key: str | None, message: str) -> IntrinsicsError:
     line = _line_of(text, key) if key else 0
     return IntrinsicsError(f"{path}{f', line {line}' if line else ''}: {message}")
@@ -182,6 +205,7 @@ def load_intrinsics_yaml(path: str | Path, build):
         text = path.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise IntrinsicsError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    _check_number_forms(path, text)
     fs, _ = _open(path, text)
     try:
         k_key, K = _get(path, text, fs, _K_KEYS, "camera matrix")
