@@ -844,7 +844,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", help="also write the report here (Markdown)")
     ap.add_argument("--workers", type=int, default=max(1, min(4, os.cpu_count() or 1)))
-    ap.add_argument("--quick", action="store_true", help="fewer markerless cases")
+    ap.add_argument("--quick", action="store_true", help="fewer markerless cases, half the fault instances")
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
     ap.add_argument("--hostile-only", action="store_true", help="only the hostile corpus (with its cost)")
     ap.add_argument(
@@ -873,7 +873,7 @@ def main(argv: list[str] | None = None) -> int:
         good = build_good_inputs(work)
         cases = [] if args.hostile_only or only_faults else build_cases(work, good, args.quick)
         cases += [] if only_faults else build_hostile_cases(work, good)
-        fault_cases = [] if args.hostile_only else faults.build_faults(work, good, classes)
+        fault_cases = [] if args.hostile_only else faults.build_faults(work, good, classes, args.quick)
         with ThreadPoolExecutor(args.workers) as pool:
             done = list(pool.map(run_case, cases))
             # the slowest first, so that the two workers finish together
