@@ -312,8 +312,9 @@ class MarkerlessResult:
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
-        ``offset_sigma_mm``); ``observability``: the same sigmas from the frames' spread alone, which decide a
-        refusal for too little depth range; ``range_m`` (the matched depths' 10th and 90th percentiles), and the
+        ``offset_sigma_mm``); ``observability``: the same sigmas from the frames' spread alone (given the
+        intrinsics), which decide a refusal for too little depth range; ``range_m`` (the matched depths' 10th
+        and 90th percentiles), and the
         noise used (``noise_source``, ``noise_mm_at_median_depth``). With ``stereo_fb_px_m``, ``pixel_locking_px``:
         the matcher's disparity error ``sin`` and ``cos`` coefficients (pixels) with their sigmas, and its
         ``amplitude``.
