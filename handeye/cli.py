@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     system (a read-only folder, a full disk: an :class:`OSError`) exits with status 1 and one line naming
     the path and the cause. Standard output that cannot be written (``> /dev/full``) is one line and
     status 1; a reader that stopped reading (``| head -1``) ends the command quietly with status 1, as
-    Python's own recipe for ``SIGPIPE`` does (the output is incomplete, so not a success).
+    Python's own recipe for ``SIGPIPE`` does (the output is incomplete, so not a success). Ctrl-C is one
+    line and status 130 (128 + SIGINT, as a shell reports it).
     """
     try:
         args = build_parser().parse_args(argv)
@@ -93,6 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         _say(one_line(f"handeye {args.command}: error: {describe_os_error(exc)}"))
         return 1
+    except KeyboardInterrupt:  # Ctrl-C: what was written is whole (safe writes, shards published whole)
+        _say(f"handeye {args.command}: interrupted")
+        return 130
     failed = _flush_stdout(f"handeye {args.command}")  # a full disk under stdout shows here, not at exit
     return status if failed is None else failed
 

@@ -133,6 +133,31 @@ def test_ray_workers_of_a_local_cluster_die_with_the_driver(tmp_path):
     assert _kill_and_time_orphans(driver, workers, deadline_s=5 * DRIVER_POLL_S) == []
 
 
+def test_ctrl_c_is_the_parents_to_handle(tmp_path):
+    """Ctrl-C reaches the whole process group: the workers leave it to the parent, which stops the pool; no
+    worker prints a traceback (before: one ``KeyboardInterrupt`` traceback per worker)."""
+    script = tmp_path / "pool_script.py"
+    run = "    list(run_pool("
+    stop = "    except KeyboardInterrupt:\n        sys.exit(130)\n"
+    script.write_text(POOL_SCRIPT.replace(run, "    try:\n    " + run) + stop)
+    parent = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path)],
+        cwd=REPO,
+        start_new_session=True,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    _wait_for(lambda: len(list(tmp_path.glob("*.started"))) == 2, START_TIMEOUT_S, "two busy workers")
+    workers = [int(p.name.split(".")[0]) for p in tmp_path.glob("*.started")]
+    os.killpg(parent.pid, signal.SIGINT)
+    try:
+        assert parent.communicate(timeout=30) == (None, "") and parent.returncode == 130
+    finally:
+        for w in workers:
+            if _alive(w):
+                os.kill(w, signal.SIGKILL)
+
+
 def test_sim_generate_workers_die_with_it(tmp_path):
     """``kill -9`` of ``handeye sim generate`` (small preset, 2 workers) leaves no worker rendering."""
     pytest.importorskip("pyrender")
@@ -314,3 +339,14 @@ def test_any_os_error_of_a_command_is_one_line(monkeypatch, capsys):
     monkeypatch.setattr(calibrate, "run", fail)
     assert main(CALIBRATE) == 1
     _one_line_error(capsys.readouterr().err, "handeye calibrate: error: /tmp/some/where: Is a directory")
+
+
+def test_ctrl_c_is_one_line(monkeypatch, capsys):
+    import handeye.commands.calibrate as calibrate
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(calibrate, "run", interrupted)
+    assert main(CALIBRATE) == 130
+    assert capsys.readouterr().err == "handeye calibrate: interrupted\n"

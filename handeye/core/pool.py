@@ -72,13 +72,14 @@ def _watch_parent() -> None:
 
 
 def _start_worker(parent_pid: int, payload: bytes) -> None:
-    """A pool worker's initializer: die with the parent, then run the caller's initializer.
+    """A pool worker's initializer: die with the parent, leave Ctrl-C to it, then run the caller's initializer.
 
     The caller's ``(initializer, initargs)`` arrive pickled, so that the parent-death signal is armed
     before their modules (rendering, torch, ...) are imported, which can take seconds.
     """
     global _PARENT
     _PARENT = parent_pid
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: it stops the pool
     if not _arm_parent_death_signal():
         threading.Thread(target=_watch_parent, name="handeye-parent-watchdog", daemon=True).start()
     _exit_if_orphaned()  # the parent died before the signal was armed
