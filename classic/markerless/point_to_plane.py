@@ -75,7 +75,8 @@ class PlaneFit:
         Frame of each residual (all 0 when no groups were given).
     steps : int
     step_norm : float
-        Size of the last update: rotation (rad) plus translation (m).
+        Size of the last update: rotation (rad) plus translation (m), plus the depth scale and offset when
+        estimated (the pixel locking and the intrinsics not).
     depth_correction : tuple of float or None
         ``(k, c)``: the estimated correction ``q = k q_obs + c r`` (``k = 1 / s``, ``c = -o / s``), when
         asked for; ``(k, c, a, b)`` with the stereo matcher's pixel locking ``(a, b)`` (pixels); the pose's
@@ -336,10 +337,8 @@ def solve_point_to_plane(
         if depth is not None:
             depth = depth + xi[6 : 6 + n_depth]
             step_norm += float(abs(xi[6]) + abs(xi[7]))  # the scale and offset; the locking's pixels not
-        if theta is not None:
+        if theta is not None:  # not in the step: they follow the matches by hundredths of a pixel, the pose not
             theta = theta + xi[6 + n_depth :]
-            # the focal lengths relative, the principal point over the focal length (radians of the rays)
-            pass  # step_norm += float(np.sum(np.abs(xi[6 + n_depth :] / theta[[0, 1, 0, 1]])))
         if step_norm < tol:
             break
     r, J = linearise()
