@@ -218,7 +218,6 @@ def test_cameras_table_with_a_byte_order_mark_reads(tmp_path):
     "cell, expect",
     [
         ("1_000", "row 2 column T_base_cam_true.x: '1_000' is not a number ('_' digit separators"),
-        ("1000", "row 2 column T_base_cam_true.x: '1000' m is absurd for a translation (over 100 m)"),
         ("\u0661", "row 2 column T_base_cam_true.x: '\u0661' is not a number (digits other than ASCII"),
         ("inf", "row 2 column T_base_cam_true.x: 'inf' is not finite"),
     ],
@@ -228,6 +227,15 @@ def test_cameras_table_refuses_absurd_truth_cells_naming_row_and_column(tmp_path
     with pytest.raises(DatasetError) as info:
         read_table(path, CAMERA_COLUMNS)
     _one_line(info, "cameras.csv", expect)
+
+
+def test_dataset_refuses_a_translation_over_100_m_naming_row_and_column(tmp_path):
+    (tmp_path / "meta.json").write_text(json.dumps(_meta()))
+    _cameras(tmp_path, "1000")
+    assert read_table(tmp_path / "cameras.csv", CAMERA_COLUMNS)["T_base_cam_true.x"][0] == 1000  # a number
+    with pytest.raises(DatasetError) as info:
+        Dataset.open(tmp_path).truth()  # but no robot cell's translation
+    _one_line(info, "cameras.csv: row 2 column T_base_cam_true.x: 1000 m is absurd for a translation (over 100 m)")
 
 
 def test_a_fifo_is_named_as_such(tmp_path):

@@ -234,13 +234,25 @@ def _parse(value: str, column: str, path: Path, row: int):
         raise DatasetError(f"{where}: {shorten(value)} is not finite (an unknown value is an empty cell)")
     if column in _INT_COLUMNS:
         return parse_int(value, where, DatasetError)
-    number = parse_float(value, where, DatasetError)
-    if abs(number) > MAX_TABLE_TRANSLATION_M and _TRANSLATION_COLUMN.fullmatch(column):
-        raise DatasetError(
-            f"{where}: {shorten(value)} m is absurd for a translation (over {MAX_TABLE_TRANSLATION_M:g} m); "
-            "the table holds metres"
-        )
-    return number
+    return parse_float(value, where, DatasetError)
+
+
+def _check_translations(table: dict, path: Path) -> None:
+    """Refuse a pose translation cell over :data:`MAX_TABLE_TRANSLATION_M`, naming the row and column.
+
+    Raises
+    ------
+    DatasetError
+    """
+    for column, values in table.items():
+        if not _TRANSLATION_COLUMN.fullmatch(column):
+            continue
+        bad = np.flatnonzero(np.abs(np.nan_to_num(np.asarray(values, dtype=float))) > MAX_TABLE_TRANSLATION_M)
+        if len(bad):
+            raise DatasetError(
+                f"{path}: row {bad[0] + 2} column {column}: {values[bad[0]]:g} m is absurd for a translation (over "
+                f"{MAX_TABLE_TRANSLATION_M:g} m); the table holds metres"
+            )
 
 
 def read_table(path: str | Path, required: list[str]) -> dict:
@@ -627,6 +639,7 @@ class Dataset:
             bad = [s for s in table["split"] if s not in SPLITS]
             if bad:
                 raise DatasetError(f"{self.cameras_path}: split {bad[0]!r} is not one of {SPLITS}")
+            _check_translations(table, self.cameras_path)
             columns_to_poses(table, "T_base_cam_true", str(self.cameras_path))
             for group in ("T_base_cam_label", "T_base_cam_markerless"):
                 if f"{group}.x" in table:
@@ -663,6 +676,7 @@ class Dataset:
             bad = [r for r in table["recording"] if r not in RECORDINGS]
             if bad:
                 raise DatasetError(f"{path}: recording {bad[0]!r} is not one of {RECORDINGS}")
+            _check_translations(table, path)
             for name in ("T_base_ee", "T_base_ref"):
                 columns_to_poses(table, name, str(path))
             for r, cells in enumerate(zip(table["rgb"], table["depth"]), start=2):
