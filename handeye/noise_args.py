@@ -4,23 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from handeye.core.numbers import number_problem
+from handeye.core.numbers import cli_float
 
-__all__ = ["add_noise_arguments", "noise_model_from_args", "describe_noise", "number"]
-
-
-def number(text: str) -> float:
-    """A command-line number in the grammar of :mod:`handeye.core.numbers` (argparse's ``type``).
-
-    Raises
-    ------
-    argparse.ArgumentTypeError
-        ``0_2``, full-width digits, ``nan``, ``inf``: argparse prints it as the option's error.
-    """
-    reason = number_problem(text)
-    if reason is None and abs(float(text)) < float("inf"):
-        return float(text)
-    raise argparse.ArgumentTypeError(f"{text[:40]!r} is not a number ({reason or 'beyond a 64-bit float'})")
+__all__ = ["add_noise_arguments", "noise_model_from_args", "describe_noise"]
 
 
 def add_noise_arguments(p: argparse.ArgumentParser, default_help: str) -> None:
@@ -35,7 +21,7 @@ def add_noise_arguments(p: argparse.ArgumentParser, default_help: str) -> None:
     p.add_argument(
         "--camera-noise",
         nargs="+",
-        type=number,
+        type=cli_float,
         metavar="V",
         help="camera pose noise per axis: DEG MM, or DEG MM_X MM_Y MM_Z (PnP: worse along the optical "
         f"axis, z); {default_help}",
@@ -43,7 +29,7 @@ def add_noise_arguments(p: argparse.ArgumentParser, default_help: str) -> None:
     p.add_argument(
         "--robot-noise",
         nargs=2,
-        type=number,
+        type=cli_float,
         metavar=("DEG", "MM"),
         help="robot flange pose noise per axis (the arm's repeatability)",
     )

@@ -145,3 +145,17 @@ def test_every_number_of_the_shipped_examples_is_in_the_grammar(name):
     tokens = _numbers_of(ROOT / "handeye" / "data" / name)
     assert len(tokens) >= 16
     assert [t for t in tokens if not is_number_text(t)] == []
+
+
+def test_command_line_types_refuse_what_argparse_float_takes():
+    import argparse
+
+    from handeye.core.numbers import cli_float, cli_int
+
+    parser = argparse.ArgumentParser(exit_on_error=False)
+    parser.add_argument("--x", type=cli_float)
+    parser.add_argument("--n", type=cli_int)
+    assert parser.parse_args(["--x=-2.5e-3", "--n", "7"]) == argparse.Namespace(x=-0.0025, n=7)
+    for option, text, reason in [("--x", "0_2", "'_'"), ("--x", "nan", "NaN"), ("--n", "\u0667", "ASCII")]:
+        with pytest.raises(argparse.ArgumentError, match=f"{option}: '{text}' is not .*{reason}"):
+            parser.parse_args([option, text])

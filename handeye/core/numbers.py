@@ -21,6 +21,7 @@ value that should hold numbers (nested lists of numbers), refusing booleans and 
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import re
@@ -44,6 +45,8 @@ __all__ = [
     "float_array",
     "as_float",
     "as_int",
+    "cli_float",
+    "cli_int",
 ]
 
 #: A number written with more characters than this is refused before it is converted: float64 needs at most
@@ -357,3 +360,30 @@ def as_int(value, where: str, error: type[Exception] = NumberError) -> int:
     if not number.is_integer():
         raise error(f"{where}: {number!r} is not a whole number")
     return int(number)
+
+
+def cli_float(text: str) -> float:
+    """argparse ``type=`` for a number option: the grammar of this module (``--x 0_2`` is refused).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        argparse prints it as the option's error (``argument --x: '0_2' is not a number (...)``).
+    """
+    try:
+        return parse_float(text, "")
+    except NumberError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix(": ")) from None
+
+
+def cli_int(text: str) -> int:
+    """argparse ``type=`` for an integer option (``[+-]?\\d+``, ASCII digits).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+    """
+    try:
+        return parse_int(text, "")
+    except NumberError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix(": ")) from None
