@@ -11,7 +11,9 @@ width) and ``float("٢")`` (Arabic-Indic) are 2.0, ``float(" 1 ")`` is 1.0, ``fl
 * no surrounding spaces (a CSV reader strips the spaces around a cell before it calls this), no digit
   separators (``_``), no hexadecimal, no words: ``nan``, ``inf`` and ``infinity`` are refused, as is a
   number beyond float64's range (``1e400``). Every reader refuses a non-finite value anyway, and the tables
-  that can hold an unknown value write it as an empty cell, never as ``nan``.
+  that can hold an unknown value write it as an empty cell, never as ``nan``. Where a format spells NaN
+  itself (YAML ``.nan``, OpenCV ``.Nan``, ``NaN`` in a JSON pose file) the reader takes it as NaN and
+  refuses it naming the field (``samples[1].robot.translation.x``), which says more than a line number.
 
 :func:`parse_float` and :func:`parse_int` read one cell; :func:`loads_json` parses JSON with the same
 rules (the hooks of :func:`json.loads`), so a JSON integer of thousands of digits or a ``NaN`` constant is
@@ -35,6 +37,7 @@ __all__ = [
     "MAX_NUMBER_CHARS",
     "CSV_CELL_SPACES",
     "NONFINITE_WORDS",
+    "OVERFLOW_REASON",
     "NumberError",
     "number_problem",
     "number_message",
@@ -61,8 +64,7 @@ _FLOAT = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _INT = re.compile(r"[+-]?\d+", re.ASCII)
 #: The words (lower case) that spell NaN or infinity in Python, JSON and YAML: never a number here.
 NONFINITE_WORDS = frozenset(
-    {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity", ".nan", ".inf", "+.inf"}
-    | {"-.inf"}
+    sign + word for sign in ("", "+", "-") for word in ("nan", "inf", "infinity", ".nan", ".inf")
 )
 _WORDS = NONFINITE_WORDS
 
@@ -113,7 +115,9 @@ def is_number_text(text: str) -> bool:
     return number_problem(text) is None and math.isfinite(float(text))
 
 
-_OVERFLOW = "beyond the range of a 64-bit float"
+#: The reason given for a number of the grammar that float64 cannot hold (``1e400``).
+OVERFLOW_REASON = "beyond the range of a 64-bit float"
+_OVERFLOW = OVERFLOW_REASON
 
 
 def number_message(text: str, reason: str, integer: bool = False) -> str:

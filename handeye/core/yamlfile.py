@@ -20,7 +20,7 @@ from pathlib import Path
 
 from handeye.core.errors import PoseFileError
 from handeye.core.limits import MAX_JSON_DEPTH, check_json_depth
-from handeye.core.numbers import number_message, number_problem
+from handeye.core.numbers import OVERFLOW_REASON, number_message, number_problem
 from handeye.core.optional import require_package
 from handeye.core.textfile import read_text
 
@@ -33,9 +33,6 @@ _PLAIN_FLOAT = re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0
 
 #: YAML's spelling of NaN and infinity: read as floats, for the reader to refuse naming the field.
 _YAML_SPECIAL = {".nan": float("nan"), ".inf": float("inf"), "+.inf": float("inf"), "-.inf": float("-inf")}
-
-
-_OVERFLOW = "beyond the range of a 64-bit float"
 
 
 class _NumberError(Exception):
@@ -119,7 +116,7 @@ def _loader(yaml):
             reason = number_problem(text)  # the message says "not a number": 0_4 may have been meant as 0.4
             if reason is None and math.isfinite(float(text)):
                 return float(text)
-            raise _NumberError(number_message(text, reason or _OVERFLOW), node.start_mark.line + 1)
+            raise _NumberError(number_message(text, reason or OVERFLOW_REASON), node.start_mark.line + 1)
 
         return construct
 
