@@ -78,26 +78,27 @@ def main(argv: list[str] | None = None) -> int:
             return failed
         raise
     _quiet_opencv()
+    prog = _prog(args)
     if smoke_test():
-        _say(f"handeye {args.command}: {NOTICE}")
+        _say(f"{prog}: {NOTICE}")
     try:
-        with _own_warnings(args.command), _guarded_stdout():
+        with _own_warnings(prog), _guarded_stdout():
             status = int(args.run(args) or 0)
     except _StdoutError as exc:
-        return _stdout_failed(f"handeye {args.command}", exc.__cause__)
+        return _stdout_failed(prog, exc.__cause__)
     except (HandEyeInputError, MissingDependencyError) as exc:
-        _say(one_line(f"handeye {args.command}: error: {exc}"))
+        _say(one_line(f"{prog}: error: {exc}"))
         return 2
     except RecursionError:  # a reader that missed its nesting limit: still one line, never a traceback
-        _say(f"handeye {args.command}: error: an input is nested too deeply to read")
+        _say(f"{prog}: error: an input is nested too deeply to read")
         return 2
     except OSError as exc:
-        _say(one_line(f"handeye {args.command}: error: {describe_os_error(exc)}"))
+        _say(one_line(f"{prog}: error: {describe_os_error(exc)}"))
         return 1
     except KeyboardInterrupt:  # Ctrl-C: what was written is whole (safe writes, shards published whole)
-        _say(f"handeye {args.command}: interrupted")
+        _say(f"{prog}: interrupted")
         return 130
-    failed = _flush_stdout(f"handeye {args.command}")  # a full disk under stdout shows here, not at exit
+    failed = _flush_stdout(prog)  # a full disk under stdout shows here, not at exit
     return status if failed is None else failed
 
 
@@ -204,8 +205,14 @@ def _discard_stdout() -> None:
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives until the interpreter exits
 
 
+def _prog(args: argparse.Namespace) -> str:
+    """The command as typed, for its messages: ``handeye calibrate``, ``handeye sim generate``."""
+    sub = getattr(args, f"{args.command}_command", None) or getattr(args, f"{args.command}_kind", None)
+    return f"handeye {args.command}" + (f" {sub}" if sub else "")
+
+
 @contextlib.contextmanager
-def _own_warnings(command: str):
+def _own_warnings(prog: str):
     """Library warnings (numpy's overflow, OpenCV's, Pillow's) kept off the terminal; handeye's own warnings
     (:mod:`handeye.core.errors`: weak motion, ...) printed as one line each after a command that succeeded."""
     import numpy as np
@@ -213,7 +220,7 @@ def _own_warnings(command: str):
     with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
         warnings.simplefilter("always")
         yield  # after an error its one line is all: a failed run's warnings are not its answer
-        own = [one_line(f"handeye {command}: warning: {w.message}") for w in caught if _is_own(w.category)]
+        own = [one_line(f"{prog}: warning: {w.message}") for w in caught if _is_own(w.category)]
         for text in dict.fromkeys(own):
             print(text, file=sys.stderr)
 

@@ -187,8 +187,6 @@ TINY_ARGS = ("tiny", "ur5", ((0.0, 360.0),), (1,), (0,), 1)
 TINY_SIZE = (128, 128)
 #: RLIMIT_FSIZE of the full-disk drill that fails inside the worker (bytes).
 SHARD_FSIZE = 8_000
-#: RLIMIT_FSIZE that fails the first file of the run, meta.json.
-META_FSIZE = 1_000
 
 TINY_SCRIPT = textwrap.dedent(
     f"""
@@ -245,14 +243,6 @@ def test_a_full_disk_in_a_worker_is_one_line_and_a_rerun_completes(tmp_path):
     preset = CameraPreset(*TINY_ARGS, image_size=TINY_SIZE)
     report = generate(out, preset, recordings=("data",), workers=1, progress=False)
     assert report.rendered == [0] and report.frames == 1
-
-
-def test_a_full_disk_before_rendering_leaves_no_meta_file(tmp_path):
-    out = tmp_path / "ds"
-    run = _full_disk_run(tmp_path, out, META_FSIZE)
-    assert run.returncode != 0
-    _one_line_error(run.stderr, "meta.json", "File too large")
-    assert not (out / "meta.json").exists() and [p.name for p in out.iterdir()] in ([], [".lock"])
 
 
 def test_an_unopenable_lock_file_is_one_line(tmp_path, capsys):
