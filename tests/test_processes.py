@@ -133,6 +133,32 @@ def test_ray_workers_of_a_local_cluster_die_with_the_driver(tmp_path):
     assert _kill_and_time_orphans(driver, workers, deadline_s=5 * DRIVER_POLL_S) == []
 
 
+def _kill_self_on_one(x):
+    if x == 1:
+        os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer ends a process
+    return x
+
+
+def _refuse_to_start():
+    raise ValueError("no renderer on this machine")
+
+
+def test_a_worker_killed_mid_task_stops_the_work_instead_of_hanging():
+    """multiprocessing's pool waits for a dead worker's task for ever; run_pool raises (an OSError: one line)."""
+    from handeye.core.pool import WorkerDiedError, run_pool
+
+    with pytest.raises(WorkerDiedError, match="killed by SIGKILL"):
+        list(run_pool(_kill_self_on_one, range(4), workers=2, progress=False))
+
+
+def test_an_initializer_failure_is_raised_not_restarted_for_ever():
+    from handeye.core.pool import run_pool
+
+    with pytest.raises(ValueError, match="no renderer") as info:
+        list(run_pool(abs, range(4), workers=2, progress=False, initializer=_refuse_to_start))
+    assert "while starting the worker process" in info.value.__notes__
+
+
 def test_ctrl_c_is_the_parents_to_handle(tmp_path):
     """Ctrl-C reaches the whole process group: the workers leave it to the parent, which stops the pool; no
     worker prints a traceback (before: one ``KeyboardInterrupt`` traceback per worker)."""

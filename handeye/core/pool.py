@@ -38,7 +38,7 @@ from multiprocessing.reduction import ForkingPickler
 
 from handeye.core.optional import require_package
 
-__all__ = ["run_pool", "PARENT_POLL_S"]
+__all__ = ["run_pool", "WorkerDiedError", "PARENT_POLL_S", "WORKER_CHECK_S"]
 
 #: Where the kernel cannot kill a worker with its parent (not Linux): seconds between a watchdog's checks.
 PARENT_POLL_S = 0.5
@@ -46,6 +46,18 @@ PARENT_POLL_S = 0.5
 _PR_SET_PDEATHSIG = 1
 #: In a worker process: the pid of the process that started it; None in any other process.
 _PARENT: int | None = None
+#: In a worker process: the exception its initializer raised, re-raised by every task it is given.
+_INIT_FAILURE: Exception | None = None
+#: Seconds between the parent's checks that no worker died while it waits for a result.
+WORKER_CHECK_S = 0.5
+
+
+class WorkerDiedError(ChildProcessError):
+    """A worker process ended in the middle of the work (killed: out of memory, a signal, a crash in C code).
+
+    :class:`multiprocessing.pool.Pool` would wait for its task for ever; the work is stopped instead. An
+    :class:`OSError`, so the command line prints it as one line.
+    """
 
 
 def _arm_parent_death_signal() -> bool:
@@ -83,9 +95,13 @@ def _start_worker(parent_pid: int, payload: bytes) -> None:
     if not _arm_parent_death_signal():
         threading.Thread(target=_watch_parent, name="handeye-parent-watchdog", daemon=True).start()
     _exit_if_orphaned()  # the parent died before the signal was armed
-    initializer, initargs = pickle.loads(payload)
-    if initializer is not None:
-        initializer(*initargs)
+    global _INIT_FAILURE
+    try:
+        initializer, initargs = pickle.loads(payload)
+        if initializer is not None:
+            initializer(*initargs)
+    except Exception as exc:  # raised in the tasks, of its own type: a pool would restart this worker for ever
+        _INIT_FAILURE = exc
 
 
 class _Named:
@@ -96,11 +112,41 @@ class _Named:
 
     def __call__(self, task):
         _exit_if_orphaned()  # between tasks: a fallback where the parent-death signal is not available
+        if _INIT_FAILURE is not None:
+            _INIT_FAILURE.add_note("while starting the worker process")
+            raise _INIT_FAILURE
         try:
             return self.fn(task)
         except Exception as exc:
             exc.add_note(f"while running task {self.describe(task)}")
             raise
+
+
+def _watched(pool, results, n: int) -> Iterator:
+    """The ``n`` results of a pool's ``imap``; a :class:`WorkerDiedError` when a worker process dies meanwhile."""
+    workers: dict = {}
+    for _ in range(n):
+        while True:
+            for process in pool._pool:  # the live workers (a private list, stable since Python 3.2)
+                workers.setdefault(process.pid, process)
+            try:
+                result = results.next(timeout=WORKER_CHECK_S)
+                break
+            except multiprocessing.TimeoutError:
+                dead = [p for p in workers.values() if p.exitcode is not None]
+                if dead:
+                    raise WorkerDiedError(_death(dead[0])) from None
+        yield result
+
+
+def _death(process) -> str:
+    code = process.exitcode
+    if code < 0:
+        name = signal.Signals(-code).name if -code in signal.valid_signals() else f"signal {-code}"
+        how = f"was killed by {name}" + (" (out of memory?)" if -code == signal.SIGKILL else "")
+    else:
+        how = f"exited with status {code}"
+    return f"a worker process (pid {process.pid}) {how} in the middle of the work; the work was stopped"
 
 
 def run_pool(
@@ -150,8 +196,11 @@ def run_pool(
     Raises
     ------
     Exception
-        The first exception a task raises, of its own type, with the note ``while running task ...`` (its
-        ``__notes__``, printed under its traceback); the remaining work is stopped.
+        The first exception a task (or a worker's ``initializer``) raises, of its own type, with the note
+        ``while running task ...`` (its ``__notes__``, printed under its traceback); the remaining work is
+        stopped.
+    WorkerDiedError
+        A worker process died (killed, out of memory) before its task returned; the remaining work is stopped.
 
     Examples
     --------
@@ -179,7 +228,7 @@ def run_pool(
             pool = multiprocessing.get_context("spawn").Pool(
                 min(workers, len(tasks)), _start_worker, (os.getpid(), payload)
             )
-            results = (pool.imap if ordered else pool.imap_unordered)(call, tasks)
+            results = _watched(pool, (pool.imap if ordered else pool.imap_unordered)(call, tasks), len(tasks))
         for result in results:
             if bar is not None:
                 bar.update(1)
