@@ -382,7 +382,7 @@ def _check_or_write_meta(out: Path, meta: dict) -> None:
             if old.get("recordings") != meta["recordings"]:
                 differ.append("recordings")
             raise DatasetError(
-                f"{path}: {out} holds a dataset generated with other options (preset "
+                f"{path}: a dataset generated with other options (preset "
                 f"{recipe.get('preset', {}).get('name')!r}, seed {recipe.get('seed')!r}; differing: "
                 f"{', '.join(differ)}); resume it with the same options or choose another --out"
             )
