@@ -215,21 +215,36 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
+def _check_counts(bag, conns, seen: dict) -> None:
+    """Refuse a topic of which fewer messages were read than the bag's metadata lists: records the storage
+    skipped (a corrupt MCAP chunk is passed over by the reader), not a complete recording."""
+    for conn in conns:
+        listed = int(getattr(conn, "msgcount", 0) or 0)
+        if seen.get(id(conn), 0) < listed:
+            raise BagError(
+                f"{bag}: {seen.get(id(conn), 0)} of the {listed} messages on {conn.topic} that metadata.yaml lists "
+                "could be read: the bag's storage is corrupt (ros2 bag reindex rebuilds a stale metadata.yaml)"
+            )
+
+
 def _messages(reader, bag, conns):
     """``(connection, message)`` in bag order; a record the storage cannot read or a message that cannot be
     decoded is a :class:`BagError` naming the bag (and the topic)."""
     records = iter(reader.messages(connections=conns))
     count = 0
+    seen: dict = {}
     while True:
         try:
             conn, _, raw = next(records)
         except StopIteration:
+            _check_counts(bag, conns, seen)
             return
         except Exception as exc:  # MCAP chunks and records, sqlite pages: rosbags, struct, zstd, overflow errors
             raise BagError(
                 f"{bag}: the bag's storage is corrupt after {count} messages: a record cannot be read ({_reason(exc)})"
             ) from None
         count += 1
+        seen[id(conn)] = seen.get(id(conn), 0) + 1
         try:
             message = reader.deserialize(raw, conn.msgtype)
         except Exception as exc:  # rosbags raises its own and struct errors on corrupt data

@@ -366,20 +366,31 @@ def _mcap_records(data: bytes):
 
 def _corrupt(data: bytes, how: str) -> bytes:
     data = bytearray(data)
-    if how == "checksum":  # the first chunk's CRC of its records: rosbags checks it when it reads the chunk
-        k = next(off for off, op, _ in _mcap_records(bytes(data)) if op == 0x06)
-        struct.pack_into("<I", data, k + 9 + 24, 12345)  # after start, end, uncompressed size (u64 each)
+    k = next(off for off, op, _ in _mcap_records(bytes(data)) if op == 0x06)  # the first Chunk record
+    # its body: start, end, uncompressed size (u64 each), CRC (u32), compression (u32 length, ""), records length
+    # (u64), the records (opcode, u64 length, ...)
+    if how == "checksum":  # the CRC of its records: rosbags checks it when it reads the chunk
+        struct.pack_into("<I", data, k + 9 + 24, 12345)
+    elif how == "record":  # its first record's length beyond the chunk: the reader passes the chunk over
+        struct.pack_into("<Q", data, k + 9 + 40 + 1, 2**62)
     else:  # the header record's length: rosbags' reader allocates from it when it opens the file
         struct.pack_into("<Q", data, 9, 2**63 - 1)
     return bytes(data)
 
 
-@pytest.mark.parametrize("how", ["checksum", "length"])
-def test_a_corrupt_mcap_record_is_one_line(tmp_path, capsys, how):
+@pytest.mark.parametrize(
+    "how, message",
+    [
+        ("checksum", "storage is corrupt after 0 messages: a record cannot be read .*Chunk checksum mismatch"),
+        ("length", r"storage is corrupt \(OverflowError"),
+        ("record", f"0 of the {N} messages on {COLOR} that metadata.yaml lists could be read: the bag's storage is"),
+    ],
+)
+def test_a_corrupt_mcap_record_is_one_line(tmp_path, capsys, how, message):
     bag = write_bag(tmp_path / "bag", storage="mcap")
     mcap = next(bag.glob("*.mcap"))
     mcap.write_bytes(_corrupt(mcap.read_bytes(), how))
-    with pytest.raises(BagError, match="storage is corrupt"):
+    with pytest.raises(BagError, match=message):
         read_camera_bag(bag, COLOR, INFO, DEPTH)
     if how == "checksum":  # and through the command: one line, nothing written
         assert _import_bag(bag, tmp_path / "out") == 2
