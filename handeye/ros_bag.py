@@ -330,6 +330,14 @@ def read_bag(
                 tf["static"].append(conn.topic == tf_static_topic)
         origin = int(reader.start_time)
     topics = tf_topic + (f" and {tf_static_topic}" if static_conns else "")
+    t = np.asarray(tf["t"], dtype=float).reshape(-1, 3)
+    far = np.flatnonzero(~(np.abs(t).max(axis=1, initial=0.0) <= ABSURD_TRANSLATION_M))
+    if len(far):
+        i = far[0]
+        raise BagError(
+            f"{name}, {topics}: transform {tf['parents'][i]} -> {tf['children'][i]} at stamp {tf['stamps'][i]} ns has "
+            f"a translation of {t[i].tolist()} m: not finite or beyond {ABSURD_TRANSLATION_M:g} m ({len(far)} such)"
+        )
     tree = TfTree.from_transforms(
         tf["parents"], tf["children"], tf["stamps"], tf["t"], tf["q"], tf["static"], source=f"{name}, {topics}"
     )

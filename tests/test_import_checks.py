@@ -280,16 +280,14 @@ def test_a_joint_named_twice_is_refused_and_an_unused_joint_is_not_checked(bad_j
     assert np.array_equal(ds.joints(ds.select(0, "data")), Q)
 
 
-def test_a_marker_position_that_is_not_finite_is_refused(tmp_path):
-    """bag-poses: a PoseStamped of NaN or 1e300 metres is named by its stamp, not written as a pose."""
-    from handeye.ros_bag import read_bag
-
+def _pose_bag(path, tf_x: float):
+    """/tf base -> ee moving along x (its third translation ``tf_x``) and /marker poses, the last at x = NaN."""
     tf, ps = "tf2_msgs/msg/TFMessage", "geometry_msgs/msg/PoseStamped"
     messages = []
-    for i, x in enumerate([0.1, 0.2, 0.3, np.nan]):
+    for i, (x, ee) in enumerate([(0.1, 0.0), (0.2, 0.1), (0.3, tf_x), (np.nan, 0.3)]):
         s = EPOCH_NS + i * 500_000_000
         tr = MSG["geometry_msgs/msg/Transform"](
-            MSG["geometry_msgs/msg/Vector3"](0.1 * i, 0.0, 0.5), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
+            MSG["geometry_msgs/msg/Vector3"](ee, 0.0, 0.5), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
         )
         edge = MSG["geometry_msgs/msg/TransformStamped"](_header(s, "base"), "ee", tr)
         messages.append((tf, "/tf", s, MSG[tf]([edge])))
@@ -297,15 +295,25 @@ def test_a_marker_position_that_is_not_finite_is_refused(tmp_path):
             MSG["geometry_msgs/msg/Point"](x, 0.0, 0.8), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
         )
         messages.append((ps, "/marker", s, MSG[ps](_header(s), pose)))
-    with Writer(tmp_path / "bag", version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+    with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
         conns = {}
         for msgtype, topic, stamp, msg in messages:
             if topic not in conns:
                 conns[topic] = writer.add_connection(topic, msgtype, typestore=TS)
             writer.write(conns[topic], stamp, TS.serialize_cdr(msg, msgtype))
+    return path
+
+
+def test_a_marker_position_or_tf_translation_that_is_not_finite_is_refused(tmp_path):
+    """bag-poses: a PoseStamped or a tf transform of NaN or 1e300 metres is named by its stamp, not written."""
+    from handeye.ros_bag import read_bag
+
     stamp = EPOCH_NS + 3 * 500_000_000
     with pytest.raises(BagError, match=rf"/marker: the message stamped {stamp} ns has a position of \[nan, 0.0, 0.8\]"):
-        read_bag(tmp_path / "bag", "base", "ee", marker_topic="/marker")
+        read_bag(_pose_bag(tmp_path / "a", 0.2), "base", "ee", marker_topic="/marker")
+    stamp = EPOCH_NS + 2 * 500_000_000
+    with pytest.raises(BagError, match=rf"/tf: transform base -> ee at stamp {stamp} ns has a translation of \[1e"):
+        read_bag(_pose_bag(tmp_path / "b", 1e300), "base", "ee")
 
 
 # ------------------------------------------------------------------ intrinsics (item 9)
