@@ -75,10 +75,17 @@ def pose_csvs() -> dict:
         good_rows.append(",".join(repr(float(v)) for v in values))
     absurd = list(good_rows)
     absurd[2] = "1e308," + absurd[2].split(",", 1)[1]
+    # a flange at y = -0.0 and one at z = 5e-321 (a subnormal), each with the camera's view that the problem's X
+    # and Y give it (eye-to-hand: T_cam_target = X^-1 A Y): legitimate numbers, the file must be accepted
     tiny = list(good_rows)
-    # a subnormal and a negative zero added to real coordinates: legitimate numbers, the file must be accepted
-    tiny[3] = ",".join(["-0.0" if k == 1 else v for k, v in enumerate(tiny[3].split(","))])
-    tiny[4] = ",".join([repr(float(v) + 1e-320) if k == 2 else v for k, v in enumerate(tiny[4].split(","))])
+    for row, (axis, value, text) in ((3, (1, -0.0, "-0.0")), (4, (2, 5e-321, "5e-321"))):
+        A = p.T_base_ee[row].copy()
+        A[axis, 3] = value
+        B = np.linalg.inv(p.X_true) @ A @ p.Y_true
+        values = [*np.concatenate(pos_quat_xyzw_from_transform(A)), *np.concatenate(pos_quat_xyzw_from_transform(B))]
+        cells = [repr(float(v)) for v in values]
+        cells[axis] = text
+        tiny[row] = ",".join(cells)
     return {
         "wide_header.csv": (",".join(f"c{k}" for k in range(300_000)) + "\n" + POSE_ROW).encode(),
         "huge_field.csv": (POSE_HEADER + "\n" + "9" * 1_000_000 + POSE_ROW[3:]).encode(),
