@@ -42,7 +42,9 @@ def _holder(root, what="handeye markerless --write-labels (test holder)", then=N
     thread = threading.Thread(target=_hold, args=(root, what, started, release, then))
     thread.start()
     assert started.wait(WAIT_S)
-    threading.Timer(hold_s, release.set).start()
+    timer = threading.Timer(hold_s, release.set)
+    timer.daemon = True  # a test that releases early leaves no timer for the interpreter to wait for
+    timer.start()
     return thread, release
 
 
