@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.core.numbers import cli_float
+
 __all__ = ["add_parser", "run"]
 
 
@@ -43,7 +45,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--tolerance",
-        type=float,
+        type=cli_float,
         default=0.01,
         help="largest time between a marker pose and a robot sample used for it, seconds (default 0.01)",
     )

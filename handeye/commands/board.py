@@ -28,6 +28,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.core.numbers import cli_float
+
 __all__ = ["add_parser", "run"]
 
 INCH_M = 0.0254
@@ -49,8 +51,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--legacy", action="store_true", help="ChArUco: OpenCV's legacy pattern (setLegacyPattern)")
     p.add_argument("--squares", default="7x5", help="squares (aruco-grid: markers) along x and y, e.g. 7x5")
-    p.add_argument("--square", type=float, default=0.04, help="square side (aruco-grid: marker pitch) in metres")
-    p.add_argument("--marker", type=float, default=0.03, help="marker side in metres")
+    p.add_argument("--square", type=cli_float, default=0.04, help="square side (aruco-grid: marker pitch) in metres")
+    p.add_argument("--marker", type=cli_float, default=0.03, help="marker side in metres")
     p.add_argument(
         "--dict",
         "--dictionary",
@@ -59,8 +61,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="ArUco or AprilTag dictionary, e.g. 5X5_100, 4X4_50, APRILTAG_36h11 (default 5X5_100; "
         "APRILTAG_36h11 for aruco-grid)",
     )
-    p.add_argument("--dpi", type=float, default=300.0, help="printer resolution")
-    p.add_argument("--margin", type=float, default=0.01, help="white margin around the board, metres")
+    p.add_argument("--dpi", type=cli_float, default=300.0, help="printer resolution")
+    p.add_argument("--margin", type=cli_float, default=0.01, help="white margin around the board, metres")
     p.add_argument("-o", "--output", type=Path, default=Path("board.png"), help="PNG path; the spec goes beside it")
     p.set_defaults(run=run)
     return p

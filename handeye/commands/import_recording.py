@@ -32,6 +32,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.core.numbers import cli_float, cli_int
+
 __all__ = ["add_parser", "run"]
 
 
@@ -47,7 +49,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--board", type=Path, help="board spec written by 'handeye board' (needed with calibration frames)")
     p.add_argument(
         "--depth-unit",
-        type=float,
+        type=cli_float,
         default=None,
         help="metres per unit of the recorded depth (default: 0.001, millimetres, for 16-bit depth and integer "
         ".npy; 1, metres, for 32FC1 and float .npy, the ROS convention); a depth that looks like another unit is "
@@ -55,7 +57,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--max-frames",
-        type=int,
+        type=cli_int,
         default=100,
         help="data frames kept per placement, evenly spread (default 100; 0 keeps all)",
     )
@@ -91,10 +93,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
     b.add_argument("--joints-topic", default="/joint_states", help="JointState ('none': take the flange from tf)")
     b.add_argument("--tf", nargs=2, metavar=("BASE", "EE"), help="T_base_ee from tf between these frames")
     b.add_argument(
-        "--sync-tolerance", type=float, default=0.02, help="largest time between a depth and its colour frame, s"
+        "--sync-tolerance", type=cli_float, default=0.02, help="largest time between a depth and its colour frame, s"
     )
     b.add_argument(
-        "--joint-tolerance", type=float, default=0.02, help="largest time to each robot sample interpolated, s"
+        "--joint-tolerance", type=cli_float, default=0.02, help="largest time to each robot sample interpolated, s"
     )
     _common(b)
     b.set_defaults(run=run)

@@ -25,6 +25,7 @@ import argparse
 from pathlib import Path
 
 from handeye.core.engines import add_engine_arguments
+from handeye.core.numbers import cli_int
 
 __all__ = ["add_parser", "run"]
 
@@ -42,7 +43,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--method", default="park", help="closed form of the pose-based solve (default park)")
     p.add_argument(
         "--repeats",
-        type=int,
+        type=cli_int,
         default=0,
         help="the seed paper's labels: the closed form alone, repeated this many times on 80 %% of the views and "
         "averaged ('--method tsai --repeats 5' is the paper's); default 0: this project's (closed form, maximum "

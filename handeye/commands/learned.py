@@ -38,6 +38,8 @@ import argparse
 import dataclasses
 from pathlib import Path
 
+from handeye.core.numbers import cli_float, cli_int
+
 __all__ = ["add_parser", "run_run", "run_report", "run_ablation", "run_thresholds"]
 
 
@@ -98,8 +100,8 @@ def _add_protocol_args(r: argparse.ArgumentParser) -> None:
         help="regression: the paper's two networks (default); keypoints: the equivariant model that "
         "finds the arm's joints in the image and solves the camera pose",
     )
-    r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--threads", type=int, default=None, help="torch CPU threads")
+    r.add_argument("--seed", type=cli_int, default=0)
+    r.add_argument("--threads", type=cli_int, default=None, help="torch CPU threads")
     r.add_argument(
         "--trunk-dtype",
         choices=("float32", "bfloat16"),
@@ -124,8 +126,12 @@ def _add_protocol_args(r: argparse.ArgumentParser) -> None:
         "--c2",
         help="past camera poses replayed: a number, or 'all' (default: the protocol's; the paper's real rig: all)",
     )
-    r.add_argument("--threshold-mm", type=float, help="selection's novelty threshold, mm (default: the preset's, 3)")
-    r.add_argument("--threshold-deg", type=float, help="selection's novelty threshold, deg (default: the preset's, 4)")
+    r.add_argument(
+        "--threshold-mm", type=cli_float, help="selection's novelty threshold, mm (default: the preset's, 3)"
+    )
+    r.add_argument(
+        "--threshold-deg", type=cli_float, help="selection's novelty threshold, deg (default: the preset's, 4)"
+    )
     r.add_argument("--quiet", action="store_true")
     r.add_argument(
         "--fresh",

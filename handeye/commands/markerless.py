@@ -24,6 +24,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.core.numbers import cli_float, cli_int
+
 __all__ = ["add_parser", "run"]
 
 
@@ -36,7 +38,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("dataset", type=Path, help="dataset directory")
-    p.add_argument("--camera", type=int, nargs="+", help="camera placements (default all)")
+    p.add_argument("--camera", type=cli_int, nargs="+", help="camera placements (default all)")
     start = p.add_mutually_exclusive_group()
     start.add_argument("--model", type=Path, help="learned model directory (translation.pt, orientation.pt)")
     start.add_argument("--start", type=Path, help="JSON start T_base_cam (a rough guess)")
@@ -46,7 +48,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--depth-noise",
-        type=float,
+        type=cli_float,
         default=None,
         help="depth sigma at 1 m, metres, growing with depth squared (default: measured on the static background)",
     )
@@ -65,7 +67,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--stereo-fb",
-        type=float,
+        type=cli_float,
         default=None,
         metavar="PX_M",
         help="an active-stereo camera's disparity constant: its depth stream's focal length in pixels times the "

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.core.numbers import cli_float, cli_int
 from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments
 
@@ -61,7 +62,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--camera-guess",
         nargs=3,
-        type=float,
+        type=cli_float,
         metavar=("X", "Y", "Z"),
         help="eye-to-hand: the camera's position in the base frame (m); eye-in-hand: in the flange frame "
         "(default 0 0.08 0.04, looking along the flange's z)",
@@ -69,7 +70,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--look-at",
         nargs=3,
-        type=float,
+        type=cli_float,
         metavar=("X", "Y", "Z"),
         help="eye-to-hand: the point the camera guess looks at (default 0.35 m from the base towards the "
         "camera, 0.3 m up)",
@@ -77,24 +78,24 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--target-guess",
         nargs=3,
-        type=float,
+        type=cli_float,
         metavar=("X", "Y", "Z"),
         help="eye-in-hand: the board's centre in the base frame, face up (m); eye-to-hand: in the flange "
         "frame (default 0 0 0.01, facing out)",
     )
-    p.add_argument("--n", type=int, default=8, help="most poses to plan (default 8)")
+    p.add_argument("--n", type=cli_int, default=8, help="most poses to plan (default 8)")
     p.add_argument(
         "--min-gain",
-        type=float,
+        type=cli_float,
         default=5.0,
         metavar="PERCENT",
         help="stop when one more pose shrinks the predicted sigma by less than this (default 5)",
     )
-    p.add_argument("--candidates", type=int, default=1500, help="views sampled in the field of view (default 1500)")
+    p.add_argument("--candidates", type=cli_int, default=1500, help="views sampled in the field of view (default 1500)")
     p.add_argument(
         "--distance",
         nargs=2,
-        type=float,
+        type=cli_float,
         metavar=("MIN", "MAX"),
         help="depth range of the views (m; default: the recorded views' +-0.1 m, or around the look-at "
         "point, or 0.3-0.6 eye-in-hand)",
@@ -102,15 +103,15 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--fov",
         nargs=2,
-        type=float,
+        type=cli_float,
         metavar=("HX", "HY"),
         default=(20.0, 15.0),
         help="half-angles (deg) within which the target's centre stays (default 20 15)",
     )
-    p.add_argument("--max-tilt", type=float, default=40.0, help="largest tilt from facing the camera, deg (40)")
+    p.add_argument("--max-tilt", type=cli_float, default=40.0, help="largest tilt from facing the camera, deg (40)")
     p.add_argument(
         "--guess-margin",
-        type=float,
+        type=cli_float,
         default=5.0,
         metavar="DEG",
         help="planning from a guess: keep the views this far inside the field of view and the tilt limit (default 5)",
@@ -118,7 +119,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     add_noise_arguments(p, "the noise the prediction assumes (default camera 0.1 deg / 1 mm, robot 0.01 deg / 0.2 mm)")
     p.add_argument("--units", choices=["m", "mm"], help="translation units of the pose file (default m)")
     p.add_argument("--quat-order", choices=["xyzw", "wxyz"], help="order of positional quaternions (default xyzw)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sampled views (default 0)")
+    p.add_argument("--seed", type=cli_int, default=0, help="seed of the sampled views (default 0)")
     p.add_argument("-o", "--output", type=Path, help="write the plan as CSV here")
     p.set_defaults(run=run)
     return p

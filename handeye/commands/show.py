@@ -16,6 +16,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.core.numbers import cli_int
+
 __all__ = ["add_parser", "run"]
 
 
@@ -28,7 +30,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("dataset", type=Path, help="dataset directory")
-    p.add_argument("--camera", type=int, required=True, help="camera id")
+    p.add_argument("--camera", type=cli_int, required=True, help="camera id")
     p.add_argument("-o", "--output", type=Path, default=None, help="PNG path (default cam<N>.png)")
     p.set_defaults(run=run)
     return p

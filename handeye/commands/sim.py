@@ -35,6 +35,7 @@ import argparse
 from pathlib import Path
 
 from handeye.core.engines import add_engine_arguments
+from handeye.core.numbers import cli_int
 
 __all__ = ["add_parser", "run"]
 
@@ -58,7 +59,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "--preset", default="small", help="small (default), demo, paper-sim, paper-real or dense-sim (1,000 poses)"
     )
     g.add_argument("--out", type=Path, required=True, help="dataset directory")
-    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--seed", type=cli_int, default=0)
     add_engine_arguments(g, "rendering")
     g.add_argument(
         "--cameras",
@@ -89,7 +90,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     b.add_argument("dataset", type=Path)
     b.add_argument("--out", type=Path, required=True, help="folder for the bags")
-    b.add_argument("--camera", type=int, nargs="+", help="placements (default all)")
+    b.add_argument("--camera", type=cli_int, nargs="+", help="placements (default all)")
     b.add_argument("--storage", choices=("sqlite3", "mcap"), default="sqlite3")
     b.add_argument("--depth-encoding", choices=("16UC1", "32FC1"), default="16UC1", help="millimetres or metres")
     b.add_argument("--color", choices=("raw", "jpeg", "png"), default="raw", help="Image or CompressedImage")

@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from handeye.core.errors import DatasetError, HandEyeInputError
+from handeye.core.numbers import cli_int
 from handeye.core.optional import require_package
 
 __all__ = ["ENGINES", "DEFAULT_WORKERS", "run_tasks", "check_engine", "require_visible", "add_engine_arguments"]
@@ -43,7 +44,7 @@ def add_engine_arguments(parser, what: str) -> None:
     """``--workers``, ``--engine`` and ``--address`` of a command whose tasks may run on Ray."""
     parser.add_argument(
         "--workers",
-        type=int,
+        type=cli_int,
         default=None,
         help=f"{what} processes, or Ray tasks in flight (default {DEFAULT_WORKERS}; every CPU of a cluster "
         "given by --address)",
