@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from handeye.core.errors import IntrinsicsError, RecordingError
-from handeye.core.limits import check_image_size
+from handeye.core.limits import FOV_RANGE_DEG, check_image_size
 
 __all__ = [
     "DEPTH_MEDIAN_RANGE_M",
@@ -50,10 +50,6 @@ JOINT_LIMIT_MARGIN = 0.02
 #: Where the model sets no finite limit (a continuous joint), a joint angle beyond two turns either way is
 #: refused: no arm winds its cables further, and 1e300 or a value in degrees is no angle.
 MAX_ABS_JOINT = 4 * np.pi
-#: The horizontal (vertical) field of view that ``fx`` (``fy``) gives the image must lie within this range, in
-#: degrees: a pinhole camera model is not used past 170 degrees (a fisheye model is), and no camera of a robot
-#: cell sees less than a tenth of a degree. ``fx = 1e-300`` or ``fx = 1e300`` lands outside.
-FOV_RANGE_DEG = (0.1, 170.0)
 
 
 def depth_problem(depth_m: np.ndarray, unit_m: float) -> str | None:

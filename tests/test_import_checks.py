@@ -15,6 +15,7 @@ import os
 import socket
 import struct
 import tracemalloc
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -25,7 +26,6 @@ pytest.importorskip("pinocchio")
 from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
-from classic.vision.camera import CameraIntrinsics  # noqa: E402
 from classic.vision.camera_yaml import write_camera_info_yaml  # noqa: E402
 from handeye.cli import main  # noqa: E402
 from handeye.core.dataset import Dataset, shard_is_complete  # noqa: E402
@@ -172,7 +172,9 @@ def _folder(root, depth=None, joints=None, intrinsics=K, size=(W, H)):
 
     (root / "rgb").mkdir(parents=True)
     (root / "depth").mkdir()
-    write_camera_info_yaml(root / "intrinsics.yaml", CameraIntrinsics(np.asarray(intrinsics), np.zeros(5), *size))
+    # written from a plain record, not CameraIntrinsics, which refuses a K no camera has before it is written
+    camera = SimpleNamespace(K=np.asarray(intrinsics), dist=np.zeros(5), width=size[0], height=size[1])
+    write_camera_info_yaml(root / "intrinsics.yaml", camera)
     (root / "joints.csv").write_text("\n".join(joints or _joint_lines(Q)) + "\n")
     for i in range(N):
         Image.fromarray(np.full((H, W, 3), 90, np.uint8)).save(root / "rgb" / f"f{i}.png")
@@ -351,7 +353,7 @@ def test_camera_info_no_camera_has_is_refused_naming_the_field(bad_infos, topic)
 
 
 def test_intrinsics_file_no_camera_has_is_refused(tmp_path):
-    with pytest.raises(IntrinsicsError, match=r"intrinsics.yaml: fx = 1e-300 pixels"):
+    with pytest.raises(IntrinsicsError, match=r"intrinsics.yaml(, line \d+)?: fx = 1e-300 pixels"):
         read_frame_folder(_folder(tmp_path / "a", intrinsics=_with(0, 0, 1e-300)))
     with pytest.raises(IntrinsicsError, match=r"intrinsics.yaml: cy = -2.5 is outside the image"):
         read_frame_folder(_folder(tmp_path / "b", intrinsics=_with(1, 2, -2.5)))

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import IntrinsicsError
+from handeye.core.limits import FOV_RANGE_DEG
 from handeye.core.safe_write import write_text_atomic
 
 __all__ = ["CameraIntrinsics", "IntrinsicsError"]
@@ -41,6 +42,14 @@ class CameraIntrinsics:
         K = self.K
         if K[0, 0] <= 0 or K[1, 1] <= 0 or abs(K[2, 2] - 1) > 1e-9 or np.any(K[[1, 2, 2], [0, 0, 1]]):
             raise IntrinsicsError(f"K is not a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]]: {self.K.tolist()}")
+        lo, hi = FOV_RANGE_DEG
+        for name, f, side in (("fx", K[0, 0], self.width), ("fy", K[1, 1], self.height)):
+            fov_deg = np.degrees(2 * np.arctan2(side / 2, f)) if side > 0 else None
+            if fov_deg is not None and not lo <= fov_deg <= hi:
+                raise IntrinsicsError(
+                    f"{name} = {f:.6g} pixels gives a {fov_deg:.3g}-degree field of view over {side} pixels, "
+                    f"outside {lo:g}-{hi:g} degrees: not a camera's focal length"
+                )
         if self.dist.size not in (4, 5, 8, 12, 14) or not np.isfinite(self.dist).all():
             raise IntrinsicsError(f"distortion must hold 4, 5, 8, 12 or 14 finite coefficients, got {self.dist.size}")
 

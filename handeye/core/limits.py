@@ -16,6 +16,7 @@ __all__ = [
     "MAX_DATASET_CAMERAS",
     "MAX_JOINTS",
     "MAX_TEXT_FILE_BYTES",
+    "FOV_RANGE_DEG",
     "MAX_MESSAGE_CHARS",
     "ABSURD_TRANSLATION_M",
     "shorten",
@@ -48,6 +49,10 @@ MAX_DATASET_CAMERAS = 100_000
 MAX_JOINTS = 64
 #: A text file (pose file, YAML) larger than this is refused before it is read: pose files take kilobytes.
 MAX_TEXT_FILE_BYTES = 64 * 1024 * 1024
+#: The horizontal (vertical) field of view that ``fx`` (``fy``) gives the image must lie within this range, in
+#: degrees: a pinhole camera model is not used past 170 degrees (a fisheye model is), and no camera of a robot
+#: cell sees less than a tenth of a degree. ``fx = 1e-300`` or ``fx = 1e300`` lands outside.
+FOV_RANGE_DEG = (0.1, 170.0)
 #: A message printed for an error is one line of at most this many characters.
 MAX_MESSAGE_CHARS = 300
 #: A translation beyond this (metres) is absurd, not a units mistake: no robot cell is a kilometre wide.

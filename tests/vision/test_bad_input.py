@@ -111,6 +111,9 @@ def test_intrinsics_load_errors_name_the_file(tmp_path):
         ("a.json", "not json"),
         ("b.json", '{"dist": [0, 0, 0, 0, 0]}'),
         ("c.json", '{"K": [[1, 2], [3, 4]]}'),
+        # a focal length no camera has: the field of view over the image is outside 0.1-170 degrees
+        ("d.json", '{"K": [[1e-300, 0, 320], [0, 1e-300, 240], [0, 0, 1]], "width": 640, "height": 480}'),
+        ("e.json", '{"K": [[1e300, 0, 320], [0, 1e300, 240], [0, 0, 1]], "width": 640, "height": 480}'),
     ]:
         path = tmp_path / name
         path.write_text(text)
