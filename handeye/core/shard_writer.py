@@ -44,7 +44,6 @@ frame table (the simulator) calls :meth:`ShardWriter.write_rgb`,
 from __future__ import annotations
 
 import io
-import json
 import os
 import shutil
 from pathlib import Path
@@ -62,6 +61,7 @@ from handeye.core.dataset import (
     write_table,
 )
 from handeye.core.errors import DatasetError, HandEyeInputError, OutputFileError
+from handeye.core.jsonfile import read_json_file
 
 __all__ = ["ShardWriter"]
 
@@ -133,9 +133,12 @@ class ShardWriter:
     def _meta(self, key: str):
         path = self.root / "meta.json"
         try:
-            meta = json.loads(path.read_text())
+            meta = read_json_file(path, DatasetError, "dataset meta.json")
+        except DatasetError as exc:
+            raise DatasetError(f"{exc}; write meta.json first or pass {key}") from None
+        try:
             return meta["depth"]["scale_m"] if key == "depth_scale_m" else meta[key]
-        except (OSError, json.JSONDecodeError, KeyError, TypeError) as exc:
+        except (KeyError, TypeError) as exc:
             raise DatasetError(f"{path}: cannot read {key} ({exc}); write meta.json first or pass {key}") from None
 
     @property
