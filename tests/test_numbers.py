@@ -18,6 +18,7 @@ from handeye.core.numbers import (
     is_number_text,
     loads_json,
     parse_float,
+    parse_floats_fast,
     parse_int,
 )
 
@@ -71,6 +72,14 @@ def test_each_form_python_reads_is_refused_with_its_reason(text, reason):
 def test_plain_decimal_and_scientific_forms_read_exactly_as_float_reads_them(text, value):
     assert parse_float(text, "here") == value == float(text)
     assert is_number_text(text)
+
+
+def test_the_fast_path_reads_what_parse_float_reads_and_nothing_else():
+    good = list(ACCEPTED)
+    assert parse_floats_fast(good).tolist() == [parse_float(t, "here") for t in good]
+    for bad in REFUSED:  # one bad cell among good ones sends the caller to the cell-by-cell reading
+        assert parse_floats_fast(good + [bad] + good) is None, repr(bad[:12])
+    assert parse_floats_fast(["1\n2"]) is None  # a line break inside a cell is not two numbers
 
 
 def test_integers_refuse_fractions_and_long_digits():

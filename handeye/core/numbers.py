@@ -44,6 +44,7 @@ __all__ = [
     "is_number_text",
     "parse_float",
     "parse_int",
+    "parse_floats_fast",
     "loads_json",
     "float_array",
     "as_float",
@@ -62,6 +63,7 @@ CSV_CELL_SPACES = " \t"
 
 _FLOAT = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _INT = re.compile(r"[+-]?\d+", re.ASCII)
+_FLOAT_LINES = re.compile(rf"(?:{_FLOAT.pattern}\n)*{_FLOAT.pattern}", re.ASCII)
 #: The words (lower case) that spell NaN or infinity in Python, JSON and YAML: never a number here.
 NONFINITE_WORDS = frozenset(
     sign + word for sign in ("", "+", "-") for word in ("nan", "inf", "infinity", ".nan", ".inf")
@@ -171,6 +173,33 @@ def parse_float(text: str, where: str, error: type[Exception] = NumberError) -> 
     if not math.isfinite(value):
         raise _fail(text, where, _OVERFLOW, error)
     return value
+
+
+def parse_floats_fast(cells: list[str]) -> np.ndarray | None:
+    """The cells as float64 when every one is a finite number of the grammar, else ``None``.
+
+    One regular-expression match over the joined cells instead of one :func:`parse_float` call per cell: a
+    pose file of 10^5 rows holds 1.4 million numbers, 4 s one by one. ``None`` tells the caller to read the
+    cells one by one with :func:`parse_float`, which names the first bad one.
+
+    Parameters
+    ----------
+    cells : list of str, length M
+        Cells with the CSV spaces already stripped.
+
+    Returns
+    -------
+    array, shape (M,), or None
+    """
+    if not cells:
+        return np.empty(0)
+    joined = "\n".join(cells)
+    if max(map(len, cells)) > MAX_NUMBER_CHARS or joined.count("\n") != len(cells) - 1:
+        return None  # too long, or a line break inside a cell (a quoted CSV field may hold one)
+    if not _FLOAT_LINES.fullmatch(joined):
+        return None
+    values = np.array(cells, dtype=float)
+    return values if np.isfinite(values).all() else None
 
 
 def parse_int(text: str, where: str, error: type[Exception] = NumberError) -> int:

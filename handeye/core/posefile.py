@@ -71,7 +71,7 @@ from handeye.core.limits import (
     check_json_depth,
     shorten,
 )
-from handeye.core.numbers import CSV_CELL_SPACES, float_array, loads_json, parse_float
+from handeye.core.numbers import CSV_CELL_SPACES, float_array, loads_json, parse_float, parse_floats_fast
 from handeye.core.opencv_yaml import is_opencv_yaml
 from handeye.core.poseset import UNIT_SCALE, PoseSet
 from handeye.core.robot_angles import matrix_from_fanuc_wpr, matrix_from_kuka_abc
@@ -142,11 +142,27 @@ def _read_json(path: Path):
     return check_json_depth(doc, str(path), PoseFileError)
 
 
+#: The last CSV read, by (path, size, modification time, inode, names): the quaternion-order test of
+#: :func:`handeye.checked_poses.load_poses` reads one file four times, and 10^5 rows take a second each.
+_LAST_CSV: dict = {}
+
+
 def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, list[int], dict]:
     """Raw columns per pose name ``(N, 6 or 7)``, the line numbers, and the rotation kind per name.
 
-    An ``image`` column, if present, is returned under the key ``"image"`` of the first dict.
+    An ``image`` column, if present, is returned under the key ``"image"`` of the first dict. The arrays
+    returned are copies: a caller may change them.
     """
+    st = path.stat()
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns, st.st_ino, tuple(names))
+    if key not in _LAST_CSV:
+        _LAST_CSV.clear()
+        _LAST_CSV[key] = _read_csv_uncached(path, names)
+    raw, rows, kinds = _LAST_CSV[key]
+    return {k: (v.copy() if isinstance(v, np.ndarray) else list(v)) for k, v in raw.items()}, list(rows), dict(kinds)
+
+
+def _read_csv_uncached(path: Path, names: tuple[str, ...]) -> tuple[dict, list[int], dict]:
     text = _read_text(path)
     lines = [
         (i + 1, line)
@@ -191,7 +207,11 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
             )
         kind = found[0]
         cols = xyz + options[kind]
-        values = np.empty((len(table), len(cols)))
+        values = _fast_values(table, [col[c] for c in cols], len(header))
+        if values is not None:  # every cell a finite number of the grammar, every translation within bounds
+            raw[name], kinds[name] = values, kind
+            continue
+        values = np.empty((len(table), len(cols)))  # one by one, to name the first bad cell
         for r, (line_no, row) in enumerate(zip(rows, table)):
             if len(row) != len(header):
                 raise PoseFileError(f"{path}, line {line_no}: {len(row)} fields, header has {len(header)}")
@@ -206,6 +226,22 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
         raw[name] = values
         kinds[name] = kind
     return raw, rows, kinds
+
+
+def _fast_values(table: list, indices: list[int], n_header: int) -> np.ndarray | None:
+    """The ``(N, len(indices))`` values when every row is whole and every cell a plain number (translations, the
+    first three columns, within :data:`ABSURD_TRANSLATION_M` in millimetres); ``None`` sends the caller to the
+    cell-by-cell reading that names the bad one."""
+    if any(len(row) != n_header for row in table):
+        return None
+    cells = [row[k].strip(CSV_CELL_SPACES) for row in table for k in indices]
+    flat = parse_floats_fast(cells)
+    if flat is None:
+        return None
+    values = flat.reshape(len(table), len(indices))
+    if values.size and np.abs(values[:, :3]).max() > ABSURD_TRANSLATION_M * 1e3:
+        return None
+    return values
 
 
 #: Euler-angle columns of robot controllers (degrees) and their rotation matrices.
@@ -240,8 +276,9 @@ def _to_transforms(values: np.ndarray, kind: str, quat_order: str, scale: float,
         q = quat_wxyz_to_xyzw(rot)  # ABB q1..q4 = (w, x, y, z)
     else:
         q = _quat(rot, quat_order)
-    for r, qi in enumerate(q):
-        _check_unit(qi, where(rows[r]))
+    bad = np.flatnonzero(~(np.abs(np.linalg.norm(q, axis=1) - 1.0) <= _QUAT_NORM_TOL))
+    if bad.size:  # the first row whose quaternion is not a unit one (NaN norms included)
+        _check_unit(q[bad[0]], where(rows[bad[0]]))
     return make_transform(matrix_from_quat_xyzw(q), t)
 
 
