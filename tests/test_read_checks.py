@@ -113,15 +113,17 @@ def test_yaml_exponents_without_a_dot_read_as_numbers(tmp_path):
     )
 
 
-def test_opencv_yaml_refuses_a_full_width_digit_naming_the_key(tmp_path):
+# a full-width digit; a no-break space before a number, an ideographic one after it (str.strip drops both)
+@pytest.mark.parametrize("new", ["\uff11., 0., 0., 4.0", "\u00a01., 0., 0., 4.0", "1., 0., 0., 4.0\u3000"])
+def test_opencv_yaml_refuses_a_full_width_digit_naming_the_key(tmp_path, new):
     path = tmp_path / "pairs.yml"
-    path.write_text((DATA / "camodocal_pairs.yml").read_text().replace("1., 0., 0., 4.0", "\uff11., 0., 0., 4.0", 1))
+    path.write_text((DATA / "camodocal_pairs.yml").read_text().replace("1., 0., 0., 4.0", new, 1))
     with pytest.raises(PoseFileError) as info:
         read_pose_file(path)
     _one_line(info, "pairs.yml", "T1_0", "not a number")
 
 
-@pytest.mark.parametrize("bad", ["0_1", "\u0661", "1_0e-1"])
+@pytest.mark.parametrize("bad", ["0_1", "\u0661", "1_0e-1", "\u00a00", "0\u3000"])
 def test_matrix_text_file_refuses_the_token_naming_the_line(tmp_path, bad):
     path = tmp_path / "robot.txt"
     path.write_text("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n" + f"1 0 0 {bad} 0 1 0 0 0 0 1 0 0 0 0 1\n")

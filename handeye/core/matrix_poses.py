@@ -45,7 +45,7 @@ from handeye.core.textfile import read_text
 
 __all__ = ["read_matrix_pose_pairs", "read_pose_matrices"]
 
-_SEPARATORS = re.compile(r"[\s,;]+")
+_SEPARATORS = re.compile(r"[ \t\r\n,;]+")  # ASCII spaces: a no-break space beside a number is refused with it
 _COMMENT = re.compile(r"(#|%|//).*$")
 
 
@@ -54,7 +54,7 @@ def _number_lines(path: Path) -> list[tuple[int, list[float]]]:
     text = read_text(path, "pose matrix file")
     out = []
     for number, line in enumerate(text.splitlines(), start=1):
-        body = _COMMENT.sub("", line).replace("[", " ").replace("]", " ").strip()
+        body = _COMMENT.sub("", line).replace("[", " ").replace("]", " ").strip(" \t\r\n")
         if not body:
             out.append((number, []))
             continue

@@ -52,7 +52,10 @@ __all__ = ["OPENCV_YAML_HEADER", "is_opencv_yaml", "load_opencv_yaml", "parse_op
 OPENCV_YAML_HEADER = "%YAML:1.0"
 #: ``dt`` codes of an ``!!opencv-matrix`` whose elements are numbers this reader takes (OpenCV's depth codes).
 _MATRIX_DTYPES = ("u", "c", "w", "s", "i", "f", "d")
-_KEY = re.compile(r"^([A-Za-z_][\w.\-]*|\"[^\"]*\"|'[^']*')\s*:(?:\s+|$)(.*)$")
+#: The spaces YAML separates with (ASCII only: a no-break or ideographic space beside a number is no separator,
+#: and the number it touches is refused, where Python's str.strip would drop it silently).
+_SPACES = " \t\r\n"
+_KEY = re.compile(r"^([A-Za-z_][\w.\-]*|\"[^\"]*\"|'[^']*')[ \t]*:(?:[ \t]+|$)(.*)$")
 _SPECIAL = {".nan": np.nan, ".inf": np.inf, "+.inf": np.inf, "-.inf": -np.inf}
 
 
@@ -70,7 +73,7 @@ def is_opencv_yaml(path: str | Path) -> bool:
     """
     try:
         with open(path, "rb") as f:
-            head = f.read(64).decode("utf-8-sig", errors="replace").lstrip()
+            head = f.read(64).decode("utf-8-sig", errors="replace").lstrip(_SPACES)
     except OSError:
         return False
     return head.startswith(("%YAML:1.", "%YAML 1.0"))
@@ -96,7 +99,7 @@ def _scalar(text: str):
     digits) stays a string, which a matrix's ``data`` and the readers refuse as "not a number" with its line.
     ``.Nan`` and ``.Inf`` are OpenCV's own spelling and read as floats; every reader refuses them as non-finite.
     """
-    text = text.strip()
+    text = text.strip(_SPACES)
     if len(text) >= 2 and text[0] == text[-1] and text[0] in "\"'":
         return text[1:-1]
     low = text.lower()
@@ -111,7 +114,7 @@ def _scalar(text: str):
 
 def _split_flow(body: str) -> list[str]:
     """The comma-separated items of a flow collection's inside (no nesting in OpenCV's subset)."""
-    items = [item.strip() for item in body.split(",")]
+    items = [item.strip(_SPACES) for item in body.split(",")]
     if items and items[-1] == "":
         items.pop()  # a trailing comma
     return items
@@ -122,16 +125,16 @@ class _Parser:
         self.source, self.error = source, error
         self.lines: list[tuple[int, int, str]] = []  # (line number, indent, content)
         for number, line in enumerate(text.splitlines(), start=1):
-            if "\t" in line[: len(line) - len(line.lstrip())]:
+            if "\t" in line[: len(line) - len(line.lstrip(_SPACES))]:
                 raise self.fail(number, "a tab in the indentation (YAML indents with spaces)")
-            content = _strip_comment(line.lstrip("\ufeff")).rstrip()
-            if not content.strip() or content.strip() in ("---", "..."):
+            content = _strip_comment(line.lstrip("\ufeff")).rstrip(_SPACES)
+            if not content.strip(_SPACES) or content.strip(_SPACES) in ("---", "..."):
                 continue
             if content.startswith("%YAML") and not self.lines:
                 continue  # the header
             if content.startswith("%"):
-                raise self.fail(number, f"directive {shorten(content.strip())} after the first line")
-            self.lines.append((number, len(content) - len(content.lstrip()), content.strip()))
+                raise self.fail(number, f"directive {shorten(content.strip(_SPACES))} after the first line")
+            self.lines.append((number, len(content) - len(content.lstrip(_SPACES)), content.strip(_SPACES)))
         self.pos = 0
 
     def fail(self, line: int, message: str) -> Exception:
@@ -168,7 +171,7 @@ class _Parser:
             found = _KEY.match(content)
             if found is None:
                 raise self.fail(number, f"expected 'key: value', got {shorten(content)}")
-            key, rest = _scalar(found.group(1)), found.group(2).strip()
+            key, rest = _scalar(found.group(1)), found.group(2).strip(_SPACES)
             if key in out:
                 raise self.fail(number, f"duplicate key {key!r}")
             self.pos += 1
@@ -186,7 +189,7 @@ class _Parser:
             if ind > indent or not (content.startswith("- ") or content == "-"):
                 raise self.fail(number, f"expected a '- ' item of the sequence, got {shorten(content)}")
             self.pos += 1
-            rest = content[1:].strip()
+            rest = content[1:].strip(_SPACES)
             if _KEY.match(rest):
                 raise self.fail(number, "a mapping inside a sequence item: outside the FileStorage subset read here")
             out.append(self.value(rest, number, indent, depth, len(out)))
@@ -198,7 +201,7 @@ class _Parser:
         tag = None
         if rest.startswith("!!"):
             tag, _, rest = rest.partition(" ")
-            rest = rest.strip()
+            rest = rest.strip(_SPACES)
         if rest.startswith("["):
             node = self.flow_sequence(rest, number)
         elif rest.startswith("{"):
@@ -225,8 +228,8 @@ class _Parser:
             text += " " + self.lines[self.pos][2]
             self.pos += 1
         body, _, tail = text[1:].partition("]")
-        if tail.strip():
-            raise self.fail(number, f"text after the list's ']': {shorten(tail.strip())}")
+        if tail.strip(_SPACES):
+            raise self.fail(number, f"text after the list's ']': {shorten(tail.strip(_SPACES))}")
         if "[" in body or "{" in body:
             raise self.fail(number, "a nested list or mapping inside '[ ]': outside the FileStorage subset read here")
         out = YamlList(_scalar(item) for item in _split_flow(body))
@@ -318,6 +321,6 @@ def load_opencv_yaml(path: str | Path, error: type[Exception] = PoseFileError) -
     """
     path = Path(path)
     text = read_text(path, "YAML file", error)
-    if not text.lstrip().startswith("%YAML"):
+    if not text.lstrip(_SPACES).startswith("%YAML"):
         raise error(f"{path}, line 1: no '{OPENCV_YAML_HEADER}' header; not an OpenCV FileStorage YAML file")
     return parse_opencv_yaml(text, str(path), error)
