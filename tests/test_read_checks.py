@@ -352,3 +352,35 @@ def test_camera_yaml_refuses_integers_opencv_reads_in_another_base(tmp_path, bad
     with pytest.raises(IntrinsicsError) as info:  # OpenCV alone reads 0612 as 394 and 0x264 as 612
         CameraIntrinsics.load(path)
     _one_line(info, "camera_info.yaml, line 7", f"'{bad}' is not a decimal number")
+
+
+# ------------------------------------------------------------------ a shard's manifest (issue 40 items 11, 12)
+
+
+def _shard(tmp_path: Path, frames) -> Path:
+    shard = tmp_path / "cam_0000"
+    shard.mkdir()
+    (shard / "frames.csv").write_text("camera_id\n0\n")
+    doc = {"camera_id": 0, "frames": frames, "files": {"frames.csv": 12}}
+    (shard / "manifest.json").write_text(json.dumps(doc))
+    return shard
+
+
+@pytest.mark.parametrize("frames", ["all", [3], {"data": "3"}, {"data": True}])
+def test_a_manifest_whose_frame_counts_are_not_counts_is_damaged(tmp_path, frames):
+    from handeye.core.dataset import shard_is_complete
+
+    (tmp_path / "good").mkdir()
+    assert shard_is_complete(_shard(tmp_path / "good", {"data": 1})) == (True, "")  # the same shard, counts right
+    ok, why = shard_is_complete(_shard(tmp_path, frames))
+    assert not ok and "'frames'" in why and "damaged manifest" in why
+
+
+def test_a_fifo_listed_in_the_manifest_is_named_as_such(tmp_path):
+    from handeye.core.dataset import shard_is_complete
+
+    shard = _shard(tmp_path, {"data": 1})
+    (shard / "frames.csv").unlink()
+    os.mkfifo(shard / "frames.csv")
+    ok, why = shard_is_complete(shard)
+    assert not ok and why == f"{shard / 'frames.csv'}: a FIFO (named pipe), not a file"

@@ -497,6 +497,11 @@ def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
     if not isinstance(files, dict):
         what = "no 'files'" if not isinstance(doc, dict) or "files" not in doc else f"'files' a {type(files).__name__}"
         return False, f"{manifest}: not a shard manifest ({what}; an object with files: {{path: bytes}} is needed)"
+    frames = doc.get("frames", {})
+    if not isinstance(frames, dict) or not all(
+        isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in frames.values()
+    ):
+        return False, f"{manifest}: 'frames' is {str(frames)[:40]!r}, not an object of frame counts (damaged manifest)"
     for rel, size in files.items():
         if isinstance(size, bool) or not isinstance(size, int) or size < 0:
             return False, f"{manifest}: the size of {rel[:80]!r} is {str(size)[:40]!r}, not a number of bytes"
@@ -504,7 +509,8 @@ def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
             return False, f"{manifest}: lists {rel[:80]!r}, not a path inside the shard"
         p = shard_dir / rel
         if not p.is_file():
-            return False, f"{p}: listed in the manifest but missing"
+            what = "listed in the manifest but missing" if not p.exists() else f"{file_kind(p)}, not a file"
+            return False, f"{p}: {what}"
         if p.stat().st_size != size:
             return False, f"{p}: {p.stat().st_size} bytes, the manifest says {size} (truncated or rewritten)"
     return True, ""
