@@ -63,3 +63,19 @@ def test_a_failure_is_raised_with_its_task_named(workers):
 def test_workers_must_be_positive():
     with pytest.raises(ValueError, match="workers must be >= 1"):
         list(run_pool(_square, [1], 0, progress=False))
+
+
+def _warn(x):
+    import warnings
+
+    from handeye.core.errors import SuspectPosesWarning
+
+    warnings.warn(f"pose {x} lies beyond the outlier bound", SuspectPosesWarning, stacklevel=1)
+    warnings.warn("a library's overflow", RuntimeWarning, stacklevel=1)
+    return x
+
+
+def test_a_workers_own_warnings_are_one_line_and_a_librarys_none(capfd):
+    assert sorted(run_pool(_warn, [1, 2], 2, progress=False)) == [1, 2]
+    lines = [line for line in capfd.readouterr().err.splitlines() if line]
+    assert lines and all(line.startswith("handeye: warning: pose ") for line in lines), lines

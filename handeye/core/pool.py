@@ -33,9 +33,11 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from multiprocessing.reduction import ForkingPickler
 
+from handeye.core.limits import one_line
 from handeye.core.optional import require_package
 
 __all__ = ["run_pool", "WorkerDiedError", "PARENT_POLL_S", "WORKER_CHECK_S"]
@@ -83,6 +85,13 @@ def _watch_parent() -> None:
         time.sleep(PARENT_POLL_S)
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A worker's warnings as the command prints its own (``handeye.cli``): handeye's own as one line on stderr
+    (``handeye: warning: ...``, not Python's two lines with the source line), a library's not at all."""
+    if category.__module__.split(".")[0] in ("handeye", "classic", "sim", "learned"):
+        print(one_line(f"handeye: warning: {message}"), file=sys.stderr if file is None else file)
+
+
 def _start_worker(parent_pid: int, payload: bytes) -> None:
     """A pool worker's initializer: die with the parent, leave Ctrl-C to it, then run the caller's initializer.
 
@@ -95,6 +104,7 @@ def _start_worker(parent_pid: int, payload: bytes) -> None:
     if not _arm_parent_death_signal():
         threading.Thread(target=_watch_parent, name="handeye-parent-watchdog", daemon=True).start()
     _exit_if_orphaned()  # the parent died before the signal was armed
+    warnings.showwarning = _one_line_warning
     global _INIT_FAILURE
     try:
         initializer, initargs = pickle.loads(payload)
