@@ -24,7 +24,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from handeye.core.numbers import cli_float, cli_int
+from handeye.core.numbers import cli_float, cli_int, parse_float
 
 __all__ = ["add_parser", "run"]
 
@@ -162,8 +162,8 @@ def _intrinsics_sigma(args: argparse.Namespace) -> tuple:
     if args.intrinsics_sigma is None:
         return INTRINSICS_PRIORS.get(args.sensor or "factory", INTRINSICS_PRIORS["factory"])
     try:
-        values = tuple(float(x) for x in args.intrinsics_sigma.split(","))
-    except ValueError:
+        values = tuple(parse_float(x.strip(" "), "--intrinsics-sigma") for x in args.intrinsics_sigma.split(","))
+    except HandEyeInputError:
         values = ()
     if len(values) != 4 or not all(0 < v < float("inf") for v in values):
         raise HandEyeInputError(
