@@ -189,9 +189,158 @@ def _open(bag):
     except Exception as exc:  # a corrupt record in the storage (rosbags' struct, overflow and memory errors)
         raise NotABagError(f"{path}: the bag's storage is corrupt ({_reason(exc)})") from None
     try:
+        for storage in _mcap_files(reader):
+            check_mcap(storage)
+    except BaseException:
+        reader.close()
+        raise
+    try:
         yield reader
     finally:
         reader.close()
+
+
+def _mcap_files(reader) -> list:
+    """The MCAP files rosbags reads for an open ``AnyReader`` (none for sqlite3 storage)."""
+    from rosbags.rosbag2.storage_mcap import McapReader
+
+    return [
+        Path(s.path)
+        for r in getattr(reader, "readers", [])
+        for s in getattr(getattr(r, "storage", None), "storages", [])
+        if isinstance(s, McapReader)
+    ]
+
+
+#: MCAP record names by opcode, for the messages of :func:`check_mcap`.
+_MCAP_RECORDS = {1: "header", 3: "schema", 4: "channel", 5: "message", 6: "chunk", 7: "message index"}
+_MCAP_RECORDS.update({8: "chunk index", 9: "attachment", 11: "statistics", 12: "metadata", 15: "data end"})
+
+
+def check_mcap(path) -> None:
+    """Refuse an MCAP file whose records do not hold together, which rosbags' reader would pass over.
+
+    rosbags reads an indexed MCAP file by its summary (the channels, the chunk indexes, the statistics) and
+    skips, without a word, a message of a channel it does not know and a chunk's own records length; so a
+    message record naming an undeclared channel, a channel record naming an undeclared schema and a chunk
+    declaring records past the end of the file all read as a good bag. This walks every record of the data
+    section (and inside each chunk) once: each record must fit in its chunk and the file, each channel name a
+    declared schema (or 0, none), each message a declared channel, the summary's chunk indexes point at the
+    chunks, and the messages counted per channel equal the summary's statistics. The record headers are
+    parsed with :mod:`struct` (the ``mcap`` package is not among the project's dependencies); uncompressed
+    chunks are read in place (a memory map: the payloads are not copied), compressed ones decompressed one
+    at a time as rosbags does.
+
+    Raises
+    ------
+    BagError
+        Naming the file, the record and its byte offset.
+    """
+    import mmap
+    import struct
+
+    path = Path(path)
+    u16, u64 = struct.Struct("<H"), struct.Struct("<Q")
+
+    def refuse(what: str):
+        raise BagError(f"{path}: the MCAP storage is corrupt: {what}")
+
+    try:
+        with path.open("rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            size = len(mm)
+            if size < 8 + 37:
+                refuse(f"{size} bytes, shorter than the magic and footer")
+            (summary,) = u64.unpack_from(mm, size - 28)  # the footer's summary_start
+            data_end = summary or size - 37
+            schemas, channels, counts = {0}, {}, {}  # channel id -> [(schema id, where)]; id -> [count, where]
+            chunks = {}  # offset -> record length, opcode and length prefix included
+
+            def walk(buf, start: int, end: int, base: int | None, packed: bool = False) -> None:
+                """The records of buf[start:end]; base: the chunk's offset in the file (None: the file); packed:
+                buf is the chunk's decompressed records (offsets in them), else the file."""
+                k = start
+                inside = "its chunk" if base is not None else "the file"
+                while k < end:
+                    at = f"byte {k}" + (f" in the chunk at byte {base}" if base is not None else "")
+                    if packed:
+                        at = f"byte {k} of the decompressed chunk at byte {base}"
+                    if end - k < 9:
+                        refuse(f"{end - k} stray bytes at {at}, not a record")
+                    op, (n,) = buf[k], u64.unpack_from(buf, k + 1)
+                    name = _MCAP_RECORDS.get(op, f"0x{op:02x}")
+                    if n > end - k - 9:
+                        refuse(f"the {name} record at {at} declares {n} bytes, past the end of {inside}")
+                    body = k + 9
+                    if op in (3, 4, 5) and n < {3: 2, 4: 4, 5: 22}[op]:
+                        refuse(f"the {name} record at {at} is {n} bytes, too short")
+                    if op == 3:
+                        schemas.add(u16.unpack_from(buf, body)[0])
+                    elif op == 4:
+                        cid, sid = struct.unpack_from("<HH", buf, body)
+                        channels.setdefault(cid, []).append((sid, at))
+                    elif op == 5:
+                        counts.setdefault(u16.unpack_from(buf, body)[0], [0, at])[0] += 1
+                    elif op == 6 and base is None:
+                        if n < 40:
+                            refuse(f"the chunk record at {at} is {n} bytes, too short")
+                        raw_size, crc, clen = struct.unpack_from("<QII", buf, body + 16)
+                        head = body + 32 + clen
+                        if head + 8 > body + n:
+                            refuse(f"the chunk at {at} declares a compression name of {clen} bytes, past its record")
+                        (records,) = u64.unpack_from(buf, head)
+                        if records > body + n - head - 8:
+                            past = "the file" if head + 8 + records > size else "its record"
+                            refuse(f"the chunk at {at} declares {records} bytes of records, past the end of {past}")
+                        compression = bytes(buf[body + 32 : head]).decode("utf-8", "replace")
+                        chunks[k] = n + 9
+                        if not compression:
+                            walk(buf, head + 8, head + 8 + records, k)
+                        else:
+                            from rosbags.rosbag2.storage_mcap import decompress
+
+                            try:
+                                raw = decompress(bytes(buf[head + 8 : head + 8 + records]), compression, raw_size, crc)
+                            except Exception as exc:
+                                refuse(f"the chunk at {at} cannot be decompressed ({_reason(exc)})")
+                            walk(raw, 0, len(raw), k, packed=True)
+                    elif op == 11 and base is None and n >= 46:  # statistics (in the summary)
+                        total, per = (
+                            u64.unpack_from(buf, body)[0],
+                            min(struct.unpack_from("<I", buf, body + 42)[0], n - 46),
+                        )
+                        stats.update(
+                            total=total,
+                            per=dict(struct.iter_unpack("<HQ", buf[body + 46 : body + 46 + per // 10 * 10])),
+                        )
+                    elif op == 8 and base is None and n >= 32:  # a chunk index (in the summary)
+                        index.append(struct.unpack_from("<QQ", buf, body + 16))
+                    k = body + n
+
+            stats, index = {}, []
+            walk(mm, 8, data_end, None)
+            if summary:
+                walk(mm, summary, size - 37, None)
+    except OSError as exc:
+        raise BagError(f"{path}: the MCAP file cannot be read ({_reason(exc)})") from None
+    for offset, length in index:
+        if chunks.get(offset) != length:
+            refuse(f"the summary indexes a chunk of {length} bytes at byte {offset}, which the file does not hold")
+    for cid, declared in sorted(channels.items()):
+        for sid, at in declared:
+            if sid not in schemas:
+                refuse(f"the channel record at {at} (channel {cid}) names schema {sid}, which the file lacks")
+        if len({sid for sid, _ in declared}) > 1:
+            refuse(f"channel {cid} is declared with schemas {sorted({sid for sid, _ in declared})}")
+    for cid, (count, at) in sorted(counts.items()):
+        if cid not in channels:
+            refuse(f"the message record at {at} names channel {cid}, which the file does not declare")
+    if stats:
+        for cid in sorted(set(counts) | set(stats["per"])):
+            found, listed = counts.get(cid, [0])[0], stats["per"].get(cid, 0)
+            if found != listed:
+                refuse(f"{found} messages of channel {cid} in the file, the summary's statistics list {listed}")
+        if stats["total"] != sum(c for c, _ in counts.values()):
+            refuse(f"{sum(c for c, _ in counts.values())} messages in the file, the summary lists {stats['total']}")
 
 
 def _connections(reader, bag, topic: str, types: tuple, required: bool = True) -> list:
