@@ -387,9 +387,7 @@ def _corrupt(data: bytes, how: str) -> bytes:
         r += 9 + struct.unpack_from("<Q", data, r + 1)[0]
     if how == "checksum":  # the CRC of its records: rosbags checks it when it reads the chunk
         struct.pack_into("<I", data, k + 9 + 24, 12345)
-    elif (
-        how == "record"
-    ):  # its first record's length beyond the chunk: rosbags passed the chunk over; the record walk names it
+    elif how == "record":  # its first record's length past the chunk (rosbags passed the chunk over)
         struct.pack_into("<Q", data, records + 1, 2**62)
     elif how == "length":  # the header record's length: rosbags' reader allocates from it when it opens the file
         struct.pack_into("<Q", data, 9, 2**63 - 1)
