@@ -102,6 +102,7 @@ class MarkerlessRun:
                     f"{err[1]:.3f} / {err[0]:.4f}" if err else "-",
                     f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f}",
                     _depth_cell(r.depth),
+                    _intrinsics_cell(r.intrinsics),
                     f"{r.matched_fraction:.2f}",
                     f"{lab[1]:.3f} / {lab[0]:.4f}" if lab else "-",
                     f"{self.seconds[c]:.1f}",
@@ -116,6 +117,7 @@ class MarkerlessRun:
                     "hybrid vs truth (mm / deg)",
                     "sigma (mm / deg)",
                     "depth scale, offset mm",
+                    "intrinsics change px (fx fy cx cy)",
                     "matched",
                     "classic label vs truth",
                     "s",
@@ -132,6 +134,18 @@ def _depth_cell(depth: dict) -> str:
     return (
         f"{depth['scale']:.4f} ± {depth['scale_sigma']:.4f}, {depth['offset_mm']:+.2f} ± {depth['offset_sigma_mm']:.2f}"
     )
+
+
+def _intrinsics_cell(intrinsics: dict) -> str:
+    """The estimated change of fx, fy, cx, cy from the camera matrix given, pixels, with how many the frames
+    determined (the others held near the given values by their prior, their uncertainty in the sigma); '-' where
+    the intrinsics were taken as exact."""
+    names = ("fx", "fy", "cx", "cy")
+    if intrinsics.get("model") != "estimated" or not all(n in intrinsics for n in names):
+        return "-"
+    changes = " ".join(f"{intrinsics[n]['change']:+.1f}" for n in names)
+    determined = sum(bool(intrinsics[n]["determined"]) for n in names)
+    return f"{changes} ({determined} of 4 determined)"
 
 
 def robot_surface_for(

@@ -42,6 +42,10 @@ def test_cli_writes_results_and_refusals_exit_1(small_dataset, tmp_path, capsys)
     mm = f"{cam['error_vs_truth']['mm']:.3f} mm"
     assert "accepted 1 of 1 placements" in printed and f"markerless vs truth over 1: median {mm}" in printed
     assert f"worst {mm}" in printed
+    # the intrinsics estimated with the pose (the default), as the JSON holds them
+    intr = cam["intrinsics"]
+    changes = " ".join(f"{intr[n]['change']:+.1f}" for n in ("fx", "fy", "cx", "cy"))
+    assert "intrinsics change px" in printed and changes in printed
 
 
 def test_start_file_and_its_errors(small_dataset, tmp_path):
