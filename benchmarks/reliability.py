@@ -46,6 +46,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks import reliability_faults as faults  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
+from benchmarks.reliability_faults import _set_cell  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MB100 = 100 * 1024 * 1024
@@ -188,17 +189,6 @@ class Maker:
         p = self.folder() / name
         p.write_text(edit(good.read_text()))
         return p
-
-
-def _set_cell(text: str, row: int, column: str, value: str) -> str:
-    """The CSV text with one cell replaced (row counts data rows from 0; ``#`` lines and the header skipped)."""
-    lines = text.splitlines()
-    k = next(i for i, ln in enumerate(lines) if ln and not ln.startswith("#"))
-    header = lines[k].split(",")
-    cells = lines[k + 1 + row].split(",")
-    cells[header.index(column)] = value
-    lines[k + 1 + row] = ",".join(cells)
-    return "\n".join(lines) + "\n"
 
 
 def file_cases(mk: Maker, good: Path, suffix: str) -> list[tuple[str, Path, list[str], bool, str]]:
