@@ -114,8 +114,8 @@ def _intrinsics(msg, where: str):
     check_camera_matrix(msg.k, msg.width, msg.height, where)
     try:
         return CameraIntrinsics(np.asarray(msg.k, dtype=float).reshape(3, 3), d, int(msg.width), int(msg.height))
-    except IntrinsicsError as exc:
-        raise BagError(f"{where}: {exc}") from None
+    except IntrinsicsError as exc:  # the field of view (FOV_RANGE_DEG) is checked there, not twice
+        raise IntrinsicsError(f"{where}: {exc}") from None
 
 
 def read_camera_bag(

@@ -13,7 +13,8 @@ line naming the file or topic, the frame and the field, with what to do:
   :data:`MAX_ABS_JOINT` where the model sets none, said to look like degrees when the values read as degrees
   fit the limits;
 * intrinsics: ``K`` finite, of the form ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``, the image size positive,
-  the field of view of ``fx`` and ``fy`` within :data:`FOV_RANGE_DEG`, the principal point inside the image.
+  ``fx`` and ``fy`` positive, the principal point inside the image (the field of view within
+  :data:`handeye.core.limits.FOV_RANGE_DEG` is :class:`classic.vision.camera.CameraIntrinsics`'s check).
 """
 
 from __future__ import annotations
@@ -21,14 +22,13 @@ from __future__ import annotations
 import numpy as np
 
 from handeye.core.errors import IntrinsicsError, RecordingError
-from handeye.core.limits import FOV_RANGE_DEG, check_image_size
+from handeye.core.limits import check_image_size
 
 __all__ = [
     "DEPTH_MEDIAN_RANGE_M",
     "DEPTH_UNITS",
     "JOINT_LIMIT_MARGIN",
     "MAX_ABS_JOINT",
-    "FOV_RANGE_DEG",
     "depth_problem",
     "check_depth_frame",
     "check_depth_stream",
@@ -260,16 +260,9 @@ def check_camera_matrix(K, width, height, where: str) -> None:
     if w <= 0 or h <= 0:
         raise IntrinsicsError(f"{where}: width {w} and height {h}: the image size must be positive")
     check_image_size(w, h, where, IntrinsicsError)
-    lo, hi = FOV_RANGE_DEG
-    for name, f, side in (("fx", K[0, 0], w), ("fy", K[1, 1], h)):
+    for name, f in (("fx", K[0, 0]), ("fy", K[1, 1])):
         if not f > 0:
             raise IntrinsicsError(f"{where}: {name} is {f:g}; a focal length must be > 0 pixels")
-        fov = np.degrees(2 * np.arctan2(side / 2, f))
-        if not lo <= fov <= hi:
-            raise IntrinsicsError(
-                f"{where}: {name} = {f:.6g} pixels gives a {fov:.3g}-degree field of view over {side} pixels, "
-                f"outside {lo:g}-{hi:g} degrees (pixels, not metres or millimetres?)"
-            )
     for name, c, side in (("cx", K[0, 2], w), ("cy", K[1, 2], h)):
         if not 0 <= c <= side:
             raise IntrinsicsError(
