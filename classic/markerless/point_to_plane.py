@@ -51,7 +51,7 @@ import numpy as np
 from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
-from classic.markerless.intrinsics import rays_for
+from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points", "pixel_locking_basis"]
@@ -298,8 +298,7 @@ def solve_point_to_plane(
     K_ref = None if intrinsics_K_ref is None else np.asarray(intrinsics_K_ref, dtype=float)
     theta = None
     if K_ref is not None:
-        ref = np.array([K_ref[0, 0], K_ref[1, 1], K_ref[0, 2], K_ref[1, 2]])
-        theta = ref.copy() if intrinsics_start is None else np.array(intrinsics_start, dtype=float)
+        theta = intrinsics_vector(K_ref) if intrinsics_start is None else np.array(intrinsics_start, dtype=float)
     n_par = 6 + n_depth + (0 if theta is None else 4)
     prior_precision, prior_mean = np.zeros(n_par), np.zeros(n_par)
     if depth is not None:
