@@ -66,19 +66,7 @@ def read_truth(path: str | Path, names: tuple[str, ...]) -> dict[str, np.ndarray
     for name in found:
         where = f"{path}, {name}"
         M = float_array(truth[name], where, TruthFileError)  # numbers, finite
-        if M.shape != (4, 4):
-            raise TruthFileError(f"{where}: shape {M.shape}, a pose is a 4x4 matrix")
-        R = M[:3, :3]
-        ortho = float(np.abs(R.T @ R - np.eye(3)).max())
-        det = float(np.linalg.det(R))
-        if det < 0:
-            raise TruthFileError(f"{where}: the rotation block is a reflection (det = {det:.4f}), not a rotation")
-        if ortho > TRUTH_ROTATION_TOL or abs(det - 1.0) > TRUTH_ROTATION_TOL:
-            raise TruthFileError(
-                f"{where}: the rotation block is not a rotation (|R^T R - I| = {ortho:.1e}, det = {det:.7f}; a "
-                f"truth allows {TRUTH_ROTATION_TOL:g}): write it with six or more decimals, or fix the matrix"
-            )
-        checked_pose_matrix(M, where, TruthFileError)  # the last row [0, 0, 0, 1]
+        checked_pose_matrix(M, where, TruthFileError, tol=TRUTH_ROTATION_TOL)  # 4x4, last row, a rotation
         norm = float(np.linalg.norm(M[:3, 3]))
         if norm > MAX_TRANSLATION_M:
             raise TruthFileError(

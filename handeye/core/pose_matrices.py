@@ -24,7 +24,9 @@ __all__ = ["PRINTED_ROTATION_TOL", "checked_pose_matrix", "scaled_to_metres"]
 PRINTED_ROTATION_TOL = 1e-3
 
 
-def checked_pose_matrix(M: np.ndarray, where: str, error: type[Exception] = PoseFileError) -> np.ndarray:
+def checked_pose_matrix(
+    M: np.ndarray, where: str, error: type[Exception] = PoseFileError, tol: float = PRINTED_ROTATION_TOL
+) -> np.ndarray:
     """One pose matrix checked: finite, last row ``[0, 0, 0, 1]``, a rotation within rounding.
 
     Parameters
@@ -34,6 +36,8 @@ def checked_pose_matrix(M: np.ndarray, where: str, error: type[Exception] = Pose
     where : str
         The file and line (or key), for messages.
     error : exception class
+    tol : float
+        Largest ``|R^T R - I|`` entry and ``|det R - 1|`` (and last-row deviation) taken; a truth passes a tighter one.
 
     Returns
     -------
@@ -51,17 +55,17 @@ def checked_pose_matrix(M: np.ndarray, where: str, error: type[Exception] = Pose
         raise error(f"{where}: a pose matrix is 4 x 4, this one is {' x '.join(map(str, M.shape))}")
     if not np.isfinite(M).all():
         raise error(f"{where}: the matrix holds NaN or infinity")
-    if np.abs(M[3] - [0.0, 0.0, 0.0, 1.0]).max() > PRINTED_ROTATION_TOL:
+    if np.abs(M[3] - [0.0, 0.0, 0.0, 1.0]).max() > tol:
         raise error(f"{where}: the last row is {np.round(M[3], 6).tolist()}, not [0, 0, 0, 1]: not a pose matrix")
     R = M[:3, :3]
     ortho = float(np.abs(R.T @ R - np.eye(3)).max())
     det = float(np.linalg.det(R))
     if det < 0:
         raise error(f"{where}: the rotation block is a reflection (det = {det:.4f}), not a rotation")
-    if ortho > PRINTED_ROTATION_TOL or abs(det - 1.0) > PRINTED_ROTATION_TOL:
+    if ortho > tol or abs(det - 1.0) > tol:
         raise error(
             f"{where}: the rotation block is not a rotation (|R^T R - I| = {ortho:.2e}, det = {det:.6f}; "
-            f"rounding allows {PRINTED_ROTATION_TOL:g})"
+            f"rounding allows {tol:g})"
         )
     T = np.eye(4)
     T[:3, :3] = project_to_so3(R)
