@@ -562,6 +562,20 @@ def writers(w: Work) -> dict:
     return w._cache["writers"]
 
 
+def _special_target(t: Path, what: str) -> tuple[str, str, Path | None]:
+    """Make ``t`` a FIFO, a /dev/full device node or a folder holding a precious file: (kind, what, precious)."""
+    if what == "FIFO":
+        os.mkfifo(t)
+        return "fifo", what, None
+    if what == "device":
+        made = _mknod(t, 7)
+        return ("chardev" if made == "character device" else "link"), f"device ({made} of /dev/full)", None
+    t.mkdir()
+    precious = t / "keep.txt"
+    precious.write_text(PRECIOUS)
+    return "dir", what, precious
+
+
 def gen_targets(w: Work) -> list:
     """Output targets: symlink, dangling symlink, FIFO, character device, directory, missing folder."""
     out = []
@@ -595,20 +609,11 @@ def gen_targets(w: Work) -> list:
             elif what == "dangling symlink":
                 t.symlink_to(d / "nowhere" / name)
                 kind = "link"
-            elif what == "FIFO":
-                os.mkfifo(t)
-                kind = "fifo"
-            elif what == "device":
-                made = _mknod(t, 7)
-                kind = "chardev" if made == "character device" else "link"
-                what = f"device ({made} of /dev/full)"
-            elif what == "directory":
-                t.mkdir()
-                precious = t / "keep.txt"
-                precious.write_text(PRECIOUS)
-                kind = "dir"
-                legit = is_dir  # a report or a dataset may go into a folder that exists: its files must stay
-                if is_dir:
+            elif what in ("FIFO", "device", "directory"):
+                if what == "directory":
+                    legit = is_dir  # a report or a dataset may go into a folder that exists: its files must stay
+                kind, what, precious = _special_target(t, what)
+                if what == "directory" and is_dir:
                     what = "non-empty directory"
             elif what == "regular file":
                 t.write_text(PRECIOUS)
@@ -636,18 +641,8 @@ def gen_targets(w: Work) -> list:
         t = root / "labels.md"
         t.unlink(missing_ok=True)
         precious = on_failure = None
-        if what == "FIFO":
-            os.mkfifo(t)
-            kind = "fifo"
-        elif what == "device":
-            made = _mknod(t, 7)
-            kind = "chardev" if made == "character device" else "link"
-            what = f"device ({made} of /dev/full)"
-        elif what == "directory":
-            t.mkdir()
-            precious = t / "keep.txt"
-            precious.write_text(PRECIOUS)
-            kind = "dir"
+        if what in ("FIFO", "device", "directory"):
+            kind, what, precious = _special_target(t, what)
         elif what == "symlink to a file":
             real = root.parent / "real.md"
             real.write_text(PRECIOUS)
