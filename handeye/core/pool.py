@@ -111,6 +111,7 @@ def _start_worker(parent_pid: int, payload: bytes) -> None:
         if initializer is not None:
             initializer(*initargs)
     except Exception as exc:  # raised in the tasks, of its own type: a pool would restart this worker for ever
+        exc.add_note("while starting the worker process")  # once: the same exception is raised by every task
         _INIT_FAILURE = exc
 
 
@@ -123,7 +124,6 @@ class _Named:
     def __call__(self, task):
         _exit_if_orphaned()  # between tasks: a fallback where the parent-death signal is not available
         if _INIT_FAILURE is not None:
-            _INIT_FAILURE.add_note("while starting the worker process")
             raise _INIT_FAILURE
         try:
             return self.fn(task)
