@@ -105,6 +105,10 @@ class RobotSurfaceFrames:
         is second order; without, first order (biased by a fraction of a millimetre on curved links).
     direction_base : array, shape (M, 3), optional
         Unit tangent along ``kappa_1``, base frame; given with ``curvatures``.
+    joint_twists_base : array, shape (N_frames, n_parts, n_joints, 6), optional
+        Each part's motion per joint at each frame, ``(omega, v)`` in the base frame: a point ``p`` of the part
+        moves by ``omega x p + v`` per radian of the joint (:meth:`sim.surface.RobotSurface.joint_twists`). Given,
+        the joints' zero offsets can be estimated with the pose (:mod:`classic.markerless.kinematics`).
     """
 
     points_base: np.ndarray
@@ -113,6 +117,7 @@ class RobotSurfaceFrames:
     part: np.ndarray
     curvatures: np.ndarray | None = None
     direction_base: np.ndarray | None = None
+    joint_twists_base: np.ndarray | None = None
 
     def __post_init__(self):
         m = len(self.points_base)
@@ -138,6 +143,17 @@ class RobotSurfaceFrames:
                 if not np.all(np.isfinite(a)):
                     raise NonFiniteError(f"surface {name} has NaN or inf")
                 setattr(self, name, a)
+        if self.joint_twists_base is not None:
+            a = np.asarray(self.joint_twists_base, dtype=float)
+            need = (int(self.frame.max()) + 1, int(self.part.max()) + 1) if m else (0, 0)
+            if a.ndim != 4 or a.shape[3] != 6 or a.shape[0] < need[0] or a.shape[1] < need[1]:
+                raise ShapeError(
+                    f"surface joint_twists_base must be (N_frames >= {need[0]}, n_parts >= {need[1]}, n_joints, 6), "
+                    f"got {a.shape}"
+                )
+            if not np.all(np.isfinite(a)):
+                raise NonFiniteError("surface joint_twists_base has NaN or inf")
+            self.joint_twists_base = a
 
 
 @dataclass(frozen=True)
@@ -184,6 +200,15 @@ class MarkerlessOptions:
         Uncertainty of the depth-to-colour extrinsic per axis, metres (a sensor profile's figure): the
         registration finds the depth camera, the board and the learned model the colour camera; added to
         the translation sigma.
+    depth_extrinsic_sigma_deg : float
+        Uncertainty of the depth-to-colour extrinsic's rotation per axis, degrees (a sensor profile's figure).
+        Depth aligned to the colour image through an extrinsic turned by ``theta`` is the depth of a camera turned
+        by ``theta``: the registration finds that camera, exactly, and no depth can tell it from the colour one
+        (measured: a tilt of 0.5 degrees came out as the pose's, not as a shift of the principal point). Bounded:
+        added to the rotation sigma. A pure shift of the depth image against the camera model (an alignment
+        that is off by pixels) is the principal point's error and is estimated with it
+        (``intrinsics_model="estimate"``). :attr:`MarkerlessResult.registration` says which part was estimated and
+        which bounded.
     min_moving_pixels : int
         Fewer moving pixels in all frames than this: refused (the arm is not in view).
     min_matched_fraction : float
@@ -233,6 +258,7 @@ class MarkerlessOptions:
     intrinsics_prior_sigma: tuple = (0.007, 0.007, 3.0, 3.0)
     intrinsics_determined_share: float = 0.5
     depth_extrinsic_sigma_m: float = 0.0
+    depth_extrinsic_sigma_deg: float = 0.0
     min_moving_pixels: int = 200
     min_matched_fraction: float = 0.6
     max_residual_ratio: float = 3.0
@@ -277,6 +303,10 @@ class MarkerlessOptions:
                 "intrinsics_model 'estimate' needs four positive prior sigmas (fx, fy relative; cx, cy pixels), got "
                 f"{self.intrinsics_prior_sigma!r}; a camera matrix known exactly is intrinsics_model='fixed'"
             )
+        for key in ("depth_extrinsic_sigma_m", "depth_extrinsic_sigma_deg"):
+            value = getattr(self, key)
+            if not (np.isfinite(value) and value >= 0):
+                raise HandEyeInputError(f"{key} must be a finite value >= 0, got {value}")
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
@@ -298,8 +328,8 @@ class MarkerlessResult:
     sigma : dict
         ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
         the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
-        groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and in
-        translation the depth-to-colour extrinsic's uncertainty.
+        groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and the bounded part
+        of the depth-to-colour registration (``registration``).
     residual_mm_per_frame : array, shape (N,)
         RMS point-to-plane residual of the matched points of each frame.
     matched_fraction : float
@@ -324,6 +354,12 @@ class MarkerlessResult:
         ``fy``, ``cx``, ``cy``) the ``estimate``, its ``change`` from the value given, ``sigma``,
         ``prior_sigma``, ``ratio`` (what the frames leave of the sigma over the prior's) and ``determined``
         (the ratio below ``intrinsics_determined_share``); pixels.
+    registration : dict
+        How the depth-to-colour registration was treated, per part: ``shift_px`` (the depth image's shift against
+        the camera model: ``estimated`` with the principal point, its change ``dx``, ``dy`` and ``sigma``; or
+        ``taken as exact`` with the intrinsics fixed), ``rotation`` and ``translation`` of the depth-to-colour
+        extrinsic (``bounded``: the sigma per axis, ``sigma_deg`` or ``sigma_mm``, added to the pose's over the
+        three axes as ``rss_deg``, ``rss_mm``).
     """
 
     T_base_cam: np.ndarray | None
@@ -336,6 +372,7 @@ class MarkerlessResult:
     diagnostics: dict = field(default_factory=dict)
     depth: dict = field(default_factory=dict)
     intrinsics: dict = field(default_factory=dict)
+    registration: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -359,6 +396,7 @@ class MarkerlessResult:
             "sigma": self.sigma,
             "depth": self.depth,
             "intrinsics": self.intrinsics,
+            "registration": self.registration,
             "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
             "diagnostics": self.diagnostics,
         }
@@ -803,7 +841,8 @@ def register_robot(
     sampling_mm = footprint_m**2 / (8 * opts.model_radius_m) / np.sqrt(3) * 1e3
     sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
     # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
-    extrinsic_mm = np.sqrt(3) * opts.depth_extrinsic_sigma_m * 1e3
+    registration = _registration_terms(opts, fit, problem.theta_given)
+    extrinsic_mm, extrinsic_deg = registration["translation"]["rss_mm"], registration["rotation"]["rss_deg"]
     depth = _depth_summary(fit, opts, depth_range, problem.noise_source, noise_mm)
     refused = None
     observe = depth.get("observability", {})  # the frames' geometry alone decides whether the depth is observable
@@ -834,7 +873,7 @@ def register_robot(
     )
     split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
     sigma = {
-        "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + split_deg**2)),
+        "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + extrinsic_deg**2 + split_deg**2)),
         "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2 + split_mm**2)),
     }
     diag.update(
@@ -860,8 +899,52 @@ def register_robot(
             opts.intrinsics_determined_share,
         )
     return MarkerlessResult(
-        None if refused else T, refused, cov, sigma, res_frame, matched, name, diag, depth, intrinsics
+        None if refused else T,
+        refused,
+        cov,
+        sigma,
+        res_frame,
+        matched,
+        name,
+        diag,
+        depth,
+        intrinsics,
+        registration=registration,
     )
+
+
+def _registration_terms(opts: MarkerlessOptions, fit, theta_given: np.ndarray) -> dict:
+    """What the depth-to-colour registration adds to the sigma, and which of its parts the fit estimated.
+
+    The extrinsic's rotation and translation move the colour camera off the depth camera the fit finds: bounded,
+    per axis. A shift of the depth image against the camera model is the principal point's error: estimated with
+    the intrinsics (the change found holds the camera matrix's own error there too), or taken as exact with them.
+    """
+    estimated = fit.intrinsics is not None
+    out = {
+        "translation": {
+            "treatment": "bounded",
+            "sigma_mm": float(opts.depth_extrinsic_sigma_m * 1e3),
+            "rss_mm": float(np.sqrt(3) * opts.depth_extrinsic_sigma_m * 1e3),
+        },
+        "rotation": {
+            "treatment": "bounded",
+            "sigma_deg": float(opts.depth_extrinsic_sigma_deg),
+            "rss_deg": float(np.sqrt(3) * opts.depth_extrinsic_sigma_deg),
+        },
+    }
+    if estimated:
+        change = np.asarray(fit.intrinsics[2:4]) - np.asarray(theta_given[2:4])
+        sigma = np.sqrt(np.clip(np.diag(fit.intrinsics_covariance)[2:4], 0.0, None))
+        out["shift_px"] = {
+            "treatment": "estimated (with the principal point)",
+            "dx": float(change[0]),
+            "dy": float(change[1]),
+            "sigma": [float(x) for x in sigma],
+        }
+    else:
+        out["shift_px"] = {"treatment": "taken as exact (intrinsics fixed)"}
+    return out
 
 
 def _depth_bins(z: np.ndarray, bins: int) -> np.ndarray | None:

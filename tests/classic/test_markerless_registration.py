@@ -1,0 +1,92 @@
+"""The depth-to-colour registration estimated or bounded (issue 41 item 2), on the analytic sphere scenes.
+
+Depth aligned to the colour image through a factory extrinsic that is turned is the depth of a turned camera:
+the registration finds that camera, and no depth can tell it from the colour one, so the extrinsic's rotation
+is bounded by its stated sigma. A shift of the depth image against the camera model (an alignment off by
+pixels) is the principal point's error, estimated with the pose. The result says which part was estimated and
+which bounded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from classic.markerless import MarkerlessOptions, register_robot
+from handeye.core.errors import HandEyeInputError
+from handeye.core.metrics import pose_error
+from handeye.core.se3 import make_transform, so3_exp
+from tests.classic.test_markerless import K, _bias_bounds, _look_at, render_depth, sphere_model
+from tests.tolerances import SIGMA_BOUND
+
+#: The extrinsic's rotation error, degrees (tilt about y, roll about z): large against the scene's rotation
+#: bias bound (about 0.8 degrees, :func:`tests.classic.test_markerless._bias_bounds`), so that it shows.
+TURN_DEG = np.array([0.0, 2.0, 2.0])
+#: A shift of the depth image against the camera model, pixels along x.
+SHIFT_PX = 2
+
+
+def _scene(turn_deg=(0.0, 0.0, 0.0)):
+    rng = np.random.default_rng(11)
+    T_base_colour = _look_at(np.array([1.2, -0.6, 0.9]), np.array([0.0, 0.0, 0.35]))
+    T_base_depth = T_base_colour @ make_transform(so3_exp(np.radians(turn_deg)), np.zeros(3))
+    centres = np.empty((8, 4, 3))
+    centres[:, 0] = [0, 0, 0.09]
+    centres[:, 1:] = rng.uniform([-0.3, -0.3, 0.25], [0.3, 0.3, 0.65], size=(8, 3, 3))
+    return render_depth(centres, T_base_depth, rng), sphere_model(centres), T_base_colour
+
+
+def _within(res, T_true, depth):
+    rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
+    bias_mm, bias_deg = _bias_bounds(depth)
+    return (
+        rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+        and trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
+    )
+
+
+@pytest.fixture(scope="module")
+def turned():
+    return _scene(TURN_DEG)
+
+
+def test_a_turned_extrinsic_not_bounded_is_confidently_wrong(turned):
+    depth, surface, T_true = turned
+    res = register_robot(depth, K, surface)
+    assert res.ok, res.refused
+    assert res.registration["rotation"]["rss_deg"] == 0.0
+    assert not _within(res, T_true, depth)
+
+
+def test_a_turned_extrinsic_is_bounded_by_its_sigma(turned):
+    depth, surface, T_true = turned
+    sigma_deg = float(np.abs(TURN_DEG).max())
+    res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_extrinsic_sigma_deg=sigma_deg))
+    assert res.ok, res.refused
+    assert _within(res, T_true, depth)
+    rotation = res.registration["rotation"]
+    assert rotation["treatment"] == "bounded" and rotation["sigma_deg"] == sigma_deg
+    assert rotation["rss_deg"] == pytest.approx(np.sqrt(3) * sigma_deg)
+    assert res.sigma["rotation_deg"] >= rotation["rss_deg"]
+
+
+def test_a_shifted_depth_image_is_estimated_as_the_principal_point():
+    depth, surface, T_true = _scene()
+    shifted = np.zeros_like(depth)
+    shifted[:, :, SHIFT_PX:] = depth[:, :, :-SHIFT_PX]  # the content moves right: the principal point with it
+    res = register_robot(shifted, K, surface)
+    assert res.ok, res.refused
+    assert _within(res, T_true, depth)
+    shift = res.registration["shift_px"]
+    assert shift["treatment"].startswith("estimated")
+    assert abs(shift["dx"] - SHIFT_PX) <= SIGMA_BOUND * shift["sigma"][0]
+    assert abs(shift["dy"]) <= SIGMA_BOUND * shift["sigma"][1]
+    fixed = register_robot(shifted, K, surface, options=MarkerlessOptions(intrinsics_model="fixed"))
+    assert fixed.registration["shift_px"]["treatment"].startswith("taken as exact")
+
+
+@pytest.mark.parametrize("key", ["depth_extrinsic_sigma_deg", "depth_extrinsic_sigma_m"])
+@pytest.mark.parametrize("value", [-0.1, float("nan"), float("inf")])
+def test_a_bad_registration_sigma_is_refused(key, value):
+    with pytest.raises(HandEyeInputError, match=key):
+        MarkerlessOptions(**{key: value})
