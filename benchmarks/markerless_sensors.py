@@ -106,11 +106,21 @@ def placements(ds: Dataset, split: str, at_most: int | None = None) -> list[int]
     return cams
 
 
-def observe(ds: Dataset, c: int, sensor, seed: int):
-    """The placement's depth frames as ``sensor`` reports them, its joints, and the unit's truth."""
+def observe(ds: Dataset, c: int, sensor, seed: int, registration: dict | None = None):
+    """The placement's depth frames as ``sensor`` reports them, its joints, and the unit's truth.
+
+    ``registration`` (:func:`parse_registration_error`): the depth image's misregistration, instead of the
+    profile's draw.
+    """
     t = ds.select(c, "data")
     K = np.array(ds.meta["intrinsics"]["K"])
     truth = draw_systematic(sensor, seed, c)
+    if registration:
+        truth = replace(
+            truth,
+            registration_px=np.array([registration["du"], registration["dv"]]),
+            registration_roll_deg=registration["roll"],
+        )
     rng = np.random.default_rng([seed, c, 3])
     depth = np.stack(
         [apply_sensor(ds.depth_m(c, d), K, sensor, truth, rng, rgb=ds.rgb(c, r)) for d, r in zip(t["depth"], t["rgb"])]
@@ -132,6 +142,34 @@ def parse_intrinsics_error(text: str) -> dict:
     return out
 
 
+def parse_registration_error(text: str) -> dict:
+    """``du=1,dv=0,roll=0``: the depth image's shift (pixels) and roll (degrees) against the colour camera."""
+    out = {"du": 0.0, "dv": 0.0, "roll": 0.0}
+    for item in filter(None, text.split(",")):
+        key, _, value = item.partition("=")
+        if key.strip() not in out:
+            raise argparse.ArgumentTypeError(f"--registration-error: unknown key {key!r} (du, dv, roll)")
+        try:
+            out[key.strip()] = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"--registration-error: {item!r} is not key=number") from None
+    return out
+
+
+def with_errors(sensor, fixed_pattern_mm: float | None = None, fixed_pattern_px: float | None = None):
+    """``sensor`` with a fixed-pattern noise of ``fixed_pattern_mm`` at 1 m (its correlation length
+    ``fixed_pattern_px``, the profile's noise correlation length by default), named after it."""
+    if fixed_pattern_mm is None:
+        return sensor
+    length = sensor.correlation_px if fixed_pattern_px is None else fixed_pattern_px
+    return replace(
+        sensor,
+        name=f"{sensor.name} + fixed pattern {fixed_pattern_mm:g} mm at 1 m",
+        fixed_pattern_sigma_m_at_1m=fixed_pattern_mm * 1e-3,
+        fixed_pattern_px=length,
+    )
+
+
 def told_intrinsics(K: np.ndarray, error: dict | None) -> np.ndarray:
     """The camera matrix the method is told: the true ``K`` with ``error`` (:func:`parse_intrinsics_error`)."""
     K = np.array(K, dtype=float)
@@ -143,7 +181,7 @@ def told_intrinsics(K: np.ndarray, error: dict | None) -> np.ndarray:
     return K
 
 
-def run_profile(ds, surface, stride, cams, sensor, seed, intrinsics_error=None, modes=None):
+def run_profile(ds, surface, stride, cams, sensor, seed, intrinsics_error=None, modes=None, registration=None):
     """Per placement and mode: (status, err_deg, err_mm, sigma_deg, sigma_mm, s, depth dict, truth, intrinsics).
 
     ``intrinsics_error``: the method is told a camera matrix this far off the one the depth was rendered with
@@ -168,7 +206,7 @@ def run_profile(ds, surface, stride, cams, sensor, seed, intrinsics_error=None, 
     modes = {m: all_modes[m] for m in (modes or ("self-calibrated", "depth taken as exact"))}
     rows = {m: [] for m in modes}
     for c in cams:
-        depth, q, truth = observe(ds, c, sensor, seed)
+        depth, q, truth = observe(ds, c, sensor, seed, registration)
         posed = surface.posed(q)
         for mode, opts in modes.items():
             t0 = time.perf_counter()
@@ -240,6 +278,18 @@ def intrinsics_line(name: str, rows: list, K_true: np.ndarray) -> str | None:
     return f"- {name}: intrinsics' error, median: " + "; ".join(cells)
 
 
+def sigma_line(name: str, rows: list) -> str | None:
+    """The predicted sigma beside the error, medians over the accepted placements (None without any)."""
+    ok = [r for r in rows if r[0] == "ok"]
+    if not ok:
+        return None
+    e = np.array([[r[1], r[2], r[3], r[4]] for r in ok])
+    return (
+        f"- {name}: sigma, median {np.median(e[:, 3]):.2f} mm / {np.median(e[:, 2]):.3f} deg "
+        f"(error median {np.median(e[:, 1]):.2f} mm / {np.median(e[:, 0]):.3f} deg)"
+    )
+
+
 def versions() -> str:
     import scipy
 
@@ -263,6 +313,25 @@ def main():
         "(relative focal errors, principal point in pixels)",
     )
     ap.add_argument(
+        "--registration-error",
+        type=parse_registration_error,
+        help="shift and rotate every depth image against the camera model it is paired with: du=1,dv=0,roll=0 "
+        "(pixels, degrees about the principal point), instead of the profile's draw",
+    )
+    ap.add_argument(
+        "--fixed-pattern",
+        type=float,
+        metavar="SIGMA_MM_AT_1M",
+        help="add a fixed-pattern depth noise, the same in every frame of a placement, of this sigma at 1 m "
+        "(growing with depth squared), correlated over --fixed-pattern-px",
+    )
+    ap.add_argument(
+        "--fixed-pattern-px",
+        type=float,
+        help="the fixed pattern's correlation length in the sensor's own pixels (default: the profile's "
+        "correlation_px, its matching window)",
+    )
+    ap.add_argument(
         "--modes",
         default="self-calibrated,depth taken as exact",
         help="comma-separated: self-calibrated, 'self-calibrated, intrinsics taken as exact' (written with a "
@@ -280,6 +349,19 @@ def main():
     )
     if not args.data and not args.presets:
         ap.error("give --data or --presets")
+    if args.registration_error:
+        r = args.registration_error
+        emit(
+            f"\nEvery depth image is misregistered against the camera model it is paired with: shifted du "
+            f"{r['du']:+g} px, dv {r['dv']:+g} px, rotated {r['roll']:+g} deg about the principal point."
+        )
+    if args.fixed_pattern is not None:
+        emit(
+            f"\nA fixed-pattern depth noise is added, the same in every frame of a placement: {args.fixed_pattern:g} "
+            "mm at 1 m (growing with depth squared), correlated over "
+            + ("the profile's correlation_px" if args.fixed_pattern_px is None else f"{args.fixed_pattern_px:g} px")
+            + " (the sensor's own pixels)."
+        )
     if args.intrinsics_error:
         emit(
             "\nThe method is told a camera matrix off the one the depth was rendered with: "
@@ -327,13 +409,16 @@ def main():
         emit("|---|---|---|---|---|---|---|---|---|")
         notes = []
         for name in args.profiles.split(","):
-            sensor = PROFILES[name]
+            sensor = with_errors(PROFILES[name], args.fixed_pattern, args.fixed_pattern_px)
             modes = [m.strip().replace(";", ",") for m in args.modes.split(",")]
-            rows = run_profile(ds, surface, stride, cams, sensor, args.seed, args.intrinsics_error, modes)
+            rows = run_profile(
+                ds, surface, stride, cams, sensor, args.seed, args.intrinsics_error, modes, args.registration_error
+            )
             for mode, r in rows.items():
                 emit(summary_row(f"{name}, {mode}", r))
             K_true = np.array(ds.meta["intrinsics"]["K"])
             notes += filter(None, (intrinsics_line(f"{name}, {m}", r, K_true) for m, r in rows.items()))
+            notes += filter(None, (sigma_line(f"{name}, {m}", r) for m, r in rows.items()))
         if notes:  # after the table, which they would cut
             emit()
             for line in notes:

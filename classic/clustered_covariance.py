@@ -16,9 +16,17 @@ same in every frame at that depth, so frames agree with each other while all bei
 ``cross_group`` (the depth bin of each residual) the estimate is two-way clustered (Cameron, Gelbach & Miller,
 "Robust inference with multiway clustering", J. Business & Economic Statistics 29(2), 2011):
 ``C = C_group + C_cross - C_both``, its negative eigenvalues set to zero.
+
+Several cross clusterings (the depth bin and the image tile of each residual: a sensor's fixed pattern is the
+same in every frame at one image position) make it multiway: the inclusion-exclusion sum over the non-empty
+subsets ``S`` of the clusterings, ``sum_S (-1)^(|S|+1) C_S``, ``C_S`` clustered by the intersection of the
+clusterings in ``S`` (Cameron, Gelbach & Miller 2011, section 2.3); with two clusterings it is the two-way sum.
 """
 
 from __future__ import annotations
+
+from itertools import combinations
+from typing import Sequence
 
 import numpy as np
 
@@ -31,7 +39,7 @@ def clustered_covariance(
     w: np.ndarray,
     group: np.ndarray | None = None,
     prior_information: np.ndarray | None = None,
-    cross_group: np.ndarray | None = None,
+    cross_group: np.ndarray | Sequence[np.ndarray | None] | None = None,
 ) -> np.ndarray:
     """Covariance of the parameters of a weighted least-squares fit, clustered by group.
 
@@ -49,9 +57,9 @@ def clustered_covariance(
         A Gaussian prior on the parameters as an extra, independent observation, in the units of ``J^T J``
         (its inverse times the residual variance is the prior's covariance): added to the information, and
         to the scores' variance times the residuals' variance.
-    cross_group : array of int, shape (M,), optional
-        A second clustering of the residuals (errors shared across the groups, such as a depth bin):
-        two-way clustered when given with ``group``.
+    cross_group : array of int, shape (M,), or a sequence of them (None entries skipped), optional
+        Further clusterings of the residuals (errors shared across the groups, such as a depth bin or an
+        image tile): multiway clustered with ``group``. A clustering with a single cluster is left out.
 
     Returns
     -------
@@ -70,13 +78,24 @@ def clustered_covariance(
     meat = _cluster_meat(scores, g, n_g)
     if meat is None:
         return plain
+    crosses = []
     if cross_group is not None:
-        c, n_c = _codes(cross_group)
-        cross = _cluster_meat(scores, c, n_c)
-        both = _cluster_meat(scores, *_codes(g * n_c + c))  # the (group, cross_group) pairs, one integer each
-        if cross is not None and both is not None:
-            value, vector = np.linalg.eigh(meat + cross - both)
-            meat = (vector * np.maximum(value, 0.0)) @ vector.T
+        is_one = np.isscalar(cross_group[0]) if len(cross_group) else True  # one clustering, not several
+        for clustering in [cross_group] if is_one else cross_group:
+            if clustering is not None and _codes(clustering)[1] >= 2:
+                crosses.append(_codes(clustering))
+    if crosses:
+        clusterings = [(g, n_g), *crosses]
+        total = None
+        for size in range(1, len(clusterings) + 1):
+            sign = 1.0 if size % 2 else -1.0
+            for subset in combinations(clusterings, size):
+                part = _cluster_meat(scores, *_intersection(subset))
+                if part is None:
+                    continue
+                total = sign * part if total is None else total + sign * part
+        value, vector = np.linalg.eigh(total)
+        meat = (vector * np.maximum(value, 0.0)) @ vector.T
     sandwich = H_inv @ (meat + variance * prior) @ H_inv
     return sandwich if np.trace(sandwich) >= np.trace(plain) else plain
 
@@ -85,6 +104,14 @@ def _codes(group: np.ndarray) -> tuple[np.ndarray, int]:
     """Each residual's cluster as 0..k-1, and k."""
     labels, where = np.unique(np.asarray(group), return_inverse=True)
     return where.reshape(-1), len(labels)
+
+
+def _intersection(clusterings) -> tuple[np.ndarray, int]:
+    """The clusters of the intersection of several clusterings (each ``(codes, k)``), as :func:`_codes`."""
+    codes, k = clusterings[0]
+    for other, n_other in clusterings[1:]:
+        codes, k = _codes(codes * n_other + other)  # the pairs, one integer each
+    return codes, k
 
 
 def _cluster_meat(scores_per_residual: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray | None:

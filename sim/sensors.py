@@ -34,7 +34,15 @@ from scipy.special import ndtri
 
 from handeye.core.errors import HandEyeInputError
 
-__all__ = ["DepthSensor", "SensorTruth", "PROFILES", "sensor_profile", "draw_systematic", "apply_sensor"]
+__all__ = [
+    "DepthSensor",
+    "SensorTruth",
+    "PROFILES",
+    "sensor_profile",
+    "draw_systematic",
+    "apply_sensor",
+    "fixed_pattern",
+]
 
 
 @dataclass(frozen=True)
@@ -86,6 +94,17 @@ class DepthSensor:
     extrinsic_sigma_m : float
         Spread of the depth-to-colour extrinsic's translation error per axis, metres: the depth image is
         registered to the colour camera through a factory extrinsic that is off by this much.
+    registration_shift_sigma_px : float
+        Spread of the depth image's misregistration against the colour camera's model it is paired with
+        (aligned depth), per image axis, pixels, drawn per placement: the image is shifted by this much.
+    registration_roll_sigma_deg : float
+        Spread of its rotation about the principal point, degrees, drawn per placement.
+    fixed_pattern_sigma_m_at_1m : float
+        Sigma of a fixed-pattern depth error at 1 m, growing with depth squared like the stereo noise: one
+        noise field per unit and placement, the same in every frame (a real sensor's error on a static scene
+        repeats), metres.
+    fixed_pattern_px : float
+        Its correlation length in the sensor's own pixels (scaled like ``correlation_px``).
     source : str
         Where the numbers come from.
     """
@@ -109,6 +128,10 @@ class DepthSensor:
     hole_blob_px: float = 6.0
     extrinsic_sigma_m: float = 0.0
     stereo_baseline_m: float = 0.0
+    registration_shift_sigma_px: float = 0.0
+    registration_roll_sigma_deg: float = 0.0
+    fixed_pattern_sigma_m_at_1m: float = 0.0
+    fixed_pattern_px: float = 0.0
     source: str = ""
 
     def __post_init__(self):
@@ -281,27 +304,45 @@ class SensorTruth:
     pattern_seed : int, optional
         The unit's projected dot pattern (``simulated-stereo``): the same in every frame; None draws one
         per frame.
+    registration_px : array, shape (2,)
+        The depth image's shift ``(du, dv)`` against the camera model it is paired with, pixels: what the
+        truth camera sees at pixel ``u`` the depth image has at ``u + du`` (after the roll).
+    registration_roll_deg : float
+        Its rotation about the principal point, degrees: positive turns ``+u`` toward ``+v``.
+    fixed_pattern_seed : int, optional
+        Seed of the unit's fixed-pattern noise field (the same in every frame); None: no fixed pattern.
     """
 
     scale: float = 1.0
     offset_m: float = 0.0
     t_colour_depth_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
     pattern_seed: int | None = None
+    registration_px: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    registration_roll_deg: float = 0.0
+    fixed_pattern_seed: int | None = None
 
 
 def draw_systematic(sensor: DepthSensor, seed: int, camera_id: int) -> SensorTruth:
-    """Draw a unit's scale, offset and extrinsic error for one placement, repeatably from ``(seed, camera)``.
+    """Draw a unit's scale, offset, extrinsic error, misregistration and fixed pattern for one placement,
+    repeatably from ``(seed, camera)``.
 
     Each is normal with the profile's spread, cut at 2.5 sigma (a unit outside its datasheet's bound is
-    returned to the vendor).
+    returned to the vendor). The misregistration and the fixed pattern are drawn after the others, so a
+    profile without them draws what it drew before.
     """
     rng = np.random.default_rng([seed, camera_id, 2])
     z = np.clip(rng.normal(size=5), -2.5, 2.5)
+    pattern_seed = int(rng.integers(2**31))
+    z_reg = np.clip(rng.normal(size=3), -2.5, 2.5)
+    fixed_seed = int(rng.integers(2**31))
     return SensorTruth(
         scale=float(1.0 + sensor.scale_sigma * z[0]),
         offset_m=float(sensor.offset_sigma_m * z[1]),
         t_colour_depth_m=sensor.extrinsic_sigma_m * z[2:5],
-        pattern_seed=int(rng.integers(2**31)),
+        pattern_seed=pattern_seed,
+        registration_px=sensor.registration_shift_sigma_px * z_reg[:2],
+        registration_roll_deg=float(sensor.registration_roll_sigma_deg * z_reg[2]),
+        fixed_pattern_seed=fixed_seed if sensor.fixed_pattern_sigma_m_at_1m > 0 else None,
     )
 
 
@@ -329,6 +370,34 @@ def _shift_depth(depth: np.ndarray, K: np.ndarray, t_m: np.ndarray, edge_jump_m:
     z = np.where(depth > 0, depth, np.nan)
     us = u - K[0, 0] * t_m[0] / np.where(np.isfinite(z), z, 1.0)
     vs = v - K[1, 1] * t_m[1] / np.where(np.isfinite(z), z, 1.0)
+    return _sample(z, us, vs, edge_jump_m, t_m[2])
+
+
+def _misregister(depth: np.ndarray, K: np.ndarray, shift_px: np.ndarray, roll_deg: float, edge_jump_m: float):
+    """The depth image shifted by ``shift_px`` ``(du, dv)`` and rotated by ``roll_deg`` about the principal point.
+
+    What the input has at pixel ``u`` the output has at ``R (u - c) + c + shift`` (``R`` turns ``+u`` toward
+    ``+v``); each output pixel takes the input's depth found there, bilinear on one surface, the nearest
+    across an edge (:func:`_shift_depth`).
+    """
+    if not np.any(shift_px) and roll_deg == 0:
+        return depth
+    h, w = depth.shape
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    z = np.where(depth > 0, depth, np.nan)
+    a = np.radians(roll_deg)
+    du, dv = u - K[0, 2] - shift_px[0], v - K[1, 2] - shift_px[1]
+    us = K[0, 2] + np.cos(a) * du + np.sin(a) * dv  # R^-1 (u - c - shift) + c
+    vs = K[1, 2] - np.sin(a) * du + np.cos(a) * dv
+    out = _sample(z, us, vs, edge_jump_m, 0.0, keep_holes=False)
+    inside = (us > -0.5) & (us < w - 0.5) & (vs > -0.5) & (vs < h - 0.5)
+    return np.where(inside, out, 0.0)
+
+
+def _sample(z, us, vs, edge_jump_m: float, dz_m: float, keep_holes: bool = True) -> np.ndarray:
+    """The depth ``z`` (NaN without) at the pixels ``(us, vs)``, bilinear on one surface, nearest across an
+    edge, plus ``dz_m``; 0 where there is none (and, with ``keep_holes``, where the output pixel had none)."""
+    h, w = z.shape
     u0 = np.clip(np.floor(us).astype(np.int64), 0, w - 2)
     v0 = np.clip(np.floor(vs).astype(np.int64), 0, h - 2)
     a, b = np.clip(us - u0, 0, 1), np.clip(vs - v0, 0, 1)
@@ -337,8 +406,33 @@ def _shift_depth(depth: np.ndarray, K: np.ndarray, t_m: np.ndarray, edge_jump_m:
     one_surface = np.all(np.isfinite(corners), axis=0) & (np.ptp(np.nan_to_num(corners), axis=0) < edge_jump_m)
     bilinear = np.sum(np.nan_to_num(corners) * weights, axis=0)
     nearest = z[np.clip(np.rint(vs).astype(np.int64), 0, h - 1), np.clip(np.rint(us).astype(np.int64), 0, w - 1)]
-    out = np.where(one_surface, bilinear, nearest) + t_m[2]
-    return np.where(np.isfinite(out) & np.isfinite(z), out, 0.0)
+    out = np.where(one_surface, bilinear, nearest) + dz_m
+    return np.where(np.isfinite(out) & (np.isfinite(z) | (not keep_holes)), out, 0.0)
+
+
+def fixed_pattern(z_m: np.ndarray, K: np.ndarray, sensor: DepthSensor, seed: int) -> np.ndarray:
+    """The unit's fixed-pattern depth error at depth ``z_m``: the same field in every frame of one ``seed``.
+
+    Parameters
+    ----------
+    z_m : array, shape (H, W)
+        Depth, metres.
+    K : array, shape (3, 3)
+        Camera matrix of the image (scales ``fixed_pattern_px`` by ``f_x / native_focal_px``).
+    sensor : DepthSensor
+    seed : int
+        :attr:`SensorTruth.fixed_pattern_seed`.
+
+    Returns
+    -------
+    array, shape (H, W)
+        Metres: ``fixed_pattern_sigma_m_at_1m z^2`` times a unit-variance field correlated over
+        ``fixed_pattern_px``.
+    """
+    z = np.asarray(z_m, dtype=float)
+    length = sensor.fixed_pattern_px * (K[0, 0] / sensor.native_focal_px if sensor.native_focal_px else 1.0)
+    unit = _correlated_field(z.shape, length, np.random.default_rng([seed, 41]))
+    return sensor.fixed_pattern_sigma_m_at_1m * z**2 * unit
 
 
 def _normals_cos(depth: np.ndarray, K: np.ndarray) -> np.ndarray:
@@ -388,6 +482,7 @@ def apply_sensor(
     if not valid.any():
         return depth.copy()
     depth = _shift_depth(depth, K, truth.t_colour_depth_m, sensor.edge_jump_m)
+    depth = _misregister(depth, K, truth.registration_px, truth.registration_roll_deg, sensor.edge_jump_m)
     valid = depth > 0
     z = np.where(valid, depth, 0.0)
     if sensor.principle == "simulated-stereo":  # the matcher's depth: its noise, holes and edges
@@ -416,6 +511,8 @@ def apply_sensor(
     if rho > 0:
         noise += np.sqrt(rho) * _correlated_field(z.shape, length, rng)
     out = truth.scale * z + truth.offset_m + sigma * noise
+    if truth.fixed_pattern_seed is not None and sensor.fixed_pattern_sigma_m_at_1m > 0:
+        out = out + fixed_pattern(z, K, sensor, truth.fixed_pattern_seed)
     # flying pixels: at a depth edge, a mix of the nearest and the farthest neighbour
     if sensor.flying_fraction > 0:
         far = ndimage.maximum_filter(np.where(valid, z, 0.0), size=3)
@@ -450,4 +547,18 @@ PROFILES["d435-sgbm"] = replace(
     flying_fraction=0.0,
     source="the d435 profile's geometry (50 mm baseline, f = 447 px at 848x480) and systematic errors; the "
     "matching is OpenCV's StereoSGBM (7x7 window), not Intel's D4 processor",
+)
+
+# the d435 as a real cell has it (issue 41): its depth image misregistered against the colour camera's model by
+# a pixel or two, and a fixed-pattern error as large as its stereo noise, the same in every frame of a placement.
+# The camera matrix's error and the robot's joint offsets are the benchmark's options (--intrinsics-error
+# fx=0.007,fy=0.007,cx=3, --joint-offsets): the depth is rendered with the true camera matrix and joints.
+PROFILES["d435-real-cell"] = replace(
+    PROFILES["d435"],
+    name="d435-real-cell",
+    registration_shift_sigma_px=1.0,  # per axis: 1.4 px in the image plane, median
+    registration_roll_sigma_deg=0.2,
+    fixed_pattern_sigma_m_at_1m=PROFILES["d435"].noise_quadratic_per_m,  # 3.6 mm at 1 m, the stereo noise's size
+    fixed_pattern_px=PROFILES["d435"].correlation_px,  # the matching window
+    source=PROFILES["d435"].source + "; misregistration and fixed pattern at issue 41's sizes",
 )
