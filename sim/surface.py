@@ -69,18 +69,57 @@ class RobotSurface:
         """Samples per frame."""
         return sum(len(p) for _, p, _ in self.parts)
 
-    def posed(self, q: np.ndarray) -> RobotSurfaceFrames:
+    def joint_twists(self, q: np.ndarray, step_rad: float = 1e-6) -> np.ndarray:
+        """Each part's motion per joint at each configuration: twists in the base frame.
+
+        For part ``k`` posed at ``T_k(q)`` (base frame), ``T_k(q + h e_j) T_k(q)^{-1} = exp(h [omega, v])``: a point
+        ``p`` of the part (base frame) moves by ``dp / dq_j = omega x p + v``. Central differences of
+        :meth:`sim.robot.Robot.link_poses` (no assumption on the robot's structure; a mesh's scale cancels).
+
+        Parameters
+        ----------
+        q : array, shape (N, nq)
+            Joint angles, radians.
+        step_rad : float
+            Difference step.
+
+        Returns
+        -------
+        array, shape (N, n_parts, nq, 6)
+            ``(omega, v)``: rad/rad and m/rad.
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        nq = self.robot.nq
+        out = np.zeros((len(q), len(self.parts), nq, 6))
+        for i, qi in enumerate(q):
+            T0_inv = [np.linalg.inv(T) for _, _, T in self.robot.link_poses(qi)]
+            for j in range(nq):
+                e = np.zeros(nq)
+                e[j] = step_rad
+                plus = self.robot.link_poses(qi + e)
+                minus = self.robot.link_poses(qi - e)
+                for k, ((_, _, Tp), (_, _, Tm), Ti) in enumerate(zip(plus, minus, T0_inv)):
+                    D = (Tp @ Ti - Tm @ Ti) / (2 * step_rad)
+                    W = 0.5 * (D[:3, :3] - D[:3, :3].T)  # skew(omega), the difference's symmetric part removed
+                    out[i, k, j, :3] = (W[2, 1], W[0, 2], W[1, 0])
+                    out[i, k, j, 3:] = D[:3, 3]
+        return out
+
+    def posed(self, q: np.ndarray, twists: bool = True) -> RobotSurfaceFrames:
         """The surface at each configuration, stacked.
 
         Parameters
         ----------
         q : array, shape (N, nq)
             Joint angles of N frames, radians.
+        twists : bool
+            Carry each part's twist per joint (:meth:`joint_twists`), with which the registration estimates the
+            joints' zero offsets (:mod:`classic.markerless.kinematics`).
 
         Returns
         -------
         RobotSurfaceFrames
-            Points and outward normals in the base frame, with frame and part indices.
+            Points and outward normals in the base frame, with frame and part indices (and ``joint_twists_base``).
 
         Raises
         ------
@@ -111,4 +150,5 @@ class RobotSurface:
             np.concatenate(part),
             curvatures=np.concatenate(kappa),
             direction_base=np.concatenate(direction),
+            joint_twists_base=self.joint_twists(q) if twists else None,
         )

@@ -36,6 +36,10 @@ With ``intrinsics_K_ref`` the depth camera's intrinsics ``(f_x, f_y, c_x, c_y)``
 Gaussian prior (:mod:`classic.markerless.intrinsics`): each observed point keeps its pixel and depth, its ray
 moves with them, and their columns of the Jacobian are ``z n_cam[:2] . d(x_n, y_n) / d theta``.
 
+With ``joint_twists`` the robot's joint zero offsets ``delta`` are estimated too, under a Gaussian prior about 0
+(:mod:`classic.markerless.kinematics`): the model points move by ``omega_j x m + v_j`` per radian of joint ``j``
+(first order), and their columns of the Jacobian are ``-(n . (omega_j x m + v_j))``.
+
 The covariance is the sandwich (cluster-robust) estimate with one cluster per
 frame: neighbouring pixels of one frame share the model's discretisation and
 the sensor's systematic error, so counting them as independent would make
@@ -52,6 +56,7 @@ from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
+from classic.markerless.kinematics import moved_model, offset_columns
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points", "pixel_locking_basis"]
@@ -91,6 +96,10 @@ class PlaneFit:
         The estimated ``(f_x, f_y, c_x, c_y)``, pixels, when asked for (``intrinsics_K_ref``).
     intrinsics_covariance, intrinsics_covariance_frames : array, shape (4, 4) or None
         Their covariance, two-way and frame-clustered as the depth's.
+    joint_offsets : array, shape (J,) or None
+        The estimated joint zero offsets, radians, when asked for (``joint_twists``).
+    joint_offsets_covariance, joint_offsets_covariance_frames : array, shape (J, J) or None
+        Their covariance, two-way and frame-clustered as the depth's.
     """
 
     T_base_cam: np.ndarray
@@ -106,6 +115,9 @@ class PlaneFit:
     intrinsics: np.ndarray | None = None
     intrinsics_covariance: np.ndarray | None = None
     intrinsics_covariance_frames: np.ndarray | None = None
+    joint_offsets: np.ndarray | None = None
+    joint_offsets_covariance: np.ndarray | None = None
+    joint_offsets_covariance_frames: np.ndarray | None = None
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -173,8 +185,10 @@ def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
     return q_obs * (z / z_obs)[:, None], jacobian
 
 
-def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None, intrinsics=None):
+def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None, intrinsics=None, joints=None):
     R, t = T[:3, :3], T[:3, 3]
+    if joints is not None:  # (twists, delta): the model moved by the joint offsets delta
+        m_base, n_base = moved_model(m_base, n_base, *joints)
     if intrinsics is not None:  # (K_ref, theta): the points' rays with the intrinsics theta
         q_obs, dray = rays_for(q_obs, *intrinsics)
     if depth is None:
@@ -199,6 +213,8 @@ def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=
             cols.append(n_ray * dz)
     if intrinsics is not None:
         cols.append(p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1]))
+    if joints is not None:
+        cols.append(offset_columns(grad, m_base, joints[0]))
     return r, np.hstack(cols)
 
 
@@ -229,6 +245,9 @@ def solve_point_to_plane(
     intrinsics_K_ref: np.ndarray | None = None,
     intrinsics_start: np.ndarray | None = None,
     intrinsics_prior: tuple[np.ndarray, np.ndarray] | None = None,
+    joint_twists: np.ndarray | None = None,
+    joint_start: np.ndarray | None = None,
+    joint_prior_sigma: np.ndarray | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -283,6 +302,14 @@ def solve_point_to_plane(
     intrinsics_prior : (array (4,), array (4,)), optional
         Mean and sigmas of a Gaussian prior on them, pixels (the camera matrix given and its stated
         uncertainty). None: no prior.
+    joint_twists : array, shape (N, J, 6), optional
+        Per match, its model part's twist per joint at its frame (base frame,
+        :attr:`classic.markerless.RobotSurfaceFrames.joint_twists_base`); given, the zero offsets of these ``J``
+        joints are estimated with the pose (``m_base`` and ``n_base`` are then posed at the recorded joints).
+    joint_start : array, shape (J,), optional
+        Their start, radians (0 by default).
+    joint_prior_sigma : array, shape (J,), optional
+        Sigmas of a Gaussian prior on them about 0, radians. None: no prior.
 
     Returns
     -------
@@ -299,7 +326,12 @@ def solve_point_to_plane(
     theta = None
     if K_ref is not None:
         theta = intrinsics_vector(K_ref) if intrinsics_start is None else np.array(intrinsics_start, dtype=float)
-    n_par = 6 + n_depth + (0 if theta is None else 4)
+    n_intr = 0 if theta is None else 4
+    delta = None
+    if joint_twists is not None:
+        joint_twists = np.asarray(joint_twists, dtype=float)
+        delta = np.zeros(joint_twists.shape[1]) if joint_start is None else np.array(joint_start, dtype=float)
+    n_par = 6 + n_depth + n_intr + (0 if delta is None else len(delta))
     prior_precision, prior_mean = np.zeros(n_par), np.zeros(n_par)
     if depth is not None:
         prior_mean[6] = 1.0
@@ -308,15 +340,21 @@ def solve_point_to_plane(
         if fb is not None:
             prior_precision[8:10] = 1.0 / pixel_locking_prior_px**2
     if theta is not None and intrinsics_prior is not None:
-        prior_mean[6 + n_depth :] = np.asarray(intrinsics_prior[0], dtype=float)
-        prior_precision[6 + n_depth :] = 1.0 / np.square(np.asarray(intrinsics_prior[1], dtype=float))
+        prior_mean[6 + n_depth : 6 + n_depth + 4] = np.asarray(intrinsics_prior[0], dtype=float)
+        prior_precision[6 + n_depth : 6 + n_depth + 4] = 1.0 / np.square(np.asarray(intrinsics_prior[1], dtype=float))
+    if delta is not None and joint_prior_sigma is not None:  # about 0
+        prior_precision[6 + n_depth + n_intr :] = 1.0 / np.square(np.asarray(joint_prior_sigma, dtype=float))
     has_prior = bool(prior_precision.any())
 
     def params():
-        return np.r_[np.zeros(6), [] if depth is None else depth, [] if theta is None else theta]
+        return np.r_[
+            np.zeros(6), [] if depth is None else depth, [] if theta is None else theta, [] if delta is None else delta
+        ]
 
     def linearise():
-        return _linearise(p_cam, m_base, n_base, T, shape, depth, fb, None if theta is None else (K_ref, theta))
+        intr = None if theta is None else (K_ref, theta)
+        joints = None if delta is None else (joint_twists, delta)
+        return _linearise(p_cam, m_base, n_base, T, shape, depth, fb, intr, joints)
 
     step_norm, steps = np.inf, 0
     for steps in range(1, iterations + 1):
@@ -337,14 +375,16 @@ def solve_point_to_plane(
             depth = depth + xi[6 : 6 + n_depth]
             step_norm += float(abs(xi[6]) + abs(xi[7]))  # the scale and offset; the locking's pixels not
         if theta is not None:  # not in the step: they follow the matches by hundredths of a pixel, the pose not
-            theta = theta + xi[6 + n_depth :]
+            theta = theta + xi[6 + n_depth : 6 + n_depth + 4]
+        if delta is not None:  # not in the step either, as the intrinsics
+            delta = delta + xi[6 + n_depth + n_intr :]
         if step_norm < tol:
             break
     r, J = linearise()
     w = loss_weights(r / scale_m, loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     correction = None if depth is None else tuple(float(x) for x in depth)
-    fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=theta)
+    fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=theta, joint_offsets=delta)
     if not covariance:
         return fit
     prior = _prior_information(prior_precision, r, w) if has_prior else None
@@ -353,11 +393,14 @@ def solve_point_to_plane(
     if n_par == 6:
         return fit
     frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
-    d, e = slice(6, 6 + n_depth), slice(6 + n_depth, n_par)
+    d, e = slice(6, 6 + n_depth), slice(6 + n_depth, 6 + n_depth + n_intr)
     if depth is not None:
         fit.depth_covariance, fit.depth_covariance_frames = cov[d, d], frames[d, d]
         if theta is not None:  # the depth's spread given the intrinsics: the depth range's part alone
             fit.depth_covariance_frames = frames[d, d] - frames[d, e] @ np.linalg.pinv(frames[e, e]) @ frames[e, d]
     if theta is not None:
         fit.intrinsics_covariance, fit.intrinsics_covariance_frames = cov[e, e], frames[e, e]
+    if delta is not None:
+        j = slice(6 + n_depth + n_intr, n_par)
+        fit.joint_offsets_covariance, fit.joint_offsets_covariance_frames = cov[j, j], frames[j, j]
     return fit

@@ -49,6 +49,15 @@ positions across the image and in depth determine a parameter, the frames decide
 near the value given and its uncertainty enters the pose's covariance. Each one's posterior over prior sigma
 is reported (:attr:`MarkerlessResult.intrinsics`).
 
+The robot's joint zero offsets are estimated with the pose in the fine stage as well where the surface carries
+its parts' twists per joint (``MarkerlessOptions.joint_offsets_model``, :mod:`classic.markerless.kinematics`):
+a real arm's offsets of 0.1-0.3 deg per joint moved the camera by 4.8 mm with every answer beyond 3 sigma. The
+model is associated and fitted moved by the current offsets. A joint that moves every fitted part rigidly (the
+base rotation, when only moving parts are fitted) is not estimated: its offset is a rotation of the camera about
+the base's axis, so the answer is the camera in the base frame the robot's own kinematics define (what a point
+seen by the camera and then reached by the robot needs). Each joint's offset is reported in degrees with its
+sigma and whether the frames determined it (:attr:`MarkerlessResult.joint_offsets`).
+
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
 otherwise it is refused with the reason (:attr:`MarkerlessResult.refused`),
@@ -67,6 +76,7 @@ from classic.clustered_covariance import pose_sigma
 from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
 from classic.markerless.intrinsics import camera_matrix, intrinsics_summary, intrinsics_vector, rays_for
+from classic.markerless.kinematics import JOINT_OFFSET_PRIORS_DEG, joint_offsets_summary, joint_status, moved_surface
 from classic.markerless.point_to_plane import corrected_points, solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
@@ -196,6 +206,17 @@ class MarkerlessOptions:
     intrinsics_determined_share : float
         A parameter counts as determined by the frames where they leave its sigma below this share of the
         prior's (reported, not a refusal: an undetermined one stays near the value given, its prior in the sigma).
+    joint_offsets_model : {"estimate", "fixed"}
+        ``"estimate"`` (the default) estimates the robot's joint zero offsets with the pose where the surface
+        carries its twists per joint (:attr:`RobotSurfaceFrames.joint_twists_base`; without them they are taken as
+        exact, and the result says so), under a prior about 0 of ``joint_offset_prior_deg``; ``"fixed"`` takes
+        the recorded joints as exact. A joint that moves every fitted part rigidly (the base rotation) is never
+        estimated (:mod:`classic.markerless.kinematics`).
+    joint_offset_prior_deg : float or tuple of float
+        One sigma of each joint's zero offset, degrees (one value for every joint, or one per joint): a UR-class
+        arm's 0.2 by default (:data:`classic.markerless.kinematics.JOINT_OFFSET_PRIORS_DEG`, with its reasoning).
+    joint_offset_determined_share : float
+        A joint counts as determined by the frames where they leave its sigma below this share of the prior's.
     depth_extrinsic_sigma_m : float
         Uncertainty of the depth-to-colour extrinsic per axis, metres (a sensor profile's figure): the
         registration finds the depth camera, the board and the learned model the colour camera; added to
@@ -257,6 +278,9 @@ class MarkerlessOptions:
     intrinsics_model: str = "estimate"
     intrinsics_prior_sigma: tuple = (0.007, 0.007, 3.0, 3.0)
     intrinsics_determined_share: float = 0.5
+    joint_offsets_model: str = "estimate"
+    joint_offset_prior_deg: float | tuple = JOINT_OFFSET_PRIORS_DEG["ur"]
+    joint_offset_determined_share: float = 0.5
     depth_extrinsic_sigma_m: float = 0.0
     depth_extrinsic_sigma_deg: float = 0.0
     min_moving_pixels: int = 200
@@ -310,6 +334,18 @@ class MarkerlessOptions:
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
+        if self.joint_offsets_model not in ("estimate", "fixed"):
+            raise HandEyeInputError(
+                f"joint_offsets_model must be 'estimate' or 'fixed', got {self.joint_offsets_model!r}"
+            )
+        joint_prior = np.atleast_1d(np.asarray(self.joint_offset_prior_deg, dtype=float))
+        if self.joint_offsets_model == "estimate" and not (
+            joint_prior.ndim == 1 and len(joint_prior) and np.all(np.isfinite(joint_prior)) and np.all(joint_prior > 0)
+        ):
+            raise HandEyeInputError(
+                "joint_offsets_model 'estimate' needs positive prior sigmas (degrees, one or one per joint), got "
+                f"{self.joint_offset_prior_deg!r}; joints known exactly are joint_offsets_model='fixed'"
+            )
 
 
 @dataclass
@@ -360,6 +396,13 @@ class MarkerlessResult:
         ``taken as exact`` with the intrinsics fixed), ``rotation`` and ``translation`` of the depth-to-colour
         extrinsic (``bounded``: the sigma per axis, ``sigma_deg`` or ``sigma_mm``, added to the pose's over the
         three axes as ``rss_deg``, ``rss_mm``).
+    joint_offsets : dict
+        The robot's joint zero offsets (true joint = recorded + offset) as the registration found them: ``model``
+        (``"estimated"`` or ``"fixed"``, with a ``reason`` when fixed for want of twists), and when estimated
+        ``joints``: per joint its ``status`` (``"estimated"``; ``"absorbed"``: it moves every fitted part
+        rigidly, so its offset is part of the pose, which is then the camera in the robot's kinematic base frame;
+        ``"not seen"``), ``estimate_deg``, ``sigma_deg``, ``prior_sigma_deg``, ``ratio`` (what the frames leave
+        of the sigma over the prior's) and ``determined``; ``note`` on the absorbed ones.
     """
 
     T_base_cam: np.ndarray | None
@@ -373,6 +416,7 @@ class MarkerlessResult:
     depth: dict = field(default_factory=dict)
     intrinsics: dict = field(default_factory=dict)
     registration: dict = field(default_factory=dict)
+    joint_offsets: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -396,6 +440,7 @@ class MarkerlessResult:
             "sigma": self.sigma,
             "depth": self.depth,
             "intrinsics": self.intrinsics,
+            "joint_offsets": self.joint_offsets,
             "registration": self.registration,
             "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
             "diagnostics": self.diagnostics,
@@ -485,6 +530,7 @@ class _Problem:
         self.moving_part = spread[surface.part] > 0.02
         # the model points the fine stage fits: the moving parts' (MarkerlessOptions.static_parts)
         self.fitted_part = self.moving_part if self.moving_part.any() and not opts.static_parts else None
+        self._init_joints(surface, opts)  # the joints whose offsets the fine stage estimates
         # the coarse stages work on a subset of the model (their windows are centimetres)
         m = len(surface.frame)
         self.coarse_subset = (
@@ -502,6 +548,38 @@ class _Problem:
         if len(self.noise_z) == 1:
             return np.full(np.shape(z), self.noise_sigma[0])
         return np.interp(z, self.noise_z, self.noise_sigma)
+
+    def _init_joints(self, surface, opts):
+        """Which joints' offsets the fine stage estimates (:func:`classic.markerless.kinematics.joint_status`)."""
+        self.points_base, self.normals_base = surface.points_base, surface.normals_base  # moved by the offsets
+        self.joint_estimated, self.joint_status = None, None
+        twists = surface.joint_twists_base
+        if twists is None or opts.joint_offsets_model != "estimate":
+            self.joint_offsets = np.zeros(0 if twists is None else twists.shape[2])
+            return
+        n_joints = twists.shape[2]
+        prior = np.atleast_1d(np.asarray(opts.joint_offset_prior_deg, dtype=float))
+        if len(prior) not in (1, n_joints):
+            raise HandEyeInputError(
+                f"joint_offset_prior_deg has {len(prior)} values for a robot of {n_joints} joints "
+                f"(give 1 or {n_joints})"
+            )
+        self.joint_prior_sigma = np.radians(np.broadcast_to(prior, (n_joints,))).copy()
+        fitted = np.ones(len(surface.part), bool) if self.fitted_part is None else self.fitted_part
+        pairs = np.unique(np.c_[surface.frame[fitted], surface.part[fitted]], axis=0)
+        self.joint_status = joint_status(twists, pairs[:, 0], pairs[:, 1])
+        self.joint_estimated = np.array([s == "estimated" for s in self.joint_status])
+        self.joint_offsets = np.zeros(n_joints)
+        if not self.joint_estimated.any():
+            self.joint_estimated = None
+
+    def set_joint_offsets(self, delta):
+        """Move the model by the joint offsets ``delta`` (radians, all joints) from now on."""
+        self.joint_offsets = np.asarray(delta, dtype=float)
+        s = self.s
+        self.points_base, self.normals_base = moved_surface(
+            s.points_base, s.normals_base, s.frame, s.part, s.joint_twists_base, self.joint_offsets
+        )
 
     def set_intrinsics(self, theta):
         """Project the model with the intrinsics ``theta`` ``(f_x, f_y, c_x, c_y)`` from now on."""
@@ -526,7 +604,7 @@ class _Problem:
         as sparse as the model's samples; each visible point's pixel is where it projects in the image.
         """
         T_cam_base = invert_transform(T_base_cam)
-        pts, nrm, frm = self.s.points_base, self.s.normals_base, self.s.frame
+        pts, nrm, frm = self.points_base, self.normals_base, self.s.frame
         if subset is not None:
             pts, nrm, frm = pts[subset], nrm[subset], frm[subset]
         stride = self.opts.zbuffer_stride * (1 if subset is None else 2)
@@ -619,7 +697,7 @@ class _Problem:
         else:
             idx = cached
             T_cam_base = invert_transform(T)
-            p_cam = self.s.points_base[idx] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+            p_cam = self.points_base[idx] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
             uv = np.rint(project(p_cam, self.K)).astype(np.int64)
             inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h) & (p_cam[:, 2] > 0)
             idx, p_cam, pix = idx[inside], p_cam[inside], uv[inside][:, ::-1]
@@ -648,6 +726,14 @@ class _Problem:
                 "intrinsics_start": self.theta if intrinsics_start is None else intrinsics_start,
                 "intrinsics_prior": (self.theta_given, self.intrinsics_prior_sigma),
             }
+        joints = {}
+        if self.joint_estimated is not None:  # the model posed at the recorded joints; the fit moves it
+            e = self.joint_estimated
+            joints = {
+                "joint_twists": self.s.joint_twists_base[f, self.s.part[m]][:, e],
+                "joint_start": self.joint_offsets[e],
+                "joint_prior_sigma": self.joint_prior_sigma[e],
+            }
         fit = solve_point_to_plane(
             observed,
             self.s.points_base[m],
@@ -666,6 +752,7 @@ class _Problem:
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
             covariance=covariance,
             **intrinsics,
+            **joints,
         )
         return fit, expected
 
@@ -684,6 +771,10 @@ class _Problem:
             self.depth = fit.depth_correction
         if fit.intrinsics is not None:
             self.set_intrinsics(fit.intrinsics)
+        if fit.joint_offsets is not None:
+            delta = np.zeros_like(self.joint_offsets)
+            delta[self.joint_estimated] = fit.joint_offsets
+            self.set_joint_offsets(delta)
         return fit, expected
 
     def split_check(self, T, matches, depth_correction, intrinsics=None):
@@ -740,7 +831,7 @@ class _Problem:
         )
         self.final_depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
         within_1cm = has_depth & (
-            np.abs(q[:, 2] - (self.s.points_base[idx] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
+            np.abs(q[:, 2] - (self.points_base[idx] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
         )
         matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
         return fit.T_base_cam, fit, step, matched
@@ -808,6 +899,7 @@ def register_robot(
     for name, T_start in starts.items():
         problem.depth = (1.0, 0.0)
         problem.set_intrinsics(problem.theta_given)
+        problem.set_joint_offsets(np.zeros_like(problem.joint_offsets))
         T = problem.coarse(np.asarray(T_start, dtype=float))
         T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
@@ -910,6 +1002,27 @@ def register_robot(
         depth,
         intrinsics,
         registration=registration,
+        joint_offsets=_joint_offsets_result(fit, problem, opts),
+    )
+
+
+def _joint_offsets_result(fit, problem, opts: MarkerlessOptions) -> dict:
+    """:attr:`MarkerlessResult.joint_offsets` of the final fit."""
+    if problem.s.joint_twists_base is None:
+        return {"model": "fixed", "reason": "the surface carries no joint twists"}
+    if opts.joint_offsets_model == "fixed":
+        return {"model": "fixed", "reason": "joint_offsets_model='fixed': the recorded joints taken as exact"}
+    if problem.joint_estimated is None:  # every joint absorbed or not seen
+        return joint_offsets_summary(
+            problem.joint_offsets, problem.joint_status, None, None, problem.joint_prior_sigma, 0
+        )
+    return joint_offsets_summary(
+        problem.joint_offsets,
+        problem.joint_status,
+        fit.joint_offsets_covariance,
+        fit.joint_offsets_covariance_frames,
+        problem.joint_prior_sigma,
+        opts.joint_offset_determined_share,
     )
 
 
