@@ -103,6 +103,7 @@ class MarkerlessRun:
                     f"{r.sigma['translation_mm']:.3f} / {r.sigma['rotation_deg']:.4f}",
                     _depth_cell(r.depth),
                     _intrinsics_cell(r.intrinsics),
+                    _joint_offsets_cell(r.joint_offsets),
                     f"{r.matched_fraction:.2f}",
                     f"{lab[1]:.3f} / {lab[0]:.4f}" if lab else "-",
                     f"{self.seconds[c]:.1f}",
@@ -118,6 +119,7 @@ class MarkerlessRun:
                     "sigma (mm / deg)",
                     "depth scale, offset mm",
                     "intrinsics change px (fx fy cx cy)",
+                    "joint offsets deg ± sigma",
                     "matched",
                     "classic label vs truth",
                     "s",
@@ -146,6 +148,24 @@ def _intrinsics_cell(intrinsics: dict) -> str:
     changes = " ".join(f"{intrinsics[n]['change']:+.1f}" for n in names)
     determined = sum(bool(intrinsics[n]["determined"]) for n in names)
     return f"{changes} ({determined} of 4 determined)"
+
+
+def _joint_offsets_cell(joint_offsets: dict) -> str:
+    """Each joint's estimated zero offset, degrees, with its sigma: ``*`` where the frames determined it, ``abs``
+    where it is part of the pose (the base rotation: the pose is then the camera in the kinematic base frame),
+    ``-`` where no fitted part moves with it; '-' where the joints were taken as exact."""
+    if joint_offsets.get("model") != "estimated":
+        return "-"
+    cells = []
+    for row in joint_offsets.get("joints", []):
+        if row["status"] == "absorbed":
+            cells.append(f"J{row['joint']} abs")
+        elif row["status"] != "estimated":
+            cells.append(f"J{row['joint']} -")
+        else:
+            mark = "*" if row["determined"] else ""
+            cells.append(f"J{row['joint']} {row['estimate_deg']:+.3f}±{row['sigma_deg']:.3f}{mark}")
+    return " ".join(cells)
 
 
 def robot_surface_for(

@@ -50,6 +50,14 @@ JOINT_OFFSET_PRIORS_DEG = {"ur": 0.2, "default": 0.2}
 _SAME_TWIST = 1e-7
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` over the last axis, broadcast (component arithmetic: several times faster than ``np.cross`` on
+    millions of points)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def joint_status(twists: np.ndarray, frames: np.ndarray, parts: np.ndarray) -> list[str]:
     """Per joint: ``"estimated"``, ``"absorbed"`` (one rigid motion of everything fitted) or ``"not seen"``.
 
@@ -63,7 +71,8 @@ def joint_status(twists: np.ndarray, frames: np.ndarray, parts: np.ndarray) -> l
     -------
     list of str, length n_joints
     """
-    t = twists[frames, parts]  # (P, n_joints, 6)
+    key = np.unique(np.asarray(frames) * twists.shape[1] + np.asarray(parts))  # each (frame, part) once
+    t = twists.reshape(-1, *twists.shape[2:])[key]  # (P, n_joints, 6)
     out = []
     for j in range(t.shape[1]):
         tj = t[:, j]
@@ -91,7 +100,7 @@ def point_velocities(points: np.ndarray, twists: np.ndarray) -> np.ndarray:
     array, shape (N, J, 3)
         Metres per radian.
     """
-    return np.cross(twists[:, :, :3], points[:, None, :]) + twists[:, :, 3:]
+    return _cross(twists[:, :, :3], points[:, None, :]) + twists[:, :, 3:]
 
 
 def moved_model(points: np.ndarray, normals: np.ndarray, twists: np.ndarray, delta: np.ndarray):
@@ -115,9 +124,9 @@ def moved_model(points: np.ndarray, normals: np.ndarray, twists: np.ndarray, del
         return points, normals
     omega = np.einsum("njk,j->nk", twists[:, :, :3], delta)
     v = np.einsum("njk,j->nk", twists[:, :, 3:], delta)
-    moved = points + np.cross(omega, points) + v
-    n = normals + np.cross(omega, normals)
-    return moved, n / np.linalg.norm(n, axis=1, keepdims=True)
+    moved = points + _cross(omega, points) + v
+    n = normals + _cross(omega, normals)
+    return moved, n / np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
 
 
 def offset_columns(grad: np.ndarray, points: np.ndarray, twists: np.ndarray) -> np.ndarray:
@@ -136,7 +145,11 @@ def offset_columns(grad: np.ndarray, points: np.ndarray, twists: np.ndarray) -> 
     array, shape (N, J)
         Metres per radian.
     """
-    return -np.einsum("nk,njk->nj", grad, point_velocities(points, twists))
+    # n . (omega x m + v) = omega . (m x n) + v . n: one cross product per point, not per joint
+    return -(
+        np.einsum("nk,njk->nj", _cross(points, grad), twists[:, :, :3])
+        + np.einsum("nk,njk->nj", grad, twists[:, :, 3:])
+    )
 
 
 def joint_offsets_summary(
@@ -167,8 +180,8 @@ def joint_offsets_summary(
     -------
     dict
         ``model`` ``"estimated"``, ``joints``: a list of dicts per joint (``joint``, 1-based; ``status``;
-        ``estimate_deg``; ``sigma_deg``; ``prior_sigma_deg``; ``ratio``; ``determined``), and ``note`` on
-        the absorbed joints.
+        ``estimate_deg``; ``sigma_deg``; ``prior_sigma_deg``; ``ratio``; ``determined``; ``sigma_deg`` and
+        ``ratio`` None where not estimated), and ``note`` on the absorbed joints.
     """
     est = [j for j, s in enumerate(status) if s == "estimated"]
     sd = np.full(len(est), np.nan) if covariance is None else np.sqrt(np.maximum(np.diag(covariance), 0.0))
@@ -187,7 +200,7 @@ def joint_offsets_summary(
                 determined=bool(ratio < determined_share),
             )
         else:
-            row.update(sigma_deg=float("nan"), ratio=float("nan"), determined=False)
+            row.update(sigma_deg=None, ratio=None, determined=False)  # None, not NaN: the JSON stays standard
         joints.append(row)
     out = {"model": "estimated", "joints": joints}
     absorbed = [j + 1 for j, s in enumerate(status) if s == "absorbed"]
@@ -229,7 +242,9 @@ def moved_surface(
     delta = np.asarray(delta, dtype=float)
     if not np.any(delta):
         return points, normals
-    motion = np.einsum("fpjk,j->fpk", twists, delta)[frame, part]  # (M, 6)
-    moved = points + np.cross(motion[:, :3], points) + motion[:, 3:]
-    n = normals + np.cross(motion[:, :3], normals)
-    return moved, n / np.linalg.norm(n, axis=1, keepdims=True)
+    n_parts = twists.shape[1]
+    # each (frame, part)'s motion, gathered per point: (M, 6)
+    motion = np.einsum("fpjk,j->fpk", twists, delta).reshape(-1, 6)[frame * n_parts + part]
+    moved = points + _cross(motion[:, :3], points) + motion[:, 3:]
+    n = normals + _cross(motion[:, :3], normals)
+    return moved, n / np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]

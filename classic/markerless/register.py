@@ -551,7 +551,7 @@ class _Problem:
 
     def _init_joints(self, surface, opts):
         """Which joints' offsets the fine stage estimates (:func:`classic.markerless.kinematics.joint_status`)."""
-        self.points_base, self.normals_base = surface.points_base, surface.normals_base  # moved by the offsets
+        self._moved = (surface.points_base, surface.normals_base)  # the model while no offset moves it (model())
         self.joint_estimated, self.joint_status = None, None
         twists = surface.joint_twists_base
         if twists is None or opts.joint_offsets_model != "estimate":
@@ -566,8 +566,7 @@ class _Problem:
             )
         self.joint_prior_sigma = np.radians(np.broadcast_to(prior, (n_joints,))).copy()
         fitted = np.ones(len(surface.part), bool) if self.fitted_part is None else self.fitted_part
-        pairs = np.unique(np.c_[surface.frame[fitted], surface.part[fitted]], axis=0)
-        self.joint_status = joint_status(twists, pairs[:, 0], pairs[:, 1])
+        self.joint_status = joint_status(twists, surface.frame[fitted], surface.part[fitted])
         self.joint_estimated = np.array([s == "estimated" for s in self.joint_status])
         self.joint_offsets = np.zeros(n_joints)
         if not self.joint_estimated.any():
@@ -576,9 +575,15 @@ class _Problem:
     def set_joint_offsets(self, delta):
         """Move the model by the joint offsets ``delta`` (radians, all joints) from now on."""
         self.joint_offsets = np.asarray(delta, dtype=float)
+        self._moved = None if self.joint_offsets.any() else (self.s.points_base, self.s.normals_base)
+
+    def model(self, idx):
+        """The points and normals (base frame) of the model points ``idx``, moved by the current joint offsets."""
         s = self.s
-        self.points_base, self.normals_base = moved_surface(
-            s.points_base, s.normals_base, s.frame, s.part, s.joint_twists_base, self.joint_offsets
+        if self._moved is not None:
+            return self._moved[0][idx], self._moved[1][idx]
+        return moved_surface(
+            s.points_base[idx], s.normals_base[idx], s.frame[idx], s.part[idx], s.joint_twists_base, self.joint_offsets
         )
 
     def set_intrinsics(self, theta):
@@ -604,14 +609,15 @@ class _Problem:
         as sparse as the model's samples; each visible point's pixel is where it projects in the image.
         """
         T_cam_base = invert_transform(T_base_cam)
-        pts, nrm, frm = self.points_base, self.normals_base, self.s.frame
+        pts, nrm, frm = self.s.points_base, self.s.normals_base, self.s.frame
         if subset is not None:
             pts, nrm, frm = pts[subset], nrm[subset], frm[subset]
         stride = self.opts.zbuffer_stride * (1 if subset is None else 2)
-        # facing the camera, tested in the base frame (n . (p - c) < 0), before anything is transformed
+        # facing the camera, tested in the base frame (n . (p - c) < 0), before anything is transformed; on the
+        # model at the recorded joints (the offsets turn a normal by tenths of a degree), then the front moved
         front = np.flatnonzero(np.einsum("ij,ij->i", nrm, pts - T_base_cam[:3, 3]) < 0)
         sel = front if subset is None else subset[front]
-        p = pts[front] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+        p = self.model(sel)[0] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
         Ks = self.K.copy()
         Ks[:2] /= stride
         Ks[:2, 2] = (self.K[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
@@ -697,7 +703,7 @@ class _Problem:
         else:
             idx = cached
             T_cam_base = invert_transform(T)
-            p_cam = self.points_base[idx] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+            p_cam = self.model(idx)[0] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
             uv = np.rint(project(p_cam, self.K)).astype(np.int64)
             inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h) & (p_cam[:, 2] > 0)
             idx, p_cam, pix = idx[inside], p_cam[inside], uv[inside][:, ::-1]
@@ -831,7 +837,7 @@ class _Problem:
         )
         self.final_depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
         within_1cm = has_depth & (
-            np.abs(q[:, 2] - (self.points_base[idx] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
+            np.abs(q[:, 2] - (self.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
         )
         matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
         return fit.T_base_cam, fit, step, matched

@@ -89,6 +89,22 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "(default: the --sensor profile's, else a factory calibration's 0.007,0.007,3,3)",
     )
     p.add_argument(
+        "--joint-offsets",
+        choices=("estimate", "fixed"),
+        default="estimate",
+        help="estimate the robot's joint zero offsets with the pose under a prior about 0 (default; each reported in "
+        "degrees with its sigma and whether the frames determined it; the base rotation's offset is part of the "
+        "pose, which is then the camera in the robot's kinematic base frame), or take the recorded joints as exact",
+    )
+    p.add_argument(
+        "--joint-offset-sigma",
+        type=cli_float,
+        default=None,
+        metavar="DEG",
+        help="one sigma of every joint's zero offset, degrees (default: 0.2, a UR-class arm's; see "
+        "classic.markerless.kinematics.JOINT_OFFSET_PRIORS_DEG)",
+    )
+    p.add_argument(
         "--static-parts",
         action="store_true",
         help="fit the robot's parts that do not move over the recording as well (the base; default: the moving "
@@ -141,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
             static_parts=args.static_parts,
             intrinsics_model=args.intrinsics,
             intrinsics_prior_sigma=_intrinsics_sigma(args),
+            **_joint_offset_options(args),
         ),
         progress=not args.quiet,
     )
@@ -152,6 +169,20 @@ def run(args: argparse.Namespace) -> int:
     if args.write_labels:
         print(f"written: {write_markerless_labels(args.dataset, out)} (markerless label columns)")
     return 0 if all(r.ok for r in out.results.values()) else 1
+
+
+def _joint_offset_options(args: argparse.Namespace) -> dict:
+    """``--joint-offsets`` and ``--joint-offset-sigma`` as :class:`classic.markerless.MarkerlessOptions` fields."""
+    from handeye.core.errors import HandEyeInputError
+
+    out = {"joint_offsets_model": args.joint_offsets}
+    if args.joint_offset_sigma is not None:
+        if not 0 < args.joint_offset_sigma < float("inf"):
+            raise HandEyeInputError(
+                f"--joint-offset-sigma must be a positive angle in degrees, got {args.joint_offset_sigma}"
+            )
+        out["joint_offset_prior_deg"] = float(args.joint_offset_sigma)
+    return out
 
 
 def _intrinsics_sigma(args: argparse.Namespace) -> tuple:

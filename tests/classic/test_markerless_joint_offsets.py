@@ -211,3 +211,28 @@ def test_bad_joint_offset_options_and_twists_raise(scene):
             surface.part,
             joint_twists_base=np.zeros((1, 6, 6, 6)),
         )
+
+
+def test_the_command_reads_the_joint_offset_options_and_the_table_shows_them(scene):
+    from argparse import Namespace
+
+    from handeye.commands.markerless import _joint_offset_options
+    from handeye.markerless import _joint_offsets_cell
+
+    assert _joint_offset_options(Namespace(joint_offsets="fixed", joint_offset_sigma=None)) == {
+        "joint_offsets_model": "fixed"
+    }
+    assert _joint_offset_options(Namespace(joint_offsets="estimate", joint_offset_sigma=0.1)) == {
+        "joint_offsets_model": "estimate",
+        "joint_offset_prior_deg": 0.1,
+    }
+    for bad in (0.0, -0.1, float("inf")):
+        with pytest.raises(HandEyeInputError, match="joint-offset-sigma"):
+            _joint_offset_options(Namespace(joint_offsets="estimate", joint_offset_sigma=bad))
+    assert _joint_offsets_cell({"model": "fixed"}) == "-"
+    rows = [
+        {"joint": 1, "status": "absorbed"},
+        {"joint": 2, "status": "estimated", "estimate_deg": -0.31, "sigma_deg": 0.02, "determined": True},
+        {"joint": 3, "status": "not seen"},
+    ]
+    assert _joint_offsets_cell({"model": "estimated", "joints": rows}) == "J1 abs J2 -0.310±0.020* J3 -"
