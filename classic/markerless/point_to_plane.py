@@ -281,9 +281,10 @@ def solve_point_to_plane(
         Sigmas of a Gaussian prior on ``k`` about 1 and ``c`` about 0 (a datasheet's spread of the scale and
         the offset, metres): with few frames or little depth range the prior keeps them, and their
         uncertainty enters the pose's covariance. None: no prior.
-    cross_group : array of int, shape (N,), optional
-        A second clustering for the covariance (the depth bin of each match): the sensor's depth-dependent
-        error is shared by all frames (:func:`classic.clustered_covariance.clustered_covariance`).
+    cross_group : array of int, shape (N,), or a sequence of them (None entries skipped), optional
+        Further clusterings for the covariance (the depth bin of each match: the sensor's depth-dependent
+        error is shared by all frames; its image tile: a fixed pattern is), multiway with ``group``
+        (:func:`classic.clustered_covariance.clustered_covariance`).
     stereo_fb_px_m : float, optional
         With ``depth_correction``: the active-stereo sensor's disparity constant ``f B`` (pixels x metres);
         its matcher's pixel locking ``(a, b)`` is estimated too (10 parameters; ``depth_correction`` may

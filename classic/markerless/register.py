@@ -254,6 +254,12 @@ class MarkerlessOptions:
     depth_clusters : int
         Depth bins (equal counts) of the covariance's second clustering: a sensor's depth-dependent error is
         shared by every frame at that depth. Below 2: clustered by frame only.
+    image_tiles : int
+        Square image tiles across the image's width of a third clustering of the covariance (multiway with the
+        frames and the depth bins): a sensor's fixed pattern, an error the same in every frame at one image
+        position, is shared by every frame in that tile. Below 2 (0, the default): not clustered by tile. Off
+        by default because on the d435 benchmarks (issue 41) it did not widen the sigma where a fixed pattern
+        was added (16 or 64 tiles), and 16 tiles widened it by half on clean depth (paper-sim, 1.2 m).
     split_check : bool
         Solve groups of the frames (by depth, by the arm's image column) again and add their scatter beyond
         their own noise to the sigma (:mod:`classic.markerless.consistency`): errors the frames share by depth or image
@@ -294,6 +300,7 @@ class MarkerlessOptions:
     max_model_points: int = 300000
     zbuffer_stride: int = 1
     depth_clusters: int = 12
+    image_tiles: int = 0
     split_check: bool = True
     static_parts: bool = False
     seed: int = 0
@@ -753,7 +760,10 @@ class _Problem:
             direction_base=self.s.direction_base[m] if curved else None,
             depth_correction=depth_start if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
-            cross_group=_depth_bins(q_obs[:, 2], self.opts.depth_clusters),
+            cross_group=(
+                _depth_bins(q_obs[:, 2], self.opts.depth_clusters),
+                _image_tiles(q_obs, self.K_given, self.w, self.opts.image_tiles),
+            ),
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
             covariance=covariance,
@@ -1064,6 +1074,16 @@ def _registration_terms(opts: MarkerlessOptions, fit, theta_given: np.ndarray) -
     else:
         out["shift_px"] = {"treatment": "taken as exact (intrinsics fixed)"}
     return out
+
+
+def _image_tiles(p_cam: np.ndarray, K: np.ndarray, width: int, tiles: int) -> np.ndarray | None:
+    """Each observed point's image tile: square tiles, ``tiles`` across the image's ``width`` (None when
+    ``tiles`` < 2). ``p_cam`` as back-projected with ``K``, so its pixel is found again exactly."""
+    if tiles < 2 or len(p_cam) < 2 * tiles:
+        return None
+    size = width / tiles
+    uv = np.floor(project(p_cam, K) / size).astype(np.int64)
+    return uv[:, 1] * (tiles + 1) + uv[:, 0]
 
 
 def _depth_bins(z: np.ndarray, bins: int) -> np.ndarray | None:
