@@ -18,7 +18,8 @@ exactly a motion of the camera: the data cannot tell it from the pose. It is not
 0, ``status`` ``"absorbed"``): the answer is the camera in the base frame the robot's own kinematics define,
 which is the useful and conventional one. A point the camera sees, then reached by the robot with the same
 offset, comes out right; a board's labels computed from the same joint readings absorb it the same way. Where
-static parts are fitted as well, its twist differs between them and the arm, and the data decide it.
+static parts are fitted as well, its twist differs between them and the arm: it is estimated, and kept only where
+the static parts determine it (a round base does not; it is then absorbed as above).
 
 A joint no fitted part moves with (``status`` ``"not seen"``) is not estimated either: it moves nothing the
 registration sees. Every other joint is estimated; one the frames leave near its prior (a symmetric last wrist)
@@ -206,8 +207,8 @@ def joint_offsets_summary(
     absorbed = [j + 1 for j, s in enumerate(status) if s == "absorbed"]
     if absorbed:
         out["note"] = (
-            f"joint(s) {absorbed} move every fitted part rigidly (a rotation about the base's fixed axis): their "
-            "offsets are indistinguishable from the camera's pose, held at 0, and the pose is the camera in the "
+            f"joint(s) {absorbed} move every fitted moving part rigidly (a rotation about the base's fixed axis) and "
+            "nothing fitted tells their offsets from the camera's pose: held at 0, and the pose is the camera in the "
             "base frame the robot's own kinematics define"
         )
     return out

@@ -576,8 +576,38 @@ class _Problem:
         self.joint_status = joint_status(twists, surface.frame[fitted], surface.part[fitted])
         self.joint_estimated = np.array([s == "estimated" for s in self.joint_status])
         self.joint_offsets = np.zeros(n_joints)
+        # rigid over the moving parts (the base rotation): estimated only where static parts are fitted, and kept
+        # only where they determine it (hold_undetermined)
+        moving = fitted & self.moving_part if self.moving_part.any() else fitted
+        self.joint_rigid = np.array(
+            [s == "absorbed" for s in joint_status(twists, surface.frame[moving], surface.part[moving])]
+        )
         if not self.joint_estimated.any():
             self.joint_estimated = None
+
+    def hold_undetermined(self, fit) -> bool:
+        """Hold at 0 the joints rigid over the moving parts that the fitted static parts did not determine.
+
+        With static parts fitted, the base rotation's offset is estimated: the base does not turn with it. A
+        round base cannot tell it from the camera's rotation about the base's axis, and it would stay at its prior
+        with the prior's sigma in the pose's; it is then absorbed into the pose as with the moving parts alone
+        (the camera in the kinematic base frame). Returns whether any joint was held (the fit is to be redone).
+        """
+        if self.joint_estimated is None or fit.joint_offsets_covariance_frames is None:
+            return False
+        est = np.flatnonzero(self.joint_estimated)
+        sd = np.sqrt(np.maximum(np.diag(fit.joint_offsets_covariance_frames), 0.0))
+        share = self.opts.joint_offset_determined_share
+        weak = [j for i, j in enumerate(est) if self.joint_rigid[j] and sd[i] >= share * self.joint_prior_sigma[j]]
+        if not weak:
+            return False
+        delta = self.joint_offsets.copy()
+        for j in weak:
+            self.joint_estimated[j], self.joint_status[j], delta[j] = False, "absorbed", 0.0
+        self.set_joint_offsets(delta)
+        if not self.joint_estimated.any():
+            self.joint_estimated = None
+        return True
 
     def set_joint_offsets(self, delta):
         """Move the model by the joint offsets ``delta`` (radians, all joints) from now on."""
@@ -926,6 +956,15 @@ def register_robot(
             break  # a clear success: the other starts cannot do better than the noise
     if best is None:
         return refuse("did not converge: no start kept enough matched points")
+    if problem.hold_undetermined(best[3]):  # static parts fitted, the base rotation not determined: absorbed
+        if best[3].depth_correction is not None:  # from the best start's state (a later start may have failed)
+            problem.depth = best[3].depth_correction
+        if best[3].intrinsics is not None:
+            problem.set_intrinsics(best[3].intrinsics)
+        T, fit, step, matched = problem.fine(best[2])
+        if fit is None:
+            return refuse("did not converge: the fit with the base rotation's offset absorbed kept too few points")
+        best = (matched, best[1], T, fit, step, problem.final_geometry, problem.final_depth_range, problem.last_matches)
     matched, name, T, fit, step, (z_med, lever_m), depth_range, matches = best
     inl = fit.weights > 0.5
     group = fit.group

@@ -236,3 +236,21 @@ def test_the_command_reads_the_joint_offset_options_and_the_table_shows_them(sce
         {"joint": 3, "status": "not seen"},
     ]
     assert _joint_offsets_cell({"model": "estimated", "joints": rows}) == "J1 abs J2 -0.310±0.020* J3 -"
+
+
+def test_with_static_parts_fitted_a_round_base_leaves_the_base_rotation_absorbed(scene):
+    """The static base sphere sits on joint 1's axis: fitting it cannot tell joint 1's offset from the camera's
+    rotation, so it is held and the answer is the kinematic one, with the other joints still recovered."""
+    depth, surface, _, T_kin, delta = scene
+    opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M, static_parts=True)
+    res = register_robot(depth, K, surface, options=opts)
+    assert res.ok, res.refused
+    assert res.diagnostics["fitted_parts"] == "all"
+    joints = res.joint_offsets["joints"]
+    assert joints[0]["status"] == "absorbed"
+    rot_deg, trans_mm = pose_error(res.T_base_cam, T_kin)
+    bias_mm, bias_deg = _bias_bounds(depth)
+    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
+    assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+    for j in range(1, 5):
+        assert abs(joints[j]["estimate_deg"] - np.degrees(delta[j])) <= SIGMA_BOUND * joints[j]["sigma_deg"]
