@@ -33,6 +33,7 @@ import numpy as np
 __all__ = [
     "JOINT_OFFSET_PRIORS_DEG",
     "joint_status",
+    "joint_offset_prior_deg",
     "point_velocities",
     "moved_model",
     "moved_surface",
@@ -46,6 +47,15 @@ __all__ = [
 #: as one sigma, so that the issue's largest offset (0.3) lies within 1.5 sigma of the prior where the frames
 #: do not determine a joint. "default" serves any other robot.
 JOINT_OFFSET_PRIORS_DEG = {"ur": 0.2, "default": 0.2}
+
+
+def joint_offset_prior_deg(robot_name) -> float:
+    """The prior of :data:`JOINT_OFFSET_PRIORS_DEG` for a robot: its family's (the key its name starts with, "ur5"
+    is "ur"), else ``"default"``'s. ``robot_name``: a str, or anything else (a recorded URDF) for the default."""
+    name = robot_name.lower() if isinstance(robot_name, str) else ""
+    family = next((k for k in JOINT_OFFSET_PRIORS_DEG if k != "default" and name.startswith(k)), "default")
+    return JOINT_OFFSET_PRIORS_DEG[family]
+
 
 #: Twists equal within this (rad/rad and m/rad) on every fitted part and frame: the joint moves them rigidly.
 _SAME_TWIST = 1e-7

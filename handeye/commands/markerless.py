@@ -101,8 +101,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
         type=cli_float,
         default=None,
         metavar="DEG",
-        help="one sigma of every joint's zero offset, degrees (default: 0.2, a UR-class arm's; see "
-        "classic.markerless.kinematics.JOINT_OFFSET_PRIORS_DEG)",
+        help="one sigma of every joint's zero offset, degrees (default: the dataset's robot family's, 0.2 for a "
+        "UR-class arm and any other; see classic.markerless.kinematics.JOINT_OFFSET_PRIORS_DEG)",
     )
     p.add_argument(
         "--static-parts",
@@ -176,12 +176,21 @@ def _joint_offset_options(args: argparse.Namespace) -> dict:
     from handeye.core.errors import HandEyeInputError
 
     out = {"joint_offsets_model": args.joint_offsets}
-    if args.joint_offset_sigma is not None:
-        if not 0 < args.joint_offset_sigma < float("inf"):
-            raise HandEyeInputError(
-                f"--joint-offset-sigma must be a positive angle in degrees, got {args.joint_offset_sigma}"
-            )
-        out["joint_offset_prior_deg"] = float(args.joint_offset_sigma)
+    if args.joint_offsets != "estimate":
+        return out
+    if args.joint_offset_sigma is None:  # the dataset's robot family's prior
+        from classic.markerless.kinematics import joint_offset_prior_deg
+        from handeye.core.dataset import Dataset
+
+        dataset = getattr(args, "dataset", None)
+        robot = Dataset.open(dataset).meta.get("robot") if dataset is not None else None
+        out["joint_offset_prior_deg"] = joint_offset_prior_deg(robot)
+        return out
+    if not 0 < args.joint_offset_sigma < float("inf"):
+        raise HandEyeInputError(
+            f"--joint-offset-sigma must be a positive angle in degrees, got {args.joint_offset_sigma}"
+        )
+    out["joint_offset_prior_deg"] = float(args.joint_offset_sigma)
     return out
 
 

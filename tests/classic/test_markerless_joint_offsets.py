@@ -14,7 +14,13 @@ import numpy as np
 import pytest
 
 from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, register_robot
-from classic.markerless.kinematics import joint_status, moved_surface, offset_columns
+from classic.markerless.kinematics import (
+    JOINT_OFFSET_PRIORS_DEG,
+    joint_offset_prior_deg,
+    joint_status,
+    moved_surface,
+    offset_columns,
+)
 from handeye.core.errors import HandEyeInputError, ShapeError
 from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
@@ -226,6 +232,12 @@ def test_the_command_reads_the_joint_offset_options_and_the_table_shows_them(sce
         "joint_offsets_model": "estimate",
         "joint_offset_prior_deg": 0.1,
     }
+    assert _joint_offset_options(Namespace(joint_offsets="estimate", joint_offset_sigma=None)) == {
+        "joint_offsets_model": "estimate",
+        "joint_offset_prior_deg": JOINT_OFFSET_PRIORS_DEG["default"],
+    }
+    assert joint_offset_prior_deg("ur5e") == JOINT_OFFSET_PRIORS_DEG["ur"]
+    assert joint_offset_prior_deg({"urdf": "x"}) == JOINT_OFFSET_PRIORS_DEG["default"]
     for bad in (0.0, -0.1, float("inf")):
         with pytest.raises(HandEyeInputError, match="joint-offset-sigma"):
             _joint_offset_options(Namespace(joint_offsets="estimate", joint_offset_sigma=bad))
