@@ -238,6 +238,7 @@ def run_profile(
     self_calibrated = MarkerlessOptions(
         zbuffer_stride=stride,
         depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
+        depth_extrinsic_sigma_deg=sensor.registration_roll_sigma_deg,  # the profile's depth-to-colour roll spread
         stereo_fb_px_m=sensor.stereo_fb_px_m,
     )
     all_modes = {

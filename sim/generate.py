@@ -211,6 +211,10 @@ def _camera_table(cams, sensor: DepthSensor | None = None, seed: int = 0) -> dic
         table["depth_offset_mm_true"] = np.array([t.offset_m * 1e3 for t in truths])
         for k, axis in enumerate("xyz"):
             table[f"depth_extrinsic_mm_true.{axis}"] = np.array([t.t_colour_depth_m[k] * 1e3 for t in truths])
+        if sensor.registration_shift_sigma_px > 0 or sensor.registration_roll_sigma_deg > 0:  # misregistered
+            table["depth_registration_px_true.u"] = np.array([t.registration_px[0] for t in truths])
+            table["depth_registration_px_true.v"] = np.array([t.registration_px[1] for t in truths])
+            table["depth_registration_roll_deg_true"] = np.array([t.registration_roll_deg for t in truths])
     return table
 
 
