@@ -48,6 +48,14 @@ exact for a rotation about the base axis). The mode ``"self-calibrated, joint of
         --max-placements 5 --modes "self-calibrated; joint offsets taken as exact,self-calibrated" \
         --joint-offsets 0.2,-0.3,0.15,-0.1,0.25,-0.2 --out benchmarks/results/markerless_joint_offsets.md
 
+Each of a real cell's sensor errors alone (issue 41): ``--registration-error du=1,dv=0,roll=0`` misregisters every
+depth image against the camera model it is paired with (pixels, degrees about the principal point), and
+``--fixed-pattern 3.6`` adds a fixed-pattern noise of that sigma at 1 m (mm, growing with depth squared), the same
+in every frame of a placement; the profile ``d435-real-cell`` draws both per placement::
+
+    python benchmarks/markerless_sensors.py --data data/sensor-bands/paper-real-1.2 --max-placements 5 \
+        --profiles d435 --modes self-calibrated --fixed-pattern 3.6 --out benchmarks/results/markerless_sensor_errors.md
+
 A placement accepted more than 3 predicted sigmas from the truth is a wrong answer reported as a success: the
 defect this benchmark counts. The ChArUco label of the same placements (from the colour images, which the depth
 sensor does not touch) is printed beside. At 0.7 m the camera is inside the arm's reach and the simulator finds

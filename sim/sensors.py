@@ -10,7 +10,10 @@ triangulation (active stereo, structured light: ``sigma_z = z^2 sigma_d / (f B)`
 term linear in ``z`` for time of flight. The noise is partly spatially correlated (stereo matches windows of
 pixels; time-of-flight sensors filter), pixels at depth edges mix the foreground and the background
 ("flying pixels"), surfaces seen at grazing angles and dark surfaces return no depth, and the depth image,
-registered to the colour camera through a factory extrinsic, carries that extrinsic's error.
+registered to the colour camera through a factory extrinsic, carries that extrinsic's error. Where a profile
+says so (``d435-real-cell``), the aligned depth image is also misregistered against the colour camera's model
+by a pixel or two and a fraction of a degree (shifted and turned about the principal point), and carries a
+fixed-pattern error: one noise field per unit and placement, the same in every frame (:func:`fixed_pattern`).
 
 A :class:`DepthSensor` holds these numbers for one kind of camera; :data:`PROFILES` has the cameras a
 robot cell uses, with the figures taken from their vendors' datasheets and white papers (cited beside
