@@ -88,6 +88,19 @@ class MarkerlessRun:
                 )
         return line
 
+    def registration_note(self) -> str | None:
+        """One line: how the depth-to-colour registration was treated (estimated or bounded), None without an
+        accepted result."""
+        reg = next((r.registration for r in self.results.values() if r.ok and r.registration), None)
+        if not reg:
+            return None
+        shift, rot, trans = reg["shift_px"], reg["rotation"], reg["translation"]
+        how = "estimated with the principal point" if shift["treatment"].startswith("estimated") else "taken as 0"
+        return (
+            f"depth-to-colour registration: image shift {how}; rotation bounded at {rot['sigma_deg']:g} deg and "
+            f"translation at {trans['sigma_mm']:g} mm per axis, in the sigma (the depth cannot see them)"
+        )
+
     def table(self) -> str:
         """Markdown: per camera, status, error against truth, sigma, the classic label's error."""
         rows = []

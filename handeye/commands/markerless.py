@@ -66,6 +66,15 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "dataset's simulated sensor, if any)",
     )
     p.add_argument(
+        "--registration-sigma",
+        type=cli_float,
+        default=None,
+        metavar="DEG",
+        help="uncertainty of the depth-to-colour rotation per axis, degrees: depth aligned through a turned "
+        "extrinsic is a turned camera's, which no registration can tell apart, so it is added to the rotation "
+        "sigma (default: the sensor profile's; a shift of the depth image is estimated with the principal point)",
+    )
+    p.add_argument(
         "--stereo-fb",
         type=cli_float,
         default=None,
@@ -141,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     if args.write_labels:
         check_output_path(Dataset.open(args.dataset).cameras_path)
     start = read_start(args.start) if args.start else None
-    extrinsic_m, stereo_fb = _sensor_terms(args)
+    extrinsic_m, extrinsic_deg, stereo_fb = _sensor_terms(args)
     out = markerless_dataset(
         args.dataset,
         args.camera,
@@ -153,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
             depth_sigma_m_at_1m=args.depth_noise,
             depth_model=args.depth_model,
             depth_extrinsic_sigma_m=extrinsic_m,
+            depth_extrinsic_sigma_deg=extrinsic_deg,
             stereo_fb_px_m=stereo_fb,
             static_parts=args.static_parts,
             intrinsics_model=args.intrinsics,
@@ -163,6 +173,9 @@ def run(args: argparse.Namespace) -> int:
     )
     print(out.table())
     print(out.summary())
+    note = out.registration_note()
+    if note:
+        print(note)
     if args.out:
         write_json_atomic(args.out, out.to_dict())
         print(f"written: {args.out}")
@@ -212,11 +225,13 @@ def _intrinsics_sigma(args: argparse.Namespace) -> tuple:
     return values
 
 
-def _sensor_terms(args: argparse.Namespace) -> tuple[float, float | None]:
-    """The depth-to-colour extrinsic's sigma per axis and a stereo camera's ``f B`` (None: not modelled).
+def _sensor_terms(args: argparse.Namespace) -> tuple[float, float, float | None]:
+    """The depth-to-colour extrinsic's sigmas per axis (metres, degrees) and a stereo camera's ``f B`` (None: not
+    modelled).
 
-    Of ``--sensor``, else of the dataset's simulated sensor; ``--stereo-fb`` overrides the second (0: None).
-    The matcher's bias is modelled only with the depth self-calibrated (``--depth-model scale-offset``).
+    Of ``--sensor``, else of the dataset's simulated sensor; ``--registration-sigma`` overrides the rotation's,
+    ``--stereo-fb`` the ``f B`` (0: None). The matcher's bias is modelled only with the depth self-calibrated
+    (``--depth-model scale-offset``).
     """
     from handeye.core.dataset import Dataset
     from handeye.core.errors import HandEyeInputError
@@ -228,6 +243,13 @@ def _sensor_terms(args: argparse.Namespace) -> tuple[float, float | None]:
         recorded = Dataset.open(args.dataset).meta.get("recipe", {}).get("sensor")
         sensor = DepthSensor.from_dict(recorded) if isinstance(recorded, dict) else None
     extrinsic_m = sensor.extrinsic_sigma_m if sensor is not None else 0.0
+    extrinsic_deg = sensor.registration_roll_sigma_deg if sensor is not None else 0.0
+    if args.registration_sigma is not None:
+        if not 0 <= args.registration_sigma < 180:
+            raise HandEyeInputError(
+                f"--registration-sigma must be an angle in degrees >= 0, got {args.registration_sigma}"
+            )
+        extrinsic_deg = args.registration_sigma
     fb = sensor.stereo_fb_px_m if sensor is not None else None
     if args.stereo_fb is not None:
         if not args.stereo_fb >= 0:
@@ -235,4 +257,4 @@ def _sensor_terms(args: argparse.Namespace) -> tuple[float, float | None]:
                 f"--stereo-fb must be a disparity constant >= 0 (0: not modelled), got {args.stereo_fb}"
             )
         fb = args.stereo_fb or None
-    return extrinsic_m, (fb if args.depth_model == "scale-offset" else None)
+    return extrinsic_m, extrinsic_deg, (fb if args.depth_model == "scale-offset" else None)

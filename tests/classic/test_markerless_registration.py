@@ -90,3 +90,29 @@ def test_a_shifted_depth_image_is_estimated_as_the_principal_point():
 def test_a_bad_registration_sigma_is_refused(key, value):
     with pytest.raises(HandEyeInputError, match=key):
         MarkerlessOptions(**{key: value})
+
+
+def test_the_command_takes_the_profiles_rotation_spread_or_a_stated_one():
+    from argparse import Namespace
+
+    from handeye.commands.markerless import _sensor_terms
+
+    def terms(sensor, sigma):
+        args = Namespace(sensor=sensor, registration_sigma=sigma, stereo_fb=None, depth_model="scale-offset")
+        return _sensor_terms(args)[:2]
+
+    assert terms("d435-real-cell", None) == (0.0005, 0.2)
+    assert terms("d435-real-cell", 0.05) == (0.0005, 0.05)
+    for bad in (-0.1, 180.0, float("nan")):
+        with pytest.raises(HandEyeInputError, match="registration-sigma"):
+            terms("d435", bad)
+
+
+def test_the_run_says_which_part_was_estimated_and_which_bounded(turned):
+    from handeye.markerless import MarkerlessRun
+
+    depth, surface, _ = turned
+    res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_extrinsic_sigma_deg=0.3))
+    note = MarkerlessRun(results={0: res}, seconds={0: 1.0}).registration_note()
+    assert "shift estimated with the principal point" in note and "bounded at 0.3 deg" in note
+    assert MarkerlessRun(results={}, seconds={}).registration_note() is None

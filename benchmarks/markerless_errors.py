@@ -1,0 +1,123 @@
+"""Markerless calibration against a real cell's errors, each alone and all together: the table of error sources.
+
+Each case tells the registration less than the truth in one way (the camera matrix, the depth image's
+registration to it, the robot's joint zeros, a noise field repeated in every frame) and runs it with the
+front's defaults (the depth scale and offset, the intrinsics and the joint offsets estimated with the pose;
+the depth-to-colour rotation bounded by the profile's spread). The last case has them all together, drawn per
+placement from the ``d435-real-cell`` profile. The rows: accepted, median and worst error against the truth,
+how many were accepted beyond 3 predicted sigmas, and the wall time per placement (run it under
+``taskset -c N`` for one core).
+
+    taskset -c 0 python benchmarks/markerless_errors.py --data data/sensor-bands/paper-real-1.2 --max-placements 5
+
+The datasets are rendered without depth noise (``benchmarks/markerless_sensors.py --presets paper-real
+paper-sim --bands 1.2`` renders them); the joint offsets' truth is the camera in the robot's kinematic base
+frame (:func:`benchmarks.markerless_sensors.kinematic_truth`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._report import Report  # noqa: E402
+from benchmarks.markerless_sensors import placements, run_profile, versions, with_errors  # noqa: E402
+from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.markerless import robot_surface_for  # noqa: E402
+from sim.sensors import PROFILES  # noqa: E402
+
+#: Joint zero offsets of a real arm, degrees (0.1-0.3 per joint, signs mixed).
+JOINT_OFFSETS_DEG = np.array([0.2, -0.3, 0.15, -0.1, 0.25, -0.2])
+#: A factory camera matrix's error: focal lengths relative, principal point in pixels.
+INTRINSICS_ERROR = {"fx": 0.007, "fy": 0.007, "cx": 3.0, "cy": 0.0}
+
+
+def cases() -> list[dict]:
+    """The error sources: a name and what run_profile is given (sensor, intrinsics, registration, joints)."""
+    d435 = PROFILES["d435"]
+    real = PROFILES["d435-real-cell"]
+    bounded = replace(d435, registration_roll_sigma_deg=real.registration_roll_sigma_deg)  # the roll's bound told
+    no = {"du": 0.0, "dv": 0.0, "roll": 0.0}
+    return [
+        {"name": "none (d435 as is)", "sensor": d435},
+        {"name": "fx, fy +0.7 %, cx +3 px", "sensor": d435, "intrinsics": INTRINSICS_ERROR},
+        {"name": "fx +0.7 %", "sensor": d435, "intrinsics": {**INTRINSICS_ERROR, "fy": 0.0, "cx": 0.0}},
+        {"name": "cx +3 px", "sensor": d435, "intrinsics": {**INTRINSICS_ERROR, "fx": 0.0, "fy": 0.0}},
+        {"name": "depth image 1 px off", "sensor": d435, "registration": {**no, "du": 1.0}},
+        {"name": "depth image 2 px off", "sensor": d435, "registration": {**no, "du": 2.0}},
+        {"name": "depth image turned 0.2 deg (bound 0.2 deg)", "sensor": bounded, "registration": {**no, "roll": 0.2}},
+        {"name": "joint zeros 0.1-0.3 deg", "sensor": d435, "joints": JOINT_OFFSETS_DEG},
+        {"name": "fixed pattern 3.6 mm at 1 m", "sensor": with_errors(d435, 3.6)},
+        {
+            "name": "all together (d435-real-cell, intrinsics, joints)",
+            "sensor": real,
+            "intrinsics": INTRINSICS_ERROR,
+            "joints": JOINT_OFFSETS_DEG,
+        },
+    ]
+
+
+def row(name: str, rows: list) -> str:
+    ok = [r for r in rows if r[0] == "ok"]
+    n = len(rows)
+    if not ok:
+        return f"| {name} | 0/{n} | - | - | - | {np.median([r[5] for r in rows]):.1f} |"
+    e = np.array([[r[1], r[2], r[3], r[4]] for r in ok])
+    wrong = int(np.sum((e[:, 0] > 3 * e[:, 2]) | (e[:, 1] > 3 * e[:, 3])))
+    return (
+        f"| {name} | {len(ok)}/{n} | {np.median(e[:, 1]):.2f} / {np.median(e[:, 0]):.3f} | "
+        f"{e[:, 1].max():.2f} / {e[:, 0].max():.3f} | {wrong} | {np.median([r[5] for r in rows]):.1f} |"
+    )
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", type=Path, nargs="+", required=True, help="datasets rendered without depth noise")
+    ap.add_argument("--max-placements", type=int, default=5, help="at most this many test placements per dataset")
+    ap.add_argument("--cases", help="comma-separated case numbers (1-based) to run, default all")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
+    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_errors.md"))
+    args = ap.parse_args()
+    Report.cut(args, max_placements=1)
+    title = "Markerless calibration against a real cell's errors"
+    rep = Report(title, "benchmarks/markerless_errors.py", None, versions())
+    rep.say(
+        "Each row: one error the method is not told (the last, all together), the front's defaults. Wrong: "
+        "accepted more than 3 predicted sigmas from the truth (translation or rotation). Time: wall seconds per "
+        "placement (the registration; one core under taskset)."
+    )
+    chosen = cases()
+    if args.cases:
+        chosen = [chosen[int(i) - 1] for i in args.cases.split(",")]
+    for root in args.data:
+        ds = Dataset.open(root)
+        surface, stride = robot_surface_for(ds)
+        cams = placements(ds, "test", args.max_placements)
+        rep.say(f"\n## {ds.root.name}: {len(cams)} test placements\n")
+        rep.say("| error the method is not told | accepted | median mm / deg | worst mm / deg | beyond 3 sigma | s |")
+        rep.say("|---|---|---|---|---|---|")
+        for case in chosen:
+            rows = run_profile(
+                ds,
+                surface,
+                stride,
+                cams,
+                case["sensor"],
+                args.seed,
+                intrinsics_error=case.get("intrinsics"),
+                modes=("self-calibrated",),
+                registration=case.get("registration"),
+                joint_offsets=case.get("joints"),
+            )
+            rep.say(row(case["name"], rows["self-calibrated"]))
+    return rep.write(str(args.out))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
