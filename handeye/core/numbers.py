@@ -68,7 +68,6 @@ _FLOAT_LINES = re.compile(rf"(?:{_FLOAT.pattern}\n)*{_FLOAT.pattern}", re.ASCII)
 NONFINITE_WORDS = frozenset(
     sign + word for sign in ("", "+", "-") for word in ("nan", "inf", "infinity", ".nan", ".inf")
 )
-_WORDS = NONFINITE_WORDS
 
 
 class NumberError(HandEyeInputError):
@@ -99,7 +98,7 @@ def number_problem(text: str, integer: bool = False) -> str | None:
         return "an empty value"
     if text != text.strip():
         return "spaces around it"
-    if text.lower() in _WORDS:
+    if text.lower() in NONFINITE_WORDS:
         return "NaN and infinity are not accepted; an unknown value is left empty where the format allows"
     if integer and _FLOAT.fullmatch(text):
         return "it has a fraction or an exponent"
@@ -119,7 +118,6 @@ def is_number_text(text: str) -> bool:
 
 #: The reason given for a number of the grammar that float64 cannot hold (``1e400``).
 OVERFLOW_REASON = "beyond the range of a 64-bit float"
-_OVERFLOW = OVERFLOW_REASON
 
 
 def number_message(text: str, reason: str, integer: bool = False) -> str:
@@ -136,7 +134,7 @@ def number_message(text: str, reason: str, integer: bool = False) -> str:
     -------
     str
     """
-    finite = isinstance(text, str) and (text.lower() in _WORDS or reason == _OVERFLOW)
+    finite = isinstance(text, str) and (text.lower() in NONFINITE_WORDS or reason == OVERFLOW_REASON)
     noun = "an integer" if integer else "a finite number" if finite else "a number"
     return f"{shorten(text)} is not {noun} ({reason})"
 
@@ -171,7 +169,7 @@ def parse_float(text: str, where: str, error: type[Exception] = NumberError) -> 
         raise _fail(text, where, reason, error)
     value = float(text)
     if not math.isfinite(value):
-        raise _fail(text, where, _OVERFLOW, error)
+        raise _fail(text, where, OVERFLOW_REASON, error)
     return value
 
 
@@ -238,7 +236,7 @@ def _json_float(token: str) -> float:
         raise _JsonNumber(token, f"more than the {MAX_NUMBER_CHARS} characters a number is written with")
     value = float(token)
     if not math.isfinite(value):
-        raise _JsonNumber(token, _OVERFLOW)
+        raise _JsonNumber(token, OVERFLOW_REASON)
     return value
 
 
