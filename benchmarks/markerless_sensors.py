@@ -81,6 +81,7 @@ from benchmarks._report import Report  # noqa: E402
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.numbers import NumberError, parse_float  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from sim.sensors import PROFILES, apply_sensor, draw_systematic  # noqa: E402
 
@@ -147,32 +148,28 @@ def observe(ds: Dataset, c: int, sensor, seed: int, registration: dict | None = 
     return depth, ds.joints(t), truth
 
 
+def _key_numbers(text: str, option: str, keys: tuple) -> dict:
+    """``k=number,...`` of ``keys`` (those not given 0), numbers in the project's strict grammar."""
+    out = dict.fromkeys(keys, 0.0)
+    for item in filter(None, text.split(",")):
+        key, _, value = (part.strip() for part in item.partition("="))
+        if key not in out:
+            raise argparse.ArgumentTypeError(f"{option}: unknown key {key!r} ({', '.join(keys)})")
+        try:
+            out[key] = parse_float(value, option)
+        except NumberError:
+            raise argparse.ArgumentTypeError(f"{option}: {item!r} is not key=number") from None
+    return out
+
+
 def parse_intrinsics_error(text: str) -> dict:
     """``fx=0.007,cx=3``: the relative focal errors (``fx``, ``fy``) and the principal point's (``cx``, ``cy``, px)."""
-    out = {"fx": 0.0, "fy": 0.0, "cx": 0.0, "cy": 0.0}
-    for item in filter(None, text.split(",")):
-        key, _, value = item.partition("=")
-        if key.strip() not in out:
-            raise argparse.ArgumentTypeError(f"--intrinsics-error: unknown key {key!r} (fx, fy, cx, cy)")
-        try:
-            out[key.strip()] = float(value)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"--intrinsics-error: {item!r} is not key=number") from None
-    return out
+    return _key_numbers(text, "--intrinsics-error", ("fx", "fy", "cx", "cy"))
 
 
 def parse_registration_error(text: str) -> dict:
     """``du=1,dv=0,roll=0``: the depth image's shift (pixels) and roll (degrees) against the colour camera."""
-    out = {"du": 0.0, "dv": 0.0, "roll": 0.0}
-    for item in filter(None, text.split(",")):
-        key, _, value = item.partition("=")
-        if key.strip() not in out:
-            raise argparse.ArgumentTypeError(f"--registration-error: unknown key {key!r} (du, dv, roll)")
-        try:
-            out[key.strip()] = float(value)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"--registration-error: {item!r} is not key=number") from None
-    return out
+    return _key_numbers(text, "--registration-error", ("du", "dv", "roll"))
 
 
 def with_errors(sensor, fixed_pattern_mm: float | None = None, fixed_pattern_px: float | None = None):
@@ -222,12 +219,9 @@ def kinematic_truth(T_phys: np.ndarray, twists: np.ndarray, offsets_rad: np.ndar
 def parse_joint_offsets(text: str) -> np.ndarray:
     """``0.2,-0.3,...``: joint zero offsets in degrees, one per joint."""
     try:
-        values = np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--joint-offsets: {text!r} is not comma-separated degrees") from None
-    if not np.all(np.isfinite(values)):
-        raise argparse.ArgumentTypeError(f"--joint-offsets: {text!r} has a non-finite value")
-    return values
+        return np.array([parse_float(x.strip(), "--joint-offsets") for x in text.split(",")])
+    except NumberError:
+        raise argparse.ArgumentTypeError(f"--joint-offsets: {text!r} is not comma-separated finite degrees") from None
 
 
 def run_profile(

@@ -16,7 +16,7 @@ from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays
 from classic.markerless.point_to_plane import solve_point_to_plane
 from handeye.core.errors import HandEyeInputError
 from handeye.core.metrics import pose_error
-from tests.classic.test_markerless import K, _bias_bounds, _scene
+from tests.classic.test_markerless import K, _bias_bounds, _scene, within_sigma
 from tests.tolerances import FLOAT, SIGMA_BOUND
 
 #: A factory camera matrix's error: focal lengths +0.7 %, principal point +3 px (issue 41's figure).
@@ -61,10 +61,7 @@ def test_the_intrinsics_estimated_with_the_pose_give_the_truth_within_the_sigma(
     depth, surface, T_true = scene
     res = register_robot(depth, _told(), surface)
     assert res.ok, res.refused
-    rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
-    bias_mm, bias_deg = _bias_bounds(depth)
-    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
-    assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+    assert within_sigma(res, T_true, depth)
     intr = res.intrinsics
     assert intr["model"] == "estimated"
     truth = intrinsics_vector(K)

@@ -22,10 +22,8 @@ from classic.markerless.kinematics import (
     offset_columns,
 )
 from handeye.core.errors import HandEyeInputError, ShapeError
-from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
-from tests.classic.test_markerless import F_PX, SIGMA_1M, K, _look_at, sphere_model
-from tests.classic.test_markerless import render_depth as render_spheres
+from tests.classic.test_markerless import SIGMA_1M, K, _look_at, render_depth, sphere_model, within_sigma
 from tests.tolerances import SIGMA_BOUND
 
 #: Joint axes and a point on each, zero configuration (base frame, metres).
@@ -67,17 +65,6 @@ def chain(q):
     return centres, twists
 
 
-def _render(centres, T_base_cam, rng):
-    import tests.classic.test_markerless as base
-
-    saved = base.RADII
-    base.RADII = RADII  # the renderer and the model read the module's radii
-    try:
-        return render_spheres(centres, T_base_cam, rng), sphere_model(centres)
-    finally:
-        base.RADII = saved
-
-
 def arm_scene(rng, offsets_deg=OFFSETS_DEG):
     """Depth at ``q + delta``; the surface posed at ``q`` with its twists; the camera physical and kinematic."""
     q = rng.uniform([-0.6, -0.5, -0.6, -0.6, -0.8, -1.0], [0.6, 0.3, 0.6, 0.6, 0.8, 1.0], size=(N_FRAMES, 6))
@@ -85,8 +72,8 @@ def arm_scene(rng, offsets_deg=OFFSETS_DEG):
     T_phys = _look_at(np.array([1.0, -0.7, 1.0]), np.array([0.15, 0.0, 0.4]))
     true = np.stack([chain(qi + delta)[0] for qi in q])
     told = [chain(qi) for qi in q]
-    depth, _ = _render(true, T_phys, rng)
-    _, surface = _render(np.stack([c for c, _ in told]), T_phys, rng)
+    depth = render_depth(true, T_phys, rng, radii=RADII)
+    surface = sphere_model(np.stack([c for c, _ in told]), radii=RADII)
     surface.joint_twists_base = np.stack([t for _, t in told])
     surface.__post_init__()
     T_kin = _rotation_about(AXES[0], POINTS[0], -delta[0]) @ T_phys  # joint 1's axis is fixed in the base
@@ -96,13 +83,6 @@ def arm_scene(rng, offsets_deg=OFFSETS_DEG):
 @pytest.fixture(scope="module")
 def scene():
     return arm_scene(np.random.default_rng(3))
-
-
-def _bias_bounds(depth):
-    """The spheres' sampling bias (tests/classic/test_markerless.py) with these radii: mm and deg."""
-    footprint = depth[depth > 0].max() / F_PX
-    trans_m = footprint**2 / (8 * RADII.min())
-    return trans_m * 1e3, np.degrees(trans_m / 0.2)
 
 
 def test_twists_are_the_motion_of_the_posed_chain():
@@ -172,10 +152,7 @@ def test_offsets_are_estimated_within_their_sigma_and_the_pose_is_the_kinematic_
     depth, surface, T_phys, T_kin, delta = scene
     res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M))
     assert res.ok, res.refused
-    rot_deg, trans_mm = pose_error(res.T_base_cam, T_kin)
-    bias_mm, bias_deg = _bias_bounds(depth)
-    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
-    assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+    assert within_sigma(res, T_kin, depth, RADII)
     joints = res.joint_offsets["joints"]
     assert res.joint_offsets["model"] == "estimated" and "note" in res.joint_offsets
     assert joints[0]["status"] == "absorbed" and joints[0]["estimate_deg"] == 0.0
@@ -260,9 +237,6 @@ def test_with_static_parts_fitted_a_round_base_leaves_the_base_rotation_absorbed
     assert res.diagnostics["fitted_parts"] == "all"
     joints = res.joint_offsets["joints"]
     assert joints[0]["status"] == "absorbed"
-    rot_deg, trans_mm = pose_error(res.T_base_cam, T_kin)
-    bias_mm, bias_deg = _bias_bounds(depth)
-    assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
-    assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+    assert within_sigma(res, T_kin, depth, RADII)
     for j in range(1, 5):
         assert abs(joints[j]["estimate_deg"] - np.degrees(delta[j])) <= SIGMA_BOUND * joints[j]["sigma_deg"]

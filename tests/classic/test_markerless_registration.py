@@ -14,9 +14,8 @@ import pytest
 
 from classic.markerless import MarkerlessOptions, register_robot
 from handeye.core.errors import HandEyeInputError
-from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
-from tests.classic.test_markerless import K, _bias_bounds, _look_at, render_depth, sphere_model
+from tests.classic.test_markerless import K, _look_at, render_depth, sphere_model, within_sigma
 from tests.tolerances import SIGMA_BOUND
 
 #: The extrinsic's rotation error, degrees (tilt about y, roll about z): large against the scene's rotation
@@ -36,15 +35,6 @@ def _scene(turn_deg=(0.0, 0.0, 0.0)):
     return render_depth(centres, T_base_depth, rng), sphere_model(centres), T_base_colour
 
 
-def _within(res, T_true, depth):
-    rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
-    bias_mm, bias_deg = _bias_bounds(depth)
-    return (
-        rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
-        and trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
-    )
-
-
 @pytest.fixture(scope="module")
 def turned():
     return _scene(TURN_DEG)
@@ -55,7 +45,7 @@ def test_a_turned_extrinsic_not_bounded_is_confidently_wrong(turned):
     res = register_robot(depth, K, surface)
     assert res.ok, res.refused
     assert res.registration["rotation"]["rss_deg"] == 0.0
-    assert not _within(res, T_true, depth)
+    assert not within_sigma(res, T_true, depth)
 
 
 def test_a_turned_extrinsic_is_bounded_by_its_sigma(turned):
@@ -63,7 +53,7 @@ def test_a_turned_extrinsic_is_bounded_by_its_sigma(turned):
     sigma_deg = float(np.abs(TURN_DEG).max())
     res = register_robot(depth, K, surface, options=MarkerlessOptions(depth_extrinsic_sigma_deg=sigma_deg))
     assert res.ok, res.refused
-    assert _within(res, T_true, depth)
+    assert within_sigma(res, T_true, depth)
     rotation = res.registration["rotation"]
     assert rotation["treatment"] == "bounded" and rotation["sigma_deg"] == sigma_deg
     assert rotation["rss_deg"] == pytest.approx(np.sqrt(3) * sigma_deg)
@@ -76,7 +66,7 @@ def test_a_shifted_depth_image_is_estimated_as_the_principal_point():
     shifted[:, :, SHIFT_PX:] = depth[:, :, :-SHIFT_PX]  # the content moves right: the principal point with it
     res = register_robot(shifted, K, surface)
     assert res.ok, res.refused
-    assert _within(res, T_true, depth)
+    assert within_sigma(res, T_true, depth)
     shift = res.registration["shift_px"]
     assert shift["treatment"].startswith("estimated")
     assert abs(shift["dx"] - SHIFT_PX) <= SIGMA_BOUND * shift["sigma"][0]
