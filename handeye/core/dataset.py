@@ -255,6 +255,21 @@ def _check_translations(table: dict, path: Path) -> None:
             )
 
 
+def _require_file(path: Path, missing: str, must_be: str) -> None:
+    """Refuse ``path`` unless it is a regular file: ``missing`` when nothing is there, ``must_be`` when it is a
+    directory, FIFO or device (named by :func:`handeye.core.textfile.file_kind`).
+
+    Raises
+    ------
+    DatasetError
+    """
+    if path.is_file():
+        return
+    if path.exists():
+        raise DatasetError(f"{path}: {file_kind(path)}, not a file; {must_be}")
+    raise DatasetError(f"{path}: {missing}")
+
+
 def read_table(path: str | Path, required: list[str]) -> dict:
     """Read a CSV table into columns, checking that the required ones are there and typed.
 
@@ -274,10 +289,7 @@ def read_table(path: str | Path, required: list[str]) -> dict:
         Missing file, missing column, a value that does not parse, a ragged row.
     """
     path = Path(path)
-    if path.exists() and not path.is_file():
-        raise DatasetError(f"{path}: {file_kind(path)}, not a file; the table must be a regular CSV file")
-    if not path.is_file():
-        raise DatasetError(f"{path}: table missing")
+    _require_file(path, "table missing", "the table must be a regular CSV file")
     try:
         text = path.read_bytes().decode("utf-8-sig")  # a byte-order mark (spreadsheets write one) dropped
         check_csv_text(enumerate(text.split("\n"), start=1), str(path), DatasetError)
@@ -371,10 +383,7 @@ def decode_depth(units: np.ndarray, scale_m: float) -> np.ndarray:
 def _read_png(path: Path) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
-    if path.exists() and not path.is_file():
-        raise DatasetError(f"{path}: {file_kind(path)}, not a file; an image must be a regular PNG file")
-    if not path.is_file():
-        raise DatasetError(f"{path}: image missing")
+    _require_file(path, "image missing", "an image must be a regular PNG file")
     try:
         data = path.read_bytes()
         check_image_bytes(data, str(path), DatasetError)
@@ -609,10 +618,11 @@ class Dataset:
         if not root.is_dir():
             raise DatasetError(f"{root}: no such dataset directory")
         path = root / "meta.json"
-        if path.exists() and not path.is_file():
-            raise DatasetError(f"{path}: {file_kind(path)}, not a file; meta.json must be a regular JSON file")
-        if not path.is_file():
-            raise DatasetError(f"{path}: missing; not a handeye dataset (generate one with 'handeye sim generate')")
+        _require_file(
+            path,
+            "missing; not a handeye dataset (generate one with 'handeye sim generate')",
+            "meta.json must be a regular JSON file",
+        )
         meta = read_json_file(path, DatasetError, "dataset meta file")
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             found = meta.get("format") if isinstance(meta, dict) else None
