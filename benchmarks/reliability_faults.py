@@ -509,6 +509,11 @@ def _target_check(path: Path, kind: str, keep: Path | None = None, keep_on_failu
 # ------------------------------------------------------------------ the writers
 
 
+def _small_sim_argv(out) -> list:
+    """``handeye sim generate`` of the small preset's first camera into ``out``, one worker."""
+    return ["sim", "generate", "--preset", "small", "--cameras", "0:1", "--out", out, "--workers", "1"]
+
+
 def writers(w: Work) -> dict:
     """Command name to (argv of the output path, output suffix, timeout s); every command with -o/--out."""
     if "writers" in w._cache:
@@ -542,19 +547,7 @@ def writers(w: Work) -> dict:
             120,
         ),
         "sim generate --out": (
-            lambda t: [
-                "sim",
-                "generate",
-                "--preset",
-                "small",
-                "--cameras",
-                "0:1",
-                "--out",
-                t,
-                "--quiet",
-                "--workers",
-                "1",
-            ],
+            lambda t: [*_small_sim_argv(t), "--quiet"],
             "/",
             180,
         ),
@@ -1487,18 +1480,7 @@ def gen_tracebacks(w: Work) -> list:
         "calibrate": lambda o: ["calibrate", g["poses"], "--setup", "eye-to-hand"],
         "plan": lambda o: ["plan", g["poses"], "--setup", "eye-to-hand", "--candidates", "200"],
         "board": lambda o: ["board", "-o", o / "b.png"],
-        "sim generate": lambda o: [
-            "sim",
-            "generate",
-            "--preset",
-            "small",
-            "--cameras",
-            "0:1",
-            "--out",
-            o / "ds",
-            "--workers",
-            "1",
-        ],
+        "sim generate": lambda o: _small_sim_argv(o / "ds"),
         "label": lambda o: ["label", w.dataset(labelled=False), "--workers", "1"],
     }
     for command, argv_of in stdout_cmds.items():
