@@ -98,6 +98,11 @@ def write_bag(path, storage="sqlite3", depth=DEPTH_M * 1e3, encoding="16UC1", in
                 _header(s, ""), list(names), np.asarray(q[i], float), np.zeros(0), np.zeros(0)
             )
             messages.append((topic, "sensor_msgs/msg/JointState", s, state))
+    return _write_messages(path, messages, storage)
+
+
+def _write_messages(path, messages, storage="sqlite3"):
+    """A bag at ``path`` of ``(topic, msgtype, stamp, msg)`` messages, in the order given."""
     plugin = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}[storage]
     with Writer(path, version=9, storage_plugin=plugin) as writer:
         conns = {}
@@ -292,18 +297,12 @@ def _pose_bag(path, tf_x: float):
             MSG["geometry_msgs/msg/Vector3"](ee, 0.0, 0.5), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
         )
         edge = MSG["geometry_msgs/msg/TransformStamped"](_header(s, "base"), "ee", tr)
-        messages.append((tf, "/tf", s, MSG[tf]([edge])))
+        messages.append(("/tf", tf, s, MSG[tf]([edge])))
         pose = MSG["geometry_msgs/msg/Pose"](
             MSG["geometry_msgs/msg/Point"](x, 0.0, 0.8), MSG["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
         )
-        messages.append((ps, "/marker", s, MSG[ps](_header(s), pose)))
-    with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
-        conns = {}
-        for msgtype, topic, stamp, msg in messages:
-            if topic not in conns:
-                conns[topic] = writer.add_connection(topic, msgtype, typestore=TS)
-            writer.write(conns[topic], stamp, TS.serialize_cdr(msg, msgtype))
-    return path
+        messages.append(("/marker", ps, s, MSG[ps](_header(s), pose)))
+    return _write_messages(path, messages)
 
 
 def test_a_marker_position_or_tf_translation_that_is_not_finite_is_refused(tmp_path):
