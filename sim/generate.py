@@ -495,7 +495,11 @@ def generate(
     try:
         with dataset_lock(out, "handeye sim generate"):
             meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m, sensor)
-            return _render(out, preset, meta, seed, sensor, cameras, engine, workers, address, progress, t0)
+            _check_or_write_meta(out, meta)
+            _write_camera_table(out, preset, seed, sensor)
+            report = _render(out, preset, meta, cameras, engine, workers, address, progress)
+            report.wall_s = time.perf_counter() - t0
+            return report
     except OSError as exc:  # a read or write the system refused (full disk, permissions, a vanished folder)
         raise _io_failure(out, exc) from None
 
@@ -510,27 +514,28 @@ def _io_failure(out: Path, exc: OSError) -> DatasetError:
     )
 
 
-def _render(
-    out: Path,
-    preset: CameraPreset,
-    meta: dict,
-    seed: int,
-    sensor: DepthSensor | None,
-    cameras: Sequence[int] | None,
-    engine: str,
-    workers: int | None,
-    address: str | None,
-    progress: bool,
-    t0: float,
-) -> GenerationReport:
-    """The part of :func:`generate` under the dataset's lock: meta, camera table, then the missing shards."""
-    _check_or_write_meta(out, meta)
+def _write_camera_table(out: Path, preset: CameraPreset, seed: int, sensor: DepthSensor | None) -> None:
+    """``cameras.csv`` of the placements and their truths, unless a resumed generation wrote it already."""
     if not (out / "cameras.csv").exists():
         write_table(
             out / "cameras.csv",
             table := _camera_table(place_cameras(preset, np.random.default_rng(seed)), sensor, seed),
             camera_table_columns(table),
         )
+
+
+def _render(
+    out: Path,
+    preset: CameraPreset,
+    meta: dict,
+    cameras: Sequence[int] | None,
+    engine: str,
+    workers: int | None,
+    address: str | None,
+    progress: bool,
+) -> GenerationReport:
+    """The shards :func:`generate` renders under the dataset's lock: every missing or incomplete one of
+    ``cameras`` (default all); ``wall_s`` is left to the caller."""
     report = GenerationReport(out)
     pending = []
     for c in range(preset.n_cameras) if cameras is None else cameras:
@@ -562,5 +567,4 @@ def _render(
     report.rendered.sort()
     if cameras is not None:
         report.left = sum(not ShardWriter(out, c).complete for c in range(preset.n_cameras))
-    report.wall_s = time.perf_counter() - t0
     return report
