@@ -98,14 +98,13 @@ def _start_worker(parent_pid: int, payload: bytes) -> None:
     The caller's ``(initializer, initargs)`` arrive pickled, so that the parent-death signal is armed
     before their modules (rendering, torch, ...) are imported, which can take seconds.
     """
-    global _PARENT
+    global _PARENT, _INIT_FAILURE
     _PARENT = parent_pid
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: it stops the pool
     if not _arm_parent_death_signal():
         threading.Thread(target=_watch_parent, name="handeye-parent-watchdog", daemon=True).start()
     _exit_if_orphaned()  # the parent died before the signal was armed
     warnings.showwarning = _one_line_warning
-    global _INIT_FAILURE
     try:
         initializer, initargs = pickle.loads(payload)
         if initializer is not None:
