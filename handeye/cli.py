@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import sys
 import warnings
@@ -110,8 +111,6 @@ def describe_os_error(exc: OSError) -> str:
     >>> describe_os_error(PermissionError(13, "Permission denied", "/data/ds"))
     '/data/ds: Permission denied (check the permissions of that path, or choose another)'
     """
-    import errno
-
     cause = exc.strerror or str(exc) or type(exc).__name__
     paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
     text = f"{' -> '.join(paths)}: {cause}" if paths else cause
@@ -187,8 +186,6 @@ def _stdout_failed(prefix: str, exc: BaseException | None) -> int:
     Standard output is then pointed at the null device, so that the interpreter's own flush at exit finds
     nothing to complain about (no ``Exception ignored ... BrokenPipeError``).
     """
-    import errno
-
     _discard_stdout()
     if not (isinstance(exc, OSError) and exc.errno == errno.EPIPE):
         cause = getattr(exc, "strerror", None) or exc
