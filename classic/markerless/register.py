@@ -813,6 +813,11 @@ class _Problem:
         fit, expected = self._solve(
             T, *self.last_matches, iterations=iterations, depth_start=self.depth, covariance=covariance
         )
+        self.adopt(fit)
+        return fit, expected
+
+    def adopt(self, fit):
+        """Take the fit's depth correction, intrinsics and joint offsets as the current ones."""
         if fit.depth_correction is not None:
             self.depth = fit.depth_correction
         if fit.intrinsics is not None:
@@ -821,7 +826,6 @@ class _Problem:
             delta = np.zeros_like(self.joint_offsets)
             delta[self.joint_estimated] = fit.joint_offsets
             self.set_joint_offsets(delta)
-        return fit, expected
 
     def split_check(self, T, matches, depth_correction, intrinsics=None):
         """Groups of the frames solved again from the final matches: the sigma their scatter adds
@@ -941,30 +945,9 @@ def register_robot(
             starts["centroids"] = T0
     if not starts:
         return refuse("no start: the moving pixels of too few frames to align centroids, and none was given")
-    best = None
-    for name, T_start in starts.items():
-        problem.depth = (1.0, 0.0)
-        problem.set_intrinsics(problem.theta_given)
-        problem.set_joint_offsets(np.zeros_like(problem.joint_offsets))
-        T = problem.coarse(np.asarray(T_start, dtype=float))
-        T, fit, step, matched = problem.fine(T)
-        diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
-        if fit is not None and (best is None or matched > best[0]):
-            geometry, depth_range = problem.final_geometry, problem.final_depth_range
-            best = (matched, name, T, fit, step, geometry, depth_range, problem.last_matches)
-        if fit is not None and matched >= opts.min_matched_fraction + 0.15:
-            break  # a clear success: the other starts cannot do better than the noise
-    if best is None:
-        return refuse("did not converge: no start kept enough matched points")
-    if problem.hold_undetermined(best[3]):  # static parts fitted, the base rotation not determined: absorbed
-        if best[3].depth_correction is not None:  # from the best start's state (a later start may have failed)
-            problem.depth = best[3].depth_correction
-        if best[3].intrinsics is not None:
-            problem.set_intrinsics(best[3].intrinsics)
-        T, fit, step, matched = problem.fine(best[2])
-        if fit is None:
-            return refuse("did not converge: the fit with the base rotation's offset absorbed kept too few points")
-        best = (matched, best[1], T, fit, step, problem.final_geometry, problem.final_depth_range, problem.last_matches)
+    best = _best_of_starts(problem, starts, diag)
+    if isinstance(best, str):
+        return refuse(best)
     matched, name, T, fit, step, (z_med, lever_m), depth_range, matches = best
     inl = fit.weights > 0.5
     group = fit.group
@@ -991,27 +974,7 @@ def register_robot(
     registration = _registration_terms(opts, fit, problem.theta_given)
     extrinsic_mm, extrinsic_deg = registration["translation"]["rss_mm"], registration["rotation"]["rss_deg"]
     depth = _depth_summary(fit, opts, depth_range, problem.noise_source, noise_mm)
-    refused = None
-    observe = depth.get("observability", {})  # the frames' geometry alone decides whether the depth is observable
-    if matched < opts.min_matched_fraction:
-        refused = (
-            f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
-            f"(at least {opts.min_matched_fraction:.0%} needed)"
-        )
-    elif rms_mm > opts.max_residual_ratio * expected_mm:
-        refused = f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth noise"
-    elif step > 1e-4:
-        refused = f"did not converge: last step {step:.2g} (rad + m)"
-    elif observe.get("scale_sigma", 0.0) > opts.max_depth_prior_share * opts.depth_scale_prior_sigma or (
-        observe.get("offset_sigma_mm", 0.0) > opts.max_depth_prior_share * opts.depth_offset_prior_sigma_m * 1e3
-    ):
-        refused = (
-            f"depth scale and offset not observable: the matched depths span {depth['range_m'][0]:.2f}-"
-            f"{depth['range_m'][1]:.2f} m, which leaves the scale at {observe['scale_sigma']:.2%} and the offset at "
-            f"{observe['offset_sigma_mm']:.1f} mm (1 sigma; at most {opts.max_depth_prior_share:.0%} of the prior's "
-            f"{opts.depth_scale_prior_sigma:.2%} and {opts.depth_offset_prior_sigma_m * 1e3:.1f} mm); move the arm "
-            "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
-        )
+    refused = _refusal(opts, matched, rms_mm, expected_mm, step, depth)
     # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
     split = (
         problem.split_check(T, matches, fit.depth_correction, fit.intrinsics)
@@ -1059,6 +1022,61 @@ def register_robot(
         registration=registration,
         joint_offsets=_joint_offsets_result(fit, problem, opts),
     )
+
+
+def _best_of_starts(problem: _Problem, starts: dict, diag: dict):
+    """Stages 3 and 4 from each start in turn, until one clearly succeeds; the best kept, the problem left in its
+    state. Returns ``(matched, name, T, fit, step, geometry, depth_range, matches)``, or the reason none would do."""
+    opts, best = problem.opts, None
+    for name, T_start in starts.items():
+        problem.depth = (1.0, 0.0)
+        problem.set_intrinsics(problem.theta_given)
+        problem.set_joint_offsets(np.zeros_like(problem.joint_offsets))
+        T = problem.coarse(np.asarray(T_start, dtype=float))
+        T, fit, step, matched = problem.fine(T)
+        diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
+        if fit is not None and (best is None or matched > best[0]):
+            geometry, depth_range = problem.final_geometry, problem.final_depth_range
+            best = (matched, name, T, fit, step, geometry, depth_range, problem.last_matches)
+        if fit is not None and matched >= opts.min_matched_fraction + 0.15:
+            break  # a clear success: the other starts cannot do better than the noise
+    if best is None:
+        return "did not converge: no start kept enough matched points"
+    # the best start's depth, intrinsics and joint offsets: a later start may have run since, and the split check
+    # and the reported offsets read the problem's
+    problem.adopt(best[3])
+    if problem.hold_undetermined(best[3]):  # static parts fitted, the base rotation not determined: absorbed
+        T, fit, step, matched = problem.fine(best[2])
+        if fit is None:
+            return "did not converge: the fit with the base rotation's offset absorbed kept too few points"
+        best = (matched, best[1], T, fit, step, problem.final_geometry, problem.final_depth_range, problem.last_matches)
+    return best
+
+
+def _refusal(opts: MarkerlessOptions, matched: float, rms_mm: float, expected_mm: float, step: float, depth: dict):
+    """Why the fit is no calibration (outside the basin, residual too large, not converged, depth not observable),
+    or None."""
+    observe = depth.get("observability", {})  # the frames' geometry alone decides whether the depth is observable
+    if matched < opts.min_matched_fraction:
+        return (
+            f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
+            f"(at least {opts.min_matched_fraction:.0%} needed)"
+        )
+    if rms_mm > opts.max_residual_ratio * expected_mm:
+        return f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth noise"
+    if step > 1e-4:
+        return f"did not converge: last step {step:.2g} (rad + m)"
+    if observe.get("scale_sigma", 0.0) > opts.max_depth_prior_share * opts.depth_scale_prior_sigma or (
+        observe.get("offset_sigma_mm", 0.0) > opts.max_depth_prior_share * opts.depth_offset_prior_sigma_m * 1e3
+    ):
+        return (
+            f"depth scale and offset not observable: the matched depths span {depth['range_m'][0]:.2f}-"
+            f"{depth['range_m'][1]:.2f} m, which leaves the scale at {observe['scale_sigma']:.2%} and the offset at "
+            f"{observe['offset_sigma_mm']:.1f} mm (1 sigma; at most {opts.max_depth_prior_share:.0%} of the prior's "
+            f"{opts.depth_scale_prior_sigma:.2%} and {opts.depth_offset_prior_sigma_m * 1e3:.1f} mm); move the arm "
+            "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
+        )
+    return None
 
 
 def _joint_offsets_result(fit, problem, opts: MarkerlessOptions) -> dict:

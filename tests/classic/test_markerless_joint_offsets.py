@@ -240,3 +240,23 @@ def test_with_static_parts_fitted_a_round_base_leaves_the_base_rotation_absorbed
     assert within_sigma(res, T_kin, depth, RADII)
     for j in range(1, 5):
         assert abs(joints[j]["estimate_deg"] - np.degrees(delta[j])) <= SIGMA_BOUND * joints[j]["sigma_deg"]
+
+
+def test_the_result_is_the_best_starts_when_a_worse_start_runs_after_it(scene):
+    """A start tried after the best one (no clear success stops the search) leaves its own depth, intrinsics and
+    joint offsets in the problem; the result, the split check and the reported offsets are the best start's."""
+    depth, surface, _, T_kin, _ = scene
+    opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M)
+    alone = register_robot(depth, K, surface, starts={"good": T_kin}, options=opts, centroid_start=False)
+    assert alone.ok, alone.refused
+    # the good start no longer a clear success (matched >= minimum + 0.15), so the far one runs after it
+    opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M, min_matched_fraction=alone.matched_fraction - 0.1)
+    far = T_kin.copy()
+    far[:3, 3] += [0.0, 0.0, 3.0]
+    both = register_robot(depth, K, surface, starts={"good": T_kin, "far": far}, options=opts, centroid_start=False)
+    assert both.ok and both.start == "good" and "far" in both.diagnostics["starts"]
+    assert np.allclose(both.T_base_cam, alone.T_base_cam)
+    for a, b in zip(alone.joint_offsets["joints"], both.joint_offsets["joints"]):
+        assert a["status"] == b["status"] and a.get("estimate_deg") == pytest.approx(b.get("estimate_deg"))
+    assert both.intrinsics["cx"]["estimate"] == pytest.approx(alone.intrinsics["cx"]["estimate"])
+    assert both.sigma == pytest.approx(alone.sigma)
