@@ -217,6 +217,11 @@ _MCAP_RECORDS = {1: "header", 3: "schema", 4: "channel", 5: "message", 6: "chunk
 _MCAP_RECORDS.update({8: "chunk index", 9: "attachment", 11: "statistics", 12: "metadata", 15: "data end"})
 
 
+def _refuse_mcap(path: Path, what: str):
+    """Raise the :class:`BagError` of a corrupt MCAP file, naming it and ``what`` is wrong."""
+    raise BagError(f"{path}: the MCAP storage is corrupt: {what}")
+
+
 def check_mcap(path) -> None:
     """Refuse an MCAP file whose records do not hold together, which rosbags' reader would pass over.
 
@@ -242,14 +247,11 @@ def check_mcap(path) -> None:
     path = Path(path)
     u16, u64 = struct.Struct("<H"), struct.Struct("<Q")
 
-    def refuse(what: str):
-        raise BagError(f"{path}: the MCAP storage is corrupt: {what}")
-
     try:
         with path.open("rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
             size = len(mm)
             if size < 8 + 37:
-                refuse(f"{size} bytes, shorter than the magic and footer")
+                _refuse_mcap(path, f"{size} bytes, shorter than the magic and footer")
             (summary,) = u64.unpack_from(mm, size - 28)  # the footer's summary_start
             data_end = summary or size - 37
             schemas, channels, counts = {0}, {}, {}  # channel id -> [(schema id, where)]; id -> [count, where]
@@ -265,14 +267,14 @@ def check_mcap(path) -> None:
                     if packed:
                         at = f"byte {k} of the decompressed chunk at byte {base}"
                     if end - k < 9:
-                        refuse(f"{end - k} stray bytes at {at}, not a record")
+                        _refuse_mcap(path, f"{end - k} stray bytes at {at}, not a record")
                     op, (n,) = buf[k], u64.unpack_from(buf, k + 1)
                     name = _MCAP_RECORDS.get(op, f"0x{op:02x}")
                     if n > end - k - 9:
-                        refuse(f"the {name} record at {at} declares {n} bytes, past the end of {inside}")
+                        _refuse_mcap(path, f"the {name} record at {at} declares {n} bytes, past the end of {inside}")
                     body = k + 9
                     if op in (3, 4, 5) and n < {3: 2, 4: 4, 5: 22}[op]:
-                        refuse(f"the {name} record at {at} is {n} bytes, too short")
+                        _refuse_mcap(path, f"the {name} record at {at} is {n} bytes, too short")
                     if op == 3:
                         schemas.add(u16.unpack_from(buf, body)[0])
                     elif op == 4:
@@ -282,15 +284,19 @@ def check_mcap(path) -> None:
                         counts.setdefault(u16.unpack_from(buf, body)[0], [0, at])[0] += 1
                     elif op == 6 and base is None:
                         if n < 40:
-                            refuse(f"the chunk record at {at} is {n} bytes, too short")
+                            _refuse_mcap(path, f"the chunk record at {at} is {n} bytes, too short")
                         raw_size, crc, clen = struct.unpack_from("<QII", buf, body + 16)
                         head = body + 32 + clen
                         if head + 8 > body + n:
-                            refuse(f"the chunk at {at} declares a compression name of {clen} bytes, past its record")
+                            _refuse_mcap(
+                                path, f"the chunk at {at} declares a compression name of {clen} bytes, past its record"
+                            )
                         (records,) = u64.unpack_from(buf, head)
                         if records > body + n - head - 8:
                             past = "the file" if head + 8 + records > size else "its record"
-                            refuse(f"the chunk at {at} declares {records} bytes of records, past the end of {past}")
+                            _refuse_mcap(
+                                path, f"the chunk at {at} declares {records} bytes of records, past the end of {past}"
+                            )
                         compression = bytes(buf[body + 32 : head]).decode("utf-8", "replace")
                         chunks[k] = n + 9
                         if not compression:
@@ -301,7 +307,7 @@ def check_mcap(path) -> None:
                             try:
                                 raw = decompress(bytes(buf[head + 8 : head + 8 + records]), compression, raw_size, crc)
                             except Exception as exc:
-                                refuse(f"the chunk at {at} cannot be decompressed ({_reason(exc)})")
+                                _refuse_mcap(path, f"the chunk at {at} cannot be decompressed ({_reason(exc)})")
                             walk(raw, 0, len(raw), k, packed=True)
                     elif op == 11 and base is None and n >= 46:  # statistics (in the summary)
                         total, per = (
@@ -322,25 +328,48 @@ def check_mcap(path) -> None:
                 walk(mm, summary, size - 37, None)
     except OSError as exc:
         raise BagError(f"{path}: the MCAP file cannot be read ({_reason(exc)})") from None
+    _check_mcap_summary(path, chunks, index, schemas, channels, counts, stats)
+
+
+def _check_mcap_summary(path: Path, chunks: dict, index: list, schemas: set, channels: dict, counts: dict, stats: dict):
+    """The records :func:`check_mcap` walked, checked against each other and against the summary.
+
+    ``chunks``: offset -> record length of the chunks found; ``index``: the summary's (offset, length) chunk
+    indexes; ``schemas``: the declared schema ids (0 included); ``channels``: channel id -> [(schema id, where)];
+    ``counts``: channel id -> [messages, where of the first]; ``stats``: the summary's statistics (empty: none).
+
+    Raises
+    ------
+    BagError
+    """
+
     for offset, length in index:
         if chunks.get(offset) != length:
-            refuse(f"the summary indexes a chunk of {length} bytes at byte {offset}, which the file does not hold")
+            _refuse_mcap(
+                path, f"the summary indexes a chunk of {length} bytes at byte {offset}, which the file does not hold"
+            )
     for cid, declared in sorted(channels.items()):
         for sid, at in declared:
             if sid not in schemas:
-                refuse(f"the channel record at {at} (channel {cid}) names schema {sid}, which the file lacks")
+                _refuse_mcap(
+                    path, f"the channel record at {at} (channel {cid}) names schema {sid}, which the file lacks"
+                )
         if len({sid for sid, _ in declared}) > 1:
-            refuse(f"channel {cid} is declared with schemas {sorted({sid for sid, _ in declared})}")
+            _refuse_mcap(path, f"channel {cid} is declared with schemas {sorted({sid for sid, _ in declared})}")
     for cid, (count, at) in sorted(counts.items()):
         if cid not in channels:
-            refuse(f"the message record at {at} names channel {cid}, which the file does not declare")
+            _refuse_mcap(path, f"the message record at {at} names channel {cid}, which the file does not declare")
     if stats:
         for cid in sorted(set(counts) | set(stats["per"])):
             found, listed = counts.get(cid, [0])[0], stats["per"].get(cid, 0)
             if found != listed:
-                refuse(f"{found} messages of channel {cid} in the file, the summary's statistics list {listed}")
+                _refuse_mcap(
+                    path, f"{found} messages of channel {cid} in the file, the summary's statistics list {listed}"
+                )
         if stats["total"] != sum(c for c, _ in counts.values()):
-            refuse(f"{sum(c for c, _ in counts.values())} messages in the file, the summary lists {stats['total']}")
+            _refuse_mcap(
+                path, f"{sum(c for c, _ in counts.values())} messages in the file, the summary lists {stats['total']}"
+            )
 
 
 def _connections(reader, bag, topic: str, types: tuple, required: bool = True) -> list:
