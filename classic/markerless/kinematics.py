@@ -34,7 +34,6 @@ __all__ = [
     "JOINT_OFFSET_PRIORS_DEG",
     "joint_status",
     "joint_offset_prior_deg",
-    "point_velocities",
     "moved_model",
     "moved_surface",
     "offset_columns",
@@ -96,24 +95,6 @@ def joint_status(twists: np.ndarray, frames: np.ndarray, parts: np.ndarray) -> l
     return out
 
 
-def point_velocities(points: np.ndarray, twists: np.ndarray) -> np.ndarray:
-    """``omega_j x p + v_j``: each point's motion per radian of each joint.
-
-    Parameters
-    ----------
-    points : array, shape (N, 3)
-        Base frame, metres.
-    twists : array, shape (N, J, 6)
-        Each point's part's twists at its frame.
-
-    Returns
-    -------
-    array, shape (N, J, 3)
-        Metres per radian.
-    """
-    return _cross(twists[:, :, :3], points[:, None, :]) + twists[:, :, 3:]
-
-
 def moved_model(points: np.ndarray, normals: np.ndarray, twists: np.ndarray, delta: np.ndarray):
     """Model points and normals moved by the joint offsets ``delta``, to first order.
 
@@ -133,11 +114,7 @@ def moved_model(points: np.ndarray, normals: np.ndarray, twists: np.ndarray, del
     delta = np.asarray(delta, dtype=float)
     if not np.any(delta):
         return points, normals
-    omega = np.einsum("njk,j->nk", twists[:, :, :3], delta)
-    v = np.einsum("njk,j->nk", twists[:, :, 3:], delta)
-    moved = points + _cross(omega, points) + v
-    n = normals + _cross(omega, normals)
-    return moved, n / np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
+    return _moved(points, normals, np.einsum("njk,j->nk", twists, delta))
 
 
 def offset_columns(grad: np.ndarray, points: np.ndarray, twists: np.ndarray) -> np.ndarray:
@@ -255,7 +232,12 @@ def moved_surface(
         return points, normals
     n_parts = twists.shape[1]
     # each (frame, part)'s motion, gathered per point: (M, 6)
-    motion = np.einsum("fpjk,j->fpk", twists, delta).reshape(-1, 6)[frame * n_parts + part]
+    return _moved(points, normals, np.einsum("fpjk,j->fpk", twists, delta).reshape(-1, 6)[frame * n_parts + part])
+
+
+def _moved(points: np.ndarray, normals: np.ndarray, motion: np.ndarray):
+    """Points moved by ``omega x p + v`` and normals turned by ``omega x n`` (unit again), ``motion`` (N, 6) the
+    ``(omega, v)`` of each."""
     moved = points + _cross(motion[:, :3], points) + motion[:, 3:]
     n = normals + _cross(motion[:, :3], normals)
     return moved, n / np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
