@@ -790,10 +790,7 @@ class _Problem:
             direction_base=self.s.direction_base[m] if curved else None,
             depth_correction=depth_start if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
-            cross_group=(
-                _depth_bins(q_obs[:, 2], self.opts.depth_clusters),
-                _image_tiles(q_obs, self.K_given, self.w, self.opts.image_tiles),
-            ),
+            cross_group=self._cross_groups(q_obs),
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
             covariance=covariance,
@@ -801,6 +798,19 @@ class _Problem:
             **joints,
         )
         return fit, expected
+
+    def _cross_groups(self, q_obs):
+        """The covariance's clusterings beside the frames: depth bins, and image tiles where asked; None without
+        any (the frame-clustered covariance is then the only one, not computed twice)."""
+        crosses = [
+            c
+            for c in (
+                _depth_bins(q_obs[:, 2], self.opts.depth_clusters),
+                _image_tiles(q_obs, self.K_given, self.w, self.opts.image_tiles),
+            )
+            if c is not None
+        ]
+        return crosses or None
 
     def _fitted(self, idx, close):
         """The matches the fine stage fits: ``close`` ones on the parts it fits (``static_parts``)."""
