@@ -166,6 +166,31 @@ class Robot:
             out.append((g.name, g.meshPath, T @ S))
         return out
 
+    def link_twists(self, q: np.ndarray) -> np.ndarray:
+        """How each visual geometry of :meth:`link_poses` moves per radian of each joint, base frame.
+
+        Pinocchio's joint Jacobian of the geometry's parent joint in the ``WORLD`` frame: ``(omega_j, v_j)`` such
+        that a point ``p`` (base frame) of the geometry moves by ``omega_j x p + v_j`` (``v_j`` the velocity of
+        the point at the base's origin).
+
+        Parameters
+        ----------
+        q : array, shape (nq,)
+
+        Returns
+        -------
+        array, shape (n_geometries, nv, 6)
+            ``(omega, v)``: rad/rad and m/rad; zeros for a geometry on the base.
+        """
+        pin = self.pin
+        pin.computeJointJacobians(self.model, self.data, np.asarray(q, dtype=float))
+        out = np.zeros((len(self.visual_model.geometryObjects), self.model.nv, 6))
+        for k, g in enumerate(self.visual_model.geometryObjects):
+            if g.parentJoint > 0:
+                J = pin.getJointJacobian(self.model, self.data, g.parentJoint, pin.WORLD)  # rows [v; omega]
+                out[k, :, :3], out[k, :, 3:] = J[3:].T, J[:3].T
+        return out
+
     def ik(
         self,
         T_base_ee: np.ndarray,

@@ -69,19 +69,16 @@ class RobotSurface:
         """Samples per frame."""
         return sum(len(p) for _, p, _ in self.parts)
 
-    def joint_twists(self, q: np.ndarray, step_rad: float = 1e-6) -> np.ndarray:
+    def joint_twists(self, q: np.ndarray) -> np.ndarray:
         """Each part's motion per joint at each configuration: twists in the base frame.
 
-        For part ``k`` posed at ``T_k(q)`` (base frame), ``T_k(q + h e_j) T_k(q)^{-1} = exp(h [omega, v])``: a point
-        ``p`` of the part (base frame) moves by ``dp / dq_j = omega x p + v``. Central differences of
-        :meth:`sim.robot.Robot.link_poses` (no assumption on the robot's structure; a mesh's scale cancels).
+        A point ``p`` of part ``k`` (base frame) moves by ``dp / dq_j = omega x p + v`` per radian of joint ``j``
+        (:meth:`sim.robot.Robot.link_twists`, pinocchio's joint Jacobians; a mesh's scale does not enter).
 
         Parameters
         ----------
         q : array, shape (N, nq)
             Joint angles, radians.
-        step_rad : float
-            Difference step.
 
         Returns
         -------
@@ -89,21 +86,7 @@ class RobotSurface:
             ``(omega, v)``: rad/rad and m/rad.
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        nq = self.robot.nq
-        out = np.zeros((len(q), len(self.parts), nq, 6))
-        for i, qi in enumerate(q):
-            T0_inv = [np.linalg.inv(T) for _, _, T in self.robot.link_poses(qi)]
-            for j in range(nq):
-                e = np.zeros(nq)
-                e[j] = step_rad
-                plus = self.robot.link_poses(qi + e)
-                minus = self.robot.link_poses(qi - e)
-                for k, ((_, _, Tp), (_, _, Tm), Ti) in enumerate(zip(plus, minus, T0_inv)):
-                    D = (Tp @ Ti - Tm @ Ti) / (2 * step_rad)
-                    W = 0.5 * (D[:3, :3] - D[:3, :3].T)  # skew(omega), the difference's symmetric part removed
-                    out[i, k, j, :3] = (W[2, 1], W[0, 2], W[1, 0])
-                    out[i, k, j, 3:] = D[:3, 3]
-        return out
+        return np.stack([self.robot.link_twists(qi) for qi in q])
 
     def posed(self, q: np.ndarray, twists: bool = True) -> RobotSurfaceFrames:
         """The surface at each configuration, stacked.
