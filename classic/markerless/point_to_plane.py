@@ -15,12 +15,12 @@ step) rather than with ``scipy.optimize.least_squares``: the matches change
 after every step (ICP), so each problem is a handful of linear solves, and
 the exact Jacobian at the current pose is the closed form below.
 
-With ``depth_correction`` the sensor's depth scale and offset are estimated too. A sensor that reports
-``d_obs = s d + o`` places a point at ``q_obs = d_obs r`` on its pixel's ray ``r = (x_n, y_n, 1)``; the
-true point is ``q = k q_obs + c r`` with ``k = 1 / s`` and ``c = -o / s``, linear in ``(k, c)``. Their
-columns of the Jacobian are ``n_cam . q_obs`` and ``n_cam . r``. The robot's size is known in metres, so
-``k`` is fixed by the arm's size in the image as much as by its depth; ``c`` apart from the camera's
-position along its axis by the rays' spread across the image and the arm's range of depths.
+With a depth start (``PlaneFitOptions.depth_start``) the sensor's depth scale and offset are estimated too. A
+sensor that reports ``d_obs = s d + o`` places a point at ``q_obs = d_obs r`` on its pixel's ray ``r = (x_n,
+y_n, 1)``; the true point is ``q = k q_obs + c r`` with ``k = 1 / s`` and ``c = -o / s``, linear in ``(k,
+c)``. Their columns of the Jacobian are ``n_cam . q_obs`` and ``n_cam . r``. The robot's size is known in
+metres, so ``k`` is fixed by the arm's size in the image as much as by its depth; ``c`` apart from the
+camera's position along its axis by the rays' spread across the image and the arm's range of depths.
 
 An active-stereo sensor errs in disparity, not in depth, and its matcher's sub-pixel interpolation pulls
 the disparity towards whole pixels ("pixel locking"): an error periodic in the disparity ``d = f B / z``
@@ -32,13 +32,13 @@ the matcher's disparity is ``f B k / z_a``. One pixel of disparity spans ``z^2 /
 1.15 m for a D435 (447 px x 50 mm), so the arm's range of depths covers several periods and ``(a, b)`` are
 observable apart from the scale and offset.
 
-With ``intrinsics_K_ref`` the depth camera's intrinsics ``(f_x, f_y, c_x, c_y)`` are estimated too, under a
-Gaussian prior (:mod:`classic.markerless.intrinsics`): each observed point keeps its pixel and depth, its ray
-moves with them, and their columns of the Jacobian are ``z n_cam[:2] . d(x_n, y_n) / d theta``.
+With ``PlaneFitOptions.intrinsics_K_ref`` the depth camera's intrinsics ``(f_x, f_y, c_x, c_y)`` are estimated
+too, under a Gaussian prior (:mod:`classic.markerless.intrinsics`): each observed point keeps its pixel and
+depth, its ray moves with them, and their columns of the Jacobian are ``z n_cam[:2] . d(x_n, y_n) / d theta``.
 
-With ``joint_twists`` the robot's joint zero offsets ``delta`` are estimated too, under a Gaussian prior about 0
-(:mod:`classic.markerless.kinematics`): the model points move by ``omega_j x m + v_j`` per radian of joint ``j``
-(first order), and their columns of the Jacobian are ``-(n . (omega_j x m + v_j))``.
+With ``MatchedModel.joint_twists`` the robot's joint zero offsets ``delta`` are estimated too, under a
+Gaussian prior about 0 (:mod:`classic.markerless.kinematics`): the model points move by ``omega_j x m + v_j``
+per radian of joint ``j`` (first order), and their columns of the Jacobian are ``-(n . (omega_j x m + v_j))``.
 
 The covariance is the sandwich (cluster-robust) estimate with one cluster per
 frame: neighbouring pixels of one frame share the model's discretisation and
@@ -59,7 +59,15 @@ from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns
 from handeye.core.se3 import make_transform, so3_exp
 
-__all__ = ["PlaneFit", "solve_point_to_plane", "apply_right", "corrected_points", "pixel_locking_basis"]
+__all__ = [
+    "PlaneFit",
+    "PlaneFitOptions",
+    "MatchedModel",
+    "solve_point_to_plane",
+    "apply_right",
+    "corrected_points",
+    "pixel_locking_basis",
+]
 
 
 @dataclass
@@ -71,7 +79,7 @@ class PlaneFit:
     T_base_cam : array, shape (4, 4)
     covariance : array, shape (6, 6), or None
         Of ``(omega, v)``, the right perturbation in the camera frame (radians, metres); None when the fit was
-        asked for none (``covariance=False``), as are the depth correction's.
+        asked for none (``PlaneFitOptions.covariance`` False), as are the depth correction's.
     residuals_m : array, shape (N,)
         Signed point-to-plane residuals at the solution.
     weights : array, shape (N,)
@@ -93,11 +101,11 @@ class PlaneFit:
         errors the frames share (whether the depth is observable at all is a question of geometry); with the
         intrinsics estimated, given them (conditional), so that it judges the depth range alone.
     intrinsics : array, shape (4,) or None
-        The estimated ``(f_x, f_y, c_x, c_y)``, pixels, when asked for (``intrinsics_K_ref``).
+        The estimated ``(f_x, f_y, c_x, c_y)``, pixels, when asked for (``PlaneFitOptions.intrinsics_K_ref``).
     intrinsics_covariance, intrinsics_covariance_frames : array, shape (4, 4) or None
         Their covariance, two-way and frame-clustered as the depth's.
     joint_offsets : array, shape (J,) or None
-        The estimated joint zero offsets, radians, when asked for (``joint_twists``).
+        The estimated joint zero offsets, radians, when asked for (``MatchedModel.joint_twists``).
     joint_offsets_covariance, joint_offsets_covariance_frames : array, shape (J, J) or None
         Their covariance, two-way and frame-clustered as the depth's.
     """
@@ -118,6 +126,93 @@ class PlaneFit:
     joint_offsets: np.ndarray | None = None
     joint_offsets_covariance: np.ndarray | None = None
     joint_offsets_covariance_frames: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class MatchedModel:
+    """The model side of the matches of :func:`solve_point_to_plane`, base frame, one row per match.
+
+    Attributes
+    ----------
+    points_base, normals_base : array, shape (N, 3)
+        The matched model points and their outward unit normals, metres.
+    curvatures : array, shape (N, 2), optional
+        Principal curvatures of the model at each match (1/m); with ``direction_base`` the residual is taken to
+        second order (:func:`classic.markerless.curvature.second_order_residual`), which removes the bias of
+        matching a sample anywhere in a pixel on a curved surface.
+    direction_base : array, shape (N, 3), optional
+        First principal direction of each match; given with ``curvatures``.
+    joint_twists : array, shape (N, J, 6), optional
+        Each match's part's twist per joint at its frame
+        (:attr:`classic.markerless.RobotSurfaceFrames.joint_twists_base`); given, the zero offsets of these ``J``
+        joints are estimated with the pose (the points and normals are then posed at the recorded joints).
+    """
+
+    points_base: np.ndarray
+    normals_base: np.ndarray
+    curvatures: np.ndarray | None = None
+    direction_base: np.ndarray | None = None
+    joint_twists: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class PlaneFitOptions:
+    """Settings of :func:`solve_point_to_plane`: the loss, the iterations, and which unknowns beside the pose are
+    estimated, from which start, under which priors.
+
+    Attributes
+    ----------
+    scale_m : float
+        Residual scale of the robust loss (a few depth-noise sigmas).
+    loss : {"cauchy", "huber", "linear"}
+    iterations : int
+    tol : float
+        Stop when the update (rad + m) is below this.
+    covariance : bool
+        False: skip the covariances (the fit's covariance fields are None), for the passes of an iteration
+        whose matches are about to change.
+    depth_start : (float, float), optional
+        Start ``(k, c)`` of the depth correction ``q = k p_cam + c r`` (``(1, 0)``: none); given, it is
+        estimated with the pose (8 parameters).
+    depth_prior_sigma : (float, float), optional
+        Sigmas of a Gaussian prior on ``k`` about 1 and ``c`` about 0 (a datasheet's spread of the scale and
+        the offset, metres): with few frames or little depth range the prior keeps them, and their
+        uncertainty enters the pose's covariance. None: no prior.
+    stereo_fb_px_m : float, optional
+        With ``depth_start``: the active-stereo sensor's disparity constant ``f B`` (pixels x metres);
+        its matcher's pixel locking ``(a, b)`` is estimated too (10 parameters; ``depth_start`` may
+        then start it as ``(k, c, a, b)``).
+    pixel_locking_prior_px : float
+        Sigma of a Gaussian prior on ``a`` and ``b`` about 0, pixels (a parabola-fitting matcher's
+        locking reaches a few tenths of a pixel).
+    intrinsics_K_ref : array, shape (3, 3), optional
+        The camera matrix the observed points were back-projected with; given, the intrinsics
+        ``(f_x, f_y, c_x, c_y)`` are estimated with the pose (4 more parameters, :mod:`classic.markerless.intrinsics`).
+    intrinsics_start : array, shape (4,), optional
+        Their start, pixels (those of ``intrinsics_K_ref`` by default).
+    intrinsics_prior : (array (4,), array (4,)), optional
+        Mean and sigmas of a Gaussian prior on them, pixels (the camera matrix given and its stated
+        uncertainty). None: no prior.
+    joint_start : array, shape (J,), optional
+        With :attr:`MatchedModel.joint_twists`: the joint offsets' start, radians (0 by default).
+    joint_prior_sigma : array, shape (J,), optional
+        Sigmas of a Gaussian prior on them about 0, radians. None: no prior.
+    """
+
+    scale_m: float
+    loss: str = "cauchy"
+    iterations: int = 5
+    tol: float = 1e-7
+    covariance: bool = True
+    depth_start: tuple | None = None
+    depth_prior_sigma: tuple | None = None
+    stereo_fb_px_m: float | None = None
+    pixel_locking_prior_px: float = 0.25
+    intrinsics_K_ref: np.ndarray | None = None
+    intrinsics_start: np.ndarray | None = None
+    intrinsics_prior: tuple | None = None
+    joint_start: np.ndarray | None = None
+    joint_prior_sigma: np.ndarray | None = None
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -185,37 +280,103 @@ def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
     return q_obs * (z / z_obs)[:, None], jacobian
 
 
-def _linearise(q_obs, m_base, n_base, T, shape=None, depth=None, stereo_fb_px_m=None, intrinsics=None, joints=None):
+def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns):
+    """The residuals ``r`` (N,) at the current unknowns and their Jacobian (N, ``x.n_par``), pose columns first."""
     R, t = T[:3, :3], T[:3, 3]
-    if joints is not None:  # (twists, delta): the model moved by the joint offsets delta
-        m_base, n_base = moved_model(m_base, n_base, *joints)
-    if intrinsics is not None:  # (K_ref, theta): the points' rays with the intrinsics theta
-        q_obs, dray = rays_for(q_obs, *intrinsics)
-    if depth is None:
+    m_base, n_base = model.points_base, model.normals_base
+    if x.delta is not None:  # the model moved by the joint offsets delta
+        m_base, n_base = moved_model(m_base, n_base, x.twists, x.delta)
+    if x.theta is not None:  # the points' rays with the intrinsics theta
+        q_obs, dray = rays_for(q_obs, x.K_ref, x.theta)
+    if x.depth is None:
         p_cam = q_obs
-    elif stereo_fb_px_m is None:
-        p_cam = corrected_points(q_obs, *depth)
+    elif x.fb is None:
+        p_cam = corrected_points(q_obs, *x.depth)
     else:
-        p_cam, dz = _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m)
+        p_cam, dz = _locked_points_and_jacobian(q_obs, x.depth, x.fb)
     x_base = p_cam @ R.T + t
-    if shape is None:
+    if model.curvatures is None:
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
     else:
-        r, grad = second_order_residual(x_base, m_base, n_base, *shape)
+        r, grad = second_order_residual(x_base, m_base, n_base, model.curvatures, model.direction_base)
     n_cam = grad @ R  # R^T grad, row-wise
     cols = [np.cross(p_cam, n_cam), n_cam]
-    if depth is not None:
+    if x.depth is not None:
         ray = q_obs / q_obs[:, 2:3]
         n_ray = np.einsum("ij,ij->i", n_cam, ray)[:, None]
-        if stereo_fb_px_m is None:
+        if x.fb is None:
             cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], n_ray]
         else:
             cols.append(n_ray * dz)
-    if intrinsics is not None:
+    if x.theta is not None:
         cols.append(p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1]))
-    if joints is not None:
-        cols.append(offset_columns(grad, m_base, joints[0]))
+    if x.delta is not None:
+        cols.append(offset_columns(grad, m_base, x.twists))
     return r, np.hstack(cols)
+
+
+class _Unknowns:
+    """The unknowns beside the pose, in the order of the Jacobian's columns: the depth correction ``(k, c[, a, b])``,
+    the intrinsics ``theta``, the joint offsets ``delta`` (each None where not estimated), at their current values."""
+
+    def __init__(self, options: PlaneFitOptions, joint_twists: np.ndarray | None):
+        o = options
+        depth = None if o.depth_start is None else np.array(o.depth_start, dtype=float)
+        self.fb = None if depth is None else o.stereo_fb_px_m
+        if depth is not None:
+            depth = depth[:2] if self.fb is None else np.r_[depth, np.zeros(4 - len(depth))]  # the locking starts at 0
+        self.depth = depth
+        self.K_ref = None if o.intrinsics_K_ref is None else np.asarray(o.intrinsics_K_ref, dtype=float)
+        self.theta = None
+        if self.K_ref is not None:
+            start = o.intrinsics_start
+            self.theta = intrinsics_vector(self.K_ref) if start is None else np.array(start, dtype=float)
+        self.twists, self.delta = None, None
+        if joint_twists is not None:
+            self.twists = np.asarray(joint_twists, dtype=float)
+            start = o.joint_start
+            self.delta = np.zeros(self.twists.shape[1]) if start is None else np.array(start, dtype=float)
+        n_depth = 0 if depth is None else len(depth)
+        n_intr = 0 if self.theta is None else 4
+        self.n_par = 6 + n_depth + n_intr + (0 if self.delta is None else len(self.delta))
+        self.depth_cols = slice(6, 6 + n_depth)
+        self.intrinsics_cols = slice(6 + n_depth, 6 + n_depth + n_intr)
+        self.joint_cols = slice(6 + n_depth + n_intr, self.n_par)
+
+    def prior(self, options: PlaneFitOptions) -> tuple[np.ndarray, np.ndarray]:
+        """Precision and mean of the Gaussian prior of each parameter (precision 0: none)."""
+        o = options
+        precision, mean = np.zeros(self.n_par), np.zeros(self.n_par)
+        if self.depth is not None:
+            mean[6] = 1.0
+            if o.depth_prior_sigma is not None:
+                precision[6:8] = 1.0 / np.square(np.asarray(o.depth_prior_sigma, dtype=float))
+            if self.fb is not None:
+                precision[8:10] = 1.0 / o.pixel_locking_prior_px**2
+        if self.theta is not None and o.intrinsics_prior is not None:
+            mean[self.intrinsics_cols] = np.asarray(o.intrinsics_prior[0], dtype=float)
+            precision[self.intrinsics_cols] = 1.0 / np.square(np.asarray(o.intrinsics_prior[1], dtype=float))
+        if self.delta is not None and o.joint_prior_sigma is not None:  # about 0
+            precision[self.joint_cols] = 1.0 / np.square(np.asarray(o.joint_prior_sigma, dtype=float))
+        return precision, mean
+
+    def params(self) -> np.ndarray:
+        """All parameters, the pose's right perturbation (zero at the current pose) first."""
+        return np.concatenate([np.zeros(6), *(p for p in (self.depth, self.theta, self.delta) if p is not None)])
+
+    def update(self, xi: np.ndarray) -> float:
+        """Take the step ``xi``'s part beyond the pose; returns its share of the step's size: the depth scale's and
+        offset's (the locking's pixels not; the intrinsics and the joint offsets not either: they follow the
+        matches by hundredths of a pixel, the pose not)."""
+        step = 0.0
+        if self.depth is not None:
+            self.depth = self.depth + xi[self.depth_cols]
+            step = float(abs(xi[6]) + abs(xi[7]))
+        if self.theta is not None:
+            self.theta = self.theta + xi[self.intrinsics_cols]
+        if self.delta is not None:
+            self.delta = self.delta + xi[self.joint_cols]
+        return step
 
 
 def _prior_information(precision: np.ndarray, r: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -226,182 +387,83 @@ def _prior_information(precision: np.ndarray, r: np.ndarray, w: np.ndarray) -> n
 
 def solve_point_to_plane(
     p_cam: np.ndarray,
-    m_base: np.ndarray,
-    n_base: np.ndarray,
+    model: MatchedModel,
     T_base_cam: np.ndarray,
-    scale_m: float,
-    loss: str = "cauchy",
+    options: PlaneFitOptions,
     group: np.ndarray | None = None,
-    iterations: int = 5,
-    tol: float = 1e-7,
-    curvatures: np.ndarray | None = None,
-    direction_base: np.ndarray | None = None,
-    depth_correction: tuple[float, float] | None = None,
-    depth_prior_sigma: tuple[float, float] | None = None,
-    cross_group: np.ndarray | None = None,
-    stereo_fb_px_m: float | None = None,
-    pixel_locking_prior_px: float = 0.25,
-    covariance: bool = True,
-    intrinsics_K_ref: np.ndarray | None = None,
-    intrinsics_start: np.ndarray | None = None,
-    intrinsics_prior: tuple[np.ndarray, np.ndarray] | None = None,
-    joint_twists: np.ndarray | None = None,
-    joint_start: np.ndarray | None = None,
-    joint_prior_sigma: np.ndarray | None = None,
+    cross_group=None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
     Parameters
     ----------
     p_cam : array, shape (N, 3)
-        Observed points, camera frame, metres (as the sensor reports them when ``depth_correction``
-        is given; they must then have ``z > 0``).
-    m_base, n_base : array, shape (N, 3)
-        Matched model points and their unit normals, base frame.
+        Observed points, camera frame, metres (as the sensor reports them when the depth correction is
+        estimated, ``options.depth_start``; they must then have ``z > 0``).
+    model : MatchedModel
+        The model point matched to each, with its normal (base frame), and optionally its curvature and its
+        part's twists per joint.
     T_base_cam : array, shape (4, 4)
         Start.
-    scale_m : float
-        Residual scale of the robust loss (a few depth-noise sigmas).
-    loss : {"cauchy", "huber", "linear"}
+    options : PlaneFitOptions
+        The loss, the iterations, and which unknowns beside the pose are estimated, from which start, under
+        which priors.
     group : array of int, shape (N,), optional
         Frame of each match, for the covariance; all one group when omitted.
-    iterations : int
-    tol : float
-        Stop when the update (rad + m) is below this.
-    curvatures : array, shape (N, 2), optional
-        Principal curvatures of the model at each match (1/m); with ``direction_base`` the residual
-        is taken to second order (:func:`classic.markerless.curvature.second_order_residual`), which
-        removes the bias of matching a sample anywhere in a pixel on a curved surface.
-    direction_base : array, shape (N, 3), optional
-        First principal direction of each match, base frame.
-    depth_correction : (float, float), optional
-        Start ``(k, c)`` of the depth correction ``q = k p_cam + c r`` (``(1, 0)``: none); given, it is
-        estimated with the pose (8 parameters).
-    depth_prior_sigma : (float, float), optional
-        Sigmas of a Gaussian prior on ``k`` about 1 and ``c`` about 0 (a datasheet's spread of the scale and
-        the offset, metres): with few frames or little depth range the prior keeps them, and their
-        uncertainty enters the pose's covariance. None: no prior.
     cross_group : array of int, shape (N,), or a sequence of them (None entries skipped), optional
         Further clusterings for the covariance (the depth bin of each match: the sensor's depth-dependent
         error is shared by all frames; its image tile: a fixed pattern is), multiway with ``group``
         (:func:`classic.clustered_covariance.clustered_covariance`).
-    stereo_fb_px_m : float, optional
-        With ``depth_correction``: the active-stereo sensor's disparity constant ``f B`` (pixels x metres);
-        its matcher's pixel locking ``(a, b)`` is estimated too (10 parameters; ``depth_correction`` may
-        then start it as ``(k, c, a, b)``).
-    pixel_locking_prior_px : float
-        Sigma of a Gaussian prior on ``a`` and ``b`` about 0, pixels (a parabola-fitting matcher's
-        locking reaches a few tenths of a pixel).
-    covariance : bool
-        False: skip the covariances (the fit's covariance fields are None), for the passes of an iteration
-        whose matches are about to change.
-    intrinsics_K_ref : array, shape (3, 3), optional
-        The camera matrix ``p_cam`` was back-projected with; given, the intrinsics ``(f_x, f_y, c_x, c_y)``
-        are estimated with the pose (4 more parameters, :mod:`classic.markerless.intrinsics`).
-    intrinsics_start : array, shape (4,), optional
-        Their start, pixels (those of ``intrinsics_K_ref`` by default).
-    intrinsics_prior : (array (4,), array (4,)), optional
-        Mean and sigmas of a Gaussian prior on them, pixels (the camera matrix given and its stated
-        uncertainty). None: no prior.
-    joint_twists : array, shape (N, J, 6), optional
-        Per match, its model part's twist per joint at its frame (base frame,
-        :attr:`classic.markerless.RobotSurfaceFrames.joint_twists_base`); given, the zero offsets of these ``J``
-        joints are estimated with the pose (``m_base`` and ``n_base`` are then posed at the recorded joints).
-    joint_start : array, shape (J,), optional
-        Their start, radians (0 by default).
-    joint_prior_sigma : array, shape (J,), optional
-        Sigmas of a Gaussian prior on them about 0, radians. None: no prior.
 
     Returns
     -------
     PlaneFit
     """
     T = np.array(T_base_cam, dtype=float)
-    shape = None if curvatures is None else (curvatures, direction_base)
-    depth = None if depth_correction is None else np.array(depth_correction, dtype=float)
-    fb = None if depth is None else stereo_fb_px_m
-    if depth is not None:
-        depth = depth[:2] if fb is None else np.r_[depth, np.zeros(4 - len(depth))]  # the locking starts at 0
-    n_depth = 0 if depth is None else len(depth)
-    K_ref = None if intrinsics_K_ref is None else np.asarray(intrinsics_K_ref, dtype=float)
-    theta = None
-    if K_ref is not None:
-        theta = intrinsics_vector(K_ref) if intrinsics_start is None else np.array(intrinsics_start, dtype=float)
-    n_intr = 0 if theta is None else 4
-    delta = None
-    if joint_twists is not None:
-        joint_twists = np.asarray(joint_twists, dtype=float)
-        delta = np.zeros(joint_twists.shape[1]) if joint_start is None else np.array(joint_start, dtype=float)
-    n_par = 6 + n_depth + n_intr + (0 if delta is None else len(delta))
-    prior_precision, prior_mean = np.zeros(n_par), np.zeros(n_par)
-    if depth is not None:
-        prior_mean[6] = 1.0
-        if depth_prior_sigma is not None:
-            prior_precision[6:8] = 1.0 / np.square(np.asarray(depth_prior_sigma, dtype=float))
-        if fb is not None:
-            prior_precision[8:10] = 1.0 / pixel_locking_prior_px**2
-    if theta is not None and intrinsics_prior is not None:
-        prior_mean[6 + n_depth : 6 + n_depth + 4] = np.asarray(intrinsics_prior[0], dtype=float)
-        prior_precision[6 + n_depth : 6 + n_depth + 4] = 1.0 / np.square(np.asarray(intrinsics_prior[1], dtype=float))
-    if delta is not None and joint_prior_sigma is not None:  # about 0
-        prior_precision[6 + n_depth + n_intr :] = 1.0 / np.square(np.asarray(joint_prior_sigma, dtype=float))
-    has_prior = bool(prior_precision.any())
-
-    def params():
-        return np.r_[
-            np.zeros(6), [] if depth is None else depth, [] if theta is None else theta, [] if delta is None else delta
-        ]
-
-    def linearise():
-        intr = None if theta is None else (K_ref, theta)
-        joints = None if delta is None else (joint_twists, delta)
-        return _linearise(p_cam, m_base, n_base, T, shape, depth, fb, intr, joints)
-
+    x = _Unknowns(options, model.joint_twists)
+    precision, mean = x.prior(options)
+    has_prior = bool(precision.any())
     step_norm, steps = np.inf, 0
-    for steps in range(1, iterations + 1):
-        r, J = linearise()
-        w = loss_weights(r / scale_m, loss, 1.0)
+    for steps in range(1, options.iterations + 1):
+        r, J = _linearise(p_cam, model, T, x)
+        w = loss_weights(r / options.scale_m, options.loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
         if has_prior:
             # the prior in the residuals' units: their variance over the prior's
-            P = _prior_information(prior_precision, r, w)
+            P = _prior_information(precision, r, w)
             H = H + P
-            g = g + P @ np.where(prior_precision > 0, params() - prior_mean, 0.0)
+            g = g + P @ np.where(precision > 0, x.params() - mean, 0.0)
         # a ridge of 1e-12 relative: a direction the data do not fix stays put instead of running away
-        xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(n_par), g)
+        xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(x.n_par), g)
         T = apply_right(T, xi[:6])
-        step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6]))
-        if depth is not None:
-            depth = depth + xi[6 : 6 + n_depth]
-            step_norm += float(abs(xi[6]) + abs(xi[7]))  # the scale and offset; the locking's pixels not
-        if theta is not None:  # not in the step: they follow the matches by hundredths of a pixel, the pose not
-            theta = theta + xi[6 + n_depth : 6 + n_depth + 4]
-        if delta is not None:  # not in the step either, as the intrinsics
-            delta = delta + xi[6 + n_depth + n_intr :]
-        if step_norm < tol:
+        step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6])) + x.update(xi)
+        if step_norm < options.tol:
             break
-    r, J = linearise()
-    w = loss_weights(r / scale_m, loss, 1.0)
+    r, J = _linearise(p_cam, model, T, x)
+    w = loss_weights(r / options.scale_m, options.loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
-    correction = None if depth is None else tuple(float(x) for x in depth)
-    fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=theta, joint_offsets=delta)
-    if not covariance:
+    correction = None if x.depth is None else tuple(float(v) for v in x.depth)
+    fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=x.theta, joint_offsets=x.delta)
+    if not options.covariance:
         return fit
-    prior = _prior_information(prior_precision, r, w) if has_prior else None
+    prior = _prior_information(precision, r, w) if has_prior else None
     cov = clustered_covariance(J, r, w, group, prior, cross_group)
     fit.covariance = cov[:6, :6]
-    if n_par == 6:
-        return fit
-    frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
-    d, e = slice(6, 6 + n_depth), slice(6 + n_depth, 6 + n_depth + n_intr)
-    if depth is not None:
-        fit.depth_covariance, fit.depth_covariance_frames = cov[d, d], frames[d, d]
-        if theta is not None:  # the depth's spread given the intrinsics: the depth range's part alone
-            fit.depth_covariance_frames = frames[d, d] - frames[d, e] @ np.linalg.pinv(frames[e, e]) @ frames[e, d]
-    if theta is not None:
-        fit.intrinsics_covariance, fit.intrinsics_covariance_frames = cov[e, e], frames[e, e]
-    if delta is not None:
-        j = slice(6 + n_depth + n_intr, n_par)
-        fit.joint_offsets_covariance, fit.joint_offsets_covariance_frames = cov[j, j], frames[j, j]
+    if x.n_par > 6:
+        frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
+        _set_covariances(fit, x, cov, frames)
     return fit
+
+
+def _set_covariances(fit: PlaneFit, x: _Unknowns, cov: np.ndarray, frames: np.ndarray) -> None:
+    """The fit's covariances of the unknowns beside the pose, two-way (``cov``) and frame-clustered (``frames``)."""
+    d, e, j = x.depth_cols, x.intrinsics_cols, x.joint_cols
+    if x.depth is not None:
+        fit.depth_covariance, fit.depth_covariance_frames = cov[d, d], frames[d, d]
+        if x.theta is not None:  # the depth's spread given the intrinsics: the depth range's part alone
+            fit.depth_covariance_frames = frames[d, d] - frames[d, e] @ np.linalg.pinv(frames[e, e]) @ frames[e, d]
+    if x.theta is not None:
+        fit.intrinsics_covariance, fit.intrinsics_covariance_frames = cov[e, e], frames[e, e]
+    if x.delta is not None:
+        fit.joint_offsets_covariance, fit.joint_offsets_covariance_frames = cov[j, j], frames[j, j]

@@ -77,7 +77,7 @@ from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
 from classic.markerless.intrinsics import camera_matrix, intrinsics_summary, intrinsics_vector, rays_for
 from classic.markerless.kinematics import JOINT_OFFSET_PRIORS_DEG, joint_offsets_summary, joint_status, moved_surface
-from classic.markerless.point_to_plane import corrected_points, solve_point_to_plane
+from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, corrected_points, solve_point_to_plane
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
 from handeye.core.metrics import pose_error
@@ -117,8 +117,9 @@ class RobotSurfaceFrames:
         Unit tangent along ``kappa_1``, base frame; given with ``curvatures``.
     joint_twists_base : array, shape (N_frames, n_parts, n_joints, 6), optional
         Each part's motion per joint at each frame, ``(omega, v)`` in the base frame: a point ``p`` of the part
-        moves by ``omega x p + v`` per radian of the joint (:meth:`sim.surface.RobotSurface.joint_twists`). Given,
-        the joints' zero offsets can be estimated with the pose (:mod:`classic.markerless.kinematics`).
+        moves by ``omega x p + v`` per radian of the joint
+        (:meth:`handeye.robot.surface.RobotSurface.joint_twists`). Given, the joints' zero offsets can be
+        estimated with the pose (:mod:`classic.markerless.kinematics`).
     """
 
     points_base: np.ndarray
@@ -487,7 +488,7 @@ class _Problem:
 
     def __init__(self, depth_m, K, surface, opts):
         self.K, self.s, self.opts = K, surface, opts
-        self.depth = (1.0, 0.0)  # the depth correction (k, c[, a, b]), estimated by the fine stage
+        self.depth_correction = (1.0, 0.0)  # (k, c[, a, b]), estimated by the fine stage
         # the camera matrix given, which back-projects the depth once (self.P), and the intrinsics estimated,
         # which project the model (self.K)
         self.K_given = K
@@ -505,7 +506,6 @@ class _Problem:
         mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * self.sigma_z(np.where(depth_m > 0, depth_m, 1.0))))
         self.n_mixed = int(mixed.sum())
         depth_m = np.where(mixed, 0.0, depth_m)
-        self.depth = depth_m
         self.n, self.h, self.w = depth_m.shape
         self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
         static = static_depth(depth_m)
@@ -633,9 +633,9 @@ class _Problem:
         if not np.array_equal(self.theta, self.theta_given):
             with np.errstate(invalid="ignore", divide="ignore"):  # points without depth stay NaN
                 q_obs = rays_for(q_obs, self.K_given, self.theta)[0]
-        if self.depth == (1.0, 0.0):
+        if self.depth_correction == (1.0, 0.0):
             return q_obs
-        return corrected_points(q_obs, *self.depth, stereo_fb_px_m=self.opts.stereo_fb_px_m)
+        return corrected_points(q_obs, *self.depth_correction, stereo_fb_px_m=self.opts.stereo_fb_px_m)
 
     # -- visibility
 
@@ -713,13 +713,9 @@ class _Problem:
                     break
                 fit = solve_point_to_plane(
                     moving_p_cam[sel],
-                    self.s.points_base[jj],
-                    self.s.normals_base[jj],
+                    MatchedModel(self.s.points_base[jj], self.s.normals_base[jj]),
                     T,
-                    scale_m=window / 3,
-                    loss="cauchy",
-                    iterations=2,
-                    covariance=False,
+                    PlaneFitOptions(scale_m=window / 3, loss="cauchy", iterations=2, covariance=False),
                 )
                 moved = pose_error(T, fit.T_base_cam)
                 T = fit.T_base_cam
@@ -769,34 +765,31 @@ class _Problem:
                 "intrinsics_start": self.theta if intrinsics_start is None else intrinsics_start,
                 "intrinsics_prior": (self.theta_given, self.intrinsics_prior_sigma),
             }
-        joints = {}
+        joints, twists = {}, None
         if self.joint_estimated is not None:  # the model posed at the recorded joints; the fit moves it
             e = self.joint_estimated
-            joints = {
-                "joint_twists": self.s.joint_twists_base[f, self.s.part[m]][:, e],
-                "joint_start": self.joint_offsets[e],
-                "joint_prior_sigma": self.joint_prior_sigma[e],
-            }
-        fit = solve_point_to_plane(
-            observed,
+            twists = self.s.joint_twists_base[f, self.s.part[m]][:, e]
+            joints = {"joint_start": self.joint_offsets[e], "joint_prior_sigma": self.joint_prior_sigma[e]}
+        model = MatchedModel(
             self.s.points_base[m],
             self.s.normals_base[m],
-            T,
-            scale_m=expected * 2,
-            loss="cauchy",
-            group=f,
-            iterations=iterations,
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
-            depth_correction=depth_start if estimate_depth else None,
+            joint_twists=twists,
+        )
+        options = PlaneFitOptions(
+            scale_m=expected * 2,
+            loss="cauchy",
+            iterations=iterations,
+            covariance=covariance,
+            depth_start=depth_start if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
-            cross_group=self._cross_groups(q_obs),
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
-            covariance=covariance,
             **intrinsics,
             **joints,
         )
+        fit = solve_point_to_plane(observed, model, T, options, group=f, cross_group=self._cross_groups(q_obs))
         return fit, expected
 
     def _cross_groups(self, q_obs):
@@ -821,15 +814,21 @@ class _Problem:
         self.last_matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
         fit, expected = self._solve(
-            T, *self.last_matches, iterations=iterations, depth_start=self.depth, covariance=covariance
+            T, *self.last_matches, iterations=iterations, depth_start=self.depth_correction, covariance=covariance
         )
         self.adopt(fit)
         return fit, expected
 
+    def restart(self):
+        """No depth correction, the intrinsics given and no joint offsets: the state a start begins from."""
+        self.depth_correction = (1.0, 0.0)
+        self.set_intrinsics(self.theta_given)
+        self.set_joint_offsets(np.zeros_like(self.joint_offsets))
+
     def adopt(self, fit):
         """Take the fit's depth correction, intrinsics and joint offsets as the current ones."""
         if fit.depth_correction is not None:
-            self.depth = fit.depth_correction
+            self.depth_correction = fit.depth_correction
         if fit.intrinsics is not None:
             self.set_intrinsics(fit.intrinsics)
         if fit.joint_offsets is not None:
@@ -1039,9 +1038,7 @@ def _best_of_starts(problem: _Problem, starts: dict, diag: dict):
     state. Returns ``(matched, name, T, fit, step, geometry, depth_range, matches)``, or the reason none would do."""
     opts, best = problem.opts, None
     for name, T_start in starts.items():
-        problem.depth = (1.0, 0.0)
-        problem.set_intrinsics(problem.theta_given)
-        problem.set_joint_offsets(np.zeros_like(problem.joint_offsets))
+        problem.restart()
         T = problem.coarse(np.asarray(T_start, dtype=float))
         T, fit, step, matched = problem.fine(T)
         diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}

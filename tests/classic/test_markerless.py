@@ -185,7 +185,7 @@ def test_bad_inputs_raise_named_errors(scene):
 
 def test_covariance_groups_by_frame():
     """The sandwich covariance: residuals that share a frame-wide offset are one sample, not thousands."""
-    from classic.markerless import solve_point_to_plane
+    from classic.markerless import MatchedModel, PlaneFitOptions, solve_point_to_plane
 
     rng = np.random.default_rng(2)
     n_frames, per = 10, 2000
@@ -195,7 +195,8 @@ def test_covariance_groups_by_frame():
     group = np.repeat(np.arange(n_frames), per)
     offset = rng.normal(scale=0.002, size=(n_frames, 3))[group]  # a common error per frame
     m = p + offset + rng.normal(scale=1e-4, size=p.shape)
-    fit_grouped = solve_point_to_plane(p, m, n, np.eye(4), scale_m=0.01, loss="linear", group=group)
-    fit_plain = solve_point_to_plane(p, m, n, np.eye(4), scale_m=0.01, loss="linear")
+    options = PlaneFitOptions(scale_m=0.01, loss="linear")
+    fit_grouped = solve_point_to_plane(p, MatchedModel(m, n), np.eye(4), options, group=group)
+    fit_plain = solve_point_to_plane(p, MatchedModel(m, n), np.eye(4), options)
     # the per-frame offsets average over only 10 frames: the grouped variance is far larger
     assert np.trace(fit_grouped.covariance[3:, 3:]) > 20 * np.trace(fit_plain.covariance[3:, 3:])

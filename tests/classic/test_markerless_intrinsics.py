@@ -13,7 +13,7 @@ import pytest
 
 from classic.markerless import MarkerlessOptions, register_robot
 from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
-from classic.markerless.point_to_plane import solve_point_to_plane
+from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, solve_point_to_plane
 from handeye.core.errors import HandEyeInputError
 from handeye.core.metrics import pose_error
 from tests.classic.test_markerless import K, _bias_bounds, _scene, within_sigma
@@ -83,13 +83,10 @@ def test_parameters_the_data_cannot_see_keep_their_prior():
     theta = intrinsics_vector(K)
     fit = solve_point_to_plane(
         q + rng.normal(0, 1e-3, q.shape) * [0, 0, 1],
-        q,
-        normals,
+        MatchedModel(q, normals),
         np.eye(4),
-        scale_m=0.003,
+        PlaneFitOptions(scale_m=0.003, intrinsics_K_ref=K, intrinsics_prior=(theta, prior)),
         group=np.arange(500) % 10,
-        intrinsics_K_ref=K,
-        intrinsics_prior=(theta, prior),
     )
     # they move only through the noise's tilt of the fitted plane (second order): a hundredth of the prior
     assert np.all(np.abs(fit.intrinsics - theta) < 0.01 * prior)
