@@ -69,7 +69,7 @@ _ROBOT = None
 def _ur5():
     global _ROBOT
     if _ROBOT is None:
-        from sim.robot import load_robot
+        from handeye.robot.model import load_robot
 
         _ROBOT = load_robot("ur5")
     return _ROBOT

@@ -16,7 +16,7 @@ A variant is ``name:width:epochs:schedule:spread[:size[:batch[:dtype]]]``: ``wid
 64 and 32); ``dtype`` the precision of the convolutions, float32 (default) or bfloat16 (the preset's
 ``keypoint_trunk_dtype``). A variant trains the epochs it names on any dataset (the preset's
 ``keypoint_reference_frames`` is off here). ``--link-fractions`` sets the keypoints along the long links
-(``sim.robot.LINK_FRACTIONS``; given without values, none: the 8 keypoints of the joints, flange and
+(``handeye.robot.model.LINK_FRACTIONS``; given without values, none: the 8 keypoints of the joints, flange and
 reference point).
 """
 
@@ -45,11 +45,12 @@ DEFAULT_VARIANTS = (
 
 
 def _use_link_fractions(fractions) -> None:
-    """Points along the long links at these fractions (``sim.robot.LINK_FRACTIONS``); ``None``: the default."""
+    """Points along the long links at these fractions (``handeye.robot.model.LINK_FRACTIONS``); ``None``: the
+    default."""
     if fractions is not None:
-        import sim.robot
+        import handeye.robot.model
 
-        sim.robot.LINK_FRACTIONS = tuple(float(f) for f in fractions)
+        handeye.robot.model.LINK_FRACTIONS = tuple(float(f) for f in fractions)
 
 
 def _train(
@@ -145,8 +146,8 @@ def main(argv=None):
         type=float,
         nargs="*",
         default=None,
-        help="keypoints along the long links at these fractions (sim.robot.LINK_FRACTIONS; none given: no such "
-        "keypoints, the set before they were added); default: the robot's",
+        help="keypoints along the long links at these fractions (handeye.robot.model.LINK_FRACTIONS; none given: "
+        "no such keypoints, the set before they were added); default: the robot's",
     )
     ap.add_argument(
         "--strategy",
@@ -209,14 +210,14 @@ def main(argv=None):
         f"{args.threads} thread(s) each; seed {args.seed}; weights averaged over the last {args.average_epochs} "
         f"epochs (0: not averaged); training images shifted by up to {args.shift_px} pixels (0: not shifted)."
     )
-    import sim.robot
+    import handeye.robot.model
 
     _use_link_fractions(args.link_fractions)
     from learned.presets import get_preset
 
     later = args.later_epochs or get_preset("cpu").keypoint_epochs[1]
     emit(
-        f"Keypoints along the long links at fractions {sim.robot.LINK_FRACTIONS}; strategy {args.strategy}, "
+        f"Keypoints along the long links at fractions {handeye.robot.model.LINK_FRACTIONS}; strategy {args.strategy}, "
         f"later training calls {later} epochs."
     )
     emit()

@@ -30,7 +30,7 @@ from benchmarks._report import Report  # noqa: E402
 from benchmarks.markerless_sensors import placements, run_profile, versions, with_errors  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
-from sim.sensors import PROFILES  # noqa: E402
+from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 
 #: Joint zero offsets of a real arm, degrees (0.1-0.3 per joint, signs mixed).
 JOINT_OFFSETS_DEG = np.array([0.2, -0.3, 0.15, -0.1, 0.25, -0.2])

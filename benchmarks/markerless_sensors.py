@@ -15,7 +15,7 @@ or run it on datasets rendered without depth noise (the sensor adds its own) and
     python benchmarks/markerless_sensors.py --data data/paper-real-clean-depth data/paper-sim-clean-depth \\
         --out benchmarks/results/markerless_sensors.md
 
-Per dataset and per sensor profile of :data:`sim.sensors.PROFILES`, every test placement's true depth is
+Per dataset and per sensor profile of :data:`handeye.robot.depth_sensors.PROFILES`, every test placement's true depth is
 turned into what that sensor reports (:func:`sim.sensors.apply_sensor`: a scale, offset and extrinsic error
 drawn per placement, noise as its principle grows it, correlated noise, flying pixels, holes), and registered
 twice, the scale and offset unknown to the method both times:
@@ -83,7 +83,8 @@ from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.numbers import NumberError, parse_float  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
-from sim.sensors import PROFILES, apply_sensor, draw_systematic  # noqa: E402
+from handeye.robot.depth_sensors import PROFILES  # noqa: E402
+from sim.sensors import apply_sensor, draw_systematic  # noqa: E402
 
 WRONG_SIGMAS = 3.0
 #: Distance bands, camera to workspace centre (m); ``native`` keeps the preset's own.

@@ -5,7 +5,7 @@ Run from the repository root::
     python benchmarks/plan_poses.py --out benchmarks/results/plan_poses.md   # the README's figures (100 trials)
     python benchmarks/plan_poses.py --trials 10                              # a quick look
 
-Each trial is a UR5 cell, eye-to-hand (:mod:`sim.robot`, inverse kinematics through Pinocchio):
+Each trial is a UR5 cell, eye-to-hand (:mod:`handeye.robot.model`, inverse kinematics through Pinocchio):
 
 * the truth: a camera 1.0-1.4 m from the base horizontally (azimuth within 60 deg of the base's x axis),
   0.6-1.1 m up, looking at the default workspace point (:func:`handeye.planning.camera_looking_at`) moved
@@ -74,7 +74,7 @@ _ROBOT = None
 def _robot():
     global _ROBOT
     if _ROBOT is None:
-        from sim.robot import load_robot
+        from handeye.robot.model import load_robot
 
         _ROBOT = load_robot("ur5")
     return _ROBOT

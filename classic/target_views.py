@@ -20,7 +20,7 @@ current estimate (or guess) of X and Y (:func:`flange_poses`), and back (:func:`
           T_{base,ee} = Y\\, T_{cam,target}^{-1}\\, X^{-1} \\;(\\text{eye-in-hand}).
 
 No robot model here: which of these flange poses an arm reaches is the front's business
-(:mod:`handeye.planning`, with :mod:`sim.robot`'s inverse kinematics).
+(:mod:`handeye.planning`, with :mod:`handeye.robot.model`'s inverse kinematics).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 ``learned`` never imports the robot model (``sim``); the keypoint model needs the base-frame
 positions of points on the arm at every frame. This module reads the frames with
 :func:`learned.data.load_frames` and fills them from the dataset's robot (or any URDF) with
-:meth:`sim.robot.Robot.keypoints_base`.
+:meth:`handeye.robot.model.Robot.keypoints_base`.
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ def load_keypoint_frames(
     urdf: str | Path | None = None,
     package_dirs=(),
 ):
-    """:func:`learned.data.load_frames` with ``keypoints_base`` filled (:meth:`sim.robot.Robot.keypoints_base`)."""
+    """:func:`learned.data.load_frames` with ``keypoints_base`` filled
+    (:meth:`handeye.robot.model.Robot.keypoints_base`)."""
     from learned.data import load_frames, with_keypoints
 
     robot = dataset_robot(Dataset.open(root), urdf, package_dirs)

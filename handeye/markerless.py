@@ -1,7 +1,7 @@
 """Markerless calibration of a dataset's camera placements: learned or given start, then the robot's surface.
 
 Composes the engines: the dataset's depth frames and joints (:mod:`handeye.core.dataset`),
-the robot's surface posed at each frame (:mod:`sim.surface`, a UR of the simulator or any
+the robot's surface posed at each frame (:mod:`handeye.robot.surface`, a UR of the simulator or any
 URDF), an optional learned start (:mod:`learned.experiment`), and the registration
 (:func:`classic.markerless.register_robot`). Starts, in order: the learned prediction
 (``model_dir``), the user's (``T_base_cam_start``), and always the start from the moving
@@ -193,8 +193,8 @@ def robot_surface_for(
     The spacing is 0.7 of the pixel footprint at 0.8 m times the stride; the stride is 1 up to
     160 pixels of width and 2 beyond (the fine stage then uses a quarter of the pixels).
     """
+    from handeye.robot.surface import RobotSurface, spacing_for_camera
     from handeye.robot_model import dataset_robot
-    from sim.surface import RobotSurface, spacing_for_camera
 
     robot = dataset_robot(ds, urdf, package_dirs, ee_frame)
     K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
@@ -256,7 +256,7 @@ def calibrate_camera(
     ----------
     ds : Dataset
     camera_id : int
-    surface : sim.surface.RobotSurface
+    surface : handeye.robot.surface.RobotSurface
     starts : dict of str -> array (4, 4), optional
     options : MarkerlessOptions, optional
     frames : index into the data frames, optional

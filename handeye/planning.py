@@ -13,7 +13,7 @@ needs the user's cell:
   fitted to them.
 * **Candidates** (:func:`sample_candidates`): views sampled in the camera's field of view
   (:func:`classic.target_views.sample_views`), turned into flange poses through X and Y; for a UR model
-  (``sim.robot``), only those the inverse kinematics reaches within the joint limits, with the arm's
+  (``handeye.robot.model``), only those the inverse kinematics reaches within the joint limits, with the arm's
   joints, the flange and the target above the floor, keeping the joint targets.
 * **The plan** (:func:`plan_next_poses`): :func:`classic.planning.plan_poses` on the candidates.
 
@@ -86,7 +86,7 @@ def camera_looking_at(position_base, look_at_base=None) -> np.ndarray:
     -------
     T_base_cam : array, shape (4, 4)
     """
-    from sim.cameras import look_at
+    from handeye.robot.look_at import look_at
 
     c = np.asarray(position_base, dtype=float)
     return look_at(c, _look_at_point(c, look_at_base))
@@ -338,7 +338,7 @@ class Candidates:
 
 def _reach(robot, T_base_ee: np.ndarray, T_base_target: np.ndarray | None, min_height_m: float) -> np.ndarray | None:
     """Joint angles reaching a flange pose with the arm (and a target on the flange) above the floor, or None."""
-    from sim.recording import IK_SEEDS
+    from handeye.robot.model import IK_SEEDS
 
     if T_base_ee[2, 3] < min_height_m or (T_base_target is not None and T_base_target[2, 3] < min_height_m):
         return None
@@ -378,7 +378,7 @@ def sample_candidates(
     n_views : int
         Views sampled (:func:`classic.target_views.sample_views`).
     limits : ViewLimits
-    robot : sim.robot.Robot, optional
+    robot : handeye.robot.model.Robot, optional
         Keep only poses its inverse kinematics reaches (within joint limits, arm, flange and target above
         ``min_height_m``), with their joints.
     min_height_m : float

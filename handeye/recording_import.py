@@ -426,7 +426,7 @@ def assemble(part: RecordedPlacement, robot, options: ImportOptions) -> tuple[li
     ----------
     part : RecordedPlacement
         With depth: data frames (the depth's stamps lead); without: calibration frames (the colour's).
-    robot : sim.robot.Robot
+    robot : handeye.robot.model.Robot
     options : ImportOptions
 
     Returns
@@ -572,7 +572,7 @@ def import_recordings(
         A new (or empty) dataset directory.
     placements : list of RecordedPlacement
         One per camera placement, ``camera_id`` in this order.
-    robot : sim.robot.Robot
+    robot : handeye.robot.model.Robot
         The robot model: its joint names order the joints, its forward kinematics gives ``T_base_ee``
         where no tf was recorded.
     robot_meta : str or dict

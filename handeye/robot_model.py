@@ -36,17 +36,17 @@ def robot_meta(name: str | None = None, urdf=None, package_dirs=(), ee_frame: st
 
 
 def dataset_robot(ds: Dataset, urdf: str | Path | None = None, package_dirs=(), ee_frame: str = "tool0"):
-    """:func:`sim.robot.load_robot` of ``meta["robot"]`` (a name or a recorded URDF), or
-    :func:`sim.robot.load_robot_urdf` of ``urdf``, checked against the dataset's joint count.
+    """:func:`handeye.robot.model.load_robot` of ``meta["robot"]`` (a name or a recorded URDF), or
+    :func:`handeye.robot.model.load_robot_urdf` of ``urdf``, checked against the dataset's joint count.
 
     Raises
     ------
     ShapeError
         When the model's joint count is not the dataset's (naming ``meta.json``).
     HandEyeInputError
-        An unknown robot, a missing URDF or mesh (from ``sim.robot``).
+        An unknown robot, a missing URDF or mesh (from ``handeye.robot.model``).
     """
-    from sim.robot import load_robot_entry, load_robot_urdf
+    from handeye.robot.model import load_robot_entry, load_robot_urdf
 
     robot = load_robot_urdf(urdf, package_dirs, ee_frame) if urdf else load_robot_entry(ds.meta["robot"])
     if robot.nq != ds.meta["n_joints"]:

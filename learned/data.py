@@ -244,7 +244,7 @@ def with_keypoints(frames: FrameSet, keypoints_base: np.ndarray) -> FrameSet:
     ----------
     frames : FrameSet
     keypoints_base : array, shape (N, K, 3)
-        Metres, one row per frame (``sim.robot.Robot.keypoints_base(frames.joints)``).
+        Metres, one row per frame (``handeye.robot.model.Robot.keypoints_base(frames.joints)``).
     """
     kp = np.asarray(keypoints_base, dtype=np.float32)
     if kp.ndim != 3 or kp.shape[0] != len(frames) or kp.shape[2] != 3:

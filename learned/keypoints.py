@@ -118,7 +118,7 @@ def _check_keypoint_sets(pred: np.ndarray, p_base: np.ndarray) -> None:
         raise ShapeError(
             f"the model predicts {pred.shape[-2]} keypoints per frame, the frames carry {p_base.shape[-2]} "
             f"(predictions {pred.shape}, positions {p_base.shape}): a keypoint model trained on another keypoint "
-            "set (sim.robot.Robot.keypoints_base); train it again"
+            "set (handeye.robot.model.Robot.keypoints_base); train it again"
         )
 
 

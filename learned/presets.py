@@ -272,7 +272,7 @@ PRESETS = {
         # the keypoint model: width 32 with its convolutions in bfloat16 (on this CPU's AMX as fast as width
         # 24 in float32), heatmaps pulled to a peak, batches of 8 (benchmarks/keypoint_training.py, placement
         # median with the 3-D to 3-D fit: 11.8 mm against 39.4 mm for width 8, float32, no spread, batches
-        # of 32). With the points along the long links (sim.robot.LINK_FRACTIONS) and the likelihood fit, the
+        # of 32). With the points along the long links (handeye.robot.model.LINK_FRACTIONS) and the likelihood fit, the
         # protocol's batch repeats on paper-sim are at 5.4-12.1 mm (README).
         keypoint_channels=(32,),
         keypoint_trunk_dtype="bfloat16",

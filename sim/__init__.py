@@ -1,6 +1,6 @@
 """Simulator (Pinocchio UR robot, pyrender scenes) and labelled datasets.
 
-Modules: :mod:`sim.robot` (UR5/UR3 from example-robot-data through Pinocchio:
+Modules: :mod:`handeye.robot.model` (UR5/UR3 from example-robot-data through Pinocchio:
 FK, IK, the reference point), :mod:`sim.cameras` (placement presets on a
 hemisphere by azimuth region), :mod:`sim.scene` and :mod:`sim.render` (the
 pyrender cell: links, gripper, asymmetric lab, board on the flange),

@@ -26,7 +26,7 @@ import numpy as np
 from handeye.core.optional import require_package
 from handeye.core.se3 import pos_quat_xyzw_from_transform
 
-__all__ = ["EPOCH_NS", "GRIPPER_JOINT", "write_placement_bags"]
+__all__ = ["EPOCH_NS", "GRIPPER_JOINT", "BagWriter", "write_placement_bags"]
 
 #: Header stamps on a wall clock (2023-11-14), as a live robot's are.
 EPOCH_NS = 1_700_000_000 * 10**9
@@ -35,8 +35,16 @@ GRIPPER_JOINT = "gripper_finger_joint"
 _STORAGES = ("sqlite3", "mcap")
 
 
-class _Bag:
-    """A rosbags writer with the message constructors used here."""
+class BagWriter:
+    """A rosbags writer with the message constructors used here: :meth:`add` holds a message, :meth:`close`
+    writes them all in log order (``benchmarks/reliability_faults.py`` wraps :meth:`add` to spoil messages).
+
+    Parameters
+    ----------
+    path : Path
+        The bag folder to create.
+    storage : {"sqlite3", "mcap"}
+    """
 
     def __init__(self, path: Path, storage: str):
         require_package("rosbags", extra="ros", purpose="writing ROS 2 bags")
@@ -66,13 +74,13 @@ class _Bag:
                 writer.write(conns[topic], stamp + 2_000_000, self.ts.serialize_cdr(msg, msgtype))
 
 
-def _image(bag: _Bag, stamp: int, frame: str, pixels: np.ndarray, encoding: str):
+def _image(bag: BagWriter, stamp: int, frame: str, pixels: np.ndarray, encoding: str):
     h, w = pixels.shape[:2]
     data = np.ascontiguousarray(pixels).reshape(h, -1).view(np.uint8)
     return bag.M["sensor_msgs/msg/Image"](bag.header(stamp, frame), h, w, encoding, 0, data.shape[1], data.reshape(-1))
 
 
-def _compressed(bag: _Bag, stamp: int, frame: str, rgb: np.ndarray, fmt: str):
+def _compressed(bag: BagWriter, stamp: int, frame: str, rgb: np.ndarray, fmt: str):
     import cv2
 
     ok, buf = cv2.imencode(".jpg" if fmt == "jpeg" else ".png", rgb[..., ::-1])
@@ -81,7 +89,7 @@ def _compressed(bag: _Bag, stamp: int, frame: str, rgb: np.ndarray, fmt: str):
     )
 
 
-def _camera_info(bag: _Bag, stamp: int, frame: str, intrinsics: dict):
+def _camera_info(bag: BagWriter, stamp: int, frame: str, intrinsics: dict):
     K = np.asarray(intrinsics["K"], dtype=float)
     d = np.asarray(intrinsics.get("dist", np.zeros(5)), dtype=float)
     P = np.concatenate([K, np.zeros((3, 1))], axis=1)
@@ -101,7 +109,7 @@ def _camera_info(bag: _Bag, stamp: int, frame: str, intrinsics: dict):
     )
 
 
-def _robot_messages(bag: _Bag, robot, q: np.ndarray, t0_ns: int, move_s: float, still_s: float, rate_hz: float):
+def _robot_messages(bag: BagWriter, robot, q: np.ndarray, t0_ns: int, move_s: float, still_s: float, rate_hz: float):
     """Joint states and tf over the drive through ``q`` (K, nq); returns the frames' stamps (the stills' middles)."""
     names = [str(n) for n in list(robot.model.names)[1:]]
     published = sorted(names + [GRIPPER_JOINT])
@@ -179,7 +187,7 @@ def write_placement_bags(
         An unknown storage, encoding or format.
     """
     from handeye.core.errors import HandEyeInputError
-    from sim.robot import load_robot_entry
+    from handeye.robot.model import load_robot_entry
 
     if (
         storage not in _STORAGES
@@ -199,7 +207,7 @@ def write_placement_bags(
         if not len(rows["frame"]):
             continue
         path = out / f"cam_{camera_id:04d}_{recording}"
-        bag = _Bag(path, storage)
+        bag = BagWriter(path, storage)
         stamps = _robot_messages(bag, robot, ds.joints(rows), EPOCH_NS, move_s, still_s, joint_rate_hz)
         intr = (
             ds.meta["intrinsics"]

@@ -20,6 +20,7 @@ import numpy as np
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import invert_transform, make_transform, so3_exp
+from handeye.robot.model import IK_SEEDS
 
 __all__ = [
     "DEFAULT_BOARD",
@@ -35,15 +36,6 @@ __all__ = [
 DEFAULT_BOARD = dict(squares_x=7, squares_y=5, square_length_m=0.06, marker_length_m=0.045, dictionary="4X4_50")
 #: Gap between the flange face and the board's printed face, metres.
 BOARD_STANDOFF_M = 0.01
-#: Home configurations the inverse kinematics starts from (elbow up, wrist down or out), radians.
-IK_SEEDS = np.array(
-    [
-        [0.0, -1.3, 1.6, -1.9, -1.57, 0.0],
-        [0.0, -1.0, 1.2, -0.2, 1.57, 0.0],
-        [0.0, -1.8, 1.9, -1.6, -1.57, 0.0],
-        [0.0, -1.2, 1.4, 0.9, 1.57, 0.0],
-    ]
-)
 
 
 def board_mount(size_m: tuple[float, float], standoff_m: float = BOARD_STANDOFF_M) -> np.ndarray:
@@ -145,7 +137,7 @@ def sample_calibration_view(
 
     Parameters
     ----------
-    robot : sim.robot.Robot
+    robot : handeye.robot.model.Robot
     T_base_cam : array, shape (4, 4)
     K : array, shape (3, 3)
     size : (int, int)
@@ -212,7 +204,7 @@ def sample_data_configuration(
 
     Parameters
     ----------
-    robot : sim.robot.Robot
+    robot : handeye.robot.model.Robot
     T_base_cam : array, shape (4, 4)
     K : array, shape (3, 3)
     size : (int, int)

@@ -15,8 +15,9 @@ import os
 import numpy as np
 
 from handeye.core.optional import require_package
+from handeye.robot.meshes import load_link_mesh
 from sim.opengl import gl_camera_pose, gl_principal_point
-from sim.scene import board_mesh, environment_meshes, gripper_meshes, load_link_mesh, marker_mesh
+from sim.scene import board_mesh, environment_meshes, gripper_meshes, marker_mesh
 
 __all__ = ["Renderer", "ZNEAR_M", "ZFAR_M"]
 
@@ -63,7 +64,7 @@ class Renderer:
 
     Parameters
     ----------
-    robot : sim.robot.Robot
+    robot : handeye.robot.model.Robot
     K : array, shape (3, 3)
         OpenCV camera matrix (pixel centres at integers).
     width, height : int

@@ -8,24 +8,16 @@ must be able to tell the camera's azimuth.
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
 from handeye.core.optional import require_package
 from handeye.core.se3 import make_transform
 
-__all__ = ["floor_texture", "load_link_mesh", "gripper_meshes", "environment_meshes", "board_mesh", "marker_mesh"]
+__all__ = ["floor_texture", "gripper_meshes", "environment_meshes", "board_mesh", "marker_mesh"]
 
 
 def _trimesh():
     return require_package("trimesh", extra="sim", purpose="meshes")
-
-
-@lru_cache(maxsize=64)
-def load_link_mesh(path: str):
-    """A robot link's visual mesh (``.dae`` needs pycollada), merged into one trimesh, cached."""
-    return _trimesh().load(path, force="mesh")
 
 
 def _box(extents, color, T=np.eye(4)):

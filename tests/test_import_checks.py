@@ -35,7 +35,7 @@ from handeye.import_bag import read_camera_bag  # noqa: E402
 from handeye.import_folder import read_frame_folder  # noqa: E402
 from handeye.recording_checks import DEPTH_MEDIAN_RANGE_M  # noqa: E402
 from handeye.recording_import import import_recordings  # noqa: E402
-from sim.robot import load_robot  # noqa: E402
+from handeye.robot.model import load_robot  # noqa: E402
 from tests.tolerances import DEPTH_QUANTUM_M  # noqa: E402
 
 TS = get_typestore(Stores.ROS2_HUMBLE)

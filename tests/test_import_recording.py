@@ -35,10 +35,10 @@ from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.se3 import make_transform, so3_exp  # noqa: E402
 from handeye.import_bag import read_camera_bag  # noqa: E402
 from handeye.recording_import import ImportOptions, RecordedPlacement, TimedImages, assemble, import_recordings  # noqa: E402
+from handeye.robot.model import load_robot  # noqa: E402
 from sim.bag_export import write_placement_bags  # noqa: E402
 from sim.cameras import CameraPreset  # noqa: E402
 from sim.generate import NoiseModel, generate  # noqa: E402
-from sim.robot import load_robot  # noqa: E402
 
 #: Two placements, 12 data frames at 160x160 and 8 board views at 480x480.
 PRESET = CameraPreset(

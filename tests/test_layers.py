@@ -3,14 +3,22 @@
 Layers, bottom to top::
 
     foundation  handeye/core/           numpy (+ scipy, PIL where a module says so)
-    engines     classic/  sim/  learned/
+    engines     classic/  learned/
+    robot       handeye/robot/          the URDF model, its surface, look-at, the sensor profiles
+    simulator   sim/
     front       handeye/ (cli, commands, labelling, ...), everything above
 
 Rules (``../shared/DESIGN.md``): the foundation imports no engine and not the front;
-``classic`` imports neither ``sim``, ``learned`` nor the front; ``learned`` imports
-neither ``sim``, ``classic`` nor the front; ``sim`` may use ``classic`` (ChArUco board,
-projection) but neither ``learned`` nor the front. Every ``import`` statement counts,
-also those inside functions: a lazy import is still an arrow.
+``classic`` imports neither the robot, ``sim``, ``learned`` nor the front; ``learned`` imports
+neither the robot, ``sim``, ``classic`` nor the front; the robot may use ``classic`` but neither
+``sim``, ``learned`` nor the front; ``sim`` may use ``classic`` (ChArUco board, projection) and the
+robot but neither ``learned`` nor the front. Every ``import`` statement counts, also those inside
+functions: a lazy import is still an arrow.
+
+The robot is not the simulator: the front's modules for real data (every command but ``sim`` and
+``demo``, which render) reach neither ``sim`` nor pyrender through any chain of imports
+(:func:`test_real_data_commands_never_reach_the_simulator`), and loading a UR with its surface, as
+the markerless command does, loads neither (:func:`test_the_robot_and_its_surface_load_without_the_renderer`).
 
 No circles either, between files: a module never imports, directly or through others, a module that
 imports it (:func:`import_circles`).
@@ -29,19 +37,22 @@ PACKAGES = ("handeye", "classic", "sim", "learned")
 
 # layer -> layers it must never import
 FORBIDDEN = {
-    "foundation": {"front", "classic", "sim", "learned"},
-    "classic": {"front", "sim", "learned"},
+    "foundation": {"front", "classic", "robot", "sim", "learned"},
+    "classic": {"front", "robot", "sim", "learned"},
+    "robot": {"front", "sim", "learned"},
     "sim": {"front", "learned"},
-    "learned": {"front", "sim", "classic"},
+    "learned": {"front", "robot", "sim", "classic"},
     "front": set(),
 }
+#: The front's commands that render (the simulator's own); every other command calibrates real data.
+RENDERING_COMMANDS = ("handeye.commands.sim", "handeye.commands.demo")
 
 
 def layer_of_module(name: str) -> str | None:
     """Layer of a dotted module name inside the project, None for anything else."""
     parts = name.split(".")
     if parts[0] == "handeye":
-        return "foundation" if len(parts) >= 2 and parts[1] == "core" else "front"
+        return {"core": "foundation", "robot": "robot"}.get(parts[1] if len(parts) >= 2 else "", "front")
     if parts[0] in ("classic", "sim", "learned"):
         return parts[0]
     return None
@@ -213,6 +224,79 @@ def test_the_circle_check_finds_a_circle():
         a.unlink()
         b.unlink()
     assert ["handeye._circle_probe_a", "handeye._circle_probe_b"] in circles
+
+
+def reached(graph: dict, start: str) -> set:
+    """Every project module ``start`` imports, directly or through others (lazy imports included)."""
+    seen, todo = set(), [start]
+    while todo:
+        for target in graph.get(todo.pop(), ()):
+            if target not in seen:
+                seen.add(target)
+                todo.append(target)
+    return seen
+
+
+def real_data_modules() -> list[str]:
+    """The front's command modules that calibrate real data: all but :data:`RENDERING_COMMANDS`."""
+    return sorted(
+        name
+        for name in file_graph()
+        if name.startswith("handeye.commands.") and name not in RENDERING_COMMANDS and not name.endswith("__init__")
+    )
+
+
+def test_real_data_commands_never_reach_the_simulator():
+    graph, files = file_graph(), _module_files()
+    commands = real_data_modules()
+    assert {"handeye.commands.calibrate", "handeye.commands.markerless", "handeye.commands.import_recording"} <= set(
+        commands
+    )
+    bad = []
+    for command in commands:
+        chain = reached(graph, command) | {command}
+        bad += [f"{command} reaches {m}" for m in sorted(chain) if m.split(".")[0] == "sim"]
+        bad += [
+            f"{command} reaches pyrender through {m}"
+            for m in sorted(chain)
+            if any(name.split(".")[0] == "pyrender" for _, name in imported_modules(files[m]))
+        ]
+    assert bad == [], "\n".join(bad)
+
+
+def test_the_reach_check_sees_a_lazy_import_of_the_simulator():
+    """The check itself: a command importing ``sim`` inside a function is flagged."""
+    probe = REPO / "handeye" / "commands" / "_sim_probe_tmp.py"
+    probe.write_text("def run(args):\n    from handeye.planning import plan\n    from sim.generate import generate\n")
+    try:
+        assert "handeye.commands._sim_probe_tmp" in real_data_modules()
+        assert "sim.generate" in reached(file_graph(), "handeye.commands._sim_probe_tmp")
+    finally:
+        probe.unlink()
+
+
+def test_the_robot_and_its_surface_load_without_the_renderer():
+    """What ``handeye markerless`` does with a real recording's robot: a UR, its surface posed; no sim, no pyrender."""
+    import subprocess
+    import sys
+
+    import pytest
+
+    pytest.importorskip("pinocchio")
+    pytest.importorskip("trimesh")
+    code = (
+        "import sys, numpy as np\n"
+        "import handeye.commands.markerless, handeye.commands.import_recording, handeye.commands.plan\n"
+        "from handeye.robot.model import load_robot\n"
+        "from handeye.robot.surface import RobotSurface\n"
+        "robot = load_robot('ur5')\n"
+        "posed = RobotSurface(robot, spacing_m=0.03).posed(np.zeros((2, robot.nq)))\n"
+        "assert len(posed.points_base) > 100, len(posed.points_base)\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'sim', 'pyrender', 'OpenGL'}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "[]"
 
 
 def picture() -> str:

@@ -145,7 +145,7 @@ def test_ur5_joint_targets_reproduce_the_flange_poses():
     pytest.importorskip("pinocchio", reason="needs handeye[sim] (pinocchio) for the UR5 model")
     pytest.importorskip("example_robot_data", reason="needs handeye[sim] (example-robot-data) for the UR5 model")
     from handeye.planning import plan_next_poses, sample_candidates, unknowns_for_plan, view_distances
-    from sim.robot import load_robot
+    from handeye.robot.model import load_robot
 
     robot = load_robot("ur5")
     unknowns = unknowns_for_plan("eye_to_hand", NONE, NONE, camera_guess=(1.1, 0.4, 0.9))

@@ -155,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     from learned.experiment import camera_predictions, keypoint_camera_predictions, load_model
 
     if (args.model / "keypoints.pt").is_file():  # the equivariant keypoint model
-        require_package("pinocchio", extra="sim", purpose="the arm's keypoints from its kinematics")
+        require_package("pinocchio", extra="robot", purpose="the arm's keypoints from its kinematics")
         from handeye.learned_frames import load_keypoint_frames
 
         model = load_model(args.model / "keypoints.pt")
@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
         pc = camera_predictions(t_model, q_model, frames, [int(c) for c in cams])
     hybrid = None
     if not args.no_hybrid:
-        require_package("pinocchio", extra="sim", purpose="the robot model of the hybrid column")
+        require_package("pinocchio", extra="robot", purpose="the robot model of the hybrid column")
         from handeye.markerless import markerless_dataset
 
         hybrid = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model)

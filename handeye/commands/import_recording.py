@@ -120,10 +120,10 @@ def run(args: argparse.Namespace) -> int:
     from handeye.core.errors import HandEyeInputError
     from handeye.core.optional import require_package
     from handeye.recording_import import ImportOptions, import_recordings
+    from handeye.robot.model import load_robot_entry
     from handeye.robot_model import robot_meta
-    from sim.robot import load_robot_entry
 
-    require_package("pinocchio", extra="sim", purpose="the robot model")
+    require_package("pinocchio", extra="robot", purpose="the robot model")
     options = ImportOptions(
         sync_tolerance_s=getattr(args, "sync_tolerance", 0.0),
         joint_tolerance_s=getattr(args, "joint_tolerance", 0.0),

@@ -185,7 +185,7 @@ def _prepare(args: argparse.Namespace, writer: bool):
     if args.family == "keypoints":
         from handeye.core.optional import require_package
 
-        require_package("pinocchio", extra="sim", purpose="the arm's keypoints from its kinematics")
+        require_package("pinocchio", extra="robot", purpose="the arm's keypoints from its kinematics")
         from handeye.learned_frames import load_keypoint_frames
 
         data = load_keypoint_frames(

@@ -135,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the command."""
     from handeye.core.optional import require_package
 
-    require_package("pinocchio", extra="sim", purpose="the robot model")
+    require_package("pinocchio", extra="robot", purpose="the robot model")
     from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import write_json_atomic
     from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
@@ -235,7 +235,7 @@ def _sensor_terms(args: argparse.Namespace) -> tuple[float, float, float | None]
     """
     from handeye.core.dataset import Dataset
     from handeye.core.errors import HandEyeInputError
-    from sim.sensors import DepthSensor, sensor_profile
+    from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 
     if args.sensor is not None:
         sensor = sensor_profile(args.sensor)

@@ -57,7 +57,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "--robot",
         default="none",
         choices=["none", "ur5", "ur3"],
-        help="robot model for reachability and joint targets (needs handeye[sim]); none: any flange pose",
+        help="robot model for reachability and joint targets (needs handeye[robot]); none: any flange pose",
     )
     p.add_argument(
         "--camera-guess",
@@ -242,7 +242,7 @@ def run(args: argparse.Namespace) -> int:
     limits = limits_for(ViewLimits(d_min, d_max, args.fov[0], args.fov[1], args.max_tilt), unknowns, args.guess_margin)
     robot = None
     if args.robot != "none":
-        from sim.robot import load_robot
+        from handeye.robot.model import load_robot
 
         robot = load_robot(args.robot)
     candidates = sample_candidates(setup, unknowns, np.random.default_rng(args.seed), args.candidates, limits, robot)

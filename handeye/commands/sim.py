@@ -16,9 +16,9 @@ depth, joints, ``T_base_ee``, ``T_base_ref``). Run it again on the same
 again. Then ``handeye label`` the result.
 
 ``--sensor`` renders the depth as a real camera reports it (``ideal``, ``d435``, ``d455``, ``l515``,
-``azure-kinect``, ``zivid``, or a JSON file of :class:`sim.sensors.DepthSensor` parameters): a depth scale,
-offset and depth-to-colour extrinsic error drawn per placement (recorded in ``cameras.csv``), noise as
-the sensing principle grows it, correlated noise, flying pixels and holes. It replaces the depth term
+``azure-kinect``, ``zivid``, or a JSON file of :class:`handeye.robot.depth_sensors.DepthSensor` parameters): a depth
+scale, offset and depth-to-colour extrinsic error drawn per placement (recorded in ``cameras.csv``), noise
+as the sensing principle grows it, correlated noise, flying pixels and holes. It replaces the depth term
 of ``--noise``.
 
 ``handeye sim bag`` writes a generated dataset's placements as ROS 2 bags, as a real cell records them
@@ -136,7 +136,7 @@ def parse_sensor(text: str | None):
     """A profile name or a JSON parameter file -> DepthSensor; None -> None."""
     from handeye.core.errors import HandEyeInputError
     from handeye.core.jsonfile import read_json_file
-    from sim.sensors import PROFILES, sensor_profile
+    from handeye.robot.depth_sensors import PROFILES, sensor_profile
 
     if text is None:
         return None

@@ -97,11 +97,11 @@ def test_twists_are_the_motion_of_the_posed_chain():
 
 
 def test_sim_surface_twists_are_finite_differences_of_the_posed_surface():
-    """sim.surface: each part's twist moves its posed points as a small change of each joint does."""
+    """handeye.robot.surface: each part's twist moves its posed points as a small change of each joint does."""
     pytest.importorskip("pinocchio")
     pytest.importorskip("trimesh")
-    from sim.robot import load_robot
-    from sim.surface import RobotSurface
+    from handeye.robot.model import load_robot
+    from handeye.robot.surface import RobotSurface
 
     robot = load_robot("ur5")
     surface = RobotSurface(robot, spacing_m=0.03)

@@ -36,7 +36,7 @@ def test_small_preset_has_what_the_preset_asks_for(small_dataset):
 
 
 def test_recorded_poses_are_the_forward_kinematics_of_the_recorded_joints(small_dataset):
-    from sim.robot import load_robot
+    from handeye.robot.model import load_robot
 
     ds = Dataset.open(small_dataset[0])
     robot = load_robot(ds.meta["robot"])

@@ -12,9 +12,10 @@ pytest.importorskip("pyrender")
 from handeye.cli import main  # noqa: E402
 from handeye.core.dataset import SENSOR_COLUMNS, Dataset  # noqa: E402
 from handeye.core.errors import HandEyeInputError  # noqa: E402
+from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 from sim.cameras import CameraPreset  # noqa: E402
 from sim.generate import DEFAULT_NOISE, NoiseModel, generate  # noqa: E402
-from sim.sensors import PROFILES, draw_systematic  # noqa: E402
+from sim.sensors import draw_systematic  # noqa: E402
 
 #: Two camera poses of two data frames at 64x64.
 PRESET = CameraPreset("sensor", "ur5", ((0.0, 360.0),), (2,), (0,), 2, image_size=(64, 64))

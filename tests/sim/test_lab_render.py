@@ -8,11 +8,11 @@ import pytest
 pytest.importorskip("pinocchio")
 pytest.importorskip("pyrender")
 
+from handeye.robot.model import load_robot  # noqa: E402
 from sim.cameras import CameraPreset, get_preset, place_cameras  # noqa: E402
 from sim.lab import T_base_lab  # noqa: E402
 from sim.recording import camera_matrix, sample_data_configuration  # noqa: E402
 from sim.render import Renderer  # noqa: E402
-from sim.robot import load_robot  # noqa: E402
 
 SIZE = (128, 128)
 FOV_DEG = 60.0

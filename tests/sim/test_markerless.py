@@ -74,7 +74,7 @@ def test_start_file_and_its_errors(small_dataset, tmp_path):
 def test_bad_robot_and_dataset_inputs_are_named(small_copy, tmp_path):
     from handeye.core.errors import HandEyeInputError, ShapeError
     from handeye.markerless import markerless_dataset
-    from sim.robot import load_robot_urdf
+    from handeye.robot.model import load_robot_urdf
 
     with pytest.raises(HandEyeInputError, match="no such URDF"):
         markerless_dataset(small_copy, cameras=[0], urdf=tmp_path / "missing.urdf")
@@ -128,8 +128,8 @@ def test_markerless_labels_feed_the_board_free_continual_run(small_copy):
 def test_posed_surface_carries_curvatures_that_move_with_the_links():
     """The UR5's samples: curvatures do not change with the pose, the first principal direction stays a unit
     tangent, and the upper arm's tube (radius 5-7 cm) curves by 1/r across its axis."""
-    from sim.robot import load_robot
-    from sim.surface import RobotSurface
+    from handeye.robot.model import load_robot
+    from handeye.robot.surface import RobotSurface
 
     robot = load_robot("ur5")
     surface = RobotSurface(robot, spacing_m=0.006)

@@ -9,6 +9,7 @@ pytest.importorskip("pinocchio")
 
 from classic.vision.board import BoardSpec  # noqa: E402
 from handeye.core.se3 import invert_transform, rotation_angle  # noqa: E402
+from handeye.robot.model import load_robot  # noqa: E402
 from sim.cameras import get_preset, place_cameras  # noqa: E402
 from sim.recording import (  # noqa: E402
     DEFAULT_BOARD,
@@ -18,7 +19,6 @@ from sim.recording import (  # noqa: E402
     sample_calibration_view,
     sample_data_configuration,
 )
-from sim.robot import load_robot  # noqa: E402
 from tests.tolerances import EXACT  # noqa: E402
 
 SIZE_M = BoardSpec(**DEFAULT_BOARD).size_m

@@ -9,9 +9,9 @@ pytest.importorskip("pinocchio")
 pytest.importorskip("pyrender")
 
 from handeye.core.se3 import invert_transform  # noqa: E402
-from sim.cameras import look_at  # noqa: E402
+from handeye.robot.look_at import look_at  # noqa: E402
+from handeye.robot.model import load_robot  # noqa: E402
 from sim.render import Renderer  # noqa: E402
-from sim.robot import load_robot  # noqa: E402
 from tests.sim._geometry import assert_sphere_rendered  # noqa: E402
 from tests.tolerances import DEPTH_M  # noqa: E402
 

@@ -11,7 +11,7 @@ pytest.importorskip("pinocchio")
 pytest.importorskip("example_robot_data")
 
 from handeye.core.errors import HandEyeInputError  # noqa: E402
-from sim.robot import load_robot  # noqa: E402
+from handeye.robot.model import load_robot  # noqa: E402
 from tests.tolerances import EXACT  # noqa: E402
 
 # Universal Robots' published DH parameters (metres): d1, a2, a3, d4, d5, d6
@@ -54,7 +54,7 @@ def test_batch_and_reference_point(robot):
 def test_keypoints_along_the_long_links_ride_with_their_link(robot):
     """The upper arm and the forearm (DH a2, a3) carry points at LINK_FRACTIONS of the way between their joint
     origins; each stays at a fixed place in its link whatever the joints do."""
-    from sim.robot import LINK_FRACTIONS
+    from handeye.robot.model import LINK_FRACTIONS
 
     names = robot.keypoint_names
     q = np.random.default_rng(3).uniform(-2, 2, (4, robot.nq))
@@ -106,7 +106,7 @@ def test_any_urdf_by_path_gives_the_same_robot():
 
     import example_robot_data as erd
 
-    from sim.robot import load_robot, load_robot_urdf
+    from handeye.robot.model import load_robot, load_robot_urdf
 
     loader = erd.robots_loader.UR5Loader()
     urdf = Path(loader.df_path)

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.sensors import PROFILES, DepthSensor, SensorTruth, apply_sensor, draw_systematic, fixed_pattern
+from handeye.robot.depth_sensors import PROFILES, DepthSensor
+from sim.sensors import SensorTruth, apply_sensor, draw_systematic, fixed_pattern
 
 H, W, F_PX = 120, 160, 150.0
 C_U, C_V = (W - 1) / 2, (H - 1) / 2

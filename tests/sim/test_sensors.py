@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from handeye.core.errors import HandEyeInputError
-from sim.sensors import PROFILES, DepthSensor, SensorTruth, apply_sensor, draw_systematic, sensor_profile
+from handeye.robot.depth_sensors import PROFILES, DepthSensor, sensor_profile
+from sim.sensors import SensorTruth, apply_sensor, draw_systematic
 
 H, W, F_PX = 120, 160, 150.0
 K = np.array([[F_PX, 0, (W - 1) / 2], [0, F_PX, (H - 1) / 2], [0, 0, 1.0]])

@@ -12,7 +12,8 @@ import pytest
 
 pytest.importorskip("cv2")
 
-from sim.sensors import PROFILES, SensorTruth, apply_sensor  # noqa: E402
+from handeye.robot.depth_sensors import PROFILES  # noqa: E402
+from sim.sensors import SensorTruth, apply_sensor  # noqa: E402
 from sim.stereo import active_stereo_depth  # noqa: E402
 
 K = np.array([[222.0, 0, 127.5], [0, 222.0, 127.5], [0, 0, 1]])

@@ -15,10 +15,19 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.optional import require_package
 from handeye.core.se3 import invert_transform, make_transform, so3_log
 
-__all__ = ["ROBOTS", "Robot", "load_robot", "load_robot_urdf"]
+__all__ = ["IK_SEEDS", "ROBOTS", "Robot", "load_robot", "load_robot_entry", "load_robot_urdf"]
 
 ROBOTS = ("ur5", "ur3")
 _LOADERS = {"ur5": "UR5Loader", "ur3": "UR3Loader"}
+#: Home configurations the inverse kinematics starts from (elbow up, wrist down or out), radians.
+IK_SEEDS = np.array(
+    [
+        [0.0, -1.3, 1.6, -1.9, -1.57, 0.0],
+        [0.0, -1.0, 1.2, -0.2, 1.57, 0.0],
+        [0.0, -1.8, 1.9, -1.6, -1.57, 0.0],
+        [0.0, -1.2, 1.4, 0.9, 1.57, 0.0],
+    ]
+)
 #: The reference point: the tip of a 12 cm tool along the flange's z axis.
 DEFAULT_T_EE_REF = make_transform(np.eye(3), [0.0, 0.0, 0.12])
 #: Links whose two joint origins lie at least this far apart (metres) get keypoints along the segment between
@@ -59,7 +68,7 @@ class Robot:
     @property
     def pin(self):
         """The pinocchio module."""
-        return require_package("pinocchio", extra="sim")
+        return require_package("pinocchio", extra="robot")
 
     @property
     def nq(self) -> int:
@@ -282,12 +291,12 @@ def load_robot(name: str, T_ee_ref: np.ndarray | None = None) -> Robot:
     HandEyeInputError
         For another name.
     MissingDependencyError
-        Without ``handeye[sim]``.
+        Without ``handeye[robot]``.
     """
     if name not in ROBOTS:
         raise HandEyeInputError(f"unknown robot {name!r}: use one of {', '.join(ROBOTS)}")
-    require_package("pinocchio", extra="sim", purpose="the robot model")
-    erd = require_package("example_robot_data", extra="sim", purpose="the UR robot description")
+    require_package("pinocchio", extra="robot", purpose="the robot model")
+    erd = require_package("example_robot_data", extra="robot", purpose="the UR robot description")
     # the loader classes, not erd.load(name): example-robot-data-loaders 5.0 maps "ur3" to the UR5 loader
     wrapper = getattr(erd.robots_loader, _LOADERS[name])().robot
     return _robot(name, wrapper.model, wrapper.visual_model, "tool0", T_ee_ref)
@@ -328,7 +337,7 @@ def load_robot_urdf(urdf_path, package_dirs=(), ee_frame: str = "tool0", T_ee_re
     """
     from pathlib import Path
 
-    pin = require_package("pinocchio", extra="sim", purpose="the robot model")
+    pin = require_package("pinocchio", extra="robot", purpose="the robot model")
     path = Path(urdf_path)
     if not path.is_file():
         raise HandEyeInputError(f"{path}: no such URDF file")

@@ -14,7 +14,7 @@ from classic.markerless import RobotSurfaceFrames
 from classic.markerless.curvature import sample_curvatures
 from handeye.core.errors import HandEyeInputError, ShapeError
 from handeye.core.optional import require_package
-from sim.scene import load_link_mesh
+from handeye.robot.meshes import load_link_mesh
 
 __all__ = ["RobotSurface", "spacing_for_camera"]
 
@@ -29,7 +29,7 @@ class RobotSurface:
 
     Parameters
     ----------
-    robot : sim.robot.Robot
+    robot : handeye.robot.model.Robot
     spacing_m : float
         Mean distance between samples.
     seed : int
@@ -41,7 +41,7 @@ class RobotSurface:
     """
 
     def __init__(self, robot, spacing_m: float = 0.005, seed: int = 0):
-        trimesh = require_package("trimesh", extra="sim", purpose="robot meshes")
+        trimesh = require_package("trimesh", extra="robot", purpose="robot meshes")
         if not np.isfinite(spacing_m) or spacing_m <= 0:
             raise HandEyeInputError(f"surface spacing must be > 0 m, got {spacing_m}")
         self.robot = robot
@@ -73,7 +73,7 @@ class RobotSurface:
         """Each part's motion per joint at each configuration: twists in the base frame.
 
         A point ``p`` of part ``k`` (base frame) moves by ``dp / dq_j = omega x p + v`` per radian of joint ``j``
-        (:meth:`sim.robot.Robot.link_twists`, pinocchio's joint Jacobians; a mesh's scale does not enter).
+        (:meth:`handeye.robot.model.Robot.link_twists`, pinocchio's joint Jacobians; a mesh's scale does not enter).
 
         Parameters
         ----------
