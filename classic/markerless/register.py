@@ -2,9 +2,15 @@
 
 For one static camera and N frames of a moving robot, the robot's surface is
 known in the base frame at every frame (forward kinematics of the recorded
-joints, sampled as points with outward normals by the caller). The camera
-pose ``T_base_cam`` is the one under which that surface lands on the observed
-depth in all frames at once.
+joints, sampled as points ``m`` with outward normals ``n`` by the caller). The
+camera pose is the one under which that surface lands on the observed depth in
+all frames at once:
+
+.. math:: \\hat T_{base,cam} = \\arg\\min_T \\sum_f \\sum_{i \\in f} \\rho\\big(n_i^T (T\\, q_i - m_i) / s\\big)
+
+with ``q_i`` the observed point (camera frame) matched to model point ``i`` of
+frame ``f``, ``rho`` a Cauchy loss and ``s`` a few depth-noise sigmas
+(:mod:`classic.markerless.point_to_plane`).
 
 Stages:
 
@@ -16,52 +22,37 @@ Stages:
    refined a few times with the visible part of the model only. Any start the
    caller gives (the learned prediction, a tape-measure guess) is tried first.
 3. **Coarse ICP**: each moving pixel matched to the nearest front-facing model
-   point of its frame in 3-D, over a window shrinking from 30 cm to 1 cm,
-   point-to-plane with a Cauchy loss.
+   point of its frame in 3-D, over a window shrinking from 30 cm to 1 cm.
 4. **Fine registration**: the model's visible surface from the estimate
    (:mod:`classic.markerless.visibility`), each visible point matched to the
-   observed point in its pixel (projective association), point-to-plane with
-   a Cauchy loss over all frames, the gate shrinking to a few noise sigmas.
+   observed point in its pixel (projective association), over all frames, the
+   gate shrinking to a few noise sigmas.
 
-The sensor's depth scale and offset are estimated with the pose in the fine stage
-(``MarkerlessOptions.depth_model``): a real RGB-D camera's depth is off by a fraction of a percent and
-a few millimetres, which would otherwise pull the camera along its optical axis by millimetres while the
-fit reports a sigma of tenths. A prior of a datasheet's spread keeps them where the frames say little,
-and their uncertainty enters the pose's sigma. For an active-stereo sensor (``stereo_fb_px_m``) the
-matcher's pull toward whole disparities is estimated as well: OpenCV's matcher on a D435's geometry
-(:mod:`sim.stereo`) moves the depth at 1.5 m by up to 2 cm this way, periodically in depth, which no scale
-and offset absorb. The depth noise is measured on the static background, over time
-and across the image (:func:`classic.markerless.depth.depth_noise_curve`: a stereo matcher's error under a fixed
-projector pattern stays put over time), unless the caller gives it. The sigma counts frames, not pixels, as
-independent, and errors shared by all frames at one depth (a matcher's pull toward whole disparities) by
-clustering the residuals by depth bin as well (two-way,
-:func:`classic.clustered_covariance.clustered_covariance`); whether the depth scale and offset are observable
-at all is judged on the frames' spread alone. What the frames share beyond that is measured by solving their
-groups again, by depth and by the arm's image column (:mod:`classic.markerless.consistency`): their
-scatter beyond their own noise enters the sigma.
+The fine stage estimates with the pose, each under a Gaussian prior that keeps it where the frames say little and
+puts its uncertainty into the pose's sigma:
 
-The depth camera's intrinsics ``(f_x, f_y, c_x, c_y)`` are estimated with the pose and the depth in the fine
-stage as well (``MarkerlessOptions.intrinsics_model``, :mod:`classic.markerless.intrinsics`): a factory camera
-matrix off by 0.7 % in focal length and 3 px in the principal point moved the camera by 10 mm at 1.2 m while the
-fit reported a sigma of tenths. The camera matrix given is their prior's mean, its stated uncertainty
-(``intrinsics_prior_sigma``, a datasheet default per sensor profile) the prior's spread: where the arm's
-positions across the image and in depth determine a parameter, the frames decide it; where they do not, it stays
-near the value given and its uncertainty enters the pose's covariance. Each one's posterior over prior sigma
-is reported (:attr:`MarkerlessResult.intrinsics`).
+- the sensor's depth scale and offset, ``d_obs = s d + o`` (``MarkerlessOptions.depth_model``), and for an
+  active-stereo sensor (``stereo_fb_px_m``) its matcher's pull toward whole disparities,
+  ``e(d) = a sin(2 pi d) + b cos(2 pi d)`` pixels of disparity;
+- the depth camera's intrinsics ``(f_x, f_y, c_x, c_y)`` (``intrinsics_model``,
+  :mod:`classic.markerless.intrinsics`), the camera matrix given the prior's mean;
+- the robot's joint zero offsets ``delta``, true joint = recorded + ``delta`` (``joint_offsets_model``,
+  :mod:`classic.markerless.kinematics`), where the surface carries its parts' twists per joint; the model is
+  associated and fitted moved by them. A joint that moves every fitted part rigidly (the base rotation) is not
+  estimated: its offset is a rotation of the camera about the base's axis, so the answer is the camera in the
+  base frame the robot's own kinematics define.
 
-The robot's joint zero offsets are estimated with the pose in the fine stage as well where the surface carries
-its parts' twists per joint (``MarkerlessOptions.joint_offsets_model``, :mod:`classic.markerless.kinematics`):
-a real arm's offsets of 0.1-0.3 deg per joint moved the camera by 4.8 mm with every answer beyond 3 sigma. The
-model is associated and fitted moved by the current offsets. A joint that moves every fitted part rigidly (the
-base rotation, when only moving parts are fitted) is not estimated: its offset is a rotation of the camera about
-the base's axis, so the answer is the camera in the base frame the robot's own kinematics define (what a point
-seen by the camera and then reached by the robot needs). Each joint's offset is reported in degrees with its
-sigma and whether the frames determined it (:attr:`MarkerlessResult.joint_offsets`).
+The sigma counts frames, not pixels, as independent, and clusters the residuals by depth bin as well
+(:func:`classic.clustered_covariance.clustered_covariance`); added to it in quadrature: the model's sampling bias
+``F^2 / (8 r) / sqrt(3)`` for a pixel footprint ``F`` on a link of radius ``r``, the depth-to-colour extrinsic's
+bound, and the scatter of groups of frames solved again by depth and by image column
+(:mod:`classic.markerless.consistency`). The depth noise is measured on the static background
+(:func:`classic.markerless.depth.depth_noise_curve`) unless the caller gives it.
 
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
 otherwise it is refused with the reason (:attr:`MarkerlessResult.refused`),
-never returned as a calibration.
+never returned as a calibration. What it achieves: ``docs/benchmarks/markerless.md``.
 """
 
 from __future__ import annotations
