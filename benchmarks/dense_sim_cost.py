@@ -6,7 +6,7 @@ Run from the repository root::
     python benchmarks/dense_sim_cost.py 4                                              # a quick look
 
 Renders ``N`` shards (one camera pose each: 15 calibration views at 640x640, 50 data frames at 256x256 with
-depth) with :class:`sim.generate._ShardRenderer`, exactly as ``handeye sim generate`` does, in this one
+depth) with :class:`sim.generate.ShardRenderer`, exactly as ``handeye sim generate`` does, in this one
 process, into a temporary folder. The cameras are spread over the preset's elevations (lowest to highest) and
 its scenes (the ``i``-th camera from scene ``i % scenes``). Per shard: wall seconds, CPU seconds of this
 process (all its threads: Mesa's llvmpipe renders on several), frames and bytes on disk; then the means
@@ -32,7 +32,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from benchmarks._report import Report  # noqa: E402
 from handeye.core.dataset import shard_name  # noqa: E402
 from sim.cameras import get_preset, place_cameras  # noqa: E402
-from sim.generate import DEFAULT_NOISE, NoiseModel, _ShardRenderer, dataset_meta  # noqa: E402
+from sim.generate import DEFAULT_NOISE, NoiseModel, ShardRenderer, dataset_meta  # noqa: E402
 from sim.lab import camera_scene  # noqa: E402
 
 
@@ -88,7 +88,7 @@ def main(argv=None) -> int:
     try:
         (work / "meta.json").write_text(json.dumps(meta))
         t0, c0 = time.perf_counter(), time.process_time()
-        worker = _ShardRenderer(meta)
+        worker = ShardRenderer(meta)
         init_wall, init_cpu = time.perf_counter() - t0, time.process_time() - c0
         report.say(
             f"worker start (robot, two renderers, camera placement): {init_wall:.1f} s wall, {init_cpu:.1f} s CPU"

@@ -46,7 +46,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks import reliability_faults as faults  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
-from benchmarks.reliability_faults import _set_cell  # noqa: E402
+from benchmarks.reliability_faults import set_cell  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MB100 = 100 * 1024 * 1024
@@ -222,21 +222,21 @@ def pose_file_cases(mk: Maker, good: Path) -> list:
     out += [
         (
             "NaN in a pose file",
-            mk.text_edit(good, "nan.csv", lambda t: _set_cell(t, 3, "T_base_ee.x", "nan")),
+            mk.text_edit(good, "nan.csv", lambda t: set_cell(t, 3, "T_base_ee.x", "nan")),
             ["nan.csv"],
             False,
             "",
         ),
         (
             "inf in a pose file",
-            mk.text_edit(good, "inf.csv", lambda t: _set_cell(t, 5, "T_cam_target.qw", "inf")),
+            mk.text_edit(good, "inf.csv", lambda t: set_cell(t, 5, "T_cam_target.qw", "inf")),
             ["inf.csv"],
             False,
             "",
         ),
         (
             "-inf translation",
-            mk.text_edit(good, "minf.csv", lambda t: _set_cell(t, 0, "T_cam_target.z", "-inf")),
+            mk.text_edit(good, "minf.csv", lambda t: set_cell(t, 0, "T_cam_target.z", "-inf")),
             ["minf.csv"],
             False,
             "",
@@ -244,7 +244,7 @@ def pose_file_cases(mk: Maker, good: Path) -> list:
         ("truncated last row", mk.text_edit(good, "trunc.csv", lambda t: t[: len(t) - 40]), ["trunc.csv"], False, ""),
         (
             "not a number",
-            mk.text_edit(good, "word.csv", lambda t: _set_cell(t, 2, "T_base_ee.y", "abc")),
+            mk.text_edit(good, "word.csv", lambda t: set_cell(t, 2, "T_base_ee.y", "abc")),
             ["word.csv"],
             False,
             "",
@@ -312,7 +312,7 @@ def dataset_cases(mk: Maker, good: Path) -> list:
     def cell(table: str, row: int, column: str, value: str):
         def edit(root, shard):
             p = (root if table == "cameras.csv" else shard) / table
-            p.write_text(_set_cell(p.read_text(), row, column, value))
+            p.write_text(set_cell(p.read_text(), row, column, value))
 
         return edit
 
@@ -424,21 +424,21 @@ def build_cases(work: Path, good: dict, quick: bool) -> list[Case]:
     robot_items = file_cases(mk, good["robot"], ".csv") + [
         (
             "NaN in robot poses",
-            mk.text_edit(good["robot"], "nan.csv", lambda t: _set_cell(t, 1, "T_base_ee.x", "nan")),
+            mk.text_edit(good["robot"], "nan.csv", lambda t: set_cell(t, 1, "T_base_ee.x", "nan")),
             ["nan.csv"],
             False,
             "",
         ),
         (
             "inf in robot poses",
-            mk.text_edit(good["robot"], "inf.csv", lambda t: _set_cell(t, 2, "T_base_ee.qz", "inf")),
+            mk.text_edit(good["robot"], "inf.csv", lambda t: set_cell(t, 2, "T_base_ee.qz", "inf")),
             ["inf.csv"],
             False,
             "",
         ),
         (
             "image column names a missing file",
-            mk.text_edit(good["robot"], "img.csv", lambda t: _set_cell(t, 0, "image", "../../etc/passwd")),
+            mk.text_edit(good["robot"], "img.csv", lambda t: set_cell(t, 0, "image", "../../etc/passwd")),
             ["img.csv"],
             False,
             "",

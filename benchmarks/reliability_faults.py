@@ -432,8 +432,22 @@ def _strip_columns(path: Path, prefixes: tuple) -> None:
     path.write_text(buf.getvalue())
 
 
-def _set_cell(text: str, row: int, column: str, value: str) -> str:
-    """The CSV text with one cell replaced (row counts data rows from 0; ``#`` lines and the header skipped)."""
+def set_cell(text: str, row: int, column: str, value: str) -> str:
+    """The CSV text with one cell replaced (row counts data rows from 0; ``#`` lines and the header skipped).
+
+    Parameters
+    ----------
+    text : str
+        A CSV file's text.
+    row : int
+    column : str
+        The header's name of the column.
+    value : str
+
+    Returns
+    -------
+    str
+    """
     lines = text.splitlines()
     k = next(i for i, ln in enumerate(lines) if ln and not ln.startswith("#"))
     header = lines[k].split(",")
@@ -851,7 +865,7 @@ def gen_numbers(w: Work) -> list:
     for name, text, legit, raw in number_variants(token):
 
         def pose_csv(d, text=text):
-            (d / "poses.csv").write_text(_set_cell(csv_text, 2, "T_base_ee.x", text), encoding="utf-8")
+            (d / "poses.csv").write_text(set_cell(csv_text, 2, "T_base_ee.x", text), encoding="utf-8")
             return d / "poses.csv"
 
         add("calibrate", "pose CSV", name, pose_csv, lambda q: ["calibrate", q, *cal], ["poses.csv"], legit)
@@ -922,7 +936,7 @@ def gen_numbers(w: Work) -> list:
     tok = _get_cell(ds_csv, 0, "T_base_cam_true.x")
     for name, text, legit, raw in number_variants(tok):
         root = w.dataset()
-        (root / "cameras.csv").write_text(_set_cell(ds_csv, 0, "T_base_cam_true.x", text), encoding="utf-8")
+        (root / "cameras.csv").write_text(set_cell(ds_csv, 0, "T_base_cam_true.x", text), encoding="utf-8")
         out.append(
             Fault(
                 "numbers",
@@ -940,7 +954,7 @@ def gen_numbers(w: Work) -> list:
     for name, text, legit, raw in number_variants(tok):
         root = w.dataset()
         shard = root / "shards" / "cam_0000"
-        (shard / "frames.csv").write_text(_set_cell(frames, 1, "T_base_ee.x", text), encoding="utf-8")
+        (shard / "frames.csv").write_text(set_cell(frames, 1, "T_base_ee.x", text), encoding="utf-8")
         _rewrite_manifest(shard)
         out.append(
             Fault(
@@ -1036,7 +1050,7 @@ def _bag(w: Work, storage="sqlite3", encoding="16UC1", depth_scale=1.0, joint_ho
     ds = _Proxy(Dataset.open(w.good["dataset"]), depth_scale, intrinsics)
     d = w.folder("_bag")
     with _BAG_LOCK:
-        original = be._Bag.add
+        original = be.BagWriter.add
         if joint_hook is not None:
 
             def add(self, topic, msgtype, stamp_ns, msg):
@@ -1045,11 +1059,11 @@ def _bag(w: Work, storage="sqlite3", encoding="16UC1", depth_scale=1.0, joint_ho
                     msg = self.M[msgtype](msg.header, names, pos, np.zeros(0), np.zeros(0))
                 original(self, topic, msgtype, stamp_ns, msg)
 
-            be._Bag.add = add
+            be.BagWriter.add = add
         try:
             written = be.write_placement_bags(ds, 0, d, storage, encoding, "raw")
         finally:
-            be._Bag.add = original
+            be.BagWriter.add = original
     return written["data"]
 
 
@@ -1350,7 +1364,7 @@ def gen_truth(w: Work) -> list:
     ds_csv = (g["dataset"] / "cameras.csv").read_text()
     for value in ("1000", "-250", "1e6"):
         root = w.dataset()
-        (root / "cameras.csv").write_text(_set_cell(ds_csv, 0, "T_base_cam_true.x", value))
+        (root / "cameras.csv").write_text(set_cell(ds_csv, 0, "T_base_cam_true.x", value))
         out.append(
             Fault(
                 "truth",

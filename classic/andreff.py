@@ -6,9 +6,10 @@ import numpy as np
 
 from classic._linear import check_motions, normalize_rotation
 from classic.motions import Motions, motions_from_transforms
+from classic.registry import Solver, register
 from handeye.core.se3 import make_transform
 
-__all__ = ["andreff"]
+__all__ = ["andreff", "andreff_stats", "andreff_finish"]
 
 
 def andreff(A: np.ndarray, B: np.ndarray, translation: str = "resolve") -> np.ndarray:
@@ -32,10 +33,8 @@ def andreff(A: np.ndarray, B: np.ndarray, translation: str = "resolve") -> np.nd
 
     Parameters
     ----------
-    A : array, shape (K, 4, 4)
-        Robot motions.
-    B : array, shape (K, 4, 4)
-        Camera motions.
+    A, B : array, shape (K, 4, 4)
+        Robot and camera motions, as for every AX=XB solver (:mod:`classic.registry`).
     translation : {"resolve", "joint"}
         Solve ``t_X`` again after the rotation (default), or keep the joint solve's (OpenCV's).
 
@@ -50,10 +49,11 @@ def andreff(A: np.ndarray, B: np.ndarray, translation: str = "resolve") -> np.nd
     A, B = check_motions(A, B, 2, "andreff")
     if translation not in ("resolve", "joint"):
         raise ValueError(f"translation must be 'resolve' or 'joint', got {translation!r}")
-    return _andreff_finish(_andreff_stats(motions_from_transforms(A, B)), resolve=translation == "resolve")
+    return andreff_finish(andreff_stats(motions_from_transforms(A, B)), resolve=translation == "resolve")
 
 
-def _andreff_stats(m: Motions) -> dict:
+def andreff_stats(m: Motions) -> dict:
+    """A chunk's statistics for :func:`andreff_finish` (:mod:`classic.registry`)."""
     # Normal equations of the stacked (12K x 12) system, summed block by block over motions
     # with matrix products over k (no per-motion 9x9 Kronecker products are formed).
     K = len(m)
@@ -71,7 +71,9 @@ def _andreff_stats(m: Motions) -> dict:
     }
 
 
-def _andreff_finish(st: dict, resolve: bool = True) -> np.ndarray:
+def andreff_finish(st: dict, resolve: bool = True) -> np.ndarray:
+    """``X`` from the summed :func:`andreff_stats` (:mod:`classic.registry`); ``resolve=False`` keeps the joint
+    solve's translation (:func:`andreff`'s ``translation="joint"``)."""
     K = st["n"]
     I3 = np.eye(3)
     kron_sum = st["RA_RB"].reshape(3, 3, 3, 3).transpose(0, 2, 1, 3).reshape(9, 9)
@@ -92,3 +94,6 @@ def _andreff_finish(st: dict, resolve: bool = True) -> np.ndarray:
     RAt_RX_tB = np.einsum("bc,cba->a", R_X, st["tB_RA"])  # sum_k R_A^T R_X t_B
     rhs_t = st["sum_t_A"] - st["sum_RAt_tA"] - R_X @ st["sum_t_B"] + RAt_RX_tB
     return make_transform(R_X, np.linalg.lstsq(G[9:, 9:], rhs_t, rcond=None)[0])
+
+
+register(Solver("andreff", "AX=XB", "Andreff-Horaud-Espiau 1999: Kronecker product", 40, andreff_stats, andreff_finish))

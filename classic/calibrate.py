@@ -9,7 +9,14 @@ from functools import cached_property
 
 import numpy as np
 
-from classic.andreff import _andreff_finish, _andreff_stats
+# each solver module registers its closed form in classic.registry at import
+import classic.andreff  # noqa: F401
+import classic.daniilidis  # noqa: F401
+import classic.horaud  # noqa: F401
+import classic.li  # noqa: F401
+import classic.park  # noqa: F401
+import classic.shah  # noqa: F401
+import classic.tsai  # noqa: F401
 from classic.contamination import (
     MAX_SHIFT_SIGMA,
     check_contamination,
@@ -17,10 +24,7 @@ from classic.contamination import (
     refuse_shift,
     x_shift_sigma,
 )
-from classic.daniilidis import _daniilidis_finish, _daniilidis_stats
 from classic.diagnostics import check_consistency, diagnose_motion
-from classic.horaud import _horaud_finish, _horaud_stats
-from classic.li import _li
 from classic.motions import Motions, accumulate, iter_motions, motions_from_poses
 from classic.noise_model import NoiseModel, as_noise_model
 from classic.outlier_screen import (
@@ -32,14 +36,12 @@ from classic.outlier_screen import (
     shift_vector,
 )
 from classic.pairs import PAIRINGS, describe_pairs, pair_indices
-from classic.park import _park_finish, _park_stats
 from classic.ransac import lmeds_inliers
 from classic.refine import LOSSES, refine_xy
+from classic.registry import solver, solvers
 from classic.residuals import estimate_target_pose, pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
-from classic.shah import _shah
 from classic.starts import START_CANDIDATES, best_start, scaled_start
-from classic.tsai import _tsai_finish, _tsai_stats
 from handeye.core.errors import (
     ContaminatedPosesError,
     HandEyeInputError,
@@ -59,15 +61,11 @@ from handeye.core.validation import (
 
 __all__ = ["AXXB_METHODS", "AXYB_METHODS", "METHODS", "DEFAULT_METHOD", "calibrate", "initial_estimate", "solve"]
 
-#: AX=XB methods as (statistics of a chunk of motions, solve from the summed statistics).
-AXXB_METHODS = {
-    "tsai": (_tsai_stats, _tsai_finish),
-    "park": (_park_stats, _park_finish),
-    "horaud": (_horaud_stats, _horaud_finish),
-    "andreff": (_andreff_stats, _andreff_finish),
-    "daniilidis": (_daniilidis_stats, _daniilidis_finish),
-}
-AXYB_METHODS = {"shah": _shah, "li": _li}
+#: AX=XB methods as (statistics of a chunk of motions, solve from the summed statistics), from
+#: :mod:`classic.registry`.
+AXXB_METHODS = {s.name: (s.stats, s.finish) for s in solvers("AX=XB")}
+#: AX=YB methods: ``(A, B) -> (X, Y)`` on validated poses, from :mod:`classic.registry`.
+AXYB_METHODS = {s.name: s.solve for s in solvers("AX=YB")}
 #: ``auto``: the best of :data:`classic.starts.START_CANDIDATES` (Park and Shah) by pose residual.
 METHODS = ("auto",) + tuple(AXXB_METHODS) + tuple(AXYB_METHODS)
 #: Closed form used to start the refinement by default (see the benchmark in the README).
@@ -100,15 +98,15 @@ def initial_estimate(
     if method == "auto":
         _, X, Y = best_start(A, B, lambda a, b, m: initial_estimate(a, b, m, pairs, motions), START_CANDIDATES)
         return X, Y
-    if method in AXXB_METHODS:
-        stats, finish = AXXB_METHODS[method]
+    if method not in METHODS:
+        raise HandEyeInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
+    entry = solver(method)
+    if entry.kind == "AX=XB":
         chunks = [motions] if motions is not None else iter_motions(A, B, *pair_indices(len(A), pairs))
-        X = finish(accumulate(stats, chunks))
+        X = entry.finish(accumulate(entry.stats, chunks))
         return X, estimate_target_pose(A, B, X)
-    if method in AXYB_METHODS:
-        Y_target, X_cam = AXYB_METHODS[method](A, B)
-        return X_cam, Y_target
-    raise HandEyeInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
+    Y_target, X_cam = entry.solve(A, B)
+    return X_cam, Y_target
 
 
 def _validated(T_base_ee, T_cam_target):

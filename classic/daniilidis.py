@@ -6,6 +6,7 @@ import numpy as np
 
 from classic._linear import check_motions, resolve_near_half_turns, split_near_half_turns
 from classic.motions import Motions, motions_from_transforms
+from classic.registry import Solver, register
 from handeye.core.se3 import (
     make_transform,
     matrix_from_quat_xyzw,
@@ -14,7 +15,7 @@ from handeye.core.se3 import (
     quat_xyzw_to_wxyz,
 )
 
-__all__ = ["daniilidis"]
+__all__ = ["daniilidis", "daniilidis_stats", "daniilidis_finish"]
 
 
 def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -40,16 +41,8 @@ def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     degrees can pair opposite signs and break the solve. On motions below 120 degrees both
     agree.
 
-    Parameters
-    ----------
-    A : array, shape (K, 4, 4)
-        Robot motions.
-    B : array, shape (K, 4, 4)
-        Camera motions.
-
-    Returns
-    -------
-    X : array, shape (4, 4)
+    Parameters and return: those of every AX=XB solver (:mod:`classic.registry`): motions ``A``, ``B`` of
+    shape ``(K, 4, 4)``, ``X`` of shape ``(4, 4)``.
 
     References
     ----------
@@ -57,7 +50,7 @@ def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     Robotics Research 18(3), 1999.
     """
     A, B = check_motions(A, B, 2, "daniilidis")
-    return _daniilidis_finish(_daniilidis_stats(motions_from_transforms(A, B)))
+    return daniilidis_finish(daniilidis_stats(motions_from_transforms(A, B)))
 
 
 def _dual(q_xyzw: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -83,6 +76,7 @@ def _block(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _daniilidis_core(m: Motions) -> dict:
+    """A chunk's statistics for :func:`daniilidis_finish` (:mod:`classic.registry`)."""
     # S = [[P, 0], [Q, P]] per motion, so S^T S = [[P^T P + Q^T Q, Q^T P], [P^T Q, P^T P]] summed
     a, a_d = _dual(m.q_A, m.t_A)
     b, b_d = _dual(m.q_B, m.t_B)
@@ -97,10 +91,11 @@ def _daniilidis_core(m: Motions) -> dict:
     return {"M": M}
 
 
-_daniilidis_stats = split_near_half_turns(_daniilidis_core)
+daniilidis_stats = split_near_half_turns(_daniilidis_core)
 
 
-def _daniilidis_finish(st: dict) -> np.ndarray:
+def daniilidis_finish(st: dict) -> np.ndarray:
+    """``X`` from the summed :func:`daniilidis_stats` (:mod:`classic.registry`)."""
     st = resolve_near_half_turns(_daniilidis_core, st)
     _, V = np.linalg.eigh(st["M"])
     v1, v2 = V[:, 0], V[:, 1]
@@ -122,3 +117,6 @@ def _daniilidis_finish(st: dict) -> np.ndarray:
     x_conj = x * np.array([1.0, -1.0, -1.0, -1.0])
     t = 2.0 * quat_multiply_wxyz(x_d, x_conj)[1:]
     return make_transform(matrix_from_quat_xyzw(quat_wxyz_to_xyzw(x)), t)
+
+
+register(Solver("daniilidis", "AX=XB", "Daniilidis 1999: dual quaternions", 50, daniilidis_stats, daniilidis_finish))

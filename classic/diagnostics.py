@@ -26,7 +26,7 @@ from classic.motions import Motions, motions_from_poses
 from classic.pairs import pair_indices
 from classic.ransac import pose_error_m
 from classic.residuals import pose_residuals
-from classic.shah import _shah
+from classic.shah import shah_solve
 from handeye.core.errors import DegenerateMotionError, InconsistentPosesError, WeakMotionWarning
 from handeye.core.setups import robot_side_poses
 
@@ -142,7 +142,7 @@ def quick_fit_residuals(T_base_ee: np.ndarray, T_cam_target: np.ndarray, setup: 
     """
     A = robot_side_poses(T_base_ee, setup)
     try:
-        Y_target, X_cam = _shah(A, T_cam_target)
+        Y_target, X_cam = shah_solve(A, T_cam_target)
     except np.linalg.LinAlgError:
         return np.inf, 180.0
     r_rot, _ = pose_residuals(A, T_cam_target, X_cam, Y_target)

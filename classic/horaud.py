@@ -12,9 +12,10 @@ from classic._linear import (
     translation_stats,
 )
 from classic.motions import Motions, motions_from_transforms
+from classic.registry import Solver, register
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
 
-__all__ = ["horaud"]
+__all__ = ["horaud", "horaud_stats", "horaud_finish"]
 
 
 def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -33,16 +34,8 @@ def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     ``CALIB_HAND_EYE_HORAUD`` (agreement to 1e-3 of the noise on motions below 120 degrees,
     tests/classic/test_opencv_agreement.py).
 
-    Parameters
-    ----------
-    A : array, shape (K, 4, 4)
-        Robot motions.
-    B : array, shape (K, 4, 4)
-        Camera motions.
-
-    Returns
-    -------
-    X : array, shape (4, 4)
+    Parameters and return: those of every AX=XB solver (:mod:`classic.registry`): motions ``A``, ``B`` of
+    shape ``(K, 4, 4)``, ``X`` of shape ``(4, 4)``.
 
     References
     ----------
@@ -50,10 +43,11 @@ def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     14(3), 1995.
     """
     A, B = check_motions(A, B, 2, "horaud")
-    return _horaud_finish(_horaud_stats(motions_from_transforms(A, B)))
+    return horaud_finish(horaud_stats(motions_from_transforms(A, B)))
 
 
 def _horaud_core(m: Motions) -> dict:
+    """A chunk's statistics for :func:`horaud_finish` (:mod:`classic.registry`)."""
     # L(a) - W(b) written out with d = a - b and s = a + b ((w, x, y, z) indices 0..3)
     d = quat_xyzw_to_wxyz(m.q_A) - quat_xyzw_to_wxyz(m.q_B)
     s = m.q_A[:, :3] + m.q_B[:, :3]  # s1, s2, s3
@@ -67,11 +61,15 @@ def _horaud_core(m: Motions) -> dict:
     return {"M": D.T @ D, **translation_stats(m)}
 
 
-_horaud_stats = split_near_half_turns(_horaud_core)
+horaud_stats = split_near_half_turns(_horaud_core)
 
 
-def _horaud_finish(st: dict) -> np.ndarray:
+def horaud_finish(st: dict) -> np.ndarray:
+    """``X`` from the summed :func:`horaud_stats` (:mod:`classic.registry`)."""
     st = resolve_near_half_turns(_horaud_core, st)
     _, vecs = np.linalg.eigh(st["M"])
     R_X = matrix_from_quat_xyzw(quat_wxyz_to_xyzw(vecs[:, 0]))
     return make_transform(R_X, translation_from_stats(st, R_X))
+
+
+register(Solver("horaud", "AX=XB", "Horaud-Dornaika 1995: unit quaternions", 30, horaud_stats, horaud_finish))

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from classic._linear import check_motions, normalize_rotation
+from classic.registry import Solver, register
 from handeye.core.se3 import make_transform
 
-__all__ = ["li"]
+__all__ = ["li", "li_solve"]
 
 
 def li(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -28,14 +29,8 @@ def li(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Built on rotation matrices, so no quaternion sign enters: motions near a half turn need no
     care (checked up to 180 degrees, tests/classic/test_half_turn.py).
 
-    Parameters
-    ----------
-    A : array, shape (N, 4, 4)
-    B : array, shape (N, 4, 4)
-
-    Returns
-    -------
-    X, Y : array, shape (4, 4)
+    Parameters and return: those of every AX=YB solver (:mod:`classic.registry`): poses ``A``, ``B`` of shape
+    ``(N, 4, 4)``, ``X, Y`` of shape ``(4, 4)``.
 
     References
     ----------
@@ -44,10 +39,11 @@ def li(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     2010.
     """
     A, B = check_motions(A, B, 3, "li")
-    return _li(A, B)
+    return li_solve(A, B)
 
 
-def _li(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def li_solve(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`li` on poses already validated (:mod:`classic.registry`)."""
     n = len(A)
     R_A, R_B, t_A, t_B = A[:, :3, :3], B[:, :3, :3], A[:, :3, 3], B[:, :3, 3]
     I3 = np.eye(3)
@@ -64,3 +60,6 @@ def _li(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     R_X = normalize_rotation(x[:9].reshape(3, 3))
     R_Y = normalize_rotation(x[9:18].reshape(3, 3))
     return make_transform(R_X, x[18:21]), make_transform(R_Y, x[21:24])
+
+
+register(Solver("li", "AX=YB", "Li-Wang-Wu 2010: Kronecker product, joint linear solve", 70, solve=li_solve))

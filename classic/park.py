@@ -12,9 +12,10 @@ from classic._linear import (
     translation_stats,
 )
 from classic.motions import Motions, motions_from_transforms
+from classic.registry import Solver, register
 from handeye.core.se3 import make_transform, project_to_so3
 
-__all__ = ["park"]
+__all__ = ["park", "park_stats", "park_finish"]
 
 
 def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -36,16 +37,8 @@ def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     quaternion sign is aligned to the robot side's (:mod:`classic._linear`) and its log taken
     on that branch (an angle past ``pi`` where needed).
 
-    Parameters
-    ----------
-    A : array, shape (K, 4, 4)
-        Robot motions.
-    B : array, shape (K, 4, 4)
-        Camera motions.
-
-    Returns
-    -------
-    X : array, shape (4, 4)
+    Parameters and return: those of every AX=XB solver (:mod:`classic.registry`): motions ``A``, ``B`` of
+    shape ``(K, 4, 4)``, ``X`` of shape ``(4, 4)``.
 
     References
     ----------
@@ -53,17 +46,22 @@ def park(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     Euclidean group", IEEE Trans. Robotics and Automation 10(5), 1994.
     """
     A, B = check_motions(A, B, 2, "park")
-    return _park_finish(_park_stats(motions_from_transforms(A, B)))
+    return park_finish(park_stats(motions_from_transforms(A, B)))
 
 
 def _park_core(m: Motions) -> dict:
+    """A chunk's statistics for :func:`park_finish` (:mod:`classic.registry`)."""
     return {"M": m.rotvec_B.T @ m.rotvec_A, **translation_stats(m)}
 
 
-_park_stats = split_near_half_turns(_park_core)
+park_stats = split_near_half_turns(_park_core)
 
 
-def _park_finish(st: dict) -> np.ndarray:
+def park_finish(st: dict) -> np.ndarray:
+    """``X`` from the summed :func:`park_stats` (:mod:`classic.registry`)."""
     st = resolve_near_half_turns(_park_core, st)
     R_X = project_to_so3(st["M"].T)
     return make_transform(R_X, translation_from_stats(st, R_X))
+
+
+register(Solver("park", "AX=XB", "Park-Martin 1994: rotation logs, polar factor", 20, park_stats, park_finish))

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from classic.residuals import pose_residuals
-from classic.shah import _shah
+from classic.shah import shah_solve
 from handeye.core.errors import DegenerateMotionError
 
 __all__ = ["INLIER_FACTOR", "CONFIDENCE", "MIN_ITERATIONS", "RansacResult", "lmeds_inliers", "pose_error_m"]
@@ -80,7 +80,7 @@ def pose_error_m(A: np.ndarray, B: np.ndarray, X: np.ndarray, Y: np.ndarray, L: 
 
 def _solve(A, B):
     # Shah solves A_i X' = Y' B_i with X' the target pose and Y' the camera pose
-    Y_target, X_cam = _shah(A, B)
+    Y_target, X_cam = shah_solve(A, B)
     return X_cam, Y_target
 
 

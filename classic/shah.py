@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from classic._linear import check_motions, normalize_rotation
+from classic.registry import Solver, register
 from handeye.core.se3 import make_transform
 
-__all__ = ["shah", "translations_axyb"]
+__all__ = ["shah", "shah_solve", "translations_axyb"]
 
 
 def shah(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -29,14 +30,8 @@ def shah(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``Y = T_base_cam``; eye-in-hand ``A = T_ee_base``, ``B = T_cam_target``
     give ``X = T_base_target``, ``Y = T_ee_cam``.
 
-    Parameters
-    ----------
-    A : array, shape (N, 4, 4)
-    B : array, shape (N, 4, 4)
-
-    Returns
-    -------
-    X, Y : array, shape (4, 4)
+    Parameters and return: those of every AX=YB solver (:mod:`classic.registry`): poses ``A``, ``B`` of shape
+    ``(N, 4, 4)``, ``X, Y`` of shape ``(4, 4)``.
 
     References
     ----------
@@ -44,10 +39,11 @@ def shah(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Kronecker product", J. Mechanisms and Robotics 5(3), 2013.
     """
     A, B = check_motions(A, B, 3, "shah")
-    return _shah(A, B)
+    return shah_solve(A, B)
 
 
-def _shah(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def shah_solve(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`shah` on poses already validated (:mod:`classic.registry`)."""
     T = np.einsum("kab,kcd->acbd", B[:, :3, :3], A[:, :3, :3]).reshape(9, 9)
     U, _, Vt = np.linalg.svd(T)
     R_X = normalize_rotation(Vt[0].reshape(3, 3).T)
@@ -75,3 +71,6 @@ def translations_axyb(A: np.ndarray, B: np.ndarray, R_Y: np.ndarray) -> tuple[np
     rhs = B[:, :3, 3] @ R_Y.T - A[:, :3, 3]
     x = np.linalg.lstsq(M.reshape(-1, 6), rhs.reshape(-1), rcond=None)[0]
     return x[:3], x[3:]
+
+
+register(Solver("shah", "AX=YB", "Shah 2013: Kronecker product, singular vectors", 60, solve=shah_solve))

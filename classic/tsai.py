@@ -12,9 +12,10 @@ from classic._linear import (
     translation_stats,
 )
 from classic.motions import Motions, motions_from_transforms
+from classic.registry import Solver, register
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
 
-__all__ = ["tsai"]
+__all__ = ["tsai", "tsai_stats", "tsai_finish"]
 
 
 def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -40,16 +41,8 @@ def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     which can pair opposite signs: on motions near a half turn it can be many degrees off where
     this one is not (docs/benchmarks/classic.md, "Motions near a half turn").
 
-    Parameters
-    ----------
-    A : array, shape (K, 4, 4)
-        Robot motions, e.g. from :func:`classic.motion_pairs`.
-    B : array, shape (K, 4, 4)
-        Camera motions.
-
-    Returns
-    -------
-    X : array, shape (4, 4)
+    Parameters and return: those of every AX=XB solver (:mod:`classic.registry`): motions ``A``, ``B`` of
+    shape ``(K, 4, 4)``, ``X`` of shape ``(4, 4)``.
 
     References
     ----------
@@ -58,10 +51,11 @@ def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     5(3), 1989.
     """
     A, B = check_motions(A, B, 2, "tsai")
-    return _tsai_finish(_tsai_stats(motions_from_transforms(A, B)))
+    return tsai_finish(tsai_stats(motions_from_transforms(A, B)))
 
 
 def _tsai_core(m: Motions) -> dict:
+    """A chunk's statistics for :func:`tsai_finish` (:mod:`classic.registry`)."""
     s = 2.0 * (m.q_A[:, :3] + m.q_B[:, :3])
     d = 2.0 * (m.q_B[:, :3] - m.q_A[:, :3])
     # normal equations of [s]x x = d: sum [s]x^T [s]x = sum(|s|^2) I - s^T s, sum [s]x^T d = -sum s x d
@@ -77,13 +71,17 @@ def _tsai_core(m: Motions) -> dict:
     return {"G": np.trace(sTs) * np.eye(3) - sTs, "rhs": -(np.ones(len(m)) @ s_x_d), **translation_stats(m)}
 
 
-_tsai_stats = split_near_half_turns(_tsai_core)
+tsai_stats = split_near_half_turns(_tsai_core)
 
 
-def _tsai_finish(st: dict) -> np.ndarray:
+def tsai_finish(st: dict) -> np.ndarray:
+    """``X`` from the summed :func:`tsai_stats` (:mod:`classic.registry`)."""
     st = resolve_near_half_turns(_tsai_core, st)
     x = np.linalg.lstsq(st["G"], st["rhs"], rcond=None)[0]
     P_X = 2.0 * x / np.sqrt(1.0 + x @ x)
     q_v = 0.5 * P_X
     R_X = matrix_from_quat_xyzw(np.append(q_v, np.sqrt(max(0.0, 1.0 - q_v @ q_v))))
     return make_transform(R_X, translation_from_stats(st, R_X))
+
+
+register(Solver("tsai", "AX=XB", "Tsai-Lenz 1989: modified Rodrigues vectors", 10, tsai_stats, tsai_finish))

@@ -32,7 +32,7 @@ from handeye.core.errors import BagError, BagTopicError, RecordingError
 from handeye.core.limits import check_image_bytes
 from handeye.recording_checks import check_camera_matrix, check_depth_frame, check_depth_stream, check_joint_names
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
-from handeye.ros_bag import IMAGE_TYPE, _connections, _messages, _open, _stamp_ns, image_array
+from handeye.ros_bag import IMAGE_TYPE, bag_messages, image_array, open_bag, stamp_ns, topic_connections
 
 __all__ = ["INFO_TYPE", "JOINTS_TYPE", "COMPRESSED_TYPE", "read_camera_bag"]
 
@@ -171,21 +171,21 @@ def read_camera_bag(
     if depth_unit_m is not None and not (np.isfinite(depth_unit_m) and depth_unit_m > 0):
         raise RecordingError(f"depth_unit_m must be finite and > 0, got {depth_unit_m!r}")
     image_types = (IMAGE_TYPE, COMPRESSED_TYPE)
-    with _open(bag) as reader:
+    with open_bag(bag) as reader:
         name = str(Path(reader.paths[0]))
-        conns = _connections(reader, name, color_topic, image_types) + _connections(
+        conns = topic_connections(reader, name, color_topic, image_types) + topic_connections(
             reader, name, info_topic, (INFO_TYPE,)
         )
         if depth_topic:
-            conns += _connections(reader, name, depth_topic, image_types)
+            conns += topic_connections(reader, name, depth_topic, image_types)
         if joints_topic:
-            conns += _connections(reader, name, joints_topic, (JOINTS_TYPE,))
+            conns += topic_connections(reader, name, joints_topic, (JOINTS_TYPE,))
         streams = {t: {"stamps": [], "items": []} for t in (color_topic, info_topic, depth_topic, joints_topic) if t}
         joint_samples = []
         joint_names = None
         info = None
-        for conn, msg in _messages(reader, name, conns):
-            stamp = _stamp_ns(msg.header)
+        for conn, msg in bag_messages(reader, name, conns):
+            stamp = stamp_ns(msg.header)
             where = f"{name}, {conn.topic} at stamp {stamp}"
             if conn.topic == info_topic:
                 intr = _intrinsics(msg, where)

@@ -41,7 +41,19 @@ from handeye.core.se3 import transform_from_pos_quat_xyzw
 from handeye.tf_tree import QUAT_NORM_TOL, TfTree
 from handeye.time_pairing import PairedPoses, pair_by_time
 
-__all__ = ["POSE_TYPES", "IMAGE_ENCODINGS", "BagRecording", "BagImages", "read_bag", "read_images", "image_array"]
+__all__ = [
+    "POSE_TYPES",
+    "IMAGE_ENCODINGS",
+    "BagRecording",
+    "BagImages",
+    "read_bag",
+    "read_images",
+    "image_array",
+    "open_bag",
+    "topic_connections",
+    "bag_messages",
+    "stamp_ns",
+]
 
 TF_TYPE = "tf2_msgs/msg/TFMessage"
 POSE_TYPES = (
@@ -174,8 +186,18 @@ def _bag_dir(path: Path) -> Path:
 
 
 @contextmanager
-def _open(bag):
-    """An open ``rosbags.highlevel.AnyReader`` on the bag; reader errors become :class:`NotABagError`."""
+def open_bag(bag):
+    """An open ``rosbags.highlevel.AnyReader`` on the bag; reader errors become :class:`NotABagError`.
+
+    Parameters
+    ----------
+    bag : str or Path
+        The bag's folder (or its storage file).
+
+    Yields
+    ------
+    rosbags.highlevel.AnyReader
+    """
     require_package("rosbags", extra="ros", purpose="reading ROS 2 bags")
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
@@ -372,8 +394,25 @@ def _check_mcap_summary(path: Path, chunks: dict, index: list, schemas: set, cha
             )
 
 
-def _connections(reader, bag, topic: str, types: tuple, required: bool = True) -> list:
-    """The topic's connections, checked to carry one of ``types``."""
+def topic_connections(reader, bag, topic: str, types: tuple, required: bool = True) -> list:
+    """The topic's connections, checked to carry one of ``types``.
+
+    Parameters
+    ----------
+    reader : rosbags.highlevel.AnyReader
+        From :func:`open_bag`.
+    bag : str
+        The bag's name in messages.
+    topic : str
+    types : tuple of str
+        Message types accepted (``sensor_msgs/msg/Image``).
+    required : bool
+        Whether a missing topic raises :class:`BagTopicError` (else: no connections).
+
+    Returns
+    -------
+    list of rosbags connections
+    """
     conns = [c for c in reader.connections if c.topic == topic]
     if not conns and required:
         topics = sorted({(c.topic, c.msgtype.split("/")[-1]) for c in reader.connections})
@@ -405,9 +444,21 @@ def _check_counts(bag, conns, seen: dict) -> None:
             )
 
 
-def _messages(reader, bag, conns):
+def bag_messages(reader, bag, conns):
     """``(connection, message)`` in bag order; a record the storage cannot read or a message that cannot be
-    decoded is a :class:`BagError` naming the bag (and the topic)."""
+    decoded is a :class:`BagError` naming the bag (and the topic).
+
+    Parameters
+    ----------
+    reader, bag
+        As for :func:`topic_connections`.
+    conns : list
+        From :func:`topic_connections`.
+
+    Yields
+    ------
+    (connection, message)
+    """
     records = iter(reader.messages(connections=conns))
     count = 0
     seen: dict = {}
@@ -430,7 +481,17 @@ def _messages(reader, bag, conns):
         yield conn, message
 
 
-def _stamp_ns(header) -> int:
+def stamp_ns(header) -> int:
+    """A ROS ``std_msgs/Header``'s stamp in integer nanoseconds.
+
+    Parameters
+    ----------
+    header : std_msgs/msg/Header
+
+    Returns
+    -------
+    int
+    """
     return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
 
 
@@ -483,17 +544,17 @@ def read_bag(
         position that is not finite or beyond :data:`handeye.core.limits.ABSURD_TRANSLATION_M`, a chain that
         never moves.
     """
-    with _open(bag) as reader:
+    with open_bag(bag) as reader:
         name = str(reader.paths[0])
-        static_conns = _connections(reader, name, tf_static_topic, (TF_TYPE,), required=False)
-        tf_conns = _connections(reader, name, tf_topic, (TF_TYPE,)) + static_conns
-        cam_conns = _connections(reader, name, marker_topic, POSE_TYPES) if marker_topic else []
+        static_conns = topic_connections(reader, name, tf_static_topic, (TF_TYPE,), required=False)
+        tf_conns = topic_connections(reader, name, tf_topic, (TF_TYPE,)) + static_conns
+        cam_conns = topic_connections(reader, name, marker_topic, POSE_TYPES) if marker_topic else []
         tf = {"parents": [], "children": [], "stamps": [], "t": [], "q": [], "static": []}
         cam = {"stamps": [], "t": [], "q": [], "frames": set()}
-        for conn, msg in _messages(reader, name, tf_conns + cam_conns):
+        for conn, msg in bag_messages(reader, name, tf_conns + cam_conns):
             if conn.topic == marker_topic:
                 t, q = _pose_of(msg, conn.msgtype)
-                cam["stamps"].append(_stamp_ns(msg.header))
+                cam["stamps"].append(stamp_ns(msg.header))
                 cam["t"].append(t)
                 cam["q"].append(q)
                 cam["frames"].add(msg.header.frame_id.lstrip("/"))
@@ -501,7 +562,7 @@ def read_bag(
             for tr in msg.transforms:
                 tf["parents"].append(tr.header.frame_id)
                 tf["children"].append(tr.child_frame_id)
-                tf["stamps"].append(_stamp_ns(tr.header))
+                tf["stamps"].append(stamp_ns(tr.header))
                 r, p = tr.transform.rotation, tr.transform.translation
                 tf["t"].append((p.x, p.y, p.z))
                 tf["q"].append((r.x, r.y, r.z, r.w))
@@ -609,18 +670,18 @@ def read_images(bag, topic: str, order: str = "bgr", every: int = 1) -> BagImage
     """
     if order not in ("bgr", "rgb") or every < 1:
         raise BagError(f"order must be 'bgr' or 'rgb' and every >= 1, got {order!r}, {every!r}")
-    with _open(bag) as reader:
+    with open_bag(bag) as reader:
         name = str(reader.paths[0])
-        conns = _connections(reader, name, topic, (IMAGE_TYPE,))
+        conns = topic_connections(reader, name, topic, (IMAGE_TYPE,))
         stamps, images, encodings, frames = [], [], [], set()
-        for k, (_, msg) in enumerate(_messages(reader, name, conns)):
+        for k, (_, msg) in enumerate(bag_messages(reader, name, conns)):
             if k % every:
                 continue
             try:
                 images.append(image_array(msg, order))
             except BagError as exc:
                 raise BagError(f"{name}, {topic}: {exc}") from None
-            stamps.append(_stamp_ns(msg.header))
+            stamps.append(stamp_ns(msg.header))
             encodings.append(msg.encoding)
             frames.add(msg.header.frame_id.lstrip("/"))
         origin = int(reader.start_time)

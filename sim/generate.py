@@ -45,7 +45,15 @@ from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
 from sim.sensors import DepthSensor, apply_sensor, draw_systematic, sensor_profile
 
-__all__ = ["NoiseModel", "DEFAULT_NOISE", "DEPTH_SCALE_M", "GenerationReport", "generate", "dataset_meta"]
+__all__ = [
+    "NoiseModel",
+    "DEFAULT_NOISE",
+    "DEPTH_SCALE_M",
+    "GenerationReport",
+    "ShardRenderer",
+    "generate",
+    "dataset_meta",
+]
 
 #: Depth PNG unit: 0.1 mm, so 16 bits cover 6.5 m.
 DEPTH_SCALE_M = 1e-4
@@ -221,8 +229,16 @@ def _camera_table(cams, sensor: DepthSensor | None = None, seed: int = 0) -> dic
 # ------------------------------------------------------------------ worker
 
 
-class _ShardRenderer:
-    """One process's robot and renderers (the OpenGL context lives and dies with the process)."""
+class ShardRenderer:
+    """One process's robot and renderers (the OpenGL context lives and dies with the process).
+
+    :func:`generate`'s workers hold one each; ``benchmarks/dense_sim_cost.py`` times one in its own process.
+
+    Parameters
+    ----------
+    meta : dict
+        The dataset's metadata (:func:`dataset_meta`), its recipe included.
+    """
 
     def __init__(self, meta: dict):
         from classic.vision.board import BoardSpec
@@ -349,13 +365,13 @@ class _ShardRenderer:
         return len(rows)
 
 
-_WORKER: _ShardRenderer | None = None
+_WORKER: ShardRenderer | None = None
 
 
 def _init_worker(meta: dict) -> None:
     global _WORKER
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    _WORKER = _ShardRenderer(meta)
+    _WORKER = ShardRenderer(meta)
 
 
 def _work(args) -> tuple[int, int]:

@@ -23,7 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from classic.vision.dictionaries import BoardSpecError, _dictionary_size, dictionary_id
+from classic.vision.dictionaries import BoardSpecError, dictionary_id, dictionary_size
 from handeye.core.safe_write import write_text_atomic
 
 __all__ = ["BoardSpec", "BoardSpecError", "KINDS", "dictionary_id"]
@@ -113,7 +113,7 @@ class BoardSpec:
                 f"{self.square_length_m} m (swapped?)"
             )
         n_markers = self.n_markers
-        size = _dictionary_size(self.dictionary)
+        size = dictionary_size(self.dictionary)
         if n_markers > size:
             raise BoardSpecError(
                 f"a {self.squares_x}x{self.squares_y} {name} needs {n_markers} markers; "

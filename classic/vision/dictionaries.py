@@ -10,7 +10,7 @@ import cv2
 
 from handeye.core.errors import HandEyeInputError
 
-__all__ = ["BoardSpecError", "dictionary_id"]
+__all__ = ["BoardSpecError", "dictionary_id", "dictionary_size"]
 
 
 class BoardSpecError(HandEyeInputError):
@@ -41,5 +41,16 @@ def dictionary_id(name: str) -> int:
     return int(getattr(cv2.aruco, names[key]))
 
 
-def _dictionary_size(name: str) -> int:
+def dictionary_size(name: str) -> int:
+    """How many markers the ArUco dictionary ``name`` holds (a board may use no more).
+
+    Parameters
+    ----------
+    name : str
+        A dictionary name (:func:`dictionary_id`).
+
+    Returns
+    -------
+    int
+    """
     return int(cv2.aruco.getPredefinedDictionary(dictionary_id(name)).bytesList.shape[0])
