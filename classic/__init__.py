@@ -9,7 +9,8 @@ Plain solvers
     :func:`motion_pairs`): :func:`tsai`, :func:`park`, :func:`horaud`,
     :func:`andreff`, :func:`daniilidis` return ``X``.
     AX=YB on absolute poses ``A_i X = Y B_i``: :func:`shah`, :func:`li` return
-    ``(X, Y)``.
+    ``(X, Y)``. Each registers itself by name in :mod:`classic.registry`, which
+    describes the parameters they share; :func:`calibrate`'s ``method`` reads it.
 
 Front
     :func:`calibrate` takes ``T_base_ee`` and ``T_cam_target`` for either
