@@ -58,6 +58,7 @@ never returned as a calibration. What it achieves: ``docs/benchmarks/markerless.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
@@ -68,7 +69,13 @@ from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
 from classic.markerless.intrinsics import camera_matrix, intrinsics_summary, intrinsics_vector, rays_for
 from classic.markerless.kinematics import JOINT_OFFSET_PRIORS_DEG, joint_offsets_summary, joint_status, moved_surface
-from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, corrected_points, solve_point_to_plane
+from classic.markerless.point_to_plane import (
+    MatchedModel,
+    PlaneFit,
+    PlaneFitOptions,
+    corrected_points,
+    solve_point_to_plane,
+)
 from classic.markerless.visibility import project, visible_points
 from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
 from handeye.core.metrics import pose_error
@@ -738,10 +745,11 @@ class _Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q_obs, q, has_depth, close
 
-    def _solve(self, T, m, f, q_obs, iterations, depth_start, covariance=True, intrinsics_start=None):
-        """Point-to-plane fit of fixed matches (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``,
-        the depth correction ``depth_start`` ``(k, c)`` and the intrinsics ``intrinsics_start`` (the current
-        ones by default); returns the fit and the median expected residual."""
+    def _solve(self, T, matches, iterations, covariance=True):
+        """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
+        and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
+        residual."""
+        m, f, q_obs = matches
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
         estimate_depth = self.opts.depth_model == "scale-offset"
@@ -753,7 +761,7 @@ class _Problem:
         if self.estimate_intrinsics:
             intrinsics = {
                 "intrinsics_K_ref": self.K_given,
-                "intrinsics_start": self.theta if intrinsics_start is None else intrinsics_start,
+                "intrinsics_start": self.theta,
                 "intrinsics_prior": (self.theta_given, self.intrinsics_prior_sigma),
             }
         joints, twists = {}, None
@@ -773,7 +781,7 @@ class _Problem:
             loss="cauchy",
             iterations=iterations,
             covariance=covariance,
-            depth_start=depth_start if estimate_depth else None,
+            depth_start=self.depth_correction if estimate_depth else None,
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
@@ -804,9 +812,7 @@ class _Problem:
         sel = np.flatnonzero(close)
         self.last_matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
-        fit, expected = self._solve(
-            T, *self.last_matches, iterations=iterations, depth_start=self.depth_correction, covariance=covariance
-        )
+        fit, expected = self._solve(T, self.last_matches, iterations, covariance)
         self.adopt(fit)
         return fit, expected
 
@@ -827,16 +833,14 @@ class _Problem:
             delta[self.joint_estimated] = fit.joint_offsets
             self.set_joint_offsets(delta)
 
-    def split_check(self, T, matches, depth_correction, intrinsics=None):
-        """Groups of the frames solved again from the final matches: the sigma their scatter adds
+    def split_check(self, T, matches):
+        """Groups of the frames solved again from the final matches, from the current depth correction, intrinsics
+        and joint offsets (those of the fit that made the matches): the sigma their scatter adds
         (:func:`classic.markerless.consistency.split_excess`)."""
         m, f, q_obs = matches
-        start = depth_correction if depth_correction is not None else (1.0, 0.0)
 
         def solve(mask):
-            fit, _ = self._solve(
-                T, m[mask], f[mask], q_obs[mask], iterations=5, depth_start=start, intrinsics_start=intrinsics
-            )
+            fit, _ = self._solve(T, (m[mask], f[mask], q_obs[mask]), iterations=5)
             return fit.T_base_cam, fit.covariance
 
         return split_excess(solve, f, frame_splits(f, q_obs, self.n))
@@ -926,29 +930,134 @@ def register_robot(
     starts = dict(starts or {})
     for name, T in starts.items():
         check_transforms(T, f"start {name!r}")
-    n = len(depth_m)
-
-    def refuse(reason):  # no pose, no sigma: only the reason and what was seen
-        nan_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
-        return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
-
     problem = _Problem(depth_m, K, surface, opts)
+    n = problem.n
     diag = {"frames": n, "moving_pixels": int(problem.n_moving), "mixed_pixels": problem.n_mixed, "starts": {}}
     if problem.n_moving < opts.min_moving_pixels:
-        return refuse(
+        return _refused(
             f"too few robot pixels: {problem.n_moving} pixels moved between the {n} frames "
-            f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?"
+            f"(at least {opts.min_moving_pixels} needed); is the arm in view and moving?",
+            diag,
         )
     if centroid_start:
         T0 = problem.centroid_start()
         if T0 is not None:
             starts["centroids"] = T0
     if not starts:
-        return refuse("no start: the moving pixels of too few frames to align centroids, and none was given")
+        return _refused("no start: the moving pixels of too few frames to align centroids, and none was given", diag)
     best = _best_of_starts(problem, starts, diag)
     if isinstance(best, str):
-        return refuse(best)
-    matched, name, T, fit, step, (z_med, lever_m), depth_range, matches = best
+        return _refused(best, diag)
+    return _result(problem, best, diag)
+
+
+def _refused(reason: str, diag: dict) -> MarkerlessResult:
+    """A refusal: no pose, no sigma; only the reason and what was seen."""
+    n = diag["frames"]
+    nan_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
+    return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
+
+
+class _Outcome(NamedTuple):
+    """The fine stage's outcome from one start."""
+
+    matched: float  # the visible model's fraction landing on the observed surface
+    name: str  # the start's
+    T: np.ndarray  # T_base_cam
+    fit: PlaneFit  # the last fit, on the last matches
+    step: float  # the last step, rad + m
+    geometry: tuple  # the matched points' median depth and RMS spread about their centroid, metres
+    depth_range: tuple  # their depths' 10th and 90th percentiles, metres
+    matches: tuple  # (model points, frames, observed points) of the last fit
+
+
+def _fine_from(problem: _Problem, name: str, T_start: np.ndarray) -> _Outcome:
+    """Stage 4 from ``T_start``, and what the problem kept of its last association (fit None: too few matches)."""
+    T, fit, step, matched = problem.fine(T_start)
+    if fit is None:
+        return _Outcome(matched, name, T, None, step, None, None, None)
+    return _Outcome(
+        matched, name, T, fit, step, problem.final_geometry, problem.final_depth_range, problem.last_matches
+    )
+
+
+def _best_of_starts(problem: _Problem, starts: dict, diag: dict) -> _Outcome | str:
+    """Stages 3 and 4 from each start in turn, until one clearly succeeds; the best kept, the problem left in its
+    state. Returns its outcome, or the reason none would do."""
+    opts, best = problem.opts, None
+    for name, T_start in starts.items():
+        problem.restart()
+        outcome = _fine_from(problem, name, problem.coarse(np.asarray(T_start, dtype=float)))
+        diag["starts"][name] = {"matched_fraction": round(outcome.matched, 4), "converged_step": float(outcome.step)}
+        if outcome.fit is not None and (best is None or outcome.matched > best.matched):
+            best = outcome
+        if outcome.fit is not None and outcome.matched >= opts.min_matched_fraction + 0.15:
+            break  # a clear success: the other starts cannot do better than the noise
+    if best is None:
+        return "did not converge: no start kept enough matched points"
+    # the best start's depth, intrinsics and joint offsets: a later start may have run since, and the split check
+    # and the reported offsets read the problem's
+    problem.adopt(best.fit)
+    if problem.hold_undetermined(best.fit):  # static parts fitted, the base rotation not determined: absorbed
+        best = _fine_from(problem, best.name, best.T)
+        if best.fit is None:
+            return "did not converge: the fit with the base rotation's offset absorbed kept too few points"
+    return best
+
+
+def _result(problem: _Problem, best: _Outcome, diag: dict) -> MarkerlessResult:
+    """The best start's fit as the answer with its sigma, or refused with the reason; ``diag`` completed."""
+    opts, fit = problem.opts, best.fit
+    z_med, lever_m = best.geometry
+    res_frame, rms_mm, inl = _residuals_mm(fit, problem.n)
+    noise_mm = float(problem.sigma_z(z_med) * 1e3)
+    expected_mm = float(np.hypot(noise_mm, opts.model_floor_m * 1e3))
+    noise = pose_sigma(fit.covariance, best.T[:3, :3])
+    sampling = _sampling_sigma(z_med, lever_m, problem.K_given, opts)
+    # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
+    registration = _registration_terms(opts, fit, problem.theta_given)
+    extrinsic = {
+        "rotation_deg": registration["rotation"]["rss_deg"],
+        "translation_mm": registration["translation"]["rss_mm"],
+    }
+    depth = _depth_summary(fit, opts, best.depth_range, problem.noise_source, noise_mm)
+    refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
+    # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
+    split = None
+    if opts.split_check and not refused:
+        split = problem.split_check(best.T, best.matches)
+    no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
+    diag.update(
+        {
+            "inlier_rms_mm": rms_mm,
+            "expected_rms_mm": expected_mm,
+            "last_step": float(best.step),
+            "matched_points": int(inl.sum()),
+            "fitted_parts": "all" if problem.fitted_part is None else "moving",
+            "sigma_noise": noise,
+            "sigma_sampling": sampling,
+            "sigma_consistency": split,
+        }
+    )
+    return MarkerlessResult(
+        None if refused else best.T,
+        refused,
+        fit.covariance,
+        _in_quadrature(noise, sampling, extrinsic, split or no_split),
+        res_frame,
+        best.matched,
+        best.name,
+        diag,
+        depth,
+        _intrinsics_result(fit, problem),
+        registration=registration,
+        joint_offsets=_joint_offsets_result(fit, problem, opts),
+    )
+
+
+def _residuals_mm(fit: PlaneFit, n: int) -> tuple[np.ndarray, float, np.ndarray]:
+    """The inliers' (weight above 1/2) RMS residual per frame (NaN where none) and over all frames, millimetres,
+    and the inliers."""
     inl = fit.weights > 0.5
     group = fit.group
     res_frame = np.array(
@@ -958,97 +1067,41 @@ def register_robot(
         ]
     )
     rms_mm = float(np.sqrt(np.mean(fit.residuals_m[inl] ** 2)) * 1e3) if inl.any() else np.inf
-    noise_mm = float(problem.sigma_z(z_med) * 1e3)
-    expected_mm = float(np.hypot(noise_mm, opts.model_floor_m * 1e3))
-    cov = fit.covariance
-    R = T[:3, :3]
-    noise = pose_sigma(cov, R)
-    noise_deg, noise_mm_pose = noise["rotation_deg"], noise["translation_mm"]
-    # what all frames share and the covariance cannot see: a model point stands for the surface up to half a
-    # pixel off its ray, off the tangent plane by at most F^2 / (8 r) on a link of radius r; taken as a uniform
-    # error (std = bound / sqrt 3) in translation, and over the matched points' spread in rotation
+    return res_frame, rms_mm, inl
+
+
+def _sampling_sigma(z_med: float, lever_m: float, K: np.ndarray, opts: MarkerlessOptions) -> dict:
+    """What all frames share and the covariance cannot see: the model's sampling bias.
+
+    A model point stands for the surface up to half a pixel off its ray, off the tangent plane by at most
+    ``F^2 / (8 r)`` on a link of radius ``r`` for a pixel footprint ``F``; taken as a uniform error
+    (std = bound / sqrt 3) in translation, and over the matched points' spread ``lever_m`` in rotation.
+    """
     footprint_m = z_med / max(K[0, 0], K[1, 1])
     sampling_mm = footprint_m**2 / (8 * opts.model_radius_m) / np.sqrt(3) * 1e3
-    sampling_deg = float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3)))
-    # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
-    registration = _registration_terms(opts, fit, problem.theta_given)
-    extrinsic_mm, extrinsic_deg = registration["translation"]["rss_mm"], registration["rotation"]["rss_deg"]
-    depth = _depth_summary(fit, opts, depth_range, problem.noise_source, noise_mm)
-    refused = _refusal(opts, matched, rms_mm, expected_mm, step, depth)
-    # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
-    split = (
-        problem.split_check(T, matches, fit.depth_correction, fit.intrinsics)
-        if opts.split_check and not refused
-        else None
-    )
-    split_deg, split_mm = (split["rotation_deg"], split["translation_mm"]) if split else (0.0, 0.0)
-    sigma = {
-        "rotation_deg": float(np.sqrt(noise_deg**2 + sampling_deg**2 + extrinsic_deg**2 + split_deg**2)),
-        "translation_mm": float(np.sqrt(noise_mm_pose**2 + sampling_mm**2 + extrinsic_mm**2 + split_mm**2)),
+    return {
+        "rotation_deg": float(np.degrees(sampling_mm / 1e3 / max(lever_m, 1e-3))),
+        "translation_mm": float(sampling_mm),
     }
-    diag.update(
-        {
-            "inlier_rms_mm": rms_mm,
-            "expected_rms_mm": expected_mm,
-            "last_step": float(step),
-            "matched_points": int(inl.sum()),
-            "fitted_parts": "all" if problem.fitted_part is None else "moving",
-            "sigma_noise": {"rotation_deg": noise_deg, "translation_mm": noise_mm_pose},
-            "sigma_sampling": {"rotation_deg": sampling_deg, "translation_mm": float(sampling_mm)},
-            "sigma_consistency": split,
-        }
-    )
-    intrinsics = {"model": "fixed", "given": [float(x) for x in problem.theta_given]}
-    if fit.intrinsics is not None:
-        intrinsics = intrinsics_summary(
-            fit.intrinsics,
-            fit.intrinsics_covariance,
-            fit.intrinsics_covariance_frames,
-            K,
-            problem.intrinsics_prior_sigma,
-            opts.intrinsics_determined_share,
-        )
-    return MarkerlessResult(
-        None if refused else T,
-        refused,
-        cov,
-        sigma,
-        res_frame,
-        matched,
-        name,
-        diag,
-        depth,
-        intrinsics,
-        registration=registration,
-        joint_offsets=_joint_offsets_result(fit, problem, opts),
-    )
 
 
-def _best_of_starts(problem: _Problem, starts: dict, diag: dict):
-    """Stages 3 and 4 from each start in turn, until one clearly succeeds; the best kept, the problem left in its
-    state. Returns ``(matched, name, T, fit, step, geometry, depth_range, matches)``, or the reason none would do."""
-    opts, best = problem.opts, None
-    for name, T_start in starts.items():
-        problem.restart()
-        T = problem.coarse(np.asarray(T_start, dtype=float))
-        T, fit, step, matched = problem.fine(T)
-        diag["starts"][name] = {"matched_fraction": round(matched, 4), "converged_step": float(step)}
-        if fit is not None and (best is None or matched > best[0]):
-            geometry, depth_range = problem.final_geometry, problem.final_depth_range
-            best = (matched, name, T, fit, step, geometry, depth_range, problem.last_matches)
-        if fit is not None and matched >= opts.min_matched_fraction + 0.15:
-            break  # a clear success: the other starts cannot do better than the noise
-    if best is None:
-        return "did not converge: no start kept enough matched points"
-    # the best start's depth, intrinsics and joint offsets: a later start may have run since, and the split check
-    # and the reported offsets read the problem's
-    problem.adopt(best[3])
-    if problem.hold_undetermined(best[3]):  # static parts fitted, the base rotation not determined: absorbed
-        T, fit, step, matched = problem.fine(best[2])
-        if fit is None:
-            return "did not converge: the fit with the base rotation's offset absorbed kept too few points"
-        best = (matched, best[1], T, fit, step, problem.final_geometry, problem.final_depth_range, problem.last_matches)
-    return best
+def _in_quadrature(*terms: dict) -> dict:
+    """The sigma's terms (each ``rotation_deg`` and ``translation_mm``) added in quadrature."""
+    return {key: float(np.sqrt(sum(t[key] ** 2 for t in terms))) for key in ("rotation_deg", "translation_mm")}
+
+
+def _intrinsics_result(fit: PlaneFit, problem: _Problem) -> dict:
+    """:attr:`MarkerlessResult.intrinsics` of the final fit."""
+    if fit.intrinsics is None:
+        return {"model": "fixed", "given": [float(x) for x in problem.theta_given]}
+    return intrinsics_summary(
+        fit.intrinsics,
+        fit.intrinsics_covariance,
+        fit.intrinsics_covariance_frames,
+        problem.K_given,
+        problem.intrinsics_prior_sigma,
+        problem.opts.intrinsics_determined_share,
+    )
 
 
 def _refusal(opts: MarkerlessOptions, matched: float, rms_mm: float, expected_mm: float, step: float, depth: dict):
