@@ -29,7 +29,7 @@ from handeye.core.dataset import (
     poses_to_columns,
     write_table,
 )
-from handeye.core.engines import check_engine, require_visible, run_tasks
+from handeye.core.engines import EngineOptions, check_engine, require_visible, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.metrics import pose_error
 from handeye.core.safe_write import check_output_path, write_figure_atomic, write_text_atomic
@@ -281,13 +281,11 @@ def label_dataset(
         run_tasks(
             _label_one,
             jobs,
+            EngineOptions(
+                workers=workers, progress=progress, desc=f"label {ds.root.name}", unit="camera", describe=_describe
+            ),
             engine,
-            workers,
             address,
-            progress,
-            desc=f"label {ds.root.name}",
-            unit="camera",
-            describe=_describe,
         )
     )
     labels = {

@@ -1,7 +1,7 @@
 """Generate a dataset: per camera pose a calibration recording and a data recording, in shards.
 
 Each camera pose is one shard, rendered by one worker process
-(:func:`handeye.core.pool.run_pool`) and written by
+(:class:`handeye.core.pool.PoolEngine`) and written by
 :class:`handeye.core.shard_writer.ShardWriter` into ``cam_XXXX.partial``,
 renamed when complete (:mod:`handeye.core.dataset`).
 Everything a shard holds is drawn from ``default_rng([seed, camera_id])``, so
@@ -36,14 +36,15 @@ from handeye.core.dataset import (
     write_json_atomic,
     write_table,
 )
-from handeye.core.engines import check_engine, require_visible, run_tasks
+from handeye.core.engines import EngineOptions, check_engine, require_visible, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.jsonfile import read_json_file
 from handeye.core.se3 import invert_transform
 from handeye.core.shard_writer import ShardWriter
+from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
-from sim.sensors import DepthSensor, apply_sensor, draw_systematic, sensor_profile
+from sim.sensors import apply_sensor, draw_systematic
 
 __all__ = [
     "NoiseModel",
@@ -162,7 +163,7 @@ def dataset_meta(
     """
     from classic.vision.board import BoardSpec
     from classic.vision.camera import CameraIntrinsics
-    from sim.robot import load_robot
+    from handeye.robot.model import load_robot
 
     robot = load_robot(preset.robot)
 
@@ -243,9 +244,9 @@ class ShardRenderer:
     def __init__(self, meta: dict):
         from classic.vision.board import BoardSpec
         from classic.vision.camera import CameraIntrinsics
+        from handeye.robot.model import load_robot
         from sim.lab import T_base_lab, camera_scene
         from sim.render import Renderer
-        from sim.robot import load_robot
 
         self._T_base_lab, self._camera_scene = T_base_lab, camera_scene
         self.meta = meta
@@ -453,7 +454,8 @@ def generate(
         Render only these camera poses (a part of a large preset; the rest stays to do, and a later call
         without ``cameras`` completes it). None: all.
     sensor : DepthSensor or str, optional
-        A depth sensor profile (:data:`sim.sensors.PROFILES` by name, or a :class:`sim.sensors.DepthSensor`):
+        A depth sensor profile (:data:`handeye.robot.depth_sensors.PROFILES` by name, or a
+        :class:`handeye.robot.depth_sensors.DepthSensor`):
         the depth as that camera would report it, with a scale, offset and extrinsic error drawn per placement
         and recorded in ``cameras.csv`` (``depth_scale_true`` ...). It replaces the noise's depth term, which
         must then be 0. None: the noise's depth term alone.
@@ -564,20 +566,17 @@ def _render(
         pending.append(c)
     # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
     # context of the process, so the caller's process never holds one
-    for c, n in run_tasks(
-        _work,
-        [(c, str(out.resolve())) for c in pending],
-        engine,
-        workers,
-        address,
-        progress,
+    options = EngineOptions(
+        workers=workers,
+        progress=progress,
         desc=f"render {out.name}",
         unit="camera",
         initializer=_init_worker,
         initargs=(meta,),
-        isolate=True,
         describe=_describe,
-    ):
+        isolate=True,
+    )
+    for c, n in run_tasks(_work, [(c, str(out.resolve())) for c in pending], options, engine, address):
         report.rendered.append(c)
         report.frames += n
     report.rendered.sort()

@@ -1,4 +1,4 @@
-"""run_pool: results on one and on two processes, a worker's failure raised with its task named."""
+"""PoolEngine: results on one and on two processes, a worker's failure raised with its task named."""
 
 from __future__ import annotations
 
@@ -6,7 +6,9 @@ import os
 
 import pytest
 
-from handeye.core.pool import run_pool
+from handeye.core.engine_protocol import EngineOptions
+from handeye.core.errors import HandEyeInputError
+from handeye.core.pool import PoolEngine
 
 
 def _square(x):
@@ -32,6 +34,10 @@ _INITIALISED = []
 
 def _init(tag):
     _INITIALISED.append(tag)
+
+
+def run_pool(fn, tasks, workers, **options):
+    return PoolEngine().run(fn, tasks, EngineOptions(workers=workers, **options))
 
 
 @pytest.mark.parametrize("workers", [1, 2])
@@ -61,8 +67,8 @@ def test_a_failure_is_raised_with_its_task_named(workers):
 
 
 def test_workers_must_be_positive():
-    with pytest.raises(ValueError, match="workers must be >= 1"):
-        list(run_pool(_square, [1], 0, progress=False))
+    with pytest.raises(HandEyeInputError, match="workers must be >= 1"):
+        EngineOptions(workers=0)
 
 
 def _warn(x):

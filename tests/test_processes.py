@@ -90,7 +90,8 @@ POOL_SCRIPT = textwrap.dedent(
     import os, sys, time
     from pathlib import Path
 
-    from handeye.core.pool import run_pool
+    from handeye.core.engine_protocol import EngineOptions
+    from handeye.core.pool import PoolEngine
 
     def busy(task):
         folder, number = task
@@ -99,7 +100,7 @@ POOL_SCRIPT = textwrap.dedent(
         return number
 
     if __name__ == "__main__":
-        list(run_pool(busy, [(sys.argv[1], k) for k in range(4)], workers=2, progress=False))
+        list(PoolEngine().run(busy, [(sys.argv[1], k) for k in range(4)], EngineOptions(workers=2, progress=False)))
     """
 )
 
@@ -114,9 +115,9 @@ def test_pool_workers_die_with_their_parent_mid_task(tmp_path):
     assert _kill_and_time_orphans(parent, workers) == []
 
 
-RAY_SCRIPT = POOL_SCRIPT.replace("handeye.core.pool import run_pool", "handeye.core.ray_pool import run_ray").replace(
-    "run_pool(busy", "run_ray(busy"
-)
+RAY_SCRIPT = POOL_SCRIPT.replace(
+    "handeye.core.pool import PoolEngine", "handeye.core.ray_pool import RayEngine"
+).replace("PoolEngine().run(busy", "RayEngine().run(busy")
 
 
 def test_ray_workers_of_a_local_cluster_die_with_the_driver(tmp_path):
@@ -144,18 +145,21 @@ def _refuse_to_start():
 
 
 def test_a_worker_killed_mid_task_stops_the_work_instead_of_hanging():
-    """multiprocessing's pool waits for a dead worker's task for ever; run_pool raises (an OSError: one line)."""
-    from handeye.core.pool import WorkerDiedError, run_pool
+    """multiprocessing's pool waits for a dead worker's task for ever; PoolEngine raises (an OSError: one line)."""
+    from handeye.core.engine_protocol import EngineOptions
+    from handeye.core.pool import PoolEngine, WorkerDiedError
 
     with pytest.raises(WorkerDiedError, match="killed by SIGKILL"):
-        list(run_pool(_kill_self_on_one, range(4), workers=2, progress=False))
+        list(PoolEngine().run(_kill_self_on_one, range(4), EngineOptions(workers=2, progress=False)))
 
 
 def test_an_initializer_failure_is_raised_not_restarted_for_ever():
-    from handeye.core.pool import run_pool
+    from handeye.core.engine_protocol import EngineOptions
+    from handeye.core.pool import PoolEngine
 
+    options = EngineOptions(workers=2, progress=False, initializer=_refuse_to_start)
     with pytest.raises(ValueError, match="no renderer") as info:
-        list(run_pool(abs, range(4), workers=2, progress=False, initializer=_refuse_to_start))
+        list(PoolEngine().run(abs, range(4), options))
     assert "while starting the worker process" in info.value.__notes__
 
 
@@ -163,7 +167,7 @@ def test_ctrl_c_is_the_parents_to_handle(tmp_path):
     """Ctrl-C reaches the whole process group: the workers leave it to the parent, which stops the pool; no
     worker prints a traceback (before: one ``KeyboardInterrupt`` traceback per worker)."""
     script = tmp_path / "pool_script.py"
-    run = "    list(run_pool("
+    run = "    list(PoolEngine().run("
     stop = "    except KeyboardInterrupt:\n        sys.exit(130)\n"
     script.write_text(POOL_SCRIPT.replace(run, "    try:\n    " + run) + stop)
     parent = subprocess.Popen(

@@ -16,12 +16,17 @@ ray = pytest.importorskip(
 )
 
 from benchmarks.cluster_engines import differing_files, kill_when_half_written  # noqa: E402
-from handeye.core.ray_pool import ray_worker_ready_keys, run_ray  # noqa: E402
+from handeye.core.engine_protocol import EngineOptions  # noqa: E402
+from handeye.core.ray_pool import RayEngine, ray_worker_ready_keys  # noqa: E402
+
+
+def run_ray(fn, tasks, workers, **options):
+    return RayEngine().run(fn, tasks, EngineOptions(workers=workers, **options))
 
 
 @pytest.fixture(scope="module")
 def local_cluster():
-    """One local 2-CPU Ray cluster for the module (run_ray uses an initialised Ray as is)."""
+    """One local 2-CPU Ray cluster for the module (RayEngine uses an initialised Ray as is)."""
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=256 * 2**20)
     yield
     ray.shutdown()

@@ -10,15 +10,24 @@ import socket
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
+from handeye.core.engine_protocol import DEFAULT_WORKERS, Engine, EngineOptions
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.numbers import cli_int
 from handeye.core.optional import require_package
+from handeye.core.pool import PoolEngine
+from handeye.core.ray_pool import RayEngine
 
-__all__ = ["ENGINES", "DEFAULT_WORKERS", "run_tasks", "check_engine", "require_visible", "add_engine_arguments"]
+__all__ = [
+    "ENGINES",
+    "DEFAULT_WORKERS",
+    "EngineOptions",
+    "run_tasks",
+    "check_engine",
+    "require_visible",
+    "add_engine_arguments",
+]
 
 ENGINES = ("pool", "ray")
-#: Processes of the local pool (and CPUs of a local Ray cluster) when not given.
-DEFAULT_WORKERS = 2
 
 
 def check_engine(engine: str, address: str | None = None, workers: int | None = None) -> None:
@@ -82,52 +91,28 @@ def require_visible(path: str | Path) -> Path:
 def run_tasks(
     fn: Callable,
     tasks: Iterable,
+    options: EngineOptions = EngineOptions(),
     engine: str = "pool",
-    workers: int | None = None,
     address: str | None = None,
-    progress: bool = True,
-    desc: str = "",
-    unit: str = "task",
-    ordered: bool = False,
-    initializer: Callable | None = None,
-    initargs: tuple = (),
-    isolate: bool = False,
-    describe: Callable[[object], str] = repr,
 ) -> Iterator:
-    """Yield ``fn(task)`` for every task, on the chosen engine.
+    """Yield ``fn(task)`` for every task, on the engine named ``engine`` (at ``address``).
 
     Parameters
     ----------
-    fn, tasks, progress, desc, unit, ordered, initializer, initargs, describe
-        As :func:`handeye.core.pool.run_pool`.
+    fn, tasks, options
+        As :meth:`Engine.run <handeye.core.engine_protocol.Engine.run>`, which says what is yielded and
+        raised: the same for either engine.
     engine : {"pool", "ray"}
-        ``pool``: spawned processes on this machine; ``ray``: :func:`handeye.core.ray_pool.run_ray`.
-    workers : int, optional
-        Processes (pool), or tasks in flight (Ray); None: :data:`DEFAULT_WORKERS`, or all the CPUs of a Ray
-        cluster given by ``address``.
+        ``pool``: spawned processes on this machine (:class:`~handeye.core.pool.PoolEngine`); ``ray``: a Ray
+        cluster (:class:`~handeye.core.ray_pool.RayEngine`).
     address : str, optional
         A running Ray cluster (Ray engine only); None starts a local one.
-    isolate : bool
-        Pool only: run in a worker process even with one worker (Ray tasks always run in workers).
-
-    Yields
-    ------
-    object
-        ``fn(task)``.
 
     Raises
     ------
     HandEyeInputError
-        A bad engine, address or worker count.
+        A bad engine or address (a bad worker count is refused by :class:`EngineOptions`).
     """
-    check_engine(engine, address, workers)
-    if engine == "ray":
-        from handeye.core.ray_pool import run_ray
-
-        n = workers if workers is not None or address is not None else DEFAULT_WORKERS
-        yield from run_ray(fn, tasks, n, address, progress, desc, unit, ordered, initializer, initargs, describe)
-        return
-    from handeye.core.pool import run_pool
-
-    n = DEFAULT_WORKERS if workers is None else workers
-    yield from run_pool(fn, tasks, n, progress, desc, unit, ordered, initializer, initargs, isolate, describe)
+    check_engine(engine, address)
+    chosen: Engine = RayEngine(address) if engine == "ray" else PoolEngine()
+    yield from chosen.run(fn, tasks, options)

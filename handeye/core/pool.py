@@ -2,7 +2,7 @@
 
 Workers are spawned (never forked: OpenGL, OpenCV and torch state does not
 survive a fork), so ``fn``, ``initializer`` and the tasks must be picklable
-(module-level functions, plain data), and a script calling :func:`run_pool`
+(module-level functions, plain data), and a script calling :meth:`PoolEngine.run`
 must guard its entry point with ``if __name__ == "__main__":``.
 
 Workers die with the process that started them, however it ends (``kill -9`` included), so no worker
@@ -13,13 +13,14 @@ its parent before each task.
 
 Example::
 
-    from handeye.core.pool import run_pool
+    from handeye.core.engine_protocol import EngineOptions
+    from handeye.core.pool import PoolEngine
 
     def square(x):
         return x * x
 
     if __name__ == "__main__":
-        for x2 in run_pool(square, range(10), workers=2, desc="squares", ordered=True):
+        for x2 in PoolEngine().run(square, range(10), EngineOptions(workers=2, desc="squares", ordered=True)):
             print(x2)
 """
 
@@ -37,10 +38,10 @@ import warnings
 from collections.abc import Callable, Iterable, Iterator
 from multiprocessing.reduction import ForkingPickler
 
+from handeye.core.engine_protocol import DEFAULT_WORKERS, EngineOptions
 from handeye.core.limits import one_line
-from handeye.core.optional import require_package
 
-__all__ = ["run_pool", "WorkerDiedError", "PARENT_POLL_S", "WORKER_CHECK_S"]
+__all__ = ["PoolEngine", "NamedTask", "WorkerDiedError", "PARENT_POLL_S", "WORKER_CHECK_S"]
 
 #: Where the kernel cannot kill a worker with its parent (not Linux): seconds between a watchdog's checks.
 PARENT_POLL_S = 0.5
@@ -114,8 +115,9 @@ def _start_worker(parent_pid: int, payload: bytes) -> None:
         _INIT_FAILURE = exc
 
 
-class _Named:
-    """``fn`` of one task, re-raising a failure with the task named (a note on the exception)."""
+class NamedTask:
+    """``fn`` of one task, re-raising a failure with the task named (a note on the exception); in a pool worker
+    it first ends an orphaned worker and re-raises its initializer's failure (a no-op in any other process)."""
 
     def __init__(self, fn: Callable, describe: Callable[[object], str]):
         self.fn, self.describe = fn, describe
@@ -158,97 +160,61 @@ def _death(process) -> str:
     return f"a worker process (pid {process.pid}) {how} in the middle of the work; the work was stopped"
 
 
-def run_pool(
-    fn: Callable,
-    tasks: Iterable,
-    workers: int = 2,
-    progress: bool = True,
-    desc: str = "",
-    unit: str = "task",
-    ordered: bool = False,
-    initializer: Callable | None = None,
-    initargs: tuple = (),
-    isolate: bool = False,
-    describe: Callable[[object], str] = repr,
-) -> Iterator:
-    """Yield ``fn(task)`` for every task, computed on ``workers`` spawned processes.
+class PoolEngine:
+    """The :class:`~handeye.core.engine_protocol.Engine` of this machine: ``workers`` spawned processes.
 
-    Parameters
-    ----------
-    fn : callable
-        A module-level function of one task.
-    tasks : iterable
-        The tasks (each picklable).
-    workers : int
-        Processes, at most one per task; 1 runs in this process unless ``isolate``.
-    progress : bool
-        A progress bar on stderr (``tqdm``: ``pip install "handeye[sim]"``).
-    desc, unit : str
-        The progress bar's label and unit.
-    ordered : bool
-        Results in the order of the tasks; False (default) yields each as it completes.
-    initializer : callable, optional
-        Called once in each worker process with ``initargs`` (in this process when run in it), after the
-        worker has armed its death with this process.
-    initargs : tuple
-    isolate : bool
-        Run in a worker process even with ``workers=1`` (work that must not touch this process's state,
-        such as an OpenGL context).
-    describe : callable
-        Names a task in the message of its failure (module-level, picklable); default ``repr``.
-
-    Yields
-    ------
-    object
-        ``fn(task)``, in task order when ``ordered``, else as completed.
-
-    Raises
-    ------
-    Exception
-        The first exception a task (or a worker's ``initializer``) raises, of its own type, with the note
-        ``while running task ...`` (its ``__notes__``, printed under its traceback); the remaining work is
-        stopped.
-    WorkerDiedError
-        A worker process died (killed, out of memory) before its task returned; the remaining work is stopped.
+    One worker runs the tasks in this process, unless ``options.isolate``. A task's failure or a
+    worker's death stops the remaining work.
 
     Examples
     --------
-    >>> list(run_pool(abs, [-1, 2, -3], workers=1, progress=False, ordered=True))
+    >>> list(PoolEngine().run(abs, [-1, 2, -3], EngineOptions(workers=1, progress=False, ordered=True)))
     [1, 2, 3]
     """
-    if workers < 1:
-        raise ValueError(f"workers must be >= 1, got {workers}")
-    tasks = list(tasks)
-    if not tasks:
-        return
-    call = _Named(fn, describe)
-    bar = None
-    if progress:
-        tqdm = require_package("tqdm", extra="sim", purpose="a progress bar").tqdm
-        bar = tqdm(total=len(tasks), desc=desc, unit=unit, file=sys.stderr)
-    pool, finished = None, False
-    try:
-        if workers == 1 and not isolate:
-            if initializer is not None:
-                initializer(*initargs)
-            results = map(call, tasks)
-        else:
-            payload = bytes(ForkingPickler.dumps((initializer, initargs)))  # as the pool pickles its arguments
-            pool = multiprocessing.get_context("spawn").Pool(
-                min(workers, len(tasks)), _start_worker, (os.getpid(), payload)
-            )
-            results = _watched(pool, (pool.imap if ordered else pool.imap_unordered)(call, tasks), len(tasks))
-        for result in results:
+
+    def run(self, fn: Callable, tasks: Iterable, options: EngineOptions = EngineOptions()) -> Iterator:
+        """Yield ``fn(task)`` for every task, computed on ``options.workers`` processes (at most one per task).
+
+        Parameters, yields and exceptions as :meth:`Engine.run <handeye.core.engine_protocol.Engine.run>`;
+        ``options.workers`` None: :data:`~handeye.core.engine_protocol.DEFAULT_WORKERS`.
+
+        Raises
+        ------
+        WorkerDiedError
+            A worker process died (killed, out of memory) before its task returned; the remaining work is
+            stopped.
+        """
+        tasks = list(tasks)
+        if not tasks:
+            return
+        workers = options.workers or DEFAULT_WORKERS
+        call = NamedTask(fn, options.describe)
+        bar = options.progress_bar(len(tasks))
+        pool, finished = None, False
+        try:
+            if workers == 1 and not options.isolate:
+                if options.initializer is not None:
+                    options.initializer(*options.initargs)
+                results = map(call, tasks)
+            else:
+                # the caller's initializer as the pool pickles its arguments, unpickled after the death signal
+                payload = bytes(ForkingPickler.dumps((options.initializer, options.initargs)))
+                pool = multiprocessing.get_context("spawn").Pool(
+                    min(workers, len(tasks)), _start_worker, (os.getpid(), payload)
+                )
+                imap = pool.imap if options.ordered else pool.imap_unordered
+                results = _watched(pool, imap(call, tasks), len(tasks))
+            for result in results:
+                if bar is not None:
+                    bar.update(1)
+                yield result
+            finished = True
+        finally:
+            if pool is not None:
+                if finished:
+                    pool.close()
+                else:  # a failure: stop the remaining work
+                    pool.terminate()
+                pool.join()
             if bar is not None:
-                bar.update(1)
-            yield result
-        finished = True
-    finally:
-        if pool is not None:
-            if finished:
-                pool.close()
-            else:  # a failure: stop the remaining work
-                pool.terminate()
-            pool.join()
-        if bar is not None:
-            bar.close()
+                bar.close()

@@ -1,6 +1,7 @@
-"""Run a function over tasks on a Ray cluster, with a progress bar: :func:`run_pool`'s twin for many machines.
+"""Run a function over tasks on a Ray cluster, with a progress bar: :class:`RayEngine`, the pool's twin for many
+machines.
 
-The same contract as :func:`handeye.core.pool.run_pool` (module-level ``fn``,
+The same contract as :class:`handeye.core.pool.PoolEngine` (module-level ``fn``,
 picklable tasks, an ``initializer`` run once in each worker process), but the
 tasks go to Ray (``pip install "handeye[cluster]"``): a local cluster started
 for the call (``address=None``) or a running one (``address="auto"`` on one of
@@ -13,7 +14,7 @@ by ``fn`` (bad input would fail again the same way) is not retried: it is
 re-raised with the task named, and the tasks not yet finished are cancelled.
 
 A driver killed outright (``kill -9``) leaves no task running for long: a local cluster that
-:func:`run_ray` started (``address=None``) is ended by the kernel with it (Ray's own processes share
+:class:`RayEngine` started (``address=None``) is ended by the kernel with it (Ray's own processes share
 their starter's fate), and each task's worker also watches the driver's process (:data:`DRIVER_POLL_S`)
 and ends itself when it is gone, before Ray's own notice (measured 2.7-2.8 s after the driver's death,
 Ray 2.60; its dashboard and runtime-env agents linger longer, but write nothing). On a running cluster
@@ -26,13 +27,14 @@ node.
 
 Example::
 
-    from handeye.core.ray_pool import run_ray
+    from handeye.core.engine_protocol import EngineOptions
+    from handeye.core.ray_pool import RayEngine
 
     def square(x):
         return x * x
 
     if __name__ == "__main__":
-        print(sorted(run_ray(square, range(10), workers=2)))
+        print(sorted(RayEngine().run(square, range(10), EngineOptions(workers=2))))
 """
 
 from __future__ import annotations
@@ -41,17 +43,18 @@ import hashlib
 import logging
 import os
 import pickle
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
+from handeye.core.engine_protocol import DEFAULT_WORKERS, EngineOptions
 from handeye.core.errors import HandEyeInputError
 from handeye.core.optional import require_package
-from handeye.core.pool import _Named
+from handeye.core.pool import NamedTask
 
-__all__ = ["run_ray", "ray_worker_ready_keys", "busy_worker_pids"]
+__all__ = ["RayEngine", "ray_worker_ready_keys", "busy_worker_pids"]
 
 #: Seconds between a worker's checks that the driver of a local cluster is still alive.
 DRIVER_POLL_S = 0.2
@@ -69,7 +72,7 @@ def ray_worker_ready_keys() -> frozenset:
 
 
 def busy_worker_pids() -> list[int]:
-    """Process ids of this machine's Ray workers busy with a :func:`run_ray` task (Linux ``/proc``).
+    """Process ids of this machine's Ray workers busy with a :class:`RayEngine` task (Linux ``/proc``).
 
     For fault drills: kill one (``os.kill(pid, signal.SIGKILL)``) and Ray runs its task again on another
     worker; the result and a dataset's shards are the same as without the fault.
@@ -141,7 +144,7 @@ def _start(ray, address: str | None, workers: int | None) -> bool:
     os.environ.setdefault("RAY_ACCEL_ENV_VAR_OVERRIDE_ON_ZERO", "0")  # quiets a FutureWarning of Ray 2.x
     kwargs = dict(include_dashboard=False, log_to_driver=False, logging_level=logging.WARNING)
     if address is None:  # a local cluster of `workers` CPUs, with a small object store (tasks pass paths, not data)
-        ray.init(num_cpus=workers or os.cpu_count(), object_store_memory=256 * 2**20, **kwargs)
+        ray.init(num_cpus=workers, object_store_memory=256 * 2**20, **kwargs)
     else:
         try:
             ray.init(address=address, **kwargs)
@@ -150,112 +153,87 @@ def _start(ray, address: str | None, workers: int | None) -> bool:
     return True
 
 
-def run_ray(
-    fn: Callable,
-    tasks: Iterable,
-    workers: int | None = 2,
-    address: str | None = None,
-    progress: bool = True,
-    desc: str = "",
-    unit: str = "task",
-    ordered: bool = False,
-    initializer: Callable | None = None,
-    initargs: tuple = (),
-    describe: Callable[[object], str] = repr,
-    max_retries: int = 3,
-) -> Iterator:
-    """Yield ``fn(task)`` for every task, computed by Ray workers (one CPU each).
+@dataclass(frozen=True)
+class RayEngine:
+    """The :class:`~handeye.core.engine_protocol.Engine` of a Ray cluster: Ray workers, one CPU a task.
 
-    Parameters
+    Attributes
     ----------
-    fn : callable
-        A module-level function of one task.
-    tasks : iterable
-        The tasks (each picklable, small: paths and ids, not images).
-    workers : int, optional
-        Tasks in flight at once: the CPUs of the local cluster when ``address`` is None; on a running
-        cluster None uses all its CPUs.
     address : str, optional
-        A running cluster (``"auto"``, ``"HOST:6379"``, ``"ray://HOST:10001"``); None starts a local one for
-        this call and stops it at the end. When Ray is already initialised in this process, it is used as is.
-    progress : bool
-        A progress bar on stderr.
-    desc, unit : str
-    ordered : bool
-        Results in task order; False (default) yields each as it completes.
-    initializer : callable, optional
-        Called once in each worker process with ``initargs`` before its first task.
-    initargs : tuple
-    describe : callable
-        Names a task in the message of its failure.
+        A running cluster (``"auto"``, ``"HOST:6379"``, ``"ray://HOST:10001"``); None starts a local one of
+        ``options.workers`` CPUs for each run and stops it at the end. When Ray is already initialised in this
+        process, it is used as is.
     max_retries : int
         Times Ray runs a task again after its worker process or node died, or it raised ``OSError``.
-
-    Yields
-    ------
-    object
-        ``fn(task)``.
-
-    Raises
-    ------
-    MissingDependencyError
-        Ray is not installed.
-    HandEyeInputError
-        ``address`` cannot be reached, or ``workers < 1``.
-    Exception
-        The first exception a task raises, of its own type, with the note ``while running task ...``.
     """
-    if workers is not None and workers < 1:
-        raise HandEyeInputError(f"workers must be >= 1, got {workers}")
-    tasks = list(tasks)
-    if not tasks:
-        return
-    ray = require_package("ray", extra="cluster", purpose="the Ray engine")
-    started = _start(ray, address, workers)
-    bar = None
-    pending: list = []
-    try:
-        # transient I/O errors (a shared folder's hiccup) are retried like a dead worker; the task's other
-        # exceptions (bad input, a refused dataset) would fail again the same way, so they stop the run
-        remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=[OSError])(_handeye_task)
-        key = _init_key(initializer, initargs)
-        driver = _process_identity(os.getpid()) if started and address is None else None  # a local cluster
-        initargs_ref = ray.put(initargs)
-        call = _Named(fn, describe)
-        window = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
-        if progress:
-            tqdm = require_package("tqdm", extra="sim", purpose="a progress bar").tqdm
-            bar = tqdm(total=len(tasks), desc=desc, unit=unit, file=sys.stderr)
-        submitted = 0
 
-        def submit():
-            nonlocal submitted
-            ref = remote.remote(call, initializer, initargs_ref, key, tasks[submitted], driver)
-            pending.append(ref)
-            submitted += 1
+    address: str | None = None
+    max_retries: int = 3
 
-        while submitted < min(window, len(tasks)):
-            submit()
-        while pending:
-            if ordered:
-                ref = pending.pop(0)
-            else:
-                ready, _ = ray.wait(pending, num_returns=1)
-                ref = ready[0]
-                pending.remove(ref)
-            result = _get(ray, ref)
-            if submitted < len(tasks):
+    def run(self, fn: Callable, tasks: Iterable, options: EngineOptions = EngineOptions()) -> Iterator:
+        """Yield ``fn(task)`` for every task, with ``options.workers`` tasks in flight at once.
+
+        Parameters, yields and exceptions as :meth:`Engine.run <handeye.core.engine_protocol.Engine.run>`;
+        ``options.workers`` None: :data:`~handeye.core.engine_protocol.DEFAULT_WORKERS` on a local cluster,
+        all the CPUs of a running one (``address``); ``options.isolate`` always holds (tasks run in Ray's
+        workers); a task failed by ``OSError`` or a dead worker is run again, up to ``max_retries`` times.
+
+        Raises
+        ------
+        MissingDependencyError
+            Ray is not installed.
+        HandEyeInputError
+            ``address`` cannot be reached.
+        """
+        tasks = list(tasks)
+        if not tasks:
+            return
+        ray = require_package("ray", extra="cluster", purpose="the Ray engine")
+        workers = options.workers or (DEFAULT_WORKERS if self.address is None else None)
+        started = _start(ray, self.address, workers)
+        bar = None
+        pending: list = []
+        try:
+            # transient I/O errors (a shared folder's hiccup) are retried like a dead worker; the task's other
+            # exceptions (bad input, a refused dataset) would fail again the same way, so they stop the run
+            remote = ray.remote(num_cpus=1, max_retries=self.max_retries, retry_exceptions=[OSError])(_handeye_task)
+            key = _init_key(options.initializer, options.initargs)
+            driver = _process_identity(os.getpid()) if started and self.address is None else None  # a local cluster
+            initargs_ref = ray.put(options.initargs)
+            call = NamedTask(fn, options.describe)
+            window = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
+            bar = options.progress_bar(len(tasks))
+            submitted = 0
+
+            def submit():
+                nonlocal submitted
+                ref = remote.remote(call, options.initializer, initargs_ref, key, tasks[submitted], driver)
+                pending.append(ref)
+                submitted += 1
+
+            while submitted < min(window, len(tasks)):
                 submit()
+            while pending:
+                result = _get(ray, _next_done(ray, pending, options.ordered))
+                if submitted < len(tasks):
+                    submit()
+                if bar is not None:
+                    bar.update(1)
+                yield result
+        finally:
+            for ref in pending:  # a failure or an abandoned generator: stop the remaining work
+                ray.cancel(ref, force=True)
             if bar is not None:
-                bar.update(1)
-            yield result
-    finally:
-        for ref in pending:  # a failure or an abandoned generator: stop the remaining work
-            ray.cancel(ref, force=True)
-        if bar is not None:
-            bar.close()
-        if started:
-            ray.shutdown()
+                bar.close()
+            if started:
+                ray.shutdown()
+
+
+def _next_done(ray, pending: list, ordered: bool):
+    """Take the next task to collect out of ``pending``: the oldest when ``ordered``, else the first finished."""
+    ref = pending[0] if ordered else ray.wait(pending, num_returns=1)[0][0]
+    pending.remove(ref)
+    return ref
 
 
 def _get(ray, ref):
