@@ -481,6 +481,19 @@ def _check_inputs(depth_m, K, surface):
 FALLBACK_SIGMA_M_AT_1M = 0.001
 
 
+class _Outcome(NamedTuple):
+    """The fine stage's outcome from one start (:meth:`_Problem.fine`); ``fit`` None: too few points matched."""
+
+    name: str  # the start's
+    T: np.ndarray  # T_base_cam
+    fit: PlaneFit | None  # the last fit, on the last matches
+    step: float  # the last step, rad + m
+    matched: float  # the visible model's fraction landing on the observed surface
+    geometry: tuple | None = None  # the matched points' median depth and RMS spread about their centroid, metres
+    depth_range: tuple | None = None  # their depths' 10th and 90th percentiles, metres
+    matches: tuple | None = None  # (model points, frames, observed points) of the last fit
+
+
 class _Problem:
     """Everything the stages share for one camera placement."""
 
@@ -845,8 +858,9 @@ class _Problem:
 
         return split_excess(solve, f, frame_splits(f, q_obs, self.n))
 
-    def fine(self, T):
-        """Projective point-to-plane, gate shrinking to 4 robust sigmas; returns (T, fit, last step, matched).
+    def fine(self, T, name):
+        """Projective point-to-plane from ``T``, gate shrinking to 4 robust sigmas; returns the start ``name``'s
+        outcome.
 
         The z-buffer is rebuilt on the first and fourth association and every fifth after; in between the
         visible points are only projected again. The last association always has a fresh z-buffer, and the
@@ -863,7 +877,7 @@ class _Problem:
                 visible_idx = idx
             fitted = self._fitted(idx, close)
             if fitted.sum() < 50:
-                return T, None, np.inf, 0.0
+                return _Outcome(name, T, None, np.inf, 0.0)
             fit, expected = self._fit(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
             T, step = fit.T_base_cam, fit.step_norm
             inl = fit.weights > 0.5
@@ -874,21 +888,21 @@ class _Problem:
         idx, f, q_obs, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
         fitted = self._fitted(idx, close)
         if fitted.sum() < 50:
-            return T, None, np.inf, 0.0
+            return _Outcome(name, T, None, np.inf, 0.0)
         fit, _ = self._fit(T, idx, f, q_obs, fitted)
         q = self.corrected(q_obs)
         step = max(step, fit.step_norm)
         matched_q = q[fitted]  # what calibrated the depth
-        self.final_geometry = (
+        geometry = (
             float(np.median(matched_q[:, 2])),
             float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
         )
-        self.final_depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
+        depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
         within_1cm = has_depth & (
             np.abs(q[:, 2] - (self.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
         )
         matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
-        return fit.T_base_cam, fit, step, matched
+        return _Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, self.last_matches)
 
 
 def register_robot(
@@ -958,36 +972,13 @@ def _refused(reason: str, diag: dict) -> MarkerlessResult:
     return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
 
 
-class _Outcome(NamedTuple):
-    """The fine stage's outcome from one start."""
-
-    matched: float  # the visible model's fraction landing on the observed surface
-    name: str  # the start's
-    T: np.ndarray  # T_base_cam
-    fit: PlaneFit  # the last fit, on the last matches
-    step: float  # the last step, rad + m
-    geometry: tuple  # the matched points' median depth and RMS spread about their centroid, metres
-    depth_range: tuple  # their depths' 10th and 90th percentiles, metres
-    matches: tuple  # (model points, frames, observed points) of the last fit
-
-
-def _fine_from(problem: _Problem, name: str, T_start: np.ndarray) -> _Outcome:
-    """Stage 4 from ``T_start``, and what the problem kept of its last association (fit None: too few matches)."""
-    T, fit, step, matched = problem.fine(T_start)
-    if fit is None:
-        return _Outcome(matched, name, T, None, step, None, None, None)
-    return _Outcome(
-        matched, name, T, fit, step, problem.final_geometry, problem.final_depth_range, problem.last_matches
-    )
-
-
 def _best_of_starts(problem: _Problem, starts: dict, diag: dict) -> _Outcome | str:
     """Stages 3 and 4 from each start in turn, until one clearly succeeds; the best kept, the problem left in its
     state. Returns its outcome, or the reason none would do."""
     opts, best = problem.opts, None
     for name, T_start in starts.items():
         problem.restart()
-        outcome = _fine_from(problem, name, problem.coarse(np.asarray(T_start, dtype=float)))
+        outcome = problem.fine(problem.coarse(np.asarray(T_start, dtype=float)), name)
         diag["starts"][name] = {"matched_fraction": round(outcome.matched, 4), "converged_step": float(outcome.step)}
         if outcome.fit is not None and (best is None or outcome.matched > best.matched):
             best = outcome
@@ -999,7 +990,7 @@ def _best_of_starts(problem: _Problem, starts: dict, diag: dict) -> _Outcome | s
     # and the reported offsets read the problem's
     problem.adopt(best.fit)
     if problem.hold_undetermined(best.fit):  # static parts fitted, the base rotation not determined: absorbed
-        best = _fine_from(problem, best.name, best.T)
+        best = problem.fine(best.T, best.name)
         if best.fit is None:
             return "did not converge: the fit with the base rotation's offset absorbed kept too few points"
     return best
