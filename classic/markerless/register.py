@@ -257,8 +257,8 @@ class MarkerlessOptions:
         Square image tiles across the image's width of a third clustering of the covariance (multiway with the
         frames and the depth bins): a sensor's fixed pattern, an error the same in every frame at one image
         position, is shared by every frame in that tile. Below 2 (0, the default): not clustered by tile. Off
-        by default because on the d435 benchmarks (issue 41) it did not widen the sigma where a fixed pattern
-        was added (16 or 64 tiles), and 16 tiles widened it by half on clean depth (paper-sim, 1.2 m).
+        by default: on the d435 benchmarks it did not widen the sigma where a fixed pattern was added, and it
+        widened it on clean depth (``benchmarks/results/markerless_sensor_errors.md``).
     split_check : bool
         Solve groups of the frames (by depth, by the arm's image column) again and add their scatter beyond
         their own noise to the sigma (:mod:`classic.markerless.consistency`): errors the frames share by depth or image
