@@ -1,0 +1,279 @@
+"""A running cell's calibration, watched frame by frame: :class:`CellWatcher`.
+
+Per frame (:meth:`CellWatcher.feed`): the check of the current ``T_base_cam`` (:mod:`handeye.watch.check`),
+then
+
+- **learning** for the first ``WatchOptions.null_frames`` usable frames: "nothing moved" is fitted on them
+  (:func:`handeye.watch.change.fit_null`); nothing is decided yet;
+- **watching**: the frame's state (:mod:`handeye.watch.states`) with the CUSUM at the stated false-alarm rate;
+- on **moved**: the calibration is stale from that frame's time. The next usable frames with enough joint
+  diversity (each differs from all collected by at least ``recal_min_joint_step_rad`` in some joint) are
+  collected; with ``recal_frames`` of them, ``recalibrate(frames, T_start)`` is called (by default the
+  markerless registration from the last calibration, :func:`markerless_recalibration`). Its answer is taken
+  only when the registration accepted it (its sigma and split check passed, ``result.ok``): then it is
+  committed to the history, published, and the change test re-armed: the null's scale kept, its bias taken
+  anew from the collected frames checked against the new calibration (its own error is "nothing moved" now).
+  A refusal is an event with the reason, and the collection starts again; until a validated answer exists
+  every event says "calibration stale since t".
+
+Events are returned on every change of state (and on learning's end, a recalibration, a refusal).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from classic.markerless import MarkerlessOptions, register_robot
+from handeye.watch.change import Cusum, NullModel, fit_null
+from handeye.watch.check import CheckOptions, FrameCheck, camera_rays, check_frame
+from handeye.watch.events import Event
+from handeye.watch.history import History
+from handeye.watch.source import Frame
+from handeye.watch.states import FrameStates, StateOptions, screen
+
+__all__ = ["WatchOptions", "CellWatcher", "markerless_recalibration"]
+
+
+@dataclass(frozen=True)
+class WatchOptions:
+    """Settings of :class:`CellWatcher`.
+
+    Attributes
+    ----------
+    rate_hz : float
+        The stream's frame rate (turns the false-alarm rate into frames).
+    false_alarms_per_hour : float
+        The change test's stated false-alarm rate (an upper bound, :mod:`handeye.watch.change`).
+    null_frames : int
+        Usable frames "nothing moved" is learnt from (about the first 10 s at 30 Hz by default).
+    rho : float
+        The CUSUM's alternative (:class:`handeye.watch.change.Cusum`).
+    recal_frames : int
+        Frames collected for a recalibration.
+    recal_min_joint_step_rad : float
+        Joint diversity of those frames.
+    check, states : CheckOptions, StateOptions
+    """
+
+    rate_hz: float = 30.0
+    false_alarms_per_hour: float = 1.0
+    null_frames: int = 300
+    rho: float = 1.0
+    recal_frames: int = 30
+    recal_min_joint_step_rad: float = 0.05
+    check: CheckOptions = field(default_factory=CheckOptions)
+    states: StateOptions = field(default_factory=StateOptions)
+
+    def __post_init__(self):
+        if not self.rate_hz > 0 or not self.false_alarms_per_hour > 0:
+            raise ValueError(f"rate ({self.rate_hz} Hz) and false alarms per hour must be > 0")
+        if self.null_frames < 6 or self.recal_frames < 2:
+            raise ValueError(
+                f"null_frames >= 6 and recal_frames >= 2 needed, got {self.null_frames}, {self.recal_frames}"
+            )
+
+    @property
+    def frames_per_false_alarm(self) -> float:
+        return 3600.0 * self.rate_hz / self.false_alarms_per_hour
+
+
+def markerless_recalibration(robot_surface, K: np.ndarray, sensor, options: MarkerlessOptions | None = None):
+    """The default ``recalibrate``: :func:`classic.markerless.register_robot` on the collected frames.
+
+    Started from the last calibration (and the moving pixels' centroids). Unless ``options`` are given: the depth,
+    the camera matrix and the joints taken as exact, as the check takes them, and the sensor profile's depth noise
+    and depth-to-colour extrinsic bound.
+    """
+    if options is None:
+        # the check takes the depth and the camera matrix as given; so does the recalibration, or the two would
+        # disagree on what fits and the new calibration's own model difference would read as a move
+        options = MarkerlessOptions(
+            depth_sigma_m_at_1m=float(sensor.sigma_m(1.0)),
+            depth_model="fixed",
+            intrinsics_model="fixed",
+            joint_offsets_model="fixed",
+            depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
+        )
+
+    def recalibrate(frames: list[Frame], T_start: np.ndarray):
+        depth = np.stack([f.depth_m for f in frames])
+        q = np.stack([f.joints for f in frames])
+        return register_robot(depth, K, robot_surface.posed(q), starts={"last": T_start}, options=options)
+
+    return recalibrate
+
+
+class CellWatcher:
+    """Watch a running cell's calibration (module docstring).
+
+    Parameters
+    ----------
+    robot_surface : handeye.robot.surface.RobotSurface
+        Anything with ``posed(q (N, nq), twists=False)`` giving points and normals in the base frame.
+    K : array, shape (3, 3)
+        The depth images' camera matrix.
+    T_base_cam : array, shape (4, 4), or None
+        The calibration to start from; None: the history's latest version.
+    sensor : handeye.robot.depth_sensors.DepthSensor
+        Its ``sigma_m`` is the check's noise.
+    options : WatchOptions, optional
+    history_path, current_path : str or Path, optional
+        The versions' history and the current calibration's JSON (:class:`handeye.watch.history.History`).
+    recalibrate : callable, optional
+        ``recalibrate(frames, T_start) -> result`` with ``ok``, ``T_base_cam``, ``covariance``, ``sigma`` and
+        ``refused`` (a :class:`classic.markerless.MarkerlessResult`); :func:`markerless_recalibration` by default.
+    """
+
+    def __init__(
+        self,
+        robot_surface,
+        K: np.ndarray,
+        T_base_cam: np.ndarray | None,
+        sensor,
+        options: WatchOptions | None = None,
+        history_path: str | Path | None = None,
+        current_path: str | Path | None = None,
+        recalibrate: Callable | None = None,
+    ):
+        self.surface = robot_surface
+        self.K = np.asarray(K, dtype=float)
+        self.sensor = sensor
+        self.options = options or WatchOptions()
+        self.history = None if history_path is None else History(history_path, current_path)
+        self.version = None
+        latest = None if self.history is None else self.history.latest()
+        if T_base_cam is None:
+            if latest is None:
+                raise ValueError("no calibration to start from: give T_base_cam or a history with a version")
+            T_base_cam = latest.T_base_cam
+            self.version = latest.version
+        elif self.history is not None:
+            same = latest is not None and np.allclose(latest.T_base_cam, T_base_cam, atol=1e-12)
+            self.version = latest.version if same else self.history.append(T_base_cam, "start", stream_t=0.0).version
+        self.T_base_cam = np.array(T_base_cam, dtype=float)
+        self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor)
+        self.mode = "learning"
+        self.state = "learning"
+        self.stale_since: float | None = None
+        self.null: NullModel | None = None
+        self.states: FrameStates | None = None
+        self.last_check: FrameCheck | None = None
+        self._null_checks: list[FrameCheck] = []
+        self._collected: list[Frame] = []
+        self._rays = None
+
+    def _check(self, frame: Frame) -> FrameCheck:
+        if self._rays is None or self._rays.shape[:2] != frame.depth_m.shape:
+            self._rays = camera_rays(self.K, *frame.depth_m.shape)
+        posed = self.surface.posed(np.asarray(frame.joints, dtype=float)[None], twists=False)
+        return check_frame(
+            frame.depth_m,
+            self.K,
+            posed.points_base,
+            posed.normals_base,
+            self.T_base_cam,
+            self.sensor.sigma_m,
+            frame.t,
+            self.options.check,
+            self._rays,
+        )
+
+    def feed(self, frame: Frame) -> list[Event]:
+        """Check one frame; the events it causes (often none).
+
+        Parameters
+        ----------
+        frame : Frame
+
+        Returns
+        -------
+        list of Event
+        """
+        check = self._check(frame)
+        self.last_check = check
+        if self.mode == "learning":
+            state, detail = self._learn(check)
+        elif self.mode == "watching":
+            state, detail = self.states.classify(check)
+            if state == "moved":
+                self.mode, self.stale_since, self._collected = "collecting", frame.t, []
+        else:
+            state, detail = self._collect(frame, check)
+        events = []
+        if state != self.state or state in ("recalibrated", "refused"):
+            events.append(self._event(frame.t, state, detail))
+            self.state = state
+        return events
+
+    def _event(self, t: float, state: str, detail: str) -> Event:
+        return Event(t, state, self.state, detail, self.stale_since, self.version)
+
+    def _learn(self, check: FrameCheck) -> tuple[str, str]:
+        if check.delta is not None and screen(check, self.options.states) is None:
+            self._null_checks.append(check)
+        n = len(self._null_checks)
+        if n < self.options.null_frames:
+            return "learning", f"{n} of {self.options.null_frames} frames for the null"
+        self.null = fit_null(
+            np.stack([c.delta for c in self._null_checks]), np.stack([c.covariance for c in self._null_checks])
+        )
+        cusum = Cusum(self.options.frames_per_false_alarm, self.options.rho)
+        self.states = FrameStates(self.null, cusum, self.options.states)
+        self.mode, self._null_checks = "watching", []
+        return "ok", (
+            f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
+            f"({self.options.false_alarms_per_hour:g} false alarms per hour at most at {self.options.rate_hz:g} Hz)"
+        )
+
+    def _collect(self, frame: Frame, check: FrameCheck) -> tuple[str, str]:
+        unusable = screen(check, self.options.states)
+        if unusable is not None:
+            return unusable
+        q = np.asarray(frame.joints, dtype=float)
+        step = self.options.recal_min_joint_step_rad
+        if all(np.abs(q - f.joints).max() >= step for f in self._collected):
+            self._collected.append(frame)
+        n = len(self._collected)
+        if n < self.options.recal_frames:
+            return "moved", f"collecting frames to recalibrate: {n} of {self.options.recal_frames}"
+        frames, self._collected = self._collected, []
+        result = self.recalibrate(frames, self.T_base_cam)
+        if not getattr(result, "ok", False):
+            reason = getattr(result, "refused", None) or "no answer"
+            return "refused", f"recalibration from {len(frames)} frames refused: {reason}; collecting again"
+        return self._commit(frame, frames, result)
+
+    def _null_after(self, frames: list[Frame]) -> NullModel:
+        """The null for the new calibration: its bias from the frames it came from, checked against it (the new
+        calibration's own error is "nothing moved" from now on), the scale learnt at the start kept."""
+        checks = [self._check(f) for f in frames]
+        deltas = [c.delta for c in checks if c.delta is not None]
+        ref = np.median(deltas, axis=0) if deltas else self.null.delta_ref
+        return NullModel(ref, self.null.scale, len(deltas) or self.null.frames)
+
+    def _commit(self, frame: Frame, frames: list[Frame], result) -> tuple[str, str]:
+        self.T_base_cam = np.array(result.T_base_cam, dtype=float)
+        sigma = np.sqrt(np.diag(result.covariance)) if getattr(result, "covariance", None) is not None else None
+        if self.history is not None:
+            v = self.history.append(
+                self.T_base_cam,
+                f"moved at t={self.stale_since:.3f}s",
+                sigma,
+                [f.index for f in frames],
+                stream_t=frame.t,
+                extra={"sigma_summary": dict(getattr(result, "sigma", {}) or {})},
+            )
+            self.version = v.version
+        stale = self.stale_since
+        self.stale_since = None
+        self.mode = "watching"
+        self.states.rearm(self._null_after(frames))
+        s = getattr(result, "sigma", {}) or {}
+        detail = f"new calibration from {len(frames)} frames (stale since {stale:.3f}s)"
+        if "rotation_deg" in s and "translation_mm" in s:
+            detail += f", sigma {s['rotation_deg']:.3f} deg, {s['translation_mm']:.2f} mm"
+        return "recalibrated", detail

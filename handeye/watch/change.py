@@ -1,0 +1,160 @@
+""" "Nothing moved", learnt from the first seconds of a stream, and a sequential test that says when it stops holding.
+
+**The null.** Each frame's check (:mod:`handeye.watch.check`) gives a correction ``delta`` (6,) with a
+covariance ``Sigma`` that counts pixels as independent. Two things make the raw ``delta^T Sigma^{-1} delta``
+no ``chi2(6)``: pixels of one frame share errors (the sensor's correlated noise, the model's sampling), which
+scales it up, and a fixed bias of the model and the sensor (depth scale and offset, mesh detail) gives
+``delta`` a mean even when nothing moved. :func:`fit_null` takes the first ``N`` frames as "nothing moved":
+the bias ``delta_ref`` is their component-wise median, and the scale ``c`` the median of
+``x_i = (delta_i - delta_ref)^T Sigma_i^{-1} (delta_i - delta_ref)`` over the median of ``chi2(6)`` (a
+robust fit of ``x / c ~ chi2(6)``: a few odd frames in the first seconds move neither).
+
+**The change test.** A CUSUM of the log-likelihood ratio of ``x = chi2 / c`` under "nothing moved"
+(``chi2(6)``) against "the statistic's scale grew by ``1 + rho``" (a shift of noncentrality ``lambda``
+raises its mean from 6 to ``6 + lambda``; ``rho = 1`` is tuned to ``lambda`` near 6):
+
+.. math:: \\ell(x) = \\frac{\\rho}{2 (1 + \\rho)} x - 3 \\log(1 + \\rho), \\qquad
+          S_t = \\max(0, S_{t-1} + \\min(\\ell(x_t), h / 2)), \\quad \\text{alarm when } S_t \\ge h.
+
+Because ``E_0[e^{\\ell}] = 1`` (and capping the increment only lowers it), the CUSUM's mean run length to a
+false alarm is at least ``e^h`` frames (Lorden 1971: the CUSUM is a sequence of one-sided SPRTs, each of which
+crosses ``h`` under the null with probability at most ``e^{-h}`` by Wald's inequality, which needs only
+``E_0[e^{increment}] <= 1``): ``h = log(frames per false alarm)`` makes the false-alarm
+rate **at most** the one stated, whatever the shape of the alternative. The cap ``h / 2`` means no single
+frame alarms. The rate holds as far as ``x`` follows ``chi2(6)`` after the fit; the tests simulate it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+__all__ = [
+    "NullModel",
+    "fit_null",
+    "Cusum",
+    "cusum_threshold",
+    "llr",
+    "CHI2_6_MEDIAN",
+    "expected_delay_frames",
+]
+
+#: Median of the chi-square distribution with 6 degrees of freedom.
+CHI2_6_MEDIAN = float(stats.chi2.median(6))
+
+
+@dataclass(frozen=True)
+class NullModel:
+    """ "Nothing moved" as the stream's first frames showed it.
+
+    Attributes
+    ----------
+    delta_ref : array, shape (6,)
+        The corrections' bias when nothing moved (rad, m, camera frame).
+    scale : float
+        ``c``: the raw statistic over ``chi2(6)``.
+    frames : int
+        Frames it was fitted on.
+    """
+
+    delta_ref: np.ndarray
+    scale: float
+    frames: int
+
+    def statistic(self, delta: np.ndarray, covariance: np.ndarray) -> float:
+        """``x = (delta - delta_ref)^T Sigma^{-1} (delta - delta_ref) / c``: ``chi2(6)`` when nothing moved."""
+        d = np.asarray(delta, dtype=float) - self.delta_ref
+        return float(d @ np.linalg.solve(covariance, d)) / self.scale
+
+    def to_dict(self) -> dict:
+        return {"delta_ref": self.delta_ref.tolist(), "scale": self.scale, "frames": self.frames}
+
+
+def fit_null(deltas: np.ndarray, covariances: np.ndarray) -> NullModel:
+    """Fit :class:`NullModel` to frames taken as "nothing moved" (module docstring).
+
+    Parameters
+    ----------
+    deltas : array, shape (N, 6)
+    covariances : array, shape (N, 6, 6)
+
+    Returns
+    -------
+    NullModel
+
+    Raises
+    ------
+    ValueError
+        Fewer than 6 frames, or shapes that do not fit.
+    """
+    deltas = np.asarray(deltas, dtype=float)
+    covariances = np.asarray(covariances, dtype=float)
+    if deltas.ndim != 2 or deltas.shape[1] != 6 or covariances.shape != (len(deltas), 6, 6):
+        raise ValueError(f"deltas (N, 6) and covariances (N, 6, 6) expected, got {deltas.shape}, {covariances.shape}")
+    if len(deltas) < 6:
+        raise ValueError(f"the null needs at least 6 frames with a check, got {len(deltas)}")
+    ref = np.median(deltas, axis=0)
+    d = deltas - ref
+    x = np.einsum("ni,ni->n", d, np.linalg.solve(covariances, d[..., None])[..., 0])
+    scale = max(float(np.median(x)) / CHI2_6_MEDIAN, 1e-12)
+    return NullModel(ref, scale, len(deltas))
+
+
+def cusum_threshold(frames_per_false_alarm: float) -> float:
+    """``h = log(frames per false alarm)``: the CUSUM's false-alarm rate is then at most one per that many frames."""
+    if not frames_per_false_alarm > 1:
+        raise ValueError(f"frames per false alarm must be > 1, got {frames_per_false_alarm}")
+    return float(np.log(frames_per_false_alarm))
+
+
+def llr(x, rho: float = 1.0):
+    """Log-likelihood ratio of ``x`` under ``(1 + rho) chi2(6)`` against ``chi2(6)`` (any shape)."""
+    return rho / (2.0 * (1.0 + rho)) * np.asarray(x, dtype=float) - 3.0 * np.log1p(rho)
+
+
+def expected_delay_frames(noncentrality: float, h: float, rho: float = 1.0) -> float:
+    """Frames a CUSUM needs, on average, to cross ``h`` after a shift of the given noncentrality (Wald: ``h / E[l]``).
+
+    ``E[x] = 6 + lambda``; the increment's cap ``h / 2`` is taken into account. ``inf`` when the drift is not
+    positive (such a shift is not detected in the mean).
+    """
+    step = min(float(llr(6.0 + noncentrality, rho)), h / 2.0)
+    return h / step if step > 0 else float("inf")
+
+
+class Cusum:
+    """The one-sided CUSUM of the module docstring.
+
+    Parameters
+    ----------
+    frames_per_false_alarm : float
+        The stated false-alarm rate's inverse, in frames (``3600 * rate_hz / false_alarms_per_hour``).
+    rho : float
+        The alternative's scale growth.
+    """
+
+    def __init__(self, frames_per_false_alarm: float, rho: float = 1.0):
+        if not rho > 0:
+            raise ValueError(f"rho must be > 0, got {rho}")
+        self.h = cusum_threshold(frames_per_false_alarm)
+        self.rho = float(rho)
+        self.value = 0.0
+        self.run = 0  # frames since the statistic last was 0
+
+    @property
+    def cap(self) -> float:
+        """Largest increment of one frame."""
+        return self.h / 2.0
+
+    def update(self, x: float) -> bool:
+        """Add one frame's ``x`` (``inf`` for a frame whose evidence is maximal); True when it alarms."""
+        step = min(float(llr(x, self.rho)), self.cap)
+        self.value = max(0.0, self.value + step)
+        self.run = self.run + 1 if self.value > 0 else 0
+        return self.value >= self.h
+
+    def reset(self) -> None:
+        """Re-arm: the statistic back to 0."""
+        self.value, self.run = 0.0, 0

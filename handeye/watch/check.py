@@ -1,0 +1,204 @@
+"""The per-frame check of the current calibration: the posed robot surface against one depth image.
+
+The robot's surface, posed by the frame's joints (base frame) and moved into the camera by the current
+``T_base_cam``, is z-buffered into the image (:func:`classic.markerless.visible_points`). At each visible
+model point's pixel the observed depth ``z_obs`` is compared with the model's ``z_mod``:
+
+- no depth there: a **dropout** pixel;
+- ``z_obs < z_mod - w``: something in front of the arm, an **occluder** (``w`` is the match window,
+  ``CheckOptions.window_sigmas`` sensor sigmas at that depth plus ``window_floor_m``);
+- ``z_obs > z_mod + w``: the background seen where the model says arm (**behind**; a moved camera makes
+  these, an occluder cannot);
+- else **matched**.
+
+The matched points give ONE Gauss-Newton step of robust point-to-plane (the parametrisation of
+:mod:`classic.markerless.point_to_plane`: ``T_base_cam exp(delta)``, ``delta = (omega, v)`` in the camera
+frame, radians and metres):
+
+.. math:: r_i = n_i^T (q_i - m_i), \\qquad J_i = [q_i \\times n_i,\\ n_i], \\qquad
+          \\delta = -(J^T W J)^{-1} J^T W r
+
+with each residual whitened by its sensor sigma along the normal, ``sigma(z) |n_i . (x, y, 1)|`` (a depth
+error moves the point along its pixel's ray), in quadrature with ``model_sigma_m``, and Cauchy weights at
+``robust_sigmas``. Its covariance ``(J^T W J)^{-1}`` counts the pixels as independent; they are not (the
+sensor's noise is correlated over a few pixels, the model's sampling error is shared by neighbours), so
+the statistic ``chi2 = delta^T Sigma^{-1} delta`` is scaled by a factor estimated from the first seconds of
+the stream (:mod:`handeye.watch.change`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from classic.least_squares import loss_weights
+from classic.markerless import visible_points
+from classic.markerless.depth import pixel_rays
+from classic.markerless.visibility import project
+from handeye.core.errors import ShapeError
+
+__all__ = ["CheckOptions", "FrameCheck", "check_frame", "camera_rays"]
+
+
+@dataclass(frozen=True)
+class CheckOptions:
+    """Settings of :func:`check_frame`.
+
+    Attributes
+    ----------
+    window_sigmas : float
+        Half-width of the match window in sensor sigmas at the model's depth.
+    window_floor_m : float
+        Added to the window, metres (the model's own error: mesh detail, sampling, the sensor's bias).
+    model_sigma_m : float
+        The model's residual in quadrature with the sensor's, metres (sampling of the surface).
+    robust_sigmas : float
+        Scale of the Cauchy loss in whitened units.
+    min_matched : int
+        Fewer matched points: no step (``delta`` None).
+    """
+
+    window_sigmas: float = 4.0
+    window_floor_m: float = 0.003
+    model_sigma_m: float = 0.0003
+    robust_sigmas: float = 3.0
+    min_matched: int = 50
+
+    def __post_init__(self):
+        for key in ("window_sigmas", "window_floor_m", "model_sigma_m", "robust_sigmas"):
+            value = getattr(self, key)
+            if not np.isfinite(value) or value < 0:
+                raise ValueError(f"CheckOptions.{key} must be finite and >= 0, got {value}")
+        if self.min_matched < 6:
+            raise ValueError(f"CheckOptions.min_matched must be >= 6 (6 unknowns), got {self.min_matched}")
+
+
+@dataclass
+class FrameCheck:
+    """What one frame says about the current calibration.
+
+    Attributes
+    ----------
+    t : float
+        The frame's time, seconds.
+    delta : array, shape (6,), or None
+        The correction ``(omega, v)`` (rad, m, camera frame) that one Gauss-Newton step finds:
+        ``T_base_cam exp(delta)`` fits the frame better; None with fewer than ``min_matched`` matches.
+    covariance : array, shape (6, 6), or None
+        Of ``delta``, pixels counted as independent (not inflated).
+    chi2 : float
+        ``delta^T covariance^{-1} delta`` (NaN without a step).
+    n_visible, n_matched, n_occluders, n_behind, n_dropout : int
+        Visible model points; those matched; those with depth in front by more than the window; behind by
+        more; without depth.
+    rms_m : float
+        RMS point-to-plane residual of the matched points, metres (NaN with none).
+    """
+
+    t: float
+    delta: np.ndarray | None
+    covariance: np.ndarray | None
+    chi2: float
+    n_visible: int
+    n_matched: int
+    n_occluders: int
+    n_behind: int
+    n_dropout: int
+    rms_m: float
+
+    def fraction(self, count: int) -> float:
+        """``count`` over the visible model points with depth (0 when none)."""
+        seen = self.n_visible - self.n_dropout
+        return count / seen if seen > 0 else 0.0
+
+
+def camera_rays(K: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Every pixel's ray ``(x/z, y/z, 1)``, shape (height, width, 3): compute once per camera, pass to the check."""
+    return pixel_rays(np.asarray(K, dtype=float), int(height), int(width))
+
+
+def check_frame(
+    depth_m: np.ndarray,
+    K: np.ndarray,
+    points_base: np.ndarray,
+    normals_base: np.ndarray,
+    T_base_cam: np.ndarray,
+    sigma_m,
+    t: float = 0.0,
+    options: CheckOptions | None = None,
+    rays: np.ndarray | None = None,
+) -> FrameCheck:
+    """Check ``T_base_cam`` against one depth frame (module docstring).
+
+    Parameters
+    ----------
+    depth_m : array, shape (H, W)
+        Depth, metres, 0 or NaN where the sensor has none.
+    K : array, shape (3, 3)
+        Camera matrix of the depth image (OpenCV convention).
+    points_base, normals_base : array, shape (M, 3)
+        The robot's surface posed at the frame's joints, base frame (``RobotSurface.posed``), outward normals.
+    T_base_cam : array, shape (4, 4)
+        The calibration being checked.
+    sigma_m : callable
+        Axial depth sigma at a depth, metres (``DepthSensor.sigma_m``).
+    t : float
+        The frame's time, seconds (copied into the result).
+    options : CheckOptions, optional
+    rays : array, shape (H, W, 3), optional
+        :func:`camera_rays` of ``K`` (computed when omitted).
+
+    Returns
+    -------
+    FrameCheck
+    """
+    o = options or CheckOptions()
+    depth_m = np.asarray(depth_m, dtype=float)
+    if depth_m.ndim != 2:
+        raise ShapeError(f"depth must be one (H, W) image, got shape {depth_m.shape}")
+    height, width = depth_m.shape
+    if rays is None:
+        rays = camera_rays(K, height, width)
+    R, t_cam = T_base_cam[:3, :3], T_base_cam[:3, 3]
+    p_cam = (np.asarray(points_base, dtype=float) - t_cam) @ R  # R^T (p - t), row-wise
+    n_cam = np.asarray(normals_base, dtype=float) @ R
+    idx = visible_points(p_cam, n_cam, np.zeros(len(p_cam), dtype=np.int64), K, height, width)
+    uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
+    z_obs = depth_m[uv[:, 1], uv[:, 0]]
+    have = np.isfinite(z_obs) & (z_obs > 0)
+    z_mod = p_cam[idx, 2]
+    sigma_z = np.asarray(sigma_m(z_mod), dtype=float)
+    window = o.window_sigmas * sigma_z + o.window_floor_m
+    dz = np.where(have, z_obs, 0.0) - z_mod
+    occluder = have & (dz < -window)
+    behind = have & (dz > window)
+    matched = have & ~occluder & ~behind
+    counts = dict(
+        n_visible=len(idx),
+        n_matched=int(matched.sum()),
+        n_occluders=int(occluder.sum()),
+        n_behind=int(behind.sum()),
+        n_dropout=int((~have).sum()),
+    )
+    if counts["n_matched"] < o.min_matched:
+        rms = float(np.sqrt(np.mean(dz[matched] ** 2))) if matched.any() else float("nan")
+        return FrameCheck(t, None, None, float("nan"), rms_m=rms, **counts)
+    ray = rays[uv[matched, 1], uv[matched, 0]]
+    q = ray * z_obs[matched, None]
+    m, n = p_cam[idx[matched]], n_cam[idx[matched]]
+    r = np.einsum("ij,ij->i", n, q - m)
+    s = np.hypot(sigma_z[matched] * np.abs(np.einsum("ij,ij->i", n, ray)), o.model_sigma_m)
+    s = np.maximum(s, 1e-9)
+    A = np.hstack([np.cross(q, n), n]) / s[:, None]
+    b = r / s
+    w = loss_weights(b, "cauchy", o.robust_sigmas)
+    H = (A * w[:, None]).T @ A
+    g = (A * w[:, None]).T @ b
+    try:
+        covariance = np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        return FrameCheck(t, None, None, float("nan"), rms_m=float(np.sqrt(np.mean(r**2))), **counts)
+    delta = -covariance @ g
+    chi2 = float(delta @ H @ delta)
+    return FrameCheck(t, delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), **counts)

@@ -1,0 +1,227 @@
+"""Every calibration version a running cell used: an append-only JSON-lines file, and the current one as JSON.
+
+Each version is one line (``version``, ``time`` (Unix seconds), ``stream_t`` (seconds into the stream),
+``reason``, ``T_base_cam`` (4x4, metres), ``sigma`` (6,: rotation rad and position m, camera frame, or null),
+``frames`` (the stream's frame indices it came from), ``replaces`` (the version it replaced)), written with one
+``write`` and ``fsync``-ed before :meth:`History.append` returns: a version is committed when its line and
+newline are on disk. A ``kill -9`` during the write leaves at most a line without its newline at the end;
+reading ignores it with a warning, and the next append truncates it first (it was never committed). A
+complete line that does not parse is corruption, not a torn write, and raises. Nothing is rewritten:
+:meth:`History.rollback` appends a new version equal to an older one.
+
+The current calibration is a JSON file replaced atomically (:func:`handeye.core.safe_write.write_text_atomic`)
+after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two).
+One writer per history: two processes appending at once are not guarded against.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from handeye.core.errors import HandEyeInputError
+from handeye.core.safe_write import write_text_atomic
+from handeye.core.validation import check_transforms
+
+__all__ = ["Version", "History", "TornLineWarning"]
+
+
+class TornLineWarning(UserWarning):
+    """The history's last line was cut by a crash during its write: that version was never committed."""
+
+
+@dataclass(frozen=True)
+class Version:
+    """One calibration version (module docstring for the fields)."""
+
+    version: int
+    time: float
+    reason: str
+    T_base_cam: np.ndarray
+    sigma: np.ndarray | None = None
+    frames: tuple = ()
+    replaces: int | None = None
+    stream_t: float | None = None
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {
+            "version": self.version,
+            "time": self.time,
+            "stream_t": self.stream_t,
+            "reason": self.reason,
+            "T_base_cam": np.asarray(self.T_base_cam, dtype=float).tolist(),
+            "sigma": None if self.sigma is None else np.asarray(self.sigma, dtype=float).tolist(),
+            "frames": [int(f) for f in self.frames],
+            "replaces": self.replaces,
+            "extra": self.extra,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str) -> "Version":
+        try:
+            T = check_transforms(np.array(d["T_base_cam"], dtype=float), f"{where}: T_base_cam")[0]
+            sigma = None if d.get("sigma") is None else np.array(d["sigma"], dtype=float).reshape(6)
+            return cls(
+                int(d["version"]),
+                float(d["time"]),
+                str(d["reason"]),
+                T,
+                sigma,
+                tuple(int(f) for f in d.get("frames", ())),
+                None if d.get("replaces") is None else int(d["replaces"]),
+                None if d.get("stream_t") is None else float(d["stream_t"]),
+                dict(d.get("extra") or {}),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise HandEyeInputError(f"{where}: not a calibration version ({exc})") from None
+
+
+class History:
+    """The append-only history at ``path`` (created on the first append), and the current calibration's JSON.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON-lines file.
+    current_path : str or Path, optional
+        Where the current calibration is published (none when omitted).
+    """
+
+    def __init__(self, path: str | Path, current_path: str | Path | None = None):
+        self.path = Path(path)
+        self.current_path = None if current_path is None else Path(current_path)
+
+    def _complete_lines(self) -> tuple[list[bytes], int]:
+        """The complete lines and the byte length they span (a torn tail after it is left out, with a warning)."""
+        try:
+            data = self.path.read_bytes()
+        except FileNotFoundError:
+            return [], 0
+        end = data.rfind(b"\n") + 1
+        if end < len(data):
+            warnings.warn(
+                f"{self.path}: the last line ({len(data) - end} bytes) has no end: a write cut by a crash, "
+                "ignored (that version was never committed)",
+                TornLineWarning,
+                stacklevel=3,
+            )
+        return data[:end].splitlines(), end
+
+    def versions(self) -> list[Version]:
+        """Every committed version, oldest first.
+
+        Raises
+        ------
+        HandEyeInputError
+            A complete line that is not a version (naming the line): corruption, not a torn write.
+        """
+        out = []
+        for i, line in enumerate(self._complete_lines()[0], start=1):
+            where = f"{self.path}: line {i}"
+            try:
+                doc = json.loads(line)
+            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+                raise HandEyeInputError(f"{where}: not JSON ({exc}); the history is corrupt") from None
+            if not isinstance(doc, dict):
+                raise HandEyeInputError(f"{where}: not a calibration version (a JSON object expected)")
+            out.append(Version.from_dict(doc, where))
+        return out
+
+    def latest(self) -> Version | None:
+        """The current version (the last committed), None for an empty history."""
+        v = self.versions()
+        return v[-1] if v else None
+
+    def get(self, version: int) -> Version:
+        """A version by number (raises :class:`HandEyeInputError` naming the versions there are)."""
+        versions = self.versions()
+        for v in versions:
+            if v.version == version:
+                return v
+        have = f"{versions[0].version}..{versions[-1].version}" if versions else "none"
+        raise HandEyeInputError(f"{self.path}: no version {version} (versions: {have})")
+
+    def append(
+        self,
+        T_base_cam: np.ndarray,
+        reason: str,
+        sigma: np.ndarray | None = None,
+        frames=(),
+        stream_t: float | None = None,
+        extra: dict | None = None,
+    ) -> Version:
+        """Commit a new version: its line written and fsynced, then the current JSON replaced.
+
+        Returns
+        -------
+        Version
+            The committed version (numbered after the last, replacing it).
+        """
+        T = check_transforms(np.asarray(T_base_cam, dtype=float), "T_base_cam")[0]
+        lines, end = self._complete_lines()
+        last = Version.from_dict(json.loads(lines[-1]), f"{self.path}: line {len(lines)}") if lines else None
+        v = Version(
+            version=1 if last is None else last.version + 1,
+            time=time.time(),
+            reason=reason,
+            T_base_cam=T,
+            sigma=None if sigma is None else np.asarray(sigma, dtype=float).reshape(6),
+            frames=tuple(int(f) for f in frames),
+            replaces=None if last is None else last.version,
+            stream_t=stream_t,
+            extra=dict(extra or {}),
+        )
+        data = (json.dumps(v.to_dict(), separators=(",", ":")) + "\n").encode()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        new = not self.path.exists()
+        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+        try:
+            if os.fstat(fd).st_size > end:  # a torn, never-committed tail: cut it before appending
+                os.ftruncate(fd, end)
+            written = 0
+            while written < len(data):
+                written += os.write(fd, data[written:])
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        if new:
+            _fsync_dir(self.path.parent)
+        self._publish(v)
+        return v
+
+    def rollback(self, version: int, stream_t: float | None = None) -> Version:
+        """Append a new version equal to ``version`` (nothing is rewritten)."""
+        old = self.get(version)
+        return self.append(old.T_base_cam, f"rollback to version {version}", old.sigma, old.frames, stream_t)
+
+    def publish(self) -> Version | None:
+        """Rewrite the current calibration's JSON from the latest version (after a crash between the two)."""
+        v = self.latest()
+        if v is not None:
+            self._publish(v)
+        return v
+
+    def _publish(self, v: Version) -> None:
+        if self.current_path is not None:
+            write_text_atomic(self.current_path, json.dumps(v.to_dict(), indent=1) + "\n")
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Make a new file's directory entry durable (POSIX; a no-op where directories cannot be opened)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

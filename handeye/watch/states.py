@@ -1,0 +1,154 @@
+"""Each frame's state from its check, the change test and a slow trend.
+
+In order, per frame (:class:`FrameStates.classify`):
+
+1. **out_of_view**: fewer than ``min_visible`` model points project into the image;
+2. **dropout**: more than ``dropout_fraction`` of them have no depth;
+3. **occluded**: more than ``occluded_fraction`` of those with depth see something in front of the arm
+   (outside the match window) while few see the background behind it: an occluder can only be in front,
+   a moved camera puts model pixels on the background too. These frames do not enter the change test
+   (their matched points would, but a half-hidden arm biases the step at the occluder's edge);
+4. the frame enters the CUSUM (:mod:`handeye.watch.change`) with ``x = chi2 / c``; a frame whose matched
+   points fall below ``lost_matched_fraction`` (the surface is off by more than the match window) enters
+   with the largest increment. An alarm is **moved** when the corrections of the frames since the CUSUM left
+   0 agree (their weighted mean's chi2 per degree of freedom is at least ``consistency_ratio`` times their
+   scatter's, or most of them were lost frames), else **occluded** (large but inconsistent: a person
+   passing) and the CUSUM is re-armed;
+5. **drift**: an EWMA of ``delta - delta_ref`` (weight ``drift_alpha``) outside the ``drift_level`` tail of its
+   stationary ``chi2(6)`` (covariance ``c Sigma (alpha / (2 - alpha) + pi / (2 N))``, ``Sigma`` an EWMA of the
+   frames', the second term the error of ``delta_ref``, a median of ``N`` frames): a slow
+   consistent trend below the alarm. Reported, never a recalibration; its per-frame tail probability is not
+   a false-alarm rate (the EWMA is correlated from frame to frame) and none is stated;
+6. else **ok**.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from handeye.watch.change import Cusum, NullModel
+from handeye.watch.check import FrameCheck
+
+__all__ = ["StateOptions", "FrameStates", "screen"]
+
+
+@dataclass(frozen=True)
+class StateOptions:
+    """Thresholds of :class:`FrameStates` (module docstring)."""
+
+    min_visible: int = 200
+    dropout_fraction: float = 0.5
+    occluded_fraction: float = 0.2
+    behind_fraction_of_occluders: float = 0.5
+    lost_matched_fraction: float = 0.3
+    consistency_ratio: float = 1.0
+    drift_alpha: float = 0.02
+    drift_level: float = 1e-4
+
+    def __post_init__(self):
+        for key in ("dropout_fraction", "occluded_fraction", "lost_matched_fraction", "drift_alpha", "drift_level"):
+            value = getattr(self, key)
+            if not 0 < value < 1:
+                raise ValueError(f"StateOptions.{key} must lie in (0, 1), got {value}")
+
+
+def screen(check: FrameCheck, options: StateOptions) -> tuple[str, str] | None:
+    """Steps 1-3 of the module docstring: ``(state, detail)`` of a frame the change test cannot use, else None."""
+    o = options
+    if check.n_visible < o.min_visible:
+        return "out_of_view", f"{check.n_visible} model points visible (< {o.min_visible})"
+    if check.n_dropout > o.dropout_fraction * check.n_visible:
+        return "dropout", f"{check.n_dropout} of {check.n_visible} model pixels without depth"
+    occluders, behind = check.fraction(check.n_occluders), check.fraction(check.n_behind)
+    if occluders > o.occluded_fraction and behind < o.behind_fraction_of_occluders * occluders:
+        return "occluded", f"{occluders:.0%} of the model's pixels see something in front"
+    return None
+
+
+class FrameStates:
+    """The classifier of the module docstring, with its memory (the CUSUM, the run's corrections, the EWMA).
+
+    Parameters
+    ----------
+    null : NullModel
+    cusum : Cusum
+    options : StateOptions, optional
+    """
+
+    def __init__(self, null: NullModel, cusum: Cusum, options: StateOptions | None = None):
+        self.null = null
+        self.cusum = cusum
+        self.options = options or StateOptions()
+        self._run: deque = deque(maxlen=600)  # (delta - ref, covariance) or None (lost) of the CUSUM's run
+        self._ewma = np.zeros(6)
+        self._ewma_cov = None
+        self._ewma_frames = 0
+        self._drift_bound = float(stats.chi2.isf(self.options.drift_level, 6))
+
+    def rearm(self, null: NullModel | None = None) -> None:
+        """After a recalibration: the CUSUM, the run and the EWMA back to 0 (and a new null, if given)."""
+        if null is not None:
+            self.null = null
+        self.cusum.reset()
+        self._run.clear()
+        self._ewma[:] = 0.0
+        self._ewma_cov, self._ewma_frames = None, 0
+
+    def classify(self, check: FrameCheck) -> tuple[str, str]:
+        """The frame's state and a short detail (module docstring)."""
+        o = self.options
+        unusable = screen(check, o)
+        if unusable is not None:
+            return unusable
+        lost = check.delta is None or check.fraction(check.n_matched) < o.lost_matched_fraction
+        x = np.inf if lost else self.null.statistic(check.delta, check.covariance)
+        self._run.append(None if lost else (check.delta - self.null.delta_ref, check.covariance))
+        alarm = self.cusum.update(x)
+        if self.cusum.value == 0:
+            self._run.clear()
+        detail = f"x {x:.1f}, cusum {self.cusum.value:.1f} / {self.cusum.h:.1f}"
+        if alarm:
+            consistent, why = self._consistent()
+            if consistent:
+                return "moved", f"{detail}; {why}"
+            self.cusum.reset()
+            self._run.clear()
+            return "occluded", f"{detail}; alarm without a consistent direction ({why})"
+        if not lost and self._drifting(check):
+            return "drift", f"{detail}; EWMA of the correction beyond its {o.drift_level:g} tail"
+        return "ok", detail
+
+    def _consistent(self) -> tuple[bool, str]:
+        """Whether the run's corrections agree on a direction."""
+        run = list(self._run)[-max(self.cusum.run, 2) :]
+        seen = [r for r in run if r is not None]
+        if len(seen) < len(run) / 2:
+            return True, f"{len(run) - len(seen)} of {len(run)} frames off by more than the match window"
+        infos = [np.linalg.inv(c) for _, c in seen]
+        info = sum(infos)
+        mean = np.linalg.solve(info, sum(i @ d for i, (d, _) in zip(infos, seen)))
+        c = self.null.scale
+        mean_chi2 = float(mean @ info @ mean) / c
+        scatter = sum(float((d - mean) @ i @ (d - mean)) for i, (d, _) in zip(infos, seen)) / c
+        dof = 6 * max(len(seen) - 1, 1)
+        ratio = (mean_chi2 / 6) / max(scatter / dof, 1.0)
+        what = f"mean chi2/6 {mean_chi2 / 6:.1f} over scatter/dof {scatter / dof:.1f} = {ratio:.1f}"
+        return ratio >= self.options.consistency_ratio, what
+
+    def _drifting(self, check: FrameCheck) -> bool:
+        a = self.options.drift_alpha
+        d = check.delta - self.null.delta_ref
+        self._ewma = (1 - a) * self._ewma + a * d
+        cov = check.covariance * self.null.scale
+        self._ewma_cov = cov if self._ewma_cov is None else (1 - a) * self._ewma_cov + a * cov
+        self._ewma_frames += 1
+        if self._ewma_frames < 1.0 / a:
+            return False
+        # the EWMA's own spread plus the reference's: a median of N frames (variance pi / 2 / N of one frame's)
+        spread = a / (2 - a) + np.pi / 2 / max(self.null.frames, 1)
+        stat = float(self._ewma @ np.linalg.solve(self._ewma_cov * spread, self._ewma))
+        return stat > self._drift_bound
