@@ -342,8 +342,10 @@ class _Unknowns:
         self.depth_cols = slice(6, 6 + n_depth)
         self.intrinsics_cols = slice(6 + n_depth, 6 + n_depth + n_intr)
         self.joint_cols = slice(6 + n_depth + n_intr, self.n_par)
+        self.precision, self.mean = self._prior(options)
+        self.has_prior = bool(self.precision.any())
 
-    def prior(self, options: PlaneFitOptions) -> tuple[np.ndarray, np.ndarray]:
+    def _prior(self, options: PlaneFitOptions) -> tuple[np.ndarray, np.ndarray]:
         """Precision and mean of the Gaussian prior of each parameter (precision 0: none)."""
         o = options
         precision, mean = np.zeros(self.n_par), np.zeros(self.n_par)
@@ -419,27 +421,8 @@ def solve_point_to_plane(
     -------
     PlaneFit
     """
-    T = np.array(T_base_cam, dtype=float)
     x = _Unknowns(options, model.joint_twists)
-    precision, mean = x.prior(options)
-    has_prior = bool(precision.any())
-    step_norm, steps = np.inf, 0
-    for steps in range(1, options.iterations + 1):
-        r, J = _linearise(p_cam, model, T, x)
-        w = loss_weights(r / options.scale_m, options.loss, 1.0)
-        H = (J * w[:, None]).T @ J
-        g = (J * w[:, None]).T @ r
-        if has_prior:
-            # the prior in the residuals' units: their variance over the prior's
-            P = _prior_information(precision, r, w)
-            H = H + P
-            g = g + P @ np.where(precision > 0, x.params() - mean, 0.0)
-        # a ridge of 1e-12 relative: a direction the data do not fix stays put instead of running away
-        xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(x.n_par), g)
-        T = apply_right(T, xi[:6])
-        step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6])) + x.update(xi)
-        if step_norm < options.tol:
-            break
+    T, steps, step_norm = _gauss_newton(p_cam, model, np.array(T_base_cam, dtype=float), x, options)
     r, J = _linearise(p_cam, model, T, x)
     w = loss_weights(r / options.scale_m, options.loss, 1.0)
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
@@ -447,13 +430,36 @@ def solve_point_to_plane(
     fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=x.theta, joint_offsets=x.delta)
     if not options.covariance:
         return fit
-    prior = _prior_information(precision, r, w) if has_prior else None
+    prior = _prior_information(x.precision, r, w) if x.has_prior else None
     cov = clustered_covariance(J, r, w, group, prior, cross_group)
     fit.covariance = cov[:6, :6]
     if x.n_par > 6:
         frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
         _set_covariances(fit, x, cov, frames)
     return fit
+
+
+def _gauss_newton(p_cam: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns, options: PlaneFitOptions):
+    """Iteratively reweighted Gauss-Newton from the pose ``T`` and the unknowns ``x`` (updated in place); returns
+    the pose, the steps taken and the last step's size."""
+    step_norm, steps = np.inf, 0
+    for steps in range(1, options.iterations + 1):
+        r, J = _linearise(p_cam, model, T, x)
+        w = loss_weights(r / options.scale_m, options.loss, 1.0)
+        H = (J * w[:, None]).T @ J
+        g = (J * w[:, None]).T @ r
+        if x.has_prior:
+            # the prior in the residuals' units: their variance over the prior's
+            P = _prior_information(x.precision, r, w)
+            H = H + P
+            g = g + P @ np.where(x.precision > 0, x.params() - x.mean, 0.0)
+        # a ridge of 1e-12 relative: a direction the data do not fix stays put instead of running away
+        xi = -np.linalg.solve(H + 1e-12 * np.trace(H) * np.eye(x.n_par), g)
+        T = apply_right(T, xi[:6])
+        step_norm = float(np.linalg.norm(xi[:3]) + np.linalg.norm(xi[3:6])) + x.update(xi)
+        if step_norm < options.tol:
+            break
+    return T, steps, step_norm
 
 
 def _set_covariances(fit: PlaneFit, x: _Unknowns, cov: np.ndarray, frames: np.ndarray) -> None:
