@@ -27,6 +27,13 @@ of ``--noise``.
     handeye sim bag data/small --out bags/ --storage mcap
     handeye import bag bags/cam_0000_data --calibration bags/cam_0000_calibration --robot ur5 \
         --board board.json --out data/small-imported
+
+``handeye sim stream`` renders a running cell (:mod:`sim.stream`): one camera watching the arm work for
+minutes, bumped at known times and sizes, occluded, its lights changed, its depth lost for moments, drifting;
+one shard per segment between camera changes and the truth of every event in ``stream.json``::
+
+    handeye sim stream --preset bumps --out data/stream-bumps --sensor d435
+    handeye sim stream --preset static --out data/stream-static --minutes 60 --rate 2
 """
 
 from __future__ import annotations
@@ -35,7 +42,7 @@ import argparse
 from pathlib import Path
 
 from handeye.core.engines import add_engine_arguments
-from handeye.core.numbers import cli_int
+from handeye.core.numbers import cli_float, cli_int
 
 __all__ = ["add_parser", "run"]
 
@@ -96,7 +103,54 @@ def add_parser(sub) -> argparse.ArgumentParser:
     b.add_argument("--color", choices=("raw", "jpeg", "png"), default="raw", help="Image or CompressedImage")
     b.add_argument("--board-out", type=Path, help="also write the dataset's board spec here (for --board)")
     b.set_defaults(run=run_bag)
+    s = simsub.add_parser(
+        "stream",
+        help="render a running cell: the arm working for minutes, the camera bumped, occluded, drifting",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    s.add_argument("--preset", default="bumps", help="bumps (default), static or smoke (sim.stream_events)")
+    s.add_argument("--out", type=Path, required=True, help="a new dataset folder")
+    s.add_argument("--sensor", default=None, help="depth sensor profile (default the preset's, d435)")
+    s.add_argument("--seed", type=cli_int, default=0)
+    s.add_argument("--minutes", type=cli_float, default=None, help="the stream's length (default the preset's)")
+    s.add_argument("--rate", type=cli_float, default=None, help="frames per second (default the preset's)")
+    s.add_argument("--size", default=None, help="image WIDTHxHEIGHT (default the preset's, 256x256)")
+    s.add_argument("--workers", type=cli_int, default=2, help="rendering processes (default 2)")
+    s.add_argument("--quiet", action="store_true", help="no line per rendered segment")
+    s.set_defaults(run=run_stream)
     return p
+
+
+def run_stream(args: argparse.Namespace) -> int:
+    """Run ``handeye sim stream``."""
+    from handeye.core.errors import HandEyeInputError
+    from handeye.core.optional import require_package
+
+    require_package("pyrender", extra="sim", purpose="rendering")
+    from sim.stream import generate_stream
+
+    size = None
+    if args.size is not None:
+        try:
+            size = tuple(int(v) for v in args.size.lower().split("x"))
+        except ValueError:
+            size = ()
+        if len(size) != 2:
+            raise HandEyeInputError(f"--size {args.size!r}: use WIDTHxHEIGHT, e.g. 256x256")
+    report = generate_stream(
+        args.out,
+        args.preset,
+        seed=args.seed,
+        sensor=parse_sensor(args.sensor),
+        minutes=args.minutes,
+        rate_hz=args.rate,
+        image_size=size,
+        workers=args.workers,
+        progress=not args.quiet,
+    )
+    print(report.summary())
+    return 0
 
 
 def run_bag(args: argparse.Namespace) -> int:
