@@ -155,6 +155,36 @@ def load_frames(
     ds = Dataset.open(root)
     cams = ds.cameras()
     truth = ds.truth()
+    t_all, q_all = pose_targets(_targets(ds, cams, truth, labels))
+    tt_all, tq_all = pose_targets(truth)
+    rows = _frame_rows(ds, list(range(len(ds))) if cameras is None else [int(c) for c in cameras])
+    w, h = image_size
+    rgb, depth, pose_base_ref = _images(ds, rows, (w, h), progress)
+    cam = np.array([r[0] for r in rows])
+    joints = np.array([r[4] for r in rows], dtype=np.float32)
+    return FrameSet(
+        rgb,
+        depth,
+        pose_base_ref,
+        t_all[cam].astype(np.float32),
+        q_all[cam].astype(np.float32),
+        cam,
+        cams["region"][cam],
+        np.asarray(cams["split"][cam]).astype(str),
+        tt_all[cam],
+        tq_all[cam],
+        labels,
+        (w, h),
+        joints=joints,
+        intrinsics_norm=np.tile(_intrinsics_norm(ds.meta["intrinsics"]), (len(rows), 1)),
+    )
+
+
+# -- the stages of load_frames(), in its order
+
+
+def _targets(ds: Dataset, cams, truth: np.ndarray, labels: str) -> np.ndarray:
+    """``T_base_cam`` per camera pose, shape (C, 4, 4), from the label source; a pose without one raises."""
     if labels == "classic":
         target = ds.labels()
         failed = [c for c in range(len(ds)) if cams["label_status"][c] != "ok"]
@@ -179,9 +209,11 @@ def load_frames(
         target = truth
         if not np.isfinite(truth).all():
             raise DatasetError(f"{ds.cameras_path}: the truth is unknown for some camera poses; use labels='classic'")
-    t_all, q_all = pose_targets(target)
-    tt_all, tq_all = pose_targets(truth)
-    ids = list(range(len(ds))) if cameras is None else [int(c) for c in cameras]
+    return target
+
+
+def _frame_rows(ds: Dataset, ids: list[int]) -> list[tuple]:
+    """``(camera, rgb path, depth path, T_base_ref, joints)`` of every data frame of the camera poses ``ids``."""
     rows = []
     for c in ids:
         t = ds.select(c, "data")
@@ -189,7 +221,13 @@ def load_frames(
         rows += [(c, t["rgb"][k], t["depth"][k], ds.poses(t, "T_base_ref")[k], q[k]) for k in range(len(t["frame"]))]
     if not rows:
         raise DatasetError(f"{ds.root}: no data frames")
-    w, h = image_size
+    return rows
+
+
+def _images(ds: Dataset, rows: list[tuple], size: tuple, progress: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The frames' colour ``(N, 3, H, W)`` and depth ``(N, 1, H, W)`` images at ``size`` and ``T_base_ref``
+    ``(N, 7)``; images of another size than the first frame's raise."""
+    w, h = size
     n = len(rows)
     rgb = np.empty((n, 3, h, w), np.uint8)
     depth = np.empty((n, 1, h, w), np.float16)
@@ -214,27 +252,14 @@ def load_frames(
         depth[i, 0] = _resize(d, (w, h), nearest=True)
         t_m, q_xyzw = pos_quat_xyzw_from_transform(T_base_ref)
         pose_base_ref[i] = np.concatenate([t_m, q_xyzw])
-    cam = np.array([r[0] for r in rows])
-    joints = np.array([r[4] for r in rows], dtype=np.float32)
-    intr = ds.meta["intrinsics"]
+    return rgb, depth, pose_base_ref
+
+
+def _intrinsics_norm(intr: dict) -> np.ndarray:
+    """``(fx / W, fy / H, (cx + 0.5) / W, (cy + 0.5) / H)`` of the dataset's intrinsics, float32, shape (4,)."""
     K, width, height = np.array(intr["K"], dtype=float), float(intr["width"]), float(intr["height"])
     k_norm = np.array([K[0, 0] / width, K[1, 1] / height, (K[0, 2] + 0.5) / width, (K[1, 2] + 0.5) / height])
-    return FrameSet(
-        rgb,
-        depth,
-        pose_base_ref,
-        t_all[cam].astype(np.float32),
-        q_all[cam].astype(np.float32),
-        cam,
-        cams["region"][cam],
-        np.asarray(cams["split"][cam]).astype(str),
-        tt_all[cam],
-        tq_all[cam],
-        labels,
-        (w, h),
-        joints=joints,
-        intrinsics_norm=np.tile(k_norm.astype(np.float32), (n, 1)),
-    )
+    return k_norm.astype(np.float32)
 
 
 def with_keypoints(frames: FrameSet, keypoints_base: np.ndarray) -> FrameSet:

@@ -13,8 +13,9 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -268,33 +269,17 @@ def _split_keypoint_record(rec: "RunRecord") -> list:
 
     One network gives both, so both rows carry the same samples, buffer and wall time.
     """
-    out = []
+    out, per_pose = [], ("matrix", "rmse_matrix")
     for col, network in enumerate(("translation", "orientation")):
-        r = RunRecord(
-            rec.strategy,
-            network,
-            rec.repeat,
-            [[float(np.ravel(e)[col]) if np.ndim(e) else float(e) for e in row] for row in rec.matrix],
-            rec.processed,
-            rec.stored,
-            rec.trained_samples,
-            rec.evaluated,
-            list(rec.skipped),
-            rec.wall_s,
-            dict(rec.placements),
-            [[float(np.ravel(e)[col]) for e in row] for row in rec.placement_matrix],
-            [[float(np.ravel(e)[col]) if np.ndim(e) else float(e) for e in row] for row in rec.rmse_matrix],
-            [
-                {
-                    **p,
-                    "matrix": [float(np.ravel(e)[col]) for e in p["matrix"]],
-                    "rmse_matrix": [float(np.ravel(e)[col]) for e in p["rmse_matrix"]],
-                }
-                for p in rec.pose_matrix
-            ],
-        )
-        out.append(r)
+        fields = {k: _column(getattr(rec, k), col) for k in ("matrix", "placement_matrix", "rmse_matrix")}
+        fields["pose_matrix"] = [{**p, **{k: _column([p[k]], col)[0] for k in per_pose}} for p in rec.pose_matrix]
+        out.append(replace(rec, network=network, skipped=list(rec.skipped), placements=dict(rec.placements), **fields))
     return out
+
+
+def _column(rows: list, col: int) -> list:
+    """Column ``col`` (0: mm, 1: deg) of rows of subset errors; a scalar (NaN where batch has not trained) as it is."""
+    return [[float(np.ravel(e)[col]) if np.ndim(e) else float(e) for e in row] for row in rows]
 
 
 def _pose_recorder(strat, frames: FrameSet, regions: list, rec: "RunRecord"):
@@ -378,137 +363,254 @@ def run_experiment(
     dict
         The results (as written to ``results.json``).
     """
-    preset = get_preset(preset) if isinstance(preset, str) else preset
+    preset, strategies = _checked_arguments(preset, strategies, family)
     progress = progress and distributed.is_writer()
+    if threads:
+        torch.set_num_threads(threads)
+    frames = _frames_of(data, preset, labels, family, progress)
+    run = _Run(preset, strategies, family, labels, seed, progress, frames, out)
+    state = _checkpoint_state(run, resume)
+    records, validation = _train_all(run, state)
+    results = _results(run, records, validation)
+    _write_results(run, results)
+    return results
+
+
+# -- the stages of run_experiment(), in its order
+
+
+def _checked_arguments(preset, strategies, family: str) -> tuple[Preset, list]:
+    """The preset by name and the strategies as a list; an unknown family or strategy raises."""
+    preset = get_preset(preset) if isinstance(preset, str) else preset
     if family not in FAMILIES:
         raise HandEyeInputError(f"unknown model family {family!r}: use {', '.join(FAMILIES)}")
     strategies = list(strategies)
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
         raise HandEyeInputError(f"unknown strategies {unknown}: use {', '.join(STRATEGIES)}")
-    if threads:
-        torch.set_num_threads(threads)
+    return preset, strategies
+
+
+def _frames_of(data, preset: Preset, labels: str, family: str, progress: bool) -> FrameSet:
+    """The frames (read at the preset's size when ``data`` is a path); frames of another size are refused."""
     size = preset.frame_size(family)
     frames = data if isinstance(data, FrameSet) else load_frames(data, size, labels, progress=progress)
     if tuple(frames.image_size) != size:
         raise HandEyeInputError(f"frames are {frames.image_size}, preset {preset.name} needs {size} for {family}")
-    steps = time_steps(frames)
-    regions = [int(r) for r in np.unique(frames.region)]
-    test_cams = [int(c) for c in frames.cameras("test")]
-    # the translation network's output offset: the first time step's mean camera position (known at step 1)
-    offset_mm = frames.t_base_cam_mm[np.isin(frames.camera, steps[0])].mean(axis=0)
-    out = Path(out) if out is not None else None
-    kinds = KINDS if family == "regression" else ("keypoints",)
-    n_keypoints = frames.keypoints_base.shape[1]
-    if family == "keypoints" and n_keypoints < 3:
-        raise HandEyeInputError(
-            "the keypoint model needs the keypoints' base-frame positions in the frames "
-            "(learned.data.with_keypoints; 'handeye learned run --family keypoints' fills them)"
+    return frames
+
+
+@dataclass
+class _Run:
+    """What every stage of :func:`run_experiment` reads: its arguments, the frames and what follows from them
+    (time steps, test subsets and cameras, the networks to train, the run's fingerprint), where it writes."""
+
+    preset: Preset
+    strategies: list
+    family: str
+    labels: str
+    seed: int
+    progress: bool
+    frames: FrameSet
+    out: str | Path | None
+    steps: list = field(init=False)
+    regions: list = field(init=False)
+    test_cams: list = field(init=False)
+    offset_mm: np.ndarray = field(init=False)
+    kinds: tuple = field(init=False)
+    n_keypoints: int = field(init=False)
+    run_id: dict = field(init=False)
+    writer: bool = field(init=False)
+
+    def __post_init__(self):
+        frames = self.frames
+        self.steps = time_steps(frames)
+        self.regions = [int(r) for r in np.unique(frames.region)]
+        self.test_cams = [int(c) for c in frames.cameras("test")]
+        # the translation network's output offset: the first time step's mean camera position (known at step 1)
+        self.offset_mm = frames.t_base_cam_mm[np.isin(frames.camera, self.steps[0])].mean(axis=0)
+        self.out = Path(self.out) if self.out is not None else None
+        self.kinds = KINDS if self.family == "regression" else ("keypoints",)
+        self.n_keypoints = frames.keypoints_base.shape[1]
+        if self.family == "keypoints" and self.n_keypoints < 3:
+            raise HandEyeInputError(
+                "the keypoint model needs the keypoints' base-frame positions in the frames "
+                "(learned.data.with_keypoints; 'handeye learned run --family keypoints' fills them)"
+            )
+        self.run_id = fingerprint(
+            preset=self.preset.to_dict(),
+            strategies=self.strategies,
+            labels=self.labels,
+            seed=self.seed,
+            family=self.family,
+            steps=self.steps,
+            frames=len(frames),
+            test_cameras=self.test_cams,
         )
-    run = fingerprint(
-        preset=preset.to_dict(),
-        strategies=strategies,
-        labels=labels,
-        seed=seed,
-        family=family,
-        steps=steps,
-        frames=len(frames),
-        test_cameras=test_cams,
-    )
+        self.writer = self.out is not None and distributed.is_writer()  # data-parallel: rank 0 alone writes
+
+    def save_checkpoint(self, unit: int, step: int, records: list, rec=None, strat=None) -> None:
+        """A checkpoint (rank 0 alone writes): ``unit`` and ``step`` to go on from, the records so far and,
+        within a unit, its record and strategy so far."""
+        if not self.writer:
+            return
+        partial = () if rec is None else (asdict(rec), strat.state_dict())
+        save_checkpoint(self.out, self.run_id, unit, step, [asdict(r) for r in records], *partial)
+
+
+class _Unit(NamedTuple):
+    """One strategy, network and repeat: its place in the run, the names and indices that seed it."""
+
+    index: int
+    strategy_index: int
+    strategy: str
+    kind_index: int
+    kind: str
+    repeat: int
+
+
+def _checkpoint_state(run: _Run, resume: bool) -> dict | None:
+    """The checkpoint to resume from (None without one, or with ``resume`` False: removed), read by every rank;
+    torch seeded for the first network when starting afresh."""
     state = None
-    writer = out is not None and distributed.is_writer()  # data-parallel: rank 0 alone writes
-    if out is not None:
-        if writer and not resume:
-            remove_checkpoint(out)
+    if run.out is not None:
+        if run.writer and not resume:
+            remove_checkpoint(run.out)
         distributed.barrier()  # removed before any rank reads
-        state = load_checkpoint(out, run)
+        state = load_checkpoint(run.out, run.run_id)
         distributed.barrier()  # read by every rank before rank 0 writes the next one
-    if state is not None and progress:
-        print(f"resuming from {out / CHECKPOINT_NAME}: {len(state['records'])} runs done", file=sys.stderr)
+    if state is not None and run.progress:
+        print(f"resuming from {run.out / CHECKPOINT_NAME}: {len(state['records'])} runs done", file=sys.stderr)
     if state is None:
-        torch.manual_seed(seed)  # the first network's initial weights; torch seeds itself at random otherwise
+        torch.manual_seed(run.seed)  # the first network's initial weights; torch seeds itself at random otherwise
+    return state
+
+
+def _units(run: _Run) -> list[_Unit]:
+    """Every strategy, network and repeat, in the order they run."""
     units = [
         (si, name, ki, kind, rep)
-        for si, name in enumerate(strategies)
-        for ki, kind in enumerate(kinds)
-        for rep in range(preset.repeats)
+        for si, name in enumerate(run.strategies)
+        for ki, kind in enumerate(run.kinds)
+        for rep in range(run.preset.repeats)
     ]
+    return [_Unit(u, *unit) for u, unit in enumerate(units)]
+
+
+def _train_all(run: _Run, state: dict | None) -> tuple[list, dict]:
+    """Every unit from the checkpoint's on: the records (the checkpoint's first), and the last repeat's networks
+    per strategy and network (those finished before read from disk)."""
     records = [RunRecord(**r) for r in state["records"]] if state else []
     validation = {}
-    for u, (si, name, ki, kind, rep) in enumerate(units):
-        if rep == preset.repeats - 1 and state and u < state["unit"]:  # finished before: its network is on disk
-            validation.setdefault(name, {})[kind] = load_model(out / name / f"{kind}.pt").to(default_device())
-        if state and u < state["unit"]:
-            continue
-        if state and u == state["unit"]:  # as it was when the checkpoint was written (loading networks drew)
-            torch.set_rng_state(state["torch_rng"])
-        rng = np.random.default_rng([seed, rep, si, ki])
-        first, later = preset.train_configs(name, kind, int((frames.split == "train").sum()))
-        strat = make_strategy(
-            name,
-            preset.model_config(kind, offset_mm, n_keypoints),
-            first,
-            later,
-            rng,
-            progress,
-            c1=preset.c1,
-            c2=preset.c2,
-            c3=preset.c3,
-            threshold_mm=preset.threshold_mm,
-            threshold_deg=preset.threshold_deg,
-            replay_share=preset.selection_replay,
-            novelty=preset.selection_novelty,
-            sampling=preset.sampling,
-            every_step=preset.batch_every_step,
+    for unit in _units(run):
+        done = bool(state) and unit.index < state["unit"]
+        if done and unit.repeat == run.preset.repeats - 1:  # finished before: its network is on disk
+            path = run.out / unit.strategy / f"{unit.kind}.pt"
+            validation.setdefault(unit.strategy, {})[unit.kind] = load_model(path).to(default_device())
+        if not done:
+            resumed = state if state and unit.index == state["unit"] else None
+            _train_unit(run, unit, resumed, records, validation)
+    return records, validation
+
+
+def _train_unit(run: _Run, unit: _Unit, resumed: dict | None, records: list, validation: dict) -> None:
+    """One unit's time steps (from the checkpoint's step when ``resumed``), each recorded and checkpointed;
+    its records appended to ``records``, its network (last repeat) to ``validation``."""
+    if resumed:  # as it was when the checkpoint was written (loading networks drew)
+        torch.set_rng_state(resumed["torch_rng"])
+    strat = _strategy(run, unit)
+    rec, start = RunRecord(unit.strategy, unit.kind, unit.repeat), 0
+    if resumed and resumed.get("strategy"):
+        strat.load_state_dict(resumed["strategy"])
+        torch.set_rng_state(resumed["torch_rng"])
+        rec, start = RunRecord(**resumed["partial"]), resumed["step"]
+    if unit.strategy == "selection" and run.preset.pose_steps:
+        strat.after_pose = _pose_recorder(strat, run.frames, run.regions, rec)
+    t0, spent = time.perf_counter(), rec.wall_s
+    for k in range(start, len(run.steps)):
+        last = k == len(run.steps) - 1
+        strat.step(k, run.steps[k], run.frames, last=last)
+        if distributed.world_size() > 1:
+            distributed.check_same(
+                _replicated_state(strat), f"{unit.strategy} {unit.kind} repeat {unit.repeat + 1} step {k + 1}"
+            )
+        _record_step(run, unit, strat, rec, k)
+        rec.wall_s = spent + time.perf_counter() - t0
+        if run.progress:
+            row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(run.regions, rec.matrix[-1]))
+            print(f"{unit.strategy:9s} {unit.kind:11s} repeat {unit.repeat + 1} step {k + 1}: {row}", file=sys.stderr)
+        if not last:
+            run.save_checkpoint(unit.index, k + 1, records, rec, strat)
+        else:
+            _finish_unit(run, unit, strat, rec, records, validation)
+
+
+def _strategy(run: _Run, unit: _Unit):
+    """The unit's strategy, its network fresh, its generator ``default_rng([seed, repeat, strategy, network])``."""
+    preset = run.preset
+    rng = np.random.default_rng([run.seed, unit.repeat, unit.strategy_index, unit.kind_index])
+    first, later = preset.train_configs(unit.strategy, unit.kind, int((run.frames.split == "train").sum()))
+    return make_strategy(
+        unit.strategy,
+        preset.model_config(unit.kind, run.offset_mm, run.n_keypoints),
+        first,
+        later,
+        rng,
+        run.progress,
+        c1=preset.c1,
+        c2=preset.c2,
+        c3=preset.c3,
+        threshold_mm=preset.threshold_mm,
+        threshold_deg=preset.threshold_deg,
+        replay_share=preset.selection_replay,
+        novelty=preset.selection_novelty,
+        sampling=preset.sampling,
+        every_step=preset.batch_every_step,
+    )
+
+
+def _record_step(run: _Run, unit: _Unit, strat, rec: RunRecord, k: int) -> None:
+    """After time step ``k``: the error on every test subset (NaN where batch has not trained yet) and the
+    strategy's counts, into ``rec``."""
+    frames, regions = run.frames, run.regions
+    trained = unit.strategy != "batch" or run.preset.batch_every_step or k == len(run.steps) - 1
+    cells = [_subset_error(strat.model, frames, r) if trained else (float("nan"),) * 2 for r in regions]
+    rec.matrix.append([_json_error(mean) for mean, _ in cells])
+    rec.rmse_matrix.append([_json_error(rms) for _, rms in cells])
+    if unit.kind == "keypoints":
+        rec.placement_matrix.append(
+            [_json_error(_subset_placement_error(strat.model, frames, r, trained)) for r in regions]
         )
-        rec, start = RunRecord(name, kind, rep), 0
-        if state and u == state["unit"] and state.get("strategy"):
-            strat.load_state_dict(state["strategy"])
-            torch.set_rng_state(state["torch_rng"])
-            rec, start = RunRecord(**state["partial"]), state["step"]
-        if name == "selection" and preset.pose_steps:
-            strat.after_pose = _pose_recorder(strat, frames, regions, rec)
-        t0, spent = time.perf_counter(), rec.wall_s
-        for k in range(start, len(steps)):
-            strat.step(k, steps[k], frames, last=k == len(steps) - 1)
-            if distributed.world_size() > 1:
-                distributed.check_same(_replicated_state(strat), f"{name} {kind} repeat {rep + 1} step {k + 1}")
-            trained = name != "batch" or preset.batch_every_step or k == len(steps) - 1
-            cells = [_subset_error(strat.model, frames, r) if trained else (float("nan"),) * 2 for r in regions]
-            rec.matrix.append([_json_error(mean) for mean, _ in cells])
-            rec.rmse_matrix.append([_json_error(rms) for _, rms in cells])
-            if kind == "keypoints":
-                rec.placement_matrix.append(
-                    [_json_error(_subset_placement_error(strat.model, frames, r, trained)) for r in regions]
-                )
-            rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
-            rec.trained_samples = strat.trained_samples
-            rec.skipped, rec.wall_s = list(strat.skipped), spent + time.perf_counter() - t0
-            if progress:
-                row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(regions, rec.matrix[-1]))
-                print(f"{name:9s} {kind:11s} repeat {rep + 1} step {k + 1}: {row}", file=sys.stderr)
-            if k < len(steps) - 1:
-                if writer:
-                    save_checkpoint(out, run, u, k + 1, [asdict(r) for r in records], asdict(rec), strat.state_dict())
-                continue
-            if kind == "keypoints":
-                pc = keypoint_camera_predictions(strat.model, frames, test_cams)
-                t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
-                rec.placements = {
-                    "median_mm": float(np.median(t_mm)),
-                    "worst_mm": float(t_mm.max()),
-                    "median_deg": float(np.median(r_deg)),
-                    "worst_deg": float(r_deg.max()),
-                }
-            records += _split_keypoint_record(rec) if kind == "keypoints" else [rec]
-            if rep == preset.repeats - 1:
-                validation.setdefault(name, {})[kind] = strat.model
-                if writer:
-                    save_model(
-                        strat.model, out / name / f"{kind}.pt", {"preset": preset.name, "labels": labels, "seed": seed}
-                    )
-            if writer:
-                save_checkpoint(out, run, u + 1, 0, [asdict(r) for r in records])
+    rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
+    rec.trained_samples = strat.trained_samples
+    rec.skipped = list(strat.skipped)
+
+
+def _finish_unit(run: _Run, unit: _Unit, strat, rec: RunRecord, records: list, validation: dict) -> None:
+    """A unit done: the keypoint model's test placements, its records, its network (last repeat: kept for the
+    validation and saved) and a checkpoint."""
+    if unit.kind == "keypoints":
+        pc = keypoint_camera_predictions(strat.model, run.frames, run.test_cams)
+        t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
+        rec.placements = {
+            "median_mm": float(np.median(t_mm)),
+            "worst_mm": float(t_mm.max()),
+            "median_deg": float(np.median(r_deg)),
+            "worst_deg": float(r_deg.max()),
+        }
+    records += _split_keypoint_record(rec) if unit.kind == "keypoints" else [rec]
+    if unit.repeat == run.preset.repeats - 1:
+        validation.setdefault(unit.strategy, {})[unit.kind] = strat.model
+        if run.writer:
+            meta = {"preset": run.preset.name, "labels": run.labels, "seed": run.seed}
+            save_model(strat.model, run.out / unit.strategy / f"{unit.kind}.pt", meta)
+    run.save_checkpoint(unit.index + 1, 0, records)
+
+
+def _per_camera(run: _Run, validation: dict) -> tuple[dict, dict]:
+    """Per strategy, its last networks on the test camera poses (:func:`camera_predictions`) and their
+    inference times."""
+    frames, test_cams = run.frames, run.test_cams
     per_camera, inference = {}, {}
     test_idx = np.flatnonzero(frames.split == "test")
     for name, m in validation.items():
@@ -517,7 +619,7 @@ def run_experiment(
             predict(net, frames, test_idx)
         per_frame_ms = (time.perf_counter() - t0) / max(len(test_idx), 1) * 1e3
         t0 = time.perf_counter()
-        if family == "keypoints":
+        if run.family == "keypoints":
             per_camera[name] = keypoint_camera_predictions(m["keypoints"], frames, test_cams)
         else:
             per_camera[name] = camera_predictions(m["translation"], m["orientation"], frames, test_cams)
@@ -528,37 +630,52 @@ def run_experiment(
             "device": str(default_device()),
             "threads": torch.get_num_threads(),
         }
-    if family == "keypoints":
+    return per_camera, inference
+
+
+def _summary(run: _Run, validation: dict) -> dict:
+    """Per strategy and network, the last networks' per-frame test errors summarised."""
+    test_idx = np.flatnonzero(run.frames.split == "test")
+    if run.family == "keypoints":
         summary = {}
         for name, m in validation.items():
-            e = errors(m["keypoints"], frames, test_idx)
+            e = errors(m["keypoints"], run.frames, test_idx)
             summary[name] = {"translation": summarize(e[:, 0]), "orientation": summarize(e[:, 1])}
-    else:
-        summary = {
-            name: {kind: summarize(errors(validation[name][kind], frames, test_idx)) for kind in KINDS}
-            for name in validation
-        }
-    results = {
-        "preset": preset.to_dict(),
-        "labels": labels,
-        "seed": seed,
-        "family": family,
-        "regions": regions,
-        "steps": steps,
-        "test_cameras": test_cams,
-        "strategies": strategies,
+        return summary
+    return {
+        name: {kind: summarize(errors(validation[name][kind], run.frames, test_idx)) for kind in KINDS}
+        for name in validation
+    }
+
+
+def _results(run: _Run, records: list, validation: dict) -> dict:
+    """The results as ``results.json`` holds them."""
+    per_camera, inference = _per_camera(run, validation)
+    frames = run.frames
+    return {
+        "preset": run.preset.to_dict(),
+        "labels": run.labels,
+        "seed": run.seed,
+        "family": run.family,
+        "regions": run.regions,
+        "steps": run.steps,
+        "test_cameras": run.test_cams,
+        "strategies": run.strategies,
         "runs": [asdict(r) for r in records],
         "per_camera": per_camera,
         "test_frames_per_region": {
-            int(r): int(np.sum((frames.region == r) & (frames.split == "test"))) for r in regions
+            int(r): int(np.sum((frames.region == r) & (frames.split == "test"))) for r in run.regions
         },
-        "summary": summary,
+        "summary": _summary(run, validation),
         "inference": inference,
         "world_size": distributed.world_size(),
     }
-    if writer:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "results.json").write_text(json.dumps(results, indent=1))
-        remove_checkpoint(out)
+
+
+def _write_results(run: _Run, results: dict) -> None:
+    """``results.json`` written (rank 0) and the checkpoint removed; every rank returns once it is written."""
+    if run.writer:
+        run.out.mkdir(parents=True, exist_ok=True)
+        (run.out / "results.json").write_text(json.dumps(results, indent=1))
+        remove_checkpoint(run.out)
     distributed.barrier()  # every rank returns once the results are written
-    return results

@@ -17,6 +17,7 @@ the paper's protocol mode).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -47,170 +48,235 @@ def findings(results: dict) -> list[str]:
     lines = []
     strategies = results["strategies"]
     for net in NETS:
-        u = UNIT[net]
         if "naive" in strategies:
-            m, _ = mean_matrix(results, "naive", net)
-            ok = m[-1, 0] >= 2 * m[0, 0]
-            lines.append(
-                f"{net}: naive forgets S1: {m[0, 0]:.2f} {u} after step 1, {m[-1, 0]:.2f} {u} at the last "
-                f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): "
-                f"{'reproduced' if ok else 'NOT reproduced'}"
-            )
-            pm = _placement_matrix(results, "naive", net)
-            if pm is not None:
-                ok = pm[-1, 0] >= 2 * pm[0, 0]
-                lines.append(
-                    f"{net}: naive forgets S1, per placement (median of its test placements' one pose): "
-                    f"{pm[0, 0]:.2f} {u} after step 1, {pm[-1, 0]:.2f} {u} at the last step "
-                    f"({pm[-1, 0] / pm[0, 0]:.1f}x; finding needs >= 2x): {'reproduced' if ok else 'NOT reproduced'}"
-                )
+            lines += _naive_forgets(results, net)
         if "reservoir" in strategies and "batch" in strategies:
-            r, _ = mean_matrix(results, "reservoir", net)
-            b, _ = mean_matrix(results, "batch", net)
-            ratio = np.nanmean(r[-1]) / np.nanmean(b[-1])
-            lines.append(
-                f"{net}: reservoir ends at {np.nanmean(r[-1]):.2f} {u} mean over subsets, batch baseline "
-                f"{np.nanmean(b[-1]):.2f} {u} ({ratio:.2f}x; finding needs <= 1.5x): "
-                f"{'reproduced' if ratio <= 1.5 else 'NOT reproduced'}"
-            )
+            lines.append(_reservoir_near_batch(results, net))
         if "selection" in strategies and "reservoir" in strategies:
-            s = runs_of(results, "selection", net)
-            r = runs_of(results, "reservoir", net)
-            skipped = np.mean([len(x["skipped"]) for x in s])
-            proc_s, proc_r = np.mean([x["processed"] for x in s]), np.mean([x["processed"] for x in r])
-            es = np.nanmean(mean_matrix(results, "selection", net)[0][-1])
-            er = np.nanmean(mean_matrix(results, "reservoir", net)[0][-1])
-            ok = skipped > 0 and proc_s < proc_r
-            preset = results.get("preset", {})
-            how = (
-                "the one pose from all its frames"
-                if preset.get("selection_novelty") == "placement"
-                else "its frames' mean error"
-            )
-            mm, deg = f"{preset.get('threshold_mm', 3.0):g} mm", f"{preset.get('threshold_deg', 4.0):g} deg"
-            limit = f"{mm} or {deg}" if results.get("family") == "keypoints" else (mm if net == "translation" else deg)
-            lines.append(
-                f"{net}: selection (novel: {how} above {limit}) skipped {skipped:.1f} camera poses, "
-                f"processed {proc_s:.0f} samples against "
-                f"reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), final error {es:.2f} against {er:.2f} "
-                f"{u}: "
-                f"{'reproduced' if ok else 'NOT reproduced'} (skips and less data)"
-            )
+            lines.append(_selection_skips(results, net))
     return lines
+
+
+def _verdict(ok) -> str:
+    return "reproduced" if ok else "NOT reproduced"
+
+
+def _naive_forgets(results: dict, net: str) -> list[str]:
+    """Naive's error on S1 at least doubled by the last step; per placement too where recorded."""
+    u = UNIT[net]
+    m, _ = mean_matrix(results, "naive", net)
+    lines = [
+        f"{net}: naive forgets S1: {m[0, 0]:.2f} {u} after step 1, {m[-1, 0]:.2f} {u} at the last "
+        f"step ({m[-1, 0] / m[0, 0]:.1f}x; finding needs >= 2x): {_verdict(m[-1, 0] >= 2 * m[0, 0])}"
+    ]
+    pm = _placement_matrix(results, "naive", net)
+    if pm is not None:
+        lines.append(
+            f"{net}: naive forgets S1, per placement (median of its test placements' one pose): "
+            f"{pm[0, 0]:.2f} {u} after step 1, {pm[-1, 0]:.2f} {u} at the last step "
+            f"({pm[-1, 0] / pm[0, 0]:.1f}x; finding needs >= 2x): {_verdict(pm[-1, 0] >= 2 * pm[0, 0])}"
+        )
+    return lines
+
+
+def _reservoir_near_batch(results: dict, net: str) -> str:
+    """The reservoir's final error within 1.5x of the batch baseline's (mean over subsets)."""
+    u = UNIT[net]
+    r, _ = mean_matrix(results, "reservoir", net)
+    b, _ = mean_matrix(results, "batch", net)
+    ratio = np.nanmean(r[-1]) / np.nanmean(b[-1])
+    return (
+        f"{net}: reservoir ends at {np.nanmean(r[-1]):.2f} {u} mean over subsets, batch baseline "
+        f"{np.nanmean(b[-1]):.2f} {u} ({ratio:.2f}x; finding needs <= 1.5x): {_verdict(ratio <= 1.5)}"
+    )
+
+
+def _selection_skips(results: dict, net: str) -> str:
+    """Selection skips camera poses and processes fewer samples than the reservoir."""
+    s = runs_of(results, "selection", net)
+    r = runs_of(results, "reservoir", net)
+    skipped = np.mean([len(x["skipped"]) for x in s])
+    proc_s, proc_r = np.mean([x["processed"] for x in s]), np.mean([x["processed"] for x in r])
+    es = np.nanmean(mean_matrix(results, "selection", net)[0][-1])
+    er = np.nanmean(mean_matrix(results, "reservoir", net)[0][-1])
+    preset = results.get("preset", {})
+    how = (
+        "the one pose from all its frames"
+        if preset.get("selection_novelty") == "placement"
+        else "its frames' mean error"
+    )
+    mm, deg = f"{preset.get('threshold_mm', 3.0):g} mm", f"{preset.get('threshold_deg', 4.0):g} deg"
+    limit = f"{mm} or {deg}" if results.get("family") == "keypoints" else (mm if net == "translation" else deg)
+    return (
+        f"{net}: selection (novel: {how} above {limit}) skipped {skipped:.1f} camera poses, "
+        f"processed {proc_s:.0f} samples against reservoir's {proc_r:.0f} ({proc_s / proc_r:.2f}x), "
+        f"final error {es:.2f} against {er:.2f} {UNIT[net]}: {_verdict(skipped > 0 and proc_s < proc_r)} "
+        "(skips and less data)"
+    )
 
 
 def write_report(run_dir: str | Path, figures: bool = True) -> str:
     """Write ``report.md``, ``*.csv`` and (with ``figures``) ``*.png`` into the run directory; return the markdown."""
-    run_dir = Path(run_dir)
-    results = load_results(run_dir)
-    regions = results["regions"]
-    subsets = [f"S{r + 1}" for r in regions]
-    repeats = results["preset"]["repeats"]
-    family = results.get("family", "regression")
-    key = metric_key(results)
-    what = "Root-mean-square (the paper's metric)" if key == "rmse_matrix" else "Mean"
+    run = _Run.read(Path(run_dir))
+    md = _title(run) + _step_matrices(run) + _placement_matrices(run) + _final_step(run)
+    _final_step_rmse(run)
+    md += paper_tables(run.results)
+    md += _compute(run)
+    md += _per_camera_summary(run) + _repeat_placements(run.results) + _per_camera_tables(run)
+    md += _own_checks(run.results)
+    text = "\n".join(md)
+    (run.dir / "report.md").write_text(text)
+    if figures:
+        _figures(run.results, run.dir)
+    return text
+
+
+# -- the sections of write_report(), in its order
+
+
+@dataclass
+class _Run:
+    """What every section reads: the results, the run directory the tables go to, the test subsets' names,
+    the number of repeats and the metric's key (``matrix`` or ``rmse_matrix``)."""
+
+    results: dict
+    dir: Path
+    subsets: list
+    repeats: int
+    key: str
+
+    @classmethod
+    def read(cls, run_dir: Path) -> "_Run":
+        results = load_results(run_dir)
+        subsets = [f"S{r + 1}" for r in results["regions"]]
+        return cls(results, run_dir, subsets, results["preset"]["repeats"], metric_key(results))
+
+    def cells(self, mean: np.ndarray, std: np.ndarray, k: int) -> list[str]:
+        """Row ``k``'s cells, one per subset: mean ± std over the repeats."""
+        return [_cell(mean[k, j], std[k, j], self.repeats) for j in range(len(self.subsets))]
+
+
+def _title(run: _Run) -> list[str]:
+    """The heading and what the tables hold: the metric, the repeats, when batch trains."""
+    results = run.results
+    what = "Root-mean-square (the paper's metric)" if run.key == "rmse_matrix" else "Mean"
     batch_when = (
         "batch trains from scratch on all data seen at every step"
         if results["preset"].get("batch_every_step")
         else "batch trains from scratch on all training data at the last step"
     )
-    md = [
+    return [
         f"# Learned continual calibration: preset {results['preset']['name']}, labels {results['labels']}, "
-        f"model {family}",
+        f"model {results.get('family', 'regression')}",
         "",
-        f"{what} test error per subset (mean ± std over {repeats} repeats where > 1); rows: time steps "
+        f"{what} test error per subset (mean ± std over {run.repeats} repeats where > 1); rows: time steps "
         f"(after training on region k); {batch_when}.",
         "",
     ]
+
+
+def _step_matrices(run: _Run) -> list[str]:
+    """Per network and strategy, the time-step x subset matrix (tables 3-8); each also to ``matrix_*.csv``."""
+    md = []
     for net in NETS:
-        for strategy in results["strategies"]:
-            mean, std = mean_matrix(results, strategy, net, key)
+        for strategy in run.results["strategies"]:
+            mean, std = mean_matrix(run.results, strategy, net, run.key)
             rows, md_rows = [], []
             for k in range(len(mean)):
-                cells = [_cell(mean[k, j], std[k, j], repeats) for j in range(len(subsets))]
                 avg = np.nanmean(mean[k]) if np.isfinite(mean[k]).any() else float("nan")
-                md_rows.append([f"T{k + 1}", *cells, _cell(avg, 0.0, 1)])
+                md_rows.append([f"T{k + 1}", *run.cells(mean, std, k), _cell(avg, 0.0, 1)])
                 rows.append([k + 1, *mean[k], *std[k]])
-            md += [f"## {strategy}, {net} ({UNIT[net]})", ""] + markdown_table(["step", *subsets, "mean"], md_rows)
+            md += [f"## {strategy}, {net} ({UNIT[net]})", ""] + markdown_table(["step", *run.subsets, "mean"], md_rows)
             md.append("")
             write_csv(
-                run_dir / f"matrix_{strategy}_{net}.csv",
-                ["step", *[f"{s}_mean" for s in subsets], *[f"{s}_std" for s in subsets]],
+                run.dir / f"matrix_{strategy}_{net}.csv",
+                ["step", *[f"{s}_mean" for s in run.subsets], *[f"{s}_std" for s in run.subsets]],
                 rows,
             )
-    placement = {st: _placement_matrix(results, st, "translation") for st in results["strategies"]}
+    return md
+
+
+def _placement_matrices(run: _Run) -> list[str]:
+    """The keypoint model's per-placement matrices, per strategy (none for the regression networks)."""
+    placement = {st: _placement_matrix(run.results, st, "translation") for st in run.results["strategies"]}
     placement = {st: pm for st, pm in placement.items() if pm is not None}
-    if placement:
-        md += [
-            "## Per placement, after each time step (keypoint model)",
-            "",
-            "Median over each subset's test placements of the one pose from all its frames against the label, mm "
-            "(mean over repeats): the forgetting the per-frame tables above cannot show at this model's errors.",
-            "",
-        ]
-        for st, pm in placement.items():
-            rows = [[f"T{k + 1}", *[_cell(v, 0.0, 1) for v in pm[k]]] for k in range(len(pm))]
-            md += [f"### {st}", ""] + markdown_table(["step", *subsets], rows) + [""]
-    # final step against the baseline
-    md += ["## Final step per test subset (tables 9-10)", ""]
+    if not placement:
+        return []
+    md = [
+        "## Per placement, after each time step (keypoint model)",
+        "",
+        "Median over each subset's test placements of the one pose from all its frames against the label, mm "
+        "(mean over repeats): the forgetting the per-frame tables above cannot show at this model's errors.",
+        "",
+    ]
+    for st, pm in placement.items():
+        rows = [[f"T{k + 1}", *[_cell(v, 0.0, 1) for v in pm[k]]] for k in range(len(pm))]
+        md += [f"### {st}", ""] + markdown_table(["step", *run.subsets], rows) + [""]
+    return md
+
+
+def _final_step(run: _Run) -> list[str]:
+    """The final step against the baseline per subset (tables 9-10); also ``final_step.csv``."""
+    md = ["## Final step per test subset (tables 9-10)", ""]
     final_rows = []
     for net in NETS:
         md_rows = []
-        for strategy in results["strategies"]:
-            mean, std = mean_matrix(results, strategy, net, key)
-            md_rows.append(
-                [
-                    strategy,
-                    *[_cell(mean[-1, j], std[-1, j], repeats) for j in range(len(subsets))],
-                    f"{np.nanmean(mean[-1]):.2f}",
-                ]
-            )
+        for strategy in run.results["strategies"]:
+            mean, std = mean_matrix(run.results, strategy, net, run.key)
+            md_rows.append([strategy, *run.cells(mean, std, -1), f"{np.nanmean(mean[-1]):.2f}"])
             final_rows.append([net, strategy, *mean[-1], float(np.nanmean(mean[-1]))])
-        md += [f"### {net} ({UNIT[net]})", ""] + markdown_table(["strategy", *subsets, "mean"], md_rows) + [""]
-    write_csv(run_dir / "final_step.csv", ["network", "strategy", *subsets, "mean"], final_rows)
-    if has_rmse(results) and "batch" in results["strategies"]:
-        rmse_rows = []
-        for net in NETS:
-            base = np.nanmean(mean_matrix(results, "batch", net, "rmse_matrix")[0][-1])
-            for strategy in results["strategies"]:
-                rm = mean_matrix(results, strategy, net, "rmse_matrix")[0][-1]
-                avg = float(np.nanmean(rm))
-                rmse_rows.append([net, strategy, *rm, avg, avg - base])
-        write_csv(run_dir / "final_step_rmse.csv", ["network", "strategy", *subsets, "mean", "minus_batch"], rmse_rows)
-    md += paper_tables(results)
-    # data and compute
+        md += [f"### {net} ({UNIT[net]})", ""] + markdown_table(["strategy", *run.subsets, "mean"], md_rows) + [""]
+    write_csv(run.dir / "final_step.csv", ["network", "strategy", *run.subsets, "mean"], final_rows)
+    return md
+
+
+def _final_step_rmse(run: _Run) -> None:
+    """``final_step_rmse.csv``: the final step's RMSE per subset and its mean less batch's (with RMSE and batch)."""
+    results = run.results
+    if not (has_rmse(results) and "batch" in results["strategies"]):
+        return
+    rmse_rows = []
+    for net in NETS:
+        base = np.nanmean(mean_matrix(results, "batch", net, "rmse_matrix")[0][-1])
+        for strategy in results["strategies"]:
+            rm = mean_matrix(results, strategy, net, "rmse_matrix")[0][-1]
+            avg = float(np.nanmean(rm))
+            rmse_rows.append([net, strategy, *rm, avg, avg - base])
+    header = ["network", "strategy", *run.subsets, "mean", "minus_batch"]
+    write_csv(run.dir / "final_step_rmse.csv", header, rmse_rows)
+
+
+def _compute(run: _Run) -> list[str]:
+    """Data and compute per strategy and network (table 11); also ``compute.csv``."""
     compute_rows, md_rows = [], []
-    for strategy in results["strategies"]:
+    for strategy in run.results["strategies"]:
         for net in NETS:
-            runs = runs_of(results, strategy, net)
+            runs = runs_of(run.results, strategy, net)
             vals = [np.mean([r[k] for r in runs]) for k in ("stored", "processed", "evaluated", "wall_s")]
             skipped = np.mean([len(r["skipped"]) for r in runs])
             md_rows.append([strategy, net, *[f"{v:.0f}" for v in vals], f"{skipped:.1f}"])
             compute_rows.append([strategy, net, *vals, skipped])
-    md += (
-        ["## Data and compute", ""]
-        + markdown_table(
-            [
-                "strategy",
-                "network",
-                "samples stored",
-                "samples processed",
-                "samples evaluated for novelty",
-                "wall time s",
-                "camera poses skipped",
-            ],
-            md_rows,
-        )
-        + [""]
-    )
+    header = [
+        "strategy",
+        "network",
+        "samples stored",
+        "samples processed",
+        "samples evaluated for novelty",
+        "wall time s",
+        "camera poses skipped",
+    ]
     write_csv(
-        run_dir / "compute.csv",
+        run.dir / "compute.csv",
         ["strategy", "network", "stored", "processed", "evaluated", "wall_s", "skipped"],
         compute_rows,
     )
-    # per camera pose validation
+    return ["## Data and compute", ""] + markdown_table(header, md_rows) + [""]
+
+
+def _per_camera_summary(run: _Run) -> list[str]:
+    """Per strategy, its last networks on the test camera poses against the truth, and the inference times."""
     how = "the frame predictions of the pose averaged"
-    if family == "keypoints":
+    if run.results.get("family", "regression") == "keypoints":
         from learned.keypoints import CONSENSUS_M
 
         how = (
@@ -219,8 +285,8 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
             "and depths weighed by its sigmas; robust 3-D to 3-D for a model saved without them)"
         )
     md_rows = []
-    for strategy, pc in results["per_camera"].items():
-        inf = results.get("inference", {}).get(strategy, {})
+    for strategy, pc in run.results["per_camera"].items():
+        inf = run.results.get("inference", {}).get(strategy, {})
         t_mm, r_deg = np.asarray(pc["learned_vs_truth_mm"]), np.asarray(pc["learned_vs_truth_deg"])
         lab_mm, lab_deg = np.asarray(pc["label_vs_truth_mm"]), np.asarray(pc["label_vs_truth_deg"])
         md_rows.append(
@@ -233,21 +299,23 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
                 f"{inf.get('per_camera_ms', float('nan')):.0f}",
             ]
         )
-    md += ["## Per test camera pose: learned vs classic label vs truth", "", f"Learned: {how}. mm / deg.", ""]
-    md += markdown_table(
-        [
-            "strategy",
-            "median vs truth",
-            "worst vs truth",
-            "label median vs truth",
-            "inference ms per frame",
-            "ms per camera pose",
-        ],
-        md_rows,
-    ) + [""]
-    md += _repeat_placements(results)
-    keys, csv_rows = None, []
-    for strategy, pc in results["per_camera"].items():
+    header = [
+        "strategy",
+        "median vs truth",
+        "worst vs truth",
+        "label median vs truth",
+        "inference ms per frame",
+        "ms per camera pose",
+    ]
+    md = ["## Per test camera pose: learned vs classic label vs truth", "", f"Learned: {how}. mm / deg.", ""]
+    return md + markdown_table(header, md_rows) + [""]
+
+
+def _per_camera_tables(run: _Run) -> list[str]:
+    """Per strategy, every test camera pose: learned against label and truth, label against truth; also
+    ``per_camera.csv``."""
+    md, keys, csv_rows = [], None, []
+    for strategy, pc in run.results["per_camera"].items():
         md_rows = []
         for i, c in enumerate(pc["camera"]):
             md_rows.append(
@@ -262,32 +330,24 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
             )
             keys = keys or list(pc)
             csv_rows.append([strategy, *[pc[k][i] for k in keys]])
-        md += (
-            [f"### {strategy}", ""]
-            + markdown_table(
-                ["camera", "subset", "learned vs label", "learned vs truth", "label vs truth", "per-frame vs label"],
-                md_rows,
-            )
-            + [""]
-        )
-    write_csv(run_dir / "per_camera.csv", ["strategy", *(keys or [])], csv_rows)
-    md += (
-        [
-            "## This project's own checks",
-            "",
-            "Bars of this project, not the paper's (naive's error on S1 at least doubled, the reservoir within 1.5x of "
-            "the baseline, selection skipping poses and processing less than the reservoir); the paper's own "
-            "comparisons are in the section above.",
-            "",
-        ]
-        + [f"- {line}" for line in findings(results)]
-        + [""]
-    )
-    text = "\n".join(md)
-    (run_dir / "report.md").write_text(text)
-    if figures:
-        _figures(results, run_dir)
-    return text
+        header = ["camera", "subset", "learned vs label", "learned vs truth", "label vs truth", "per-frame vs label"]
+        md += [f"### {strategy}", ""] + markdown_table(header, md_rows) + [""]
+    write_csv(run.dir / "per_camera.csv", ["strategy", *(keys or [])], csv_rows)
+    return md
+
+
+def _own_checks(results: dict) -> list[str]:
+    """This project's own checks (:func:`findings`), labelled as such."""
+    return [
+        "## This project's own checks",
+        "",
+        "Bars of this project, not the paper's (naive's error on S1 at least doubled, the reservoir within 1.5x of "
+        "the baseline, selection skipping poses and processing less than the reservoir); the paper's own "
+        "comparisons are in the section above.",
+        "",
+        *[f"- {line}" for line in findings(results)],
+        "",
+    ]
 
 
 def _figures(results: dict, run_dir: Path) -> None:
