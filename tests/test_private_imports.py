@@ -13,8 +13,7 @@ What counts, in every ``.py`` file of ``handeye/``, ``classic/``, ``sim/``, ``le
 
 - a module's use of its own names (nothing to import);
 - a package's ``__init__`` importing private names of the modules inside it (a re-export);
-- a private module imported inside its own package (``classic._linear`` from ``classic.tsai``);
-- :data:`PENDING`, by file and name, while it is there.
+- a private module imported inside its own package (``classic._linear`` from ``classic.tsai``).
 
 Not counted: names of modules outside the project (``os._exit``), and private attributes of objects and classes
 (``fit._cache``, ``Motions._x``): only modules' names are.
@@ -28,10 +27,6 @@ from pathlib import Path
 from tests.test_layers import REPO, module_name
 
 PACKAGES = ("handeye", "classic", "sim", "learned", "benchmarks")
-
-#: ``(file, name)`` allowed while engineer E's engine protocol (issue 42, item 3) replaces ray_pool's use of
-#: pool's ``_Named``; remove it with that commit.
-PENDING = {("handeye/core/ray_pool.py", "handeye.core.pool._Named")}
 
 
 def _private(name: str) -> bool:
@@ -137,7 +132,7 @@ def violations() -> list[tuple[str, int, str]]:
 
 
 def test_no_module_uses_another_modules_private_names():
-    bad = [f"{file}:{line} uses {name}" for file, line, name in violations() if (file, name) not in PENDING]
+    bad = [f"{file}:{line} uses {name}" for file, line, name in violations()]
     assert bad == [], "\n".join(bad)
 
 
