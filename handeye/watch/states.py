@@ -11,9 +11,9 @@ In order, per frame (:class:`FrameStates.classify`):
 4. the frame enters the CUSUM (:mod:`handeye.watch.change`) with ``x = chi2 / c``; a frame whose matched
    points fall below ``lost_matched_fraction`` (the surface is off by more than the match window) enters
    with the largest increment. An alarm is **moved** when the corrections of the frames since the CUSUM left
-   0 agree (their weighted mean's chi2 per degree of freedom is at least ``consistency_ratio`` times their
-   scatter's, or most of them were lost frames), else **occluded** (large but inconsistent: a person
-   passing) and the CUSUM is re-armed;
+   0 with a positive increment agree (their weighted mean's chi2 per degree of freedom is at least
+   ``consistency_ratio`` times their scatter's, or most of them were lost frames), else **occluded** (large
+   but inconsistent: a person passing) and the CUSUM is re-armed;
 5. **drift**: an EWMA of ``delta - delta_ref`` (weight ``drift_alpha``) outside the ``drift_level`` tail of its
    stationary ``chi2(6)`` (covariance ``c Sigma (alpha / (2 - alpha) + pi / (2 N))``, ``Sigma`` an EWMA of the
    frames', the second term the error of ``delta_ref``, a median of ``N`` frames): a slow
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from handeye.watch.change import Cusum, NullModel
+from handeye.watch.change import Cusum, NullModel, llr
 from handeye.watch.check import FrameCheck
 
 __all__ = ["StateOptions", "FrameStates", "screen"]
@@ -45,7 +45,7 @@ class StateOptions:
     occluded_fraction: float = 0.2
     behind_fraction_of_occluders: float = 0.5
     lost_matched_fraction: float = 0.3
-    consistency_ratio: float = 1.0
+    consistency_ratio: float = 0.1  # a first setting: a large move's one-step corrections vary with the arm's pose
     drift_alpha: float = 0.02
     drift_level: float = 1e-4
 
@@ -83,7 +83,8 @@ class FrameStates:
         self.null = null
         self.cusum = cusum
         self.options = options or StateOptions()
-        self._run: deque = deque(maxlen=600)  # (delta - ref, covariance) or None (lost) of the CUSUM's run
+        # (delta - ref, covariance), or None for a lost frame: the CUSUM run's frames with a positive increment
+        self._run: deque = deque(maxlen=600)
         self._ewma = np.zeros(6)
         self._ewma_cov = None
         self._ewma_frames = 0
@@ -106,7 +107,8 @@ class FrameStates:
             return unusable
         lost = check.delta is None or check.fraction(check.n_matched) < o.lost_matched_fraction
         x = np.inf if lost else self.null.statistic(check.delta, check.covariance)
-        self._run.append(None if lost else (check.delta - self.null.delta_ref, check.covariance))
+        if llr(x, self.cusum.rho) > 0:  # the frames that push towards an alarm: their directions are compared
+            self._run.append(None if lost else (check.delta - self.null.delta_ref, check.covariance))
         alarm = self.cusum.update(x)
         if self.cusum.value == 0:
             self._run.clear()
@@ -124,7 +126,7 @@ class FrameStates:
 
     def _consistent(self) -> tuple[bool, str]:
         """Whether the run's corrections agree on a direction."""
-        run = list(self._run)[-max(self.cusum.run, 2) :]
+        run = list(self._run)
         seen = [r for r in run if r is not None]
         if len(seen) < len(run) / 2:
             return True, f"{len(run) - len(seen)} of {len(run)} frames off by more than the match window"

@@ -1,0 +1,90 @@
+"""CellWatcher on analytic scenes (tests/classic/test_markerless.py's spheres): a static stream with an occluder,
+and a bumped camera detected and re-registered."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from handeye.core.metrics import pose_error
+from handeye.core.se3 import make_transform, so3_exp
+from handeye.robot.depth_sensors import sensor_profile
+from handeye.watch import CellWatcher, Frame, History, WatchOptions
+from tests.classic.test_markerless import K, _bias_bounds, _look_at, render_depth, sphere_model
+from tests.tolerances import SIGMA_BOUND
+
+RATE_HZ = 30.0
+T_TRUE = _look_at(np.array([1.2, -0.6, 0.9]), np.array([0.0, 0.0, 0.35]))
+#: a bump of 1 degree and 11 mm: the check's per-frame sigma is under 1 mm, so each frame's statistic is
+#: hundreds; the CUSUM's cap (h / 2) makes two frames the least it can take, three allows one unlucky frame
+BUMP = make_transform(so3_exp(np.radians(1.0) * np.array([0, 0.6, 0.8])), [0.01, 0.0, -0.005])
+MAX_DELAY_FRAMES = 3
+
+
+class Spheres:
+    """The "robot": three moving spheres over a static one; the joints are the moving centres (9 values)."""
+
+    def posed(self, q, twists=False):
+        q = np.atleast_2d(q)
+        c = np.empty((len(q), 4, 3))
+        c[:, 0] = [0, 0, 0.09]
+        c[:, 1:] = q.reshape(len(q), 3, 3)
+        return sphere_model(c)
+
+
+def _stream(rng, n, T_at, occluded=()):
+    """Frames with the spheres at random places; ``T_at(i)`` the true camera; a flat box 0.6 m from the camera
+    over the middle of the image in the frames ``occluded``."""
+    for i in range(n):
+        q = rng.uniform([-0.3, -0.3, 0.25], [0.3, 0.3, 0.65], size=(3, 3))
+        c = np.vstack([[0, 0, 0.09], q])[None]
+        depth = render_depth(c, T_at(i), rng)[0]
+        if i in occluded:
+            depth[30:90, 40:110] = 0.6
+        yield Frame(i / RATE_HZ, depth, q.ravel(), i)
+
+
+def _watch(tmp_path, **kw):
+    options = WatchOptions(rate_hz=RATE_HZ, null_frames=60, recal_frames=12, **kw)
+    return CellWatcher(
+        Spheres(), K, T_TRUE, sensor_profile("ideal"), options, tmp_path / "h.jsonl", tmp_path / "current.json"
+    )
+
+
+def test_a_static_stream_with_an_occluder_never_recalibrates(tmp_path):
+    """240 watched frames at one false alarm per hour at 30 Hz: the bound's expected count is 0.002, so any
+    alarm fails (P = 0.002 under a correct bound); the box over the arm for 10 frames is "occluded"."""
+    rng = np.random.default_rng(0)
+    w = _watch(tmp_path)
+    events = [e for f in _stream(rng, 300, lambda i: T_TRUE, occluded=range(150, 160)) for e in w.feed(f)]
+    states = [e.state for e in events]
+    assert "moved" not in states and "recalibrated" not in states
+    assert any(e.state == "occluded" and 150 / RATE_HZ <= e.t < 160 / RATE_HZ for e in events)
+    assert all(e.stale_since is None for e in events)
+    assert [v.version for v in History(tmp_path / "h.jsonl").versions()] == [1]
+
+
+def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path):
+    rng = np.random.default_rng(1)
+    T_new = T_TRUE @ BUMP
+    w = _watch(tmp_path)
+    bump_at = 120
+    events, depths = [], []
+    for f in _stream(rng, 150, lambda i: T_TRUE if i < bump_at else T_new):
+        depths.append(f.depth_m)
+        events += w.feed(f)
+    moved = [e for e in events if e.state == "moved"]
+    assert moved and bump_at / RATE_HZ <= moved[0].t < (bump_at + MAX_DELAY_FRAMES) / RATE_HZ
+    assert moved[0].stale_since == pytest.approx(moved[0].t)
+    recal = [e for e in events if e.state == "recalibrated"]
+    assert recal, [e.line() for e in events]
+    v = History(tmp_path / "h.jsonl").get(recal[0].version)
+    assert v.replaces == 1 and all(i >= bump_at for i in v.frames)
+    rot_deg, trans_mm = pose_error(v.T_base_cam, T_new)
+    bias_mm, bias_deg = _bias_bounds(np.stack(depths))
+    s = v.extra["sigma_summary"]
+    assert trans_mm <= SIGMA_BOUND * s["translation_mm"] + bias_mm
+    assert rot_deg <= SIGMA_BOUND * s["rotation_deg"] + bias_deg
+    # every event between the alarm and the commit says the calibration is stale
+    between = [e for e in events if moved[0].t <= e.t < recal[0].t]
+    assert between and all(e.stale_since == moved[0].t for e in between)
