@@ -7,6 +7,13 @@ import shutil
 import numpy as np
 import pytest
 
+from tests.tiers import (  # noqa: F401  (the tiers' hooks: --full, the slow tests counted, one file per worker)
+    pytest_addoption,
+    pytest_collection_modifyitems,
+    pytest_terminal_summary,
+    pytest_testnodedown,
+)
+
 
 @pytest.fixture
 def rng() -> np.random.Generator:

@@ -65,6 +65,7 @@ import pytest
 from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
 from tests.test_docs import DOCS, README, ROOT, code_blocks
+from tests.tiers import RAY_GROUP
 
 #: Left out of the executed text (checked instead): no network, no ROS installation here.
 DROPPED = ("pip install", "ros2 launch")
@@ -594,10 +595,16 @@ def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -
     assert (parent, child) == (calib.parent_frame, calib.child_frame)
 
 
+def _marks(b: Block, block: str) -> list:
+    """A smoke run (b) is the slow tier's; a block on Ray shares the Ray tests' worker (tests/tiers.py)."""
+    marks = [pytest.mark.slow] if b.kind == "b" else []
+    return marks + ([pytest.mark.xdist_group(RAY_GROUP)] if "--engine ray" in block else [])
+
+
 def _executed() -> list:
     blocks = docs_bash_blocks()
     return [
-        pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}")
+        pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}", marks=_marks(b, blocks[key]))
         for key, b in BLOCKS.items()
         if b.kind in "ab" and key in blocks
     ]

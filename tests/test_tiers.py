@@ -1,0 +1,100 @@
+"""The suite's tiers (:mod:`tests.tiers`): the default run leaves out the slow tests and says how many, ``--full``
+(CI's run) runs them; the tests that start Ray share one worker."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from tests.tiers import RAY_GROUP
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CONFTEST = "from tests.tiers import pytest_addoption, pytest_collection_modifyitems, pytest_terminal_summary\n"
+CONFTEST += "from tests.tiers import pytest_testnodedown\n"
+TESTS = """
+import pytest
+
+def test_fast():
+    pass
+
+@pytest.mark.slow
+def test_slow():
+    pass
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [1, 2])
+def test_slow_too(k):
+    pass
+"""
+
+
+def _pytest(folder: Path, *args: str) -> str:
+    """pytest on a folder of its own (its own ini: the repository's addopts do not apply); its output."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q", *args],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    return run.stdout
+
+
+@pytest.fixture
+def suite(tmp_path):
+    (tmp_path / "pytest.ini").write_text("[pytest]\nmarkers =\n    slow: the slow tier\n")
+    (tmp_path / "conftest.py").write_text(CONFTEST)
+    (tmp_path / "test_tiny.py").write_text(textwrap.dedent(TESTS))
+    return tmp_path
+
+
+@pytest.mark.parametrize("workers", ["0", "2"])
+def test_the_default_run_leaves_out_the_slow_tests_and_counts_them(suite, workers):
+    out = _pytest(suite, "-n", workers)
+    assert re.search(r"\b1 passed\b", out), out
+    assert "3 slow tests left out" in out, out  # also where xdist's workers report no deselection
+    if workers == "0":
+        assert "3 deselected" in out, out
+
+
+def test_full_runs_every_test(suite):
+    out = _pytest(suite, "-n", "2", "--full")
+    assert re.search(r"\b4 passed\b", out) and "left out" not in out and "deselected" not in out, out
+
+
+def test_ci_runs_the_full_suite():
+    """``.ci/run``'s test command (the README's, a test of test_docs_shell checks) selects the slow tier too."""
+    command = (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1]
+    pytest_call = command.split("&&")[-1].split()
+    assert pytest_call[:3] == ["python", "-m", "pytest"] and "--full" in pytest_call, pytest_call
+
+
+def test_slow_is_a_registered_marker(pytestconfig):
+    assert any(line.startswith("slow:") for line in pytestconfig.getini("markers"))
+
+
+def test_the_ray_tests_share_one_group():
+    """Every test file that starts or joins a Ray cluster names :data:`RAY_GROUP` (a second cluster started
+    beside a running one would join it, and ``ray stop --force`` stops every cluster on the machine)."""
+    starts_ray = re.compile(r'ray\.init\(|RayEngine\(|engine="ray"|"start", "--head"')
+    unmarked = [
+        p.relative_to(ROOT).as_posix()
+        for p in sorted((ROOT / "tests").rglob("test_*.py"))
+        if p.name != Path(__file__).name and starts_ray.search(p.read_text()) and "RAY_GROUP" not in p.read_text()
+    ]
+    assert unmarked == [], f"tests that start Ray outside the group {RAY_GROUP!r}"
+
+
+def test_a_slow_test_named_on_the_command_line_runs(suite):
+    out = _pytest(suite, "-n", "2", "test_tiny.py::test_slow", "test_tiny.py::test_fast")
+    assert re.search(r"\b2 passed\b", out) and "left out" not in out, out

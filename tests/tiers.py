@@ -1,0 +1,88 @@
+"""The suite's two tiers and its parallel run: hooks that ``tests/conftest.py`` takes in.
+
+``python -m pytest`` is the developer's run between edits: it leaves out the tests marked ``slow`` (the
+documentation's long blocks in smoke runs, whole pipelines rendered and trained) and says at the end how many
+it left out (a test named on the command line, ``FILE::TEST``, runs all the same). ``python -m pytest --full``
+is CI's run (``.ci/run``): every test. Nothing is skipped silently:
+a slow test runs in CI, and the default run counts what it left out (pytest's ``deselected``, and a line of
+its own that also holds on pytest-xdist's workers, which do not report deselections).
+
+Under pytest-xdist (``-n auto --dist loadgroup``, in ``pyproject.toml``'s ``addopts``) a test file is one unit
+of work on one worker, so that its module fixtures are built once and the files that write probes into the
+tree (``test_layers``) see their own; tests that name an ``xdist_group`` go by that group instead: the tests
+that start or join a Ray cluster share :data:`RAY_GROUP`, since a second cluster on the machine would be
+joined (``ray.init()`` finds a running one) instead of started.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+#: The ``xdist_group`` of every test that starts or joins a Ray cluster: one at a time on the machine.
+RAY_GROUP = "ray"
+_LEFT_OUT = "slow_tests_left_out"
+_LEFT_OUT_KEY = pytest.StashKey[int]()
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--full",
+        action="store_true",
+        help="run every test, the ones marked slow too (CI's run, .ci/run); without it they are left out and counted",
+    )
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist names the work units after the groups
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Leave out the slow tier unless ``--full``; give each test without an ``xdist_group`` its file's."""
+    if not config.getoption("--full"):
+        named = _named(config)
+        slow = [item for item in items if item.get_closest_marker("slow") and not item.nodeid.startswith(named)]
+        if slow:
+            left_out = set(map(id, slow))
+            items[:] = [item for item in items if id(item) not in left_out]
+            config.hook.pytest_deselected(items=slow)
+        _record_left_out(config, len(slow))
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+
+
+def _named(config: pytest.Config) -> tuple[str, ...]:
+    """The tests named on the command line (``FILE::TEST``), as node ids: they run even when slow."""
+    named = []
+    for arg in config.args:
+        if "::" in arg:
+            path, rest = arg.split("::", 1)
+            try:
+                named.append(f"{Path(path).resolve().relative_to(config.rootpath).as_posix()}::{rest}")
+            except ValueError:
+                pass
+    return tuple(named)
+
+
+def _record_left_out(config: pytest.Config, count: int) -> None:
+    """Keep the count for the summary: on the controller (or a run without workers) as an attribute, on an
+    xdist worker also in what the worker sends back (``workeroutput``)."""
+    config.stash[_LEFT_OUT_KEY] = count
+    if hasattr(config, "workeroutput"):
+        config.workeroutput[_LEFT_OUT] = count
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error) -> None:
+    """An xdist worker finished: keep the count of slow tests it left out (every worker collects them all)."""
+    count = getattr(node, "workeroutput", {}).get(_LEFT_OUT)
+    if count is not None:
+        node.config.stash[_LEFT_OUT_KEY] = max(count, node.config.stash.get(_LEFT_OUT_KEY, 0))
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    count = config.stash.get(_LEFT_OUT_KEY, None)
+    if count:
+        terminalreporter.write_line(
+            f"{count} slow test{'s' if count != 1 else ''} left out (the default run); "
+            "python -m pytest --full runs them too, as CI does"
+        )
