@@ -200,7 +200,15 @@ def _stream_doc(preset: StreamPreset, seed: int, sensor: DepthSensor, timeline: 
         "frames": len(timeline),
         "duration_s": len(timeline) / preset.rate_hz,
         "segments": [
-            {"camera_id": s, "first_frame": int(k0), "t0_s": float(k0) / preset.rate_hz, "frames": int(k1 - k0)}
+            {
+                "camera_id": s,
+                "first_frame": int(k0),
+                "t0_s": float(k0) / preset.rate_hz,
+                "frames": int(k1 - k0),
+                # the names handeye.watch.source reads (its frame i of a segment at start_s + i / rate_hz)
+                "camera": s,
+                "start_s": float(k0) / preset.rate_hz,
+            }
             for s, (k0, k1) in enumerate(zip(timeline.segment_first, ends))
         ],
         "events": json.loads(json.dumps(timeline.events, default=float)),

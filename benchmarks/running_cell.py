@@ -1,0 +1,353 @@
+"""Running cell (issue 43): simulated streams replayed through :class:`handeye.watch.CellWatcher`, scored
+against the simulator's truth (``stream.json`` and ``cameras.csv`` of :mod:`sim.stream`).
+
+Two streams are rendered (or reused from ``--data``): the ``bumps`` preset (bumps of 0.5 mm / 0.05 deg to
+50 mm / 5 deg and a 200 mm / 20 deg re-mount, occlusions, a lighting change, dropouts, 0.1 mm/min drift) and
+the ``static`` preset (no camera change; persons, boxes, dimmed lights and dropouts repeated). Each frame is
+fed to the watcher in time order, ``t = frame / rate_hz``; a frame whose depth was lost is fed with an empty
+depth image (the sensor sent none). The watcher starts from the true first placement (a perfect initial
+calibration: the benchmark measures the watching, not the first calibration).
+
+Printed and written (``--out``):
+
+- per bump: the detection delay (the first ``moved`` at or after the bump, before the next camera change),
+  the committed calibration's error against the truth of the frame it was committed at, and that error over
+  the registration's own sigma;
+- false alarms: ``moved`` alarms on the static stream per hour, with the 95 % upper bound of a Poisson rate
+  given the count; on the bumps stream, every ``moved`` but the first after each bump;
+- what the watcher said during each occlusion and dropout (the share of their frames it called so);
+- the check's cost per frame (wall time of ``feed`` on frames without a recalibration, numpy on one
+  thread) and each recalibration's time;
+- with ``--plot``, a PNG beside ``--out``: the CUSUM statistic against its threshold over time, with the
+  events.
+
+Example::
+
+    python benchmarks/running_cell.py --data /tmp/running-cell --out benchmarks/results/running_cell.md --plot
+"""
+
+from __future__ import annotations
+
+import os
+
+if __name__ == "__main__":  # the check on one core: set before numpy starts its thread pools
+    for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass, field  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from benchmarks._report import Report  # noqa: E402
+from handeye.core.metrics import pose_error  # noqa: E402
+
+#: The 95 % upper bound of a Poisson mean given 0 counts is -ln(0.05) = 3.0; for k counts scipy's chi2 gives it.
+CONFIDENCE = 0.95
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--data", type=Path, default=None, help="folder of the rendered streams (reused when there)")
+    p.add_argument("--sensor", default="d435")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--rate", type=float, default=5.0, help="frames per second of both streams")
+    p.add_argument("--minutes", type=float, default=None, help="length of the bumps stream (default the preset's)")
+    p.add_argument("--static-minutes", type=float, default=3.0, help="length of the static stream")
+    p.add_argument("--size", default="256x256", help="image WIDTHxHEIGHT")
+    p.add_argument("--null-seconds", type=float, default=10.0, help="seconds the watcher learns 'nothing moved'")
+    p.add_argument("--recal-frames", type=int, default=20, help="frames a recalibration uses")
+    p.add_argument("--false-alarms-per-hour", type=float, default=1.0, help="the watcher's stated bound")
+    p.add_argument("--workers", type=int, default=2, help="rendering processes")
+    p.add_argument("--plot", action="store_true", help="a PNG of the statistic and the events beside --out")
+    p.add_argument("--out", default=None, help="write the report here (markdown)")
+    return p.parse_args(argv)
+
+
+# ------------------------------------------------------------------ the streams
+
+
+def stream_dir(data: Path, preset: str, args) -> Path:
+    """The rendered stream of a preset, rendered now unless ``data/preset/stream.json`` exists."""
+    from sim.stream import generate_stream
+
+    root = data / preset
+    if (root / "stream.json").is_file():
+        return root
+    minutes = args.minutes if preset == "bumps" else args.static_minutes
+    size = tuple(int(v) for v in args.size.lower().split("x"))
+    generate_stream(
+        root, preset, args.seed, args.sensor, minutes, args.rate, size, workers=args.workers, progress=False
+    )
+    return root
+
+
+def stream_frames(ds, doc):
+    """``(t, frame, segment, depth_m, joints)`` of every frame in time order; lost depth as an empty image."""
+    width, height = ds.meta["intrinsics"]["width"], ds.meta["intrinsics"]["height"]
+    for seg in doc["segments"]:
+        c = seg["camera_id"]
+        table = ds.select(c, "data")
+        q = ds.joints(table)
+        for i, (frame, rel) in enumerate(zip(table["frame"], table["depth"])):
+            depth = ds.depth_m(c, rel) if rel else np.zeros((height, width), np.float32)
+            yield int(frame) / doc["rate_hz"], int(frame), c, depth, q[i]
+
+
+# ------------------------------------------------------------------ the replay
+
+
+@dataclass
+class Replay:
+    """What the watcher did on one stream."""
+
+    events: list = field(default_factory=list)  # (event, T_base_cam after it, segment of the frame)
+    states: list = field(default_factory=list)  # the watcher's state after each frame
+    cusum: list = field(default_factory=list)  # (t, value, threshold) after each watched frame
+    feed_s: list = field(default_factory=list)  # feed wall time of frames without a recalibration
+    recal: list = field(default_factory=list)  # (wall s, result) per recalibration
+    t: list = field(default_factory=list)
+
+
+def replay(root: Path, args) -> tuple[Replay, dict, object]:
+    """Feed a stream to a fresh watcher; the replay, ``stream.json`` and the dataset."""
+    from handeye.core.dataset import Dataset
+    from handeye.markerless import robot_surface_for
+    from handeye.robot.depth_sensors import sensor_profile
+    from handeye.watch import CellWatcher, Frame, WatchOptions, markerless_recalibration
+    from sim.stream import read_stream
+
+    ds, doc = Dataset.open(root), read_stream(root)
+    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    sensor = sensor_profile(doc["sensor"])
+    surface, _ = robot_surface_for(ds)
+    out = Replay()
+    inner = markerless_recalibration(surface, K, sensor)
+
+    def timed(frames, T_start):
+        t0 = time.perf_counter()
+        result = inner(frames, T_start)
+        out.recal.append((time.perf_counter() - t0, result))
+        return result
+
+    options = WatchOptions(
+        rate_hz=doc["rate_hz"],
+        false_alarms_per_hour=args.false_alarms_per_hour,
+        null_frames=max(6, int(round(args.null_seconds * doc["rate_hz"]))),
+        recal_frames=args.recal_frames,
+    )
+    history = Path(tempfile.mkdtemp(prefix="running-cell-history-"))
+    watcher = CellWatcher(
+        surface, K, ds.truth()[0], sensor, options, history / "history.jsonl", history / "current.json", timed
+    )
+    for t, frame, segment, depth, q in stream_frames(ds, doc):
+        recals = len(out.recal)
+        t0 = time.perf_counter()
+        events = watcher.feed(Frame(t, depth, q, frame, segment))
+        elapsed = time.perf_counter() - t0
+        if len(out.recal) == recals:
+            out.feed_s.append(elapsed)
+        out.events += [(e, watcher.T_base_cam.copy(), segment) for e in events]
+        out.states.append(watcher.state)
+        out.t.append(t)
+        if watcher.states is not None:
+            out.cusum.append((t, watcher.states.cusum.value, watcher.states.cusum.h))
+    return out, doc, ds
+
+
+# ------------------------------------------------------------------ scoring
+
+
+def score_bumps(run: Replay, doc: dict, truth: np.ndarray) -> list[dict]:
+    """Per bump: delay, committed error, error over sigma (module docstring)."""
+    changes = sorted(e["t_s"] for e in doc["events"] if e["type"] in ("bump",))
+    rows = []
+    for e in (e for e in doc["events"] if e["type"] == "bump"):
+        later = [t for t in changes if t > e["t_s"]]
+        end = later[0] if later else doc["duration_s"]
+        inside = [(ev, T, s) for ev, T, s in run.events if e["t_s"] <= ev.t < end]
+        moved = next((ev for ev, _, _ in inside if ev.state == "moved"), None)
+        after = [(ev, T, s) for ev, T, s in inside if moved is not None and ev.t > moved.t]
+        commit = next(((ev, T, s) for ev, T, s in after if ev.state == "recalibrated"), None)
+        row = {"bump": e, "delay_s": None if moved is None else moved.t - e["t_s"], "error": None, "ratio": None}
+        row["learning"] = e["t_s"] < learnt_at(run)
+        if commit is not None:
+            ev, T, s = commit
+            rot_deg, trans_mm = pose_error(T, truth[s])
+            row["error"] = (float(trans_mm), float(rot_deg))
+            result = next((r for _, r in run.recal if getattr(r, "ok", False) and np.allclose(r.T_base_cam, T)), None)
+            if result is not None:
+                sig = result.sigma
+                row["ratio"] = (row["error"][0] / sig["translation_mm"], row["error"][1] / sig["rotation_deg"])
+        row["refused"] = sum(ev.state == "refused" for ev, _, _ in inside)
+        row["extra_alarms"] = max(sum(ev.state == "moved" for ev, _, _ in inside) - 1, 0)
+        rows.append(row)
+    return rows
+
+
+def learnt_at(run: Replay) -> float:
+    """When the watcher finished learning "nothing moved" (infinity if it never did)."""
+    return next((ev.t for ev, _, _ in run.events if ev.previous == "learning"), float("inf"))
+
+
+def poisson_upper(count: int, level: float = CONFIDENCE) -> float:
+    """The ``level`` upper confidence bound of a Poisson mean given ``count`` (Garwood)."""
+    from scipy import stats
+
+    return float(stats.chi2.ppf(level, 2 * (count + 1)) / 2)
+
+
+def called(run: Replay, doc: dict, kind: str, state: str) -> list[tuple[dict, float]]:
+    """Per interval event (occlusion or dropout): the share of its frames the watcher put in ``state``."""
+    rate, out = doc["rate_hz"], []
+    if kind == "occlusion":
+        spans = [(o, o["first_frame"], o["end_frame"]) for o in doc["occlusions"]]
+    else:
+        spans = [(e, e["frame"], e["end_frame"]) for e in doc["events"] if e["type"] == "dropout"]
+    for what, k0, k1 in spans:
+        share = np.mean([run.states[k] == state for k in range(k0, k1)]) if k1 > k0 else float("nan")
+        out.append(({**what, "t_s": k0 / rate}, float(share)))
+    return out
+
+
+def plot(run: Replay, doc: dict, path: str, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(11, 3.6))
+    if run.cusum:
+        t, value, h = np.array(run.cusum).T
+        ax.plot(t, value, lw=0.8, label="CUSUM")
+        ax.plot(t, h, "k--", lw=0.8, label="threshold")
+    for e in doc["events"]:
+        if e["type"] == "bump":
+            ax.axvline(e["t_s"], color="r", lw=1.0)
+            ax.text(
+                e["t_s"], 1.0, f" {e['translation_mm']:g} mm", color="r", fontsize=7, transform=ax.get_xaxis_transform()
+            )
+        elif e["type"] == "lighting":
+            ax.axvline(e["t_s"], color="orange", lw=0.8, ls=":")
+        elif e["type"] == "dropout":
+            ax.axvspan(e["t_s"], e["end_t_s"], color="tab:blue", alpha=0.15)
+    for o in doc["occlusions"]:
+        ax.axvspan(o["first_frame"] / doc["rate_hz"], o["end_frame"] / doc["rate_hz"], color="grey", alpha=0.3)
+    for ev, _, _ in run.events:
+        if ev.state in ("moved", "recalibrated", "refused"):
+            colour = {"moved": "k", "recalibrated": "g", "refused": "m"}[ev.state]
+            ax.plot([ev.t], [0], marker="v" if ev.state == "moved" else "^", color=colour, ms=6)
+    ax.set_yscale("symlog")
+    ax.set_xlabel("time (s)")
+    ax.set_title(title + " (red: bumps; grey: occlusions; blue: dropouts; dotted: lights; v moved, ^ recalibrated)")
+    ax.legend(loc="upper left", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ------------------------------------------------------------------ report
+
+
+def _versions() -> str:
+    import scipy
+
+    return f"numpy {np.__version__}, scipy {scipy.__version__}"
+
+
+def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
+    rep.say("## Bumps stream")
+    rep.say(
+        f"{doc['frames']} frames at {doc['rate_hz']:g} Hz ({doc['duration_s']:.0f} s), sensor {doc['sensor']}; "
+        f"'nothing moved' learnt by t = {learnt_at(run):.1f} s"
+    )
+    rep.say()
+    rep.say(
+        "| bump | t (s) | detected after (s) | committed error (mm / deg) | error / sigma | refused | extra alarms |"
+    )
+    rep.say("|---|---|---|---|---|---|---|")
+    for row in score_bumps(run, doc, ds.truth()):
+        e = row["bump"]
+        delay = "missed" if row["delay_s"] is None else f"{row['delay_s']:.2f}"
+        if row["learning"]:
+            delay = "during learning"
+        err = "none committed" if row["error"] is None else f"{row['error'][0]:.2f} / {row['error'][1]:.3f}"
+        ratio = "-" if row["ratio"] is None else f"{row['ratio'][0]:.1f} / {row['ratio'][1]:.1f}"
+        size = f"{e['translation_mm']:g} mm / {e['rotation_deg']:g} deg {e['label']}"
+        rep.say(f"| {size} | {e['t_s']:.1f} | {delay} | {err} | {ratio} | {row['refused']} | {row['extra_alarms']} |")
+    rep.say()
+    drift = [ev for ev, _, _ in run.events if ev.state == "drift"]
+    rep.say(
+        f"drift: {sum(e['type'] == 'drift' for e in doc['events'])} steps of 0.05 mm in the truth; "
+        f"the watcher reported 'drift' {len(drift)} times"
+    )
+
+
+def report_intervals(rep: Report, run: Replay, doc: dict) -> None:
+    for kind, state in (("occlusion", "occluded"), ("dropout", "dropout")):
+        rows = called(run, doc, kind, state)
+        if rows:
+            cells = ", ".join(
+                f"{what.get('shape', '')} t={what['t_s']:.0f}s {share:.0%}".strip() for what, share in rows
+            )
+            rep.say(f"{kind}s called '{state}' (share of their frames): {cells}")
+
+
+def report_static(rep: Report, run: Replay, doc: dict) -> None:
+    rep.say("## Static stream")
+    watched_s = doc["duration_s"] - learnt_at(run)
+    alarms = sum(ev.state == "moved" for ev, _, _ in run.events)
+    hours = watched_s / 3600.0
+    rep.say(
+        f"{doc['frames']} frames at {doc['rate_hz']:g} Hz, {watched_s:.0f} s watched after learning (learnt by "
+        f"t = {learnt_at(run):.1f} s); "
+        f"{alarms} 'moved' alarms: {alarms / hours:.1f} per hour (95 % upper bound "
+        f"{poisson_upper(alarms) / hours:.1f} per hour)"
+    )
+    report_intervals(rep, run, doc)
+
+
+def report_cost(rep: Report, runs: list[Replay]) -> None:
+    feed = np.concatenate([r.feed_s for r in runs]) * 1e3
+    recal = [s for r in runs for s, _ in r.recal]
+    rep.say("## Cost")
+    rep.say(
+        f"check per frame (feed without a recalibration, one thread): median {np.median(feed):.1f} ms, "
+        f"95th percentile {np.percentile(feed, 95):.1f} ms over {len(feed)} frames"
+    )
+    if recal:
+        rep.say(f"recalibrations: {len(recal)}, {np.median(recal):.1f} s median, {max(recal):.1f} s at most")
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    rep = Report("Running cell: the watcher on simulated streams", "benchmarks/running_cell.py", argv, _versions())
+    data = args.data or Path(tempfile.mkdtemp(prefix="running-cell-"))
+    t0 = time.perf_counter()
+    bumps = stream_dir(data, "bumps", args)
+    static = stream_dir(data, "static", args)
+    print(f"streams ready in {time.perf_counter() - t0:.0f} s: {bumps}, {static}", file=sys.stderr)
+    run_b, doc_b, ds_b = replay(bumps, args)
+    report_bumps(rep, run_b, doc_b, ds_b)
+    report_intervals(rep, run_b, doc_b)
+    rep.say()
+    run_s, doc_s, _ = replay(static, args)
+    report_static(rep, run_s, doc_s)
+    rep.say()
+    report_cost(rep, [run_b, run_s])
+    if args.plot and args.out:
+        for run, doc, name in ((run_b, doc_b, "bumps"), (run_s, doc_s, "static")):
+            png = str(Path(args.out).with_suffix("")) + f"_{name}.png"
+            plot(run, doc, png, f"{name} stream")
+            rep.say(f"plot: {Path(png).name}")
+    return rep.write(args.out)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

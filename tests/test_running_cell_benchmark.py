@@ -1,0 +1,75 @@
+"""benchmarks/running_cell.py's scoring on a planted replay: delays, committed errors, shares, the Poisson bound."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.running_cell import Replay, called, learnt_at, poisson_upper, score_bumps
+from handeye.core.se3 import make_transform, so3_exp
+from handeye.watch.events import Event
+
+RATE = 2.0
+
+
+def _doc():
+    events = [
+        {"type": "bump", "t_s": 3.0, "frame": 6, "segment": 1, "translation_mm": 2.0, "rotation_deg": 0.2},
+        {"type": "dropout", "t_s": 6.0, "frame": 12, "end_frame": 14, "end_t_s": 7.0},
+        {"type": "bump", "t_s": 8.0, "frame": 16, "segment": 2, "translation_mm": 5.0, "rotation_deg": 0.5},
+    ]
+    occlusions = [{"occlusion": 0, "shape": "box", "first_frame": 2, "end_frame": 6, "mid_frame": 3}]
+    return {"rate_hz": RATE, "duration_s": 10.0, "events": events, "occlusions": occlusions}
+
+
+def _truth():
+    return np.stack([make_transform(np.eye(3), [1.0, 0.0, 1.0 + k * 0.01]) for k in range(3)])
+
+
+class _Result:
+    ok = True
+
+    def __init__(self, T):
+        self.T_base_cam = T
+        self.sigma = {"translation_mm": 0.5, "rotation_deg": 0.1}
+
+
+def _replay(truth):
+    committed = truth[1] @ make_transform(so3_exp([0.0, 0.0, np.radians(0.05)]), [0.001, 0.0, 0.0])
+    run = Replay()
+    run.events = [
+        (Event(1.0, "ok", "learning"), truth[0], 0),
+        (Event(4.5, "moved", "ok"), truth[0], 1),
+        (Event(6.0, "recalibrated", "moved"), committed, 1),
+        (Event(9.0, "moved", "ok"), committed, 2),  # the second bump's alarm, never recalibrated
+    ]
+    run.recal = [(1.0, _Result(committed))]
+    run.states = ["learning", "learning", "occluded", "ok", "occluded", "occluded"] + ["ok"] * 6
+    run.states += ["dropout", "ok"] + ["ok"] * 6
+    return run
+
+
+def test_bumps_are_scored_by_their_first_alarm_and_the_commit_after_it():
+    truth = _truth()
+    rows = score_bumps(_replay(truth), _doc(), truth)
+    first, second = rows
+    assert first["delay_s"] == pytest.approx(1.5) and not first["learning"]
+    trans_mm, rot_deg = first["error"]
+    assert trans_mm == pytest.approx(1.0, abs=1e-9)  # the planted 1 mm along x, the rotation about the centre
+    assert rot_deg == pytest.approx(0.05, abs=1e-9)
+    assert first["ratio"] == pytest.approx((2.0, 0.5))
+    assert second["delay_s"] == pytest.approx(1.0) and second["error"] is None
+    assert learnt_at(_replay(truth)) == 1.0
+
+
+def test_interval_shares_count_the_frames_called_so():
+    run = _replay(_truth())
+    ((occlusion, share),) = called(run, _doc(), "occlusion", "occluded")
+    assert share == pytest.approx(3 / 4) and occlusion["t_s"] == 1.0
+    ((_, share),) = called(run, _doc(), "dropout", "dropout")
+    assert share == pytest.approx(1 / 2)
+
+
+def test_poisson_upper_bound():
+    assert poisson_upper(0) == pytest.approx(-np.log(0.05), rel=1e-9)  # 2.996
+    assert poisson_upper(5) == pytest.approx(10.513, abs=1e-3)  # Garwood's table
