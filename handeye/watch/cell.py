@@ -11,8 +11,10 @@ then
   collected; with ``recal_frames`` of them, ``recalibrate(frames, T_start)`` is called (by default the
   markerless registration from the last calibration, :func:`markerless_recalibration`). Its answer is taken
   only when the registration accepted it (its sigma and split check passed, ``result.ok``): then it is
-  committed to the history, published, and the change test re-armed: the null's scale kept, its bias taken
-  anew from the collected frames checked against the new calibration (its own error is "nothing moved" now).
+  committed to the history and published; then **learning** again for ``relearn_frames`` usable frames: the
+  null's bias anew against the new calibration (its own error, within its sigma, is "nothing moved" from now
+  on; the CUSUM integrates over enough frames to see an error the recalibration's sigma allows), its scale
+  kept, and the change test re-armed. A move during those frames is not detected until they end.
   A refusal is an event with the reason, and the collection starts again; until a validated answer exists
   every event says "calibration stale since t".
 
@@ -50,6 +52,8 @@ class WatchOptions:
         The change test's stated false-alarm rate (an upper bound, :mod:`handeye.watch.change`).
     null_frames : int
         Usable frames "nothing moved" is learnt from (about the first 10 s at 30 Hz by default).
+    relearn_frames : int
+        Usable frames the null's bias is learnt from after a recalibration (3 s at 30 Hz by default).
     rho : float
         The CUSUM's alternative (:class:`handeye.watch.change.Cusum`).
     recal_frames : int
@@ -62,6 +66,7 @@ class WatchOptions:
     rate_hz: float = 30.0
     false_alarms_per_hour: float = 1.0
     null_frames: int = 300
+    relearn_frames: int = 90
     rho: float = 1.0
     recal_frames: int = 30
     recal_min_joint_step_rad: float = 0.05
@@ -215,15 +220,20 @@ class CellWatcher:
     def _learn(self, check: FrameCheck) -> tuple[str, str]:
         if check.delta is not None and screen(check, self.options.states) is None:
             self._null_checks.append(check)
-        n = len(self._null_checks)
-        if n < self.options.null_frames:
-            return "learning", f"{n} of {self.options.null_frames} frames for the null"
-        self.null = fit_null(
-            np.stack([c.delta for c in self._null_checks]), np.stack([c.covariance for c in self._null_checks])
-        )
+        n, relearn = len(self._null_checks), self.states is not None
+        need = self.options.relearn_frames if relearn else self.options.null_frames
+        if n < need:
+            return "learning", f"{n} of {need} frames for the null" + (" of the new calibration" if relearn else "")
+        deltas = np.stack([c.delta for c in self._null_checks])
+        covariances = np.stack([c.covariance for c in self._null_checks])
+        self.mode, self._null_checks = "watching", []
+        if relearn:  # the bias anew (the new calibration's own error is "nothing moved" now), the scale kept
+            self.null = NullModel(np.median(deltas, axis=0), self.null.scale, n)
+            self.states.rearm(self.null)
+            return "ok", f"bias of the new calibration learnt from {n} frames"
+        self.null = fit_null(deltas, covariances)
         cusum = Cusum(self.options.frames_per_false_alarm, self.options.rho)
         self.states = FrameStates(self.null, cusum, self.options.states)
-        self.mode, self._null_checks = "watching", []
         return "ok", (
             f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
             f"({self.options.false_alarms_per_hour:g} false alarms per hour at most at {self.options.rate_hz:g} Hz)"
@@ -247,14 +257,6 @@ class CellWatcher:
             return "refused", f"recalibration from {len(frames)} frames refused: {reason}; collecting again"
         return self._commit(frame, frames, result)
 
-    def _null_after(self, frames: list[Frame]) -> NullModel:
-        """The null for the new calibration: its bias from the frames it came from, checked against it (the new
-        calibration's own error is "nothing moved" from now on), the scale learnt at the start kept."""
-        checks = [self._check(f) for f in frames]
-        deltas = [c.delta for c in checks if c.delta is not None]
-        ref = np.median(deltas, axis=0) if deltas else self.null.delta_ref
-        return NullModel(ref, self.null.scale, len(deltas) or self.null.frames)
-
     def _commit(self, frame: Frame, frames: list[Frame], result) -> tuple[str, str]:
         self.T_base_cam = np.array(result.T_base_cam, dtype=float)
         sigma = np.sqrt(np.diag(result.covariance)) if getattr(result, "covariance", None) is not None else None
@@ -270,8 +272,7 @@ class CellWatcher:
             self.version = v.version
         stale = self.stale_since
         self.stale_since = None
-        self.mode = "watching"
-        self.states.rearm(self._null_after(frames))
+        self.mode = "learning"  # the bias of the new calibration, before the change test is armed again
         s = getattr(result, "sigma", {}) or {}
         detail = f"new calibration from {len(frames)} frames (stale since {stale:.3f}s)"
         if "rotation_deg" in s and "translation_mm" in s:

@@ -64,9 +64,10 @@ class NullModel:
     frames: int
 
     def statistic(self, delta: np.ndarray, covariance: np.ndarray) -> float:
-        """``x = (delta - delta_ref)^T Sigma^{-1} (delta - delta_ref) / c``: ``chi2(6)`` when nothing moved."""
+        """``x = (delta - delta_ref)^T Sigma^{-1} (delta - delta_ref) / (c (1 + pi / (2 N)))``: ``chi2(6)`` when
+        nothing moved; the second factor is the error of ``delta_ref``, a median of ``N`` frames."""
         d = np.asarray(delta, dtype=float) - self.delta_ref
-        return float(d @ np.linalg.solve(covariance, d)) / self.scale
+        return float(d @ np.linalg.solve(covariance, d)) / (self.scale * (1 + np.pi / 2 / self.frames))
 
     def to_dict(self) -> dict:
         return {"delta_ref": self.delta_ref.tolist(), "scale": self.scale, "frames": self.frames}

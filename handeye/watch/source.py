@@ -1,7 +1,8 @@
 """Frames for the watcher: a dataset folder replayed in order, and the live ROS 2 source (not built yet).
 
 A stream is a dataset (:mod:`handeye.core.dataset`) whose shards are consecutive segments of one recording:
-the shards in order, each shard's data frames (those with depth) in order. Times come from ``stream.json`` in
+the shards in order, each shard's data frames in order (a frame whose depth was lost, an empty ``depth``
+cell, comes as an image without depth: a dropout). Times come from ``stream.json`` in
 the dataset's root when it is there (the simulator's stream preset writes it), read as::
 
     {"rate_hz": 30.0, "segments": [{"camera": 0, "start_s": 0.0}, {"camera": 1, "start_s": 12.4}, ...]}
@@ -96,15 +97,16 @@ def dataset_frames(root: str | Path, rate_hz: float | None = None, cameras=None)
     ds = Dataset.open(root)
     cameras = ds.complete_shards() if cameras is None else list(cameras)
     tables = {c: ds.select(c, "data") for c in cameras}
-    tables = {
-        c: {k: v[np.array([bool(d) for d in t["depth"]], dtype=bool)] for k, v in t.items()} for c, t in tables.items()
-    }
     times = stream_times(root, {c: len(t["depth"]) for c, t in tables.items()}, rate_hz)
+    shape = (int(ds.meta["intrinsics"]["height"]), int(ds.meta["intrinsics"]["width"]))
     index = 0
     for c, t in tables.items():
         q = ds.joints(t)
+        if not np.isfinite(q).all():
+            raise DatasetError(f"{ds.shard_dir(c) / 'frames.csv'}: data frames without joint angles")
         for i, rel in enumerate(t["depth"]):
-            yield Frame(float(times[c][i]), ds.depth_m(c, rel), q[i], index, c)
+            depth = ds.depth_m(c, rel) if rel else np.zeros(shape, dtype=np.float32)  # no depth: a dropout
+            yield Frame(float(times[c][i]), depth, q[i], index, c)
             index += 1
 
 

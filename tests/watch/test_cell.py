@@ -45,18 +45,18 @@ def _stream(rng, n, T_at, occluded=()):
 
 
 def _watch(tmp_path, **kw):
-    options = WatchOptions(rate_hz=RATE_HZ, null_frames=60, recal_frames=12, **kw)
+    options = WatchOptions(rate_hz=RATE_HZ, null_frames=60, recal_frames=12, relearn_frames=30, **kw)
     return CellWatcher(
         Spheres(), K, T_TRUE, sensor_profile("ideal"), options, tmp_path / "h.jsonl", tmp_path / "current.json"
     )
 
 
 def test_a_static_stream_with_an_occluder_never_recalibrates(tmp_path):
-    """240 watched frames at one false alarm per hour at 30 Hz: the bound's expected count is 0.002, so any
+    """180 watched frames at one false alarm per hour at 30 Hz: the bound's expected count is 0.002, so any
     alarm fails (P = 0.002 under a correct bound); the box over the arm for 10 frames is "occluded"."""
     rng = np.random.default_rng(0)
     w = _watch(tmp_path)
-    events = [e for f in _stream(rng, 300, lambda i: T_TRUE, occluded=range(150, 160)) for e in w.feed(f)]
+    events = [e for f in _stream(rng, 240, lambda i: T_TRUE, occluded=range(150, 160)) for e in w.feed(f)]
     states = [e.state for e in events]
     assert "moved" not in states and "recalibrated" not in states
     assert any(e.state == "occluded" and 150 / RATE_HZ <= e.t < 160 / RATE_HZ for e in events)
@@ -65,12 +65,13 @@ def test_a_static_stream_with_an_occluder_never_recalibrates(tmp_path):
 
 
 def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path):
+    """A 1 deg / 11 mm bump at frame 120 of 240: one "moved", one commit within its sigma, then watching again."""
     rng = np.random.default_rng(1)
     T_new = T_TRUE @ BUMP
     w = _watch(tmp_path)
     bump_at = 120
     events, depths = [], []
-    for f in _stream(rng, 150, lambda i: T_TRUE if i < bump_at else T_new):
+    for f in _stream(rng, 240, lambda i: T_TRUE if i < bump_at else T_new):
         depths.append(f.depth_m)
         events += w.feed(f)
     moved = [e for e in events if e.state == "moved"]
@@ -88,3 +89,8 @@ def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path
     # every event between the alarm and the commit says the calibration is stale
     between = [e for e in events if moved[0].t <= e.t < recal[0].t]
     assert between and all(e.stale_since == moved[0].t for e in between)
+    # then the bias of the new calibration is learnt and the watch goes on: no alarm in the 60 frames left (the
+    # stated rate's expected count is 60 / 108000)
+    after = [e.state for e in events if e.t > recal[0].t]
+    assert after[:2] == ["learning", "ok"] and "moved" not in after
+    assert len(moved) == 1 and len(recal) == 1
