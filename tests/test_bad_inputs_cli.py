@@ -18,6 +18,7 @@ import pytest
 from handeye.cli import main
 from handeye.core.posefile import write_pose_csv
 from handeye.core.synthetic import make_problem
+from tests.tolerances import FLOAT
 
 ROOT = Path(__file__).resolve().parents[1]
 GARBAGE = np.random.default_rng(0).integers(0, 256, 2048, dtype=np.uint8).tobytes()
@@ -97,7 +98,7 @@ def test_robot_poses_json_reads_its_own_quaternion_order(tmp_path):
         )
     )
     R = read_robot_poses(path).T_base_ee[0, :3, :3]
-    np.testing.assert_allclose(R[1:, 1:], [[np.cos(0.6), -np.sin(0.6)], [np.sin(0.6), np.cos(0.6)]], atol=1e-12)
+    np.testing.assert_allclose(R[1:, 1:], [[np.cos(0.6), -np.sin(0.6)], [np.sin(0.6), np.cos(0.6)]], atol=FLOAT)
 
 
 @pytest.mark.parametrize("name", ["garbage.json", "adir.json", "big.json"])

@@ -12,7 +12,7 @@ from handeye.core.errors import PoseFileError, QuaternionOrderError
 from handeye.core.posefile import read_pose_file, write_pose_csv
 from handeye.core.se3 import pos_quat_xyzw_from_transform, quat_xyzw_to_wxyz, so3_log
 from handeye.core.synthetic import make_problem
-from tests.tolerances import EXACT
+from tests.tolerances import EXACT, FLOAT
 
 
 @pytest.fixture
@@ -28,8 +28,8 @@ def test_csv_round_trip(tmp_path, problem):
     path = tmp_path / "poses.csv"
     write_pose_csv(path, problem.T_base_ee, problem.T_cam_target, comment="a comment\nover two lines")
     poses = load_poses(path, "eye_to_hand")
-    np.testing.assert_allclose(poses.T_base_ee, problem.T_base_ee, atol=1e-10)
-    np.testing.assert_allclose(poses.T_cam_target, problem.T_cam_target, atol=1e-10)
+    np.testing.assert_allclose(poses.T_base_ee, problem.T_base_ee, atol=FLOAT)
+    np.testing.assert_allclose(poses.T_cam_target, problem.T_cam_target, atol=FLOAT)
     assert poses.rows[0] == 4  # two comment lines, the header, then the first row
 
 

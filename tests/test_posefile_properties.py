@@ -18,8 +18,9 @@ from scipy.spatial.transform import Rotation
 from handeye.core.dataset import read_table, write_table
 from handeye.core.errors import DatasetError, PoseFileError
 from handeye.core.posefile import POSE_NAMES, read_pose_file, read_robot_poses, write_pose_csv
+from tests.tolerances import ABSOLUTE_ONLY, FLOAT, RELATIVE_ONLY
 
-ROUND_TRIP = 1e-12  # values written with repr(): the only error is one rounding in the reader's arithmetic
+ROUND_TRIP = FLOAT  # values written with repr(): the only error is one rounding in the reader's arithmetic
 PROPS = settings(
     max_examples=150, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
@@ -104,14 +105,16 @@ def test_valid_pose_files_round_trip(tmp_path, seed, n, form, units, order, scal
         units=units if not form.startswith("json") else None,
     )
     for name in POSE_NAMES:
-        np.testing.assert_allclose(getattr(got, name), _truth(*poses[name]), rtol=0, atol=ROUND_TRIP * max(1, scale))
+        np.testing.assert_allclose(
+            getattr(got, name), _truth(*poses[name]), rtol=ABSOLUTE_ONLY, atol=ROUND_TRIP * max(1, scale)
+        )
     assert len(got.rows) == n
     robot = read_robot_poses(
         path,
         quat_order=order if form == "quat_positional" else None,
         units=units if not form.startswith("json") else None,
     )
-    np.testing.assert_allclose(robot.T_base_ee, got.T_base_ee, rtol=0, atol=0)
+    np.testing.assert_array_equal(robot.T_base_ee, got.T_base_ee)
 
 
 @PROPS
@@ -121,8 +124,8 @@ def test_write_pose_csv_round_trips(tmp_path, seed, n, scale):
     path = tmp_path / "written.csv"
     write_pose_csv(path, T1, T2, comment="two\nlines")
     got = read_pose_file(path)
-    np.testing.assert_allclose(got.T_base_ee, T1, rtol=0, atol=ROUND_TRIP * max(1, scale))
-    np.testing.assert_allclose(got.T_cam_target, T2, rtol=0, atol=ROUND_TRIP * max(1, scale))
+    np.testing.assert_allclose(got.T_base_ee, T1, rtol=ABSOLUTE_ONLY, atol=ROUND_TRIP * max(1, scale))
+    np.testing.assert_allclose(got.T_cam_target, T2, rtol=ABSOLUTE_ONLY, atol=ROUND_TRIP * max(1, scale))
 
 
 def _valid_csv(seed: int) -> str:
@@ -253,7 +256,7 @@ def test_dataset_tables_round_trip(tmp_path, table):
     for c in _STR:
         assert list(back[c]) == list(table[c])
     for c in _FLOAT:
-        np.testing.assert_allclose(back[c], table[c], rtol=ROUND_TRIP, atol=0, equal_nan=True)
+        np.testing.assert_allclose(back[c], table[c], rtol=ROUND_TRIP, atol=RELATIVE_ONLY, equal_nan=True)
 
 
 def _valid_table_text(tmp_path, seed: int) -> str:

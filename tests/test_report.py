@@ -25,6 +25,7 @@ from handeye.core.synthetic import make_problem  # noqa: E402
 from handeye.report import hold_out_check  # noqa: E402
 from handeye.report.from_command import command_line  # noqa: E402
 from handeye.report.tables import rpy_deg  # noqa: E402
+from tests.tolerances import DEG, FLOAT
 
 DATA = Path(__file__).resolve().parents[1] / "handeye" / "data"
 EXAMPLE = DATA / "example_eye_to_hand.csv"
@@ -162,7 +163,7 @@ def test_rpy_is_ros_convention():
         * Rotation.from_euler("y", pitch, degrees=True)
         * Rotation.from_euler("x", roll, degrees=True)
     ).as_matrix()  # Rz(yaw) Ry(pitch) Rx(roll)
-    np.testing.assert_allclose(rpy_deg(R), [roll, pitch, yaw], atol=1e-9)
+    np.testing.assert_allclose(rpy_deg(R), [roll, pitch, yaw], atol=FLOAT / DEG)
 
 
 def test_command_line_parses_back_to_the_same_arguments():

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from handeye.core import se3
-from tests.tolerances import FLOAT, NEAR_PI_ANGLE
+from tests.tolerances import ABSOLUTE_ONLY, FLOAT, NEAR_PI_ANGLE, SAME_FORMULA
 
 BATCH_SHAPES = [(), (5,), (2, 5)]
 
@@ -36,7 +36,7 @@ def test_hat_is_cross_product_and_vee_inverts_it(rng):
     np.testing.assert_allclose(se3.hat(a) @ b[..., None], np.cross(a, b)[..., None], atol=FLOAT)
     np.testing.assert_allclose(se3.vee(se3.hat(a)), a, atol=FLOAT)
     S = se3.hat(a)
-    np.testing.assert_allclose(S, -np.swapaxes(S, -1, -2), atol=0)
+    np.testing.assert_array_equal(S, -np.swapaxes(S, -1, -2))  # entries are copies and negations: exact
 
 
 # ---------------------------------------------------------------- so3_exp / so3_log
@@ -204,7 +204,7 @@ def test_transform_from_rotvec_translation(rng, shape):
     T = se3.transform_from_rotvec_translation(rv, t)
     assert T.shape == shape + (4, 4)
     np.testing.assert_allclose(T[..., :3, :3], _scipy_matrices(rv), atol=FLOAT)
-    np.testing.assert_allclose(T[..., :3, 3], t, atol=0)
+    np.testing.assert_array_equal(T[..., :3, 3], t)  # a copy
     np.testing.assert_array_equal(T[..., 3, :], np.broadcast_to([0.0, 0.0, 0.0, 1.0], shape + (4,)))
 
 
@@ -235,4 +235,4 @@ def test_so3_exp_of_one_vector_is_the_batched_formula(rng, angle):
     """One rotation vector takes a scalar path (refinement steps); it must give the batched values."""
     axis = rng.normal(size=3)
     rv = angle * axis / np.linalg.norm(axis)
-    np.testing.assert_allclose(se3.so3_exp(rv), se3.so3_exp(rv[None])[0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(se3.so3_exp(rv), se3.so3_exp(rv[None])[0], rtol=ABSOLUTE_ONLY, atol=SAME_FORMULA)

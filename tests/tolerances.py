@@ -18,6 +18,12 @@ import numpy as np
 #: some tens of operations, so errors are ~1e-15; 1e-12 leaves three orders
 #: of magnitude of headroom while still catching any wrong formula (a wrong
 #: sign or factor gives errors of order 1).
+#: Also relative (rtol=FLOAT), and for results that are exact in exact arithmetic and reach float64 through
+#: at most a few hundred operations: a least-squares fit with an exact answer (the curvatures of a sphere
+#: or a cylinder from their normals: measured <= 9e-16 relative), a Rayleigh quotient at an eigenvector
+#: (5e-15 on entries ~3), interpolation of a linear ramp, a pose written with repr() and read back through
+#: its quaternion, a tangent built from cross products of a unit normal (3e-16). Several of these were
+#: 1e-9 or 1e-10 before issue 42 with no derivation; their measured errors of 1e-16 to 1e-14 put them here.
 FLOAT = 1e-12
 
 #: so3_log of a rotation within 1e-12 rad of pi: the axis is recovered from
@@ -27,6 +33,27 @@ FLOAT = 1e-12
 #: 1e-9, the same bar as noise-free recovery, as the scipy reference itself
 #: goes through the same near-singular quantities.
 NEAR_PI_ANGLE = 1e-9
+
+#: The same formula reached by two code paths (a scalar path and the batched one, a product written out
+#: and the same product as a multiple of a stored length): entries of order 1 or below that differ only
+#: in the order of a few float64 operations, a few ulps (eps = 2.2e-16) apart; 1e-15 is 4.5 eps. Any
+#: other formula is off by far more than rounding.
+SAME_FORMULA = 1e-15
+
+#: ``rtol=ABSOLUTE_ONLY`` beside a derived ``atol``: the bound is absolute. numpy's default relative
+#: slack (1e-7 of |expected| in assert_allclose, 1e-5 in np.allclose) is derived from nothing and would
+#: widen a derived absolute bound on the larger entries (1e-7 m on a 1 m translation, 1e5 x FLOAT).
+ABSOLUTE_ONLY = 0.0
+#: ``atol=RELATIVE_ONLY`` beside a derived ``rtol``: the bound is relative to each expected entry, so an
+#: entry that is exactly zero (or NaN, with equal_nan) must come back exactly.
+RELATIVE_ONLY = 0.0
+
+#: A pose, an error or a depth written to a dataset table and read back (write_table prints repr(),
+#: exact; a pose comes back through its quaternion, FLOAT per entry) and compared with one computed
+#: again from what was read: an angle from arctan2 moves by ~1e-16 rad, relative 1e-16 / angle, and the
+#: labels' errors are above 1e-4 degree (2e-6 rad, their own noise), so ~1e-10 relative; 1e-9. A wrong
+#: column or unit (degrees for radians, mm for m) is off by order 1.
+RECOMPUTED_ERROR_RTOL = 1e-9
 
 # --------------------------------------------------------------------------
 # Noise-free recovery
@@ -108,7 +135,9 @@ COVARIANCE_RTOL = 1e-9
 #: pseudo-inverse of J^T J (condition number ~1e3 to 1e6 here) and LM's
 #: damping: sigma = sqrt(trace) of a covariance block, doubling both noise
 #: scales doubles every sigma, a given noise scale is reported back. Rounding
-#: is ~1e-16 x condition <= 1e-10; 1e-9 relative.
+#: is ~1e-16 x condition <= 1e-10; 1e-9 relative. Also a clustered (sandwich) covariance against the
+#: same sandwich written by hand, and the two-way one with both groupings the same against the one-way
+#: (C + C - C): measured 8e-14 relative (these were 1e-10 and 1e-8 before issue 42).
 SCALE_RTOL = 1e-9
 
 #: Two LM runs on the same fixed cost from different closed-form starts must
@@ -144,6 +173,12 @@ SIGMA_BOUND = 4.0
 #: wrong scale (e.g. radians read as degrees, a missing sqrt(3)) falls out.
 NOISE_ESTIMATE_FACTOR = 2.0
 
+#: A camera noise scale estimated along the line of sight from 40 poses' residuals less what the fit
+#: absorbs (~34 degrees of freedom): relative standard deviation 1 / sqrt(2 x 34) = 0.12; 0.35 is 2.9 of
+#: them (P(fail) 0.4 % for a seeded draw), while the along-sight scale mixed with the across-sight ones
+#: (0.3 mm against 3 mm) comes out low by a factor 2 or more.
+LINE_OF_SIGHT_SCALE_RTOL = 0.35
+
 #: Trials for "the refined median error is no worse than the closed form".
 REFINE_TRIALS = 30
 
@@ -161,6 +196,11 @@ ML_TRIALS = 120
 ML_SIGMA_RATIO = 0.25
 #: Central differences of the residuals with h = 1e-6 on entries of order 1: truncation ~h^2, rounding
 #: ~eps / h ~ 1e-10; relative to the largest entry, 1e-6 is far below any real derivative mistake.
+#: (With h = 1e-5, as where a mesh's posed points are differenced, truncation is ~1e-10 of the entries
+#: and rounding ~2e-11: the same bound.) Both errors scale with the differenced function, so the bound is
+#: absolute: JACOBIAN_RTOL x the Jacobian's largest entry, or x the differenced positions' largest (metres)
+#: where the derivatives are velocities of points (a column can be zero: a joint that moves nothing).
+#: Checks that were rtol 1e-5 per entry, or 1e-8 and 1e-6 absolute on entries of order 1, before issue 42.
 JACOBIAN_RTOL = 1e-6
 #: Coverage of a 1-sigma interval by a Gaussian estimate: 68.3 %; over M = 200 trials its binomial
 #: standard deviation is 3.3 %, so 4 of them give [55 %, 82 %].
@@ -288,6 +328,18 @@ ESTIMATED_SIGMA_BOUND = 5.0
 #: scale, and the texture's scale is exact in x and y alike).
 INTRINSICS_MAX_RMS_PX = 0.5
 
+#: Our projection (pinhole and OpenCV's distortion model, 5 to 14 coefficients) against cv2.projectPoints,
+#: both float64: the same polynomial evaluated in another order, rounding ~eps x |u| (<= 1000 px) x some
+#: tens of operations ~1e-12 px (measured 1e-13 px); 1e-9 px is 1e3 above that. A coefficient taken in the
+#: wrong place moves points near the image edge by 0.01 px or more.
+OPENCV_PROJECTION_PX = 1e-9
+
+#: Pixel noise estimated from the PnP residuals of several views, pooled (per axis, degrees of freedom
+#: corrected): ~6 views x 2 axes x 35 corners less 6 x 6 pose parameters = ~380 degrees of freedom, a
+#: relative standard deviation of 1 / sqrt(2 x 380) = 0.036; 0.2 is 5.5 of them, while a sigma taken per
+#: 2-D residual (a factor sqrt(2)) or without the dof correction on few corners is off by more.
+POOLED_SIGMA_RTOL = 0.2
+
 #: Noise-free reprojection refinement of pixel quantities (fx, fy, cx, cy ~ 300
 #: to 560 px): the optimiser stops at xtol = ftol = gtol = 1e-12 relative, i.e.
 #: ~1e-9 px on quantities of ~500 px (measured ~1e-12 px); 1e-6 px is still
@@ -333,6 +385,29 @@ MAX_MASK_MISMATCH_PX = 3
 CORE_FRACTION = 0.6
 DEPTH_M = 2e-4
 
+# -------------------------------------------------------------------------- robot model and simulated sensors
+
+#: The UR URDFs write their angles to 12 significant digits (1.57079632679 = pi/2 - 4.9e-12,
+#: 3.14159265359 = pi + 2.1e-12), so the links after each such joint frame turn by that much against the
+#: DH table; at most three of them act on under 1 m of arm: <= 1.5e-11 m (measured 4e-12 m on the UR5).
+#: 1e-10 m; a wrong link length or sign is off by centimetres.
+URDF_ROUNDED_ANGLES_M = 1e-10
+#: sim.recording solves the IK to a pose-error norm of 1e-9 (radians and metres, flange frame), so the
+#: reached flange pose's entries are off by at most that times (1 + lever), and a board pose held on the
+#: flange (lever < 0.5 m) by <= 1.5e-9; 1e-8 leaves a factor ~7, while a wrong joint solution is off by
+#: millimetres to metres.
+IK_REACHED = 1e-8
+#: A unit-variance field correlated over L pixels (a Gaussian filter of sigma L) has about
+#: N / (4 pi L^2) independent samples in N pixels; its sample sigma's relative spread is about
+#: sqrt(pi L^2 / N). Four of them (P(fail) ~ 6e-5 for a Gaussian estimate).
+CORRELATED_FIELD_SPREADS = 4.0
+#: The sample standard deviation of n = 200 independent draws has a relative standard deviation
+#: 1 / sqrt(2 n) = 0.05; clipping each draw at 2.5 sigma (sim.sensors.draw_systematic) lowers the
+#: standard deviation by 1.1 % (sqrt(E[min(z^2, 6.25)]) = 0.989). 0.2 leaves 0.189 for the sampling, 3.8
+#: of its standard deviations (P(fail) ~ 1e-4), while a sigma read as a variance or in the wrong unit
+#: is off by far more.
+CLIPPED_DRAWS_STD_RTOL = 0.2
+
 # -------------------------------------------------------------------------- datasets
 
 #: Depth PNGs store 0.1 mm units (sim.generate.DEPTH_SCALE_M): rounding adds at most half a unit.
@@ -352,6 +427,15 @@ LABEL_COMMON_SHIFT_PX = 0.2
 #: 2000 * 2^-24 = 1.2e-4 mm per coordinate; a distance from three such coordinates (and the
 #: truth's) differs from the float64 one by well under 1e-3 mm.
 FLOAT32_POSITION_MM = 1e-3
+
+#: The share of 2000 replay-buffer draws in which a frame is kept, against its probability p = 0.4
+#: (4 of 10 frames): binomial standard deviation sqrt(p (1 - p) / 2000) = 0.011, so 0.05 is 4.6 of them;
+#: over the 10 frames P(fail) ~ 4e-5.
+REPLAY_FREQUENCY_ATOL = 0.05
+
+#: A rotation predicted by a float32 network (torch's default) and built from its unit quaternion: each
+#: entry a sum of a few products rounded at 2^-24 = 6e-8, so R R^T - I is within ~10 of those (6e-7); 1e-6.
+FLOAT32_ROTATION = 1e-6
 
 # -------------------------------------------------------------------------- data-parallel training (learned)
 
@@ -403,6 +487,11 @@ HOLDOUT_OVER_RESIDUAL = 1.5
 #: A pose read from a real recording's file: its rotation block orthonormal to this (the files print
 #: 17 significant digits, and the readers re-orthonormalise within their printed-rotation tolerance).
 RECORDED_ROTATION = 1e-9
+#: Pose matrices printed with six decimals (a common robot export): each entry rounded by <= 5e-7 (unitless
+#: rotation entries; translations in mm, i.e. 5e-10 m). Inverting such a pose adds the rotation's rounding
+#: times the translation, three terms of <= 5e-7 x 1 m: <= 1.5e-6 m; 1e-5 leaves a factor 6, while a
+#: transposed rotation or a translation in the wrong unit is off by order 0.1 to 1000.
+PRINTED_SIX_DECIMALS = 1e-5
 #: Distances of a metric recording: a robot flange and a target seen by a camera lie between 1 cm and 5 m
 #: from their frames' origins; millimetres read as metres land at 1000 times that.
 METRIC_RANGE_M = (0.01, 5.0)
@@ -463,6 +552,12 @@ FEW_TRIALS_SIGMA_RMS_TOL = 3.0 * np.sqrt(1.0 / (2 * 10))
 # --------------------------------------------------------------------------
 # Outliers named against a fit without them (tests/classic/test_outliers_default.py)
 # --------------------------------------------------------------------------
+
+#: The translation residual reported for a pose displaced by an injected gross error (1.8 m here), against
+#: that displacement: the pose's own noise (1 mm, 0.1 deg through a lever of ~1 m: 2 mm) and the robust
+#: fit's error (which leaves the pose out: millimetres) add a few mm, 0.3 %; 5 % (90 mm) is far above that,
+#: while a residual in the wrong unit or of another pose is off by far more.
+INJECTED_OUTLIER_RTOL = 0.05
 
 #: A count of clean sets with a pose named is tested against the binomial quantile at this upper tail: a
 #: correct test (the stated alpha) fails it with probability at most 1e-3, while one that names at twice

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from classic.clustered_covariance import clustered_covariance
+from tests.tolerances import RELATIVE_ONLY, SCALE_RTOL
 
 FRAMES, BINS, PER_CELL = 20, 12, 15
 FRAME_SIGMA, BIN_SIGMA, NOISE_SIGMA = 0.5, 1.0, 2.0
@@ -59,5 +60,7 @@ def test_one_way_is_the_sandwich_and_a_second_clustering_equal_to_the_first_chan
     one_way = clustered_covariance(J, r, w, group)
     plain = H_inv * (r @ r) / (300 - 6)
     assert np.trace(by_hand) > np.trace(plain)  # the sandwich, not the floor, is what comes back
-    np.testing.assert_allclose(one_way, by_hand, rtol=1e-10)
-    np.testing.assert_allclose(clustered_covariance(J, r, w, group, cross_group=group), one_way, rtol=1e-8, atol=1e-15)
+    np.testing.assert_allclose(one_way, by_hand, rtol=SCALE_RTOL)
+    np.testing.assert_allclose(
+        clustered_covariance(J, r, w, group, cross_group=group), one_way, rtol=SCALE_RTOL, atol=RELATIVE_ONLY
+    )

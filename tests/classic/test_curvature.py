@@ -14,6 +14,7 @@ from classic.markerless.curvature import sample_curvatures, second_order_residua
 from handeye.core.errors import HandEyeInputError
 from handeye.core.metrics import pose_error
 from tests.classic.test_markerless import F_PX, RADII, SIGMA_1M, K, _bias_bounds, _scene
+from tests.tolerances import FLOAT
 
 
 def _fibonacci_sphere(n, r):
@@ -26,8 +27,8 @@ def _fibonacci_sphere(n, r):
 def test_sphere_has_both_curvatures_one_over_r():
     p, n = _fibonacci_sphere(4000, 0.05)
     kappa, direction = sample_curvatures(p, n, radius_m=0.006)
-    np.testing.assert_allclose(kappa, 1 / 0.05, rtol=1e-9)
-    np.testing.assert_allclose(np.einsum("ij,ij->i", direction, n), 0.0, atol=1e-12)
+    np.testing.assert_allclose(kappa, 1 / 0.05, rtol=FLOAT)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", direction, n), 0.0, atol=FLOAT)
 
 
 def test_cylinder_curves_across_its_axis_only(rng):
@@ -36,9 +37,9 @@ def test_cylinder_curves_across_its_axis_only(rng):
     n = np.column_stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)])
     kappa, direction = sample_curvatures(np.column_stack([r * n[:, :2], z]), n, radius_m=0.008)
     inner = np.abs(z) < 0.14  # away from the open ends
-    np.testing.assert_allclose(kappa[inner, 0], 1 / r, rtol=1e-9)
-    np.testing.assert_allclose(kappa[inner, 1], 0.0, atol=1e-9)
-    np.testing.assert_allclose(np.abs(direction[inner, 2]), 0.0, atol=1e-9)  # across the axis
+    np.testing.assert_allclose(kappa[inner, 0], 1 / r, rtol=FLOAT)
+    np.testing.assert_allclose(kappa[inner, 1], 0.0, atol=FLOAT)
+    np.testing.assert_allclose(np.abs(direction[inner, 2]), 0.0, atol=FLOAT)  # across the axis
 
 
 def test_a_box_has_no_curvature_on_its_faces_or_across_its_creases():
@@ -47,7 +48,7 @@ def test_a_box_has_no_curvature_on_its_faces_or_across_its_creases():
     box = trimesh.creation.box((0.1, 0.1, 0.1))
     p, face = trimesh.sample.sample_surface(box, 6000, seed=3)
     kappa, _ = sample_curvatures(np.asarray(p), box.face_normals[face], radius_m=0.008)
-    np.testing.assert_allclose(kappa, 0.0, atol=1e-9)
+    np.testing.assert_allclose(kappa, 0.0, atol=FLOAT)
 
 
 def test_second_order_residual_on_a_sphere_leaves_exactly_the_fourth_order_term(rng):
@@ -66,7 +67,7 @@ def test_second_order_residual_on_a_sphere_leaves_exactly_the_fourth_order_term(
     d = np.linalg.norm(x - m, axis=1)
     np.testing.assert_allclose(np.einsum("ij,ij->i", m_dir, x - m), -(d**2) / (2 * r), rtol=1e-9)
     np.testing.assert_allclose(res, -(d**4) / (8 * r**3), rtol=1e-6, atol=1e-18)
-    np.testing.assert_allclose(grad, x_dir + (d**2 / (2 * r**2))[:, None] * m_dir, atol=1e-12)
+    np.testing.assert_allclose(grad, x_dir + (d**2 / (2 * r**2))[:, None] * m_dir, atol=FLOAT)
 
 
 def test_a_second_order_fit_removes_the_sampling_bias():

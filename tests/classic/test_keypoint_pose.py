@@ -6,7 +6,7 @@ import numpy as np
 
 from classic.keypoint_pose import solve_keypoint_pose
 from handeye.core.se3 import make_transform, so3_exp
-from tests.tolerances import SIGMA_BOUND
+from tests.tolerances import EXACT, SIGMA_BOUND
 
 N_FRAMES, K = 50, 8
 
@@ -21,7 +21,7 @@ def test_exact_keypoints_give_the_pose(rng):
     T, p_cam, p_base, frame = _problem(rng)
     res = solve_keypoint_pose(p_cam, p_base, frame)
     assert res.ok and res.inliers.all()
-    np.testing.assert_allclose(res.T_base_cam, T, atol=1e-9)
+    np.testing.assert_allclose(res.T_base_cam, T, atol=EXACT)
 
 
 def test_noisy_keypoints_within_their_sigma(rng):
@@ -40,7 +40,7 @@ def test_outliers_are_ignored_and_most_wrong_is_refused(rng):
     some[wrong] += rng.uniform(-1, 1, (wrong.sum(), 3))
     res = solve_keypoint_pose(p_cam, some, frame)
     assert res.ok
-    np.testing.assert_allclose(res.T_base_cam, T, atol=1e-9)  # the exact 80 % decide
+    np.testing.assert_allclose(res.T_base_cam, T, atol=EXACT)  # the exact 80 % decide
     most = p_base.copy()
     wrong = rng.random(len(most)) < 0.7
     most[wrong] += rng.uniform(-1, 1, (wrong.sum(), 3))
@@ -70,13 +70,13 @@ def test_exact_measurements_give_the_pose_and_outliers_are_left_to_the_consensus
     sigma = np.tile([1e-3, 1e-3, 0.01], (len(meas), 1))
     res = solve_keypoint_pose(p_cam, p_base, frame, meas=meas, intrinsics_norm=intr, sigma=sigma)
     assert res.ok and res.inliers.all()
-    np.testing.assert_allclose(res.T_base_cam, T, atol=1e-9)
+    np.testing.assert_allclose(res.T_base_cam, T, atol=EXACT)
     wrong = rng.random(len(meas)) < 0.2
     bad = meas.copy()
     bad[wrong] += rng.uniform(-0.3, 0.3, (wrong.sum(), 3)) * [1, 1, 0]  # far off in the image
     res = solve_keypoint_pose(_back(bad), p_base, frame, meas=bad, intrinsics_norm=intr, sigma=sigma)
     assert res.ok and not res.inliers[wrong].any()
-    np.testing.assert_allclose(res.T_base_cam, T, atol=1e-9)
+    np.testing.assert_allclose(res.T_base_cam, T, atol=EXACT)
 
 
 def test_measurement_weights_beat_the_3d_fit_and_their_sigma_matches_the_error(rng):

@@ -17,7 +17,7 @@ from handeye.core.errors import DegenerateMotionError
 from handeye.core.metrics import rotation_error_deg, translation_error_mm
 from handeye.core.synthetic import make_problem, random_rotations
 from handeye.core.synthetic_half_turn import half_turn_problem
-from tests.tolerances import SIGMA_BOUND
+from tests.tolerances import EXACT, SIGMA_BOUND
 
 SETUPS = ("eye_to_hand", "eye_in_hand")
 CAMERA_NOISE = (0.1, 0.5)  # deg, mm per axis
@@ -40,7 +40,7 @@ def test_three_perpendicular_half_turns_leave_three_axes():
         S = half_turn(c)
         for i in range(len(R)):
             M = R[i] @ R[0].T
-            np.testing.assert_allclose(M @ S, S @ M, atol=1e-9)
+            np.testing.assert_allclose(M @ S, S @ M, atol=EXACT)
 
 
 def test_two_half_turn_axes_leave_their_common_normal():
@@ -90,5 +90,5 @@ def test_translations_that_cannot_tell_are_refused():
 def test_solve_translations_recovers_exact_poses():
     p = make_problem(10, "eye_to_hand", np.random.default_rng(4))
     X, Y = solve_translations(p.T_base_ee, p.T_cam_target, p.X_true[:3, :3])
-    np.testing.assert_allclose(X, p.X_true, atol=1e-9)
-    np.testing.assert_allclose(Y, p.Y_true, atol=1e-9)
+    np.testing.assert_allclose(X, p.X_true, atol=EXACT)
+    np.testing.assert_allclose(Y, p.Y_true, atol=EXACT)

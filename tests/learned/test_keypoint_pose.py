@@ -23,6 +23,7 @@ from learned.keypoints import (
     residual_stats,
 )
 from learned.model import ModelConfig, load_weights
+from tests.tolerances import EXACT
 
 K_NORM = np.array([0.9, 0.9, 0.5, 0.5])  # fx / W, fy / H, cx, cy: a 58 deg field of view
 
@@ -82,7 +83,7 @@ def test_the_cross_frame_fit_recovers_a_known_camera_pose_from_exact_keypoints(w
     p_base, target, intr, T_true = _placement(np.random.default_rng(2))
     stats = np.stack([np.zeros((6, 3)), np.full((6, 3), 0.01)]) if with_stats else None
     T, w = camera_pose(target, p_base, intr, stats=stats)
-    np.testing.assert_allclose(T, T_true, atol=1e-9)
+    np.testing.assert_allclose(T, T_true, atol=EXACT)
     assert w.shape == (p_base.shape[0] * p_base.shape[1],) and np.all(w > 0.99)
 
 
@@ -103,8 +104,8 @@ def test_known_offsets_are_removed_before_the_fit():
     pred = target + offset
     stats = np.stack([offset, np.full((6, 3), 0.01)])
     T, _ = camera_pose(pred, p_base, intr, stats=stats)
-    np.testing.assert_allclose(T, T_true, atol=1e-9)
-    np.testing.assert_allclose(frame_poses(pred, p_base, intr, stats), np.broadcast_to(T_true, (30, 4, 4)), atol=1e-9)
+    np.testing.assert_allclose(T, T_true, atol=EXACT)
+    np.testing.assert_allclose(frame_poses(pred, p_base, intr, stats), np.broadcast_to(T_true, (30, 4, 4)), atol=EXACT)
     assert _error(camera_pose(pred, p_base, intr)[0], T_true)[0] > 10.0  # the plain fit is pulled off by them
 
 
@@ -135,7 +136,7 @@ def test_keypoints_behind_the_camera_get_no_weight():
     stats = np.stack([np.zeros((6, 3)), np.full((6, 3), 0.01)])
     T, w = camera_pose(pred, p_base, intr, stats=stats)
     assert w[0] == 0.0
-    np.testing.assert_allclose(T, T_true, atol=1e-9)
+    np.testing.assert_allclose(T, T_true, atol=EXACT)
 
 
 def test_keypoints_outside_the_consensus_are_left_out_of_the_likelihood_fit():
@@ -151,7 +152,7 @@ def test_keypoints_outside_the_consensus_are_left_out_of_the_likelihood_fit():
     pred[bad, 2] += rng.uniform(0.2, 0.5, bad.sum())
     stats = np.stack([np.zeros((6, 3)), np.full((6, 3), 0.01)])
     T, w = camera_pose(pred, p_base, intr, stats=stats)
-    np.testing.assert_allclose(T, T_true, atol=1e-9)
+    np.testing.assert_allclose(T, T_true, atol=EXACT)
     assert np.all(w[bad.ravel()] == 0.0) and np.all(w[~bad.ravel()] > 0.99)
     wide = kp.CONSENSUS_M
     try:
@@ -186,4 +187,4 @@ def test_per_frame_fits_with_statistics_recover_each_frame_and_leave_short_frame
     pred[2, 1:] = np.nan  # one keypoint left: no pose for that frame
     T = frame_poses(pred, p_base, intr, stats)
     assert np.isnan(T[2]).all()
-    np.testing.assert_allclose(T[[0, 1, 3, 4]], np.broadcast_to(T_true, (4, 4, 4)), atol=1e-9)
+    np.testing.assert_allclose(T[[0, 1, 3, 4]], np.broadcast_to(T_true, (4, 4, 4)), atol=EXACT)

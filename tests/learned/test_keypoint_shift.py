@@ -8,6 +8,7 @@ import torch
 
 from learned.keypoints import inside_image, shift_images, shift_targets
 from learned.trainer import TrainConfig
+from tests.tolerances import FLOAT
 
 W, H = 20, 14
 
@@ -35,7 +36,7 @@ def test_a_shifted_image_and_its_shifted_target_still_agree():
         if inside_image(torch.from_numpy(target_s[i : i + 1]))[0, 0]:  # the dot is still in the picture
             v, u = lit[0].tolist()
             assert len(lit) == 1
-            np.testing.assert_allclose(target_s[i, 0, :2], [(u + 0.5) / W, (v + 0.5) / H], atol=1e-12)
+            np.testing.assert_allclose(target_s[i, 0, :2], [(u + 0.5) / W, (v + 0.5) / H], atol=FLOAT)
             assert depth_s[i, 0, v, u] == depth[i].max() == pytest.approx(target_s[i, 0, 2])
         else:
             assert len(lit) == 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from learned.metrics import rotation_errors_deg, summarize, translation_errors_mm
+from tests.tolerances import DEG, FLOAT
 
 
 def test_rotation_error_is_the_angle_between_the_rotations():
@@ -18,7 +19,7 @@ def test_rotation_error_is_the_angle_between_the_rotations():
             [0, np.sin(np.pi / 12), 0, np.cos(np.pi / 12)],
         ]
     )  # 30 deg about y
-    np.testing.assert_allclose(rotation_errors_deg(q, identity), [90.0, 90.0, 180.0, 30.0], atol=1e-9)
+    np.testing.assert_allclose(rotation_errors_deg(q, identity), [90.0, 90.0, 180.0, 30.0], atol=FLOAT / DEG)
 
 
 def test_translation_errors_and_their_summary():

@@ -10,7 +10,7 @@ import pytest
 
 from handeye.core.dataset import Dataset, shard_name
 from handeye.core.errors import DatasetError
-from tests.tolerances import ESTIMATED_SIGMA_BOUND, LABEL_COMMON_SHIFT_PX
+from tests.tolerances import ESTIMATED_SIGMA_BOUND, FLOAT, LABEL_COMMON_SHIFT_PX, RECOMPUTED_ERROR_RTOL
 
 
 def test_small_preset_has_what_the_preset_asks_for(small_dataset):
@@ -42,8 +42,8 @@ def test_recorded_poses_are_the_forward_kinematics_of_the_recorded_joints(small_
     robot = load_robot(ds.meta["robot"])
     t = ds.frames(0)
     q = ds.joints(t)
-    np.testing.assert_allclose(ds.poses(t, "T_base_ee"), robot.fk(q), atol=1e-9)
-    np.testing.assert_allclose(ds.poses(t, "T_base_ref"), robot.fk(q) @ np.array(ds.meta["T_ee_ref"]), atol=1e-9)
+    np.testing.assert_allclose(ds.poses(t, "T_base_ee"), robot.fk(q), atol=FLOAT)
+    np.testing.assert_allclose(ds.poses(t, "T_base_ref"), robot.fk(q) @ np.array(ds.meta["T_ee_ref"]), atol=FLOAT)
 
 
 def test_labels_are_within_their_uncertainty_of_the_truth(small_dataset):
@@ -63,8 +63,8 @@ def test_labels_are_within_their_uncertainty_of_the_truth(small_dataset):
     from handeye.core.metrics import pose_error
 
     rot, trans = pose_error(ds.labels(), ds.truth())
-    np.testing.assert_allclose(rot, cams["label_error_rot_deg"], rtol=1e-9)
-    np.testing.assert_allclose(trans, cams["label_error_trans_mm"], rtol=1e-9)
+    np.testing.assert_allclose(rot, cams["label_error_rot_deg"], rtol=RECOMPUTED_ERROR_RTOL)
+    np.testing.assert_allclose(trans, cams["label_error_trans_mm"], rtol=RECOMPUTED_ERROR_RTOL)
     assert (ds.root / "labels.md").is_file() and (ds.root / "label_errors.png").stat().st_size > 1000
 
 

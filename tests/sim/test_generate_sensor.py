@@ -16,6 +16,7 @@ from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 from sim.cameras import CameraPreset  # noqa: E402
 from sim.generate import DEFAULT_NOISE, NoiseModel, generate  # noqa: E402
 from sim.sensors import draw_systematic  # noqa: E402
+from tests.tolerances import FLOAT, MM
 
 #: Two camera poses of two data frames at 64x64.
 PRESET = CameraPreset("sensor", "ur5", ((0.0, 360.0),), (2,), (0,), 2, image_size=(64, 64))
@@ -37,9 +38,9 @@ def test_the_units_errors_are_recorded_as_truth(pair):
     table = ds.cameras()
     for c in range(len(ds)):
         truth = draw_systematic(PROFILES["d435"], 3, c)
-        assert table["depth_scale_true"][c] == pytest.approx(truth.scale, abs=1e-12)
-        assert table["depth_offset_mm_true"][c] == pytest.approx(truth.offset_m * 1e3, abs=1e-9)
-        assert table["depth_extrinsic_mm_true.z"][c] == pytest.approx(truth.t_colour_depth_m[2] * 1e3, abs=1e-9)
+        assert table["depth_scale_true"][c] == pytest.approx(truth.scale, abs=FLOAT)
+        assert table["depth_offset_mm_true"][c] == pytest.approx(truth.offset_m * 1e3, abs=FLOAT / MM)
+        assert table["depth_extrinsic_mm_true.z"][c] == pytest.approx(truth.t_colour_depth_m[2] * 1e3, abs=FLOAT / MM)
 
 
 def test_the_depth_is_the_sensors(pair):

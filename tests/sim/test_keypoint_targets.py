@@ -16,7 +16,7 @@ from handeye.core.dataset import Dataset
 from handeye.core.se3 import invert_transform
 from tests.conftest import MARKER_RADIUS_M
 from tests.sim._geometry import assert_sphere_rendered
-from tests.tolerances import DEPTH_M, DEPTH_QUANTUM_M
+from tests.tolerances import DEPTH_M, DEPTH_QUANTUM_M, FLOAT32_POSITION_MM, MM
 
 pytest.importorskip("torch")
 
@@ -59,7 +59,9 @@ def test_flange_keypoint_target_is_the_rendered_marker_centre(marker_dataset):
             x_n, y_n, z = targets[i, flange]
             assert x_n * W - 0.5 == pytest.approx(u, abs=FLOAT32_PX * W)
             assert y_n * H - 0.5 == pytest.approx(v, abs=FLOAT32_PX * H)
-            assert z == pytest.approx(p_cam[2], abs=1e-6)
-            np.testing.assert_allclose(frames.keypoints_base[i, flange], T_base_ee[:3, 3], atol=1e-6)
+            assert z == pytest.approx(p_cam[2], abs=FLOAT32_POSITION_MM * MM)
+            np.testing.assert_allclose(
+                frames.keypoints_base[i, flange], T_base_ee[:3, 3], atol=FLOAT32_POSITION_MM * MM
+            )
             i += 1
     assert i == len(frames)

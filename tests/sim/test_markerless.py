@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.tolerances import FLOAT32_POSITION_MM, SIGMA_BOUND
+from tests.tolerances import FLOAT, FLOAT32_POSITION_MM, SIGMA_BOUND
 
 pytest.importorskip("pinocchio")
 
@@ -58,7 +58,7 @@ def test_start_file_and_its_errors(small_dataset, tmp_path):
     t, q = pos_quat_xyzw_from_transform(T)
     good = tmp_path / "start.json"
     good.write_text(json.dumps({"translation_m": t.tolist(), "quaternion_xyzw": q.tolist()}))
-    assert np.allclose(read_start(good), T, atol=1e-12)
+    assert np.allclose(read_start(good), T, atol=FLOAT)
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"T_base_cam": [[1, 0], [0, 1]]}))
     with pytest.raises(HandEyeInputError, match="bad.json"):
@@ -116,7 +116,7 @@ def test_markerless_labels_feed_the_board_free_continual_run(small_copy):
     assert list(cams["markerless_status"]) == ["ok"] * len(ds)
     ml, classic = ds.markerless_labels(), ds.labels()
     for c, res in run.results.items():
-        np.testing.assert_allclose(ml[c], res.T_base_cam, atol=1e-9)
+        np.testing.assert_allclose(ml[c], res.T_base_cam, atol=FLOAT)
         assert cams["markerless_error_trans_mm"][c] == pytest.approx(run.errors[c][1])
     frames = load_frames(small_copy, (32, 32), "markerless", progress=False)
     for c in range(len(ds)):
@@ -136,9 +136,9 @@ def test_posed_surface_carries_curvatures_that_move_with_the_links():
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, size=(2, robot.nq))
     posed = surface.posed(q)
     first, second = posed.frame == 0, posed.frame == 1
-    np.testing.assert_allclose(posed.curvatures[first], posed.curvatures[second], rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(np.linalg.norm(posed.direction_base, axis=1), 1.0, atol=1e-12)
-    np.testing.assert_allclose(np.einsum("ij,ij->i", posed.direction_base, posed.normals_base), 0.0, atol=1e-9)
+    np.testing.assert_allclose(posed.curvatures[first], posed.curvatures[second], rtol=FLOAT, atol=FLOAT)
+    np.testing.assert_allclose(np.linalg.norm(posed.direction_base, axis=1), 1.0, atol=FLOAT)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", posed.direction_base, posed.normals_base), 0.0, atol=FLOAT)
     names = [name for name, _, _ in surface.parts]
     upper = first & (posed.part == names.index(next(n for n in names if n.startswith("upper_arm"))))
     assert 1 / 0.07 <= np.median(posed.curvatures[upper, 0]) <= 1 / 0.05

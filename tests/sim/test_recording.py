@@ -19,7 +19,7 @@ from sim.recording import (  # noqa: E402
     sample_calibration_view,
     sample_data_configuration,
 )
-from tests.tolerances import EXACT  # noqa: E402
+from tests.tolerances import EXACT, IK_REACHED  # noqa: E402
 
 SIZE_M = BoardSpec(**DEFAULT_BOARD).size_m
 
@@ -61,7 +61,7 @@ def test_calibration_views_are_reachable_in_view_and_diverse(scene, camera):
     normals = []
     for v in views:
         # the joints reach the planned board pose exactly
-        np.testing.assert_allclose(robot.fk(v.q) @ T_ee_target, v.T_base_target, atol=1e-8)
+        np.testing.assert_allclose(robot.fk(v.q) @ T_ee_target, v.T_base_target, atol=IK_REACHED)
         corners_cam = (invert_transform(T_base_cam) @ v.T_base_target @ outline.T).T[:, :3]
         assert in_image(corners_cam, K, *size).all()
         facing = -v.T_base_target[:3, 2]

@@ -12,7 +12,7 @@ pytest.importorskip("example_robot_data")
 
 from handeye.core.errors import HandEyeInputError  # noqa: E402
 from handeye.robot.model import load_robot  # noqa: E402
-from tests.tolerances import EXACT  # noqa: E402
+from tests.tolerances import EXACT, FLOAT, URDF_ROUNDED_ANGLES_M  # noqa: E402
 
 # Universal Robots' published DH parameters (metres): d1, a2, a3, d4, d5, d6
 DH = {
@@ -30,7 +30,7 @@ def test_zero_configuration_matches_dh(robot):
     """At q = 0 the arm is stretched out: the flange sits at (|a2 + a3|, d4 + d6, d1 - d5) (model base frame)."""
     d1, a2, a3, d4, d5, d6 = DH[robot.name]
     p = robot.fk(np.zeros(robot.nq))[:3, 3]
-    np.testing.assert_allclose(np.abs(p), [abs(a2 + a3), d4 + d6, abs(d1 - d5)], atol=1e-6)
+    np.testing.assert_allclose(np.abs(p), [abs(a2 + a3), d4 + d6, abs(d1 - d5)], atol=URDF_ROUNDED_ANGLES_M)
 
 
 def test_base_joint_rotates_the_flange_about_base_z(robot):
@@ -113,8 +113,8 @@ def test_any_urdf_by_path_gives_the_same_robot():
     share = Path(loader.model_path).resolve().parents[1]  # its meshes are package://example-robot-data/robots/...
     mine, theirs = load_robot_urdf(urdf, [share]), load_robot("ur5")
     q = np.random.default_rng(0).uniform(-2, 2, size=(5, 6))
-    np.testing.assert_allclose(mine.fk(q), theirs.fk(q), atol=1e-12)
-    np.testing.assert_allclose(mine.keypoints_base(q), theirs.keypoints_base(q), atol=1e-12)
+    np.testing.assert_allclose(mine.fk(q), theirs.fk(q), atol=FLOAT)
+    np.testing.assert_allclose(mine.keypoints_base(q), theirs.keypoints_base(q), atol=FLOAT)
     assert [Path(p).name for _, p, _ in mine.link_poses(q[0])] == [Path(p).name for _, p, _ in theirs.link_poses(q[0])]
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from handeye.robot.depth_sensors import PROFILES, DepthSensor
 from sim.sensors import SensorTruth, apply_sensor, draw_systematic, fixed_pattern
+from tests.tolerances import CORRELATED_FIELD_SPREADS, FLOAT
 
 H, W, F_PX = 120, 160, 150.0
 C_U, C_V = (W - 1) / 2, (H - 1) / 2
@@ -15,9 +16,6 @@ K = np.array([[F_PX, 0, C_U], [0, F_PX, C_V], [0, 0, 1.0]])
 #: Nearest-pixel sampling across an edge puts a square's edge within half a pixel of its true place; its
 #: centroid, an average over the edge's pixels, within that too.
 NEAREST_PX = 0.5
-#: A unit-variance field correlated over L pixels (a Gaussian filter of sigma L) has about N / (4 pi L^2)
-#: independent samples in N pixels; its sample sigma's relative spread is about sqrt(pi L^2 / N). Four of them.
-SIGMA_SPREADS = 4.0
 
 
 def _square(centre_uv, half=4, near=0.8, far=1.5):
@@ -50,7 +48,7 @@ def test_a_shift_moves_the_depth_image_by_whole_pixels_exactly(shift):
 def test_a_half_pixel_shift_interpolates_on_one_surface():
     ramp = 1.0 + 0.001 * np.arange(W)[None, :] * np.ones((H, 1))  # one surface: no edge
     out = apply_sensor(ramp, K, NOTHING, SensorTruth(registration_px=np.array([0.5, 0.0])), np.random.default_rng(0))
-    np.testing.assert_allclose(out[:, 2:-2], ramp[:, 2:-2] - 0.0005, atol=1e-12)
+    np.testing.assert_allclose(out[:, 2:-2], ramp[:, 2:-2] - 0.0005, atol=FLOAT)
 
 
 def test_the_roll_turns_the_image_about_the_principal_point():
@@ -81,12 +79,12 @@ def test_the_fixed_pattern_is_the_same_in_every_frame_and_another_units_differs(
 
 def test_the_fixed_pattern_has_the_stated_sigma_growing_with_depth_squared():
     n = 256 * 256
-    spread = SIGMA_SPREADS * np.sqrt(np.pi * FP_PX**2 / n)
+    spread = CORRELATED_FIELD_SPREADS * np.sqrt(np.pi * FP_PX**2 / n)
     for seed in range(3):
         near = fixed_pattern(np.full((256, 256), 1.0), K, PATTERN, seed)
         far = fixed_pattern(np.full((256, 256), 2.0), K, PATTERN, seed)
         assert abs(near.std() / FP_SIGMA - 1) < spread
-        np.testing.assert_allclose(far, 4 * near, rtol=1e-12)  # the same field, times z^2
+        np.testing.assert_allclose(far, 4 * near, rtol=FLOAT)  # the same field, times z^2
 
 
 def test_the_existing_profiles_draw_no_misregistration_and_no_fixed_pattern():

@@ -15,6 +15,7 @@ pytest.importorskip("cv2")
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 from sim.sensors import SensorTruth, apply_sensor  # noqa: E402
 from sim.stereo import active_stereo_depth  # noqa: E402
+from tests.tolerances import FLOAT
 
 K = np.array([[222.0, 0, 127.5], [0, 222.0, 127.5], [0, 0, 1]])
 U, V = np.meshgrid(np.arange(256.0), np.arange(256.0))
@@ -106,7 +107,7 @@ def test_the_depth_is_brought_up_exactly_on_a_plane_and_decimated_as_librealsens
     uf = (np.arange(512) + 0.5) / 2 - 0.5
     truth = 1.0 / (1 - 0.15 * (uf - 127.5) / 222)
     inside = (uf >= 0) & (uf <= 255)
-    np.testing.assert_allclose(fine[100, inside], truth[inside], rtol=1e-12)  # 1/z is affine on a plane
+    np.testing.assert_allclose(fine[100, inside], truth[inside], rtol=FLOAT)  # 1/z is affine on a plane
     # across an edge the nearest sample, never a depth between the two surfaces
     step = np.where(U < 128, 1.0, 2.0)
     assert set(np.unique(upsample_depth(step, 2))) == {1.0, 2.0}

@@ -9,7 +9,7 @@ import pytest
 
 from classic.vision import BoardSpec, detect_board
 from classic.vision.board import BoardSpecError
-from tests.tolerances import FLAT_CORNER_PX, FLOAT32_M
+from tests.tolerances import ABSOLUTE_ONLY, FLAT_CORNER_PX, FLOAT32_M, SAME_FORMULA
 
 SPECS = [
     BoardSpec(7, 5, 0.04, 0.03, "5X5_100"),
@@ -26,19 +26,19 @@ def test_corners_target_agree_with_opencv(spec):
     theirs = np.asarray(spec.cv_board().getChessboardCorners(), dtype=float)
     assert ours.shape == theirs.shape == (spec.n_corners, 3)
     # same order (corner id k = r (squares_x - 1) + c), same place
-    np.testing.assert_allclose(ours, theirs, rtol=0, atol=FLOAT32_M)
+    np.testing.assert_allclose(ours, theirs, rtol=ABSOLUTE_ONLY, atol=FLOAT32_M)
     # and the documented convention itself: x along columns, y along rows, z = 0
     L = spec.square_length_m
     k = np.arange(spec.n_corners)
-    np.testing.assert_allclose(ours[:, 0], (k % (spec.squares_x - 1) + 1) * L, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(ours[:, 1], (k // (spec.squares_x - 1) + 1) * L, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ours[:, 0], (k % (spec.squares_x - 1) + 1) * L, rtol=ABSOLUTE_ONLY, atol=SAME_FORMULA)
+    np.testing.assert_allclose(ours[:, 1], (k // (spec.squares_x - 1) + 1) * L, rtol=ABSOLUTE_ONLY, atol=SAME_FORMULA)
     assert np.all(ours[:, 2] == 0)
 
 
 def test_size_and_corner_count():
     spec = BoardSpec(7, 5, 0.04, 0.03)
     assert spec.n_corners == 24
-    assert spec.size_m == pytest.approx((0.28, 0.20), abs=1e-15)
+    assert spec.size_m == pytest.approx((0.28, 0.20), abs=SAME_FORMULA)
 
 
 def _assert_detected_at(image, spec, pixels_per_metre, margin):

@@ -10,7 +10,7 @@ cv2 = pytest.importorskip("cv2")
 from classic.vision.pose_covariance import pose_covariances  # noqa: E402
 from handeye.core.errors import HandEyeInputError  # noqa: E402
 from handeye.core.se3 import make_transform, so3_log  # noqa: E402
-from tests.tolerances import ML_SIGMA_RATIO  # noqa: E402
+from tests.tolerances import ML_SIGMA_RATIO, POOLED_SIGMA_RTOL  # noqa: E402
 from tests.vision._helpers import INTR, SPEC, board_pose, corners_in_image  # noqa: E402
 
 SIGMA_PX = 0.3
@@ -64,6 +64,6 @@ def test_pooled_pixel_noise_from_the_residuals():
         uvs.append(uv)
     _, s = pose_covariances(np.stack(Ts), ids, uvs, SPEC, INTR)
     # per-axis residual RMS pooled over ~6 x 2 x 35 residuals (dof-corrected): within 20 % of the injected noise
-    assert s == pytest.approx(SIGMA_PX, rel=0.2)
+    assert s == pytest.approx(SIGMA_PX, rel=POOLED_SIGMA_RTOL)
     with pytest.raises(HandEyeInputError, match="at least 4"):
         pose_covariances(np.stack(Ts[:1]), [ids[0][:3]], [uvs[0][:3]], SPEC, INTR)
