@@ -38,7 +38,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import classic  # noqa: E402
 from benchmarks._opencv import CV_AXXB, CV_AXYB, cv2  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
-from classic.refine import cramer_rao_bound, refine_xy  # noqa: E402
+from classic.refine import RefineOptions, cramer_rao_bound, refine_xy  # noqa: E402
 from handeye.core.errors import HandEyeInputError, WeakMotionWarning  # noqa: E402
 from handeye.core.se3 import invert_transform, make_transform, so3_exp, so3_log  # noqa: E402
 from handeye.core.setups import robot_side_poses  # noqa: E402
@@ -162,7 +162,7 @@ def estimates(kind: str, prob: dict) -> tuple[dict, bool]:
     Y0, X0 = classic.shah(A, B)  # shah solves A_i X = Y B_i: its (X, Y) are our (target, camera)
     cam = model.camera(1)[0]
     s_r, s_t = np.sqrt(np.trace(cam[:3, :3]) / 3), np.sqrt(np.trace(cam[3:, 3:]) / 3)
-    out[SHAH_LM] = refine_xy(A, B, X0, Y0, noise=(s_r, s_t), setup=SETUP).X
+    out[SHAH_LM] = refine_xy(A, B, X0, Y0, RefineOptions(noise=(s_r, s_t), setup=SETUP)).X
     for m in (*CV_AXXB, *CV_AXYB):
         out[f"opencv {m}"] = _opencv(m, T, B)
     return out, along

@@ -43,7 +43,7 @@ from classic.pairs import motion_pairs, pair_indices
 from classic.park import park
 from classic.planning import PosePlan, plan_poses
 from classic.ransac import lmeds_inliers
-from classic.refine import cramer_rao_bound, refine_xy
+from classic.refine import RefineOptions, cramer_rao_bound, refine_xy
 from classic.result import CalibrationResult, PoseResiduals
 from classic.robot_stream import RobotStream
 from classic.shah import shah
@@ -68,6 +68,7 @@ __all__ = [
     "motion_pairs",
     "pair_indices",
     "refine_xy",
+    "RefineOptions",
     "cramer_rao_bound",
     "plan_poses",
     "PosePlan",

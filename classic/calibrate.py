@@ -37,7 +37,7 @@ from classic.outlier_screen import (
 )
 from classic.pairs import PAIRINGS, describe_pairs, pair_indices
 from classic.ransac import lmeds_inliers
-from classic.refine import LOSSES, refine_xy
+from classic.refine import LOSSES, RefineOptions, refine_xy
 from classic.registry import solver, solvers
 from classic.residuals import estimate_target_pose, pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
@@ -164,7 +164,7 @@ def _check_pair_consensus(poses, X, model) -> None:
     if len(suspects) == 0 or keep.sum() < MIN_POSES:
         return
     X0, Y0 = best_start(A[keep], B[keep], initial_estimate, START_CANDIDATES)[1:]
-    clean = refine_xy(A[keep], B[keep], X0, Y0, noise=_subset_model(model, keep), setup=poses.setup)
+    clean = refine_xy(A[keep], B[keep], X0, Y0, RefineOptions(noise=_subset_model(model, keep), setup=poses.setup))
     shift = x_shift_sigma(X, clean.X, clean.covariance)
     if shift > MAX_SHIFT_SIGMA:
         refuse_shift(suspects, shift, len(A))
@@ -463,11 +463,7 @@ def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, di
     without ``refine``); robust, the robust loss's fit on the sampling's inliers starts the outlier test
     (:func:`classic.outlier_screen.screen_poses`) and the poses it does not name are refit by least
     squares. Returns the refinement and the poses with their final inliers."""
-    ref = refine_xy(
-        poses.A_in,
-        poses.B_in,
-        X,
-        Y,
+    options = RefineOptions(
         loss=loss,
         noise=_subset_model(model, poses.inliers),
         max_iterations=50 if refine else 0,
@@ -475,6 +471,7 @@ def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, di
         estimate_scale=estimate_scale and refine,
         scale0=scale0,
     )
+    ref = refine_xy(poses.A_in, poses.B_in, X, Y, options)
     if not (refine and robust):
         return ref, poses
     # the sampling's flags are a generous first cut (three times the median residual): each pose is tested
@@ -499,17 +496,10 @@ def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screeni
         X0, Y0, scale0 = scaled_start(A, B, poses.pairs)
     else:
         (X0, Y0), scale0 = initial_estimate(A, B, "shah"), 1.0  # on poses: no motion pairs to build
-    robust_fit = refine_xy(
-        A,
-        B,
-        X0,
-        Y0,
-        loss="linear",
-        noise=_subset_model(model, keep),
-        setup=poses.setup,
-        estimate_scale=estimate_scale,
-        scale0=scale0,
+    options = RefineOptions(
+        loss="linear", noise=_subset_model(model, keep), setup=poses.setup, estimate_scale=estimate_scale, scale0=scale0
     )
+    robust_fit = refine_xy(A, B, X0, Y0, options)
     return screen_poses(
         poses.A, poses.B, robust_fit, poses.setup, model=model, fit_all=fit_all, estimate_scale=estimate_scale
     )

@@ -53,7 +53,7 @@ from scipy.stats import t as student_t
 
 from classic.contamination import RESIDUAL_FLOOR, x_shift_sigma
 from classic.noise_model import NoiseModel, residual_covariances
-from classic.refine import Refinement, pose_residual_jacobian, refine_xy
+from classic.refine import Refinement, RefineOptions, pose_residual_jacobian, refine_xy
 from classic.residuals import pose_residuals
 from handeye.core.se3 import so3_log
 
@@ -371,16 +371,9 @@ def screen_poses(
         if keep.all() and fit_all is not None:
             ref = fit_all
         else:
-            ref = refine_xy(
-                A[keep],
-                B[keep],
-                start.X,
-                start.Y,
-                noise=None if model is None else model.subset(keep),
-                setup=setup,
-                estimate_scale=estimate_scale,
-                scale0=start.scale,
-            )
+            noise = None if model is None else model.subset(keep)
+            options = RefineOptions(noise=noise, setup=setup, estimate_scale=estimate_scale, scale0=start.scale)
+            ref = refine_xy(A[keep], B[keep], start.X, start.Y, options)
         r, L, J = _system(A, B, ref, model, setup, estimate_scale)
         test = pose_tests(r, L, J, keep, alpha)
         named = _named(test, r, alpha, most)

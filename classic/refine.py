@@ -43,7 +43,15 @@ from classic.residuals import pose_residuals, predict_cam_target, residuals_of_p
 from handeye.core.se3 import hat, make_transform, so3_exp, so3_log
 from handeye.core.setups import robot_side_poses
 
-__all__ = ["LOSSES", "Refinement", "refine_xy", "ROBUST_SCALE", "cramer_rao_bound", "pose_residual_jacobian"]
+__all__ = [
+    "LOSSES",
+    "Refinement",
+    "RefineOptions",
+    "refine_xy",
+    "ROBUST_SCALE",
+    "cramer_rao_bound",
+    "pose_residual_jacobian",
+]
 
 LOSSES = ("linear", "huber", "cauchy")
 #: Where the robust losses bend, on each whitened residual component (unit variance when the model fits).
@@ -319,33 +327,12 @@ class _Problem:
         return np.einsum("nij,njk->nik", self.W, J).reshape(-1, self.n_params)
 
 
-def refine_xy(
-    A: np.ndarray,
-    B: np.ndarray,
-    X0: np.ndarray,
-    Y0: np.ndarray,
-    loss: str = "linear",
-    noise=None,
-    max_iterations: int = 50,
-    tol: float = 1e-12,
-    setup: str = "eye_to_hand",
-    estimate_scale: bool = False,
-    scale0: float = 1.0,
-    stream=None,
-    camera_times_s: np.ndarray | None = None,
-    time_offset0_s: float = 0.0,
-) -> Refinement:
-    """Refine ``A_i Y = X B_i`` by weighted nonlinear least squares from ``(X0, Y0)``.
+@dataclass(frozen=True, kw_only=True)
+class RefineOptions:
+    """Settings of :func:`refine_xy`: the loss, the noise model, the iterations and the extra unknowns' starts.
 
-    Parameters
+    Attributes
     ----------
-    A : array, shape (N, 4, 4)
-        Robot-side poses (``T_base_ee`` eye-to-hand, ``T_ee_base`` eye-in-hand); ignored when
-        ``stream`` is given.
-    B : array, shape (N, 4, 4)
-        ``T_cam_target``.
-    X0, Y0 : array, shape (4, 4)
-        Initial camera and target poses.
     loss : {"linear", "huber", "cauchy"}
         On each whitened residual component, bending at :data:`ROBUST_SCALE`.
     noise : None, (float, float) or NoiseModel
@@ -359,31 +346,118 @@ def refine_xy(
     tol : float
         scipy's tolerances.
     setup : {"eye_to_hand", "eye_in_hand"}
-        Needed for the robot-noise part of the model and for ``stream``.
+        Needed for the robot-noise part of the model and for a robot stream.
     estimate_scale : bool
         Also estimate a metric scale ``s`` of the camera translations (``t_B <- s t_B``).
     scale0 : float
         Its start.
+    time_offset0_s : float
+        Start of the time offset, estimated with a robot stream (robot time = camera time + offset).
+    """
+
+    loss: str = "linear"
+    noise: object = None
+    max_iterations: int = 50
+    tol: float = 1e-12
+    setup: str = "eye_to_hand"
+    estimate_scale: bool = False
+    scale0: float = 1.0
+    time_offset0_s: float = 0.0
+
+
+def refine_xy(
+    A: np.ndarray | None,
+    B: np.ndarray,
+    X0: np.ndarray,
+    Y0: np.ndarray,
+    options: RefineOptions | None = None,
+    stream=None,
+    camera_times_s: np.ndarray | None = None,
+) -> Refinement:
+    """Refine ``A_i Y = X B_i`` by weighted nonlinear least squares from ``(X0, Y0)``.
+
+    Parameters
+    ----------
+    A : array, shape (N, 4, 4)
+        Robot-side poses (``T_base_ee`` eye-to-hand, ``T_ee_base`` eye-in-hand); ignored when
+        ``stream`` is given.
+    B : array, shape (N, 4, 4)
+        ``T_cam_target``.
+    X0, Y0 : array, shape (4, 4)
+        Initial camera and target poses.
+    options : RefineOptions, optional
+        Loss, noise model, iterations, setup, scale and time offset; None: :class:`RefineOptions`' defaults.
     stream : classic.robot_stream.RobotStream, optional
         Robot poses ``T_base_ee`` over time: the robot side is interpolated at ``camera_times_s``
         plus a time offset, which is estimated.
     camera_times_s : array, shape (N,), optional
         Times of the camera poses ``B`` (with ``stream``).
-    time_offset0_s : float
-        Start of the offset (robot time = camera time + offset).
 
     Returns
     -------
     Refinement
     """
-    if loss not in LOSSES:
-        raise ValueError(f"unknown loss {loss!r}: use one of {LOSSES}")
-    robust = loss != "linear"
-    model = as_noise_model(noise)
-    estimated = model is None
+    run = _start(A, B, X0, Y0, options or RefineOptions(), stream, camera_times_s)
+    for p in range(_PASSES if run.opts.max_iterations > 0 else 1):
+        if not _one_pass(run, first=p == 0):
+            break
+    return _outcome(run)
+
+
+@dataclass
+class _Run:
+    """A refinement under way: its data and settings, and the estimate and noise model so far."""
+
+    A_of: object  # time offset -> (robot-side poses (N, 4, 4), their rates (N, 6))
+    B: np.ndarray
+    X0: np.ndarray
+    Y0: np.ndarray
+    opts: RefineOptions
+    with_offset: bool
+    estimated: bool
+    X: np.ndarray
+    Y: np.ndarray
+    s: float
+    dt: float
+    model: NoiseModel | None
+    factor: float = 1.0  # common variance factor of a model given up to scale (scale_to_residuals)
+    weights: np.ndarray | None = None
+    evaluations: int = 0
+    converged: bool = True
+
+    def problem(self, W: np.ndarray, X=None, Y=None, s=None, dt=None) -> _Problem:
+        """The residuals about the estimate (or the given point) with the whitening ``W`` fixed."""
+        at = (self.X, self.Y, self.s, self.dt) if X is None else (X, Y, s, dt)
+        return _Problem(self.A_of, self.B, self.opts.setup, *at, W, self.opts.estimate_scale, self.with_offset)
+
+    def whitening(self) -> np.ndarray:
+        """``W_i`` of the noise model at the estimate, shape (N, 6, 6)."""
+        A_now, _ = self.A_of(self.dt)
+        cov = residual_covariances(self.model, A_now, _scaled(self.B, self.s), self.X, self.Y, self.opts.setup)
+        return whitening(self.factor * cov)
+
+
+def _start(A, B, X0, Y0, opts: RefineOptions, stream, camera_times_s) -> _Run:
+    """The checked settings, the robot side as a function of the time offset, and the starting noise model."""
+    if opts.loss not in LOSSES:
+        raise ValueError(f"unknown loss {opts.loss!r}: use one of {LOSSES}")
+    model = as_noise_model(opts.noise)
     B = np.asarray(B, dtype=float)
-    with_offset = stream is not None
-    if with_offset:
+    A_of = _robot_side(A, opts.setup, stream, camera_times_s)
+    s, dt = float(opts.scale0), float(opts.time_offset0_s)
+    run = _Run(
+        A_of, B, X0, Y0, opts, with_offset=stream is not None, estimated=model is None,
+        X=X0, Y=Y0, s=s, dt=dt, model=model, weights=np.ones(len(B)),
+    )  # fmt: skip
+    if run.estimated:
+        A_now, _ = A_of(dt)
+        run.model = _camera_model(*_scales(*pose_residuals(A_now, _scaled(B, s), X0, Y0), None, robust=True))
+    return run
+
+
+def _robot_side(A, setup: str, stream, camera_times_s):
+    """``dt -> (A, rate)``: the fixed poses with zero rates, or the stream's at the camera times plus ``dt``."""
+    if stream is not None:
         times = np.asarray(camera_times_s, dtype=float)
 
         def A_of(dt):
@@ -391,110 +465,113 @@ def refine_xy(
             if setup == "eye_to_hand":
                 return T, rate
             return robot_side_poses(T, setup), rate
+
+        return A_of
+    A_fixed = np.asarray(A, dtype=float)
+    zero_rate = np.zeros((len(A_fixed), 6))
+
+    def A_of(dt):
+        return A_fixed, zero_rate
+
+    return A_of
+
+
+def _one_pass(run: _Run, first: bool) -> bool:
+    """One fit with ``S_i`` fixed at the estimate, then the noise model at the new one; whether to go on."""
+    n, opts = len(run.B), run.opts
+    prob = run.problem(run.whitening())
+    fit = fit_least_squares(
+        prob.fun,
+        prob.jac,
+        prob.n_params,
+        loss=opts.loss,
+        loss_scale=ROBUST_SCALE,
+        max_evaluations=3 * opts.max_iterations,
+        tol=opts.tol,
+    )
+    run.evaluations += fit.evaluations if opts.max_iterations > 0 else 0
+    run.converged = fit.converged
+    run.X, run.Y, run.s, run.dt = prob.unpack(fit.x)
+    moved = float(np.abs(fit.x).max())
+    run.weights = fit.weights.reshape(n, 6).mean(axis=1)
+    if run.estimated:
+        changed = _reestimate_camera_noise(run, fit, prob.n_params)
+    elif run.model.scale_to_residuals:
+        changed = _rescale_model(run, fit, prob.n_params)
+    else:  # a given model: S_i depends on X and Y through the robot's part, so evaluate it once more
+        changed = 1.0 if (first and run.model.has_robot_noise) else 0.0
+    # a 1 % change of the noise scales moves the estimate by a small fraction of its sigma
+    return not (changed < 1e-2 or moved < 1e-12)
+
+
+def _reestimate_camera_noise(run: _Run, fit, n_params: int) -> float:
+    """The camera-only model's scales from the residuals at the estimate (leverage-corrected); their change."""
+    n = len(run.B)
+    A_now, _ = run.A_of(run.dt)
+    r_rot, r_t = pose_residuals(A_now, _scaled(run.B, run.s), run.X, run.Y)
+    old = (run.model.camera_rot_rad, run.model.camera_trans_m)
+    hat = _leverages(fit.jacobian, None if run.opts.loss == "linear" else fit.weights).reshape(n, 6)
+    s_r, s_t = _scales(r_rot, r_t, run.weights, robust=run.opts.loss != "linear", n_params=n_params, leverage=hat)
+    run.model = _camera_model(s_r, s_t)
+    return float(max(abs(s_r / old[0] - 1.0), np.max(np.abs(np.asarray(s_t) / np.asarray(old[1]) - 1.0))))
+
+
+def _rescale_model(run: _Run, fit, n_params: int) -> float:
+    """The variance factor of a model given up to scale, from the whitened residuals; its relative change."""
+    d2 = np.sum(fit.residuals.reshape(len(run.B), 6) ** 2, axis=1)
+    if run.opts.loss != "linear":
+        new = run.factor * float(np.median(d2)) / _CHI2_6_MEDIAN
     else:
-        A_fixed = np.asarray(A, dtype=float)
-        zero_rate = np.zeros((len(A_fixed), 6))
+        new = run.factor * float(np.sum(run.weights * d2)) / max(6.0 * run.weights.sum() - n_params, 1.0)
+    new = max(new, 1e-300)
+    changed, run.factor = abs(new / run.factor - 1.0), new
+    return changed
 
-        def A_of(dt):
-            return A_fixed, zero_rate
 
-    X, Y, s, dt = X0, Y0, float(scale0), float(time_offset0_s)
-    factor = 1.0  # common variance factor of a model given up to scale (scale_to_residuals)
-    if estimated:
-        A_now, _ = A_of(dt)
-        s_r, s_t = _scales(*pose_residuals(A_now, _scaled(B, s), X, Y), None, robust=True)
-        model = _camera_model(s_r, s_t)
-    n = len(B)
-    weights_pose = np.ones(n)
-    evaluations = 0
-    converged = True
-    passes = _PASSES if max_iterations > 0 else 1
-    for p in range(passes):
-        A_now, _ = A_of(dt)
-        W = whitening(factor * residual_covariances(model, A_now, _scaled(B, s), X, Y, setup))
-        prob = _Problem(A_of, B, setup, X, Y, s, dt, W, estimate_scale, with_offset)
-        fit = fit_least_squares(
-            prob.fun,
-            prob.jac,
-            prob.n_params,
-            loss=loss,
-            loss_scale=ROBUST_SCALE,
-            max_evaluations=3 * max_iterations,
-            tol=tol,
-        )
-        evaluations += fit.evaluations if max_iterations > 0 else 0
-        converged = fit.converged
-        X_new, Y_new, s, dt = prob.unpack(fit.x)
-        moved = float(np.abs(fit.x).max())
-        X, Y = X_new, Y_new
-        weights_pose = fit.weights.reshape(n, 6).mean(axis=1)
-        if estimated:
-            A_now, _ = A_of(dt)
-            r_rot, r_t = pose_residuals(A_now, _scaled(B, s), X, Y)
-            old = (model.camera_rot_rad, model.camera_trans_m)
-            hat = _leverages(fit.jacobian, None if loss == "linear" else fit.weights).reshape(n, 6)
-            s_r, s_t = _scales(r_rot, r_t, weights_pose, robust=robust, n_params=prob.n_params, leverage=hat)
-            model = _camera_model(s_r, s_t)
-            changed = float(max(abs(s_r / old[0] - 1.0), np.max(np.abs(np.asarray(s_t) / np.asarray(old[1]) - 1.0))))
-        elif model.scale_to_residuals:
-            d2 = np.sum(fit.residuals.reshape(n, 6) ** 2, axis=1)
-            if robust:
-                new = factor * float(np.median(d2)) / _CHI2_6_MEDIAN
-            else:
-                new = factor * float(np.sum(weights_pose * d2)) / max(6.0 * weights_pose.sum() - prob.n_params, 1.0)
-            new = max(new, 1e-300)
-            changed, factor = abs(new / factor - 1.0), new
-        else:  # a given model: S_i depends on X and Y through the robot's part, so evaluate it once more
-            changed = 1.0 if (p == 0 and model.has_robot_noise) else 0.0
-        # a 1 % change of the noise scales moves the estimate by a small fraction of its sigma
-        if changed < 1e-2 or moved < 1e-12:
-            break
-    # final evaluation at the estimate with the final model: covariance and costs
-    A_now, _ = A_of(dt)
-    W = whitening(factor * residual_covariances(model, A_now, _scaled(B, s), X, Y, setup))
-    prob = _Problem(A_of, B, setup, X, Y, s, dt, W, estimate_scale, with_offset)
+def _outcome(run: _Run) -> Refinement:
+    """The final evaluation at the estimate with the final model: covariance, costs, the extra unknowns' sigmas."""
+    n, opts = len(run.B), run.opts
+    W = run.whitening()
+    prob = run.problem(W)
     zero = np.zeros(prob.n_params)
     r_final = prob.fun(zero)
     J = prob.jac(zero)
-    w_res = loss_weights(r_final, loss, ROBUST_SCALE)
-    cov_full = covariance_from_jacobian(J, w_res)
+    cov_full = covariance_from_jacobian(J, loss_weights(r_final, opts.loss, ROBUST_SCALE))
     # the start's cost under the final noise model
-    start = _Problem(A_of, B, setup, X0, Y0, float(scale0), float(time_offset0_s), W, estimate_scale, with_offset)
-    cost_initial = float(np.sum(start.fun(np.zeros(prob.n_params)) ** 2))
-    k = 12
-    scale_sigma = offset_sigma = 0.0
-    if estimate_scale:
-        scale_sigma = float(np.sqrt(cov_full[k, k]))
-        k += 1
-    if with_offset:
-        offset_sigma = float(np.sqrt(cov_full[k, k]))
-    cam = factor * model.camera(n).mean(axis=0)
+    start = run.problem(W, run.X0, run.Y0, float(opts.scale0), float(opts.time_offset0_s))
+    sigmas = np.sqrt(np.diag(cov_full)[12:])  # (s), (dt)
+    cam = run.factor * run.model.camera(n).mean(axis=0)
     cost_final = float(r_final @ r_final)
-    described = model.describe()
-    described["estimated"] = bool(estimated)
-    if model.scale_to_residuals:
-        described["variance_factor_applied"] = factor
     return Refinement(
-        X=X,
-        Y=Y,
+        X=run.X,
+        Y=run.Y,
         covariance=cov_full[:12, :12],
         sigma_rot_rad=float(np.sqrt(np.trace(cam[:3, :3]) / 3.0)),
         sigma_trans_m=float(np.sqrt(np.trace(cam[3:, 3:]) / 3.0)),
-        weights=weights_pose,
-        iterations=evaluations,
-        cost_initial=cost_initial,
+        weights=run.weights,
+        iterations=run.evaluations,
+        cost_initial=float(np.sum(start.fun(np.zeros(prob.n_params)) ** 2)),
         cost_final=cost_final,
-        converged=bool(converged),
-        noise_model=described,
+        converged=bool(run.converged),
+        noise_model=_described(run),
         variance_factor=cost_final / max(6 * n - prob.n_params, 1),
-        scale=float(s),
-        scale_sigma=scale_sigma,
-        time_offset_s=float(dt),
-        time_offset_sigma_s=offset_sigma,
+        scale=float(run.s),
+        scale_sigma=float(sigmas[0]) if opts.estimate_scale else 0.0,
+        time_offset_s=float(run.dt),
+        time_offset_sigma_s=float(sigmas[-1]) if run.with_offset else 0.0,
         whitened=r_final.reshape(n, 6),
         jacobian=J,
-        model=model,
+        model=run.model,
     )
+
+
+def _described(run: _Run) -> dict:
+    """The noise model's description, with whether it was estimated and the variance factor applied."""
+    described = run.model.describe()
+    described["estimated"] = bool(run.estimated)
+    if run.model.scale_to_residuals:
+        described["variance_factor_applied"] = run.factor
+    return described
 
 
 #: Rows of a Jacobian whose leverages :func:`_leverages` takes at once (10,000 poses): a larger set's in blocks.

@@ -14,7 +14,7 @@ import numpy as np
 from classic.calibrate import initial_estimate
 from classic.contamination import check_contamination
 from classic.ransac import pose_error_m
-from classic.refine import LOSSES, refine_xy
+from classic.refine import LOSSES, RefineOptions, refine_xy
 from classic.residuals import pose_residuals
 from classic.result import CalibrationResult, PoseResiduals
 from classic.robot_stream import RobotStream
@@ -117,9 +117,8 @@ def calibrate_stream(
             "between the camera poses is needed"
         )
     _, dt0, X0, Y0 = best
-    ref = refine_xy(
-        None, B, X0, Y0, loss=loss, noise=noise, setup=setup, stream=stream, camera_times_s=t_cam, time_offset0_s=dt0
-    )
+    options = RefineOptions(loss=loss, noise=noise, setup=setup, time_offset0_s=dt0)
+    ref = refine_xy(None, B, X0, Y0, options, stream=stream, camera_times_s=t_cam)
     A = robot_side_poses(stream.at(t_cam + ref.time_offset_s)[0], setup)
     r_rot, r_trans = pose_residuals(A, B, ref.X, ref.Y)
     if check and loss == "linear":
