@@ -131,12 +131,7 @@ class RobotSurfaceFrames:
     def __post_init__(self):
         m = len(self.points_base)
         for name in ("points_base", "normals_base"):
-            a = np.asarray(getattr(self, name), dtype=float)
-            if a.shape != (m, 3):
-                raise ShapeError(f"surface {name} must be (M, 3), got {a.shape}")
-            if not np.all(np.isfinite(a)):
-                raise NonFiniteError(f"surface {name} has NaN or inf")
-            setattr(self, name, a)
+            setattr(self, name, _surface_array(name, getattr(self, name), (m, 3)))
         for name in ("frame", "part"):
             a = np.asarray(getattr(self, name)).astype(np.int64)
             if a.shape != (m,):
@@ -146,12 +141,7 @@ class RobotSurfaceFrames:
             raise HandEyeInputError("surface curvatures and direction_base are given together or not at all")
         if self.curvatures is not None:
             for name, cols in (("curvatures", 2), ("direction_base", 3)):
-                a = np.asarray(getattr(self, name), dtype=float)
-                if a.shape != (m, cols):
-                    raise ShapeError(f"surface {name} must be (M, {cols}), got {a.shape}")
-                if not np.all(np.isfinite(a)):
-                    raise NonFiniteError(f"surface {name} has NaN or inf")
-                setattr(self, name, a)
+                setattr(self, name, _surface_array(name, getattr(self, name), (m, cols)))
         if self.joint_twists_base is not None:
             a = np.asarray(self.joint_twists_base, dtype=float)
             need = (int(self.frame.max()) + 1, int(self.part.max()) + 1) if m else (0, 0)
@@ -163,6 +153,16 @@ class RobotSurfaceFrames:
             if not np.all(np.isfinite(a)):
                 raise NonFiniteError("surface joint_twists_base has NaN or inf")
             self.joint_twists_base = a
+
+
+def _surface_array(name: str, a, shape: tuple) -> np.ndarray:
+    """``a`` as floats of ``shape`` ``(M, k)``, all finite, or the error that names the surface's ``name``."""
+    a = np.asarray(a, dtype=float)
+    if a.shape != shape:
+        raise ShapeError(f"surface {name} must be (M, {shape[1]}), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError(f"surface {name} has NaN or inf")
+    return a
 
 
 @dataclass(frozen=True)
@@ -305,6 +305,13 @@ class MarkerlessOptions:
     seed: int = 0
 
     def __post_init__(self):
+        self._check_depth_model()
+        self._check_intrinsics_model()
+        self._check_sigmas()
+        self._check_joint_offsets_model()
+
+    def _check_depth_model(self):
+        """The depth model, its priors and the stereo matcher's constant."""
         if self.depth_model not in ("scale-offset", "fixed"):
             raise HandEyeInputError(f"depth_model must be 'scale-offset' or 'fixed', got {self.depth_model!r}")
         priors = (self.depth_scale_prior_sigma, self.depth_offset_prior_sigma_m)
@@ -323,6 +330,9 @@ class MarkerlessOptions:
                 )
             if not self.pixel_locking_prior_px > 0:
                 raise HandEyeInputError(f"pixel_locking_prior_px must be positive, got {self.pixel_locking_prior_px}")
+
+    def _check_intrinsics_model(self):
+        """The intrinsics model and its prior sigmas."""
         if self.intrinsics_model not in ("estimate", "fixed"):
             raise HandEyeInputError(f"intrinsics_model must be 'estimate' or 'fixed', got {self.intrinsics_model!r}")
         prior = np.asarray(self.intrinsics_prior_sigma, dtype=float)
@@ -333,6 +343,9 @@ class MarkerlessOptions:
                 "intrinsics_model 'estimate' needs four positive prior sigmas (fx, fy relative; cx, cy pixels), got "
                 f"{self.intrinsics_prior_sigma!r}; a camera matrix known exactly is intrinsics_model='fixed'"
             )
+
+    def _check_sigmas(self):
+        """The depth-to-colour extrinsic's sigmas and the depth noise given: finite, at least 0."""
         for key in ("depth_extrinsic_sigma_m", "depth_extrinsic_sigma_deg"):
             value = getattr(self, key)
             if not (np.isfinite(value) and value >= 0):
@@ -340,6 +353,9 @@ class MarkerlessOptions:
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
+
+    def _check_joint_offsets_model(self):
+        """The joint offsets model and its prior sigmas."""
         if self.joint_offsets_model not in ("estimate", "fixed"):
             raise HandEyeInputError(
                 f"joint_offsets_model must be 'estimate' or 'fixed', got {self.joint_offsets_model!r}"
@@ -477,6 +493,22 @@ def _check_inputs(depth_m, K, surface):
     return depth_m, K
 
 
+def _moving_parts(surface: RobotSurfaceFrames) -> np.ndarray:
+    """Whether each sample's part moves between frames: the RMS spread of its centroid over the frames above 2 cm."""
+    n_parts, n_fr = int(surface.part.max()) + 1, int(surface.frame.max()) + 1
+    key = surface.part * n_fr + surface.frame
+    count = np.bincount(key, minlength=n_parts * n_fr).reshape(n_parts, n_fr)
+    sums = np.stack(
+        [np.bincount(key, surface.points_base[:, k], minlength=n_parts * n_fr) for k in range(3)], axis=-1
+    ).reshape(n_parts, n_fr, 3)
+    spread = np.zeros(n_parts)
+    for k in range(n_parts):
+        seen = count[k] > 0
+        cent = sums[k, seen] / count[k, seen, None]
+        spread[k] = np.sqrt(((cent - cent.mean(0)) ** 2).sum(1).mean()) if len(cent) > 1 else 0.0
+    return spread[surface.part] > 0.02
+
+
 #: Depth noise taken when it can be neither measured nor was given: 1 mm at 1 m, growing with depth squared.
 FALLBACK_SIGMA_M_AT_1M = 0.001
 
@@ -533,19 +565,7 @@ class _Problem:
             keep = np.sort(rng.choice(len(f), opts.max_points, replace=False))
             f, r, c = f[keep], r[keep], c[keep]
         self.moving_frame, self.moving_p_cam = f, self.P[f, r, c]
-        # parts that move between frames: RMS spread of each part's centroid over the frames
-        n_parts, n_fr = int(surface.part.max()) + 1, int(surface.frame.max()) + 1
-        key = surface.part * n_fr + surface.frame
-        count = np.bincount(key, minlength=n_parts * n_fr).reshape(n_parts, n_fr)
-        sums = np.stack(
-            [np.bincount(key, surface.points_base[:, k], minlength=n_parts * n_fr) for k in range(3)], axis=-1
-        ).reshape(n_parts, n_fr, 3)
-        spread = np.zeros(n_parts)
-        for k in range(n_parts):
-            seen = count[k] > 0
-            cent = sums[k, seen] / count[k, seen, None]
-            spread[k] = np.sqrt(((cent - cent.mean(0)) ** 2).sum(1).mean()) if len(cent) > 1 else 0.0
-        self.moving_part = spread[surface.part] > 0.02
+        self.moving_part = _moving_parts(surface)
         # the model points the fine stage fits: the moving parts' (MarkerlessOptions.static_parts)
         self.fitted_part = self.moving_part if self.moving_part.any() and not opts.static_parts else None
         self._init_joints(surface, opts)  # the joints whose offsets the fine stage estimates
