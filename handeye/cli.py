@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
         plan,
         show,
         sim,
+        watch,
     )
 
     parser = argparse.ArgumentParser(prog="handeye", description="Robot hand-eye calibration toolkit.")
@@ -56,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
         bag_poses,
         import_recording,
         plan,
+        watch,
     ):
         module.add_parser(sub)
     return parser

@@ -14,7 +14,8 @@ then
   committed to the history and published; then **learning** again for ``relearn_frames`` usable frames: the
   null's bias anew against the new calibration (its own error, within its sigma, is "nothing moved" from now
   on; the CUSUM integrates over enough frames to see an error the recalibration's sigma allows), its scale
-  kept, and the change test re-armed. A move during those frames is not detected until they end.
+  kept, and the change test re-armed. A small move during those frames goes into the bias; one that leaves the
+  new calibration fitting none of ``relearn_frames`` frames in a row (lost or occluded) is "moved" again.
   A refusal is an event with the reason, and the collection starts again; until a validated answer exists
   every event says "calibration stale since t".
 
@@ -89,16 +90,16 @@ class WatchOptions:
 def markerless_recalibration(robot_surface, K: np.ndarray, sensor, options: MarkerlessOptions | None = None):
     """The default ``recalibrate``: :func:`classic.markerless.register_robot` on the collected frames.
 
-    Started from the last calibration (and the moving pixels' centroids). Unless ``options`` are given: the depth,
-    the camera matrix and the joints taken as exact, as the check takes them, and the sensor profile's depth noise
-    and depth-to-colour extrinsic bound.
+    Started from the last calibration (and the moving pixels' centroids). Unless ``options`` are given: the camera
+    matrix and the joints taken as exact, as the check takes them, the depth's scale and offset estimated (the
+    check then uses them), and the sensor profile's depth noise and depth-to-colour extrinsic bound.
     """
     if options is None:
-        # the check takes the depth and the camera matrix as given; so does the recalibration, or the two would
-        # disagree on what fits and the new calibration's own model difference would read as a move
+        # the check takes the camera matrix and the joints as given and corrects the depth by the scale and offset
+        # the registration finds; the two must agree on what fits, or the new calibration's own model
+        # difference would read as a move
         options = MarkerlessOptions(
             depth_sigma_m_at_1m=float(sensor.sigma_m(1.0)),
-            depth_model="fixed",
             intrinsics_model="fixed",
             joint_offsets_model="fixed",
             depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
@@ -131,6 +132,10 @@ class CellWatcher:
     recalibrate : callable, optional
         ``recalibrate(frames, T_start) -> result`` with ``ok``, ``T_base_cam``, ``covariance``, ``sigma`` and
         ``refused`` (a :class:`classic.markerless.MarkerlessResult`); :func:`markerless_recalibration` by default.
+        Where its ``depth`` has ``scale`` and ``offset_mm`` they replace the depth correction.
+    depth_correction : (float, float)
+        ``(k, c)``: the true depth is ``k z_obs + c`` (:func:`handeye.watch.check.check_frame`), until a
+        recalibration estimates it anew.
     """
 
     def __init__(
@@ -143,6 +148,7 @@ class CellWatcher:
         history_path: str | Path | None = None,
         current_path: str | Path | None = None,
         recalibrate: Callable | None = None,
+        depth_correction: tuple = (1.0, 0.0),
     ):
         self.surface = robot_surface
         self.K = np.asarray(K, dtype=float)
@@ -160,6 +166,7 @@ class CellWatcher:
             same = latest is not None and np.allclose(latest.T_base_cam, T_base_cam, atol=1e-12)
             self.version = latest.version if same else self.history.append(T_base_cam, "start", stream_t=0.0).version
         self.T_base_cam = np.array(T_base_cam, dtype=float)
+        self.depth_correction = tuple(float(v) for v in depth_correction)
         self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor)
         self.mode = "learning"
         self.state = "learning"
@@ -168,6 +175,7 @@ class CellWatcher:
         self.states: FrameStates | None = None
         self.last_check: FrameCheck | None = None
         self._null_checks: list[FrameCheck] = []
+        self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._collected: list[Frame] = []
         self._rays = None
 
@@ -185,6 +193,7 @@ class CellWatcher:
             frame.t,
             self.options.check,
             self._rays,
+            self.depth_correction,
         )
 
     def feed(self, frame: Frame) -> list[Event]:
@@ -218,10 +227,18 @@ class CellWatcher:
         return Event(t, state, self.state, detail, self.stale_since, self.version)
 
     def _learn(self, check: FrameCheck) -> tuple[str, str]:
-        if check.delta is not None and screen(check, self.options.states) is None:
+        unusable = screen(check, self.options.states)
+        lost = check.delta is None or check.fraction(check.n_matched) < self.options.states.lost_matched_fraction
+        if unusable is None and not lost:
             self._null_checks.append(check)
+            self._misfits = 0
+        elif unusable is None or unusable[0] == "occluded":
+            self._misfits += 1
         n, relearn = len(self._null_checks), self.states is not None
         need = self.options.relearn_frames if relearn else self.options.null_frames
+        if relearn and self._misfits >= need:  # the new calibration fits no frame: moved again meanwhile
+            self.mode, self.stale_since, self._collected, self._null_checks = "collecting", check.t, [], []
+            return "moved", f"the new calibration fits none of the last {self._misfits} frames (lost or occluded)"
         if n < need:
             return "learning", f"{n} of {need} frames for the null" + (" of the new calibration" if relearn else "")
         deltas = np.stack([c.delta for c in self._null_checks])
@@ -240,7 +257,7 @@ class CellWatcher:
         )
 
     def _collect(self, frame: Frame, check: FrameCheck) -> tuple[str, str]:
-        unusable = screen(check, self.options.states)
+        unusable = screen(check, self.options.states, occlusion=False)  # the registration is robust to occluders
         if unusable is not None:
             return unusable
         q = np.asarray(frame.joints, dtype=float)
@@ -259,6 +276,9 @@ class CellWatcher:
 
     def _commit(self, frame: Frame, frames: list[Frame], result) -> tuple[str, str]:
         self.T_base_cam = np.array(result.T_base_cam, dtype=float)
+        depth = getattr(result, "depth", None) or {}
+        if "scale" in depth and "offset_mm" in depth:  # d_obs = s d + o: d = d_obs / s - o / s
+            self.depth_correction = (1.0 / depth["scale"], -depth["offset_mm"] * 1e-3 / depth["scale"])
         sigma = np.sqrt(np.diag(result.covariance)) if getattr(result, "covariance", None) is not None else None
         if self.history is not None:
             v = self.history.append(
@@ -267,12 +287,15 @@ class CellWatcher:
                 sigma,
                 [f.index for f in frames],
                 stream_t=frame.t,
-                extra={"sigma_summary": dict(getattr(result, "sigma", {}) or {})},
+                extra={
+                    "sigma_summary": dict(getattr(result, "sigma", {}) or {}),
+                    "depth_correction_k_c_m": list(self.depth_correction),
+                },
             )
             self.version = v.version
         stale = self.stale_since
         self.stale_since = None
-        self.mode = "learning"  # the bias of the new calibration, before the change test is armed again
+        self.mode, self._misfits = "learning", 0  # the bias of the new calibration, then the change test again
         s = getattr(result, "sigma", {}) or {}
         detail = f"new calibration from {len(frames)} frames (stale since {stale:.3f}s)"
         if "rotation_deg" in s and "translation_mm" in s:

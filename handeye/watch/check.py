@@ -128,6 +128,7 @@ def check_frame(
     t: float = 0.0,
     options: CheckOptions | None = None,
     rays: np.ndarray | None = None,
+    depth_correction: tuple = (1.0, 0.0),
 ) -> FrameCheck:
     """Check ``T_base_cam`` against one depth frame (module docstring).
 
@@ -148,6 +149,9 @@ def check_frame(
     options : CheckOptions, optional
     rays : array, shape (H, W, 3), optional
         :func:`camera_rays` of ``K`` (computed when omitted).
+    depth_correction : (float, float)
+        ``(k, c)``: the true depth is ``k z_obs + c`` (metres), as the markerless registration estimates it
+        (a sensor reporting ``d_obs = s d + o`` has ``k = 1 / s``, ``c = -o / s``); ``(1, 0)``: none.
 
     Returns
     -------
@@ -167,6 +171,8 @@ def check_frame(
     uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
     z_obs = depth_m[uv[:, 1], uv[:, 0]]
     have = np.isfinite(z_obs) & (z_obs > 0)
+    k, c = depth_correction
+    z_obs = np.where(have, k * np.where(have, z_obs, 0.0) + c, 0.0)
     z_mod = p_cam[idx, 2]
     sigma_z = np.asarray(sigma_m(z_mod), dtype=float)
     window = o.window_sigmas * sigma_z + o.window_floor_m

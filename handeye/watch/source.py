@@ -23,7 +23,7 @@ from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.jsonfile import read_json_file
 
-__all__ = ["Frame", "dataset_frames", "stream_times", "ros2_frames"]
+__all__ = ["Frame", "dataset_frames", "stream_rate", "stream_times", "ros2_frames"]
 
 
 @dataclass
@@ -51,6 +51,26 @@ class Frame:
     segment: int | None = None
 
 
+def _stream_doc(root: str | Path) -> dict:
+    path = Path(root) / "stream.json"
+    doc = read_json_file(path, DatasetError, "stream description") if path.is_file() else {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def stream_rate(root: str | Path, rate_hz: float | None = None) -> float:
+    """The stream's frame rate, Hz: ``rate_hz`` when given, else ``stream.json``'s.
+
+    Raises
+    ------
+    HandEyeInputError
+        Neither, or a rate that is not > 0.
+    """
+    rate = _stream_doc(root).get("rate_hz") if rate_hz is None else rate_hz
+    if not isinstance(rate, (int, float)) or not np.isfinite(rate) or not rate > 0:
+        raise HandEyeInputError(f"{root}: no frame rate > 0 (stream.json has none): give the rate in Hz, got {rate}")
+    return float(rate)
+
+
 def stream_times(root: str | Path, counts: dict, rate_hz: float | None) -> dict:
     """Each segment's frame times, seconds: ``{camera: array (n,)}`` (module docstring).
 
@@ -59,18 +79,18 @@ def stream_times(root: str | Path, counts: dict, rate_hz: float | None) -> dict:
     HandEyeInputError
         Neither a ``stream.json`` with the times nor a rate, or a rate that is not > 0.
     """
-    path = Path(root) / "stream.json"
-    doc = read_json_file(path, DatasetError, "stream description") if path.is_file() else {}
-    rate = doc.get("rate_hz", rate_hz) if isinstance(doc, dict) else rate_hz
-    if rate_hz is not None:
-        rate = rate_hz  # the command line wins
-    if rate is None or not float(rate) > 0:
-        raise HandEyeInputError(f"{root}: no frame rate (stream.json has none): give the rate in Hz")
-    rate = float(rate)
+    doc = _stream_doc(root)
+    rate = stream_rate(root, rate_hz)
     starts = {}
-    for seg in doc.get("segments", []) if isinstance(doc, dict) else []:
+    segments = doc.get("segments")
+    for k, seg in enumerate(segments if isinstance(segments, list) else []):
         if isinstance(seg, dict) and "camera" in seg and "start_s" in seg:
-            starts[int(seg["camera"])] = float(seg["start_s"])
+            try:
+                starts[int(seg["camera"])] = float(seg["start_s"])
+            except (TypeError, ValueError):
+                raise DatasetError(
+                    f"{Path(root) / 'stream.json'}: segment {k}: camera or start_s not a number"
+                ) from None
     out, before = {}, 0
     for camera, n in counts.items():
         start = starts.get(camera, before / rate)

@@ -56,15 +56,18 @@ class StateOptions:
                 raise ValueError(f"StateOptions.{key} must lie in (0, 1), got {value}")
 
 
-def screen(check: FrameCheck, options: StateOptions) -> tuple[str, str] | None:
-    """Steps 1-3 of the module docstring: ``(state, detail)`` of a frame the change test cannot use, else None."""
+def screen(check: FrameCheck, options: StateOptions, occlusion: bool = True) -> tuple[str, str] | None:
+    """Steps 1-3 of the module docstring: ``(state, detail)`` of a frame the change test cannot use, else None.
+
+    ``occlusion`` False skips step 3 (against a calibration known to be off, points in front say nothing).
+    """
     o = options
     if check.n_visible < o.min_visible:
         return "out_of_view", f"{check.n_visible} model points visible (< {o.min_visible})"
     if check.n_dropout > o.dropout_fraction * check.n_visible:
         return "dropout", f"{check.n_dropout} of {check.n_visible} model pixels without depth"
     occluders, behind = check.fraction(check.n_occluders), check.fraction(check.n_behind)
-    if occluders > o.occluded_fraction and behind < o.behind_fraction_of_occluders * occluders:
+    if occlusion and occluders > o.occluded_fraction and behind < o.behind_fraction_of_occluders * occluders:
         return "occluded", f"{occluders:.0%} of the model's pixels see something in front"
     return None
 

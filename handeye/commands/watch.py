@@ -1,0 +1,173 @@
+"""``handeye watch``: watch a cell's calibration on a recording; notice a moved camera, recalibrate, keep versions.
+
+Example
+-------
+::
+
+    handeye watch data/stream --truth-start --sensor d435 --history cell.jsonl --current cell.json
+    handeye watch data/stream --camera-start guess.json --rate 30 --false-alarms-per-hour 0.1
+    handeye watch rollback --history cell.jsonl 3
+
+Replays the dataset's data frames as one stream (its shards in order; times from ``stream.json``, else
+``--rate``) through :class:`handeye.watch.CellWatcher` and prints one line per event: ``learning`` (the
+first ``--null-seconds``: "nothing moved" is learnt), ``ok``, ``drift``, ``occluded``, ``out_of_view``,
+``dropout``, ``moved`` (the change test alarmed at most ``--false-alarms-per-hour`` wrongly, with a consistent
+direction), ``recalibrated`` (a validated markerless answer committed) or ``refused``. From ``moved`` until a
+commit every line says "calibration stale since t". The start: ``--camera-start`` (JSON, as ``handeye
+markerless --start`` reads), ``--truth-start`` (the first segment's truth, simulated data, with the sensor's
+true depth scale and offset where the dataset has them), else the history's latest version. Until the first
+recalibration estimates it, the depth is otherwise taken as exact. ``rollback`` appends to the history a new
+version equal to an older one.
+Live ROS 2 topics are not built yet.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from handeye.core.numbers import cli_float, cli_int
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register the command."""
+    p = sub.add_parser(
+        "watch",
+        help="watch a cell's calibration on a recording: detect a moved camera, recalibrate, keep versions",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("dataset", help="dataset directory (a stream), or 'rollback' followed by a VERSION")
+    p.add_argument("version", nargs="?", type=cli_int, help="with 'rollback': the version to roll back to")
+    start = p.add_mutually_exclusive_group()
+    start.add_argument("--camera-start", type=Path, help="JSON start T_base_cam")
+    start.add_argument("--truth-start", action="store_true", help="start from the first segment's truth")
+    p.add_argument("--sensor", default=None, help="depth sensor profile (default: the dataset's simulated one)")
+    p.add_argument("--history", type=Path, help="the versions' history, JSON lines (append-only)")
+    p.add_argument("--current", type=Path, help="the current calibration, JSON (replaced atomically)")
+    p.add_argument("--rate", type=cli_float, default=None, help="frame rate, Hz (default: stream.json's)")
+    p.add_argument("--false-alarms-per-hour", type=cli_float, default=1.0, help="stated bound (default 1)")
+    p.add_argument("--null-seconds", type=cli_float, default=10.0, help="'nothing moved' learnt from (default 10)")
+    p.add_argument("--relearn-seconds", type=cli_float, default=3.0, help="after a recalibration (default 3)")
+    p.add_argument("--recal-frames", type=cli_int, default=30, help="frames per recalibration (default 30)")
+    p.add_argument("--urdf", type=Path, help="robot URDF with visual meshes (default: the dataset's UR)")
+    p.set_defaults(run=run)
+    p.__class__ = _IntermixedParser  # "rollback --history PATH VERSION": the version after the options
+    return p
+
+
+class _IntermixedParser(argparse.ArgumentParser):
+    """A parser that takes positionals between and after options (``parse_known_intermixed_args``)."""
+
+    _inside = False
+
+    def parse_known_args(self, args=None, namespace=None):
+        if self._inside:  # the intermixed parse's own two passes
+            return super().parse_known_args(args, namespace)
+        self._inside = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._inside = False
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``handeye watch`` (or ``handeye watch rollback``)."""
+    from handeye.core.errors import HandEyeInputError
+
+    if args.dataset == "rollback":
+        return _rollback(args)
+    if args.version is not None:
+        raise HandEyeInputError(f"a version ({args.version}) is for 'handeye watch rollback' only")
+    return _watch(args)
+
+
+def _rollback(args: argparse.Namespace) -> int:
+    from handeye.core.errors import HandEyeInputError
+    from handeye.watch.history import History
+
+    if args.history is None or args.version is None:
+        raise HandEyeInputError("handeye watch rollback --history PATH VERSION: both are needed")
+    if not args.history.is_file():
+        raise HandEyeInputError(f"{args.history}: no such history")
+    v = History(args.history, args.current).rollback(args.version)
+    print(f"version {v.version}: {v.reason} (replaces {v.replaces})")
+    return 0
+
+
+def _watch(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from handeye.core.dataset import Dataset
+    from handeye.core.errors import HandEyeInputError
+    from handeye.core.metrics import pose_error
+    from handeye.markerless import read_start, robot_surface_for
+    from handeye.robot.depth_sensors import DepthSensor, sensor_profile
+    from handeye.watch import CellWatcher, WatchOptions, dataset_frames
+    from handeye.watch.source import stream_rate
+
+    ds = Dataset.open(args.dataset)
+    cameras = ds.complete_shards()
+    if not cameras:
+        raise HandEyeInputError(f"{args.dataset}: no complete shard to replay")
+    truth = ds.truth()
+    T_start, depth_correction = None, (1.0, 0.0)
+    if args.camera_start is not None:
+        T_start = read_start(args.camera_start)
+    elif args.truth_start:
+        if not np.isfinite(truth[cameras[0]]).all():
+            raise HandEyeInputError(f"{ds.cameras_path}: camera {cameras[0]} has no truth for --truth-start")
+        T_start = truth[cameras[0]]
+        depth_correction = _truth_depth(ds, cameras[0])
+    elif args.history is None or not args.history.is_file():
+        raise HandEyeInputError("no start: give --camera-start FILE, --truth-start, or a --history with a version")
+    if args.sensor is not None:
+        sensor = sensor_profile(args.sensor)
+    else:
+        recorded = ds.meta.get("recipe", {}).get("sensor")
+        if not isinstance(recorded, dict):
+            raise HandEyeInputError(f"{args.dataset}: no sensor recorded in meta.json: give --sensor (d435, ...)")
+        sensor = DepthSensor.from_dict(recorded)
+    rate = stream_rate(args.dataset, args.rate)
+    options = WatchOptions(
+        rate_hz=rate,
+        false_alarms_per_hour=args.false_alarms_per_hour,
+        null_frames=max(6, round(args.null_seconds * rate)),
+        relearn_frames=max(6, round(args.relearn_seconds * rate)),
+        recal_frames=args.recal_frames,
+    )
+    surface, _ = robot_surface_for(ds, args.urdf)
+    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    watcher = CellWatcher(
+        surface, K, T_start, sensor, options, args.history, args.current, depth_correction=depth_correction
+    )
+    n, spent, segment = 0, 0.0, cameras[0]
+    for frame in dataset_frames(args.dataset, args.rate):
+        t0 = time.perf_counter()
+        for event in watcher.feed(frame):
+            print(event.line(), flush=True)
+        spent += time.perf_counter() - t0
+        n, segment = n + 1, frame.segment
+    print(f"{n} frames, {1e3 * spent / max(n, 1):.1f} ms per frame on average (recalibrations included)")
+    if watcher.stale_since is not None:
+        print(f"calibration stale since {watcher.stale_since:.3f}s: no validated answer yet")
+    if np.isfinite(truth[segment]).all():
+        rot_deg, trans_mm = pose_error(watcher.T_base_cam, truth[segment])
+        print(f"calibration in use vs the last segment's truth: {rot_deg:.3f} deg, {trans_mm:.2f} mm")
+    return 0
+
+
+def _truth_depth(ds, camera: int) -> tuple:
+    """``(k, c)`` of the simulated sensor's true depth scale and offset (``cameras.csv``), ``(1, 0)`` without them."""
+    import numpy as np
+
+    cams = ds.cameras()
+    if "depth_scale_true" not in cams or "depth_offset_mm_true" not in cams:
+        return (1.0, 0.0)
+    scale, offset_m = float(cams["depth_scale_true"][camera]), float(cams["depth_offset_mm_true"][camera]) * 1e-3
+    if not (np.isfinite(scale) and np.isfinite(offset_m) and scale > 0):
+        return (1.0, 0.0)
+    return (1.0 / scale, -offset_m / scale)
