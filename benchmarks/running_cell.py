@@ -47,6 +47,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._report import Report  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.smoke import smoke_test  # noqa: E402
 
 #: The 95 % upper bound of a Poisson mean given 0 counts is -ln(0.05) = 3.0; for k counts scipy's chi2 gives it.
 CONFIDENCE = 0.95
@@ -246,7 +247,8 @@ def plot(run: Replay, doc: dict, path: str, title: str) -> None:
     ax.set_yscale("symlog")
     ax.set_xlabel("time (s)")
     ax.set_title(title + " (red: bumps; grey: occlusions; blue: dropouts; dotted: lights; v moved, ^ recalibrated)")
-    ax.legend(loc="upper left", fontsize=7)
+    if run.cusum:
+        ax.legend(loc="upper left", fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -261,8 +263,27 @@ def _versions() -> str:
     return f"numpy {np.__version__}, scipy {scipy.__version__}"
 
 
+def unit_line(ds) -> str:
+    """The simulated depth unit's systematic errors (the truth the watcher does not know)."""
+    cams = ds.cameras()
+    scale, offset = cams["depth_scale_true"][0], cams["depth_offset_mm_true"][0]
+    z = float(np.linalg.norm(ds.truth()[0][:3, 3] - np.array(ds.meta["recipe"]["stream"]["look_at_m"])))
+    return (
+        f"depth unit: scale {scale:.4f}, offset {offset:.2f} mm (at the {z:.2f} m to the workspace centre: "
+        f"{((scale - 1) * z * 1e3 + offset):+.1f} mm)"
+    )
+
+
+def state_counts(run: Replay) -> str:
+    """How many frames the watcher left in each state."""
+    states, counts = np.unique(run.states, return_counts=True)
+    return ", ".join(f"{s} {n}" for s, n in zip(states, counts))
+
+
 def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
     rep.say("## Bumps stream")
+    rep.say(unit_line(ds))
+    rep.say(f"frames per state: {state_counts(run)}")
     rep.say(
         f"{doc['frames']} frames at {doc['rate_hz']:g} Hz ({doc['duration_s']:.0f} s), sensor {doc['sensor']}; "
         f"'nothing moved' learnt by t = {learnt_at(run):.1f} s"
@@ -299,10 +320,18 @@ def report_intervals(rep: Report, run: Replay, doc: dict) -> None:
             rep.say(f"{kind}s called '{state}' (share of their frames): {cells}")
 
 
-def report_static(rep: Report, run: Replay, doc: dict) -> None:
+def report_static(rep: Report, run: Replay, doc: dict, ds) -> None:
     rep.say("## Static stream")
-    watched_s = doc["duration_s"] - learnt_at(run)
+    rep.say(unit_line(ds))
     alarms = sum(ev.state == "moved" for ev, _, _ in run.events)
+    if learnt_at(run) == float("inf"):
+        rep.say(
+            f"{doc['frames']} frames at {doc['rate_hz']:g} Hz: the watcher never finished learning 'nothing moved' "
+            f"(too few usable frames; the states it gave: {state_counts(run)}); no false-alarm figure"
+        )
+        report_intervals(rep, run, doc)
+        return
+    watched_s = doc["duration_s"] - learnt_at(run)
     hours = watched_s / 3600.0
     rep.say(
         f"{doc['frames']} frames at {doc['rate_hz']:g} Hz, {watched_s:.0f} s watched after learning (learnt by "
@@ -327,6 +356,9 @@ def report_cost(rep: Report, runs: list[Replay]) -> None:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    Report.cut(args, rate=2.0, minutes=0.5, static_minutes=0.5)  # a smoke run (handeye.core.smoke)
+    if smoke_test():
+        args.size = "96x96"
     rep = Report("Running cell: the watcher on simulated streams", "benchmarks/running_cell.py", argv, _versions())
     data = args.data or Path(tempfile.mkdtemp(prefix="running-cell-"))
     t0 = time.perf_counter()
@@ -337,8 +369,8 @@ def main(argv=None) -> int:
     report_bumps(rep, run_b, doc_b, ds_b)
     report_intervals(rep, run_b, doc_b)
     rep.say()
-    run_s, doc_s, _ = replay(static, args)
-    report_static(rep, run_s, doc_s)
+    run_s, doc_s, ds_s = replay(static, args)
+    report_static(rep, run_s, doc_s, ds_s)
     rep.say()
     report_cost(rep, [run_b, run_s])
     if args.plot and args.out:

@@ -16,7 +16,7 @@ from sim.stream_events import Bump, Drift, Dropout, Lighting, Occlusion, StreamP
 
 #: Poses go through cameras.csv as repr floats (17 significant digits) and unit quaternions: the round trip is
 #: exact to about 1e-15 m and rad; 1e-9 leaves room for the quaternion's normalisation and nothing else.
-EXACT = 1e-9
+ROUND_TRIP = 1e-9
 #: The occluder stands at half the camera-to-tool distance, its surface at most its radius nearer; the depth
 #: at the tool's pixel is then at most half the tool's depth plus this margin: the d435's noise at 0.6 m
 #: (a few mm, 3 sigma under 1 cm) and the tool's reference point lying up to 5 cm inside the tool.
@@ -105,12 +105,12 @@ def test_truth_per_segment_differs_by_the_stated_bump_and_drift(stream):
         s = e["segment"]
         dT = invert_transform(T[s - 1]) @ T[s]
         if e["type"] == "bump":  # a motion in the camera frame of the stated sizes
-            assert np.linalg.norm(dT[:3, 3]) == pytest.approx(e["translation_mm"] * 1e-3, abs=EXACT)
-            assert rotation_angle(dT[:3, :3]) == pytest.approx(np.radians(e["rotation_deg"]), abs=EXACT)
+            assert np.linalg.norm(dT[:3, 3]) == pytest.approx(e["translation_mm"] * 1e-3, abs=ROUND_TRIP)
+            assert rotation_angle(dT[:3, :3]) == pytest.approx(np.radians(e["rotation_deg"]), abs=ROUND_TRIP)
         else:  # a translation along the base frame's up, 0.1 mm/min times the 8 s step
-            assert rotation_angle(dT[:3, :3]) < EXACT
+            assert rotation_angle(dT[:3, :3]) < ROUND_TRIP
             step = T[s][:3, 3] - T[s - 1][:3, 3]
-            assert np.allclose(step, [0.0, 0.0, 0.1e-3 * 8.0 / 60.0], atol=EXACT)
+            assert np.allclose(step, [0.0, 0.0, 0.1e-3 * 8.0 / 60.0], atol=ROUND_TRIP)
 
 
 def test_an_occlusion_hides_the_tool_in_its_middle_frame(stream):
