@@ -7,11 +7,13 @@ is CI's run (``.ci/run``): every test. Nothing is skipped silently:
 a slow test runs in CI, and the default run counts what it left out (pytest's ``deselected``, and a line of
 its own that also holds on pytest-xdist's workers, which do not report deselections).
 
-Under pytest-xdist (``-n auto --dist loadgroup``, in ``pyproject.toml``'s ``addopts``) a test file is one unit
-of work on one worker, so that its module fixtures are built once and the files that write probes into the
-tree (``test_layers``) see their own; tests that name an ``xdist_group`` go by that group instead: the tests
-that start or join a Ray cluster share :data:`RAY_GROUP`, since a second cluster on the machine would be
-joined (``ray.init()`` finds a running one) instead of started.
+Under pytest-xdist (``-n auto --dist loadgroup --no-loadscope-reorder``, in ``pyproject.toml``'s ``addopts``)
+a test file is one unit of work on one worker, so that its module fixtures are built once and the files that
+write probes into the tree (``test_layers``) see their own; tests that name an ``xdist_group`` go by that group
+instead: the tests that start or join a Ray cluster share :data:`RAY_GROUP`, since a second cluster on the
+machine would be joined (``ray.init()`` finds a running one) instead of started. A slow test is a unit of its
+own (minutes: the units balance between the workers), and the slow tests come first, as the workers take the
+units in order.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist names the work units after the groups
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Leave out the slow tier unless ``--full``; give each test without an ``xdist_group`` its file's."""
+    """Leave out the slow tier unless ``--full``; give each test without an ``xdist_group`` its file's, except
+    a slow test, a unit of its own; the slow tests first (the longest units started first finish first)."""
     if not config.getoption("--full"):
         named = _named(config)
         slow = [item for item in items if item.get_closest_marker("slow") and not item.nodeid.startswith(named)]
@@ -46,8 +49,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             config.hook.pytest_deselected(items=slow)
         _record_left_out(config, len(slow))
     for item in items:
-        if item.get_closest_marker("xdist_group") is None:
+        if item.get_closest_marker("xdist_group") is None and item.get_closest_marker("slow") is None:
             item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)  # stable: the file order kept
 
 
 def _named(config: pytest.Config) -> tuple[str, ...]:
