@@ -18,6 +18,9 @@ ray = pytest.importorskip(
 from benchmarks.cluster_engines import differing_files, kill_when_half_written  # noqa: E402
 from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.ray_pool import RayEngine, ray_worker_ready_keys  # noqa: E402
+from tests.tiers import RAY_GROUP  # noqa: E402
+
+pytestmark = pytest.mark.xdist_group(RAY_GROUP)  # one Ray cluster on the machine at a time
 
 
 def run_ray(fn, tasks, workers, **options):
