@@ -201,6 +201,8 @@ ML_SIGMA_RATIO = 0.25
 #: absolute: JACOBIAN_RTOL x the Jacobian's largest entry, or x the differenced positions' largest (metres)
 #: where the derivatives are velocities of points (a column can be zero: a joint that moves nothing).
 #: Checks that were rtol 1e-5 per entry, or 1e-8 and 1e-6 absolute on entries of order 1, before issue 42.
+#: (h = 1e-4 on focal lengths and a principal point of ~150 px is the same relative step, 7e-7: measured
+#: 3e-13 against entries of 7e-3 per px; that check was 1e-9 absolute, now 6.6e-9.)
 JACOBIAN_RTOL = 1e-6
 #: Coverage of a 1-sigma interval by a Gaussian estimate: 68.3 %; over M = 200 trials its binomial
 #: standard deviation is 3.3 %, so 4 of them give [55 %, 82 %].
@@ -401,6 +403,9 @@ IK_REACHED = 1e-8
 #: N / (4 pi L^2) independent samples in N pixels; its sample sigma's relative spread is about
 #: sqrt(pi L^2 / N). Four of them (P(fail) ~ 6e-5 for a Gaussian estimate).
 CORRELATED_FIELD_SPREADS = 4.0
+#: Nearest-pixel sampling across an edge puts a square's edge within half a pixel of its true place; its
+#: centroid, an average over the edge's pixels, within that too.
+NEAREST_PX = 0.5
 #: The sample standard deviation of n = 200 independent draws has a relative standard deviation
 #: 1 / sqrt(2 n) = 0.05; clipping each draw at 2.5 sigma (sim.sensors.draw_systematic) lowers the
 #: standard deviation by 1.1 % (sqrt(E[min(z^2, 6.25)]) = 0.989). 0.2 leaves 0.189 for the sampling, 3.8

@@ -9,15 +9,18 @@ import classic
 from handeye.core.metrics import rotation_error_deg, translation_error_mm
 from handeye.core.synthetic import make_problem
 from tests.tolerances import (
+    ABSOLUTE_ONLY,
     COST_RTOL,
     COVARIANCE_RTOL,
     DEG,
+    FLOAT,
     LM_START_FRACTION,
     MC_SIGMA_RATIO,
     MC_TRIALS,
     MM,
     NOISE_ESTIMATE_FACTOR,
     REFINE_TRIALS,
+    SAME_FORMULA,
     SCALE_RTOL,
     SIGMA_BOUND,
 )
@@ -99,7 +102,7 @@ def test_covariance_is_symmetric_positive_semidefinite(setup):
     assert C.shape == (12, 12)
     assert np.all(np.isfinite(C))
     scale = np.abs(C).max()
-    np.testing.assert_allclose(C, C.T, rtol=0, atol=COVARIANCE_RTOL * scale)
+    np.testing.assert_allclose(C, C.T, rtol=ABSOLUTE_ONLY, atol=COVARIANCE_RTOL * scale)
     eig = np.linalg.eigvalsh(0.5 * (C + C.T))
     assert eig.min() >= -COVARIANCE_RTOL * eig.max()
     assert eig.max() > 0
@@ -211,7 +214,7 @@ def test_brown_forsythe_p_is_scipys_levene_median_centred(n):
     rng = np.random.default_rng(n)
     for ratio in (1.0, 1.5, 4.0):
         a, b = rng.normal(size=2 * n), ratio * rng.normal(size=n)
-        np.testing.assert_allclose(brown_forsythe_p(a, b), levene(a, b, center="median").pvalue, rtol=1e-10)
+        np.testing.assert_allclose(brown_forsythe_p(a, b), levene(a, b, center="median").pvalue, rtol=FLOAT)
 
 
 def test_motion_angles_are_the_rotation_angles_of_the_motions():
@@ -221,5 +224,5 @@ def test_motion_angles_are_the_rotation_angles_of_the_motions():
 
     p = make_problem(15, "eye_to_hand", np.random.default_rng(3), camera_noise=(0.1, 1.0))
     m = motions_from_poses(p.T_base_ee, p.T_cam_target, *pair_indices(15, "all"))
-    np.testing.assert_allclose(m.angles_A, rotation_angle(m.R_A), rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(m.angles_B, rotation_angle(m.R_B), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(m.angles_A, rotation_angle(m.R_A), rtol=FLOAT, atol=SAME_FORMULA)
+    np.testing.assert_allclose(m.angles_B, rotation_angle(m.R_B), rtol=FLOAT, atol=SAME_FORMULA)

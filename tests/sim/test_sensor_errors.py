@@ -8,14 +8,11 @@ import pytest
 
 from handeye.robot.depth_sensors import PROFILES, DepthSensor
 from sim.sensors import SensorTruth, apply_sensor, draw_systematic, fixed_pattern
-from tests.tolerances import CORRELATED_FIELD_SPREADS, FLOAT
+from tests.tolerances import CORRELATED_FIELD_SPREADS, FLOAT, NEAREST_PX
 
 H, W, F_PX = 120, 160, 150.0
 C_U, C_V = (W - 1) / 2, (H - 1) / 2
 K = np.array([[F_PX, 0, C_U], [0, F_PX, C_V], [0, 0, 1.0]])
-#: Nearest-pixel sampling across an edge puts a square's edge within half a pixel of its true place; its
-#: centroid, an average over the edge's pixels, within that too.
-NEAREST_PX = 0.5
 
 
 def _square(centre_uv, half=4, near=0.8, far=1.5):

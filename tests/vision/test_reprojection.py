@@ -11,12 +11,14 @@ from classic.vision.detect import project_points
 from classic.vision.reprojection import OUTLIER_VIEW_FACTOR, project
 from handeye.core.synthetic import make_problem, perturb
 from tests.tolerances import (
+    ABSOLUTE_ONLY,
     ESTIMATED_SIGMA_BOUND,
     EXACT,
     EXACT_PX,
     FLOAT,
     MC_SIGMA_RATIO,
     MC_TRIALS,
+    OPENCV_PROJECTION_PX,
     REPROJECTION_TRIALS,
     ROBUST_SIGMA_FACTOR,
     SIGMA_JACOBIAN_RTOL,
@@ -85,7 +87,7 @@ def test_project_is_opencvs_projection():
     K = INTR.K
     ours = project(p_cam, K[0, 0], K[1, 1], K[0, 2], K[1, 2], INTR.dist)
     theirs = project_points(p_cam, np.eye(4), INTR)
-    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-9 * K[0, 0])
+    np.testing.assert_allclose(ours, theirs, rtol=ABSOLUTE_ONLY, atol=OPENCV_PROJECTION_PX)
 
 
 @pytest.mark.parametrize("setup", SETUPS)
@@ -151,7 +153,7 @@ def test_sigma_is_the_covariance_of_the_reprojection_model(setup):
     np.testing.assert_allclose(_sigmas_si(res), ours, rtol=SIGMA_JACOBIAN_RTOL)
     C = res.covariance
     assert C.shape == (12, 12)
-    np.testing.assert_allclose(C, C.T, rtol=0, atol=FLOAT * np.abs(C).max())
+    np.testing.assert_allclose(C, C.T, rtol=ABSOLUTE_ONLY, atol=FLOAT * np.abs(C).max())
 
 
 @pytest.mark.parametrize("setup", SETUPS)
