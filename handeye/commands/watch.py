@@ -107,6 +107,7 @@ def _watch(args: argparse.Namespace) -> int:
     from handeye.markerless import read_start, robot_surface_for
     from handeye.robot.depth_sensors import DepthSensor, sensor_profile
     from handeye.watch import CellWatcher, WatchOptions, dataset_frames
+    from handeye.watch.check import CheckOptions
     from handeye.watch.source import stream_rate
 
     ds = Dataset.open(args.dataset)
@@ -132,14 +133,15 @@ def _watch(args: argparse.Namespace) -> int:
             raise HandEyeInputError(f"{args.dataset}: no sensor recorded in meta.json: give --sensor (d435, ...)")
         sensor = DepthSensor.from_dict(recorded)
     rate = stream_rate(args.dataset, args.rate)
+    surface, stride = robot_surface_for(ds, args.urdf)
     options = WatchOptions(
         rate_hz=rate,
         false_alarms_per_hour=args.false_alarms_per_hour,
         null_frames=max(6, round(args.null_seconds * rate)),
         relearn_frames=max(6, round(args.relearn_seconds * rate)),
         recal_frames=args.recal_frames,
+        check=CheckOptions(zbuffer_stride=stride),
     )
-    surface, _ = robot_surface_for(ds, args.urdf)
     K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     watcher = CellWatcher(
         surface, K, T_start, sensor, options, args.history, args.current, depth_correction=depth_correction

@@ -87,7 +87,9 @@ class WatchOptions:
         return 3600.0 * self.rate_hz / self.false_alarms_per_hour
 
 
-def markerless_recalibration(robot_surface, K: np.ndarray, sensor, options: MarkerlessOptions | None = None):
+def markerless_recalibration(
+    robot_surface, K: np.ndarray, sensor, options: MarkerlessOptions | None = None, zbuffer_stride: int = 1
+):
     """The default ``recalibrate``: :func:`classic.markerless.register_robot` on the collected frames.
 
     Started from the last calibration (and the moving pixels' centroids). Unless ``options`` are given: the camera
@@ -101,6 +103,7 @@ def markerless_recalibration(robot_surface, K: np.ndarray, sensor, options: Mark
         options = MarkerlessOptions(
             depth_sigma_m_at_1m=float(sensor.sigma_m(1.0)),
             intrinsics_model="fixed",
+            zbuffer_stride=zbuffer_stride,
             joint_offsets_model="fixed",
             depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
         )
@@ -167,7 +170,8 @@ class CellWatcher:
             self.version = latest.version if same else self.history.append(T_base_cam, "start", stream_t=0.0).version
         self.T_base_cam = np.array(T_base_cam, dtype=float)
         self.depth_correction = tuple(float(v) for v in depth_correction)
-        self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor)
+        stride = self.options.check.zbuffer_stride
+        self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor, zbuffer_stride=stride)
         self.mode = "learning"
         self.state = "learning"
         self.stale_since: float | None = None

@@ -57,6 +57,10 @@ class CheckOptions:
         Scale of the Cauchy loss in whitened units.
     min_matched : int
         Fewer matched points: no step (``delta`` None).
+    zbuffer_stride : int
+        The z-buffer's pixels are this many image pixels wide (the surface sampled for it, as
+        :func:`handeye.markerless.robot_surface_for` returns it: a sparser surface would leak hidden parts through
+        the gaps of a finer z-buffer); each visible point is compared with the depth at its own pixel.
     """
 
     window_sigmas: float = 4.0
@@ -64,12 +68,15 @@ class CheckOptions:
     model_sigma_m: float = 0.0003
     robust_sigmas: float = 3.0
     min_matched: int = 50
+    zbuffer_stride: int = 1
 
     def __post_init__(self):
         for key in ("window_sigmas", "window_floor_m", "model_sigma_m", "robust_sigmas"):
             value = getattr(self, key)
             if not np.isfinite(value) or value < 0:
                 raise ValueError(f"CheckOptions.{key} must be finite and >= 0, got {value}")
+        if self.zbuffer_stride < 1:
+            raise ValueError(f"CheckOptions.zbuffer_stride must be >= 1, got {self.zbuffer_stride}")
         if self.min_matched < 6:
             raise ValueError(f"CheckOptions.min_matched must be >= 6 (6 unknowns), got {self.min_matched}")
 
@@ -167,7 +174,7 @@ def check_frame(
     R, t_cam = T_base_cam[:3, :3], T_base_cam[:3, 3]
     p_cam = (np.asarray(points_base, dtype=float) - t_cam) @ R  # R^T (p - t), row-wise
     n_cam = np.asarray(normals_base, dtype=float) @ R
-    idx = visible_points(p_cam, n_cam, np.zeros(len(p_cam), dtype=np.int64), K, height, width)
+    idx = _visible(p_cam, n_cam, K, height, width, o.zbuffer_stride)
     uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
     z_obs = depth_m[uv[:, 1], uv[:, 0]]
     have = np.isfinite(z_obs) & (z_obs > 0)
@@ -208,3 +215,13 @@ def check_frame(
     delta = -covariance @ g
     chi2 = float(delta @ H @ delta)
     return FrameCheck(t, delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), **counts)
+
+
+def _visible(p_cam: np.ndarray, n_cam: np.ndarray, K: np.ndarray, height: int, width: int, stride: int) -> np.ndarray:
+    """Indices of the front-facing points nearest the camera in each z-buffer pixel (``stride`` image pixels wide)."""
+    Ks = np.array(K, dtype=float)
+    if stride > 1:
+        Ks[:2] /= stride
+        Ks[:2, 2] = (np.asarray(K, dtype=float)[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
+    frame = np.zeros(len(p_cam), dtype=np.int64)
+    return visible_points(p_cam, n_cam, frame, Ks, -(-height // stride), -(-width // stride))
