@@ -25,6 +25,7 @@ bag's topics.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -164,83 +165,134 @@ def read_camera_bag(
     IntrinsicsError
         A ``camera_info`` no camera has, naming the field.
     """
-    from handeye.ros_bag import read_bag
+    _check_arguments(bag, joints_topic, tf_frames, depth_unit_m)
+    topics = _Topics(color_topic, info_topic, depth_topic, joints_topic)
+    with open_bag(bag) as reader:
+        name = str(Path(reader.paths[0]))
+        streams = _Streams(name, topics, depth_unit_m)
+        for conn, msg in bag_messages(reader, name, _connections(reader, name, topics)):
+            streams.add(conn, msg)
+        origin = int(reader.start_time)
+    streams.check_complete()
+    poses = None if tf_frames is None else _tf_poses(bag, name, tf_frames, tf_topic, tf_static_topic)
+    return RecordedPlacement(name, streams.info, *streams.timed(origin), poses)
 
+
+class _Topics(NamedTuple):
+    """The topics :func:`read_camera_bag` reads (depth and joints optional)."""
+
+    color: str
+    info: str
+    depth: str | None
+    joints: str | None
+
+
+def _check_arguments(bag, joints_topic: str | None, tf_frames, depth_unit_m: float | None) -> None:
+    """Refuse a read without the robot's motion, or a depth unit that is not a positive number."""
     if joints_topic is None and tf_frames is None:
         raise RecordingError(f"{bag}: give the joint states topic or the tf base and flange frames")
     if depth_unit_m is not None and not (np.isfinite(depth_unit_m) and depth_unit_m > 0):
         raise RecordingError(f"depth_unit_m must be finite and > 0, got {depth_unit_m!r}")
+
+
+def _connections(reader, name: str, topics: _Topics) -> list:
+    """The bag's connections of the topics asked for, each checked to be there with a type read here."""
     image_types = (IMAGE_TYPE, COMPRESSED_TYPE)
-    with open_bag(bag) as reader:
-        name = str(Path(reader.paths[0]))
-        conns = topic_connections(reader, name, color_topic, image_types) + topic_connections(
-            reader, name, info_topic, (INFO_TYPE,)
-        )
-        if depth_topic:
-            conns += topic_connections(reader, name, depth_topic, image_types)
-        if joints_topic:
-            conns += topic_connections(reader, name, joints_topic, (JOINTS_TYPE,))
-        streams = {t: {"stamps": [], "items": []} for t in (color_topic, info_topic, depth_topic, joints_topic) if t}
-        joint_samples = []
-        joint_names = None
-        info = None
-        for conn, msg in bag_messages(reader, name, conns):
-            stamp = stamp_ns(msg.header)
-            where = f"{name}, {conn.topic} at stamp {stamp}"
-            if conn.topic == info_topic:
-                intr = _intrinsics(msg, where)
-                if info is None:
-                    info = intr
-                elif intr.to_dict() != info.to_dict():
-                    raise BagError(f"{where}: the camera_info changed during the recording; one camera per bag")
-                continue
-            if conn.topic == joints_topic:
-                names = [str(n) for n in msg.name]
-                check_joint_names(names, where)
-                pos = np.asarray(msg.position, dtype=float)
-                if len(pos) != len(names):
-                    raise BagError(f"{where}: {len(names)} joint names and {len(pos)} positions")
-                if joint_names is None:
-                    joint_names = names
-                if names != joint_names:  # another order or subset: reorder to the first message's names
-                    if set(joint_names) - set(names):
-                        continue  # a partial message (some drivers publish joint groups apart)
-                    pos = pos[[names.index(n) for n in joint_names]]
-                item = pos
-                joint_samples.append(f"the message stamped {stamp} ns")
-            elif conn.topic == depth_topic:
-                item = _depth(msg, conn.msgtype, where, depth_unit_m)
-            else:
-                item = _color(msg, conn.msgtype, where)
-            streams[conn.topic]["stamps"].append(stamp)
-            streams[conn.topic]["items"].append(item)
-        origin = int(reader.start_time)
-    for topic, s in streams.items():
-        if topic != info_topic and not s["items"]:
-            raise BagTopicError(f"{name}: topic {topic!r} has no messages")
-    if info is None:
-        raise BagTopicError(f"{name}: topic {info_topic!r} has no messages")
-    if depth_topic:
-        check_depth_stream(streams[depth_topic]["items"], f"{name}, {depth_topic}")
+    conns = topic_connections(reader, name, topics.color, image_types) + topic_connections(
+        reader, name, topics.info, (INFO_TYPE,)
+    )
+    if topics.depth:
+        conns += topic_connections(reader, name, topics.depth, image_types)
+    if topics.joints:
+        conns += topic_connections(reader, name, topics.joints, (JOINTS_TYPE,))
+    return conns
 
-    def seconds(topic):
-        return (np.asarray(streams[topic]["stamps"], dtype=np.int64) - origin) * 1e-9
 
-    color = TimedImages(seconds(color_topic), streams[color_topic]["items"], f"{name}, {color_topic}")
-    depth = None
-    if depth_topic:
-        depth = TimedImages(seconds(depth_topic), streams[depth_topic]["items"], f"{name}, {depth_topic}")
-    joints = None
-    if joints_topic:
-        joints = JointSamples(
-            seconds(joints_topic),
-            joint_names,
-            np.array(streams[joints_topic]["items"]),
-            f"{name}, {joints_topic}",
-            joint_samples,
-        )
-    poses = None
-    if tf_frames is not None:
-        rec = read_bag(bag, tf_frames[0], tf_frames[1], tf_topic=tf_topic, tf_static_topic=tf_static_topic)
-        poses = PoseSamples(rec.robot_times_s, rec.T_base_ee, f"{name}, tf {' -> '.join(rec.frames)}")
-    return RecordedPlacement(name, info, color, depth, joints, poses)
+class _Streams:
+    """What the pass over a bag has read: per topic the stamps and items, the camera_info, the joints' names."""
+
+    def __init__(self, name: str, topics: _Topics, depth_unit_m: float | None):
+        self.name, self.topics, self.depth_unit_m = name, topics, depth_unit_m
+        self.streams = {t: {"stamps": [], "items": []} for t in topics if t}
+        self.joint_samples = []
+        self.joint_names = None
+        self.info = None
+
+    def add(self, conn, msg) -> None:
+        """One message: a camera_info checked against the first, or an item of its topic's stream."""
+        stamp = stamp_ns(msg.header)
+        where = f"{self.name}, {conn.topic} at stamp {stamp}"
+        if conn.topic == self.topics.info:
+            self._add_info(msg, where)
+            return
+        if conn.topic == self.topics.joints:
+            item = self._joint_positions(msg, where, stamp)
+            if item is None:
+                return
+        elif conn.topic == self.topics.depth:
+            item = _depth(msg, conn.msgtype, where, self.depth_unit_m)
+        else:
+            item = _color(msg, conn.msgtype, where)
+        self.streams[conn.topic]["stamps"].append(stamp)
+        self.streams[conn.topic]["items"].append(item)
+
+    def _add_info(self, msg, where: str) -> None:
+        """The camera's intrinsics, the same in every camera_info message."""
+        intr = _intrinsics(msg, where)
+        if self.info is None:
+            self.info = intr
+        elif intr.to_dict() != self.info.to_dict():
+            raise BagError(f"{where}: the camera_info changed during the recording; one camera per bag")
+
+    def _joint_positions(self, msg, where: str, stamp: int) -> np.ndarray | None:
+        """A JointState's positions in the first message's joint order; None for a partial message."""
+        names = [str(n) for n in msg.name]
+        check_joint_names(names, where)
+        pos = np.asarray(msg.position, dtype=float)
+        if len(pos) != len(names):
+            raise BagError(f"{where}: {len(names)} joint names and {len(pos)} positions")
+        if self.joint_names is None:
+            self.joint_names = names
+        if names != self.joint_names:  # another order or subset: reorder to the first message's names
+            if set(self.joint_names) - set(names):
+                return None  # a partial message (some drivers publish joint groups apart)
+            pos = pos[[names.index(n) for n in self.joint_names]]
+        self.joint_samples.append(f"the message stamped {stamp} ns")
+        return pos
+
+    def check_complete(self) -> None:
+        """Refuse a topic without messages, and a depth stream the checks refuse."""
+        for topic, s in self.streams.items():
+            if topic != self.topics.info and not s["items"]:
+                raise BagTopicError(f"{self.name}: topic {topic!r} has no messages")
+        if self.info is None:
+            raise BagTopicError(f"{self.name}: topic {self.topics.info!r} has no messages")
+        if self.topics.depth:
+            check_depth_stream(self.streams[self.topics.depth]["items"], f"{self.name}, {self.topics.depth}")
+
+    def timed(self, origin: int) -> tuple:
+        """``(color, depth, joints)`` with stamps in seconds since ``origin`` (ns); depth and joints may be None."""
+        color = self._images(self.topics.color, origin)
+        depth = self._images(self.topics.depth, origin) if self.topics.depth else None
+        joints = None
+        if self.topics.joints:
+            topic = self.topics.joints
+            items = np.array(self.streams[topic]["items"])
+            joints = JointSamples(
+                self._seconds(topic, origin), self.joint_names, items, f"{self.name}, {topic}", self.joint_samples
+            )
+        return color, depth, joints
+
+    def _seconds(self, topic: str, origin: int) -> np.ndarray:
+        return (np.asarray(self.streams[topic]["stamps"], dtype=np.int64) - origin) * 1e-9
+
+    def _images(self, topic: str, origin: int) -> TimedImages:
+        return TimedImages(self._seconds(topic, origin), self.streams[topic]["items"], f"{self.name}, {topic}")
+
+
+def _tf_poses(bag, name: str, tf_frames: tuple, tf_topic: str, tf_static_topic: str) -> PoseSamples:
+    """``T_base_ee`` over time from the bag's tf (a second pass, :func:`handeye.ros_bag.read_bag`)."""
+    from handeye.ros_bag import read_bag
+
+    rec = read_bag(bag, tf_frames[0], tf_frames[1], tf_topic=tf_topic, tf_static_topic=tf_static_topic)
+    return PoseSamples(rec.robot_times_s, rec.T_base_ee, f"{name}, tf {' -> '.join(rec.frames)}")
