@@ -38,7 +38,6 @@ __all__ = [
     "cusum_threshold",
     "llr",
     "CHI2_6_MEDIAN",
-    "expected_delay_frames",
 ]
 
 #: Median of the chi-square distribution with 6 degrees of freedom.
@@ -115,16 +114,6 @@ def llr(x, rho: float = 1.0):
     return rho / (2.0 * (1.0 + rho)) * np.asarray(x, dtype=float) - 3.0 * np.log1p(rho)
 
 
-def expected_delay_frames(noncentrality: float, h: float, rho: float = 1.0) -> float:
-    """Frames a CUSUM needs, on average, to cross ``h`` after a shift of the given noncentrality (Wald: ``h / E[l]``).
-
-    ``E[x] = 6 + lambda``; the increment's cap ``h / 2`` is taken into account. ``inf`` when the drift is not
-    positive (such a shift is not detected in the mean).
-    """
-    step = min(float(llr(6.0 + noncentrality, rho)), h / 2.0)
-    return h / step if step > 0 else float("inf")
-
-
 class Cusum:
     """The one-sided CUSUM of the module docstring.
 
@@ -142,7 +131,6 @@ class Cusum:
         self.h = cusum_threshold(frames_per_false_alarm)
         self.rho = float(rho)
         self.value = 0.0
-        self.run = 0  # frames since the statistic last was 0
 
     @property
     def cap(self) -> float:
@@ -153,9 +141,8 @@ class Cusum:
         """Add one frame's ``x`` (``inf`` for a frame whose evidence is maximal); True when it alarms."""
         step = min(float(llr(x, self.rho)), self.cap)
         self.value = max(0.0, self.value + step)
-        self.run = self.run + 1 if self.value > 0 else 0
         return self.value >= self.h
 
     def reset(self) -> None:
         """Re-arm: the statistic back to 0."""
-        self.value, self.run = 0.0, 0
+        self.value = 0.0
