@@ -438,6 +438,15 @@ FLOAT32_POSITION_MM = 1e-3
 #: over the 10 frames P(fail) ~ 4e-5.
 REPLAY_FREQUENCY_ATOL = 0.05
 
+#: The mean of two float32 weight tensors as torch's AveragedModel forms it (a running mean: a + (b - a) / 2,
+#: or a lerp) against (a + b) / 2: each rounds two or three times at half an ulp, 2^-25 = 3e-8 of the
+#: operands' size, so <= 1.8e-7 relative; 1e-6 leaves a factor 5. Where a and b nearly cancel the
+#: relative bound fails and the absolute one holds: 3 x 3e-8 x |a| with the weights of these small networks
+#: below 1 in size (only batch norm's scales start at 1, and those do not cancel): 1e-7. A mean over the
+#: wrong epochs moves the weights by a whole Adam step (1e-3).
+FLOAT32_AVERAGE_RTOL = 1e-6
+FLOAT32_AVERAGE_ATOL = 1e-7
+
 #: A rotation predicted by a float32 network (torch's default) and built from its unit quaternion: each
 #: entry a sum of a few products rounded at 2^-24 = 6e-8, so R R^T - I is within ~10 of those (6e-7); 1e-6.
 FLOAT32_ROTATION = 1e-6

@@ -12,7 +12,7 @@ pytest.importorskip("torch")
 
 from handeye.core.errors import DatasetError  # noqa: E402
 from learned.data import load_frames  # noqa: E402
-from tests.tolerances import FLOAT32_POSITION_MM  # noqa: E402
+from tests.tolerances import FLOAT, FLOAT32_POSITION_MM  # noqa: E402
 
 
 def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
@@ -41,7 +41,7 @@ def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
     for net in ("translation", "orientation"):
         base = next(float(r["mean"]) for r in rows if r["network"] == net and r["strategy"] == "batch")
         for r in (r for r in rows if r["network"] == net):
-            assert float(r["minus_batch"]) == pytest.approx(float(r["mean"]) - base, abs=1e-9)
+            assert float(r["minus_batch"]) == pytest.approx(float(r["mean"]) - base, abs=FLOAT)
     for name in (
         "report.md",
         "final_step.csv",
@@ -103,8 +103,8 @@ def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(sm
     mine = [r["placements"] for r in results["runs"] if r["repeat"] == last]
     assert len(mine) == 2 and mine[0] == mine[1]  # the translation and orientation rows of one network
     pc = results["per_camera"]["batch"]
-    assert mine[0]["median_mm"] == pytest.approx(np.median(pc["learned_vs_truth_mm"]), rel=1e-12)
-    assert mine[0]["worst_deg"] == pytest.approx(np.max(pc["learned_vs_truth_deg"]), rel=1e-12)
+    assert mine[0]["median_mm"] == pytest.approx(np.median(pc["learned_vs_truth_mm"]), rel=FLOAT)
+    assert mine[0]["worst_deg"] == pytest.approx(np.max(pc["learned_vs_truth_deg"]), rel=FLOAT)
     assert main(["learned", "report", str(out)]) == 0
     assert "Every repeat's model" in (out / "report.md").read_text()
     # the regression networks have no such setting: refused, not ignored

@@ -10,6 +10,7 @@ torch = pytest.importorskip("torch")
 from learned.model import ModelConfig, make_network  # noqa: E402
 from learned.trainer import TrainConfig, predict, train  # noqa: E402
 from tests.learned._synthetic import make_frames  # noqa: E402
+from tests.tolerances import FLOAT32_AVERAGE_ATOL, FLOAT32_AVERAGE_RTOL  # noqa: E402
 
 CONFIG = ModelConfig("translation", (32, 32), (4, 8), (16,))
 
@@ -41,7 +42,7 @@ def test_the_average_of_the_last_two_epochs_is_the_mean_of_their_weights(frames)
     averaged = _weights(_trained(frames, 3, 2))
     # the same batches in the same order: the averaged run's epochs 2 and 3 are the two plain runs' ends
     for a, b, m in zip(after_2, after_3, averaged):
-        torch.testing.assert_close(m, (a + b) / 2, rtol=1e-6, atol=1e-7)
+        torch.testing.assert_close(m, (a + b) / 2, rtol=FLOAT32_AVERAGE_RTOL, atol=FLOAT32_AVERAGE_ATOL)
     assert any(not torch.equal(a, b) for a, b in zip(after_2, after_3))  # the two epochs' weights differ
 
 
