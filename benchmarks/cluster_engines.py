@@ -33,11 +33,12 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._report import Report  # noqa: E402
+from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.ray_pool import busy_worker_pids  # noqa: E402
 from handeye.core.tables import markdown_table  # noqa: E402
 from handeye.labelling import label_dataset  # noqa: E402
 from sim.cameras import get_preset  # noqa: E402
-from sim.generate import DEFAULT_NOISE, generate  # noqa: E402
+from sim.generate import DEFAULT_NOISE, Recipe, generate  # noqa: E402
 
 
 def differing_files(a: Path, b: Path) -> list[str]:
@@ -55,7 +56,8 @@ def run_once(engine: str, root: Path, preset: str, workers: int) -> tuple[float,
     """Generate and label ``root`` from nothing; (generation s, labelling s)."""
     shutil.rmtree(root, ignore_errors=True)
     t0 = time.perf_counter()
-    generate(root, preset, seed=0, noise=DEFAULT_NOISE, workers=workers, progress=False, engine=engine)
+    options = EngineOptions(workers=workers, progress=False)
+    generate(root, Recipe(preset, 0, DEFAULT_NOISE), options=options, engine=engine)
     t1 = time.perf_counter()
     label_dataset(root, workers=workers, progress=False, plot=False, engine=engine)
     return t1 - t0, time.perf_counter() - t1
@@ -143,9 +145,8 @@ def main(argv=None) -> int:
         killer.start()
         t = time.perf_counter()
         try:
-            report = generate(
-                root, args.preset, seed=0, noise=DEFAULT_NOISE, workers=args.workers, progress=False, engine="ray"
-            )
+            options = EngineOptions(workers=args.workers, progress=False)
+            report = generate(root, Recipe(args.preset, 0, DEFAULT_NOISE), options=options, engine="ray")
         finally:
             stop.set()
             killer.join()

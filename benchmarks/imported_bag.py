@@ -49,9 +49,10 @@ def start_off(T: np.ndarray, rng, mm: float = 50.0, deg: float = 5.0) -> np.ndar
 
 
 def run_band(work: Path, band: str, radius: tuple, args, report: Report) -> list:
+    from handeye.core.engine_protocol import EngineOptions
     from sim.bag_export import write_placement_bags
     from sim.cameras import CameraPreset
-    from sim.generate import NoiseModel, generate
+    from sim.generate import NoiseModel, Recipe, generate
 
     preset = CameraPreset(
         f"bag-{band}",
@@ -70,10 +71,8 @@ def run_band(work: Path, band: str, radius: tuple, args, report: Report) -> list
     noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
     board = WITH_BOARD[band]
     recordings = ("calibration", "data") if board else ("data",)
-    generate(
-        root / "sim", preset, seed=args.seed, noise=noise, workers=1, progress=False, sensor=args.sensor,
-        recordings=recordings,
-    )  # fmt: skip
+    recipe = Recipe(preset, args.seed, noise, recordings, sensor=args.sensor)
+    generate(root / "sim", recipe, options=EngineOptions(workers=1, progress=False))
     src = Dataset.open(root / "sim")
     data, cal = [], []
     for c in range(len(src)):

@@ -99,8 +99,9 @@ def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:
     Resumes: a dataset already rendered in ``work`` is kept.
     """
     from handeye.cli import main as cli
+    from handeye.core.engine_protocol import EngineOptions
     from sim.cameras import get_preset
-    from sim.generate import NoiseModel, generate
+    from sim.generate import NoiseModel, Recipe, generate
 
     preset = get_preset(preset_name)
     k = len(preset.region_azimuths_deg)
@@ -110,7 +111,7 @@ def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:
     root = work / f"{preset_name}-{band}"
     recordings = ("calibration", "data") if WITH_BOARD[band] else ("data",)
     noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
-    generate(root, preset, seed=seed, noise=noise, recordings=recordings, progress=False)
+    generate(root, Recipe(preset, seed, noise, recordings), options=EngineOptions(progress=False))
     if WITH_BOARD[band] and not (root / "labels.done").exists():
         if cli(["label", str(root), "--quiet"]) != 0:
             raise SystemExit(f"labelling {root} failed")

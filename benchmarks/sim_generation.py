@@ -35,9 +35,10 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._machine import machine  # noqa: E402
+from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.labelling import label_dataset  # noqa: E402
 from sim.cameras import get_preset  # noqa: E402
-from sim.generate import DEFAULT_NOISE, NoiseModel, generate  # noqa: E402
+from sim.generate import DEFAULT_NOISE, NoiseModel, Recipe, generate  # noqa: E402
 
 
 class PeakMemory:
@@ -116,7 +117,7 @@ def main() -> None:
     out = args.out / args.preset
     shutil.rmtree(out, ignore_errors=True)
     with PeakMemory() as mem:
-        report = generate(out, preset, seed=0, workers=args.workers)
+        report = generate(out, Recipe(preset, seed=0), options=EngineOptions(workers=args.workers))
     n_data = preset.n_cameras * preset.configurations
     n_cal = report.frames - n_data
     lines += [
@@ -151,7 +152,7 @@ def main() -> None:
         for name, noise in settings:
             noisy = args.out / f"{args.preset}-noise"
             shutil.rmtree(noisy, ignore_errors=True)
-            generate(noisy, preset, seed=0, noise=noise, workers=args.workers, recordings=("calibration",))
+            generate(noisy, Recipe(preset, 0, noise, ("calibration",)), options=EngineOptions(workers=args.workers))
             rows.append(label_row(name, label_dataset(noisy, workers=args.workers).table))
             print(rows[-1], flush=True)
             shutil.rmtree(noisy, ignore_errors=True)

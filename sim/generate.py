@@ -22,7 +22,7 @@ import json
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +51,7 @@ __all__ = [
     "DEFAULT_NOISE",
     "DEPTH_SCALE_M",
     "GenerationReport",
+    "Recipe",
     "ShardRenderer",
     "generate",
     "dataset_meta",
@@ -411,19 +412,71 @@ def _check_or_write_meta(out: Path, meta: dict) -> None:
     write_json_atomic(path, meta)
 
 
+@dataclass(frozen=True)
+class Recipe:
+    """What a simulated dataset is made of: everything :func:`generate` needs to make it again.
+
+    ``meta.json`` records it (its ``recipe`` and ``recordings``); a dataset is resumed only with the same one.
+
+    Attributes
+    ----------
+    preset : str or CameraPreset
+        ``"paper-sim"``, ``"paper-real"``, ``"small"`` or a custom preset.
+    seed : int
+    noise : NoiseModel, optional
+        None for none.
+    recordings : tuple of {"calibration", "data"}
+    marker_radius_m : float, optional
+        Debugging: data recordings show only a sphere on the flange origin (and the lab).
+    sensor : DepthSensor or str, optional
+        A depth sensor profile (:data:`handeye.robot.depth_sensors.PROFILES` by name, or a
+        :class:`handeye.robot.depth_sensors.DepthSensor`):
+        the depth as that camera would report it, with a scale, offset and extrinsic error drawn per placement
+        and recorded in ``cameras.csv`` (``depth_scale_true`` ...). It replaces the noise's depth term, which
+        must then be 0. None: the noise's depth term alone.
+    """
+
+    preset: str | CameraPreset = "small"
+    seed: int = 0
+    noise: NoiseModel | None = None
+    recordings: tuple[str, ...] = ("calibration", "data")
+    marker_radius_m: float | None = None
+    sensor: DepthSensor | str | None = None
+
+    def resolved(self) -> Recipe:
+        """The same recipe with the preset and the sensor looked up by name and the noise given; checked.
+
+        Raises
+        ------
+        HandEyeInputError
+            Depth noise given twice (a sensor and the noise's depth term); recordings other than calibration
+            and/or data.
+        """
+        preset = get_preset(self.preset) if isinstance(self.preset, str) else self.preset
+        noise = self.noise or NoiseModel()
+        sensor = sensor_profile(self.sensor) if isinstance(self.sensor, str) else self.sensor
+        if sensor is not None and noise.depth_sigma_m_at_1m > 0:
+            raise HandEyeInputError(
+                f"depth noise given twice: the sensor {sensor.name!r} and depth_sigma_m_at_1m="
+                f"{noise.depth_sigma_m_at_1m}; set the noise's depth term to 0"
+            )
+        bad = [r for r in self.recordings if r not in ("calibration", "data")]
+        if bad or not self.recordings:
+            raise HandEyeInputError(f"recordings must be calibration and/or data, got {list(self.recordings)}")
+        return Recipe(preset, self.seed, noise, tuple(self.recordings), self.marker_radius_m, sensor)
+
+    def meta(self) -> dict:
+        """The dataset's ``meta.json`` (:func:`dataset_meta`) of a resolved recipe."""
+        return dataset_meta(self.preset, self.seed, self.noise, self.recordings, self.marker_radius_m, self.sensor)
+
+
 def generate(
     out: str | Path,
-    preset: str | CameraPreset = "small",
-    seed: int = 0,
-    noise: NoiseModel | None = None,
-    workers: int | None = None,
-    recordings: tuple[str, ...] = ("calibration", "data"),
-    marker_radius_m: float | None = None,
-    progress: bool = True,
+    recipe: Recipe | None = None,
+    cameras: Sequence[int] | None = None,
+    options: EngineOptions | None = None,
     engine: str = "pool",
     address: str | None = None,
-    cameras: Sequence[int] | None = None,
-    sensor: DepthSensor | str | None = None,
 ) -> GenerationReport:
     """Render a dataset (or resume one): one shard per camera pose, one task per shard.
 
@@ -431,18 +484,15 @@ def generate(
     ----------
     out : str or Path
         Dataset directory (created; an existing one with the same recipe is resumed).
-    preset : str or CameraPreset
-        ``"paper-sim"``, ``"paper-real"``, ``"small"`` or a custom preset.
-    seed : int
-    noise : NoiseModel, optional
-        None for none.
-    workers : int, optional
-        Rendering processes (or Ray tasks in flight); None: 2, or every CPU of the Ray cluster at ``address``.
-    recordings : tuple of {"calibration", "data"}
-    marker_radius_m : float, optional
-        Debugging: data recordings show only a sphere on the flange origin (and the lab).
-    progress : bool
-        A progress bar on stderr.
+    recipe : Recipe, optional
+        Preset, seed, noise, recordings, marker and depth sensor; None: :class:`Recipe`'s defaults.
+    cameras : sequence of int, optional
+        Render only these camera poses (a part of a large preset; the rest stays to do, and a later call
+        without ``cameras`` completes it). None: all.
+    options : EngineOptions, optional
+        Its ``workers`` (rendering processes, or Ray tasks in flight; None: 2, or every CPU of the Ray cluster at
+        ``address``) and ``progress`` (a progress bar on stderr); the rest is set here (the tasks always run in
+        worker processes). None: :class:`handeye.core.engine_protocol.EngineOptions`' defaults.
     engine : {"pool", "ray"}
         ``pool`` (default): processes on this machine; ``ray``: tasks on a Ray cluster (``handeye[cluster]``),
         each retried when its worker dies. Either way a shard is published whole or not at all, and the
@@ -450,15 +500,6 @@ def generate(
     address : str, optional
         A running Ray cluster (``auto``, ``HOST:6379``, ``ray://HOST:10001``); None starts a local one.
         On several machines ``out`` must be a folder every node sees at the same path.
-    cameras : sequence of int, optional
-        Render only these camera poses (a part of a large preset; the rest stays to do, and a later call
-        without ``cameras`` completes it). None: all.
-    sensor : DepthSensor or str, optional
-        A depth sensor profile (:data:`handeye.robot.depth_sensors.PROFILES` by name, or a
-        :class:`handeye.robot.depth_sensors.DepthSensor`):
-        the depth as that camera would report it, with a scale, offset and extrinsic error drawn per placement
-        and recorded in ``cameras.csv`` (``depth_scale_true`` ...). It replaces the noise's depth term, which
-        must then be 0. None: the noise's depth term alone.
 
     Returns
     -------
@@ -466,6 +507,8 @@ def generate(
 
     Raises
     ------
+    HandEyeInputError
+        A recipe :meth:`Recipe.resolved` refuses; an engine, worker count or camera out of range.
     DatasetError
         ``out`` holds a dataset made with other options, or cannot be created or written (a read-only
         folder, a full disk, an unopenable lock file): the path and the cause named; a rerun resumes.
@@ -479,26 +522,37 @@ def generate(
     a driver that died.
     """
     t0 = time.perf_counter()
-    preset = get_preset(preset) if isinstance(preset, str) else preset
-    noise = noise or NoiseModel()
-    if isinstance(sensor, str):
-        sensor = sensor_profile(sensor)
-    if sensor is not None and noise.depth_sigma_m_at_1m > 0:
+    recipe = (recipe or Recipe()).resolved()
+    options = options or EngineOptions()
+    check_engine(engine, address, options.workers)
+    cameras = _checked_cameras(cameras, recipe.preset)
+    out = _dataset_folder(Path(out))
+    try:
+        with dataset_lock(out, "handeye sim generate"):
+            meta = recipe.meta()
+            _check_or_write_meta(out, meta)
+            _write_camera_table(out, recipe.preset, recipe.seed, recipe.sensor)
+            report = _render(out, recipe.preset, meta, cameras, options, engine, address)
+            report.wall_s = time.perf_counter() - t0
+            return report
+    except OSError as exc:  # a read or write the system refused (full disk, permissions, a vanished folder)
+        raise _io_failure(out, exc) from None
+
+
+def _checked_cameras(cameras: Sequence[int] | None, preset: CameraPreset) -> list[int] | None:
+    """The camera ids asked for, sorted and without repeats, each checked to be one of the preset's."""
+    if cameras is None:
+        return None
+    cameras = sorted({int(c) for c in cameras})
+    if cameras and not (0 <= cameras[0] and cameras[-1] < preset.n_cameras):
         raise HandEyeInputError(
-            f"depth noise given twice: the sensor {sensor.name!r} and depth_sigma_m_at_1m="
-            f"{noise.depth_sigma_m_at_1m}; set the noise's depth term to 0"
+            f"cameras must lie in 0..{preset.n_cameras - 1} (preset {preset.name}), got {cameras[0]}..{cameras[-1]}"
         )
-    bad = [r for r in recordings if r not in ("calibration", "data")]
-    if bad or not recordings:
-        raise HandEyeInputError(f"recordings must be calibration and/or data, got {list(recordings)}")
-    check_engine(engine, address, workers)
-    if cameras is not None:
-        cameras = sorted({int(c) for c in cameras})
-        if cameras and not (0 <= cameras[0] and cameras[-1] < preset.n_cameras):
-            raise HandEyeInputError(
-                f"cameras must lie in 0..{preset.n_cameras - 1} (preset {preset.name}), got {cameras[0]}..{cameras[-1]}"
-            )
-    out = Path(out)
+    return cameras
+
+
+def _dataset_folder(out: Path) -> Path:
+    """``out`` created (with its parents) as the dataset's folder, or a :class:`DatasetError` saying why not."""
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out}: exists and is not a directory; choose another --out")
     blocking = next((p for p in out.parents if p.exists()), None)
@@ -510,16 +564,7 @@ def generate(
         raise DatasetError(
             f"{out}: cannot create the dataset folder ({exc.strerror or exc}); choose a writable --out"
         ) from None
-    try:
-        with dataset_lock(out, "handeye sim generate"):
-            meta = dataset_meta(preset, seed, noise, tuple(recordings), marker_radius_m, sensor)
-            _check_or_write_meta(out, meta)
-            _write_camera_table(out, preset, seed, sensor)
-            report = _render(out, preset, meta, cameras, engine, workers, address, progress)
-            report.wall_s = time.perf_counter() - t0
-            return report
-    except OSError as exc:  # a read or write the system refused (full disk, permissions, a vanished folder)
-        raise _io_failure(out, exc) from None
+    return out
 
 
 def _io_failure(out: Path, exc: OSError) -> DatasetError:
@@ -547,10 +592,9 @@ def _render(
     preset: CameraPreset,
     meta: dict,
     cameras: Sequence[int] | None,
+    options: EngineOptions,
     engine: str,
-    workers: int | None,
     address: str | None,
-    progress: bool,
 ) -> GenerationReport:
     """The shards :func:`generate` renders under the dataset's lock: every missing or incomplete one of
     ``cameras`` (default all); ``wall_s`` is left to the caller."""
@@ -566,9 +610,8 @@ def _render(
         pending.append(c)
     # always in worker processes, even one (isolate): pyrender's EGL teardown (eglTerminate) breaks any other
     # context of the process, so the caller's process never holds one
-    options = EngineOptions(
-        workers=workers,
-        progress=progress,
+    options = replace(
+        options,
         desc=f"render {out.name}",
         unit="camera",
         initializer=_init_worker,

@@ -38,11 +38,12 @@ def small_dataset(tmp_path_factory):
     """The ``small`` preset, generated on 2 processes and labelled: a read-only path (copy before changing it)."""
     if not _have_sim():
         pytest.skip("needs handeye[sim]")
+    from handeye.core.engine_protocol import EngineOptions
     from handeye.labelling import label_dataset
-    from sim.generate import generate
+    from sim.generate import Recipe, generate
 
     root = tmp_path_factory.mktemp("data") / "small"
-    report = generate(root, "small", seed=0, workers=2, progress=False)
+    report = generate(root, Recipe("small", seed=0), options=EngineOptions(workers=2, progress=False))
     label_dataset(root, workers=2, progress=False)
     return root, report
 
@@ -60,10 +61,12 @@ def marker_dataset(tmp_path_factory):
     """Data recordings of a sphere on the flange origin (robot hidden) at 320x320, 3 camera poses."""
     if not _have_sim():
         pytest.skip("needs handeye[sim]")
+    from handeye.core.engine_protocol import EngineOptions
     from sim.cameras import CameraPreset
-    from sim.generate import generate
+    from sim.generate import Recipe, generate
 
     preset = CameraPreset("marker", "ur5", ((0.0, 360.0),), (3,), (0,), 4, image_size=(320, 320))
     root = tmp_path_factory.mktemp("data") / "marker"
-    generate(root, preset, seed=3, workers=1, recordings=("data",), marker_radius_m=MARKER_RADIUS_M, progress=False)
+    recipe = Recipe(preset, seed=3, recordings=("data",), marker_radius_m=MARKER_RADIUS_M)
+    generate(root, recipe, options=EngineOptions(workers=1, progress=False))
     return root

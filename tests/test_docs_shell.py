@@ -114,9 +114,10 @@ def paper_sim_standin(tmp_path_factory):
     reservoir model trained on it with the ``tiny`` learned preset."""
     _have("pyrender", "pinocchio", "torch")
     from handeye.cli import main
+    from handeye.core.engine_protocol import EngineOptions
     from handeye.labelling import label_dataset
     from sim.cameras import PRESETS
-    from sim.generate import generate
+    from sim.generate import Recipe, generate
 
     root = tmp_path_factory.mktemp("paper-sim")
     # 16 placements: the block names cameras 14 and 15; 4 configurations: with 3, the registration refuses 7 of
@@ -124,7 +125,7 @@ def paper_sim_standin(tmp_path_factory):
     preset = dataclasses.replace(
         PRESETS["small"], name="paper-sim-standin", train_per_region=(7, 7), test_per_region=(1, 1), configurations=4
     )
-    generate(root / "data", preset, seed=0, workers=2, progress=False)
+    generate(root / "data", Recipe(preset, seed=0), options=EngineOptions(workers=2, progress=False))
     label_dataset(root / "data", workers=2, progress=False)
     argv = ["learned", "run", "--data", str(root / "data"), "--preset", "tiny", "--strategies", "reservoir"]
     assert main([*argv, "--out", str(root / "runs"), "--quiet"]) == 0
@@ -140,14 +141,16 @@ def d435_cell(tmp_path_factory):
     from classic.vision.board import BoardSpec
     from handeye.cli import main
     from handeye.core.dataset import Dataset
+    from handeye.core.engine_protocol import EngineOptions
     from sim.bag_export import write_placement_bags
-    from sim.generate import NoiseModel, generate
+    from sim.generate import NoiseModel, Recipe, generate
     from tests.test_import_recording import PRESET
 
     root = tmp_path_factory.mktemp("cell")
     preset = dataclasses.replace(PRESET, name="cell", image_size=(480, 480), configurations=8)
     noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
-    generate(root / "sim", preset, seed=5, noise=noise, workers=2, progress=False, sensor="d435")
+    recipe = Recipe(preset, seed=5, noise=noise, sensor="d435")
+    generate(root / "sim", recipe, options=EngineOptions(workers=2, progress=False))
     ds = Dataset.open(root / "sim")
     bags = [write_placement_bags(ds, c, root / "bags") for c in range(2)]
     BoardSpec(**ds.meta["board"]).save(root / "board.json")

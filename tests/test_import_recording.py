@@ -24,6 +24,7 @@ from classic.vision.camera import CameraIntrinsics  # noqa: E402
 from classic.vision.camera_yaml import write_camera_info_yaml  # noqa: E402
 from handeye.cli import main  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.errors import (  # noqa: E402
     BagTopicError,
     DatasetError,
@@ -38,7 +39,7 @@ from handeye.recording_import import ImportOptions, RecordedPlacement, TimedImag
 from handeye.robot.model import load_robot  # noqa: E402
 from sim.bag_export import write_placement_bags  # noqa: E402
 from sim.cameras import CameraPreset  # noqa: E402
-from sim.generate import NoiseModel, generate  # noqa: E402
+from sim.generate import NoiseModel, Recipe, generate  # noqa: E402
 from tests.tolerances import FLOAT
 
 #: Two placements, 12 data frames at 160x160 and 8 board views at 480x480.
@@ -56,7 +57,8 @@ def recorded(tmp_path_factory):
     """The simulated dataset, its placements as bags, the board file."""
     root = tmp_path_factory.mktemp("import")
     noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
-    generate(root / "sim", PRESET, seed=5, noise=noise, workers=1, progress=False, sensor="d435")
+    recipe = Recipe(PRESET, seed=5, noise=noise, sensor="d435")
+    generate(root / "sim", recipe, options=EngineOptions(workers=1, progress=False))
     ds = Dataset.open(root / "sim")
     bags = [
         write_placement_bags(ds, 0, root / "bags", "sqlite3", "16UC1", "raw"),

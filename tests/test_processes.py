@@ -264,8 +264,9 @@ def _one_line_error(text: str, *needles: str) -> None:
 
 def test_a_full_disk_in_a_worker_is_one_line_and_a_rerun_completes(tmp_path):
     pytest.importorskip("pyrender")
+    from handeye.core.engine_protocol import EngineOptions
     from sim.cameras import CameraPreset
-    from sim.generate import generate
+    from sim.generate import Recipe, generate
 
     out = tmp_path / "ds"
     run = _full_disk_run(tmp_path, out, SHARD_FSIZE)
@@ -273,7 +274,7 @@ def test_a_full_disk_in_a_worker_is_one_line_and_a_rerun_completes(tmp_path):
     _one_line_error(run.stderr, "cam_0000", "File too large")
     assert not list((out / "shards").glob("cam_0000*")), "a failed shard is left behind"
     preset = CameraPreset(*TINY_ARGS, image_size=TINY_SIZE)
-    report = generate(out, preset, recordings=("data",), workers=1, progress=False)
+    report = generate(out, Recipe(preset, recordings=("data",)), options=EngineOptions(workers=1, progress=False))
     assert report.rendered == [0] and report.frames == 1
 
 

@@ -83,7 +83,7 @@ def test_a_killed_worker_is_replaced_and_its_task_run_again(local_cluster, tmp_p
 def test_small_preset_on_ray_with_a_worker_killed_is_byte_identical_to_the_pool(local_cluster, small_dataset, tmp_path):
     from handeye.core.dataset import Dataset
     from handeye.labelling import label_dataset
-    from sim.generate import generate
+    from sim.generate import Recipe, generate
 
     pool_root = small_dataset[0]
     root = tmp_path / "small"
@@ -91,7 +91,7 @@ def test_small_preset_on_ray_with_a_worker_killed_is_byte_identical_to_the_pool(
     killer = threading.Thread(target=kill_when_half_written, args=(root, stop, killed))
     killer.start()
     try:
-        report = generate(root, "small", seed=0, workers=2, progress=False, engine="ray")
+        report = generate(root, Recipe("small", seed=0), options=EngineOptions(workers=2, progress=False), engine="ray")
     finally:
         stop.set()
         killer.join()

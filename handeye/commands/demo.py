@@ -53,14 +53,16 @@ def run(args: argparse.Namespace) -> int:
     require_package("pyrender", extra="sim", purpose="rendering")
     require_package("torch", extra="learned", purpose="the learned calibration")
     from handeye.commands.compare import compare_table
+    from handeye.core.engine_protocol import EngineOptions
     from handeye.labelling import label_dataset
     from learned.experiment import run_experiment
     from learned.report import findings, write_report
-    from sim.generate import generate
+    from sim.generate import Recipe, generate
 
     t0 = time.perf_counter()
     print(f"[1/4] rendering the {args.sim_preset} preset into {args.data}")
-    print("      " + generate(args.data, args.sim_preset, progress=not args.quiet).summary())
+    report = generate(args.data, Recipe(args.sim_preset), options=EngineOptions(progress=not args.quiet))
+    print("      " + report.summary())
     print("[2/4] labelling every camera pose (classic calibration)")
     labels = label_dataset(args.data, progress=not args.quiet)
     print("      " + labels.summary().replace("\n", "\n      "))

@@ -226,25 +226,17 @@ def run(args: argparse.Namespace) -> int:
     require_package("pyrender", extra="sim", purpose="rendering")
     from dataclasses import replace
 
-    from sim.generate import generate
+    from handeye.core.engine_protocol import EngineOptions
+    from sim.generate import Recipe, generate
 
     sensor = parse_sensor(args.sensor)
     noise = parse_noise(args.noise)
     if sensor is not None:
         noise = replace(noise, depth_sigma_m_at_1m=0.0)  # the sensor's depth errors replace the noise's depth term
-    report = generate(
-        args.out,
-        args.preset,
-        seed=args.seed,
-        noise=noise,
-        sensor=sensor,
-        workers=args.workers,
-        recordings=tuple(r.strip() for r in args.recordings.split(",")),
-        progress=not args.quiet,
-        engine=args.engine,
-        address=args.address,
-        cameras=parse_cameras(args.cameras),
-    )
+    recordings = tuple(r.strip() for r in args.recordings.split(","))
+    recipe = Recipe(args.preset, args.seed, noise, recordings, sensor=sensor)
+    options = EngineOptions(workers=args.workers, progress=not args.quiet)
+    report = generate(args.out, recipe, parse_cameras(args.cameras), options, args.engine, args.address)
     print(report.summary())
     if report.left:
         print(f"next: the same command without --cameras completes {args.out}; then handeye label {args.out}")

@@ -73,7 +73,8 @@ def _snapshot(shard):
 
 
 def test_half_written_shards_are_detected_and_regenerated_identically(small_copy):
-    from sim.generate import generate
+    from handeye.core.engine_protocol import EngineOptions
+    from sim.generate import Recipe, generate
 
     root = small_copy
     before = {c: _snapshot(root / shard_name(c)) for c in (2, 4)}
@@ -86,7 +87,7 @@ def test_half_written_shards_are_detected_and_regenerated_identically(small_copy
         Dataset.open(root).frames(2)
     with pytest.raises(DatasetError, match="cam_0004.*resume"):
         Dataset.open(root).frames(4)
-    report = generate(root, "small", seed=0, workers=1, progress=False)
+    report = generate(root, Recipe("small", seed=0), options=EngineOptions(workers=1, progress=False))
     assert report.rendered == [2, 4] and report.regenerated == [2, 4]
     assert report.skipped == [0, 1, 3, 5]
     assert not (root / (shard_name(4) + ".partial")).exists()
@@ -98,10 +99,11 @@ def test_half_written_shards_are_detected_and_regenerated_identically(small_copy
 
 
 def test_resuming_with_other_options_is_refused(small_copy):
-    from sim.generate import generate
+    from handeye.core.engine_protocol import EngineOptions
+    from sim.generate import Recipe, generate
 
     with pytest.raises(DatasetError, match="other options"):
-        generate(small_copy, "small", seed=1, workers=1, progress=False)
+        generate(small_copy, Recipe("small", seed=1), options=EngineOptions(workers=1, progress=False))
 
 
 def _edit_cell(path, row, column, value):
@@ -213,12 +215,13 @@ def test_cli_label_and_show(small_copy, tmp_path, capsys):
 def test_a_second_writer_on_one_dataset_is_refused(tmp_path):
     """Two generators on one output folder: the second is refused at once, naming the first; nothing is written."""
     from handeye.core.dataset import dataset_lock
-    from sim.generate import generate
+    from handeye.core.engine_protocol import EngineOptions
+    from sim.generate import Recipe, generate
 
     with dataset_lock(tmp_path, "handeye sim generate (test holder)"):
         refused = r"handeye sim generate \(test holder\) \(pid \d+\) is writing this dataset"
         with pytest.raises(DatasetError, match=refused):
-            generate(tmp_path, "small", workers=1, progress=False)
+            generate(tmp_path, Recipe("small"), options=EngineOptions(workers=1, progress=False))
     assert sorted(p.name for p in tmp_path.iterdir()) == [".lock"]
     with dataset_lock(tmp_path, "again"):  # released: the next writer gets it
         pass

@@ -11,13 +11,16 @@ pytest.importorskip("pyrender")
 
 from handeye.cli import main  # noqa: E402
 from handeye.core.dataset import SENSOR_COLUMNS, Dataset  # noqa: E402
+from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.errors import HandEyeInputError  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 from sim.cameras import CameraPreset  # noqa: E402
-from sim.generate import DEFAULT_NOISE, NoiseModel, generate  # noqa: E402
+from sim.generate import DEFAULT_NOISE, NoiseModel, Recipe, generate  # noqa: E402
 from sim.sensors import draw_systematic  # noqa: E402
 from tests.tolerances import FLOAT, MM
 
+#: One rendering process, no progress bar.
+SERIAL = EngineOptions(workers=1, progress=False)
 #: Two camera poses of two data frames at 64x64.
 PRESET = CameraPreset("sensor", "ur5", ((0.0, 360.0),), (2,), (0,), 2, image_size=(64, 64))
 
@@ -27,8 +30,8 @@ def pair(tmp_path_factory):
     """The same placements rendered without depth noise and as a D435 reports them."""
     root = tmp_path_factory.mktemp("sensor")
     clean = NoiseModel(pixel_sigma=2.0)
-    generate(root / "clean", PRESET, seed=3, noise=clean, workers=1, recordings=("data",), progress=False)
-    generate(root / "d435", PRESET, seed=3, noise=clean, workers=1, recordings=("data",), progress=False, sensor="d435")
+    generate(root / "clean", Recipe(PRESET, seed=3, noise=clean, recordings=("data",)), options=SERIAL)
+    generate(root / "d435", Recipe(PRESET, 3, clean, ("data",), sensor="d435"), options=SERIAL)
     return Dataset.open(root / "clean"), Dataset.open(root / "d435")
 
 
@@ -72,7 +75,7 @@ def test_rewriting_the_camera_table_keeps_the_sensor_columns(pair):
 
 def test_depth_noise_given_twice_is_refused(tmp_path):
     with pytest.raises(HandEyeInputError, match="given twice"):
-        generate(tmp_path / "x", PRESET, noise=DEFAULT_NOISE, sensor="d435", workers=1, progress=False)
+        generate(tmp_path / "x", Recipe(PRESET, noise=DEFAULT_NOISE, sensor="d435"), options=SERIAL)
 
 
 def test_cli_sensor_by_name_or_file_and_its_errors(tmp_path, capsys):

@@ -73,12 +73,14 @@ def test_another_scene_changes_the_background_and_not_the_robot(cell):
 def test_generated_shards_render_each_camera_in_its_scene(cell, tmp_path):
     """A 2-scene preset generated through the worker: camera 0 in today's lab, camera 1 in scene 1, byte for byte."""
     from handeye.core.dataset import Dataset
-    from sim.generate import generate
+    from handeye.core.engine_protocol import EngineOptions
+    from sim.generate import Recipe, generate
 
     preset = CameraPreset(
         "two-scenes", "ur5", ((0.0, 360.0),), (2,), (0,), 1, image_size=SIZE, fov_deg=FOV_DEG, scenes=2
     )
-    generate(tmp_path / "ds", preset, seed=0, workers=1, recordings=("data",), progress=False)
+    recipe = Recipe(preset, seed=0, recordings=("data",))
+    generate(tmp_path / "ds", recipe, options=EngineOptions(workers=1, progress=False))
     ds = Dataset.open(tmp_path / "ds")
     T_base_cam_all = place_cameras(preset, np.random.default_rng(0)).T_base_cam
     lab = cell["lab"]
