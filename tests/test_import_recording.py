@@ -91,7 +91,7 @@ def test_the_imported_frames_are_the_recorded_ones(recorded, imported):
         a, b = src.select(c, "data"), imported.select(c, "data")
         assert len(b["frame"]) == len(a["frame"]) == PRESET.configurations
         assert np.allclose(imported.joints(b), src.joints(a), atol=FLOAT)
-        assert np.allclose(imported.poses(b, "T_base_ee"), src.poses(a, "T_base_ee"), atol=1e-9)
+        assert np.allclose(imported.poses(b, "T_base_ee"), src.poses(a, "T_base_ee"), atol=FLOAT)
         for ra, rb, da, db in zip(a["rgb"], b["rgb"], a["depth"], b["depth"]):
             d0, d1 = src.depth_m(c, da), imported.depth_m(c, db)
             assert np.array_equal(d0 > 0, d1 > 0)
@@ -234,7 +234,7 @@ def test_folders_import_the_same_frames(recorded, tmp_path, capsys):
     for c in range(2):
         a, b = src.select(c, "data"), ds.select(c, "data")
         assert np.allclose(ds.joints(b), src.joints(a), atol=FLOAT)
-        assert np.allclose(ds.poses(b, "T_base_ee"), src.poses(a, "T_base_ee"), atol=1e-9)
+        assert np.allclose(ds.poses(b, "T_base_ee"), src.poses(a, "T_base_ee"), atol=FLOAT)
         d0, d1 = src.depth_m(c, a["depth"][0]), ds.depth_m(c, b["depth"][0])
         assert np.abs(d1 - d0).max() <= (MM / 2 if c == 0 else 0) + 1e-4
     (folders[0] / "rgb" / "f003.png").unlink()
