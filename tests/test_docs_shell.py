@@ -66,6 +66,7 @@ from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
 from tests.test_docs import DOCS, README, ROOT, code_blocks
 from tests.tiers import RAY_GROUP
+from tests.tolerances import FLOAT
 
 #: Left out of the executed text (checked instead): no network, no ROS installation here.
 DROPPED = ("pip install", "ros2 launch")
@@ -594,7 +595,7 @@ def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -
     assert "generate_launch_description" in {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
     T, parent, child = read_static_tf_launch(path)
     calib = read_easy_handeye_calibration(next((home / ".ros2").rglob("*.calib")))
-    np.testing.assert_allclose(T, calib.T_parent_cam, atol=1e-9)
+    np.testing.assert_allclose(T, calib.T_parent_cam, atol=FLOAT)
     assert (parent, child) == (calib.parent_frame, calib.child_frame)
 
 
