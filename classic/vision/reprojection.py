@@ -304,6 +304,32 @@ def refine_reprojection(
         Mismatched counts, or fewer than 3 views with corners.
     """
     setup = normalize_setup(setup)
+    _check_arguments(T_base_ee, corner_ids, corners_px, robot_noise)
+    corners = _Corners.of(corner_ids, corners_px, spec)
+    A = robot_side_poses(np.asarray(T_base_ee, dtype=float), setup)
+    prob = _Problem(A, corners, intrinsics, X0, Y0, refine_intrinsics)
+    fit = fit_least_squares(
+        prob.residuals, prob.jac, prob.n_params, loss=loss, loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12
+    )
+    robot, cov = None, None
+    if robot_noise == "estimate" and loss == "linear":
+        fit, robot, cov = _fit_with_robot_noise(prob.residuals, prob.jac, prob.robot_jacobian(setup), corners.rows, fit)
+    X, Y, intr = prob.unpack(fit.x)
+    per_view, outliers, rms = _view_errors(fit.residuals, corners.view, len(T_base_ee))
+    if robot is None or not robot.has_robot_error:
+        cov = _scaled_covariance(fit, loss, prob.n_params)
+    diagnostics = _robot_diagnostics(robot, rms, robot_noise, loss)
+    warned = []
+    if diagnostics.get("robot_dominates"):
+        warned.append(diagnostics["warning"])
+        warnings.warn(diagnostics["warning"], RobotPoseErrorWarning, stacklevel=2)
+    return ReprojectionResult(
+        X, Y, prob.intrinsics_at(intr), rms, per_view, outliers, cov, sigma_of_blocks(cov), robot, diagnostics, warned
+    )
+
+
+def _check_arguments(T_base_ee, corner_ids, corners_px, robot_noise: str) -> None:
+    """Refuse an unknown robot-noise model, and corner lists that are not one per robot pose."""
     if robot_noise not in ("estimate", "none"):
         raise HandEyeInputError(f"robot_noise must be 'estimate' or 'none', got {robot_noise!r}")
     n_views = len(T_base_ee)
@@ -312,85 +338,111 @@ def refine_reprojection(
             f"{n_views} robot poses but {len(corner_ids)} corner-id lists and {len(corners_px)} corner lists: "
             "one entry per view is needed"
         )
-    view = np.concatenate([np.full(len(ids), k) for k, ids in enumerate(corner_ids)] + [np.zeros(0)]).astype(int)
-    if len(np.unique(view)) < 3:
-        raise HandEyeInputError("the reprojection refinement needs corners in at least 3 views")
-    p_target = spec.corners_target()[np.concatenate(corner_ids).astype(int)]
-    uv = np.concatenate([np.asarray(c, dtype=float).reshape(-1, 2) for c in corners_px])
-    A = robot_side_poses(np.asarray(T_base_ee, dtype=float), setup)
-    K0 = intrinsics.K
-    full_model = bool(np.any(intrinsics.dist[5:]))  # rational / thin prism / tilted: cv2.projectPoints, 2-point
-    tail = intrinsics.dist[5:] if full_model else np.zeros(0)
-    d0 = np.zeros(5)
-    d0[: min(5, intrinsics.dist.size)] = intrinsics.dist[:5]
-    intr0 = np.array([K0[0, 0], K0[1, 1], K0[0, 2], K0[1, 2], *d0[:5]])
 
-    def unpack(params):
-        X = _pose(X0, params[0:3], params[3:6])
-        Y = _pose(Y0, params[6:9], params[9:12])
-        intr = intr0 + params[12:] if refine_intrinsics else intr0
-        return X, Y, intr
 
-    def residuals(params):
-        X, Y, intr = unpack(params)
-        T_cam_target = invert_transform(X) @ A @ Y  # (V, 4, 4)
-        R, t = T_cam_target[view, :3, :3], T_cam_target[view, :3, 3]
-        p_cam = np.einsum("mab,mb->ma", R, p_target) + t
-        return (project(p_cam, *intr[:4], np.concatenate([intr[4:9], tail])) - uv).ravel()
+@dataclass
+class _Corners:
+    """Every detected corner of every view: its view, its point in the target frame and its pixel."""
 
-    def jacobian(params):
-        X, Y, intr = unpack(params)
-        return _reprojection_jacobian(A[view], X, Y, p_target, intr, refine_intrinsics)
+    view: np.ndarray  # (M,) int
+    p_target: np.ndarray  # (M, 3)
+    uv: np.ndarray  # (M, 2)
+    rows: list  # each view's rows of the residual vector (views with corners only), slices
 
-    n_params = 12 + (9 if refine_intrinsics else 0)
-    jac = "2-point" if full_model else jacobian
-    fit = fit_least_squares(
-        residuals, jac, n_params, loss=loss, loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12
-    )
-    robot, warned = None, []
-    if robot_noise == "estimate" and loss == "linear":
+    @classmethod
+    def of(cls, corner_ids, corners_px, spec: BoardSpec) -> _Corners:
+        """The corners of the views concatenated; refused unless at least 3 views have some."""
+        view = np.concatenate([np.full(len(ids), k) for k, ids in enumerate(corner_ids)] + [np.zeros(0)]).astype(int)
+        if len(np.unique(view)) < 3:
+            raise HandEyeInputError("the reprojection refinement needs corners in at least 3 views")
+        p_target = spec.corners_target()[np.concatenate(corner_ids).astype(int)]
+        uv = np.concatenate([np.asarray(c, dtype=float).reshape(-1, 2) for c in corners_px])
         starts = np.concatenate([[0], np.cumsum([2 * len(ids) for ids in corner_ids])])
         rows = [slice(a, b) for a, b in zip(starts[:-1], starts[1:]) if b > a]
+        return cls(view, p_target, uv, rows)
+
+
+class _Problem:
+    """The pixel residuals and their Jacobians of the increment ``[w_X, v_X, w_Y, v_Y, (intrinsics)]``."""
+
+    def __init__(self, A, corners: _Corners, intrinsics: CameraIntrinsics, X0, Y0, refine_intrinsics: bool):
+        self.A, self.corners, self.intrinsics, self.X0, self.Y0 = A, corners, intrinsics, X0, Y0
+        self.refine_intrinsics = refine_intrinsics
+        K0 = intrinsics.K
+        # rational / thin prism / tilted: cv2.projectPoints, 2-point
+        self.full_model = bool(np.any(intrinsics.dist[5:]))
+        self.tail = intrinsics.dist[5:] if self.full_model else np.zeros(0)
+        d0 = np.zeros(5)
+        d0[: min(5, intrinsics.dist.size)] = intrinsics.dist[:5]
+        self.intr0 = np.array([K0[0, 0], K0[1, 1], K0[0, 2], K0[1, 2], *d0[:5]])
+
+    @property
+    def n_params(self) -> int:
+        return 12 + (9 if self.refine_intrinsics else 0)
+
+    @property
+    def jac(self):
+        """The analytic Jacobian, or scipy's "2-point" with a full distortion model."""
+        return "2-point" if self.full_model else self.jacobian
+
+    def unpack(self, params):
+        """``(X, Y, (fx, fy, cx, cy, k1, k2, p1, p2, k3))`` at the increment ``params``."""
+        X = _pose(self.X0, params[0:3], params[3:6])
+        Y = _pose(self.Y0, params[6:9], params[9:12])
+        intr = self.intr0 + params[12:] if self.refine_intrinsics else self.intr0
+        return X, Y, intr
+
+    def residuals(self, params):
+        X, Y, intr = self.unpack(params)
+        c = self.corners
+        T_cam_target = invert_transform(X) @ self.A @ Y  # (V, 4, 4)
+        R, t = T_cam_target[c.view, :3, :3], T_cam_target[c.view, :3, 3]
+        p_cam = np.einsum("mab,mb->ma", R, c.p_target) + t
+        return (project(p_cam, *intr[:4], np.concatenate([intr[4:9], self.tail])) - c.uv).ravel()
+
+    def jacobian(self, params):
+        X, Y, intr = self.unpack(params)
+        return _reprojection_jacobian(
+            self.A[self.corners.view], X, Y, self.corners.p_target, intr, self.refine_intrinsics
+        )
+
+    def robot_jacobian(self, setup: str):
+        """``params -> (2M, 6)``: :func:`robot_pose_jacobian` at those parameters."""
 
         def robot_jacobian(params):
-            X, Y, intr = unpack(params)
-            return robot_pose_jacobian(A[view], X, Y, p_target, intr, setup)
+            X, Y, intr = self.unpack(params)
+            return robot_pose_jacobian(self.A[self.corners.view], X, Y, self.corners.p_target, intr, setup)
 
-        fit, robot, cov = _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit)
-    X, Y, intr = unpack(fit.x)
-    r = fit.residuals.reshape(-1, 2)
-    sq = np.sum(r**2, axis=1)
+        return robot_jacobian
+
+    def intrinsics_at(self, intr: np.ndarray) -> CameraIntrinsics:
+        """The camera of the parameters ``intr`` (the skew and the distortion beyond the fifth kept)."""
+        K0 = self.intrinsics.K
+        K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
+        dist = np.concatenate([intr[4:9], self.tail])
+        return CameraIntrinsics(K, dist, self.intrinsics.width, self.intrinsics.height)
+
+
+def _view_errors(residuals: np.ndarray, view: np.ndarray, n_views: int) -> tuple[np.ndarray, list, float]:
+    """Per-view RMS (px), the outlier views (:data:`OUTLIER_VIEW_FACTOR`), and the RMS over all corners."""
+    sq = np.sum(residuals.reshape(-1, 2) ** 2, axis=1)
     counts = np.bincount(view, minlength=n_views)
     per_view = np.sqrt(np.bincount(view, weights=sq, minlength=n_views) / np.maximum(counts, 1))
     has = np.bincount(view, minlength=n_views) > 0
     med = float(np.median(per_view[has]))
     outliers = [int(k) for k in np.flatnonzero(has & (per_view > max(OUTLIER_VIEW_FACTOR * med, 1.0)))]
-    rms = float(np.sqrt(np.mean(sq)))
-    if robot is None or not robot.has_robot_error:
-        if loss == "linear":
-            s2 = float(np.sum(sq)) / max(2 * len(uv) - n_params, 1)  # per-axis variance, dof-corrected
-        else:
-            # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
-            s2 = float(np.median(sq)) / 1.3863
-        cov = covariance_from_jacobian(fit.jacobian, fit.weights, s2)
-    diagnostics = _robot_diagnostics(robot, rms, robot_noise, loss)
-    if diagnostics.get("robot_dominates"):
-        warned.append(diagnostics["warning"])
-        warnings.warn(diagnostics["warning"], RobotPoseErrorWarning, stacklevel=2)
-    K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
-    return ReprojectionResult(
-        X,
-        Y,
-        CameraIntrinsics(K, np.concatenate([intr[4:9], tail]), intrinsics.width, intrinsics.height),
-        rms,
-        per_view,
-        outliers,
-        cov,
-        sigma_of_blocks(cov),
-        robot,
-        diagnostics,
-        warned,
-    )
+    return per_view, outliers, float(np.sqrt(np.mean(sq)))
+
+
+def _scaled_covariance(fit, loss: str, n_params: int) -> np.ndarray:
+    """``s^2 (G^T G)^-1`` with ``s`` the per-axis pixel noise from the residuals (robustly with a robust loss)."""
+    sq = np.sum(fit.residuals.reshape(-1, 2) ** 2, axis=1)
+    if loss == "linear":
+        s2 = float(np.sum(sq)) / max(len(fit.residuals) - n_params, 1)  # per-axis variance, dof-corrected
+    else:
+        # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
+        s2 = float(np.median(sq)) / 1.3863
+    return covariance_from_jacobian(fit.jacobian, fit.weights, s2)
 
 
 def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
