@@ -302,9 +302,10 @@ def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
     )
     rep.say()
     rep.say(
-        "| bump | t (s) | detected after (s) | committed error (mm / deg) | error / sigma | refused | extra alarms |"
+        "| bump | t (s) | watcher before it | detected after (s) | committed error (mm / deg) | error / sigma "
+        "| refused | extra alarms |"
     )
-    rep.say("|---|---|---|---|---|---|---|")
+    rep.say("|---|---|---|---|---|---|---|---|")
     for row in score_bumps(run, doc, ds.truth()):
         e = row["bump"]
         delay = "missed" if row["delay_s"] is None else f"{row['delay_s']:.2f}"
@@ -313,8 +314,18 @@ def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
         err = "none committed" if row["error"] is None else f"{row['error'][0]:.2f} / {row['error'][1]:.3f}"
         ratio = "-" if row["ratio"] is None else f"{row['ratio'][0]:.1f} / {row['ratio'][1]:.1f}"
         size = f"{e['translation_mm']:g} mm / {e['rotation_deg']:g} deg {e['label']}"
-        rep.say(f"| {size} | {e['t_s']:.1f} | {delay} | {err} | {ratio} | {row['refused']} | {row['extra_alarms']} |")
+        before = run.states[e["frame"] - 1]
+        rep.say(
+            f"| {size} | {e['t_s']:.1f} | {before} | {delay} | {err} | {ratio} | {row['refused']} "
+            f"| {row['extra_alarms']} |"
+        )
     rep.say()
+    rep.say(
+        "detected after: the first 'moved' between the bump and the next one (a late one may have another cause: "
+        "the static stream's alarms give the false-alarm rate); committed error: the first calibration committed "
+        "after that alarm, against the truth of the frame it was committed at; error / sigma: over the "
+        "registration's own sigma (translation / rotation)"
+    )
     drift = [ev for ev, _, _ in run.events if ev.state == "drift"]
     rep.say(
         f"drift: {sum(e['type'] == 'drift' for e in doc['events'])} steps of 0.05 mm in the truth; "
