@@ -35,7 +35,7 @@ from handeye.recording_checks import check_camera_matrix, check_depth_frame, che
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
 from handeye.ros_bag import IMAGE_TYPE, bag_messages, image_array, open_bag, stamp_ns, topic_connections
 
-__all__ = ["INFO_TYPE", "JOINTS_TYPE", "COMPRESSED_TYPE", "read_camera_bag"]
+__all__ = ["INFO_TYPE", "JOINTS_TYPE", "COMPRESSED_TYPE", "TfSource", "read_camera_bag"]
 
 INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 JOINTS_TYPE = "sensor_msgs/msg/JointState"
@@ -127,8 +127,6 @@ def read_camera_bag(
     joints_topic: str | None = "/joint_states",
     tf_frames: tuple | None = None,
     depth_unit_m: float | None = None,
-    tf_topic: str = "/tf",
-    tf_static_topic: str = "/tf_static",
 ) -> RecordedPlacement:
     """Read one camera placement's recording from a ROS 2 bag.
 
@@ -144,12 +142,12 @@ def read_camera_bag(
         ``sensor_msgs/msg/Image`` (16UC1, mono16, 32FC1) or compressedDepth; None for a calibration recording.
     joints_topic : str or None
         ``sensor_msgs/msg/JointState``; None reads no joints (then ``tf_frames`` is needed).
-    tf_frames : (str, str), optional
-        ``(base_frame, ee_frame)``: ``T_base_ee`` from tf instead of the joints' forward kinematics.
+    tf_frames : (str, str) or TfSource, optional
+        ``(base_frame, ee_frame)``: ``T_base_ee`` from tf instead of the joints' forward kinematics; a
+        :class:`TfSource` names other tf topics too.
     depth_unit_m : float, optional
         Metres per unit of the depth as recorded; None: the encoding's convention (``REP 118``): 1e-3
         (millimetres) for 16-bit depth, 1 (metres) for 32FC1.
-    tf_topic, tf_static_topic : str
 
     Returns
     -------
@@ -174,8 +172,17 @@ def read_camera_bag(
             streams.add(conn, msg)
         origin = int(reader.start_time)
     streams.check_complete()
-    poses = None if tf_frames is None else _tf_poses(bag, name, tf_frames, tf_topic, tf_static_topic)
+    poses = None if tf_frames is None else _tf_poses(bag, name, TfSource(*tf_frames))
     return RecordedPlacement(name, streams.info, *streams.timed(origin), poses)
+
+
+class TfSource(NamedTuple):
+    """Where :func:`read_camera_bag` finds the flange's pose in tf: the two frames and the tf topics."""
+
+    base_frame: str
+    ee_frame: str
+    topic: str = "/tf"
+    static_topic: str = "/tf_static"
 
 
 class _Topics(NamedTuple):
@@ -290,9 +297,9 @@ class _Streams:
         return TimedImages(self._seconds(topic, origin), self.streams[topic]["items"], f"{self.name}, {topic}")
 
 
-def _tf_poses(bag, name: str, tf_frames: tuple, tf_topic: str, tf_static_topic: str) -> PoseSamples:
+def _tf_poses(bag, name: str, tf: TfSource) -> PoseSamples:
     """``T_base_ee`` over time from the bag's tf (a second pass, :func:`handeye.ros_bag.read_bag`)."""
     from handeye.ros_bag import read_bag
 
-    rec = read_bag(bag, tf_frames[0], tf_frames[1], tf_topic=tf_topic, tf_static_topic=tf_static_topic)
+    rec = read_bag(bag, tf.base_frame, tf.ee_frame, tf_topic=tf.topic, tf_static_topic=tf.static_topic)
     return PoseSamples(rec.robot_times_s, rec.T_base_ee, f"{name}, tf {' -> '.join(rec.frames)}")
