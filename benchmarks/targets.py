@@ -26,7 +26,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import classic  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
-from classic.vision import BoardSpec, detect_board, estimate_pose, refine_reprojection  # noqa: E402
+from classic.vision import BoardSpec, ReprojectionOptions, detect_board, estimate_pose, refine_reprojection  # noqa: E402
 from classic.vision.detect import project_points  # noqa: E402
 from classic.vision.synthetic import default_intrinsics, render_view  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
@@ -89,7 +89,7 @@ def hand_eye(spec, intr, seed: int) -> tuple[float, float] | None:
         return None
     ids = [d.ids if d.reason is None else np.zeros(0, int) for d in dets]
     uv = [d.corners_px if d.reason is None else np.zeros((0, 2)) for d in dets]
-    res = refine_reprojection(p.T_base_ee, ids, uv, spec, intr, cal.X, cal.Y, setup=SETUP)
+    res = refine_reprojection(p.T_base_ee, ids, uv, spec, intr, cal.X, cal.Y, ReprojectionOptions(setup=SETUP))
     return pose_error(res.X, p.X_true)
 
 

@@ -37,7 +37,7 @@ from classic.calibrate import initial_estimate  # noqa: E402
 from classic.vision.board import BoardSpec  # noqa: E402
 from classic.vision.detect import Detection, estimate_pose, project_points  # noqa: E402
 from classic.vision.pose_covariance import pose_covariances  # noqa: E402
-from classic.vision.reprojection import refine_reprojection  # noqa: E402
+from classic.vision.reprojection import ReprojectionOptions, refine_reprojection  # noqa: E402
 from classic.vision.synthetic import default_intrinsics  # noqa: E402
 from handeye.core.conventions import opencv_hand_eye_args  # noqa: E402
 from handeye.core.errors import WeakMotionWarning  # noqa: E402
@@ -100,7 +100,9 @@ def trial(n_views, noise_px, spec, intr, rng):
         method=cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH,
     )
     out[METHODS[4]] = make_transform(R, t.ravel())
-    out[METHODS[5]] = refine_reprojection(robot, ids, corners, spec, intr, res.X, res.Y, setup=SETUP).X
+    out[METHODS[5]] = refine_reprojection(
+        robot, ids, corners, spec, intr, res.X, res.Y, ReprojectionOptions(setup=SETUP)
+    ).X
     return {k: pose_error(X, X_true) for k, X in out.items()}, len(poses)
 
 

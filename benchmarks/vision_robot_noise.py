@@ -33,7 +33,7 @@ import cv2  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
 from classic.vision.board import BoardSpec  # noqa: E402
 from classic.vision.detect import project_points  # noqa: E402
-from classic.vision.reprojection import refine_reprojection  # noqa: E402
+from classic.vision.reprojection import ReprojectionOptions, refine_reprojection  # noqa: E402
 from classic.vision.robot_noise import RobotPoseErrorWarning  # noqa: E402
 from classic.vision.synthetic import default_intrinsics  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
@@ -67,7 +67,14 @@ def trial(setup: str, n_views: int, robot_error, rng: np.random.Generator) -> di
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             res = refine_reprojection(
-                p.T_base_ee, ids, corners, SPEC, INTR, p.X_true, Y_true, setup=setup, robot_noise=model
+                p.T_base_ee,
+                ids,
+                corners,
+                SPEC,
+                INTR,
+                p.X_true,
+                Y_true,
+                ReprojectionOptions(setup=setup, robot_noise=model),
             )
         (rx, tx), (ry, ty) = pose_error(res.X, p.X_true), pose_error(res.Y, Y_true)
         out[model] = np.array([rx, tx, ry, ty], dtype=float) / np.array([res.sigma[k] for k in KEYS])

@@ -165,7 +165,7 @@ def calibrate_from_views(
     ImageCalibration
     """
     import classic
-    from classic.vision.reprojection import refine_reprojection
+    from classic.vision.reprojection import ReprojectionOptions, refine_reprojection
 
     accepted = [k for k, v in enumerate(views.views) if v.pose.ok]
     rejected = {v.image: v.pose.reason for v in views.views if not v.pose.ok}
@@ -190,9 +190,7 @@ def calibrate_from_views(
             views.intrinsics,
             res.X,
             res.Y,
-            setup=setup,
-            refine_intrinsics=refine_intrinsics,
-            robot_noise=robot_noise,
+            ReprojectionOptions(setup=setup, refine_intrinsics=refine_intrinsics, robot_noise=robot_noise),
         )
         images = [views.views[k].image for k in keep]
     return ImageCalibration(res, rep, images, rejected)

@@ -20,7 +20,7 @@ from classic.vision.camera import CameraIntrinsics  # noqa: E402
 from classic.vision.detect import Detection, ViewPose, detect_board, estimate_pose  # noqa: E402
 from classic.vision.images import read_image  # noqa: E402
 from classic.vision.intrinsics import IntrinsicsResult, calibrate_intrinsics  # noqa: E402
-from classic.vision.reprojection import ReprojectionResult, refine_reprojection  # noqa: E402
+from classic.vision.reprojection import ReprojectionOptions, ReprojectionResult, refine_reprojection  # noqa: E402
 
 __all__ = [
     "BoardSpec",
@@ -32,6 +32,7 @@ __all__ = [
     "read_image",
     "IntrinsicsResult",
     "calibrate_intrinsics",
+    "ReprojectionOptions",
     "ReprojectionResult",
     "refine_reprojection",
 ]

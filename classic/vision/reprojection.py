@@ -45,7 +45,14 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import hat, invert_transform, make_transform, so3_exp
 from handeye.core.setups import normalize_setup, robot_side_poses
 
-__all__ = ["ReprojectionResult", "OUTLIER_VIEW_FACTOR", "project", "refine_reprojection", "robot_pose_jacobian"]
+__all__ = [
+    "ReprojectionOptions",
+    "ReprojectionResult",
+    "OUTLIER_VIEW_FACTOR",
+    "project",
+    "refine_reprojection",
+    "robot_pose_jacobian",
+]
 
 #: A view whose RMS exceeds this multiple of the median view RMS (and 1 px) is flagged as an outlier.
 OUTLIER_VIEW_FACTOR = 3.0
@@ -250,34 +257,12 @@ def _pose(T0: np.ndarray, w: np.ndarray, v: np.ndarray) -> np.ndarray:
     return make_transform(so3_exp(w) @ T0[:3, :3], T0[:3, 3] + v)
 
 
-def refine_reprojection(
-    T_base_ee: np.ndarray,
-    corner_ids: list[np.ndarray],
-    corners_px: list[np.ndarray],
-    spec: BoardSpec,
-    intrinsics: CameraIntrinsics,
-    X0: np.ndarray,
-    Y0: np.ndarray,
-    setup: str = "eye_to_hand",
-    refine_intrinsics: bool = False,
-    loss: str = "linear",
-    loss_scale_px: float = 1.0,
-    robot_noise: str = "estimate",
-) -> ReprojectionResult:
-    """Refine X and Y (and optionally the intrinsics) on corner reprojection error.
+@dataclass(frozen=True, kw_only=True)
+class ReprojectionOptions:
+    """Settings of :func:`refine_reprojection`.
 
-    Parameters
+    Attributes
     ----------
-    T_base_ee : array, shape (V, 4, 4)
-        Robot pose of each view.
-    corner_ids : list of V arrays of int
-        Corner ids detected in each view.
-    corners_px : list of V arrays, shape (M_i, 2)
-        Their pixel positions.
-    spec : BoardSpec
-    intrinsics : CameraIntrinsics
-    X0, Y0 : array, shape (4, 4)
-        Initial camera and target poses, e.g. from :func:`classic.calibrate` on the PnP poses.
     setup : {"eye_to_hand", "eye_in_hand"}
     refine_intrinsics : bool
         Also refine ``fx, fy, cx, cy`` and the first five distortion coefficients (further ones stay fixed).
@@ -293,6 +278,41 @@ def refine_reprojection(
         ``DOMINANCE_FACTOR`` times the detection's own and above ``DOMINANCE_FLOOR_PX`` (0.01 px:
         exact corners leave rounding). With the linear loss only (a robust loss keeps the
         plain model). ``none``: every corner independent, the robot exact.
+    """
+
+    setup: str = "eye_to_hand"
+    refine_intrinsics: bool = False
+    loss: str = "linear"
+    loss_scale_px: float = 1.0
+    robot_noise: str = "estimate"
+
+
+def refine_reprojection(
+    T_base_ee: np.ndarray,
+    corner_ids: list[np.ndarray],
+    corners_px: list[np.ndarray],
+    spec: BoardSpec,
+    intrinsics: CameraIntrinsics,
+    X0: np.ndarray,
+    Y0: np.ndarray,
+    options: ReprojectionOptions | None = None,
+) -> ReprojectionResult:
+    """Refine X and Y (and optionally the intrinsics) on corner reprojection error.
+
+    Parameters
+    ----------
+    T_base_ee : array, shape (V, 4, 4)
+        Robot pose of each view.
+    corner_ids : list of V arrays of int
+        Corner ids detected in each view.
+    corners_px : list of V arrays, shape (M_i, 2)
+        Their pixel positions.
+    spec : BoardSpec
+    intrinsics : CameraIntrinsics
+    X0, Y0 : array, shape (4, 4)
+        Initial camera and target poses, e.g. from :func:`classic.calibrate` on the PnP poses.
+    options : ReprojectionOptions, optional
+        Setup, intrinsics refined or not, loss, robot noise; None: :class:`ReprojectionOptions`' defaults.
 
     Returns
     -------
@@ -303,13 +323,20 @@ def refine_reprojection(
     HandEyeInputError
         Mismatched counts, or fewer than 3 views with corners.
     """
-    setup = normalize_setup(setup)
+    opts = options or ReprojectionOptions()
+    setup, loss, robot_noise = normalize_setup(opts.setup), opts.loss, opts.robot_noise
     _check_arguments(T_base_ee, corner_ids, corners_px, robot_noise)
     corners = _Corners.of(corner_ids, corners_px, spec)
     A = robot_side_poses(np.asarray(T_base_ee, dtype=float), setup)
-    prob = _Problem(A, corners, intrinsics, X0, Y0, refine_intrinsics)
+    prob = _Problem(A, corners, intrinsics, X0, Y0, opts.refine_intrinsics)
     fit = fit_least_squares(
-        prob.residuals, prob.jac, prob.n_params, loss=loss, loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12
+        prob.residuals,
+        prob.jac,
+        prob.n_params,
+        loss=loss,
+        loss_scale=opts.loss_scale_px,
+        max_evaluations=200,
+        tol=1e-12,
     )
     robot, cov = None, None
     if robot_noise == "estimate" and loss == "linear":

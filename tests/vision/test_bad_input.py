@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from classic.vision import BoardSpec, CameraIntrinsics, read_image, refine_reprojection
+from classic.vision import BoardSpec, CameraIntrinsics, ReprojectionOptions, read_image, refine_reprojection
 from classic.vision.board import BoardSpecError
 from classic.vision.camera import IntrinsicsError
 from classic.vision.images import ImageError, list_images
@@ -162,7 +162,9 @@ def test_refinement_takes_opencvs_full_distortion_models(small_problem):
     # issue 12: rational (8) coefficients are projected by OpenCV, the tail held fixed (no longer refused)
     p, ids, uv = small_problem
     eight = CameraIntrinsics(INTR.K, np.r_[INTR.dist, 0.01, 0.0, 0.0], INTR.width, INTR.height)
-    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, eight, p.X_true, p.Y_true, refine_intrinsics=True)
+    res = refine_reprojection(
+        p.T_base_ee, ids, uv, SPEC, eight, p.X_true, p.Y_true, ReprojectionOptions(refine_intrinsics=True)
+    )
     np.testing.assert_array_equal(res.intrinsics.dist[5:], eight.dist[5:])
     # eight coefficients whose tail is zero are the five-coefficient model
     zero_tail = CameraIntrinsics(INTR.K, np.r_[INTR.dist, 0.0, 0.0, 0.0], INTR.width, INTR.height)
@@ -173,4 +175,6 @@ def test_refinement_takes_opencvs_full_distortion_models(small_problem):
 def test_refinement_unknown_setup_raises(small_problem):
     p, ids, uv = small_problem
     with pytest.raises(HandEyeInputError, match="unknown setup"):
-        refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, setup="eye_on_hand")
+        refine_reprojection(
+            p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, ReprojectionOptions(setup="eye_on_hand")
+        )

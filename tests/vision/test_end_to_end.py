@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import classic
-from classic.vision import detect_board, estimate_pose, read_image, refine_reprojection
+from classic.vision import ReprojectionOptions, detect_board, estimate_pose, read_image, refine_reprojection
 from classic.vision.detect import project_points
 from handeye.core.validation import MIN_POSES
 from tests.tolerances import ESTIMATED_SIGMA_BOUND
@@ -58,7 +58,7 @@ def test_images_to_hand_eye(handeye_recordings, setup):
     use = [d.reason is None for d in dets]
     ids = [d.ids if u else np.zeros(0, int) for d, u in zip(dets, use)]
     corners = [d.corners_px if u else np.zeros((0, 2)) for d, u in zip(dets, use)]
-    res = refine_reprojection(p.T_base_ee, ids, corners, SPEC, INTR, cal.X, cal.Y, setup=setup)
+    res = refine_reprojection(p.T_base_ee, ids, corners, SPEC, INTR, cal.X, cal.Y, ReprojectionOptions(setup=setup))
     assert res.outlier_views == []
 
     s = res.sigma

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import classic
-from classic.vision import CameraIntrinsics, Detection, estimate_pose, refine_reprojection
+from classic.vision import CameraIntrinsics, Detection, ReprojectionOptions, estimate_pose, refine_reprojection
 from classic.vision.detect import project_points
 from classic.vision.reprojection import OUTLIER_VIEW_FACTOR, project
 from handeye.core.synthetic import make_problem, perturb
@@ -98,7 +98,7 @@ def test_noise_free_corners_give_the_exact_x_and_y(setup):
     X0 = perturb(p.X_true[None], rng, np.radians(2.0), 0.02)[0]
     Y0 = perturb(p.Y_true[None], rng, np.radians(2.0), 0.02)[0]
     assert np.abs(X0 - p.X_true).max() > 1e-3  # the start is really off
-    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, X0, Y0, setup=setup)
+    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, X0, Y0, ReprojectionOptions(setup=setup))
     assert np.abs(res.X - p.X_true).max() <= EXACT
     assert np.abs(res.Y - p.Y_true).max() <= EXACT
     assert res.rms_px <= EXACT_PX
@@ -115,7 +115,7 @@ def test_reprojection_beats_pose_based_calibration_on_pnp_poses(setup):
         p = _problem(setup, 100 + seed)
         ids, uv = _corners(p, PIXEL_NOISE, np.random.default_rng(1000 + seed))
         cal = _pnp_calibration(p, ids, uv, setup)
-        rep = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, cal.X, cal.Y, setup=setup)
+        rep = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, cal.X, cal.Y, ReprojectionOptions(setup=setup))
         rot_cal.append(rotation_error_rad(cal.X, p.X_true))
         trans_cal.append(translation_error_m(cal.X, p.X_true))
         rot_rep.append(rotation_error_rad(rep.X, p.X_true))
@@ -130,7 +130,9 @@ def test_predicted_sigma_matches_monte_carlo(setup):
     sq_err, sq_sig = [], []
     for trial in range(MC_TRIALS):
         ids, uv = _corners(p, PIXEL_NOISE, np.random.default_rng([5, trial]))
-        res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, setup=setup)
+        res = refine_reprojection(
+            p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, ReprojectionOptions(setup=setup)
+        )
         sq_err.append(np.square(_errors(res, p)))
         sq_sig.append(np.square(_sigmas_si(res)))
     rms_err = np.sqrt(np.mean(sq_err, axis=0))
@@ -146,7 +148,9 @@ def test_sigma_is_the_covariance_of_the_reprojection_model(setup):
     The corners-only model (``robot_noise="none"``); the robot's error is tested in test_robot_noise.py."""
     p = _problem(setup, 8)
     ids, uv = _corners(p, PIXEL_NOISE, np.random.default_rng(8))
-    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, setup=setup, robot_noise="none")
+    res = refine_reprojection(
+        p.T_base_ee, ids, uv, SPEC, INTR, p.X_true, p.Y_true, ReprojectionOptions(setup=setup, robot_noise="none")
+    )
     J = handeye_jacobian(p.T_base_ee, ids, res.X, res.Y, setup)
     n_points = sum(len(i) for i in ids)
     ours = predicted_block_sigma(J, per_axis_sigma_px(res.rms_px, n_points, 12))
@@ -167,10 +171,12 @@ def test_refine_intrinsics_recovers_k_noise_free(setup):
     X0 = perturb(p.X_true[None], rng, np.radians(1.0), 0.01)[0]
     Y0 = perturb(p.Y_true[None], rng, np.radians(1.0), 0.01)[0]
     # with the wrong K the pose-only fit cannot match the corners...
-    fixed = refine_reprojection(p.T_base_ee, ids, uv, SPEC, start, X0, Y0, setup=setup)
+    fixed = refine_reprojection(p.T_base_ee, ids, uv, SPEC, start, X0, Y0, ReprojectionOptions(setup=setup))
     assert fixed.rms_px > 100 * EXACT_PX
     # ...refining K too recovers everything
-    res = refine_reprojection(p.T_base_ee, ids, uv, SPEC, start, X0, Y0, setup=setup, refine_intrinsics=True)
+    res = refine_reprojection(
+        p.T_base_ee, ids, uv, SPEC, start, X0, Y0, ReprojectionOptions(setup=setup, refine_intrinsics=True)
+    )
     assert np.abs(res.intrinsics.K - INTR.K).max() <= EXACT_PX
     assert np.abs(res.intrinsics.dist - INTR.dist).max() <= EXACT
     assert np.abs(res.X - p.X_true).max() <= EXACT
@@ -187,7 +193,7 @@ def test_refine_intrinsics_with_noise_is_within_its_covariance():
     K1[0, 0] *= 1.01
     start = CameraIntrinsics(K1, INTR.dist, INTR.width, INTR.height)
     res = refine_reprojection(
-        p.T_base_ee, ids, uv, SPEC, start, p.X_true, p.Y_true, setup=setup, refine_intrinsics=True
+        p.T_base_ee, ids, uv, SPEC, start, p.X_true, p.Y_true, ReprojectionOptions(setup=setup, refine_intrinsics=True)
     )
     K, d = res.intrinsics.K, res.intrinsics.dist
     est = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], *d])
@@ -213,20 +219,27 @@ def _with_outlier(setup, seed, k, shift_px):
 def test_an_outlier_view_is_flagged(setup, shift):
     k = 5
     p, ids, uv, bad = _with_outlier(setup, 2, k, np.array(shift))
-    res = refine_reprojection(p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, setup=setup)
+    res = refine_reprojection(p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, ReprojectionOptions(setup=setup))
     assert k in res.outlier_views
     assert int(np.argmax(res.per_view_rms_px)) == k
     med = np.median(res.per_view_rms_px)
     assert all(res.per_view_rms_px[v] > max(OUTLIER_VIEW_FACTOR * med, 1.0) for v in res.outlier_views)
     # a robust loss flags it alone and keeps X within the noise of the other views
-    rob = refine_reprojection(p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, setup=setup, loss="cauchy")
+    rob, clean = _robust_and_without(p, ids, uv, bad, k, setup)
     assert rob.outlier_views == [k]
-    keep = [v for v in range(N_VIEWS) if v != k]
-    clean = refine_reprojection(
-        p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep], SPEC, INTR, p.X_true, p.Y_true, setup=setup
-    )
     errors, sigmas = _errors(rob, p), _sigmas_si(clean)
     assert all(e <= ESTIMATED_SIGMA_BOUND * s for e, s in zip(errors, sigmas))
+
+
+def _robust_and_without(p, ids, uv, bad, k, setup):
+    """The Cauchy fit on the corners ``bad`` (view ``k`` shifted), and the least-squares fit without view ``k``."""
+    rob = refine_reprojection(
+        p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, ReprojectionOptions(setup=setup, loss="cauchy")
+    )
+    keep = [v for v in range(N_VIEWS) if v != k]
+    kept = (p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep])
+    clean = refine_reprojection(*kept, SPEC, INTR, p.X_true, p.Y_true, ReprojectionOptions(setup=setup))
+    return rob, clean
 
 
 def test_clean_data_has_no_outlier_view():
@@ -243,12 +256,8 @@ def test_clean_data_has_no_outlier_view():
 def test_robust_sigma_is_not_inflated_by_a_rejected_outlier_view(setup):
     k = 5
     p, ids, uv, bad = _with_outlier(setup, 2, k, np.array([20.0, 20.0]))
-    rob = refine_reprojection(p.T_base_ee, ids, bad, SPEC, INTR, p.X_true, p.Y_true, setup=setup, loss="cauchy")
+    rob, clean = _robust_and_without(p, ids, uv, bad, k, setup)
     assert rob.outlier_views == [k]
-    keep = [v for v in range(N_VIEWS) if v != k]
-    clean = refine_reprojection(
-        p.T_base_ee[keep], [ids[v] for v in keep], [uv[v] for v in keep], SPEC, INTR, p.X_true, p.Y_true, setup=setup
-    )
     ratio = np.array(_sigmas_si(rob)) / np.array(_sigmas_si(clean))
     assert np.all((1 / ROBUST_SIGMA_FACTOR <= ratio) & (ratio <= ROBUST_SIGMA_FACTOR)), ratio
 

@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pytest
 
-from classic.vision.reprojection import refine_reprojection, robot_pose_jacobian
+from classic.vision.reprojection import ReprojectionOptions, refine_reprojection, robot_pose_jacobian
 from classic.vision.robot_noise import RobotPoseErrorWarning
 from handeye.core.se3 import make_transform, pos_quat_xyzw_from_transform, so3_exp
 from handeye.core.setups import robot_side_poses
@@ -40,7 +40,9 @@ SIGMA_KEYS = ("X_rotation_deg", "X_translation_mm", "Y_rotation_deg", "Y_transla
 def _refine(ids, uv, T_base_ee, X, Y, setup, robot_noise="estimate"):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        res = refine_reprojection(T_base_ee, ids, uv, SPEC, INTR, X, Y, setup=setup, robot_noise=robot_noise)
+        res = refine_reprojection(
+            T_base_ee, ids, uv, SPEC, INTR, X, Y, ReprojectionOptions(setup=setup, robot_noise=robot_noise)
+        )
     return res, [w for w in caught if issubclass(w.category, RobotPoseErrorWarning)]
 
 
@@ -133,8 +135,7 @@ def test_the_model_holds_on_the_other_paths(path):
                 intr,
                 X,
                 Y,
-                setup="eye_in_hand",
-                refine_intrinsics=path == "refine_intrinsics",
+                ReprojectionOptions(setup="eye_in_hand", refine_intrinsics=path == "refine_intrinsics"),
             )
         z.append(_errors_over_sigma(res, X, Y))
     rms = np.sqrt(np.mean(np.square(z), axis=0))

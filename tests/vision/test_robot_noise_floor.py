@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from classic.vision.reprojection import refine_reprojection
+from classic.vision.reprojection import ReprojectionOptions, refine_reprojection
 from classic.vision.robot_noise import DOMINANCE_FACTOR, DOMINANCE_FLOOR_PX, RobotPoseErrorWarning, robot_dominates
 from handeye.core.synthetic import make_problem
 from tests.vision._helpers import CENTRE, INTR, SPEC, corners_in_image
@@ -30,7 +30,7 @@ def test_exact_corners_and_robot_give_no_warning(setup):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = refine_reprojection(
-            p.T_base_ee, list(ids), list(uv), SPEC, INTR, p.X_true, p.Y_true @ CENTRE, setup=setup
+            p.T_base_ee, list(ids), list(uv), SPEC, INTR, p.X_true, p.Y_true @ CENTRE, ReprojectionOptions(setup=setup)
         )
     assert not any(issubclass(w.category, RobotPoseErrorWarning) for w in caught)
     assert not res.diagnostics["robot_dominates"] and res.warnings == []

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import classic
-from classic.vision import BoardSpec, detect_board, estimate_pose, refine_reprojection
+from classic.vision import BoardSpec, ReprojectionOptions, detect_board, estimate_pose, refine_reprojection
 from classic.vision.detect import POSE_LIMITS, project_points
 from classic.vision.synthetic import render_view
 from handeye.core.se3 import invert_transform, make_transform, so3_exp
@@ -127,7 +127,7 @@ def test_hand_eye_from_rendered_views_recovers_x(name):
     cal = classic.calibrate(p.T_base_ee[ok], np.stack([v.T_cam_target for v in poses if v.ok]), setup=setup)
     ids = [d.ids if d.reason is None else np.zeros(0, int) for d in dets]
     uv = [d.corners_px if d.reason is None else np.zeros((0, 2)) for d in dets]
-    res = refine_reprojection(p.T_base_ee, ids, uv, spec, INTR, cal.X, cal.Y, setup=setup)
+    res = refine_reprojection(p.T_base_ee, ids, uv, spec, INTR, cal.X, cal.Y, ReprojectionOptions(setup=setup))
     # the part of the corner error common to a view is invisible in sigma: measured and propagated through
     # the refinement's Jacobian, as in test_end_to_end
     sig_rot, sig_trans = np.radians(res.sigma["X_rotation_deg"]), res.sigma["X_translation_mm"] / 1000
