@@ -10,6 +10,7 @@ import pytest
 from tests.tiers import (  # noqa: F401  (the tiers' hooks: --full, the slow tests counted, one file per worker)
     pytest_addoption,
     pytest_collection_modifyitems,
+    pytest_configure,
     pytest_terminal_summary,
     pytest_testnodedown,
 )

@@ -12,17 +12,20 @@ from pathlib import Path
 
 import pytest
 
-from tests.tiers import RAY_GROUP
+from tests.tiers import ONE_THREAD, RAY_GROUP
 
 ROOT = Path(__file__).resolve().parents[1]
 
 CONFTEST = "from tests.tiers import pytest_addoption, pytest_collection_modifyitems, pytest_terminal_summary\n"
-CONFTEST += "from tests.tiers import pytest_testnodedown\n"
+CONFTEST += "from tests.tiers import pytest_configure, pytest_testnodedown\n"
 TESTS = """
+import os
+
 import pytest
 
 def test_fast():
-    pass
+    if os.environ.get("PYTEST_XDIST_WORKER"):  # one OpenMP and BLAS thread per worker
+        assert os.environ.get("OMP_NUM_THREADS") == os.environ.get("OPENBLAS_NUM_THREADS") == "1"
 
 @pytest.mark.slow
 def test_slow():
@@ -37,7 +40,7 @@ def test_slow_too(k):
 
 def _pytest(folder: Path, *args: str) -> str:
     """pytest on a folder of its own (its own ini: the repository's addopts do not apply); its output."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env = {k: v for k, v in os.environ.items() if k not in ONE_THREAD} | {"PYTHONPATH": str(ROOT)}
     run = subprocess.run(
         [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q", *args],
         cwd=folder,
