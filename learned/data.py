@@ -186,29 +186,39 @@ def load_frames(
 def _targets(ds: Dataset, cams, truth: np.ndarray, labels: str) -> np.ndarray:
     """``T_base_cam`` per camera pose, shape (C, 4, 4), from the label source; a pose without one raises."""
     if labels == "classic":
-        target = ds.labels()
-        failed = [c for c in range(len(ds)) if cams["label_status"][c] != "ok"]
-        if failed:
-            raise DatasetError(
-                f"{ds.cameras_path}: camera poses {failed} have no classic label "
-                f"({cams['label_status'][failed[0]][:80]}); relabel, or train with labels='truth'"
-            )
-    elif labels == "markerless":
-        target = ds.markerless_labels().copy()
-        first = cams["region"] == 0
-        target[first] = ds.labels()[first]
-        missing = [c for c in range(len(ds)) if not np.isfinite(target[c]).all()]
-        if missing:
-            raise DatasetError(
-                f"{ds.cameras_path}: camera poses {missing} have no label (markerless refused after "
-                f"the first region, or no classic label in it)"
-            )
-    elif labels == "none":
-        target = np.full_like(truth, np.nan)
-    else:
-        target = truth
-        if not np.isfinite(truth).all():
-            raise DatasetError(f"{ds.cameras_path}: the truth is unknown for some camera poses; use labels='classic'")
+        return _classic_targets(ds, cams)
+    if labels == "markerless":
+        return _markerless_targets(ds, cams)
+    if labels == "none":
+        return np.full_like(truth, np.nan)
+    if not np.isfinite(truth).all():
+        raise DatasetError(f"{ds.cameras_path}: the truth is unknown for some camera poses; use labels='classic'")
+    return truth
+
+
+def _classic_targets(ds: Dataset, cams) -> np.ndarray:
+    """The classic labels; refused when a camera pose's labelling failed."""
+    target = ds.labels()
+    failed = [c for c in range(len(ds)) if cams["label_status"][c] != "ok"]
+    if failed:
+        raise DatasetError(
+            f"{ds.cameras_path}: camera poses {failed} have no classic label "
+            f"({cams['label_status'][failed[0]][:80]}); relabel, or train with labels='truth'"
+        )
+    return target
+
+
+def _markerless_targets(ds: Dataset, cams) -> np.ndarray:
+    """The first region's classic labels, every later pose's markerless label; refused where one is missing."""
+    target = ds.markerless_labels().copy()
+    first = cams["region"] == 0
+    target[first] = ds.labels()[first]
+    missing = [c for c in range(len(ds)) if not np.isfinite(target[c]).all()]
+    if missing:
+        raise DatasetError(
+            f"{ds.cameras_path}: camera poses {missing} have no label (markerless refused after "
+            f"the first region, or no classic label in it)"
+        )
     return target
 
 

@@ -536,9 +536,7 @@ def _train_unit(run: _Run, unit: _Unit, resumed: dict | None, records: list, val
             )
         _record_step(run, unit, strat, rec, k)
         rec.wall_s = spent + time.perf_counter() - t0
-        if run.progress:
-            row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(run.regions, rec.matrix[-1]))
-            print(f"{unit.strategy:9s} {unit.kind:11s} repeat {unit.repeat + 1} step {k + 1}: {row}", file=sys.stderr)
+        _print_step(run, unit, rec, k)
         if not last:
             run.save_checkpoint(unit.index, k + 1, records, rec, strat)
         else:
@@ -584,6 +582,13 @@ def _record_step(run: _Run, unit: _Unit, strat, rec: RunRecord, k: int) -> None:
     rec.processed, rec.stored, rec.evaluated = strat.processed, strat.stored, strat.evaluated
     rec.trained_samples = strat.trained_samples
     rec.skipped = list(strat.skipped)
+
+
+def _print_step(run: _Run, unit: _Unit, rec: RunRecord, k: int) -> None:
+    """With ``progress``, the step's error per test subset (the first column for the keypoint model) on stderr."""
+    if run.progress:
+        row = " ".join(f"S{r + 1} {np.ravel(e)[0]:7.2f}" for r, e in zip(run.regions, rec.matrix[-1]))
+        print(f"{unit.strategy:9s} {unit.kind:11s} repeat {unit.repeat + 1} step {k + 1}: {row}", file=sys.stderr)
 
 
 def _finish_unit(run: _Run, unit: _Unit, strat, rec: RunRecord, records: list, validation: dict) -> None:
