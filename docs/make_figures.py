@@ -23,9 +23,10 @@ import numpy as np  # noqa: E402
 
 import classic  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.posefile import read_pose_file  # noqa: E402
 from handeye.report.frames3d import frames_figure  # noqa: E402
-from sim.generate import DEFAULT_NOISE, generate  # noqa: E402
+from sim.generate import DEFAULT_NOISE, Recipe, generate  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "img"
 CAMERA = 0
@@ -67,7 +68,7 @@ def main() -> None:
     OUT.mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "small"
-        generate(root, "small", seed=0, noise=DEFAULT_NOISE, workers=1, cameras=[CAMERA], progress=False)
+        generate(root, Recipe("small", seed=0, noise=DEFAULT_NOISE), [CAMERA], EngineOptions(workers=1, progress=False))
         ds = Dataset.open(root)
         print(cell_figure(ds, OUT / "cell.png"))
     print(frames_of_example(OUT / "frames.png"))

@@ -7,12 +7,13 @@ import shutil
 import numpy as np
 import pytest
 
-from tests.tiers import (  # noqa: F401  (the tiers' hooks: --full, the slow tests counted, one file per worker)
+from tests.tiers import (  # noqa: F401  (the tiers' hooks: --full, the slow tests counted, the work units)
     pytest_addoption,
     pytest_collection_modifyitems,
     pytest_configure,
     pytest_terminal_summary,
     pytest_testnodedown,
+    pytest_xdist_make_scheduler,
 )
 
 

@@ -65,7 +65,7 @@ import pytest
 from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
 from tests.test_docs import DOCS, README, ROOT, code_blocks
-from tests.tiers import RAY_GROUP
+from tests.tiers import RAY_GROUP, hold_ray_lock
 from tests.tolerances import FLOAT
 
 #: Left out of the executed text (checked instead): no network, no ROS installation here.
@@ -386,6 +386,7 @@ def _ray_head(folder, home, block, request):
     """A running Ray cluster of 2 CPUs on this machine (``ray start --head``), stopped after the block."""
     _nothing(folder, home, block, request)
     _have("ray")
+    hold_ray_lock(request)
     ray = str(Path(sys.executable).parent / "ray")
     start = [ray, "start", "--head", "--num-cpus", "2", "--object-store-memory", str(256 * 2**20)]
     start += ["--include-dashboard", "false", "--disable-usage-stats"]

@@ -18,7 +18,7 @@ ray = pytest.importorskip(
 from benchmarks.cluster_engines import differing_files, kill_when_half_written  # noqa: E402
 from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.ray_pool import RayEngine, ray_worker_ready_keys  # noqa: E402
-from tests.tiers import RAY_GROUP  # noqa: E402
+from tests.tiers import RAY_GROUP, hold_ray_lock  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group(RAY_GROUP)  # one Ray cluster on the machine at a time
 
@@ -28,8 +28,9 @@ def run_ray(fn, tasks, workers, **options):
 
 
 @pytest.fixture(scope="module")
-def local_cluster():
+def local_cluster(request):
     """One local 2-CPU Ray cluster for the module (RayEngine uses an initialised Ray as is)."""
+    hold_ray_lock(request)
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=256 * 2**20)
     yield
     ray.shutdown()

@@ -40,7 +40,9 @@ def test_slow_too(k):
 
 def _pytest(folder: Path, *args: str) -> str:
     """pytest on a folder of its own (its own ini: the repository's addopts do not apply); its output."""
-    env = {k: v for k, v in os.environ.items() if k not in ONE_THREAD} | {"PYTHONPATH": str(ROOT)}
+    # not the outer run's thread settings, nor its worker's identity (PYTEST_XDIST_WORKER ...): a run of its own
+    env = {k: v for k, v in os.environ.items() if k not in ONE_THREAD and not k.startswith("PYTEST_")}
+    env |= {"PYTHONPATH": str(ROOT)}
     run = subprocess.run(
         [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q", *args],
         cwd=folder,
@@ -101,3 +103,16 @@ def test_the_ray_tests_share_one_group():
 def test_a_slow_test_named_on_the_command_line_runs(suite):
     out = _pytest(suite, "-n", "2", "test_tiny.py::test_slow", "test_tiny.py::test_fast")
     assert re.search(r"\b2 passed\b", out) and "left out" not in out, out
+
+
+def test_the_work_units_keep_what_must_not_run_side_by_side():
+    """The probe writers share a unit, the Ray files share one, a docs block is its own, any other file is one."""
+    from tests.tiers import PER_TEST_FILES, RAY_FILES, SOURCE_TREE_FILES, work_unit
+
+    assert {work_unit(f"{f}::test_x") for f in SOURCE_TREE_FILES} == {"source-tree"}
+    assert {work_unit(f"{f}::test_x[1]") for f in RAY_FILES} == {"ray"}
+    block = f"{PER_TEST_FILES[0]}::test_blocks[docs/guides/markerless.md-0]"
+    assert work_unit(block) == block
+    assert work_unit("tests/test_cli.py::test_a") == work_unit("tests/test_cli.py::test_b") == "tests/test_cli.py"
+    for f in (*SOURCE_TREE_FILES, *RAY_FILES, *PER_TEST_FILES):
+        assert (ROOT / f).is_file(), f  # a renamed file would silently leave its unit

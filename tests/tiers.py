@@ -7,24 +7,38 @@ is CI's run (``.ci/run``): every test. Nothing is skipped silently:
 a slow test runs in CI, and the default run counts what it left out (pytest's ``deselected``, and a line of
 its own that also holds on pytest-xdist's workers, which do not report deselections).
 
-Under pytest-xdist (``-n auto --dist loadgroup --no-loadscope-reorder``, in ``pyproject.toml``'s ``addopts``)
-a test file is one unit of work on one worker, so that its module fixtures are built once and the files that
-write probes into the tree (``test_layers``) see their own; tests that name an ``xdist_group`` go by that group
-instead: the tests that start or join a Ray cluster share :data:`RAY_GROUP`, since a second cluster on the
-machine would be joined (``ray.init()`` finds a running one) instead of started. A slow test is a unit of its
-own (minutes: the units balance between the workers), and the slow tests come first, as the workers take the
-units in order.
+Under pytest-xdist (``-n auto --dist loadscope --no-loadscope-reorder``, in ``pyproject.toml``'s
+``addopts``) the work units are this module's scopes (:func:`pytest_xdist_make_scheduler`): a test file is one
+unit on one worker, so that its module fixtures are built once; the files that write probe modules into the
+tree and read every package file (:data:`SOURCE_TREE_FILES`) are one unit, so that one's probe is never half
+seen by the other's walk; the files that start a Ray cluster (:data:`RAY_FILES`) are one unit, and every Ray
+user holds :func:`hold_ray_lock`, since a second cluster on the machine would be joined (``ray.init()`` finds a
+running one) instead of started; each test of the documentation's shell blocks (:data:`PER_TEST_FILES`,
+minutes each in the slow tier) is a unit of its own, and the slow tests come first, as the workers take the
+units in order. (pytest-xdist's own ``loadgroup`` names its units by rewriting node ids, which pytest 9 no
+longer honours: every test became a unit of its own.)
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
 
-#: The ``xdist_group`` of every test that starts or joins a Ray cluster: one at a time on the machine.
+#: The marker (``xdist_group``) of every test that starts or joins a Ray cluster: one at a time on the machine.
 RAY_GROUP = "ray"
+#: Files that write probe modules into the tree and read every package file: on two workers one's probe,
+#: listed by the other's walk and removed before it was read, failed the other's test. One unit.
+SOURCE_TREE_FILES = ("tests/test_layers.py", "tests/test_private_imports.py")
+#: Files that start a local Ray cluster: one unit.
+RAY_FILES = ("tests/test_ray_engine.py", "tests/test_processes.py")
+#: Files whose every test is a unit of its own (the documentation's blocks: minutes each, independent).
+PER_TEST_FILES = ("tests/test_docs_shell.py",)
+#: The lock every Ray user holds (:func:`hold_ray_lock`), in the machine's temporary folder.
+RAY_LOCK = Path(tempfile.gettempdir()) / "handeye-tests-ray.lock"
 _LEFT_OUT = "slow_tests_left_out"
 _LEFT_OUT_KEY = pytest.StashKey[int]()
 
@@ -53,10 +67,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist names the work units after the groups
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Leave out the slow tier unless ``--full``; give each test without an ``xdist_group`` its file's, except
-    a slow test, a unit of its own; the slow tests first (the longest units started first finish first)."""
+    """Leave out the slow tier unless ``--full``; the slow tests first (the longest units started first
+    finish first)."""
     if not config.getoption("--full"):
         named = _named(config)
         slow = [item for item in items if item.get_closest_marker("slow") and not item.nodeid.startswith(named)]
@@ -65,10 +79,42 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             items[:] = [item for item in items if id(item) not in left_out]
             config.hook.pytest_deselected(items=slow)
         _record_left_out(config, len(slow))
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None and item.get_closest_marker("slow") is None:
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)  # stable: the file order kept
+
+
+def work_unit(nodeid: str) -> str:
+    """The unit of work a test belongs to under pytest-xdist (see the module's docstring)."""
+    path = nodeid.split("::", 1)[0]
+    if path in SOURCE_TREE_FILES:
+        return "source-tree"
+    if path in RAY_FILES:
+        return "ray"
+    return nodeid if path in PER_TEST_FILES else path
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """pytest-xdist's scope scheduler with :func:`work_unit` as the scope (``--dist loadscope``)."""
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class _Units(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return work_unit(nodeid)
+
+    return _Units(config, log)
+
+
+def hold_ray_lock(request: pytest.FixtureRequest) -> None:
+    """Wait for, then hold until ``request``'s end, the machine-wide lock of the tests that run a Ray cluster."""
+    handle = open(RAY_LOCK, "a")  # noqa: SIM115 (closed by the finalizer)
+    fcntl.flock(handle, fcntl.LOCK_EX)
+
+    def release():
+        fcntl.flock(handle, fcntl.LOCK_UN)
+        handle.close()
+
+    request.addfinalizer(release)
 
 
 def _named(config: pytest.Config) -> tuple[str, ...]:

@@ -34,6 +34,12 @@ FLOAT = 1e-12
 #: goes through the same near-singular quantities.
 NEAR_PI_ANGLE = 1e-9
 
+#: The same views fitted twice by an iterative solver with parallel reductions (``cv2.calibrateCamera``): the
+#: sums are taken in a different order, each rounding at float64's 2.2e-16 relative, over some 1e4 operations
+#: on entries of about 500 px, so about 1e-9 px apart at most (1.2e-11 px measured, on an entry that is 0);
+#: an absolute bound of 1e-8 px, ten times that, still fails on a fit of different views (tenths of a pixel).
+REFIT_SAME_VIEWS_PX = 1e-8
+
 #: The same formula reached by two code paths (a scalar path and the batched one, a product written out
 #: and the same product as a multiple of a stored length): entries of order 1 or below that differ only
 #: in the order of a few float64 operations, a few ulps (eps = 2.2e-16) apart; 1e-15 is 4.5 eps. Any

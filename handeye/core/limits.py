@@ -67,9 +67,25 @@ def shorten(value, limit: int = 40) -> str:
     return repr(text[:limit]) + f"... ({len(text):,} characters)"
 
 
+#: In a message over its limit, a word (a path, a topic) longer than this is cut in its middle first, keeping
+#: its start and its end (the file's name), so that a long temporary folder does not cut the diagnosis.
+LONG_WORD_CHARS = 48
+
+
+def _cut_word(word: str) -> str:
+    if len(word) <= LONG_WORD_CHARS:
+        return word
+    head = LONG_WORD_CHARS // 3
+    return word[:head] + "..." + word[-(LONG_WORD_CHARS - head - 3) :]
+
+
 def one_line(message: str, limit: int = MAX_MESSAGE_CHARS) -> str:
-    """A message as one line of at most ``limit`` characters (whitespace runs joined, the middle cut)."""
+    """A message as one line of at most ``limit`` characters: whitespace runs joined; over the limit, words
+    longer than :data:`LONG_WORD_CHARS` (paths) cut in their middle first, then the message's middle."""
     text = " ".join(str(message).split())
+    if len(text) <= limit:
+        return text
+    text = " ".join(_cut_word(word) for word in text.split(" "))
     if len(text) <= limit:
         return text
     keep = limit - 5
