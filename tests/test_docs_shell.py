@@ -84,6 +84,8 @@ class Block:
     kind: str
     why: str = ""
     prepare: Callable | None = None
+    #: A block of kind a that takes long enough at full size to leave to CI's run (``--full``).
+    slow: bool = False
 
 
 # --------------------------------------------------------------------------- stand-ins, built once a session
@@ -450,7 +452,11 @@ BLOCKS: dict[tuple[str, int], Block] = {
         _paper_sim,
     ),
     ("docs/guides/markerless.md", 0): Block(
-        "handeye markerless data/paper-sim --camera 14 15", "a", "", _markerless_guide_0
+        "handeye markerless data/paper-sim --camera 14 15",
+        "a",
+        "",
+        _markerless_guide_0,
+        slow=True,  # 63 s
     ),
     ("docs/guides/markerless.md", 1): Block(
         "handeye sim generate --preset paper-real",
@@ -459,7 +465,13 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "24 placements",
         _nothing,
     ),
-    ("docs/guides/markerless.md", 2): Block("handeye import bag data_0/ data_1/", "a", "", _markerless_guide_2),
+    ("docs/guides/markerless.md", 2): Block(
+        "handeye import bag data_0/ data_1/",
+        "a",
+        "",
+        _markerless_guide_2,
+        slow=True,  # 21 s
+    ),
     ("docs/guides/markerless.md", 3): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
     ("docs/guides/markerless.md", 4): Block("handeye sim generate --preset small", "a", "", _nothing),
     ("docs/guides/markerless.md", 5): Block(
@@ -601,8 +613,8 @@ def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -
 
 
 def _marks(b: Block, block: str) -> list:
-    """A smoke run (b) is the slow tier's; a block on Ray shares the Ray tests' worker (tests/tiers.py)."""
-    marks = [pytest.mark.slow] if b.kind == "b" else []
+    """A smoke run (b), or a block marked slow, is the slow tier's; a block on Ray is marked for the Ray lock."""
+    marks = [pytest.mark.slow] if b.kind == "b" or b.slow else []
     return marks + ([pytest.mark.xdist_group(RAY_GROUP)] if "--engine ray" in block else [])
 
 
