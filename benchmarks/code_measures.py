@@ -16,8 +16,9 @@ A commit is read with ``git archive`` into a temporary folder, never checked out
   ``self`` and ``cls`` do not;
 - *complexity over 10*: radon's cyclomatic complexity (McCabe) of each function and method, as
   ``radon cc`` reports it;
-- *private imports across modules*: ``from a.b import _name`` where ``a.b`` is another project module
-  (a package's ``__init__`` lending its own modules' names aside);
+- *private imports across modules*: uses of another project module's private names or private modules,
+  lazy imports and ``module._name`` included (:func:`private_imports`, the definition that
+  ``tests/test_private_imports.py`` holds the tree to);
 - *literal tolerances in tests*: ``atol=``, ``rtol=``, ``abs=``, ``rel=`` given a number written in the test
   (not a name from ``tests/tolerances.py``), outside ``tests/tolerances.py``.
 
@@ -42,6 +43,8 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from benchmarks._report import Report  # noqa: E402
 
 PACKAGES = ("handeye", "classic", "sim", "learned")
+#: The roots whose modules' private names are private to them (:func:`private_imports`).
+PROJECT = (*PACKAGES, "benchmarks")
 TOLERANCE_KEYWORDS = ("atol", "rtol", "abs", "rel")
 LONG_LINES = 100
 MANY_PARAMETERS = 8
@@ -69,16 +72,100 @@ def parameter_count(fn: ast.FunctionDef) -> int:
     return len([n for n in names if n not in ("self", "cls")])
 
 
-def private_imports(module: str, tree: ast.AST, modules: set) -> list[str]:
-    """``from other import _name`` of another project module (absolute imports; a package lending its own aside)."""
-    out = []
+def _private(name: str) -> bool:
+    """A name with one leading underscore (dunders such as ``__version__`` are public)."""
+    return name.startswith("_") and not name.startswith("__")
+
+
+def _through_private_module(target: str, own: str) -> bool:
+    """Whether ``target`` passes through a private module (``P._mod``) whose package ``P`` does not hold ``own``."""
+    parts = target.split(".")
+    for i, part in enumerate(parts):
+        package = ".".join(parts[:i])
+        if i and _private(part) and not (own == package or own.startswith(package + ".")):
+            return True
+    return False
+
+
+def _dotted(node: ast.expr) -> str | None:
+    """``a.b.c`` of an attribute chain on a name, else None."""
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        base = _dotted(node.value)
+        return None if base is None else f"{base}.{node.attr}"
+    return None
+
+
+def private_imports(root: Path, path: Path, modules: set) -> list[tuple[int, str]]:
+    """``(line, dotted name)`` of every private name of another project module that ``path`` uses.
+
+    The one definition of a private import (``tests/test_private_imports.py`` holds the tree to it):
+
+    - ``from M import _name`` where ``M`` is another project module (relative imports resolved);
+    - ``M._name`` where ``M`` is bound in the file to another project module (``import M``, ``import M as m``,
+      ``from pkg import M``; dotted chains such as ``classic.shah._shah`` too);
+    - ``from P._mod import name`` / ``import P._mod`` from outside the package ``P``.
+
+    Allowed: a module's own names, a package's ``__init__`` importing its own modules' private names (a
+    re-export), a private module imported inside its own package. Lazy imports inside functions count.
+
+    Parameters
+    ----------
+    root : Path
+        The repository's root (module names are dotted paths below it).
+    path : Path
+        A project file under ``root``.
+    modules : set of str
+        The project's dotted module names.
+
+    Returns
+    -------
+    list of (int, str)
+    """
+    own = _module(root, path)
+    package = own.split(".") if path.name == "__init__.py" else own.split(".")[:-1]
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    found, aliases = [], {}  # local name -> the project module it is bound to
+
+    def check(line: int, target: str, name: str | None) -> None:
+        if target == own:
+            return
+        full = f"{target}.{name}" if name else target
+        if full in modules:  # a module: private to its package only
+            bad = _through_private_module(full, own)
+        else:
+            reexport = path.name == "__init__.py" and target.startswith(own + ".")
+            bad = _through_private_module(target, own) or (name is not None and _private(name) and not reexport)
+        if bad:
+            found.append((line, full))
+
     for node in ast.walk(tree):
-        if not isinstance(node, ast.ImportFrom) or node.level or not node.module or node.module == module:
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] in PROJECT:
+                    check(node.lineno, a.name, None)
+                    # `import a.b` binds `a` (the chain resolves below), `import a.b as m` binds `m`
+                    aliases[a.asname or a.name.split(".")[0]] = a.name if a.asname else a.name.split(".")[0]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            mod = ".".join(base + ([node.module] if node.module else []))
+            if mod.split(".")[0] not in PROJECT:
+                continue
+            for a in node.names:
+                check(node.lineno, mod, a.name)
+                if f"{mod}.{a.name}" in modules:
+                    aliases[a.asname or a.name] = f"{mod}.{a.name}"
+    for node in ast.walk(tree):  # a second pass: a lazy import may come after a use in the walk's order
+        if not (isinstance(node, ast.Attribute) and _private(node.attr)):
             continue
-        if node.module not in modules or module.startswith(node.module + "."):
+        head, _, rest = (_dotted(node.value) or "").partition(".")
+        if head not in aliases:
             continue
-        out += [f"{module} imports {node.module}.{a.name}" for a in node.names if a.name.startswith("_")]
-    return out
+        target = aliases[head] + (f".{rest}" if rest else "")
+        if target in modules and target != own:
+            found.append((node.lineno, f"{target}.{node.attr}"))
+    return found
 
 
 def literal_tolerances(tree: ast.AST) -> int:
@@ -122,7 +209,7 @@ def measure(root: Path) -> dict:
             long += length > LONG_LINES
             many += parameter_count(fn) >= MANY_PARAMETERS
             longest.append((length, f"{module}.{fn.name}"))
-        private += private_imports(module, tree, modules)
+        private += [f"{module} imports {name}" for _, name in private_imports(root, path, modules)]
         cc = complexities(source)
         if cc is None:
             radon_missing = True

@@ -21,104 +21,18 @@ Not counted: names of modules outside the project (``os._exit``), and private at
 
 from __future__ import annotations
 
-import ast
 from pathlib import Path
 
+from benchmarks.code_measures import PROJECT, private_imports
 from tests.test_layers import REPO, module_name
-
-PACKAGES = ("handeye", "classic", "sim", "learned", "benchmarks")
-
-
-def _private(name: str) -> bool:
-    return name.startswith("_") and not name.startswith("__")
 
 
 def _package_files() -> list[Path]:
-    return sorted(p for pkg in PACKAGES for p in (REPO / pkg).rglob("*.py"))
+    return sorted(p for pkg in PROJECT for p in (REPO / pkg).rglob("*.py"))
 
 
 def _modules() -> set[str]:
     return {module_name(p) for p in _package_files()}
-
-
-def _outside_private_module(target: str, own: str) -> bool:
-    """Whether ``target`` passes through a private module (``P._mod``) whose package ``P`` does not hold ``own``."""
-    parts = target.split(".")
-    for i, part in enumerate(parts):
-        package = ".".join(parts[:i])
-        if i and _private(part) and not (own == package or own.startswith(package + ".")):
-            return True
-    return False
-
-
-def _dotted(node: ast.expr) -> str | None:
-    """``a.b.c`` of an attribute chain on a name, else None."""
-    if isinstance(node, ast.Name):
-        return node.id
-    if isinstance(node, ast.Attribute):
-        base = _dotted(node.value)
-        return None if base is None else f"{base}.{node.attr}"
-    return None
-
-
-def private_imports(path: Path, modules: set[str]) -> list[tuple[int, str]]:
-    """``(line, dotted name)`` of every private name of another project module that ``path`` uses.
-
-    Parameters
-    ----------
-    path : Path
-        A project file.
-    modules : set of str
-        The project's dotted module names (:func:`_modules`).
-
-    Returns
-    -------
-    list of (int, str)
-    """
-    own = module_name(path)
-    package = own.split(".") if path.name == "__init__.py" else own.split(".")[:-1]
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    found, aliases = [], {}  # local name -> the project module it is bound to
-
-    def check(line: int, target: str, name: str | None) -> None:
-        if target == own:
-            return
-        full = f"{target}.{name}" if name else target
-        if full in modules:  # a module: private to its package only
-            bad = _outside_private_module(full, own)
-        else:
-            reexport = path.name == "__init__.py" and target.startswith(own + ".")
-            bad = _outside_private_module(target, own) or (name is not None and _private(name) and not reexport)
-        if bad:
-            found.append((line, full))
-
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            for a in node.names:
-                if a.name.split(".")[0] in PACKAGES:
-                    check(node.lineno, a.name, None)
-                    # `import a.b` binds `a` (the chain resolves below), `import a.b as m` binds `m`
-                    aliases[a.asname or a.name.split(".")[0]] = a.name if a.asname else a.name.split(".")[0]
-        elif isinstance(node, ast.ImportFrom):
-            base = package[: len(package) - node.level + 1] if node.level else []
-            mod = ".".join(base + ([node.module] if node.module else []))
-            if mod.split(".")[0] not in PACKAGES:
-                continue
-            for a in node.names:
-                check(node.lineno, mod, a.name)
-                if f"{mod}.{a.name}" in modules:
-                    aliases[a.asname or a.name] = f"{mod}.{a.name}"
-    for node in ast.walk(tree):  # a second pass: a lazy import may come after a use in the walk's order
-        if not (isinstance(node, ast.Attribute) and _private(node.attr)):
-            continue
-        chain = _dotted(node.value)
-        head, _, rest = (chain or "").partition(".")
-        if head not in aliases:
-            continue
-        target = aliases[head] + (f".{rest}" if rest else "")
-        if target in modules and target != own:
-            found.append((node.lineno, f"{target}.{node.attr}"))
-    return found
 
 
 def violations() -> list[tuple[str, int, str]]:
@@ -127,7 +41,7 @@ def violations() -> list[tuple[str, int, str]]:
     out = []
     for path in _package_files():
         rel = str(path.relative_to(REPO))
-        out += [(rel, line, name) for line, name in private_imports(path, modules)]
+        out += [(rel, line, name) for line, name in private_imports(REPO, path, modules)]
     return out
 
 
@@ -136,10 +50,13 @@ def test_no_module_uses_another_modules_private_names():
     assert bad == [], "\n".join(bad)
 
 
-def test_the_check_catches_every_form():
-    """Probe files inside the tree: each forbidden form is flagged with its line, the allowed ones are not."""
-    probe = REPO / "handeye" / "_private_probe_tmp.py"
-    init_dir = REPO / "classic" / "_private_probe_pkg"
+def test_the_check_catches_every_form(tmp_path):
+    """Probe files in a tree beside the repository's (its modules known): each forbidden form is flagged with its
+    line, the allowed ones are not."""
+    probe = tmp_path / "handeye" / "_private_probe_tmp.py"
+    init_dir = tmp_path / "classic" / "_private_probe_pkg"
+    init_dir.mkdir(parents=True)
+    probe.parent.mkdir()
     probe.write_text(
         "import classic.shah\n"
         "import handeye.ros_bag as rb\n"
@@ -154,19 +71,13 @@ def test_the_check_catches_every_form():
         "def _own():\n"
         "    return f.__name__\n"
     )
-    init_dir.mkdir()
     (init_dir / "__init__.py").write_text("from ._inner import _helper\nfrom classic.shah import _not_inside\n")
     (init_dir / "_inner.py").write_text("from classic._linear import check_motions\n\ndef _helper():\n    pass\n")
-    try:
-        modules = _modules()
-        found = private_imports(probe, modules)
-        in_init = private_imports(init_dir / "__init__.py", modules)
-        inner = private_imports(init_dir / "_inner.py", modules)
-    finally:
-        probe.unlink()
-        for p in sorted(init_dir.iterdir()):
-            p.unlink()
-        init_dir.rmdir()
+    pkg = "classic._private_probe_pkg"
+    modules = _modules() | {"handeye._private_probe_tmp", pkg, f"{pkg}._inner"}
+    found = private_imports(tmp_path, probe, modules)
+    in_init = private_imports(tmp_path, init_dir / "__init__.py", modules)
+    inner = private_imports(tmp_path, init_dir / "_inner.py", modules)
     assert sorted(found) == [
         (5, "classic._linear.check_motions"),
         (8, "classic.li._li_secret"),
