@@ -1,5 +1,5 @@
 """The suite's tiers (:mod:`tests.tiers`): the default run leaves out the slow tests and says how many, ``--full``
-(CI's run) runs them; the tests that start Ray share one worker."""
+(CI's run) runs them; the tests that start Ray hold one lock."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.tiers import ONE_THREAD, RAY_GROUP
+from tests.tiers import ONE_THREAD
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -88,16 +88,17 @@ def test_slow_is_a_registered_marker(pytestconfig):
     assert any(line.startswith("slow:") for line in pytestconfig.getini("markers"))
 
 
-def test_the_ray_tests_share_one_group():
-    """Every test file that starts or joins a Ray cluster names :data:`RAY_GROUP` (a second cluster started
-    beside a running one would join it, and ``ray stop --force`` stops every cluster on the machine)."""
+def test_the_ray_tests_hold_the_ray_lock():
+    """Every test file that starts or joins a Ray cluster calls :func:`~tests.tiers.hold_ray_lock` (a second
+    cluster started beside a running one would join it, and ``ray stop --force`` stops every cluster on the
+    machine). The lock is the guard: the ``xdist_group`` marker does nothing under ``--dist loadscope``."""
     starts_ray = re.compile(r'ray\.init\(|RayEngine\(|engine="ray"|"start", "--head"')
-    unmarked = [
+    unlocked = [
         p.relative_to(ROOT).as_posix()
         for p in sorted((ROOT / "tests").rglob("test_*.py"))
-        if p.name != Path(__file__).name and starts_ray.search(p.read_text()) and "RAY_GROUP" not in p.read_text()
+        if p.name != Path(__file__).name and starts_ray.search(p.read_text()) and "hold_ray_lock(" not in p.read_text()
     ]
-    assert unmarked == [], f"tests that start Ray outside the group {RAY_GROUP!r}"
+    assert unlocked == [], "tests that start Ray without tests.tiers.hold_ray_lock"
 
 
 def test_a_slow_test_named_on_the_command_line_runs(suite):

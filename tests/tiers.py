@@ -28,7 +28,8 @@ from pathlib import Path
 
 import pytest
 
-#: The marker (``xdist_group``) of every test that starts or joins a Ray cluster: one at a time on the machine.
+#: The ``xdist_group`` some Ray tests are marked with. Under this suite's ``--dist loadscope`` the marker does
+#: nothing: :data:`RAY_FILES` and :func:`hold_ray_lock` keep one Ray cluster on the machine at a time.
 RAY_GROUP = "ray"
 #: Files that write probe modules into the tree and read every package file: on two workers one's probe,
 #: listed by the other's walk and removed before it was read, failed the other's test. One unit.
