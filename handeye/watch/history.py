@@ -11,7 +11,8 @@ complete line that does not parse is corruption, not a torn write, and raises. N
 
 The current calibration is a JSON file replaced atomically (:func:`handeye.core.safe_write.write_text_atomic`)
 after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two).
-One writer per history: two processes appending at once are not guarded against.
+One writer per history: two processes appending at once are not guarded against. A history path that is not
+a regular file (a device, a FIFO, a link to one) is refused, never read from or appended to.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.errors import HandEyeInputError
-from handeye.core.safe_write import write_text_atomic
+from handeye.core.safe_write import check_output_path, write_text_atomic
 from handeye.core.validation import check_transforms
 
 __all__ = ["Version", "History", "TornLineWarning"]
@@ -100,6 +101,8 @@ class History:
 
     def _complete_lines(self) -> tuple[list[bytes], int]:
         """The complete lines and the byte length they span (a torn tail after it is left out, with a warning)."""
+        if self.path.exists() and not self.path.is_file():  # a FIFO would block the read, a device feed it
+            raise HandEyeInputError(f"{self.path}: not a regular file, so not a history; name a file")
         try:
             data = self.path.read_bytes()
         except FileNotFoundError:
@@ -180,8 +183,9 @@ class History:
         )
         data = (json.dumps(v.to_dict(), separators=(",", ":")) + "\n").encode()
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        new = not self.path.exists()
-        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+        target = check_output_path(self.path)  # no device, FIFO or dangling link appended to
+        new = not target.exists()
+        fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
         try:
             if os.fstat(fd).st_size > end:  # a torn, never-committed tail: cut it before appending
                 os.ftruncate(fd, end)
@@ -192,7 +196,7 @@ class History:
         finally:
             os.close(fd)
         if new:
-            _fsync_dir(self.path.parent)
+            _fsync_dir(target.parent)
         self._publish(v)
         return v
 

@@ -118,3 +118,17 @@ def test_a_corrupt_complete_line_is_an_error_not_a_torn_write(tmp_path):
     path.write_bytes(lines[0][:20] + b"\n" + lines[1])
     with pytest.raises(HandEyeInputError, match="line 1: not JSON"):
         History(path).versions()
+
+
+@pytest.mark.parametrize("kind", ["device link", "fifo"])
+def test_a_history_that_is_not_a_regular_file_is_refused(tmp_path, kind):
+    """A link to /dev/null would swallow every committed version; a FIFO would block the read for ever."""
+    path = tmp_path / "h.jsonl"
+    if kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path.symlink_to(os.devnull)
+    with pytest.raises(HandEyeInputError, match="not a regular file"):
+        History(path).append(pose_of(1), "test")
+    with pytest.raises(HandEyeInputError, match="not a regular file"):
+        History(path).latest()
