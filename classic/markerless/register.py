@@ -842,12 +842,14 @@ class _Problem:
         return close if self.fitted_part is None else close & self.fitted_part[idx]
 
     def _fit(self, T, idx, f, q_obs, close, covariance=True):
+        """The fit of the ``close`` matches, adopted (:meth:`adopt`); returns it, the median expected residual and
+        the matches ``(model points, frames, observed points)``."""
         sel = np.flatnonzero(close)
-        self.last_matches = (idx[sel], f[sel], q_obs[sel])
+        matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
-        fit, expected = self._solve(T, self.last_matches, iterations, covariance)
+        fit, expected = self._solve(T, matches, iterations, covariance)
         self.adopt(fit)
-        return fit, expected
+        return fit, expected, matches
 
     def restart(self):
         """No depth correction, the intrinsics given and no joint offsets: the state a start begins from."""
@@ -898,7 +900,7 @@ class _Problem:
             fitted = self._fitted(idx, close)
             if fitted.sum() < 50:
                 return _Outcome(name, T, None, np.inf, 0.0)
-            fit, expected = self._fit(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
+            fit, expected, _ = self._fit(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
             T, step = fit.T_base_cam, fit.step_norm
             inl = fit.weights > 0.5
             scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
@@ -909,7 +911,7 @@ class _Problem:
         fitted = self._fitted(idx, close)
         if fitted.sum() < 50:
             return _Outcome(name, T, None, np.inf, 0.0)
-        fit, _ = self._fit(T, idx, f, q_obs, fitted)
+        fit, _, matches = self._fit(T, idx, f, q_obs, fitted)
         q = self.corrected(q_obs)
         step = max(step, fit.step_norm)
         matched_q = q[fitted]  # what calibrated the depth
@@ -922,7 +924,7 @@ class _Problem:
             np.abs(q[:, 2] - (self.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
         )
         matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
-        return _Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, self.last_matches)
+        return _Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, matches)
 
 
 def register_robot(
