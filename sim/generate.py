@@ -44,7 +44,7 @@ from handeye.core.shard_writer import ShardWriter
 from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
-from sim.sensors import apply_sensor, draw_systematic
+from sim.sensors import REGISTRATION_COLUMNS, apply_sensor, draw_systematic, truth_columns
 
 __all__ = [
     "NoiseModel",
@@ -55,6 +55,7 @@ __all__ = [
     "ShardRenderer",
     "generate",
     "dataset_meta",
+    "write_camera_table",
 ]
 
 #: Depth PNG unit: 0.1 mm, so 16 bits cover 6.5 m.
@@ -216,16 +217,14 @@ def _camera_table(cams, sensor: DepthSensor | None = None, seed: int = 0) -> dic
     }
     table.update(poses_to_columns("T_base_cam_true", cams.T_base_cam))
     if sensor is not None:
-        truths = [draw_systematic(sensor, seed, c) for c in range(len(cams))]
-        table["depth_scale_true"] = np.array([t.scale for t in truths])
-        table["depth_offset_mm_true"] = np.array([t.offset_m * 1e3 for t in truths])
-        for k, axis in enumerate("xyz"):
-            table[f"depth_extrinsic_mm_true.{axis}"] = np.array([t.t_colour_depth_m[k] * 1e3 for t in truths])
-        if sensor.registration_shift_sigma_px > 0 or sensor.registration_roll_sigma_deg > 0:  # misregistered
-            table["depth_registration_px_true.u"] = np.array([t.registration_px[0] for t in truths])
-            table["depth_registration_px_true.v"] = np.array([t.registration_px[1] for t in truths])
-            table["depth_registration_roll_deg_true"] = np.array([t.registration_roll_deg for t in truths])
+        table.update(truth_columns(sensor, [draw_systematic(sensor, seed, c) for c in range(len(cams))]))
     return table
+
+
+def write_camera_table(path: Path, table: dict) -> None:
+    """``cameras.csv`` of a simulated dataset: :func:`handeye.core.dataset.camera_table_columns`, then the
+    depth unit's drawn registration (:data:`sim.sensors.REGISTRATION_COLUMNS`) where the profile has one."""
+    write_table(path, table, camera_table_columns(table) + [c for c in REGISTRATION_COLUMNS if c in table])
 
 
 # ------------------------------------------------------------------ worker
@@ -580,11 +579,8 @@ def _io_failure(out: Path, exc: OSError) -> DatasetError:
 def _write_camera_table(out: Path, preset: CameraPreset, seed: int, sensor: DepthSensor | None) -> None:
     """``cameras.csv`` of the placements and their truths, unless a resumed generation wrote it already."""
     if not (out / "cameras.csv").exists():
-        write_table(
-            out / "cameras.csv",
-            table := _camera_table(place_cameras(preset, np.random.default_rng(seed)), sensor, seed),
-            camera_table_columns(table),
-        )
+        cams = place_cameras(preset, np.random.default_rng(seed))
+        write_camera_table(out / "cameras.csv", _camera_table(cams, sensor, seed))
 
 
 def _render(

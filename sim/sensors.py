@@ -27,6 +27,7 @@ sensors.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,7 +38,9 @@ from handeye.robot.depth_sensors import DepthSensor
 
 __all__ = [
     "SensorTruth",
+    "REGISTRATION_COLUMNS",
     "draw_systematic",
+    "truth_columns",
     "apply_sensor",
     "fixed_pattern",
 ]
@@ -98,6 +101,46 @@ def draw_systematic(sensor: DepthSensor, seed: int, camera_id: int) -> SensorTru
         registration_roll_deg=float(sensor.registration_roll_sigma_deg * z_reg[2]),
         fixed_pattern_seed=fixed_seed if sensor.fixed_pattern_sigma_m_at_1m > 0 else None,
     )
+
+
+#: ``cameras.csv``'s columns of a misregistered unit's drawn registration (:func:`truth_columns`), after the
+#: scale, offset and extrinsic (:data:`handeye.core.dataset.SENSOR_COLUMNS`).
+REGISTRATION_COLUMNS = (
+    "depth_registration_px_true.u",
+    "depth_registration_px_true.v",
+    "depth_registration_roll_deg_true",
+)
+
+
+def truth_columns(sensor: DepthSensor, truths: Sequence[SensorTruth]) -> dict:
+    """``cameras.csv``'s truth columns of the units' drawn errors, one row per truth.
+
+    Parameters
+    ----------
+    sensor : DepthSensor
+        The profile the truths were drawn from.
+    truths : sequence of SensorTruth
+        One per camera row.
+
+    Returns
+    -------
+    dict
+        Column name to array: ``depth_scale_true``, ``depth_offset_mm_true``, ``depth_extrinsic_mm_true.x/y/z``
+        (millimetres) and, for a profile that misregisters its depth image, :data:`REGISTRATION_COLUMNS`
+        (pixels and degrees).
+    """
+    table = {
+        "depth_scale_true": np.array([t.scale for t in truths]),
+        "depth_offset_mm_true": np.array([t.offset_m * 1e3 for t in truths]),
+    }
+    for k, axis in enumerate("xyz"):
+        table[f"depth_extrinsic_mm_true.{axis}"] = np.array([t.t_colour_depth_m[k] * 1e3 for t in truths])
+    if sensor.registration_shift_sigma_px > 0 or sensor.registration_roll_sigma_deg > 0:
+        u, v, roll = REGISTRATION_COLUMNS
+        table[u] = np.array([t.registration_px[0] for t in truths])
+        table[v] = np.array([t.registration_px[1] for t in truths])
+        table[roll] = np.array([t.registration_roll_deg for t in truths])
+    return table
 
 
 def _correlated_field(shape, length_px: float, rng: np.random.Generator) -> np.ndarray:

@@ -35,13 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.core.dataset import camera_table_columns, dataset_lock, poses_to_columns, write_json_atomic, write_table
+from handeye.core.dataset import dataset_lock, poses_to_columns, write_json_atomic
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 from sim.cameras import CameraPreset
-from sim.generate import DEPTH_SCALE_M, NoiseModel, dataset_meta
+from sim.generate import DEPTH_SCALE_M, NoiseModel, dataset_meta, write_camera_table
 from sim.recording import camera_matrix
-from sim.sensors import draw_systematic
+from sim.sensors import draw_systematic, truth_columns
 from sim.stream_events import STREAM_PRESETS, StreamPreset, get_stream_preset
 from sim.stream_timeline import Timeline, build_timeline
 
@@ -116,21 +116,6 @@ def stream_meta(preset: StreamPreset, seed: int, sensor: DepthSensor, segments: 
     return meta
 
 
-def _sensor_columns(sensor: DepthSensor, truth, n: int) -> dict:
-    """The unit's systematic errors (one camera: the same in every segment's row)."""
-    table = {
-        "depth_scale_true": np.full(n, truth.scale),
-        "depth_offset_mm_true": np.full(n, truth.offset_m * 1e3),
-    }
-    for k, axis in enumerate("xyz"):
-        table[f"depth_extrinsic_mm_true.{axis}"] = np.full(n, truth.t_colour_depth_m[k] * 1e3)
-    if sensor.registration_shift_sigma_px > 0 or sensor.registration_roll_sigma_deg > 0:
-        for k, axis in enumerate("uv"):
-            table[f"depth_registration_px_true.{axis}"] = np.full(n, truth.registration_px[k])
-        table["depth_registration_roll_deg_true"] = np.full(n, truth.registration_roll_deg)
-    return table
-
-
 def _write_cameras(out: Path, preset: StreamPreset, timeline: Timeline, sensor: DepthSensor, truth) -> None:
     """``cameras.csv``: per segment the camera's true pose, where it stands, and the unit's errors."""
     n = len(timeline.T_base_cam)
@@ -145,8 +130,8 @@ def _write_cameras(out: Path, preset: StreamPreset, timeline: Timeline, sensor: 
         "radius_m": radius,
     }
     table.update(poses_to_columns("T_base_cam_true", timeline.T_base_cam))
-    table.update(_sensor_columns(sensor, truth, n))
-    write_table(out / "cameras.csv", table, camera_table_columns(table) + [c for c in table if "registration" in c])
+    table.update(truth_columns(sensor, [truth] * n))  # one camera: the same unit in every segment's row
+    write_camera_table(out / "cameras.csv", table)
 
 
 def _tasks(timeline: Timeline):

@@ -73,6 +73,23 @@ def test_rewriting_the_camera_table_keeps_the_sensor_columns(pair):
     assert set(SENSOR_COLUMNS) <= set(camera_table_columns(ds.cameras()))
 
 
+def test_a_misregistered_units_registration_is_recorded_as_truth(tmp_path):
+    """d435-real-cell draws a registration shift and roll per placement: cameras.csv records them (they were
+    drawn into the table and then left out of the file by camera_table_columns)."""
+    from handeye.core.dataset import read_table
+    from sim.sensors import REGISTRATION_COLUMNS
+
+    recipe = Recipe(PRESET, 3, NoiseModel(), ("data",), sensor="d435-real-cell")
+    generate(tmp_path / "cell", recipe, cameras=[], options=SERIAL)  # the camera table, no shard rendered
+    table = read_table(tmp_path / "cell" / "cameras.csv", list(REGISTRATION_COLUMNS))
+    for c in range(PRESET.n_cameras):
+        truth = draw_systematic(PROFILES["d435-real-cell"], 3, c)
+        assert abs(truth.registration_roll_deg) > 0
+        assert table["depth_registration_px_true.u"][c] == pytest.approx(truth.registration_px[0], abs=FLOAT)
+        assert table["depth_registration_px_true.v"][c] == pytest.approx(truth.registration_px[1], abs=FLOAT)
+        assert table["depth_registration_roll_deg_true"][c] == pytest.approx(truth.registration_roll_deg, abs=FLOAT)
+
+
 def test_depth_noise_given_twice_is_refused(tmp_path):
     with pytest.raises(HandEyeInputError, match="given twice"):
         generate(tmp_path / "x", Recipe(PRESET, noise=DEFAULT_NOISE, sensor="d435"), options=SERIAL)
