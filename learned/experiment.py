@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from handeye.core.errors import HandEyeInputError
+from handeye.core.safe_write import write_text_atomic
 from learned import distributed
 from learned.checkpoint import CHECKPOINT_NAME, fingerprint, load_checkpoint, remove_checkpoint, save_checkpoint
 from learned.data import FrameSet, load_frames
@@ -681,6 +682,6 @@ def _write_results(run: _Run, results: dict) -> None:
     """``results.json`` written (rank 0) and the checkpoint removed; every rank returns once it is written."""
     if run.writer:
         run.out.mkdir(parents=True, exist_ok=True)
-        (run.out / "results.json").write_text(json.dumps(results, indent=1))
+        write_text_atomic(run.out / "results.json", json.dumps(results, indent=1))
         remove_checkpoint(run.out)
     distributed.barrier()  # every rank returns once the results are written

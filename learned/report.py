@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.core.safe_write import write_figure_atomic, write_text_atomic
 from handeye.core.tables import markdown_table, write_csv
 from learned.paper_tables import paper_tables
 from learned.results import NETS, UNIT, has_rmse, load_results, mean_matrix, metric_key, runs_of
@@ -125,7 +126,7 @@ def write_report(run_dir: str | Path, figures: bool = True) -> str:
     md += _per_camera_summary(run) + _repeat_placements(run.results) + _per_camera_tables(run)
     md += _own_checks(run.results)
     text = "\n".join(md)
-    (run.dir / "report.md").write_text(text)
+    write_text_atomic(run.dir / "report.md", text)
     if figures:
         _figures(run.results, run.dir)
     return text
@@ -373,7 +374,7 @@ def _figures(results: dict, run_dir: Path) -> None:
         axes[0, -1].legend(fontsize=7)
         fig.suptitle(f"{net}: error on each test subset over the time steps")
         fig.tight_layout()
-        fig.savefig(run_dir / f"steps_{net}.png", dpi=110)
+        write_figure_atomic(fig, run_dir / f"steps_{net}.png", dpi=110)
         plt.close(fig)
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
     for ax, net in zip(axes, NETS):
@@ -386,7 +387,7 @@ def _figures(results: dict, run_dir: Path) -> None:
         ax.set_title(net)
     axes[1].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(run_dir / "final_step.png", dpi=110)
+    write_figure_atomic(fig, run_dir / "final_step.png", dpi=110)
     plt.close(fig)
 
 
