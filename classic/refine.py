@@ -287,13 +287,6 @@ class _Problem:
         dt = self.dt + delta[k] if self.with_offset else self.dt
         return X, Y, s, dt
 
-    def _B(self, s):
-        if s == 1.0:
-            return self.B
-        B = self.B.copy()
-        B[:, :3, 3] *= s
-        return B
-
     def _at(self, delta):
         """Poses, prediction and residuals at ``delta``; the last one kept (the optimiser asks for the
         residuals and then the Jacobian at the same point)."""
@@ -301,7 +294,7 @@ class _Problem:
         if self._last is None or self._last[0] != key:
             X, Y, s, dt = self.unpack(delta)
             A, rate = self.A_of(dt)
-            B = self._B(s)
+            B = _scaled(self.B, s)
             P = predict_cam_target(A, X, Y)
             self._last = (key, X, Y, s, A, rate, B, P, *residuals_of_prediction(P, B))
         return self._last[1:]
@@ -322,7 +315,7 @@ class _Problem:
             c[:, 3:, 0] = self.B[:, :3, 3]
             cols.append(c)
         if self.with_offset:
-            cols.append((robot_residual_jacobian(A, X, Y, self.setup, self._B(s)) @ rate[:, :, None]))
+            cols.append((robot_residual_jacobian(A, X, Y, self.setup, _scaled(self.B, s)) @ rate[:, :, None]))
         J = cols[0] if len(cols) == 1 else np.concatenate(cols, axis=2)
         return np.einsum("nij,njk->nik", self.W, J).reshape(-1, self.n_params)
 
