@@ -11,11 +11,13 @@ Example
 Replays the dataset's data frames as one stream (its shards in order; times from ``stream.json``, else
 ``--rate``) through :class:`handeye.watch.CellWatcher` and prints one line per event: ``learning`` (the
 first ``--null-seconds``: "nothing moved" is learnt), ``ok``, ``drift``, ``occluded``, ``out_of_view``,
-``dropout``, ``moved`` (the change test alarmed at most ``--false-alarms-per-hour`` wrongly, with a consistent
-direction), ``recalibrated`` (a validated markerless answer committed) or ``refused``. From ``moved`` until a
-commit every line says "calibration stale since t". The start: ``--camera-start`` (JSON, as ``handeye
-markerless --start`` reads), ``--truth-start`` (the first segment's truth, simulated data, with the sensor's
-true depth scale and offset where the dataset has them), else the history's latest version. Until the first
+``dropout``, ``moved`` (the change test alarmed with a consistent direction; its threshold allows at most
+``--false-alarms-per-hour`` false alarms while the frames follow the null learnt, more where frames are
+correlated: docs/benchmarks/running-cell.md measures it on simulated streams), ``recalibrated`` (a validated
+markerless answer committed) or ``refused``. From ``moved`` until a commit every line says "calibration
+stale since t". The start: ``--camera-start`` (JSON, as ``handeye markerless --start`` reads),
+``--truth-start`` (the first segment's truth, simulated data, with the sensor's true depth scale and offset
+where the dataset has them), else the history's latest version. Until the first
 recalibration estimates it, the depth is otherwise taken as exact. ``rollback`` appends to the history a new
 version equal to an older one.
 Live ROS 2 topics are not built yet.
@@ -49,7 +51,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--history", type=Path, help="the versions' history, JSON lines (append-only)")
     p.add_argument("--current", type=Path, help="the current calibration, JSON (replaced atomically)")
     p.add_argument("--rate", type=cli_float, default=None, help="frame rate, Hz (default: stream.json's)")
-    p.add_argument("--false-alarms-per-hour", type=cli_float, default=1.0, help="stated bound (default 1)")
+    p.add_argument(
+        "--false-alarms-per-hour",
+        type=cli_float,
+        default=1.0,
+        help="the change test's bound under its null (default 1)",
+    )
     p.add_argument("--null-seconds", type=cli_float, default=10.0, help="'nothing moved' learnt from (default 10)")
     p.add_argument("--relearn-seconds", type=cli_float, default=3.0, help="after a recalibration (default 3)")
     p.add_argument("--recal-frames", type=cli_int, default=30, help="frames per recalibration (default 30)")

@@ -50,7 +50,9 @@ class WatchOptions:
     rate_hz : float
         The stream's frame rate (turns the false-alarm rate into frames).
     false_alarms_per_hour : float
-        The change test's stated false-alarm rate (an upper bound, :mod:`handeye.watch.change`).
+        The change test's false-alarm rate: an upper bound while the frames' statistic follows the null learnt
+        (independent frames, ``chi2(6)`` after the fit; :mod:`handeye.watch.change`); correlated frames and
+        unmodelled changes (a dimmed light) raise it (docs/benchmarks/running-cell.md).
     null_frames : int
         Usable frames "nothing moved" is learnt from (about the first 10 s at 30 Hz by default).
     relearn_frames : int
@@ -257,7 +259,8 @@ class CellWatcher:
         self.states = FrameStates(self.null, cusum, self.options.states)
         return "ok", (
             f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
-            f"({self.options.false_alarms_per_hour:g} false alarms per hour at most at {self.options.rate_hz:g} Hz)"
+            f"(at most {self.options.false_alarms_per_hour:g} false alarms per hour at {self.options.rate_hz:g} Hz "
+            "while the frames follow the null)"
         )
 
     def _collect(self, frame: Frame, check: FrameCheck) -> tuple[str, str]:
