@@ -26,16 +26,14 @@ processes (:mod:`sim.stream_render`: pyrender's OpenGL context never lives in th
 from __future__ import annotations
 
 import json
-import multiprocessing
-import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from handeye.core.dataset import dataset_lock, poses_to_columns, write_json_atomic
+from handeye.core.engines import EngineOptions, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 from sim.cameras import CameraPreset
@@ -153,18 +151,23 @@ def _tasks(timeline: Timeline):
 
 
 def _render(out: Path, config: dict, timeline: Timeline, workers: int, progress: bool) -> dict:
-    """Render every segment in worker processes; the occluded frames' hidden shares."""
-    from sim.stream_render import init_worker, render_segment
+    """Render every segment in worker processes (:func:`handeye.core.engines.run_tasks`, the package's pool: its
+    workers die with this process, a failure names its segment); the occluded frames' hidden shares."""
+    from sim.stream_render import describe_segment, init_worker, render_segment
 
+    options = EngineOptions(
+        workers=workers,
+        progress=progress,
+        desc=f"render {out.name}",
+        unit="segment",
+        initializer=init_worker,
+        initargs=(config,),
+        describe=describe_segment,
+        isolate=True,  # pyrender's OpenGL context never lives in this process
+    )
     hidden = {}
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=init_worker, initargs=(config,)) as pool:
-        futures = [pool.submit(render_segment, task) for task in _tasks(timeline)]
-        for done, future in enumerate(as_completed(futures), start=1):
-            segment, n, shares = future.result()
-            hidden.update(shares)
-            if progress:
-                print(f"segment {segment}: {n} frames ({done}/{len(futures)})", file=sys.stderr, flush=True)
+    for _, _, shares in run_tasks(render_segment, list(_tasks(timeline)), options):
+        hidden.update(shares)
     return hidden
 
 
@@ -230,7 +233,7 @@ def generate_stream(
     workers : int
         Rendering processes.
     progress : bool
-        A line per rendered segment on stderr.
+        A progress bar of the rendered segments on stderr.
 
     Returns
     -------

@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from handeye.core.dataset import poses_to_columns
+from handeye.core.engines import require_visible
 from handeye.core.shard_writer import ShardWriter
 from handeye.robot.depth_sensors import DepthSensor
 from sim.stream_events import BOX_EXTENTS_M, OCCLUDER_SHAPES, PERSON_HEIGHT_M, PERSON_RADIUS_M
 
-__all__ = ["StreamShardRenderer", "SEPARATION_M", "init_worker", "render_segment"]
+__all__ = ["StreamShardRenderer", "SEPARATION_M", "init_worker", "render_segment", "describe_segment"]
 
 #: A pixel belongs to the arm (or is hidden by the occluder) when the arm (occluder) is nearer than what is
 #: behind it by more than this: 1 cm, far above the rendered depth's resolution (under 1 mm at 2 m,
@@ -174,6 +175,11 @@ def init_worker(config: dict) -> None:
 
 def render_segment(task: dict) -> tuple[int, int, dict]:
     """Render one segment in this worker (:meth:`StreamShardRenderer.render_segment`)."""
-    if not Path(_WORKER.config["out"]).is_dir():
-        raise FileNotFoundError(_WORKER.config["out"])
+    require_visible(Path(_WORKER.config["out"]) / "meta.json")
     return _WORKER.render_segment(task)
+
+
+def describe_segment(task: dict) -> str:
+    """A task named in the message of its failure (not its per-frame arrays)."""
+    frames = task["frames"]
+    return f"render segment {task['segment']} (frames {frames[0]}..{frames[-1]})"

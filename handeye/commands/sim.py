@@ -117,7 +117,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--rate", type=cli_float, default=None, help="frames per second (default the preset's)")
     s.add_argument("--size", default=None, help="image WIDTHxHEIGHT (default the preset's, 256x256)")
     s.add_argument("--workers", type=cli_int, default=2, help="rendering processes (default 2)")
-    s.add_argument("--quiet", action="store_true", help="no line per rendered segment")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
     s.set_defaults(run=run_stream)
     return p
 
