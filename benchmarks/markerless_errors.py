@@ -10,9 +10,10 @@ how many were accepted beyond 3 predicted sigmas, and the wall time per placemen
 
     taskset -c 0 python benchmarks/markerless_errors.py --data data/sensor-bands/paper-real-1.2 --max-placements 5
 
-The datasets are rendered without depth noise (``benchmarks/markerless_sensors.py --presets paper-real
-paper-sim --bands 1.2`` renders them); the joint offsets' truth is the camera in the robot's kinematic base
-frame (:func:`benchmarks.markerless_sensors.kinematic_truth`).
+Without ``--data`` it renders the datasets first, without depth noise, as ``benchmarks/markerless_sensors.py
+--presets paper-real paper-sim --bands 1.2`` does (kept in ``data/sensor-bands``, reused when there):
+``python benchmarks/markerless_errors.py`` alone makes both tables. The joint offsets' truth is the camera in
+the robot's kinematic base frame (:func:`benchmarks.markerless_sensors.kinematic_truth`).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._report import Report  # noqa: E402
-from benchmarks.markerless_sensors import placements, run_profile, versions, with_errors  # noqa: E402
+from benchmarks.markerless_sensors import placements, render_band, run_profile, versions, with_errors  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
@@ -78,7 +79,16 @@ def row(name: str, rows: list) -> str:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", type=Path, nargs="+", required=True, help="datasets rendered without depth noise")
+    ap.add_argument("--data", type=Path, nargs="+", help="datasets rendered without depth noise (default: --presets)")
+    ap.add_argument(
+        "--presets",
+        nargs="+",
+        default=["paper-real", "paper-sim"],
+        help="without --data: these presets' test "
+        "placements at --band, rendered as benchmarks/markerless_sensors.py renders them (kept in --work)",
+    )
+    ap.add_argument("--band", default="1.2", help="distance band of the rendered placements, metres")
+    ap.add_argument("--work", type=Path, default=Path("data/sensor-bands"), help="where --presets renders")
     ap.add_argument("--max-placements", type=int, default=5, help="at most this many test placements per dataset")
     ap.add_argument("--cases", help="comma-separated case numbers (1-based) to run, default all")
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
@@ -92,10 +102,12 @@ def main():
         "accepted more than 3 predicted sigmas from the truth (translation or rotation). Time: wall seconds per "
         "placement (the registration; one core under taskset)."
     )
+    # the bands markerless_sensors.py renders with its default seed (render seed 1): the same datasets
+    data = args.data or [render_band(args.work, preset, args.band, 1) for preset in args.presets]
     chosen = cases()
     if args.cases:
         chosen = [chosen[int(i) - 1] for i in args.cases.split(",")]
-    for root in args.data:
+    for root in data:
         ds = Dataset.open(root)
         surface, stride = robot_surface_for(ds)
         cams = placements(ds, "test", args.max_placements)
