@@ -33,7 +33,7 @@ from handeye.core.errors import BagError, BagTopicError, RecordingError
 from handeye.core.limits import check_image_bytes
 from handeye.recording_checks import check_camera_matrix, check_depth_frame, check_depth_stream, check_joint_names
 from handeye.recording_import import JointSamples, PoseSamples, RecordedPlacement, TimedImages
-from handeye.ros_bag import IMAGE_TYPE, bag_messages, image_array, open_bag, stamp_ns, topic_connections
+from handeye.ros_bag import IMAGE_TYPE, bag_messages, image_array, open_bag, read_bag, stamp_ns, topic_connections
 
 __all__ = ["INFO_TYPE", "JOINTS_TYPE", "COMPRESSED_TYPE", "TfSource", "read_camera_bag"]
 
@@ -299,7 +299,5 @@ class _Streams:
 
 def _tf_poses(bag, name: str, tf: TfSource) -> PoseSamples:
     """``T_base_ee`` over time from the bag's tf (a second pass, :func:`handeye.ros_bag.read_bag`)."""
-    from handeye.ros_bag import read_bag
-
     rec = read_bag(bag, tf.base_frame, tf.ee_frame, tf_topic=tf.topic, tf_static_topic=tf.static_topic)
     return PoseSamples(rec.robot_times_s, rec.T_base_ee, f"{name}, tf {' -> '.join(rec.frames)}")
