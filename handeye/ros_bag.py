@@ -31,6 +31,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -239,7 +240,7 @@ _MCAP_RECORDS = {1: "header", 3: "schema", 4: "channel", 5: "message", 6: "chunk
 _MCAP_RECORDS.update({8: "chunk index", 9: "attachment", 11: "statistics", 12: "metadata", 15: "data end"})
 
 
-def _refuse_mcap(path: Path, what: str):
+def _refuse_mcap(path: Path, what: str) -> NoReturn:
     """Raise the :class:`BagError` of a corrupt MCAP file, naming it and ``what`` is wrong."""
     raise BagError(f"{path}: the MCAP storage is corrupt: {what}")
 
