@@ -56,6 +56,7 @@ __all__ = [
     "generate",
     "dataset_meta",
     "write_camera_table",
+    "dataset_folder",
 ]
 
 #: Depth PNG unit: 0.1 mm, so 16 bits cover 6.5 m.
@@ -525,7 +526,7 @@ def generate(
     options = options or EngineOptions()
     check_engine(engine, address, options.workers)
     cameras = _checked_cameras(cameras, recipe.preset)
-    out = _dataset_folder(Path(out))
+    out = dataset_folder(Path(out))
     try:
         with dataset_lock(out, "handeye sim generate"):
             meta = recipe.meta()
@@ -550,7 +551,7 @@ def _checked_cameras(cameras: Sequence[int] | None, preset: CameraPreset) -> lis
     return cameras
 
 
-def _dataset_folder(out: Path) -> Path:
+def dataset_folder(out: Path) -> Path:
     """``out`` created (with its parents) as the dataset's folder, or a :class:`DatasetError` saying why not."""
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out}: exists and is not a directory; choose another --out")

@@ -37,7 +37,7 @@ from handeye.core.engines import EngineOptions, run_tasks
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 from sim.cameras import CameraPreset
-from sim.generate import DEPTH_SCALE_M, NoiseModel, dataset_meta, write_camera_table
+from sim.generate import DEPTH_SCALE_M, NoiseModel, dataset_folder, dataset_meta, write_camera_table
 from sim.recording import camera_matrix
 from sim.sensors import draw_systematic, truth_columns
 from sim.stream_events import STREAM_PRESETS, StreamPreset, get_stream_preset
@@ -259,14 +259,9 @@ def generate_stream(
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise HandEyeInputError(f"workers must be an integer >= 1, got {workers!r}")
     out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    if out.is_dir() and any(out.iterdir()):
         raise DatasetError(f"{out}: exists and is not an empty folder; choose a new --out")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise DatasetError(
-            f"{out}: cannot create the folder ({exc.strerror or exc}); choose a writable --out"
-        ) from None
+    out = dataset_folder(out)
     timeline = build_timeline(preset, seed, load_robot(preset.robot))
     truth = draw_systematic(sensor, seed, 0)
     meta = stream_meta(preset, seed, sensor, len(timeline.T_base_cam))

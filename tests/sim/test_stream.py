@@ -210,3 +210,18 @@ def test_bad_presets_are_refused():
         StreamPreset("x", image_size=(8, 8))
     with pytest.raises(HandEyeInputError, match="unknown stream preset"):
         get_stream_preset("nope")
+
+
+def test_an_out_folder_that_cannot_hold_a_new_stream_is_refused(tmp_path):
+    """A non-empty folder, a file, a folder under a file: refused, naming why, before anything is rendered."""
+    from handeye.core.errors import DatasetError
+    from sim.stream import generate_stream
+
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "keep.txt").write_text("mine")
+    (tmp_path / "file").write_text("mine")
+    cases = (("full", "not an empty folder"), ("file", "not a directory"), ("file/cell", "is a file"))
+    for out, reason in cases:
+        with pytest.raises(DatasetError, match=reason):
+            generate_stream(tmp_path / out, PRESET, progress=False)
+    assert (tmp_path / "full" / "keep.txt").read_text() == (tmp_path / "file").read_text() == "mine"
