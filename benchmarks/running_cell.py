@@ -13,6 +13,8 @@ Printed and written (``--out``):
 - per bump: the detection delay (the first ``moved`` at or after the bump, before the next camera change),
   the committed calibration's error against the truth of the frame it was committed at, and that error over
   the registration's own sigma;
+- per stream, every commit and every refusal counted apart: a commit more than :data:`WRONG_SIGMAS` of its own
+  sigmas from the truth (translation or rotation) is a wrong answer reported as a success;
 - false alarms: ``moved`` alarms on the static stream per hour, with the 95 % upper bound of a Poisson rate
   given the count; on the bumps stream, every ``moved`` but the first after each bump;
 - what the watcher said during each occlusion and dropout (the share of their frames it called so);
@@ -51,6 +53,9 @@ from handeye.core.smoke import smoke_test  # noqa: E402
 
 #: The states of a frame the change test watched (not learning, not collecting frames after an alarm).
 WATCHING = ("ok", "drift", "occluded", "out_of_view", "dropout")
+#: A committed calibration farther than this many of its own sigmas from the truth is counted wrong (as
+#: benchmarks/markerless_sensors.py counts the registration's answers).
+WRONG_SIGMAS = 3.0
 #: The 95 % upper bound of a Poisson mean given 0 counts is -ln(0.05) = 3.0; for k counts scipy's chi2 gives it.
 CONFIDENCE = 0.95
 
@@ -173,16 +178,47 @@ def score_bumps(run: Replay, doc: dict, truth: np.ndarray) -> list[dict]:
         row["learning"] = e["t_s"] < learnt_at(run)
         if commit is not None:
             ev, T, s = commit
-            rot_deg, trans_mm = pose_error(T, truth[s])
-            row["error"] = (float(trans_mm), float(rot_deg))
-            result = next((r for _, r in run.recal if getattr(r, "ok", False) and np.allclose(r.T_base_cam, T)), None)
-            if result is not None:
-                sig = result.sigma
-                row["ratio"] = (row["error"][0] / sig["translation_mm"], row["error"][1] / sig["rotation_deg"])
+            row["error"], row["ratio"] = commit_error(run, T, truth[s])
         row["refused"] = sum(ev.state == "refused" for ev, _, _ in inside)
         row["extra_alarms"] = max(sum(ev.state == "moved" for ev, _, _ in inside) - 1, 0)
         rows.append(row)
     return rows
+
+
+def commit_error(run: Replay, T_base_cam: np.ndarray, T_true: np.ndarray) -> tuple[tuple, tuple | None]:
+    """A committed calibration's error against the truth, ``(mm, deg)``, and that over the sigma of the
+    recalibration that gave it (None when no accepted result gave it)."""
+    rot_deg, trans_mm = pose_error(T_base_cam, T_true)
+    error = (float(trans_mm), float(rot_deg))
+    result = next((r for _, r in run.recal if getattr(r, "ok", False) and np.allclose(r.T_base_cam, T_base_cam)), None)
+    if result is None:
+        return error, None
+    sig = result.sigma
+    return error, (error[0] / sig["translation_mm"], error[1] / sig["rotation_deg"])
+
+
+def score_commits(run: Replay, truth: np.ndarray) -> dict:
+    """Every commit of a stream against the truth of the frame it was committed at, and the refusals, apart.
+
+    Returns
+    -------
+    dict
+        ``commits``; ``wrong``: those more than :data:`WRONG_SIGMAS` of their own sigmas off (or without a
+        sigma); ``refused``: the recalibrations refused.
+    """
+    commits = [commit_error(run, T, truth[s]) for ev, T, s in run.events if ev.state == "recalibrated"]
+    wrong = sum(ratio is None or max(ratio) > WRONG_SIGMAS for _, ratio in commits)
+    refused = sum(ev.state == "refused" for ev, _, _ in run.events)
+    return {"commits": len(commits), "wrong": wrong, "refused": refused}
+
+
+def commits_line(run: Replay, truth: np.ndarray) -> str:
+    """One line of :func:`score_commits`."""
+    c = score_commits(run, truth)
+    return (
+        f"commits: {c['commits']}, of which {c['wrong']} wrong (more than {WRONG_SIGMAS:g} of their own sigmas from "
+        f"the truth: a wrong answer reported as a success); recalibrations refused: {c['refused']}"
+    )
 
 
 def learnt_at(run: Replay) -> float:
@@ -326,6 +362,7 @@ def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
         "after that alarm, against the truth of the frame it was committed at; error / sigma: over the "
         "registration's own sigma (translation / rotation)"
     )
+    rep.say(commits_line(run, ds.truth()))
     drift = [ev for ev, _, _ in run.events if ev.state == "drift"]
     rep.say(
         f"drift: {sum(e['type'] == 'drift' for e in doc['events'])} steps of 0.05 mm in the truth; "
@@ -364,6 +401,7 @@ def report_static(rep: Report, run: Replay, doc: dict, ds) -> None:
         f"{alarms} 'moved' alarms: {alarms / hours:.1f} per hour (95 % upper bound "
         f"{poisson_upper(alarms) / hours:.1f} per hour)"
     )
+    rep.say(commits_line(run, ds.truth()))
     report_intervals(rep, run, doc)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.running_cell import Replay, called, learnt_at, poisson_upper, score_bumps
+from benchmarks.running_cell import Replay, called, learnt_at, poisson_upper, score_bumps, score_commits
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.watch.events import Event
 from tests.tolerances import EXACT
@@ -63,6 +63,18 @@ def test_bumps_are_scored_by_their_first_alarm_and_the_commit_after_it():
     assert first["ratio"] == pytest.approx((2.0, 0.5))
     assert second["delay_s"] == pytest.approx(1.0) and second["error"] is None
     assert learnt_at(_replay(truth)) == 1.0
+
+
+def test_every_commit_is_scored_and_refusals_and_wrong_commits_are_counted_apart():
+    """The planted commit is 2 of its sigmas off (right); a refusal, then a second commit 5 mm off at 0.5 mm
+    sigma (10 sigmas: wrong), both after the second bump's alarm, where the per-bump table looks no further."""
+    truth = _truth()
+    run = _replay(truth)
+    assert score_commits(run, truth) == {"commits": 1, "wrong": 0, "refused": 0}
+    off = truth[2] @ make_transform(np.eye(3), [0.005, 0.0, 0.0])
+    run.events += [(Event(9.5, "refused", "moved"), truth[1], 2), (Event(9.8, "recalibrated", "moved"), off, 2)]
+    run.recal.append((1.0, _Result(off)))
+    assert score_commits(run, truth) == {"commits": 2, "wrong": 1, "refused": 1}
 
 
 def test_interval_shares_count_the_frames_called_so():
