@@ -25,7 +25,7 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.smoke import smoke_test
 from handeye.robot.look_at import look_at
 
-__all__ = ["CameraPreset", "CameraSet", "PRESETS", "get_preset", "place_cameras"]
+__all__ = ["CameraPreset", "CameraSet", "PRESETS", "camera_on_sphere", "get_preset", "place_cameras"]
 
 
 @dataclass(frozen=True)
@@ -233,6 +233,27 @@ class CameraSet:
         return len(self.T_base_cam)
 
 
+def camera_on_sphere(centre_m, azimuth_deg, elevation_deg, radius_m) -> np.ndarray:
+    """``T_base_cam`` of cameras on a sphere around ``centre_m``, each looking at it (:func:`look_at`).
+
+    Parameters
+    ----------
+    centre_m : array, shape (3,)
+        Base frame, metres.
+    azimuth_deg, elevation_deg, radius_m : float or array, shape (N,)
+        Azimuth from the base's x axis toward its y axis and elevation above its xy plane, degrees; distance
+        from the centre, metres.
+
+    Returns
+    -------
+    T_base_cam : array, shape (4, 4) or (N, 4, 4)
+    """
+    centre = np.asarray(centre_m, dtype=float)
+    a, e = np.radians(azimuth_deg), np.radians(elevation_deg)
+    direction = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], axis=-1)
+    return look_at(centre + np.asarray(radius_m, dtype=float)[..., None] * direction, centre)
+
+
 def place_cameras(preset: CameraPreset, rng: np.random.Generator) -> CameraSet:
     """Camera poses of a preset: per region, azimuths spread over the sector, elevations and radii drawn.
 
@@ -250,7 +271,6 @@ def place_cameras(preset: CameraPreset, rng: np.random.Generator) -> CameraSet:
     CameraSet
         Ordered by region, then azimuth.
     """
-    centre = np.asarray(preset.look_at_m, dtype=float)
     T, region, split, az_all, el_all, r_all = [], [], [], [], [], []
     for k, (a0, a1) in enumerate(preset.region_azimuths_deg):
         n = preset.train_per_region[k] + preset.test_per_region[k]
@@ -258,9 +278,7 @@ def place_cameras(preset: CameraPreset, rng: np.random.Generator) -> CameraSet:
         az = a0 + width * (np.arange(n) + rng.uniform(0.2, 0.8, n))
         el = rng.uniform(*preset.elevation_deg, n)
         r = rng.uniform(*preset.radius_m, n)
-        a, e = np.radians(az), np.radians(el)
-        pos = centre + r[:, None] * np.column_stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
-        T.append(look_at(pos, centre))
+        T.append(camera_on_sphere(preset.look_at_m, az, el, r))
         is_test = np.zeros(n, dtype=bool)
         is_test[rng.choice(n, preset.test_per_region[k], replace=False)] = True
         split.append(np.where(is_test, "test", "train"))

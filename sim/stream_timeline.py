@@ -28,7 +28,7 @@ import numpy as np
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, so3_exp
-from handeye.robot.look_at import look_at
+from sim.cameras import camera_on_sphere
 from sim.recording import camera_matrix, sample_data_configuration
 from sim.stream_events import OCCLUDER_SHAPES, PERSON_HEIGHT_M, StreamPreset
 
@@ -49,10 +49,7 @@ def frame_at(t_s: float, rate_hz: float) -> int:
 
 def first_placement(preset: StreamPreset) -> np.ndarray:
     """``T_base_cam`` of the camera before any bump or drift, shape (4, 4)."""
-    a, e = np.radians(preset.azimuth_deg), np.radians(preset.elevation_deg)
-    centre = np.asarray(preset.look_at_m, dtype=float)
-    position = centre + preset.radius_m * np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
-    return look_at(position, centre)
+    return camera_on_sphere(preset.look_at_m, preset.azimuth_deg, preset.elevation_deg, preset.radius_m)
 
 
 @dataclass

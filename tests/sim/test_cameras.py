@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from handeye.core.errors import HandEyeInputError
-from sim.cameras import PRESETS, get_preset, look_at, place_cameras
+from sim.cameras import PRESETS, camera_on_sphere, get_preset, look_at, place_cameras
 from tests.tolerances import FLOAT
 
 
@@ -82,3 +82,13 @@ def test_errors():
         get_preset("paper")
     with pytest.raises(HandEyeInputError, match="straight up or down"):
         look_at(np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, 0.0]))
+
+
+def test_a_camera_on_the_sphere_stands_at_its_azimuth_elevation_and_distance_looking_at_the_centre():
+    centre = np.array([0.1, -0.2, 0.3])
+    T = camera_on_sphere(centre, 90.0, 30.0, 2.0)
+    expected = centre + 2.0 * np.array([0.0, np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
+    assert np.allclose(T[:3, 3], expected, atol=FLOAT)
+    assert np.allclose(T[:3, 2], (centre - expected) / 2.0, atol=FLOAT)  # the optical axis at the centre
+    many = camera_on_sphere(centre, [90.0, 200.0], [30.0, 10.0], [2.0, 1.5])
+    assert many.shape == (2, 4, 4) and np.array_equal(many[0], T)
