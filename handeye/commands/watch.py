@@ -173,10 +173,12 @@ def _truth_depth(ds, camera: int) -> tuple:
     """``(k, c)`` of the simulated sensor's true depth scale and offset (``cameras.csv``), ``(1, 0)`` without them."""
     import numpy as np
 
+    from handeye.watch.check import unit_correction
+
     cams = ds.cameras()
     if "depth_scale_true" not in cams or "depth_offset_mm_true" not in cams:
         return (1.0, 0.0)
     scale, offset_m = float(cams["depth_scale_true"][camera]), float(cams["depth_offset_mm_true"][camera]) * 1e-3
     if not (np.isfinite(scale) and np.isfinite(offset_m) and scale > 0):
         return (1.0, 0.0)
-    return (1.0 / scale, -offset_m / scale)
+    return unit_correction(scale, offset_m)

@@ -32,11 +32,11 @@ import numpy as np
 
 from classic.markerless import MarkerlessOptions, register_robot
 from handeye.watch.change import Cusum, NullModel, fit_null
-from handeye.watch.check import CheckOptions, FrameCheck, camera_rays, check_frame
+from handeye.watch.check import CheckOptions, FrameCheck, camera_rays, check_frame, unit_correction
 from handeye.watch.events import Event
 from handeye.watch.history import History
 from handeye.watch.source import Frame
-from handeye.watch.states import FrameStates, StateOptions, screen
+from handeye.watch.states import FrameStates, StateOptions, is_lost, screen
 
 __all__ = ["WatchOptions", "CellWatcher", "markerless_recalibration"]
 
@@ -234,7 +234,7 @@ class CellWatcher:
 
     def _learn(self, check: FrameCheck) -> tuple[str, str]:
         unusable = screen(check, self.options.states)
-        lost = check.delta is None or check.fraction(check.n_matched) < self.options.states.lost_matched_fraction
+        lost = is_lost(check, self.options.states)
         if unusable is None and not lost:
             self._null_checks.append(check)
             self._misfits = 0
@@ -284,8 +284,8 @@ class CellWatcher:
     def _commit(self, frame: Frame, frames: list[Frame], result) -> tuple[str, str]:
         self.T_base_cam = np.array(result.T_base_cam, dtype=float)
         depth = getattr(result, "depth", None) or {}
-        if "scale" in depth and "offset_mm" in depth:  # d_obs = s d + o: d = d_obs / s - o / s
-            self.depth_correction = (1.0 / depth["scale"], -depth["offset_mm"] * 1e-3 / depth["scale"])
+        if "scale" in depth and "offset_mm" in depth:
+            self.depth_correction = unit_correction(depth["scale"], depth["offset_mm"] * 1e-3)
         sigma = np.sqrt(np.diag(result.covariance)) if getattr(result, "covariance", None) is not None else None
         if self.history is not None:
             v = self.history.append(

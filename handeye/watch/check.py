@@ -38,7 +38,7 @@ from classic.markerless.depth import pixel_rays
 from classic.markerless.visibility import project
 from handeye.core.errors import ShapeError
 
-__all__ = ["CheckOptions", "FrameCheck", "check_frame", "camera_rays"]
+__all__ = ["CheckOptions", "FrameCheck", "check_frame", "camera_rays", "unit_correction"]
 
 
 @dataclass(frozen=True)
@@ -125,6 +125,12 @@ def camera_rays(K: np.ndarray, height: int, width: int) -> np.ndarray:
     return pixel_rays(np.asarray(K, dtype=float), int(height), int(width))
 
 
+def unit_correction(scale: float, offset_m: float) -> tuple[float, float]:
+    """``(k, c)`` of :func:`check_frame` for a sensor that reports ``d_obs = scale d + offset_m``: the true depth
+    is ``d = d_obs / scale - offset_m / scale``, so ``k = 1 / scale``, ``c = -offset_m / scale`` (metres)."""
+    return (1.0 / float(scale), -float(offset_m) / float(scale))
+
+
 def check_frame(
     depth_m: np.ndarray,
     K: np.ndarray,
@@ -183,7 +189,7 @@ def check_frame(
     z_mod = p_cam[idx, 2]
     sigma_z = np.asarray(sigma_m(z_mod), dtype=float)
     window = o.window_sigmas * sigma_z + o.window_floor_m
-    dz = np.where(have, z_obs, 0.0) - z_mod
+    dz = z_obs - z_mod  # 0 where no depth: those are dropouts below, never matched
     occluder = have & (dz < -window)
     behind = have & (dz > window)
     matched = have & ~occluder & ~behind

@@ -33,7 +33,7 @@ from scipy import stats
 from handeye.watch.change import Cusum, NullModel, llr
 from handeye.watch.check import FrameCheck
 
-__all__ = ["StateOptions", "FrameStates", "screen"]
+__all__ = ["StateOptions", "FrameStates", "screen", "is_lost"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,12 @@ def screen(check: FrameCheck, options: StateOptions, occlusion: bool = True) -> 
     return None
 
 
+def is_lost(check: FrameCheck, options: StateOptions) -> bool:
+    """Whether the surface is off by more than the match window: no step, or fewer than
+    ``lost_matched_fraction`` of the model's pixels with depth matched."""
+    return check.delta is None or check.fraction(check.n_matched) < options.lost_matched_fraction
+
+
 class FrameStates:
     """The classifier of the module docstring, with its memory (the CUSUM, the run's corrections, the EWMA).
 
@@ -108,7 +114,7 @@ class FrameStates:
         unusable = screen(check, o)
         if unusable is not None:
             return unusable
-        lost = check.delta is None or check.fraction(check.n_matched) < o.lost_matched_fraction
+        lost = is_lost(check, o)
         x = np.inf if lost else self.null.statistic(check.delta, check.covariance)
         if llr(x, self.cusum.rho) > 0:  # the frames that push towards an alarm: their directions are compared
             self._run.append(None if lost else (check.delta - self.null.delta_ref, check.covariance))
