@@ -125,6 +125,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
 def run_stream(args: argparse.Namespace) -> int:
     """Run ``handeye sim stream``."""
     from handeye.core.errors import HandEyeInputError
+    from handeye.core.numbers import parse_int
     from handeye.core.optional import require_package
 
     require_package("pyrender", extra="sim", purpose="rendering")
@@ -132,12 +133,10 @@ def run_stream(args: argparse.Namespace) -> int:
 
     size = None
     if args.size is not None:
-        try:
-            size = tuple(int(v) for v in args.size.lower().split("x"))
-        except ValueError:
-            size = ()
-        if len(size) != 2:
+        parts = args.size.lower().split("x")
+        if len(parts) != 2:
             raise HandEyeInputError(f"--size {args.size!r}: use WIDTHxHEIGHT, e.g. 256x256")
+        size = tuple(parse_int(v, "--size", HandEyeInputError) for v in parts)  # the number grammar, not int()
     report = generate_stream(
         args.out,
         args.preset,

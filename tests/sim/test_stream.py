@@ -225,3 +225,15 @@ def test_an_out_folder_that_cannot_hold_a_new_stream_is_refused(tmp_path):
         with pytest.raises(DatasetError, match=reason):
             generate_stream(tmp_path / out, PRESET, progress=False)
     assert (tmp_path / "full" / "keep.txt").read_text() == (tmp_path / "file").read_text() == "mine"
+
+
+@pytest.mark.parametrize("size", ["96", "96x96x3", "9_6x96", "\uff19\uff16x96", "ninety-sixx96"])
+def test_cli_size_is_two_integers_in_the_number_grammar(size, tmp_path, capsys):
+    """--size WIDTHxHEIGHT reads each side as handeye.core.numbers does (int() took '9_6' and full-width
+    digits as 96); refused in one line before anything is written."""
+    pytest.importorskip("pyrender")
+    from handeye.cli import main
+
+    out = tmp_path / "cell"
+    assert main(["sim", "stream", "--preset", "smoke", "--out", str(out), "--size", size, "--quiet"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1 and not out.exists()
