@@ -455,7 +455,7 @@ def _view_errors(residuals: np.ndarray, view: np.ndarray, n_views: int) -> tuple
     sq = np.sum(residuals.reshape(-1, 2) ** 2, axis=1)
     counts = np.bincount(view, minlength=n_views)
     per_view = np.sqrt(np.bincount(view, weights=sq, minlength=n_views) / np.maximum(counts, 1))
-    has = np.bincount(view, minlength=n_views) > 0
+    has = counts > 0
     med = float(np.median(per_view[has]))
     outliers = [int(k) for k in np.flatnonzero(has & (per_view > max(OUTLIER_VIEW_FACTOR * med, 1.0)))]
     return per_view, outliers, float(np.sqrt(np.mean(sq)))
