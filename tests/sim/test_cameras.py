@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from handeye.core.errors import HandEyeInputError
-from sim.cameras import PRESETS, camera_on_sphere, get_preset, look_at, place_cameras
+from handeye.robot.look_at import look_at
+from sim.cameras import PRESETS, camera_on_sphere, get_preset, place_cameras
 from tests.tolerances import FLOAT
 
 
