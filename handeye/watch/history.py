@@ -11,12 +11,14 @@ complete line that does not parse is corruption, not a torn write, and raises. N
 
 The current calibration is a JSON file replaced atomically (:func:`handeye.core.safe_write.write_text_atomic`)
 after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two).
-One writer per history: two processes appending at once are not guarded against. A history path that is not
-a regular file (a device, a FIFO, a link to one) is refused, never read from or appended to.
+Appenders take the history's ``flock`` (advisory, released when the process ends however it ends): two
+processes appending at once number their versions one after the other. A history path that is not a regular
+file (a device, a FIFO, a link to one) is refused, never read from or appended to.
 """
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import time
@@ -99,10 +101,14 @@ class History:
         self.path = Path(path)
         self.current_path = None if current_path is None else Path(current_path)
 
+    def _check_regular(self) -> None:
+        """Refuse a path that is there and not a regular file: a FIFO would block the read, a device feed it."""
+        if self.path.exists() and not self.path.is_file():
+            raise HandEyeInputError(f"{self.path}: not a regular file, so not a history; name a file")
+
     def _complete_lines(self) -> tuple[list[bytes], int]:
         """The complete lines and the byte length they span (a torn tail after it is left out, with a warning)."""
-        if self.path.exists() and not self.path.is_file():  # a FIFO would block the read, a device feed it
-            raise HandEyeInputError(f"{self.path}: not a regular file, so not a history; name a file")
+        self._check_regular()
         try:
             data = self.path.read_bytes()
         except FileNotFoundError:
@@ -168,36 +174,39 @@ class History:
             The committed version (numbered after the last, replacing it).
         """
         T = check_transforms(np.asarray(T_base_cam, dtype=float), "T_base_cam")[0]
-        lines, end = self._complete_lines()
-        last = Version.from_dict(json.loads(lines[-1]), f"{self.path}: line {len(lines)}") if lines else None
-        v = Version(
-            version=1 if last is None else last.version + 1,
-            time=time.time(),
-            reason=reason,
-            T_base_cam=T,
-            sigma=None if sigma is None else np.asarray(sigma, dtype=float).reshape(6),
-            frames=tuple(int(f) for f in frames),
-            replaces=None if last is None else last.version,
-            stream_t=stream_t,
-            extra=dict(extra or {}),
-        )
-        data = (json.dumps(v.to_dict(), separators=(",", ":")) + "\n").encode()
+        self._check_regular()  # before anything is created
         self.path.parent.mkdir(parents=True, exist_ok=True)
         target = check_output_path(self.path)  # no device, FIFO or dangling link appended to
         new = not target.exists()
         fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
         try:
+            # one appender at a time: the read of the last version, the append and the publication are one step
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            lines, end = self._complete_lines()
+            last = Version.from_dict(json.loads(lines[-1]), f"{self.path}: line {len(lines)}") if lines else None
+            v = Version(
+                version=1 if last is None else last.version + 1,
+                time=time.time(),
+                reason=reason,
+                T_base_cam=T,
+                sigma=None if sigma is None else np.asarray(sigma, dtype=float).reshape(6),
+                frames=tuple(int(f) for f in frames),
+                replaces=None if last is None else last.version,
+                stream_t=stream_t,
+                extra=dict(extra or {}),
+            )
+            data = (json.dumps(v.to_dict(), separators=(",", ":")) + "\n").encode()
             if os.fstat(fd).st_size > end:  # a torn, never-committed tail: cut it before appending
                 os.ftruncate(fd, end)
             written = 0
             while written < len(data):
                 written += os.write(fd, data[written:])
             os.fsync(fd)
+            if new:
+                _fsync_dir(target.parent)
+            self._publish(v)
         finally:
-            os.close(fd)
-        if new:
-            _fsync_dir(target.parent)
-        self._publish(v)
+            os.close(fd)  # releases the lock
         return v
 
     def rollback(self, version: int, stream_t: float | None = None) -> Version:

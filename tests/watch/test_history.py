@@ -132,3 +132,31 @@ def test_a_history_that_is_not_a_regular_file_is_refused(tmp_path, kind):
         History(path).append(pose_of(1), "test")
     with pytest.raises(HandEyeInputError, match="not a regular file"):
         History(path).latest()
+
+
+def _appender(path, current, count: int) -> None:
+    """A forked writer: append ``count`` versions as fast as it can, then exit (never returns)."""
+    try:
+        h = History(path, current)
+        for _ in range(count):
+            h.append(pose_of(1), "concurrent")
+        os._exit(0)
+    finally:
+        os._exit(1)
+
+
+def test_two_writers_appending_at_once_number_every_version_once(tmp_path):
+    """Two processes appending 40 versions each: versions 1..80, each replacing the one before, and the current
+    file naming the last (the read of the last version and the append are one step under the history's lock)."""
+    path, current = tmp_path / "h.jsonl", tmp_path / "current.json"
+    pids = []
+    for _ in range(2):
+        pid = os.fork()
+        if pid == 0:
+            _appender(path, current, 40)
+        pids.append(pid)
+    assert all(os.WEXITSTATUS(os.waitpid(pid, 0)[1]) == 0 for pid in pids)
+    versions = History(path).versions()
+    assert [v.version for v in versions] == list(range(1, 81))
+    assert [v.replaces for v in versions] == [None, *range(1, 80)]
+    assert json.loads(current.read_text())["version"] == 80
