@@ -36,7 +36,7 @@ from handeye.import_folder import read_frame_folder  # noqa: E402
 from handeye.recording_checks import DEPTH_MEDIAN_RANGE_M  # noqa: E402
 from handeye.recording_import import import_recordings  # noqa: E402
 from handeye.robot.model import load_robot  # noqa: E402
-from tests.tolerances import DEPTH_QUANTUM_M, FLOAT32_POSITION_MM, MM  # noqa: E402
+from tests.tolerances import ABSOLUTE_ONLY, DEPTH_QUANTUM_M, FLOAT32_POSITION_MM, MM  # noqa: E402
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 MSG = TS.types
@@ -195,9 +195,9 @@ def test_folder_npy_depth_in_millimetres_and_its_fix(tmp_path):
     with pytest.raises(RecordingError, match=r"f0\.npy: depth looks like millimetres .*--depth-unit 0\.001"):
         read_frame_folder(folder)
     part = read_frame_folder(folder, depth_unit_m=1e-3)
-    assert np.allclose(part.depth.images[0], DEPTH_M, atol=FLOAT32_POSITION_MM * MM)
+    assert np.allclose(part.depth.images[0], DEPTH_M, rtol=ABSOLUTE_ONLY, atol=FLOAT32_POSITION_MM * MM)
     png = read_frame_folder(_folder(tmp_path / "png"))
-    assert np.allclose(png.depth.images[0], DEPTH_M, atol=FLOAT32_POSITION_MM * MM)
+    assert np.allclose(png.depth.images[0], DEPTH_M, rtol=ABSOLUTE_ONLY, atol=FLOAT32_POSITION_MM * MM)
 
 
 def test_npy_header_declaring_a_huge_image_is_refused_before_reading(tmp_path):
