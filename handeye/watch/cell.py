@@ -32,7 +32,7 @@ import numpy as np
 
 from classic.markerless import MarkerlessOptions, register_robot
 from handeye.watch.change import Cusum, NullModel, fit_null
-from handeye.watch.check import CheckOptions, FrameCheck, camera_rays, check_frame, unit_correction
+from handeye.watch.check import CheckOptions, FrameCheck, check_frame, unit_correction
 from handeye.watch.events import Event
 from handeye.watch.history import History
 from handeye.watch.source import Frame
@@ -183,22 +183,16 @@ class CellWatcher:
         self._null_checks: list[FrameCheck] = []
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._collected: list[Frame] = []
-        self._rays = None
 
     def _check(self, frame: Frame) -> FrameCheck:
-        if self._rays is None or self._rays.shape[:2] != frame.depth_m.shape:
-            self._rays = camera_rays(self.K, *frame.depth_m.shape)
         posed = self.surface.posed(np.asarray(frame.joints, dtype=float)[None], twists=False)
         return check_frame(
             frame.depth_m,
             self.K,
-            posed.points_base,
-            posed.normals_base,
+            posed,
             self.T_base_cam,
             self.sensor.sigma_m,
-            frame.t,
             self.options.check,
-            self._rays,
             self.depth_correction,
         )
 
@@ -216,7 +210,7 @@ class CellWatcher:
         check = self._check(frame)
         self.last_check = check
         if self.mode == "learning":
-            state, detail = self._learn(check)
+            state, detail = self._learn(check, frame.t)
         elif self.mode == "watching":
             state, detail = self.states.classify(check)
             if state == "moved":
@@ -232,7 +226,7 @@ class CellWatcher:
     def _event(self, t: float, state: str, detail: str) -> Event:
         return Event(t, state, self.state, detail, self.stale_since, self.version)
 
-    def _learn(self, check: FrameCheck) -> tuple[str, str]:
+    def _learn(self, check: FrameCheck, t: float) -> tuple[str, str]:
         unusable = screen(check, self.options.states)
         lost = is_lost(check, self.options.states)
         if unusable is None and not lost:
@@ -243,7 +237,7 @@ class CellWatcher:
         n, relearn = len(self._null_checks), self.states is not None
         need = self.options.relearn_frames if relearn else self.options.null_frames
         if relearn and self._misfits >= need:  # the new calibration fits no frame: moved again meanwhile
-            self.mode, self.stale_since, self._collected, self._null_checks = "collecting", check.t, [], []
+            self.mode, self.stale_since, self._collected, self._null_checks = "collecting", t, [], []
             return "moved", f"the new calibration fits none of the last {self._misfits} frames (lost or occluded)"
         if n < need:
             return "learning", f"{n} of {need} frames for the null" + (" of the new calibration" if relearn else "")

@@ -29,6 +29,7 @@ the stream (:mod:`handeye.watch.change`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -87,8 +88,6 @@ class FrameCheck:
 
     Attributes
     ----------
-    t : float
-        The frame's time, seconds.
     delta : array, shape (6,), or None
         The correction ``(omega, v)`` (rad, m, camera frame) that one Gauss-Newton step finds:
         ``T_base_cam exp(delta)`` fits the frame better; None with fewer than ``min_matched`` matches.
@@ -103,7 +102,6 @@ class FrameCheck:
         RMS point-to-plane residual of the matched points, metres (NaN with none).
     """
 
-    t: float
     delta: np.ndarray | None
     covariance: np.ndarray | None
     chi2: float
@@ -121,8 +119,16 @@ class FrameCheck:
 
 
 def camera_rays(K: np.ndarray, height: int, width: int) -> np.ndarray:
-    """Every pixel's ray ``(x/z, y/z, 1)``, shape (height, width, 3): compute once per camera, pass to the check."""
-    return pixel_rays(np.asarray(K, dtype=float), int(height), int(width))
+    """Every pixel's ray ``(x/z, y/z, 1)``, shape (height, width, 3), read-only: computed once per camera."""
+    K = np.asarray(K, dtype=float)
+    return _rays(K.tobytes(), int(height), int(width))
+
+
+@lru_cache(maxsize=4)
+def _rays(K_bytes: bytes, height: int, width: int) -> np.ndarray:
+    rays = pixel_rays(np.frombuffer(K_bytes, dtype=float).reshape(3, 3), height, width)
+    rays.flags.writeable = False
+    return rays
 
 
 def unit_correction(scale: float, offset_m: float) -> tuple[float, float]:
@@ -134,13 +140,10 @@ def unit_correction(scale: float, offset_m: float) -> tuple[float, float]:
 def check_frame(
     depth_m: np.ndarray,
     K: np.ndarray,
-    points_base: np.ndarray,
-    normals_base: np.ndarray,
+    surface,
     T_base_cam: np.ndarray,
     sigma_m,
-    t: float = 0.0,
     options: CheckOptions | None = None,
-    rays: np.ndarray | None = None,
     depth_correction: tuple = (1.0, 0.0),
 ) -> FrameCheck:
     """Check ``T_base_cam`` against one depth frame (module docstring).
@@ -151,17 +154,13 @@ def check_frame(
         Depth, metres, 0 or NaN where the sensor has none.
     K : array, shape (3, 3)
         Camera matrix of the depth image (OpenCV convention).
-    points_base, normals_base : array, shape (M, 3)
-        The robot's surface posed at the frame's joints, base frame (``RobotSurface.posed``), outward normals.
+    surface : object with ``points_base`` and ``normals_base``, arrays of shape (M, 3)
+        The robot's surface posed at the frame's joints, base frame, outward normals (``RobotSurface.posed``).
     T_base_cam : array, shape (4, 4)
         The calibration being checked.
     sigma_m : callable
         Axial depth sigma at a depth, metres (``DepthSensor.sigma_m``).
-    t : float
-        The frame's time, seconds (copied into the result).
     options : CheckOptions, optional
-    rays : array, shape (H, W, 3), optional
-        :func:`camera_rays` of ``K`` (computed when omitted).
     depth_correction : (float, float)
         ``(k, c)``: the true depth is ``k z_obs + c`` (metres), as the markerless registration estimates it
         (a sensor reporting ``d_obs = s d + o`` has ``k = 1 / s``, ``c = -o / s``); ``(1, 0)``: none.
@@ -175,11 +174,10 @@ def check_frame(
     if depth_m.ndim != 2:
         raise ShapeError(f"depth must be one (H, W) image, got shape {depth_m.shape}")
     height, width = depth_m.shape
-    if rays is None:
-        rays = camera_rays(K, height, width)
+    rays = camera_rays(K, height, width)
     R, t_cam = T_base_cam[:3, :3], T_base_cam[:3, 3]
-    p_cam = (np.asarray(points_base, dtype=float) - t_cam) @ R  # R^T (p - t), row-wise
-    n_cam = np.asarray(normals_base, dtype=float) @ R
+    p_cam = (np.asarray(surface.points_base, dtype=float) - t_cam) @ R  # R^T (p - t), row-wise
+    n_cam = np.asarray(surface.normals_base, dtype=float) @ R
     idx = _visible(p_cam, n_cam, K, height, width, o.zbuffer_stride)
     uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
     z_obs = depth_m[uv[:, 1], uv[:, 0]]
@@ -202,7 +200,7 @@ def check_frame(
     )
     if counts["n_matched"] < o.min_matched:
         rms = float(np.sqrt(np.mean(dz[matched] ** 2))) if matched.any() else float("nan")
-        return FrameCheck(t, None, None, float("nan"), rms_m=rms, **counts)
+        return FrameCheck(None, None, float("nan"), rms_m=rms, **counts)
     ray = rays[uv[matched, 1], uv[matched, 0]]
     q = ray * z_obs[matched, None]
     m, n = p_cam[idx[matched]], n_cam[idx[matched]]
@@ -217,10 +215,10 @@ def check_frame(
     try:
         covariance = np.linalg.inv(H)
     except np.linalg.LinAlgError:
-        return FrameCheck(t, None, None, float("nan"), rms_m=float(np.sqrt(np.mean(r**2))), **counts)
+        return FrameCheck(None, None, float("nan"), rms_m=float(np.sqrt(np.mean(r**2))), **counts)
     delta = -covariance @ g
     chi2 = float(delta @ H @ delta)
-    return FrameCheck(t, delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), **counts)
+    return FrameCheck(delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), **counts)
 
 
 def _visible(p_cam: np.ndarray, n_cam: np.ndarray, K: np.ndarray, height: int, width: int, stride: int) -> np.ndarray:
