@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -269,8 +269,8 @@ def generate_stream(
         "robot": preset.robot,
         "K": camera_matrix(*preset.image_size, preset.fov_deg).tolist(),
         "image_size": tuple(preset.image_size),
-        "sensor": sensor.to_dict(),
-        "sensor_truth": {k: np.asarray(v).tolist() if v is not None else None for k, v in asdict(truth).items()},
+        "sensor": sensor,
+        "sensor_truth": truth,
         "pixel_sigma": preset.pixel_sigma,
         "seed": int(seed),
         "depth_scale_m": DEPTH_SCALE_M,

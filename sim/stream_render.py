@@ -19,7 +19,6 @@ import numpy as np
 from handeye.core.dataset import poses_to_columns
 from handeye.core.engines import require_visible
 from handeye.core.shard_writer import ShardWriter
-from handeye.robot.depth_sensors import DepthSensor
 from sim.stream_events import BOX_EXTENTS_M, OCCLUDER_SHAPES, PERSON_HEIGHT_M, PERSON_RADIUS_M
 
 __all__ = ["StreamShardRenderer", "SEPARATION_M", "init_worker", "render_segment", "describe_segment"]
@@ -49,23 +48,20 @@ class StreamShardRenderer:
     Parameters
     ----------
     config : dict
-        ``robot``, ``K`` (3x3 list), ``image_size``, ``sensor`` (a DepthSensor's dict), ``sensor_truth``
-        (:class:`sim.sensors.SensorTruth` fields), ``pixel_sigma``, ``seed``, ``depth_scale_m``, ``out``.
+        ``robot``, ``K`` (3x3 list), ``image_size``, ``sensor`` (a
+        :class:`handeye.robot.depth_sensors.DepthSensor`), ``sensor_truth`` (the unit's
+        :class:`sim.sensors.SensorTruth`), ``pixel_sigma``, ``seed``, ``depth_scale_m``, ``out``.
     """
 
     def __init__(self, config: dict):
         from handeye.robot.model import load_robot
         from sim.render import Renderer
-        from sim.sensors import SensorTruth
 
         self.config = config
         self.robot = load_robot(config["robot"])
         self.K = np.asarray(config["K"], dtype=float)
-        self.sensor = DepthSensor.from_dict(config["sensor"])
-        truth = dict(config["sensor_truth"])
-        for key in ("t_colour_depth_m", "registration_px"):
-            truth[key] = np.asarray(truth[key], dtype=float)
-        self.sensor_truth = SensorTruth(**truth)
+        self.sensor = config["sensor"]
+        self.sensor_truth = config["sensor_truth"]
         self.renderer = Renderer(self.robot, self.K, *config["image_size"])
         pr, scene = self.renderer.pyrender, self.renderer.scene
         self.occluder_nodes = []
