@@ -49,6 +49,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._report import Report  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.safe_write import write_figure_atomic  # noqa: E402
 from handeye.core.smoke import smoke_test  # noqa: E402
 
 #: The states of a frame the change test watched (not learning, not collecting frames after an alarm).
@@ -281,7 +282,7 @@ def plot(run: Replay, doc: dict, path: str, title: str) -> None:
     if run.cusum:
         ax.legend(loc="upper left", fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_figure_atomic(fig, path, dpi=110)
     plt.close(fig)
 
 
