@@ -9,9 +9,9 @@ its own that also holds on pytest-xdist's workers, which do not report deselecti
 
 Under pytest-xdist (``-n auto --dist loadscope --no-loadscope-reorder``, in ``pyproject.toml``'s
 ``addopts``) the work units are this module's scopes (:func:`pytest_xdist_make_scheduler`): a test file is one
-unit on one worker, so that its module fixtures are built once; the files that write probe modules into the
-tree and read every package file (:data:`SOURCE_TREE_FILES`) are one unit, so that one's probe is never half
-seen by the other's walk; the files that start a Ray cluster (:data:`RAY_FILES`) are one unit, and every Ray
+unit on one worker, so that its module fixtures are built once; the files that read every package file
+(:data:`SOURCE_TREE_FILES`), one of which writes probe modules into the tree, are one unit, so that a probe is
+never half seen by the other's walk; the files that start a Ray cluster (:data:`RAY_FILES`) are one unit, and every Ray
 user holds :func:`hold_ray_lock`, since a second cluster on the machine would be joined (``ray.init()`` finds a
 running one) instead of started; each test of the documentation's shell blocks (:data:`PER_TEST_FILES`,
 minutes each in the slow tier) is a unit of its own, and the slow tests come first, as the workers take the
@@ -31,8 +31,8 @@ import pytest
 #: The ``xdist_group`` some Ray tests are marked with. Under this suite's ``--dist loadscope`` the marker does
 #: nothing: :data:`RAY_FILES` and :func:`hold_ray_lock` keep one Ray cluster on the machine at a time.
 RAY_GROUP = "ray"
-#: Files that write probe modules into the tree and read every package file: on two workers one's probe,
-#: listed by the other's walk and removed before it was read, failed the other's test. One unit.
+#: Files that read every package file, test_layers writing probe modules into the tree: on two workers its
+#: probe, listed by the other's walk and removed before it was read, failed the other's test. One unit.
 SOURCE_TREE_FILES = ("tests/test_layers.py", "tests/test_private_imports.py")
 #: Files that start a local Ray cluster: one unit.
 RAY_FILES = ("tests/test_ray_engine.py", "tests/test_processes.py")
