@@ -68,9 +68,6 @@ class NullModel:
         d = np.asarray(delta, dtype=float) - self.delta_ref
         return float(d @ np.linalg.solve(covariance, d)) / (self.scale * (1 + np.pi / 2 / self.frames))
 
-    def to_dict(self) -> dict:
-        return {"delta_ref": self.delta_ref.tolist(), "scale": self.scale, "frames": self.frames}
-
 
 def fit_null(deltas: np.ndarray, covariances: np.ndarray) -> NullModel:
     """Fit :class:`NullModel` to frames taken as "nothing moved" (module docstring).
