@@ -57,6 +57,7 @@ __all__ = [
     "dataset_meta",
     "write_camera_table",
     "dataset_folder",
+    "recorded_robot_columns",
 ]
 
 #: Depth PNG unit: 0.1 mm, so 16 bits cover 6.5 m.
@@ -358,13 +359,30 @@ class ShardRenderer:
             "rgb": np.array([r[2] for r in rows], dtype=object),
             "depth": np.array([r[3] for r in rows], dtype=object),
         }
-        for j in range(self.robot.nq):
-            table[f"q{j}"] = q_rec[:, j]
-        T_base_ee = self.robot.fk(q_rec)
-        table.update(poses_to_columns("T_base_ee", T_base_ee))
-        table.update(poses_to_columns("T_base_ref", T_base_ee @ self.robot.T_ee_ref))
+        table.update(recorded_robot_columns(self.robot, q_rec))
         shard.write_frames(table, counts)
         return len(rows)
+
+
+def recorded_robot_columns(robot, q_recorded: np.ndarray) -> dict:
+    """A shard's robot columns as a controller reports them: the recorded joints, their forward kinematics.
+
+    Parameters
+    ----------
+    robot : handeye.robot.model.Robot
+    q_recorded : array, shape (N, nq)
+        The encoders' readings (noise included), radians.
+
+    Returns
+    -------
+    dict
+        ``q0`` ... ``q{nq-1}`` and the pose columns of ``T_base_ee`` and ``T_base_ref`` (metres).
+    """
+    table = {f"q{j}": q_recorded[:, j] for j in range(robot.nq)}
+    T_base_ee = robot.fk(q_recorded)
+    table.update(poses_to_columns("T_base_ee", T_base_ee))
+    table.update(poses_to_columns("T_base_ref", T_base_ee @ robot.T_ee_ref))
+    return table
 
 
 _WORKER: ShardRenderer | None = None

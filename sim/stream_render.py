@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.core.dataset import poses_to_columns
 from handeye.core.engines import require_visible
 from handeye.core.shard_writer import ShardWriter
+from sim.generate import recorded_robot_columns
 from sim.stream_events import BOX_EXTENTS_M, OCCLUDER_SHAPES, PERSON_HEIGHT_M, PERSON_RADIUS_M
 
 __all__ = ["StreamShardRenderer", "SEPARATION_M", "init_worker", "render_segment", "describe_segment"]
@@ -151,11 +151,7 @@ class StreamShardRenderer:
             "rgb": np.array(rgb_names, dtype=object),
             "depth": np.array(depth_names, dtype=object),
         }
-        for j in range(self.robot.nq):
-            table[f"q{j}"] = q_rec[:, j]
-        T_base_ee = self.robot.fk(q_rec)
-        table.update(poses_to_columns("T_base_ee", T_base_ee))
-        table.update(poses_to_columns("T_base_ref", T_base_ee @ self.robot.T_ee_ref))
+        table.update(recorded_robot_columns(self.robot, q_rec))
         return table
 
 
