@@ -22,6 +22,7 @@ the reason, and counts in the exit status (1 when any was refused).
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 from handeye.core.numbers import cli_float, cli_int, parse_float
@@ -63,7 +64,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
         default=None,
         help="the depth camera's profile (d435, d455, l515, azure-kinect, zivid): its depth-to-colour extrinsic "
         "uncertainty enters the sigma, and a stereo camera's matcher bias is modelled with its f B (default: the "
-        "dataset's simulated sensor, if any)",
+        "dataset's simulated sensor; a real recording without it: the d435-real-cell profile's registration "
+        "uncertainty, without a matcher model)",
     )
     p.add_argument(
         "--registration-sigma",
@@ -189,6 +191,10 @@ def _joint_offset_options(args: argparse.Namespace) -> dict:
     from handeye.core.errors import HandEyeInputError
 
     out = {"joint_offsets_model": args.joint_offsets}
+    if args.joint_offset_sigma is not None and not 0 < args.joint_offset_sigma < float("inf"):
+        raise HandEyeInputError(
+            f"--joint-offset-sigma must be a positive angle in degrees, got {args.joint_offset_sigma}"
+        )
     if args.joint_offsets != "estimate":
         return out
     if args.joint_offset_sigma is None:  # the dataset's robot family's prior
@@ -199,10 +205,6 @@ def _joint_offset_options(args: argparse.Namespace) -> dict:
         robot = Dataset.open(dataset).meta.get("robot") if dataset is not None else None
         out["joint_offset_prior_deg"] = joint_offset_prior_deg(robot)
         return out
-    if not 0 < args.joint_offset_sigma < float("inf"):
-        raise HandEyeInputError(
-            f"--joint-offset-sigma must be a positive angle in degrees, got {args.joint_offset_sigma}"
-        )
     out["joint_offset_prior_deg"] = float(args.joint_offset_sigma)
     return out
 
@@ -225,23 +227,45 @@ def _intrinsics_sigma(args: argparse.Namespace) -> tuple:
     return values
 
 
+#: The profile whose depth-to-colour registration uncertainty a real recording gets without ``--sensor`` (0.5 mm
+#: per axis, 0.2 deg): taking it as exact made the sigma too small on a real camera.
+UNNAMED_CAMERA_PRIOR = "d435-real-cell"
+
+
+def sensor_of(name: str | None, recipe: dict):
+    """The depth camera whose registration uncertainty enters the sigma: ``--sensor``'s profile, else the one a
+    simulated dataset was rendered with (None: exact registration), else, for a real recording, the
+    :data:`UNNAMED_CAMERA_PRIOR` profile without its matcher model, said on stdout."""
+    from handeye.robot.depth_sensors import DepthSensor, sensor_profile
+
+    if name is not None:
+        return sensor_profile(name)
+    if str(recipe.get("generator", "")).startswith("handeye sim"):
+        recorded = recipe.get("sensor")
+        return DepthSensor.from_dict(recorded) if isinstance(recorded, dict) else None
+    sensor = replace(sensor_profile(UNNAMED_CAMERA_PRIOR), stereo_baseline_m=0.0)
+    print(
+        f"no --sensor: the depth-to-colour registration taken as uncertain by {sensor.extrinsic_sigma_m * 1e3:g}"
+        f" mm and {sensor.registration_roll_sigma_deg:g} deg per axis (the {UNNAMED_CAMERA_PRIOR} profile's); "
+        "name your camera with --sensor"
+    )
+    return sensor
+
+
 def _sensor_terms(args: argparse.Namespace) -> tuple[float, float, float | None]:
     """The depth-to-colour extrinsic's sigmas per axis (metres, degrees) and a stereo camera's ``f B`` (None: not
     modelled).
 
-    Of ``--sensor``, else of the dataset's simulated sensor; ``--registration-sigma`` overrides the rotation's,
+    Of ``--sensor``, else of the dataset's simulated sensor, else (a real recording) of
+    :data:`UNNAMED_CAMERA_PRIOR` without its matcher model; ``--registration-sigma`` overrides the rotation's,
     ``--stereo-fb`` the ``f B`` (0: None). The matcher's bias is modelled only with the depth self-calibrated
     (``--depth-model scale-offset``).
     """
     from handeye.core.dataset import Dataset
     from handeye.core.errors import HandEyeInputError
-    from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 
-    if args.sensor is not None:
-        sensor = sensor_profile(args.sensor)
-    else:
-        recorded = Dataset.open(args.dataset).meta.get("recipe", {}).get("sensor")
-        sensor = DepthSensor.from_dict(recorded) if isinstance(recorded, dict) else None
+    recipe = {} if args.sensor is not None else Dataset.open(args.dataset).meta.get("recipe", {})
+    sensor = sensor_of(args.sensor, recipe)
     extrinsic_m = sensor.extrinsic_sigma_m if sensor is not None else 0.0
     extrinsic_deg = sensor.registration_roll_sigma_deg if sensor is not None else 0.0
     if args.registration_sigma is not None:

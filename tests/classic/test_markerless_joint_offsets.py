@@ -216,8 +216,9 @@ def test_the_command_reads_the_joint_offset_options_and_the_table_shows_them(sce
     assert joint_offset_prior_deg("ur5e") == JOINT_OFFSET_PRIORS_DEG["ur"]
     assert joint_offset_prior_deg({"urdf": "x"}) == JOINT_OFFSET_PRIORS_DEG["default"]
     for bad in (0.0, -0.1, float("inf")):
-        with pytest.raises(HandEyeInputError, match="joint-offset-sigma"):
-            _joint_offset_options(Namespace(joint_offsets="estimate", joint_offset_sigma=bad))
+        for model in ("estimate", "fixed"):  # refused also where it would not be used: a typo is not ignored
+            with pytest.raises(HandEyeInputError, match="joint-offset-sigma"):
+                _joint_offset_options(Namespace(joint_offsets=model, joint_offset_sigma=bad))
     assert _joint_offsets_cell({"model": "fixed"}) == "-"
     rows = [
         {"joint": 1, "status": "absorbed"},

@@ -98,6 +98,27 @@ def test_the_command_takes_the_profiles_rotation_spread_or_a_stated_one():
             terms("d435", bad)
 
 
+def test_a_real_recording_without_a_sensor_gets_a_stated_registration_prior(capsys):
+    """Not 0: a real camera's depth-to-colour registration is not exact. A simulated dataset keeps its own sensor's
+    (exact registration when it was rendered without one); no matcher model is guessed for an unnamed camera."""
+    from handeye.commands.markerless import UNNAMED_CAMERA_PRIOR, sensor_of
+    from handeye.robot.depth_sensors import PROFILES
+
+    prior = PROFILES[UNNAMED_CAMERA_PRIOR]
+    assert prior.extrinsic_sigma_m > 0 and prior.registration_roll_sigma_deg > 0
+    for real in ({}, {"generator": "handeye import bag"}):
+        sensor = sensor_of(None, real)
+        assert (sensor.extrinsic_sigma_m, sensor.registration_roll_sigma_deg) == (
+            prior.extrinsic_sigma_m,
+            prior.registration_roll_sigma_deg,
+        )
+        assert sensor.stereo_fb_px_m is None and "no --sensor" in capsys.readouterr().out
+    assert sensor_of(None, {"generator": "handeye sim generate", "sensor": None}) is None
+    rendered = {"generator": "handeye sim generate", "sensor": PROFILES["d435"].to_dict()}
+    assert sensor_of(None, rendered) == PROFILES["d435"]
+    assert sensor_of("zivid", {}) == PROFILES["zivid"]
+
+
 def test_the_run_says_which_part_was_estimated_and_which_bounded(turned):
     from handeye.markerless import MarkerlessRun
 
