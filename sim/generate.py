@@ -44,7 +44,7 @@ from handeye.core.shard_writer import ShardWriter
 from handeye.robot.depth_sensors import DepthSensor, sensor_profile
 from sim.cameras import CameraPreset, get_preset, place_cameras
 from sim.recording import DEFAULT_BOARD, board_mount, camera_matrix, sample_calibration_view, sample_data_configuration
-from sim.sensors import REGISTRATION_COLUMNS, apply_sensor, draw_systematic, truth_columns
+from sim.sensors import apply_sensor, draw_systematic, truth_columns
 
 __all__ = [
     "NoiseModel",
@@ -224,9 +224,8 @@ def _camera_table(cams, sensor: DepthSensor | None = None, seed: int = 0) -> dic
 
 
 def write_camera_table(path: Path, table: dict) -> None:
-    """``cameras.csv`` of a simulated dataset: :func:`handeye.core.dataset.camera_table_columns`, then the
-    depth unit's drawn registration (:data:`sim.sensors.REGISTRATION_COLUMNS`) where the profile has one."""
-    write_table(path, table, camera_table_columns(table) + [c for c in REGISTRATION_COLUMNS if c in table])
+    """``cameras.csv`` of a simulated dataset, in :func:`handeye.core.dataset.camera_table_columns`' order."""
+    write_table(path, table, camera_table_columns(table))
 
 
 # ------------------------------------------------------------------ worker

@@ -34,11 +34,11 @@ import numpy as np
 from scipy import ndimage
 from scipy.special import ndtri
 
+from handeye.core.dataset import REGISTRATION_COLUMNS
 from handeye.robot.depth_sensors import DepthSensor
 
 __all__ = [
     "SensorTruth",
-    "REGISTRATION_COLUMNS",
     "draw_systematic",
     "truth_columns",
     "apply_sensor",
@@ -103,15 +103,6 @@ def draw_systematic(sensor: DepthSensor, seed: int, camera_id: int) -> SensorTru
     )
 
 
-#: ``cameras.csv``'s columns of a misregistered unit's drawn registration (:func:`truth_columns`), after the
-#: scale, offset and extrinsic (:data:`handeye.core.dataset.SENSOR_COLUMNS`).
-REGISTRATION_COLUMNS = (
-    "depth_registration_px_true.u",
-    "depth_registration_px_true.v",
-    "depth_registration_roll_deg_true",
-)
-
-
 def truth_columns(sensor: DepthSensor, truths: Sequence[SensorTruth]) -> dict:
     """``cameras.csv``'s truth columns of the units' drawn errors, one row per truth.
 
@@ -126,7 +117,8 @@ def truth_columns(sensor: DepthSensor, truths: Sequence[SensorTruth]) -> dict:
     -------
     dict
         Column name to array: ``depth_scale_true``, ``depth_offset_mm_true``, ``depth_extrinsic_mm_true.x/y/z``
-        (millimetres) and, for a profile that misregisters its depth image, :data:`REGISTRATION_COLUMNS`
+        (millimetres) and, for a profile that misregisters its depth image,
+        :data:`handeye.core.dataset.REGISTRATION_COLUMNS`
         (pixels and degrees).
     """
     table = {

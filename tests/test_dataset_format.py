@@ -81,3 +81,14 @@ def test_manifest_recognises_complete_and_damaged_shards(tmp_path):
     (shard / "rgb" / "a.png").write_bytes(b"123")
     ok, why = shard_is_complete(shard)
     assert not ok and "3 bytes, the manifest says 5" in why
+
+
+def test_a_rewritten_camera_table_keeps_the_units_registration_truth():
+    """What the simulator records of a misregistered unit survives a rewrite of cameras.csv (labelling, markerless
+    labels rewrite it with camera_table_columns): before, the three columns were dropped."""
+    from handeye.core.dataset import CAMERA_COLUMNS, REGISTRATION_COLUMNS, SENSOR_COLUMNS, camera_table_columns
+
+    table = {c: [0.0] for c in CAMERA_COLUMNS + SENSOR_COLUMNS + REGISTRATION_COLUMNS}
+    assert camera_table_columns(table)[-3:] == REGISTRATION_COLUMNS
+    del table[REGISTRATION_COLUMNS[0]]
+    assert not set(REGISTRATION_COLUMNS) & set(camera_table_columns(table))

@@ -68,6 +68,7 @@ __all__ = [
     "POSE_FIELDS",
     "CAMERA_COLUMNS",
     "SENSOR_COLUMNS",
+    "REGISTRATION_COLUMNS",
     "LABEL_COLUMNS",
     "MARKERLESS_COLUMNS",
     "camera_table_columns",
@@ -120,6 +121,13 @@ SENSOR_COLUMNS = [
     "depth_extrinsic_mm_true.y",
     "depth_extrinsic_mm_true.z",
 ]
+#: Written by the simulator where the profile misregisters its depth image against the colour camera's model
+#: (``d435-real-cell``): the drawn shift in pixels and turn about the principal point in degrees.
+REGISTRATION_COLUMNS = [
+    "depth_registration_px_true.u",
+    "depth_registration_px_true.v",
+    "depth_registration_roll_deg_true",
+]
 #: Written by labelling: the classic label, how it was obtained and, with a truth, its error.
 LABEL_COLUMNS = [
     *pose_columns("T_base_cam_label"),
@@ -150,6 +158,8 @@ def camera_table_columns(table: dict) -> list[str]:
     cols = list(CAMERA_COLUMNS)
     if "depth_scale_true" in table:
         cols += SENSOR_COLUMNS
+    if REGISTRATION_COLUMNS[0] in table:
+        cols += REGISTRATION_COLUMNS
     if "T_base_cam_label.x" in table:
         cols += LABEL_COLUMNS
     if "T_base_cam_markerless.x" in table:

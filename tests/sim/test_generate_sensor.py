@@ -76,8 +76,7 @@ def test_rewriting_the_camera_table_keeps_the_sensor_columns(pair):
 def test_a_misregistered_units_registration_is_recorded_as_truth(tmp_path):
     """d435-real-cell draws a registration shift and roll per placement: cameras.csv records them (they were
     drawn into the table and then left out of the file by camera_table_columns)."""
-    from handeye.core.dataset import read_table
-    from sim.sensors import REGISTRATION_COLUMNS
+    from handeye.core.dataset import REGISTRATION_COLUMNS, read_table
 
     recipe = Recipe(PRESET, 3, NoiseModel(), ("data",), sensor="d435-real-cell")
     generate(tmp_path / "cell", recipe, cameras=[], options=SERIAL)  # the camera table, no shard rendered
