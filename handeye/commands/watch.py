@@ -117,6 +117,8 @@ def _watch(args: argparse.Namespace) -> int:
     from handeye.watch.check import CheckOptions
     from handeye.watch.source import stream_rate
 
+    if args.current is not None and args.history is None:
+        raise HandEyeInputError("--current is published from the versions' history: give --history too")
     ds = Dataset.open(args.dataset)
     cameras = ds.complete_shards()
     if not cameras:

@@ -133,7 +133,8 @@ class CellWatcher:
         Its ``sigma_m`` is the check's noise.
     options : WatchOptions, optional
     history_path, current_path : str or Path, optional
-        The versions' history and the current calibration's JSON (:class:`handeye.watch.history.History`).
+        The versions' history and the current calibration's JSON (:class:`handeye.watch.history.History`); a
+        ``current_path`` needs a ``history_path``.
     recalibrate : callable, optional
         ``recalibrate(frames, T_start) -> result`` with ``ok``, ``T_base_cam``, ``covariance``, ``sigma`` and
         ``refused`` (a :class:`classic.markerless.MarkerlessResult`); :func:`markerless_recalibration` by default.
@@ -159,6 +160,8 @@ class CellWatcher:
         self.K = np.asarray(K, dtype=float)
         self.sensor = sensor
         self.options = options or WatchOptions()
+        if history_path is None and current_path is not None:  # else it would silently never be written
+            raise ValueError(f"the current calibration ({current_path}) is published from a history: give history_path")
         self.history = None if history_path is None else History(history_path, current_path)
         self.version = None
         latest = None if self.history is None else self.history.latest()

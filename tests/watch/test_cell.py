@@ -94,3 +94,9 @@ def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path
     after = [e.state for e in events if e.t > recal[0].t]
     assert after[:2] == ["learning", "ok"] and "moved" not in after
     assert len(moved) == 1 and len(recal) == 1
+
+
+def test_a_current_file_without_a_history_is_refused(tmp_path):
+    """The current calibration is published from the history: without one it would never be written."""
+    with pytest.raises(ValueError, match="give history_path"):
+        CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), current_path=tmp_path / "current.json")

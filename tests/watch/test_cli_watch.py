@@ -35,6 +35,14 @@ def test_rollback_without_its_arguments_is_refused_with_the_reason(tmp_path, cap
     assert "no such history" in capsys.readouterr().err
 
 
+def test_current_without_history_is_refused_not_ignored(tmp_path, capsys):
+    """--current alone would never be written (it is published from the history): refused with the reason."""
+    current = tmp_path / "c.json"
+    assert main(["watch", str(tmp_path / "none"), "--truth-start", "--current", str(current)]) == 2
+    assert "give --history too" in capsys.readouterr().err
+    assert not current.exists()
+
+
 def test_stream_times_from_stream_json_else_the_rate(tmp_path):
     counts = {0: 3, 1: 2}
     np.testing.assert_allclose(np.concatenate(list(stream_times(tmp_path, counts, 10.0).values())), np.arange(5) / 10)
