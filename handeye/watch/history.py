@@ -131,17 +131,18 @@ class History:
         HandEyeInputError
             A complete line that is not a version (naming the line): corruption, not a torn write.
         """
-        out = []
-        for i, line in enumerate(self._complete_lines()[0], start=1):
-            where = f"{self.path}: line {i}"
-            try:
-                doc = json.loads(line)
-            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-                raise HandEyeInputError(f"{where}: not JSON ({exc}); the history is corrupt") from None
-            if not isinstance(doc, dict):
-                raise HandEyeInputError(f"{where}: not a calibration version (a JSON object expected)")
-            out.append(Version.from_dict(doc, where))
-        return out
+        return [self._parse(line, i) for i, line in enumerate(self._complete_lines()[0], start=1)]
+
+    def _parse(self, line: bytes, number: int) -> Version:
+        """One complete line as a version (raises :class:`HandEyeInputError` naming the line)."""
+        where = f"{self.path}: line {number}"
+        try:
+            doc = json.loads(line)
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise HandEyeInputError(f"{where}: not JSON ({exc}); the history is corrupt") from None
+        if not isinstance(doc, dict):
+            raise HandEyeInputError(f"{where}: not a calibration version (a JSON object expected)")
+        return Version.from_dict(doc, where)
 
     def latest(self) -> Version | None:
         """The current version (the last committed), None for an empty history."""
@@ -183,7 +184,7 @@ class History:
             # one appender at a time: the read of the last version, the append and the publication are one step
             fcntl.flock(fd, fcntl.LOCK_EX)
             lines, end = self._complete_lines()
-            last = Version.from_dict(json.loads(lines[-1]), f"{self.path}: line {len(lines)}") if lines else None
+            last = self._parse(lines[-1], len(lines)) if lines else None
             v = Version(
                 version=1 if last is None else last.version + 1,
                 time=time.time(),

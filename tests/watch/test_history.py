@@ -118,6 +118,9 @@ def test_a_corrupt_complete_line_is_an_error_not_a_torn_write(tmp_path):
     path.write_bytes(lines[0][:20] + b"\n" + lines[1])
     with pytest.raises(HandEyeInputError, match="line 1: not JSON"):
         History(path).versions()
+    path.write_bytes(lines[0] + lines[1][:20] + b"\n")  # the last complete line, read by append
+    with pytest.raises(HandEyeInputError, match="line 2: not JSON"):
+        History(path).append(pose_of(3), "test")
 
 
 @pytest.mark.parametrize("kind", ["device link", "fifo"])
