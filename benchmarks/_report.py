@@ -7,6 +7,7 @@ import shlex
 import sys
 
 from benchmarks._machine import machine
+from handeye.core.safe_write import write_text_atomic
 from handeye.core.smoke import NOTICE, smoke_test
 
 
@@ -52,7 +53,6 @@ class Report:
     def write(self, out: str | None) -> int:
         """Write the kept lines to ``out`` when given; returns 0 (the scripts' exit status)."""
         if out:
-            with open(out, "w") as f:
-                f.write("\n".join(self.lines) + "\n")
+            write_text_atomic(out, "\n".join(self.lines) + "\n")  # no half report, no FIFO or link written into
             print(f"written: {out}", file=sys.stderr)
         return 0

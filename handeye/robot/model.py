@@ -1,4 +1,4 @@
-"""The robot: a UR arm from ``example-robot-data`` through Pinocchio.
+"""The robot: a UR arm from ``example-robot-data``, or any URDF with visual meshes, through Pinocchio.
 
 Frames: ``base`` is the model's world frame (the robot base), ``ee`` is
 Pinocchio's ``tool0`` frame (the flange), ``ref`` a point on the tool at
