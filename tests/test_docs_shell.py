@@ -65,7 +65,7 @@ import pytest
 from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
 from tests.test_docs import DOCS, README, ROOT, code_blocks
-from tests.tiers import RAY_GROUP, hold_ray_lock
+from tests.tiers import hold_ray_lock
 from tests.tolerances import FLOAT
 
 #: Left out of the executed text (checked instead): no network, no ROS installation here.
@@ -387,8 +387,7 @@ def _paper_sim(folder, home, block, request):
 def _ray_head(folder, home, block, request):
     """A running Ray cluster of 2 CPUs on this machine (``ray start --head``), stopped after the block."""
     _nothing(folder, home, block, request)
-    _have("ray")
-    hold_ray_lock(request)
+    _have("ray")  # the Ray lock is held by the test: the block says --engine ray
     ray = str(Path(sys.executable).parent / "ray")
     start = [ray, "start", "--head", "--num-cpus", "2", "--object-store-memory", str(256 * 2**20)]
     start += ["--include-dashboard", "false", "--disable-usage-stats"]
@@ -612,16 +611,15 @@ def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -
     assert (parent, child) == (calib.parent_frame, calib.child_frame)
 
 
-def _marks(b: Block, block: str) -> list:
-    """A smoke run (b), or a block marked slow, is the slow tier's; a block on Ray is marked for the Ray lock."""
-    marks = [pytest.mark.slow] if b.kind == "b" or b.slow else []
-    return marks + ([pytest.mark.xdist_group(RAY_GROUP)] if "--engine ray" in block else [])
+def _marks(b: Block) -> list:
+    """A smoke run (b), or a block marked slow, is the slow tier's (a block on Ray holds the Ray lock)."""
+    return [pytest.mark.slow] if b.kind == "b" or b.slow else []
 
 
 def _executed() -> list:
     blocks = docs_bash_blocks()
     return [
-        pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}", marks=_marks(b, blocks[key]))
+        pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}", marks=_marks(b))
         for key, b in BLOCKS.items()
         if b.kind in "ab" and key in blocks
     ]
@@ -634,6 +632,8 @@ def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
     folder, home = tmp_path / "cwd", tmp_path / "home"
     folder.mkdir()
     home.mkdir()
+    if "--engine ray" in block:  # a local cluster, or the one the setup starts: one on the machine at a time
+        hold_ray_lock(request)
     BLOCKS[key].prepare(folder, home, block, request)
     text, dropped = executed_text(block)
     path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from handeye.cli import describe_os_error, main
-from tests.tiers import RAY_GROUP, hold_ray_lock
+from tests.tiers import hold_ray_lock
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO / "handeye" / "data"
@@ -121,7 +121,6 @@ RAY_SCRIPT = POOL_SCRIPT.replace(
 ).replace("PoolEngine().run(busy", "RayEngine().run(busy")
 
 
-@pytest.mark.xdist_group(RAY_GROUP)  # one Ray cluster on the machine at a time
 def test_ray_workers_of_a_local_cluster_die_with_the_driver(tmp_path, request):
     """Ray's own notice of a dead driver took 1.9 s here (2.7 s while rendering; Ray 2.60): each task watches
     its driver instead, every ``DRIVER_POLL_S``; 5 polls is the bound (0.12-0.16 s measured)."""

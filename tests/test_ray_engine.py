@@ -18,9 +18,7 @@ ray = pytest.importorskip(
 from benchmarks.cluster_engines import differing_files, kill_when_half_written  # noqa: E402
 from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.ray_pool import RayEngine, ray_worker_ready_keys  # noqa: E402
-from tests.tiers import RAY_GROUP, hold_ray_lock  # noqa: E402
-
-pytestmark = pytest.mark.xdist_group(RAY_GROUP)  # one Ray cluster on the machine at a time
+from tests.tiers import hold_ray_lock  # noqa: E402
 
 
 def run_ray(fn, tasks, workers, **options):

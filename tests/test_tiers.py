@@ -91,7 +91,7 @@ def test_slow_is_a_registered_marker(pytestconfig):
 def test_the_ray_tests_hold_the_ray_lock():
     """Every test file that starts or joins a Ray cluster calls :func:`~tests.tiers.hold_ray_lock` (a second
     cluster started beside a running one would join it, and ``ray stop --force`` stops every cluster on the
-    machine). The lock is the guard: the ``xdist_group`` marker does nothing under ``--dist loadscope``."""
+    machine). The lock is the guard, with :data:`~tests.tiers.RAY_FILES` one work unit."""
     starts_ray = re.compile(r'ray\.init\(|RayEngine\(|engine="ray"|"start", "--head"')
     unlocked = [
         p.relative_to(ROOT).as_posix()

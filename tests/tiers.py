@@ -28,9 +28,6 @@ from pathlib import Path
 
 import pytest
 
-#: The ``xdist_group`` some Ray tests are marked with. Under this suite's ``--dist loadscope`` the marker does
-#: nothing: :data:`RAY_FILES` and :func:`hold_ray_lock` keep one Ray cluster on the machine at a time.
-RAY_GROUP = "ray"
 #: Files that read every package file, test_layers writing probe modules into the tree: on two workers its
 #: probe, listed by the other's walk and removed before it was read, failed the other's test. One unit.
 SOURCE_TREE_FILES = ("tests/test_layers.py", "tests/test_private_imports.py")
