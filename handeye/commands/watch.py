@@ -7,6 +7,8 @@ Example
     handeye watch data/stream --truth-start --sensor d435 --history cell.jsonl --current cell.json
     handeye watch data/stream --camera-start guess.json --rate 30 --false-alarms-per-hour 0.1
     handeye watch rollback --history cell.jsonl 3
+    handeye watch BAG --sensor d435 --camera-start start.json --history cell.jsonl    # a ROS 2 bag, at its rate
+    handeye watch --ros2 --sensor d435 --history cell.jsonl --current cell.json        # live (needs rclpy)
 
 Replays the dataset's data frames as one stream (its shards in order; times from ``stream.json``, else
 ``--rate``) through :class:`handeye.watch.CellWatcher` and prints one line per event: ``learning`` (the
@@ -19,8 +21,10 @@ stale since t". The start: ``--camera-start`` (JSON, as ``handeye markerless --s
 ``--truth-start`` (the first segment's truth, simulated data, with the sensor's true depth scale and offset
 where the dataset has them), else the history's latest version. Until the first
 recalibration estimates it, the depth is otherwise taken as exact. ``rollback`` appends to the history a new
-version equal to an older one.
-Live ROS 2 topics are not built yet.
+version equal to an older one (``--publish-tf`` also publishes it as the static transform).
+A ROS 2 bag (a path with ``metadata.yaml``, or its ``.db3``/``.mcap``) is replayed at its recorded rate
+(``--fast``: as fast as possible), live topics are watched with ``--ros2``, the calibration is published as a
+static transform and the continual learner fed (``--learner``): :mod:`handeye.commands.watch_sources`.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import argparse
 import time
 from pathlib import Path
 
+from handeye.commands.watch_sources import add_source_arguments
 from handeye.core.numbers import cli_float, cli_int
 
 __all__ = ["add_parser", "run"]
@@ -42,7 +47,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("dataset", help="dataset directory (a stream), or 'rollback' followed by a VERSION")
+    p.add_argument(
+        "dataset", nargs="?", help="dataset directory or ROS 2 bag (a stream), or 'rollback' followed by a VERSION"
+    )
     p.add_argument("version", nargs="?", type=cli_int, help="with 'rollback': the version to roll back to")
     start = p.add_mutually_exclusive_group()
     start.add_argument("--camera-start", type=Path, help="JSON start T_base_cam")
@@ -61,6 +68,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--relearn-seconds", type=cli_float, default=3.0, help="after a recalibration (default 3)")
     p.add_argument("--recal-frames", type=cli_int, default=30, help="frames per recalibration (default 30)")
     p.add_argument("--urdf", type=Path, help="robot URDF with visual meshes (default: the dataset's UR)")
+    add_source_arguments(p)
     p.set_defaults(run=run)
     p.__class__ = _IntermixedParser  # "rollback --history PATH VERSION": the version after the options
     return p
@@ -102,23 +110,42 @@ def _rollback(args: argparse.Namespace) -> int:
         raise HandEyeInputError(f"{args.history}: no such history")
     v = History(args.history, args.current).rollback(args.version)
     print(f"version {v.version}: {v.reason} (replaces {v.replaces})")
+    if args.publish_tf or args.ros2:
+        from handeye.commands.watch_sources import hold, tf_publisher
+
+        tf = tf_publisher(args)
+        tf.publish(v.T_base_cam)
+        print(f"published {args.base_frame} -> {args.camera_frame}; held until Ctrl-C", flush=True)
+        hold(tf)
     return 0
 
 
 def _watch(args: argparse.Namespace) -> int:
+    from handeye.commands.watch_sources import is_bag
+    from handeye.core.errors import HandEyeInputError
+
+    if args.current is not None and args.history is None:
+        raise HandEyeInputError("--current is published from the versions' history: give --history too")
+    if args.ros2 or (args.dataset is not None and is_bag(args.dataset)):
+        return _watch_ros(args)
+    if args.dataset is None:
+        raise HandEyeInputError("nothing to watch: give a dataset or a ROS 2 bag, or --ros2 for live topics")
+    return _watch_dataset(args)
+
+
+def _watch_dataset(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from handeye.commands.watch_sources import outputs
     from handeye.core.dataset import Dataset
     from handeye.core.errors import HandEyeInputError
     from handeye.core.metrics import pose_error
     from handeye.markerless import read_start, robot_surface_for
     from handeye.robot.depth_sensors import DepthSensor, sensor_profile
-    from handeye.watch import CellWatcher, WatchOptions, dataset_frames
-    from handeye.watch.check import CheckOptions
+    from handeye.robot_model import dataset_robot
+    from handeye.watch import CellWatcher, dataset_frames
     from handeye.watch.source import stream_rate
 
-    if args.current is not None and args.history is None:
-        raise HandEyeInputError("--current is published from the versions' history: give --history too")
     ds = Dataset.open(args.dataset)
     cameras = ds.complete_shards()
     if not cameras:
@@ -143,7 +170,78 @@ def _watch(args: argparse.Namespace) -> int:
         sensor = DepthSensor.from_dict(recorded)
     rate = stream_rate(args.dataset, args.rate)
     surface, stride = robot_surface_for(ds, args.urdf)
-    options = WatchOptions(
+    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    robot = dataset_robot(ds, args.urdf) if args.learner is not None else None
+    hooks, starts, learner, tf = outputs(args, robot, K)
+    watcher = CellWatcher(
+        surface,
+        K,
+        T_start,
+        sensor,
+        _options(args, rate, stride),
+        args.history,
+        args.current,
+        depth_correction=depth_correction,
+        on_commit=hooks,
+        extra_starts=starts,
+    )
+    if tf is not None:
+        tf.publish(watcher.T_base_cam)
+    frames = dataset_frames(args.dataset, args.rate, colour=learner is not None)
+    last = _replay(watcher, frames, learner)
+    if last is not None and np.isfinite(truth[last.segment]).all():
+        rot_deg, trans_mm = pose_error(watcher.T_base_cam, truth[last.segment])
+        print(f"calibration in use vs the last segment's truth: {rot_deg:.3f} deg, {trans_mm:.2f} mm")
+    return 0
+
+
+def _watch_ros(args: argparse.Namespace) -> int:
+    """A ROS 2 bag replayed, or live topics (:mod:`handeye.commands.watch_sources`)."""
+    from handeye.commands.watch_sources import bag_inputs, outputs, ros2_inputs
+    from handeye.core.errors import HandEyeInputError
+    from handeye.markerless import read_start
+    from handeye.robot.depth_sensors import sensor_profile
+    from handeye.watch import CellWatcher
+
+    what = "live ROS 2 topics" if args.ros2 else "a bag"
+    if args.truth_start:
+        raise HandEyeInputError(f"--truth-start is for simulated datasets; for {what} give --camera-start or --history")
+    if args.camera_start is None and (args.history is None or not args.history.is_file()):
+        raise HandEyeInputError(f"no start for {what}: give --camera-start FILE or a --history with a version")
+    if args.sensor is None:
+        raise HandEyeInputError(f"{what} records no sensor profile: give --sensor (d435, ...)")
+    sensor = sensor_profile(args.sensor)
+    T_start = None if args.camera_start is None else read_start(args.camera_start)
+    inputs = ros2_inputs(args) if args.ros2 else bag_inputs(args)
+    try:
+        rate = inputs.rate_hz if args.rate is None else args.rate
+        hooks, starts, learner, tf = outputs(args, inputs.robot, inputs.K, inputs.node)
+        watcher = CellWatcher(
+            inputs.surface,
+            inputs.K,
+            T_start,
+            sensor,
+            _options(args, rate, inputs.stride),
+            args.history,
+            args.current,
+            on_commit=hooks,
+            extra_starts=starts,
+        )
+        if tf is not None:
+            tf.publish(watcher.T_base_cam)
+        _replay(watcher, inputs.frames, learner)
+    finally:
+        if inputs.source is not None:
+            inputs.source.close()
+    return 0
+
+
+def _options(args: argparse.Namespace, rate: float, stride: int):
+    """The watcher's options from the command line at the stream's rate."""
+    from handeye.watch import WatchOptions
+    from handeye.watch.check import CheckOptions
+
+    return WatchOptions(
         rate_hz=rate,
         false_alarms_per_hour=args.false_alarms_per_hour,
         null_frames=max(6, round(args.null_seconds * rate)),
@@ -151,24 +249,34 @@ def _watch(args: argparse.Namespace) -> int:
         recal_frames=args.recal_frames,
         check=CheckOptions(zbuffer_stride=stride),
     )
-    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
-    watcher = CellWatcher(
-        surface, K, T_start, sensor, options, args.history, args.current, depth_correction=depth_correction
-    )
-    n, spent, segment = 0, 0.0, cameras[0]
-    for frame in dataset_frames(args.dataset, args.rate):
-        t0 = time.perf_counter()
-        for event in watcher.feed(frame):
-            print(event.line(), flush=True)
-        spent += time.perf_counter() - t0
-        n, segment = n + 1, frame.segment
+
+
+def _replay(watcher, frames, learner=None):
+    """Feed every frame, printing each event (and the learner's reports) as one line; the last frame."""
+    n, spent, last = 0, 0.0, None
+    try:
+        for frame in frames:
+            t0 = time.perf_counter()
+            for event in watcher.feed(frame):
+                print(event.line(), flush=True)
+            spent += time.perf_counter() - t0
+            n, last = n + 1, frame
+            _print_reports(learner)
+    except KeyboardInterrupt:
+        print("interrupted")
     print(f"{n} frames, {1e3 * spent / max(n, 1):.1f} ms per frame on average (recalibrations included)")
+    if learner is not None:
+        print("waiting for the learner's training to end ...", flush=True)
+        learner.wait()
+        _print_reports(learner)
     if watcher.stale_since is not None:
         print(f"calibration stale since {watcher.stale_since:.3f}s: no validated answer yet")
-    if np.isfinite(truth[segment]).all():
-        rot_deg, trans_mm = pose_error(watcher.T_base_cam, truth[segment])
-        print(f"calibration in use vs the last segment's truth: {rot_deg:.3f} deg, {trans_mm:.2f} mm")
-    return 0
+    return last
+
+
+def _print_reports(learner) -> None:
+    while learner is not None and learner.reports:
+        print(learner.reports.pop(0), flush=True)
 
 
 def _truth_depth(ds, camera: int) -> tuple:

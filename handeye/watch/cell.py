@@ -94,9 +94,11 @@ def markerless_recalibration(
 ):
     """The default ``recalibrate``: :func:`classic.markerless.register_robot` on the collected frames.
 
-    Started from the last calibration (and the moving pixels' centroids). Unless ``options`` are given: the camera
-    matrix and the joints taken as exact, as the check takes them, the depth's scale and offset estimated (the
-    check then uses them), and the sensor profile's depth noise and depth-to-colour extrinsic bound.
+    Started from the last calibration, any ``extra_starts`` (the learned model's prediction,
+    :meth:`handeye.watch.learner.BackgroundLearner.starts`) and the moving pixels' centroids. Unless ``options``
+    are given: the camera matrix and the joints taken as exact, as the check takes them, the depth's scale and
+    offset estimated (the check then uses them), and the sensor profile's depth noise and depth-to-colour
+    extrinsic bound.
     """
     if options is None:
         # the check takes the camera matrix and the joints as given and corrects the depth by the scale and offset
@@ -110,10 +112,11 @@ def markerless_recalibration(
             depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
         )
 
-    def recalibrate(frames: list[Frame], T_start: np.ndarray):
+    def recalibrate(frames: list[Frame], T_start: np.ndarray, extra_starts: dict | None = None):
         depth = np.stack([f.depth_m for f in frames])
         q = np.stack([f.joints for f in frames])
-        return register_robot(depth, K, robot_surface.posed(q), starts={"last": T_start}, options=options)
+        starts = {"last": T_start, **(extra_starts or {})}
+        return register_robot(depth, K, robot_surface.posed(q), starts=starts, options=options)
 
     return recalibrate
 
@@ -142,6 +145,14 @@ class CellWatcher:
     depth_correction : (float, float)
         ``(k, c)``: the true depth is ``k z_obs + c`` (:func:`handeye.watch.check.check_frame`), until a
         recalibration estimates it anew.
+    on_commit : sequence of callable, optional
+        Each called ``hook(T_base_cam, frames, version)`` after a validated calibration is committed (and
+        published to ``current_path``): :class:`handeye.watch.ros2.TfPublisher`,
+        :class:`handeye.watch.learner.BackgroundLearner` (which returns at once and trains in the background).
+    extra_starts : callable, optional
+        ``extra_starts(frames) -> {name: T_base_cam}``, more starts for a recalibration beside the last
+        calibration (:meth:`handeye.watch.learner.BackgroundLearner.starts`); passed as
+        ``recalibrate(frames, T_start, extra_starts=...)`` when it gives any.
     """
 
     def __init__(
@@ -155,6 +166,8 @@ class CellWatcher:
         current_path: str | Path | None = None,
         recalibrate: Callable | None = None,
         depth_correction: tuple = (1.0, 0.0),
+        on_commit=(),
+        extra_starts: Callable | None = None,
     ):
         self.surface = robot_surface
         self.K = np.asarray(K, dtype=float)
@@ -177,6 +190,7 @@ class CellWatcher:
         self.depth_correction = tuple(float(v) for v in depth_correction)
         stride = self.options.check.zbuffer_stride
         self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor, zbuffer_stride=stride)
+        self.on_commit, self.extra_starts = tuple(on_commit), extra_starts
         self.mode = "learning"
         self.state = "learning"
         self.stale_since: float | None = None
@@ -272,7 +286,8 @@ class CellWatcher:
         if n < self.options.recal_frames:
             return "moved", f"collecting frames to recalibrate: {n} of {self.options.recal_frames}"
         frames, self._collected = self._collected, []
-        result = self.recalibrate(frames, self.T_base_cam)
+        extra = self.extra_starts(frames) if self.extra_starts is not None else {}
+        result = self.recalibrate(frames, self.T_base_cam, **({"extra_starts": extra} if extra else {}))
         if not getattr(result, "ok", False):
             reason = getattr(result, "refused", None) or "no answer"
             return "refused", f"recalibration from {len(frames)} frames refused: {reason}; collecting again"
@@ -304,4 +319,6 @@ class CellWatcher:
         detail = f"new calibration from {len(frames)} frames (stale since {stale:.3f}s)"
         if "rotation_deg" in s and "translation_mm" in s:
             detail += f", sigma {s['rotation_deg']:.3f} deg, {s['translation_mm']:.2f} mm"
+        for hook in self.on_commit:
+            hook(self.T_base_cam, frames, self.version)
         return "recalibrated", detail

@@ -1,6 +1,17 @@
-"""Frames for the watcher: a dataset folder replayed in order, and the live ROS 2 source (not built yet).
+"""Frames for the watcher: a dataset folder or a ROS 2 bag replayed in order (live ROS 2: :mod:`.ros2`).
 
-A stream is a dataset (:mod:`handeye.core.dataset`) whose shards are consecutive segments of one recording:
+Every source yields :class:`Frame` objects for :meth:`handeye.watch.CellWatcher.feed`, the one code path.
+
+A bag (:func:`bag_frames`) is read with :func:`handeye.import_bag.read_camera_bag`, the reader ``handeye import
+bag`` uses: its depth stamps lead, each depth frame takes the joints interpolated at its stamp
+(:func:`handeye.recording_import.joints_at`, within ``joint_tolerance_s``) and the nearest colour image (within
+``sync_tolerance_s``; none beyond it), undistorted to the camera_info's ``K`` as the import does. Frames without
+joints within the tolerance are left out (counted). :func:`paced` replays any source at its recorded rate::
+
+    handeye watch BAG --sensor d435 --camera-start start.json --history cell.jsonl --current cell.json
+    handeye watch BAG --fast ...          # as fast as the check goes
+
+A dataset stream is a dataset (:mod:`handeye.core.dataset`) whose shards are consecutive segments of one recording:
 the shards in order, each shard's data frames in order (a frame whose depth was lost, an empty ``depth``
 cell, comes as an image without depth: a dropout). Times come from ``stream.json`` in
 the dataset's root when it is there (the simulator's stream preset writes it), read as::
@@ -13,7 +24,8 @@ rate given (``rate_hz``).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import time
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,7 +35,7 @@ from handeye.core.dataset import Dataset
 from handeye.core.errors import DatasetError, HandEyeInputError
 from handeye.core.jsonfile import read_json_file
 
-__all__ = ["Frame", "dataset_frames", "stream_rate", "stream_times", "ros2_frames"]
+__all__ = ["Frame", "BagTopics", "BagStream", "bag_frames", "paced", "dataset_frames", "stream_rate", "stream_times"]
 
 
 @dataclass
@@ -42,6 +54,9 @@ class Frame:
         Position in the stream (0, 1, ...).
     segment : int or None
         The dataset shard it came from.
+    rgb : array of uint8, shape (H, W, 3), or None
+        The colour image registered to the depth, where the source has one (the continual learner's input,
+        :mod:`handeye.watch.learner`).
     """
 
     t: float
@@ -49,6 +64,7 @@ class Frame:
     joints: np.ndarray
     index: int = 0
     segment: int | None = None
+    rgb: np.ndarray | None = None
 
 
 def _stream_doc(root: str | Path) -> dict:
@@ -99,7 +115,9 @@ def stream_times(root: str | Path, counts: dict, rate_hz: float | None) -> dict:
     return out
 
 
-def dataset_frames(root: str | Path, rate_hz: float | None = None, cameras=None) -> Iterator[Frame]:
+def dataset_frames(
+    root: str | Path, rate_hz: float | None = None, cameras=None, colour: bool = False
+) -> Iterator[Frame]:
     """Replay a dataset's data frames in stream order (module docstring).
 
     Parameters
@@ -109,6 +127,8 @@ def dataset_frames(root: str | Path, rate_hz: float | None = None, cameras=None)
         Frame rate when ``stream.json`` gives none (and over its rate when given).
     cameras : sequence of int, optional
         The shards to replay (default all complete ones, in order).
+    colour : bool
+        Read each frame's colour image too (``Frame.rgb``: the continual learner's input).
 
     Yields
     ------
@@ -126,25 +146,133 @@ def dataset_frames(root: str | Path, rate_hz: float | None = None, cameras=None)
             raise DatasetError(f"{ds.shard_dir(c) / 'frames.csv'}: data frames without joint angles")
         for i, rel in enumerate(t["depth"]):
             depth = ds.depth_m(c, rel) if rel else np.zeros(shape, dtype=np.float32)  # no depth: a dropout
-            yield Frame(float(times[c][i]), depth, q[i], index, c)
+            rgb = ds.rgb(c, t["rgb"][i]) if colour and t["rgb"][i] else None
+            yield Frame(float(times[c][i]), depth, q[i], index, c, rgb)
             index += 1
 
 
-def ros2_frames(*args, **kwargs) -> Iterator[Frame]:
-    """Live frames from ROS 2 topics: not built yet.
+@dataclass(frozen=True)
+class BagTopics:
+    """The topics of an RGB-D camera and a robot (the RealSense driver's names by default)."""
+
+    depth: str = "/camera/aligned_depth_to_color/image_raw"
+    info: str = "/camera/color/camera_info"
+    color: str = "/camera/color/image_raw"
+    joints: str = "/joint_states"
+
+
+@dataclass
+class BagStream:
+    """A bag's frames for the watcher.
+
+    Attributes
+    ----------
+    K : array, shape (3, 3)
+        The camera matrix the depth is registered to (its camera_info's, after undistortion).
+    size : (int, int)
+        ``(width, height)``.
+    frames : list of Frame
+        In stamp order; ``t`` is seconds since the bag's start.
+    dropped : int
+        Depth frames left out: no joint state within the tolerance.
+    source : str
+    """
+
+    K: np.ndarray
+    size: tuple
+    frames: list
+    dropped: int
+    source: str
+
+
+def bag_frames(
+    bag,
+    joint_names: list,
+    topics: BagTopics | None = None,
+    depth_unit_m: float | None = None,
+    joint_tolerance_s: float = 0.02,
+    sync_tolerance_s: float = 0.02,
+) -> BagStream:
+    """A ROS 2 bag's (sqlite3 or MCAP) RGB-D frames with the joints at their stamps (module docstring).
+
+    Parameters
+    ----------
+    bag : str or Path
+        A rosbag2 directory (or its ``.db3``/``.mcap`` file).
+    joint_names : list of str
+        The robot model's joints, in its order (the bag's JointState names matched to them).
+    topics : BagTopics, optional
+    depth_unit_m : float, optional
+        Metres per depth unit; None: the encoding's (REP 118).
+    joint_tolerance_s, sync_tolerance_s : float
+        Largest gap from a depth stamp to the joint samples around it, and to the colour image taken.
+
+    Returns
+    -------
+    BagStream
 
     Raises
     ------
+    NotABagError, BagTopicError, BagError, RecordingError, IntrinsicsError
+        As :func:`handeye.import_bag.read_camera_bag`.
+    JointNamesError
+        A model joint the bag does not have.
     HandEyeInputError
-        Always: without rclpy it says so; with it, that the live source is the next step (issue 43).
+        No depth frame with joints within the tolerance.
     """
-    try:
-        import rclpy  # noqa: F401
-    except ImportError:
+    from handeye.import_bag import read_camera_bag
+    from handeye.recording_import import _undistorter, joints_at, nearest_in_time
+
+    topics = topics or BagTopics()
+    part = read_camera_bag(bag, topics.color, topics.info, topics.depth, topics.joints, depth_unit_m=depth_unit_m)
+    order = np.argsort(part.depth.times_s, kind="stable")
+    times = part.depth.times_s[order]
+    q, keep = joints_at(part.joints, list(joint_names), times, joint_tolerance_s)
+    color_idx, has_color = nearest_in_time(times, part.color.times_s, sync_tolerance_s)
+    undistort = _undistorter(part.intrinsics)
+    frames = []
+    for k in np.flatnonzero(keep):
+        depth = part.depth.images[order[k]]
+        depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(np.float32)
+        rgb = part.color.images[color_idx[k]] if has_color[k] else None
+        if undistort is not None:
+            rgb, depth = undistort(rgb if rgb is not None else np.zeros(depth.shape + (3,), np.uint8), depth)
+            rgb = rgb if has_color[k] else None
+        frames.append(Frame(float(times[k]), depth, q[k], len(frames), None, rgb))
+    if not frames:
         raise HandEyeInputError(
-            "watching live ROS 2 topics needs rclpy (a ROS 2 installation, sourced): not found; replay a recording "
-            "instead (handeye watch DATASET)"
-        ) from None
-    raise HandEyeInputError(
-        "watching live ROS 2 topics is not built yet (issue 43): replay a recording instead (handeye watch DATASET)"
-    )
+            f"{part.source}: no depth frame has joint states within {joint_tolerance_s} s ({topics.joints})"
+        )
+    intr = part.intrinsics
+    size = (int(intr.width), int(intr.height))
+    return BagStream(np.asarray(intr.K, dtype=float), size, frames, int((~keep).sum()), part.source)
+
+
+def paced(frames: Iterable[Frame], speed: float = 1.0, clock=time.monotonic, sleep=time.sleep) -> Iterator[Frame]:
+    """Yield frames no faster than their times say: a recording replayed at its own rate.
+
+    Parameters
+    ----------
+    frames : iterable of Frame
+    speed : float
+        1 replays at the recorded rate, 2 twice as fast.
+    clock, sleep : callables
+        The wall clock (seconds) and the wait (for tests).
+
+    Yields
+    ------
+    Frame
+        Each when ``(frame.t - first.t) / speed`` seconds have passed since the first was yielded (at once when
+        the caller is late: a slow check is never waited for twice).
+    """
+    if not speed > 0:
+        raise ValueError(f"speed must be > 0, got {speed}")
+    origin = None
+    for frame in frames:
+        if origin is None:
+            origin = (clock(), frame.t)
+        else:
+            wait = (frame.t - origin[1]) / speed - (clock() - origin[0])
+            if wait > 0:
+                sleep(wait)
+        yield frame

@@ -5,11 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch.check import FrameCheck, check_frame
-from handeye.watch.source import ros2_frames
 from handeye.watch.states import StateOptions, screen
 from tests.classic.test_markerless import K, render_depth, sphere_model
 from tests.watch.test_cell import T_TRUE
@@ -60,8 +58,3 @@ def _check(**counts) -> FrameCheck:
 def test_the_screen_names_what_makes_a_frame_unusable(counts, state):
     out = screen(_check(**counts), StateOptions())
     assert (out and out[0]) == state
-
-
-def test_live_ros2_refuses_with_the_reason():
-    with pytest.raises(HandEyeInputError, match="rclpy|not built yet"):
-        next(iter(ros2_frames()))

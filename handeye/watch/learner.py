@@ -1,0 +1,181 @@
+"""The continual learner beside the watcher: every committed camera pose offered to it, its training in the
+background, its prediction an extra start of the markerless recalibration.
+
+:class:`BackgroundLearner` wraps a :class:`learned.calibrator.ContinualCalibrator` (or anything with its
+``observe(FrameSet) -> dict`` and ``predict(rgb, depth_m, pose_base_ref)``):
+
+- as a :class:`handeye.watch.CellWatcher` ``on_commit`` hook it takes the committed ``T_base_cam`` and the
+  frames it came from and queues them; one worker thread turns them into a :class:`learned.data.FrameSet` (the
+  committed calibration is the target, ``T_base_ref`` from the robot's kinematics, the images at the preset's
+  size) and calls ``observe``, whose novelty test decides whether it trains. The hook returns at once: the check
+  never waits for the training (it shares the CPU with it, though: give the process a core for each);
+- as the watcher's ``extra_starts`` it gives ``{"learned": T_base_cam}`` predicted from the collected frames,
+  when a model is trained and not training at that moment (a prediction never waits for a training either:
+  while one runs the recalibration starts from the last calibration alone).
+
+Frames without colour (a source without a colour topic) are not offered: the network takes RGB-D. A user runs::
+
+    handeye watch BAG --sensor d435 --camera-start start.json --history cell.jsonl \\
+        --learner cell.pt --learner-preset cpu      # loads cell.pt when it is there, saves it after each training
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from handeye.core.se3 import pos_quat_xyzw_from_transform
+
+__all__ = ["BackgroundLearner", "frame_set"]
+
+
+def frame_set(frames: list, T_base_cam: np.ndarray, reference: Callable, K: np.ndarray, image_size: tuple, camera: int):
+    """Watcher frames as the learner's :class:`learned.data.FrameSet` of one camera pose.
+
+    Parameters
+    ----------
+    frames : list of Frame
+        Each with ``rgb`` (H, W, 3).
+    T_base_cam : array, shape (4, 4), or None
+        The target (the committed calibration); None: unknown (NaN), for a prediction.
+    reference : callable
+        ``reference(q (N, nq)) -> T_base_ref (N, 4, 4)`` (:meth:`handeye.robot.model.Robot.fk_ref`).
+    K : array, shape (3, 3)
+        The native images' camera matrix.
+    image_size : (int, int)
+        ``(width, height)`` of the learner's input.
+    camera : int
+        The camera pose's number (the calibration's version).
+
+    Returns
+    -------
+    learned.data.FrameSet
+    """
+    from learned.data import FrameSet, _resize, pose_targets
+
+    n, (w, h) = len(frames), image_size
+    rgb = np.stack([_resize(np.asarray(f.rgb, np.uint8), (w, h), nearest=False).transpose(2, 0, 1) for f in frames])
+    depth = np.stack([_resize(np.asarray(f.depth_m, np.float32), (w, h), nearest=True)[None] for f in frames])
+    q = np.stack([np.asarray(f.joints, dtype=float) for f in frames])
+    t_m, q_xyzw = pos_quat_xyzw_from_transform(np.asarray(reference(q), dtype=float).reshape(n, 4, 4))
+    target = np.full((4, 4), np.nan) if T_base_cam is None else np.asarray(T_base_cam, dtype=float)
+    t_mm, q_cam = pose_targets(np.repeat(target[None], n, axis=0))
+    native_h, native_w = frames[0].depth_m.shape
+    k_norm = [K[0, 0] / native_w, K[1, 1] / native_h, (K[0, 2] + 0.5) / native_w, (K[1, 2] + 0.5) / native_h]
+    return FrameSet(
+        rgb.astype(np.uint8),
+        depth.astype(np.float16),
+        np.concatenate([t_m, q_xyzw], axis=1).astype(np.float32),
+        t_mm.astype(np.float32),
+        q_cam.astype(np.float32),
+        np.full(n, int(camera)),
+        np.zeros(n, int),
+        np.array(["train"] * n),
+        np.full((n, 3), np.nan),
+        np.full((n, 4), np.nan),
+        "markerless",
+        (w, h),
+        joints=q.astype(np.float32),
+        intrinsics_norm=np.tile(np.array(k_norm, np.float32), (n, 1)),
+    )
+
+
+class BackgroundLearner:
+    """A continual learner fed by the watcher's commits, training in a thread (module docstring).
+
+    Parameters
+    ----------
+    calibrator : learned.calibrator.ContinualCalibrator
+        Or anything with ``observe``, ``predict``, ``preset.image_size`` and ``models`` (empty: untrained).
+    reference : callable
+        ``reference(q (N, nq)) -> T_base_ref (N, 4, 4)``: the robot's :meth:`~handeye.robot.model.Robot.fk_ref`.
+    K : array, shape (3, 3)
+        The camera matrix of the frames' images.
+    save_path : str or Path, optional
+        Where the calibrator is saved after each offer it trained on.
+
+    Attributes
+    ----------
+    reports : list of str
+        One line per offer (its outcome, or the error that stopped it), in order.
+    """
+
+    def __init__(self, calibrator, reference: Callable, K: np.ndarray, save_path: str | Path | None = None):
+        self.calibrator = calibrator
+        self.reference = reference
+        self.K = np.asarray(K, dtype=float)
+        self.save_path = None if save_path is None else Path(save_path)
+        self.reports: list[str] = []
+        self._busy = threading.Lock()  # held while the calibrator trains or predicts
+        self._offers: queue.Queue = queue.Queue()
+        self._worker: threading.Thread | None = None
+        self._pending = 0  # offers queued or being learnt
+        self._idle = threading.Condition()
+
+    @property
+    def image_size(self) -> tuple:
+        return tuple(self.calibrator.preset.image_size)
+
+    def __call__(self, T_base_cam: np.ndarray, frames: list, version: int | None = None) -> None:
+        """Offer a committed camera pose (the ``on_commit`` hook): queued, never waited for."""
+        if any(getattr(f, "rgb", None) is None for f in frames):
+            self.reports.append(f"learner: version {version} not offered: frames without colour")
+            return
+        with self._idle:
+            self._pending += 1
+        self._offers.put((np.array(T_base_cam, dtype=float), list(frames), version))
+        if self._worker is None:
+            self._worker = threading.Thread(target=self._work, name="handeye-learner", daemon=True)
+            self._worker.start()
+
+    def _work(self) -> None:
+        while True:
+            T, frames, version = self._offers.get()
+            try:
+                with self._busy:
+                    data = frame_set(frames, T, self.reference, self.K, self.image_size, version or 0)
+                    out = self.calibrator.observe(data)
+                    trained = any(isinstance(v, dict) and v.get("novel") for v in out.values()) or out.get("first")
+                    if trained and self.save_path is not None:
+                        self.calibrator.save(self.save_path)
+                self.reports.append(f"learner: version {version} observed: {_summary(out)}")
+            except Exception as exc:  # the learner never stops the watcher: its failure is reported
+                self.reports.append(f"learner: version {version} failed: {type(exc).__name__}: {exc}")
+            finally:
+                with self._idle:
+                    self._pending -= 1
+                    self._idle.notify_all()
+
+    def starts(self, frames: list) -> dict:
+        """``{"learned": T_base_cam}`` predicted from ``frames`` (the watcher's ``extra_starts``); ``{}`` when
+        untrained, training now, or the frames have no colour."""
+        if not getattr(self.calibrator, "models", None) or any(getattr(f, "rgb", None) is None for f in frames):
+            return {}
+        if not self._busy.acquire(blocking=False):
+            return {}
+        try:
+            data = frame_set(frames, None, self.reference, self.K, self.image_size, 0)
+            return {"learned": self.calibrator.predict(data.rgb, data.depth_m, data.pose_base_ref)}
+        finally:
+            self._busy.release()
+
+    def wait(self, timeout_s: float | None = None) -> bool:
+        """Wait for the offers queued to be learnt (at the end of a replay); whether they all were."""
+        with self._idle:
+            return self._idle.wait_for(lambda: self._pending == 0, timeout_s)
+
+
+def _summary(out: dict) -> str:
+    parts = []
+    for kind, v in out.items():
+        if isinstance(v, dict) and "novel" in v:
+            err = v.get("sample_error")
+            parts.append(
+                f"{kind} {'novel, trained' if v['novel'] else 'known, skipped'}"
+                + ("" if err is None else f" (sample error {float(err):.2f})")
+            )
+    return ", ".join(parts) or "observed"

@@ -1,0 +1,232 @@
+"""Live ROS 2 for the watcher: frames from topics (:class:`Ros2Frames`), the calibration as a static transform
+(:class:`TfPublisher`). Both import ``rclpy`` lazily; without it :func:`require_rclpy` says how to get it.
+
+**Untested against a real ROS 2**: rclpy is not installable from PyPI, so the tests run this code against a
+small fake ``rclpy``/``tf2_ros`` that records the calls (tests/watch/test_ros2.py); the message fields used are
+those of ``sensor_msgs/msg/Image``, ``CameraInfo``, ``JointState`` and ``geometry_msgs/msg/TransformStamped``.
+
+A user runs, in a shell where ROS 2 is sourced::
+
+    handeye watch --ros2 --sensor d435 --camera-start start.json --history cell.jsonl --current cell.json \\
+        --depth-topic /camera/aligned_depth_to_color/image_raw --info-topic /camera/color/camera_info \\
+        --joints-topic /joint_states --base-frame base --camera-frame camera_color_optical_frame
+
+Each depth image becomes a :class:`handeye.watch.Frame` with the joints of the latest ``JointState`` within
+``joint_tolerance_s`` of its stamp (none: the frame is left out and counted); its time is seconds since the
+first depth image's stamp. The depth is read as the bag reader reads it (:func:`handeye.ros_bag.image_array`;
+16-bit in millimetres, 32FC1 in metres, REP 118) and must be registered to the camera of ``camera_info``.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from handeye.core.errors import HandEyeInputError
+from handeye.watch.source import Frame
+
+__all__ = ["Ros2Topics", "Ros2Frames", "TfPublisher", "require_rclpy"]
+
+#: What a user does to get rclpy (it comes with ROS 2, not from PyPI).
+RCLPY_HINT = (
+    "watching live ROS 2 topics needs rclpy, which comes with a ROS 2 installation (Humble or later), not from "
+    "pip: install ROS 2 and run `source /opt/ros/<distro>/setup.bash` in this shell, with this Python the "
+    "distribution's (python3 -c 'import rclpy, tf2_ros' must work); or replay a recording: handeye watch BAG"
+)
+#: Joint samples kept to pair with depth stamps (a few seconds at a driver's 100-500 Hz).
+JOINT_SAMPLES_KEPT = 1000
+
+
+def require_rclpy():
+    """The ``rclpy`` module.
+
+    Raises
+    ------
+    HandEyeInputError
+        Without rclpy, saying how to get it (:data:`RCLPY_HINT`).
+    """
+    try:
+        import rclpy
+    except ImportError:
+        raise HandEyeInputError(RCLPY_HINT) from None
+    return rclpy
+
+
+def _stamp_s(header) -> float:
+    return float(header.stamp.sec) + 1e-9 * float(header.stamp.nanosec)
+
+
+@dataclass(frozen=True)
+class Ros2Topics:
+    """The topics subscribed to (the RealSense driver's names by default)."""
+
+    depth: str = "/camera/aligned_depth_to_color/image_raw"
+    info: str = "/camera/color/camera_info"
+    joints: str = "/joint_states"
+
+
+class Ros2Frames:
+    """Frames from live ROS 2 topics (module docstring; untested against a real ROS 2).
+
+    Parameters
+    ----------
+    joint_names : list of str
+        The robot model's joints, in its order; a JointState without one of them is skipped.
+    topics : Ros2Topics, optional
+    depth_unit_m : float, optional
+        Metres per depth unit; None: 1e-3 for 16-bit depth, 1 for 32FC1.
+    joint_tolerance_s : float
+        Largest gap between a depth stamp and the joint sample it takes.
+    node_name : str
+    """
+
+    def __init__(
+        self,
+        joint_names: list,
+        topics: Ros2Topics | None = None,
+        depth_unit_m: float | None = None,
+        joint_tolerance_s: float = 0.02,
+        node_name: str = "handeye_watch",
+    ):
+        self.rclpy = require_rclpy()
+        from sensor_msgs.msg import CameraInfo, Image, JointState
+
+        self.joint_names = [str(n) for n in joint_names]
+        self.topics = topics or Ros2Topics()
+        self.depth_unit_m = depth_unit_m
+        self.joint_tolerance_s = float(joint_tolerance_s)
+        if not self.rclpy.ok():
+            self.rclpy.init()
+        self.node = self.rclpy.create_node(node_name)
+        self.K: np.ndarray | None = None
+        self.size: tuple | None = None
+        self.dropped = {"no camera_info yet": 0, "no joints within the tolerance": 0}
+        self._joints: deque = deque(maxlen=JOINT_SAMPLES_KEPT)  # (stamp_s, q in the model's order)
+        self._pending: deque = deque()
+        self._origin: float | None = None
+        self._index = 0
+        self.node.create_subscription(CameraInfo, self.topics.info, self._on_info, 10)
+        self.node.create_subscription(JointState, self.topics.joints, self._on_joints, 100)
+        self.node.create_subscription(Image, self.topics.depth, self._on_depth, 10)
+
+    def _on_info(self, msg) -> None:
+        from handeye.recording_checks import check_camera_matrix
+
+        where = f"{self.topics.info}"
+        check_camera_matrix(msg.k, msg.width, msg.height, where)
+        if np.any(np.asarray(msg.d, dtype=float)):
+            raise HandEyeInputError(
+                f"{where}: distortion {list(msg.d)}: the live source takes rectified depth (a camera_info without "
+                "distortion, as aligned RealSense depth has); record a bag and replay it, which undistorts"
+            )
+        self.K = np.asarray(msg.k, dtype=float).reshape(3, 3)
+        self.size = (int(msg.width), int(msg.height))
+
+    def _on_joints(self, msg) -> None:
+        names = [str(n) for n in msg.name]
+        if any(n not in names for n in self.joint_names):
+            return  # a group of other joints (a gripper's)
+        pos = np.asarray(msg.position, dtype=float)
+        self._joints.append((_stamp_s(msg.header), pos[[names.index(n) for n in self.joint_names]]))
+
+    def _joints_at(self, stamp: float) -> np.ndarray | None:
+        best = None
+        for t, q in self._joints:
+            gap = abs(t - stamp)
+            if gap <= self.joint_tolerance_s and (best is None or gap < best[0]):
+                best = (gap, q)
+        return None if best is None else best[1]
+
+    def _on_depth(self, msg) -> None:
+        from handeye.ros_bag import image_array
+
+        if self.K is None:
+            self.dropped["no camera_info yet"] += 1
+            return
+        stamp = _stamp_s(msg.header)
+        q = self._joints_at(stamp)
+        if q is None:
+            self.dropped["no joints within the tolerance"] += 1
+            return
+        img = image_array(msg)
+        unit = self.depth_unit_m if self.depth_unit_m is not None else (1e-3 if img.dtype == np.uint16 else 1.0)
+        depth = img.astype(np.float32) * np.float32(unit)
+        depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(np.float32)
+        if self._origin is None:
+            self._origin = stamp
+        self._pending.append(Frame(stamp - self._origin, depth, q, self._index))
+        self._index += 1
+
+    def wait_for_camera_info(self, timeout_s: float = 10.0) -> np.ndarray:
+        """Spin until the camera_info has come; its ``K``.
+
+        Raises
+        ------
+        HandEyeInputError
+            None within ``timeout_s`` (naming the topic).
+        """
+        clock = self.node.get_clock()
+        start = clock.now().nanoseconds
+        while self.K is None and self.rclpy.ok():
+            self.rclpy.spin_once(self.node, timeout_sec=0.1)
+            if clock.now().nanoseconds - start > timeout_s * 1e9:
+                raise HandEyeInputError(f"{self.topics.info}: no camera_info within {timeout_s:g} s")
+        if self.K is None:
+            raise HandEyeInputError(f"{self.topics.info}: ROS 2 shut down before a camera_info came")
+        return self.K
+
+    def __iter__(self) -> Iterator[Frame]:
+        """The frames as they come, until ROS 2 shuts down (Ctrl-C)."""
+        while self.rclpy.ok():
+            self.rclpy.spin_once(self.node, timeout_sec=0.1)
+            while self._pending:
+                yield self._pending.popleft()
+
+    def close(self) -> None:
+        """Destroy the node (and shut rclpy down)."""
+        self.node.destroy_node()
+        if self.rclpy.ok():
+            self.rclpy.shutdown()
+
+
+class TfPublisher:
+    """The current calibration as a static transform ``parent_frame -> camera_frame`` (``T_base_cam``).
+
+    Untested against a real ROS 2 (module docstring). A :class:`handeye.watch.CellWatcher` ``on_commit`` hook:
+    called with each committed ``T_base_cam``; :meth:`publish` for the start and a rollback.
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+    parent_frame, camera_frame : str
+        The robot base's tf frame and the depth camera's optical frame.
+    """
+
+    def __init__(self, node, parent_frame: str = "base", camera_frame: str = "camera_color_optical_frame"):
+        from tf2_ros import StaticTransformBroadcaster
+
+        self.node = node
+        self.parent_frame, self.camera_frame = parent_frame, camera_frame
+        self.broadcaster = StaticTransformBroadcaster(node)
+
+    def __call__(self, T_base_cam: np.ndarray, frames=(), version: int | None = None) -> None:
+        self.publish(T_base_cam)
+
+    def publish(self, T_base_cam: np.ndarray) -> None:
+        """Send ``T_base_cam`` (4x4, metres) as the static transform."""
+        from geometry_msgs.msg import TransformStamped
+
+        from handeye.core.se3 import pos_quat_xyzw_from_transform
+
+        t, q = pos_quat_xyzw_from_transform(np.asarray(T_base_cam, dtype=float))
+        msg = TransformStamped()
+        msg.header.stamp = self.node.get_clock().now().to_msg()
+        msg.header.frame_id = self.parent_frame
+        msg.child_frame_id = self.camera_frame
+        msg.transform.translation.x, msg.transform.translation.y, msg.transform.translation.z = (float(v) for v in t)
+        r = msg.transform.rotation
+        r.x, r.y, r.z, r.w = (float(v) for v in q)
+        self.broadcaster.sendTransform(msg)
