@@ -14,7 +14,7 @@ from classic.markerless.curvature import sample_curvatures, second_order_residua
 from handeye.core.errors import HandEyeInputError
 from handeye.core.metrics import pose_error
 from tests.classic.test_markerless import F_PX, RADII, SIGMA_1M, K, _bias_bounds, _scene
-from tests.tolerances import FLOAT
+from tests.tolerances import ABSOLUTE_ONLY, FLOAT, POINT_ROUNDING_EPS
 
 
 def _fibonacci_sphere(n, r):
@@ -65,8 +65,9 @@ def test_second_order_residual_on_a_sphere_leaves_exactly_the_fourth_order_term(
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
     res, grad = second_order_residual(x, m, m_dir, np.full((n_pts, 2), 1 / r), e1)
     d = np.linalg.norm(x - m, axis=1)
-    np.testing.assert_allclose(np.einsum("ij,ij->i", m_dir, x - m), -(d**2) / (2 * r), rtol=1e-9)
-    np.testing.assert_allclose(res, -(d**4) / (8 * r**3), rtol=1e-6, atol=1e-18)
+    rounding = dict(atol=POINT_ROUNDING_EPS * r, rtol=ABSOLUTE_ONLY)  # both are remainders of points of size r
+    np.testing.assert_allclose(np.einsum("ij,ij->i", m_dir, x - m), -(d**2) / (2 * r), **rounding)
+    np.testing.assert_allclose(res, -(d**4) / (8 * r**3), **rounding)
     np.testing.assert_allclose(grad, x_dir + (d**2 / (2 * r**2))[:, None] * m_dir, atol=FLOAT)
 
 
