@@ -1,0 +1,161 @@
+"""The documentation site as mkdocs builds it: no raw Sphinx role, the roles linked, every image present.
+
+The docstrings' roles (``:func:`x```) are rewritten into links at build time by the griffe extension
+``docs/hooks/sphinx_roles.py``; these tests build the site (``mkdocs build --strict``, about 5 s) and read the
+HTML, then open the pages in headless Chromium where one is installed.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+from urllib.parse import unquote, urlsplit
+
+import pytest
+
+from tests.test_docs import ROOT, _browser, build_site
+
+#: A Sphinx role as mkdocs prints one it did not understand: ``:func:`` then the name in code (or a backtick).
+RAW_ROLE = re.compile(r":(?:py:)?(?:func|class|data|meth|attr|mod|exc|obj|const|math):(?:<code>|`)")
+
+
+def _extension():
+    spec = importlib.util.spec_from_file_location("sphinx_roles", ROOT / "docs" / "hooks" / "sphinx_roles.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    return build_site(tmp_path_factory.mktemp("site"))
+
+
+def pages(site: Path) -> list[Path]:
+    """The site's pages (the theme's own 404 page aside)."""
+    return sorted(p for p in site.rglob("index.html") if "assets" not in p.parts)
+
+
+def raw_roles(page: Path) -> list[str]:
+    """Each raw role in a built page, with the text around it."""
+    text = page.read_text()
+    return [text[max(m.start() - 60, 0) : m.end() + 40] for m in RAW_ROLE.finditer(text)]
+
+
+class _Images(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.sources: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "img":
+            self.sources.append(dict(attrs).get("src") or "")
+
+
+def missing_images(page: Path, html: str | None = None) -> list[str]:
+    """The ``<img>`` sources of a page (its HTML, or the file's) that are not files of the site."""
+    parser = _Images()
+    parser.feed(page.read_text() if html is None else html)
+    missing = []
+    for src in parser.sources:
+        url = urlsplit(src)
+        if url.scheme in ("http", "https", "data"):
+            missing.append(f"{src} (not a file of the site)")
+        elif not (page.parent / unquote(url.path)).is_file():
+            missing.append(src)
+    return missing
+
+
+def test_no_raw_role_reaches_the_site(site):
+    """No page of the built site prints a Sphinx role as text."""
+    found = {p.relative_to(site).as_posix(): raw_roles(p) for p in pages(site)}
+    found = {k: v for k, v in found.items() if v}
+    assert not found, f"raw roles in the built HTML: { {k: (len(v), v[0]) for k, v in found.items()} }"
+
+
+def test_the_check_finds_a_planted_raw_role(site, tmp_path):
+    """The check above fails on a page holding one raw role (as mkdocs prints one): it can fail."""
+    page = tmp_path / "index.html"
+    text = (site / "reference" / "classic" / "index.html").read_text()
+    page.write_text(text.replace("<p>", "<p>see :func:<code>calibrate</code> ", 1))
+    assert len(raw_roles(page)) == 1
+
+
+def test_roles_become_links_to_the_objects(site):
+    """Roles in the classic page's docstrings link to the objects' sections: a full path (``:mod:``), a short
+    name found in the docstring's module, and an imported name followed to where it is defined."""
+    html = (site / "reference" / "classic" / "index.html").read_text()
+    assert re.search(r'<a class="autorefs autorefs-internal"[^>]*href="#classic\.registry"><code>', html)
+    # classic.calibrate's docstrings (solve's, the module's) name calibrate by its short name
+    assert re.search(r'href="#classic\.calibrate\.calibrate"><code>calibrate</code>', html)
+
+
+def test_calibrate_comes_first_on_its_page(site):
+    """The classic page opens with the module ``classic.calibrate`` and, in it, the function ``calibrate``."""
+    html = (site / "reference" / "classic" / "index.html").read_text()
+    ids = re.findall(r'<h[2-6] id="([\w.]+)" class="doc doc-heading"', html)
+    assert ids[:2] == ["classic.calibrate", "classic.calibrate.calibrate"], ids[:4]
+
+
+def test_the_resolver_against_known_paths():
+    """Short names found in the scopes around the docstring (the object, its class, its module), imported
+    names followed to their definition, full paths kept, names outside the project left as code."""
+    import griffe
+
+    ext = _extension()
+    classic = griffe.load("classic", search_paths=[str(ROOT)])
+    calibrate = classic["calibrate.calibrate"]
+    assert ext.resolve("solve", calibrate) == "classic.calibrate.solve"
+    assert ext.resolve("classic.registry", calibrate) == "classic.registry"
+    assert ext.resolve("numpy.linalg.svd", calibrate) is None
+    assert ext.resolve("no_such_name", calibrate) is None
+    imported = next(n for n, m in classic["calibrate"].members.items() if m.is_alias and "classic." in m.target_path)
+    assert ext.resolve(imported, calibrate) == classic["calibrate"].members[imported].target_path
+    text = ext.rewrite("see :func:`~classic.calibrate.solve` and :class:`numpy.ndarray`, :math:`x^2`", calibrate)
+    assert text == (
+        'see <autoref identifier="classic.calibrate.solve" optional><code>solve</code></autoref> and '
+        "`numpy.ndarray`, `x^2`"
+    )
+
+
+def test_every_image_is_a_file_of_the_site(site):
+    """Every ``<img>`` of every page points at a file the build wrote (the figures are present)."""
+    missing = {p.relative_to(site).as_posix(): missing_images(p) for p in pages(site)}
+    missing = {k: v for k, v in missing.items() if v}
+    assert not missing, f"images missing from the site: {missing}"
+    assert sum(len(_parsed(p)) for p in pages(site)) >= 3  # the site has figures to check
+
+
+def _parsed(page: Path) -> list[str]:
+    parser = _Images()
+    parser.feed(page.read_text())
+    return parser.sources
+
+
+def test_the_image_check_finds_a_missing_figure(site, tmp_path):
+    page = site / "index.html"
+    assert missing_images(page, page.read_text() + '<img src="img/no-such-figure.png">') == ["img/no-such-figure.png"]
+
+
+@pytest.mark.slow  # a browser per page: about 50 s for the 13 pages on 2 shared cores
+@pytest.mark.skipif(_browser() is None, reason="no headless browser (chromium; .ci/run installs it)")
+def test_the_pages_in_a_browser(site):
+    """Each API page and each page with a figure, as headless Chromium renders it (its DOM after the scripts
+    ran): no raw role in the text, every ``<img>`` a file of the site."""
+    chosen = [p for p in pages(site) if "reference" in p.parts or _parsed(p)]
+    assert chosen
+    for page in chosen:
+        run = subprocess.run(
+            [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=3000",
+             "--dump-dom", page.as_uri()],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )  # fmt: skip
+        name = page.relative_to(site).as_posix()
+        assert run.returncode == 0 and "md-content" in run.stdout, f"{name}: {run.stderr[-1000:]}"
+        assert not RAW_ROLE.search(run.stdout), f"{name}: a raw role in the rendered page"
+        assert not missing_images(page, run.stdout), f"{name}: {missing_images(page, run.stdout)}"
