@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["project", "visible_points"]
+__all__ = ["project", "visible_points", "zbuffer_grid"]
 
 _Z_STEPS = 1 << 24  # depth resolution of the sort key: 1 um steps up to 16.7 m
 
@@ -22,6 +22,37 @@ def project(p_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
     u = K[0, 0] * p_cam[..., 0] / z + K[0, 1] * p_cam[..., 1] / z + K[0, 2]
     v = K[1, 1] * p_cam[..., 1] / z + K[1, 2]
     return np.stack([u, v], axis=-1)
+
+
+def zbuffer_grid(K: np.ndarray, height: int, width: int, stride: int) -> tuple[np.ndarray, int, int]:
+    """The camera of a z-buffer ``stride`` image pixels wide: its matrix and its size.
+
+    The focal lengths and the skew are divided by ``stride``; the principal point is moved so that each
+    coarse pixel's centre is the centre of the ``stride`` x ``stride`` image pixels it covers:
+
+    .. math:: c' = (c + 1/2) / s - 1/2
+
+    Parameters
+    ----------
+    K : array, shape (3, 3)
+        Camera matrix of the image (OpenCV convention: pixel centres at integers).
+    height, width : int
+        The image's size, pixels.
+    stride : int
+        Image pixels per z-buffer pixel, at least 1; 1 gives ``K`` (a copy) and the image's size.
+
+    Returns
+    -------
+    K_grid : array, shape (3, 3)
+        Camera matrix of the coarser grid.
+    height_grid, width_grid : int
+        Its size: the image's divided by ``stride``, rounded up.
+    """
+    K_grid = np.array(K, dtype=float)
+    if stride > 1:
+        K_grid[:2] /= stride
+        K_grid[:2, 2] = (np.asarray(K, dtype=float)[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
+    return K_grid, -(-height // stride), -(-width // stride)
 
 
 def visible_points(

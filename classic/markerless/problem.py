@@ -1,0 +1,467 @@
+"""The markerless registration's fitting problem for one camera placement: the depth frames, the model and the
+state the stages share (depth correction, intrinsics, joint offsets), with stages 2-4 (centroids, coarse ICP,
+fine projective registration) as its methods (:mod:`classic.markerless.register`).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from classic.markerless.consistency import frame_splits, split_excess
+from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
+from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
+from classic.markerless.kinematics import joint_status, moved_surface
+from classic.markerless.point_to_plane import (
+    MatchedModel,
+    PlaneFit,
+    PlaneFitOptions,
+    corrected_points,
+    solve_point_to_plane,
+)
+from classic.markerless.sigma import depth_bins, image_tiles
+from classic.markerless.surface_frames import RobotSurfaceFrames
+from classic.markerless.visibility import project, visible_points, zbuffer_grid
+from handeye.core.errors import HandEyeInputError
+from handeye.core.metrics import pose_error
+from handeye.core.rigid import rigid_transform
+from handeye.core.se3 import invert_transform
+
+__all__ = ["Problem", "Outcome", "FALLBACK_SIGMA_M_AT_1M"]
+
+
+_FRAME_KEY_M = 1000.0  # frames kept apart in the KD-tree by this offset on a 4th coordinate
+
+
+def _moving_parts(surface: RobotSurfaceFrames) -> np.ndarray:
+    """Whether each sample's part moves between frames: the RMS spread of its centroid over the frames above 2 cm."""
+    n_parts, n_fr = int(surface.part.max()) + 1, int(surface.frame.max()) + 1
+    key = surface.part * n_fr + surface.frame
+    count = np.bincount(key, minlength=n_parts * n_fr).reshape(n_parts, n_fr)
+    sums = np.stack(
+        [np.bincount(key, surface.points_base[:, k], minlength=n_parts * n_fr) for k in range(3)], axis=-1
+    ).reshape(n_parts, n_fr, 3)
+    spread = np.zeros(n_parts)
+    for k in range(n_parts):
+        seen = count[k] > 0
+        cent = sums[k, seen] / count[k, seen, None]
+        spread[k] = np.sqrt(((cent - cent.mean(0)) ** 2).sum(1).mean()) if len(cent) > 1 else 0.0
+    return spread[surface.part] > 0.02
+
+
+#: Depth noise taken when it can be neither measured nor was given: 1 mm at 1 m, growing with depth squared.
+FALLBACK_SIGMA_M_AT_1M = 0.001
+
+
+class Outcome(NamedTuple):
+    """The fine stage's outcome from one start (:meth:`Problem.fine`); ``fit`` None: too few points matched."""
+
+    name: str  # the start's
+    T: np.ndarray  # T_base_cam
+    fit: PlaneFit | None  # the last fit, on the last matches
+    step: float  # the last step, rad + m
+    matched: float  # the visible model's fraction landing on the observed surface
+    geometry: tuple | None = None  # the matched points' median depth and RMS spread about their centroid, metres
+    depth_range: tuple | None = None  # their depths' 10th and 90th percentiles, metres
+    matches: tuple | None = None  # (model points, frames, observed points) of the last fit
+
+
+class Problem:
+    """Everything the stages share for one camera placement."""
+
+    def __init__(self, depth_m, K, surface, opts):
+        self.K, self.s, self.opts = K, surface, opts
+        self.depth_correction = (1.0, 0.0)  # (k, c[, a, b]), estimated by the fine stage
+        # the camera matrix given, which back-projects the depth once (self.P), and the intrinsics estimated,
+        # which project the model (self.K)
+        self.K_given = K
+        self.theta_given = intrinsics_vector(K)
+        self.theta = self.theta_given
+        self.estimate_intrinsics = opts.intrinsics_model == "estimate"
+        relative = np.array([self.theta_given[0], self.theta_given[1], 1.0, 1.0])
+        self.intrinsics_prior_sigma = np.asarray(opts.intrinsics_prior_sigma, dtype=float) * relative
+        if opts.depth_sigma_m_at_1m is not None:
+            self.noise_z, self.noise_sigma, self.noise_source = None, None, "given"
+        else:
+            self.noise_z, self.noise_sigma = depth_noise_curve(depth_m)
+            self.noise_source = "measured on the static background" if len(self.noise_z) else "fallback 1 mm at 1 m"
+        # pixels that straddle a depth edge report a depth between its two surfaces: treated as missing
+        mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * self.sigma_z(np.where(depth_m > 0, depth_m, 1.0))))
+        self.n_mixed = int(mixed.sum())
+        depth_m = np.where(mixed, 0.0, depth_m)
+        self.n, self.h, self.w = depth_m.shape
+        self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
+        static = static_depth(depth_m)
+        # moved there: nearer than the static depth by 2 cm or six depth-noise sigmas, whichever is larger
+        z = np.where(depth_m > 0, depth_m, 1.0)
+        moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * self.sigma_z(z)))
+        # the arm moves as a body, many pixels wide; what moves in a line a pixel or two wide is the sensor's
+        # (flying pixels along static edges, holes that come and go): an opening keeps bodies only
+        self.moving = ndimage.binary_opening(moving, structure=np.ones((1, 3, 3), bool))
+        f, r, c = np.nonzero(self.moving)
+        self.n_moving = len(f)
+        rng = np.random.default_rng(opts.seed)
+        if len(f) > opts.max_points:
+            keep = np.sort(rng.choice(len(f), opts.max_points, replace=False))
+            f, r, c = f[keep], r[keep], c[keep]
+        self.moving_frame, self.moving_p_cam = f, self.P[f, r, c]
+        self.moving_part = _moving_parts(surface)
+        # the model points the fine stage fits: the moving parts' (MarkerlessOptions.static_parts)
+        self.fitted_part = self.moving_part if self.moving_part.any() and not opts.static_parts else None
+        self._init_joints(surface, opts)  # the joints whose offsets the fine stage estimates
+        # the coarse stages work on a subset of the model (their windows are centimetres)
+        m = len(surface.frame)
+        self.coarse_subset = (
+            np.sort(rng.choice(m, opts.max_model_points, replace=False)) if m > opts.max_model_points else np.arange(m)
+        )
+        cs = self.coarse_subset
+        self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
+
+    def sigma_z(self, z):
+        """Depth noise sigma at depth ``z`` (metres): given, or measured, or the fallback."""
+        if self.opts.depth_sigma_m_at_1m is not None:
+            return self.opts.depth_sigma_m_at_1m * np.asarray(z) ** 2
+        if self.noise_z is None or len(self.noise_z) == 0:
+            return FALLBACK_SIGMA_M_AT_1M * np.asarray(z) ** 2
+        if len(self.noise_z) == 1:
+            return np.full(np.shape(z), self.noise_sigma[0])
+        return np.interp(z, self.noise_z, self.noise_sigma)
+
+    def _init_joints(self, surface, opts):
+        """Which joints' offsets the fine stage estimates (:func:`classic.markerless.kinematics.joint_status`)."""
+        self._moved = (surface.points_base, surface.normals_base)  # the model while no offset moves it (model())
+        self.joint_estimated, self.joint_status = None, None
+        twists = surface.joint_twists_base
+        if twists is None or opts.joint_offsets_model != "estimate":
+            self.joint_offsets = np.zeros(0 if twists is None else twists.shape[2])
+            return
+        n_joints = twists.shape[2]
+        prior = np.atleast_1d(np.asarray(opts.joint_offset_prior_deg, dtype=float))
+        if len(prior) not in (1, n_joints):
+            raise HandEyeInputError(
+                f"joint_offset_prior_deg has {len(prior)} values for a robot of {n_joints} joints "
+                f"(give 1 or {n_joints})"
+            )
+        self.joint_prior_sigma = np.radians(np.broadcast_to(prior, (n_joints,))).copy()
+        fitted = np.ones(len(surface.part), bool) if self.fitted_part is None else self.fitted_part
+        self.joint_status = joint_status(twists, surface.frame[fitted], surface.part[fitted])
+        self.joint_estimated = np.array([s == "estimated" for s in self.joint_status])
+        self.joint_offsets = np.zeros(n_joints)
+        # rigid over the moving parts (the base rotation): estimated only where static parts are fitted, and kept
+        # only where they determine it (hold_undetermined)
+        moving = fitted & self.moving_part if self.moving_part.any() else fitted
+        self.joint_rigid = np.array(
+            [s == "absorbed" for s in joint_status(twists, surface.frame[moving], surface.part[moving])]
+        )
+        if not self.joint_estimated.any():
+            self.joint_estimated = None
+
+    def hold_undetermined(self, fit) -> bool:
+        """Hold at 0 the joints rigid over the moving parts that the fitted static parts did not determine.
+
+        With static parts fitted, the base rotation's offset is estimated: the base does not turn with it. A
+        round base cannot tell it from the camera's rotation about the base's axis, and it would stay at its prior
+        with the prior's sigma in the pose's; it is then absorbed into the pose as with the moving parts alone
+        (the camera in the kinematic base frame). Returns whether any joint was held (the fit is to be redone).
+        """
+        if self.joint_estimated is None or fit.joint_offsets_covariance_frames is None:
+            return False
+        est = np.flatnonzero(self.joint_estimated)
+        sd = np.sqrt(np.maximum(np.diag(fit.joint_offsets_covariance_frames), 0.0))
+        share = self.opts.joint_offset_determined_share
+        weak = [j for i, j in enumerate(est) if self.joint_rigid[j] and sd[i] >= share * self.joint_prior_sigma[j]]
+        if not weak:
+            return False
+        delta = self.joint_offsets.copy()
+        for j in weak:
+            self.joint_estimated[j], self.joint_status[j], delta[j] = False, "absorbed", 0.0
+        self.set_joint_offsets(delta)
+        if not self.joint_estimated.any():
+            self.joint_estimated = None
+        return True
+
+    def set_joint_offsets(self, delta):
+        """Move the model by the joint offsets ``delta`` (radians, all joints) from now on."""
+        self.joint_offsets = np.asarray(delta, dtype=float)
+        self._moved = None if self.joint_offsets.any() else (self.s.points_base, self.s.normals_base)
+
+    def model(self, idx):
+        """The points and normals (base frame) of the model points ``idx``, moved by the current joint offsets."""
+        s = self.s
+        if self._moved is not None:
+            return self._moved[0][idx], self._moved[1][idx]
+        return moved_surface(
+            s.points_base[idx], s.normals_base[idx], s.frame[idx], s.part[idx], s.joint_twists_base, self.joint_offsets
+        )
+
+    def set_intrinsics(self, theta):
+        """Project the model with the intrinsics ``theta`` ``(f_x, f_y, c_x, c_y)`` from now on."""
+        self.theta = np.asarray(theta, dtype=float)
+        self.K = camera_matrix(self.theta)
+
+    def corrected(self, q_obs):
+        """Observed camera-frame points with the current intrinsics and depth correction."""
+        if not np.array_equal(self.theta, self.theta_given):
+            with np.errstate(invalid="ignore", divide="ignore"):  # points without depth stay NaN
+                q_obs = rays_for(q_obs, self.K_given, self.theta)[0]
+        if self.depth_correction == (1.0, 0.0):
+            return q_obs
+        return corrected_points(q_obs, *self.depth_correction, stereo_fb_px_m=self.opts.stereo_fb_px_m)
+
+    # -- visibility
+
+    def visible(self, T_base_cam, subset=None):
+        """Visible model points (indices into the whole model), their pixels and camera-frame points.
+
+        The z-buffer's pixels are ``zbuffer_stride`` image pixels wide (twice that on a ``subset``),
+        as sparse as the model's samples; each visible point's pixel is where it projects in the image.
+        """
+        T_cam_base = invert_transform(T_base_cam)
+        pts, nrm, frm = self.s.points_base, self.s.normals_base, self.s.frame
+        if subset is not None:
+            pts, nrm, frm = pts[subset], nrm[subset], frm[subset]
+        stride = self.opts.zbuffer_stride * (1 if subset is None else 2)
+        # facing the camera, tested in the base frame (n . (p - c) < 0), before anything is transformed; on the
+        # model at the recorded joints (the offsets turn a normal by tenths of a degree), then the front moved
+        front = np.flatnonzero(np.einsum("ij,ij->i", nrm, pts - T_base_cam[:3, 3]) < 0)
+        sel = front if subset is None else subset[front]
+        p = self.model(sel)[0] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+        idx = visible_points(p, None, frm[front], *zbuffer_grid(self.K, self.h, self.w, stride))
+        p = p[idx]
+        uv = np.rint(project(p, self.K)).astype(np.int64)
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h)
+        return sel[idx[inside]], uv[inside][:, ::-1], p[inside]
+
+    # -- stage 2: centroids
+
+    def _centroids(self, frame, points):
+        count = np.bincount(frame, minlength=self.n).astype(float)
+        sums = np.stack([np.bincount(frame, points[:, k], minlength=self.n) for k in range(3)], axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return sums / count[:, None], count
+
+    def centroid_start(self, iterations=4):
+        c_obs, counts = self._centroids(self.moving_frame, self.moving_p_cam)
+        use = counts >= 20
+        if use.sum() < 3:
+            return None
+        T = None
+        for _ in range(iterations + 1):
+            idx = self.coarse_subset if T is None else self.visible(T, subset=self.coarse_subset)[0]
+            idx = idx[self.moving_part[idx]]
+            c_mod, n_mod = self._centroids(self.s.frame[idx], self.s.points_base[idx])
+            ok = use & (n_mod >= 10)
+            if ok.sum() < 3:
+                return T
+            T = rigid_transform(c_obs[ok], c_mod[ok], counts[ok])
+        return T
+
+    # -- stage 3: coarse ICP in 3-D
+
+    def coarse(self, T):
+        """3-D ICP of the moving pixels to the model, window shrinking; up to 3 matchings per window,
+        fewer once a matching moves the pose by less than a tenth of the window (the rotation taken at 1 m)."""
+        moving_p_cam = self.corrected(self.moving_p_cam)
+        for window in self.opts.coarse_windows_m:
+            for _ in range(3):
+                p_base = moving_p_cam @ T[:3, :3].T + T[:3, 3]
+                d, j = self.tree.query(
+                    np.c_[p_base, self.moving_frame * _FRAME_KEY_M], distance_upper_bound=window, workers=-1
+                )
+                ok = np.isfinite(d)
+                if ok.sum() < 50:
+                    break
+                jj = self.coarse_subset[j[ok]]
+                n = self.s.normals_base[jj]
+                # front-facing matches only: the normal must point towards the camera
+                towards = np.einsum("ij,ij->i", n, T[:3, 3] - self.s.points_base[jj]) > 0
+                sel = np.flatnonzero(ok)[towards]
+                jj = jj[towards]
+                if len(sel) < 50:
+                    break
+                fit = solve_point_to_plane(
+                    moving_p_cam[sel],
+                    MatchedModel(self.s.points_base[jj], self.s.normals_base[jj]),
+                    T,
+                    PlaneFitOptions(scale_m=window / 3, loss="cauchy", iterations=2, covariance=False),
+                )
+                moved = pose_error(T, fit.T_base_cam)
+                T = fit.T_base_cam
+                if np.radians(moved[0]) + moved[1] / 1e3 < 0.1 * window:
+                    break
+        return T
+
+    # -- stage 4: fine, projective
+
+    def associate(self, T, gate_m, cached=None):
+        """Projective matches: each visible model point and the observed point in its pixel.
+
+        ``cached`` (indices of visible points from an earlier pose) skips the z-buffer: the points
+        are only projected again, for iterations where the pose moves by less than a pixel.
+        """
+        if cached is None:
+            idx, pix, p_cam = self.visible(T)
+        else:
+            idx = cached
+            T_cam_base = invert_transform(T)
+            p_cam = self.model(idx)[0] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+            uv = np.rint(project(p_cam, self.K)).astype(np.int64)
+            inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h) & (p_cam[:, 2] > 0)
+            idx, p_cam, pix = idx[inside], p_cam[inside], uv[inside][:, ::-1]
+        f = self.s.frame[idx]
+        q_obs = self.P[f, pix[:, 0], pix[:, 1]]
+        q = self.corrected(q_obs)
+        has_depth = np.isfinite(q[:, 2]) & (q_obs[:, 2] > 0)
+        close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
+        return idx, f, q_obs, q, has_depth, close
+
+    def _solve(self, T, matches, iterations, covariance=True):
+        """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
+        and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
+        residual."""
+        m, f, q_obs = matches
+        expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
+        curved = self.s.curvatures is not None
+        estimate_depth = self.opts.depth_model == "scale-offset"
+        if estimate_depth or self.estimate_intrinsics:
+            observed = q_obs  # as back-projected with the camera matrix given; the fit corrects it
+        else:
+            observed = self.corrected(q_obs)
+        intrinsics = {}
+        if self.estimate_intrinsics:
+            intrinsics = {
+                "intrinsics_K_ref": self.K_given,
+                "intrinsics_start": self.theta,
+                "intrinsics_prior": (self.theta_given, self.intrinsics_prior_sigma),
+            }
+        joints, twists = {}, None
+        if self.joint_estimated is not None:  # the model posed at the recorded joints; the fit moves it
+            e = self.joint_estimated
+            twists = self.s.joint_twists_base[f, self.s.part[m]][:, e]
+            joints = {"joint_start": self.joint_offsets[e], "joint_prior_sigma": self.joint_prior_sigma[e]}
+        model = MatchedModel(
+            self.s.points_base[m],
+            self.s.normals_base[m],
+            curvatures=self.s.curvatures[m] if curved else None,
+            direction_base=self.s.direction_base[m] if curved else None,
+            joint_twists=twists,
+        )
+        options = PlaneFitOptions(
+            scale_m=expected * 2,
+            loss="cauchy",
+            iterations=iterations,
+            covariance=covariance,
+            depth_start=self.depth_correction if estimate_depth else None,
+            depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
+            stereo_fb_px_m=self.opts.stereo_fb_px_m,
+            pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
+            **intrinsics,
+            **joints,
+        )
+        fit = solve_point_to_plane(observed, model, T, options, group=f, cross_group=self._cross_groups(q_obs))
+        return fit, expected
+
+    def _cross_groups(self, q_obs):
+        """The covariance's clusterings beside the frames: depth bins, and image tiles where asked; None without
+        any (the frame-clustered covariance is then the only one, not computed twice)."""
+        crosses = [
+            c
+            for c in (
+                depth_bins(q_obs[:, 2], self.opts.depth_clusters),
+                image_tiles(q_obs, self.K_given, self.w, self.opts.image_tiles),
+            )
+            if c is not None
+        ]
+        return crosses or None
+
+    def _fitted(self, idx, close):
+        """The matches the fine stage fits: ``close`` ones on the parts it fits (``static_parts``)."""
+        return close if self.fitted_part is None else close & self.fitted_part[idx]
+
+    def _fit(self, T, idx, f, q_obs, close, covariance=True):
+        """The fit of the ``close`` matches, adopted (:meth:`adopt`); returns it, the median expected residual and
+        the matches ``(model points, frames, observed points)``."""
+        sel = np.flatnonzero(close)
+        matches = (idx[sel], f[sel], q_obs[sel])
+        iterations = 3 if self.opts.depth_model == "fixed" else 5
+        fit, expected = self._solve(T, matches, iterations, covariance)
+        self.adopt(fit)
+        return fit, expected, matches
+
+    def restart(self):
+        """No depth correction, the intrinsics given and no joint offsets: the state a start begins from."""
+        self.depth_correction = (1.0, 0.0)
+        self.set_intrinsics(self.theta_given)
+        self.set_joint_offsets(np.zeros_like(self.joint_offsets))
+
+    def adopt(self, fit):
+        """Take the fit's depth correction, intrinsics and joint offsets as the current ones."""
+        if fit.depth_correction is not None:
+            self.depth_correction = fit.depth_correction
+        if fit.intrinsics is not None:
+            self.set_intrinsics(fit.intrinsics)
+        if fit.joint_offsets is not None:
+            delta = np.zeros_like(self.joint_offsets)
+            delta[self.joint_estimated] = fit.joint_offsets
+            self.set_joint_offsets(delta)
+
+    def split_check(self, T, matches):
+        """Groups of the frames solved again from the final matches, from the current depth correction, intrinsics
+        and joint offsets (those of the fit that made the matches): the sigma their scatter adds
+        (:func:`classic.markerless.consistency.split_excess`)."""
+        m, f, q_obs = matches
+
+        def solve(mask):
+            fit, _ = self._solve(T, (m[mask], f[mask], q_obs[mask]), iterations=5)
+            return fit.T_base_cam, fit.covariance
+
+        return split_excess(solve, f, frame_splits(f, q_obs, self.n))
+
+    def fine(self, T, name):
+        """Projective point-to-plane from ``T``, gate shrinking to 4 robust sigmas; returns the start ``name``'s
+        outcome.
+
+        The z-buffer is rebuilt on the first and fourth association and every fifth after; in between the
+        visible points are only projected again. The last association always has a fresh z-buffer, and the
+        matched fraction (visible model points with depth within 1 cm) is taken from it.
+        """
+        opts = self.opts
+        gates = [0.05, 0.03, 0.02, 0.01]
+        fit, step, scale, visible_idx = None, np.inf, None, None
+        for it in range(opts.fine_iterations):
+            gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)
+            full = it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
+            idx, f, q_obs, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
+            if full:
+                visible_idx = idx
+            fitted = self._fitted(idx, close)
+            if fitted.sum() < 50:
+                return Outcome(name, T, None, np.inf, 0.0)
+            fit, expected, _ = self._fit(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
+            T, step = fit.T_base_cam, fit.step_norm
+            inl = fit.weights > 0.5
+            scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
+            if it >= len(gates) and step < 1e-7:
+                break
+        # the final association, fresh z-buffer: one more fit on it, and the matched fraction
+        idx, f, q_obs, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
+        fitted = self._fitted(idx, close)
+        if fitted.sum() < 50:
+            return Outcome(name, T, None, np.inf, 0.0)
+        fit, _, matches = self._fit(T, idx, f, q_obs, fitted)
+        q = self.corrected(q_obs)
+        step = max(step, fit.step_norm)
+        matched_q = q[fitted]  # what calibrated the depth
+        geometry = (
+            float(np.median(matched_q[:, 2])),
+            float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
+        )
+        depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
+        within_1cm = has_depth & (
+            np.abs(q[:, 2] - (self.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
+        )
+        matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
+        return Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, matches)

@@ -1,0 +1,263 @@
+"""The markerless registration's answer or refusal (:class:`MarkerlessResult`), and how it is built from the best
+start's fit: its residuals, the acceptance test, the intrinsics' and joint offsets' summaries.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from classic.clustered_covariance import pose_sigma
+from classic.markerless.intrinsics import intrinsics_summary
+from classic.markerless.kinematics import joint_offsets_summary
+from classic.markerless.options import MarkerlessOptions
+from classic.markerless.point_to_plane import PlaneFit
+from classic.markerless.problem import Outcome, Problem
+from classic.markerless.sigma import depth_summary, in_quadrature, registration_terms, sampling_sigma
+from handeye.core.errors import HandEyeInputError
+
+__all__ = ["MarkerlessResult", "RefusedError", "build_result", "refused_result"]
+
+
+class RefusedError(HandEyeInputError):
+    """Raised by :meth:`MarkerlessResult.require` when the registration refused to answer."""
+
+
+@dataclass
+class MarkerlessResult:
+    """A camera pose from the robot's surface, or a refusal with its reason.
+
+    Attributes
+    ----------
+    T_base_cam : array, shape (4, 4) or None
+        None when refused.
+    refused : str or None
+        Why no answer is given (too few robot pixels, did not converge, residual too large,
+        start outside the basin); None when accepted.
+    covariance : array, shape (6, 6)
+        Of the camera's rotation (rad, camera frame) and position (m, camera frame).
+    sigma : dict
+        ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
+        the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
+        groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and the bounded part
+        of the depth-to-colour registration (``registration``).
+    residual_mm_per_frame : array, shape (N,)
+        RMS point-to-plane residual of the matched points of each frame.
+    matched_fraction : float
+        Visible model points landing on the observed surface, over all frames.
+    start : str
+        Which start led to the answer.
+    diagnostics : dict
+        Among others ``fitted_parts``: ``"moving"`` (the fine stage fitted the parts that move over the recording)
+        or ``"all"`` (``static_parts``, or no part moved).
+    depth : dict
+        The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
+        ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
+        ``offset_sigma_mm``); ``observability``: the same sigmas from the frames' spread alone (given the
+        intrinsics), which decide a refusal for too little depth range; ``range_m`` (the matched depths' 10th
+        and 90th percentiles), and the
+        noise used (``noise_source``, ``noise_mm_at_median_depth``). With ``stereo_fb_px_m``, ``pixel_locking_px``:
+        the matcher's disparity error ``sin`` and ``cos`` coefficients (pixels) with their sigmas, and its
+        ``amplitude``.
+    intrinsics : dict
+        The depth camera's intrinsics as the registration found them: ``model`` (``"estimated"`` or ``"fixed"``),
+        ``given`` (``f_x, f_y, c_x, c_y`` of the camera matrix given), and when estimated per name (``fx``,
+        ``fy``, ``cx``, ``cy``) the ``estimate``, its ``change`` from the value given, ``sigma``,
+        ``prior_sigma``, ``ratio`` (what the frames leave of the sigma over the prior's) and ``determined``
+        (the ratio below ``intrinsics_determined_share``); pixels.
+    registration : dict
+        How the depth-to-colour registration was treated, per part: ``shift_px`` (the depth image's shift against
+        the camera model: ``estimated`` with the principal point, its change ``dx``, ``dy`` and ``sigma``; or
+        ``taken as exact`` with the intrinsics fixed), ``rotation`` and ``translation`` of the depth-to-colour
+        extrinsic (``bounded``: the sigma per axis, ``sigma_deg`` or ``sigma_mm``, added to the pose's over the
+        three axes as ``rss_deg``, ``rss_mm``).
+    joint_offsets : dict
+        The robot's joint zero offsets (true joint = recorded + offset) as the registration found them: ``model``
+        (``"estimated"`` or ``"fixed"``, with a ``reason`` when fixed for want of twists), and when estimated
+        ``joints``: per joint its ``status`` (``"estimated"``; ``"absorbed"``: it moves every fitted part
+        rigidly, so its offset is part of the pose, which is then the camera in the robot's kinematic base frame;
+        ``"not seen"``), ``estimate_deg``, ``sigma_deg``, ``prior_sigma_deg``, ``ratio`` (what the frames leave
+        of the sigma over the prior's) and ``determined``; ``note`` on the absorbed ones.
+    """
+
+    T_base_cam: np.ndarray | None
+    refused: str | None
+    covariance: np.ndarray
+    sigma: dict
+    residual_mm_per_frame: np.ndarray
+    matched_fraction: float
+    start: str
+    diagnostics: dict = field(default_factory=dict)
+    depth: dict = field(default_factory=dict)
+    intrinsics: dict = field(default_factory=dict)
+    registration: dict = field(default_factory=dict)
+    joint_offsets: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.refused is None
+
+    def require(self) -> np.ndarray:
+        """``T_base_cam``, or :class:`RefusedError` with the reason."""
+        if self.refused is not None:
+            raise RefusedError(f"markerless registration refused: {self.refused}")
+        return self.T_base_cam
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable summary."""
+        from handeye.core.se3 import pos_quat_xyzw_from_transform
+
+        out = {
+            "status": "ok" if self.ok else "refused",
+            "refused": self.refused,
+            "start": self.start,
+            "matched_fraction": self.matched_fraction,
+            "sigma": self.sigma,
+            "depth": self.depth,
+            "intrinsics": self.intrinsics,
+            "joint_offsets": self.joint_offsets,
+            "registration": self.registration,
+            "residual_mm_per_frame": [float(x) for x in self.residual_mm_per_frame],
+            "diagnostics": self.diagnostics,
+        }
+        if self.T_base_cam is not None:
+            t, q = pos_quat_xyzw_from_transform(self.T_base_cam)
+            out["T_base_cam"] = {
+                "matrix": self.T_base_cam.tolist(),
+                "translation_m": t.tolist(),
+                "quaternion_xyzw": q.tolist(),
+            }
+        return out
+
+
+def refused_result(reason: str, diag: dict) -> MarkerlessResult:
+    """A refusal: no pose, no sigma; only the reason and what was seen."""
+    n = diag["frames"]
+    nan_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
+    return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
+
+
+def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResult:
+    """The best start's fit as the answer with its sigma, or refused with the reason; ``diag`` completed."""
+    opts, fit = problem.opts, best.fit
+    z_med, lever_m = best.geometry
+    res_frame, rms_mm, inl = _residuals_mm(fit, problem.n)
+    noise_mm = float(problem.sigma_z(z_med) * 1e3)
+    expected_mm = float(np.hypot(noise_mm, opts.model_floor_m * 1e3))
+    noise = pose_sigma(fit.covariance, best.T[:3, :3])
+    sampling = sampling_sigma(z_med, lever_m, problem.K_given, opts)
+    # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
+    registration = registration_terms(opts, fit, problem.theta_given)
+    extrinsic = {
+        "rotation_deg": registration["rotation"]["rss_deg"],
+        "translation_mm": registration["translation"]["rss_mm"],
+    }
+    depth = depth_summary(fit, opts, best.depth_range, problem.noise_source, noise_mm)
+    refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
+    # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
+    split = None
+    if opts.split_check and not refused:
+        split = problem.split_check(best.T, best.matches)
+    no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
+    diag.update(
+        {
+            "inlier_rms_mm": rms_mm,
+            "expected_rms_mm": expected_mm,
+            "last_step": float(best.step),
+            "matched_points": int(inl.sum()),
+            "fitted_parts": "all" if problem.fitted_part is None else "moving",
+            "sigma_noise": noise,
+            "sigma_sampling": sampling,
+            "sigma_consistency": split,
+        }
+    )
+    return MarkerlessResult(
+        None if refused else best.T,
+        refused,
+        fit.covariance,
+        in_quadrature(noise, sampling, extrinsic, split or no_split),
+        res_frame,
+        best.matched,
+        best.name,
+        diag,
+        depth,
+        _intrinsics_result(fit, problem),
+        registration=registration,
+        joint_offsets=_joint_offsets_result(fit, problem, opts),
+    )
+
+
+def _residuals_mm(fit: PlaneFit, n: int) -> tuple[np.ndarray, float, np.ndarray]:
+    """The inliers' (weight above 1/2) RMS residual per frame (NaN where none) and over all frames, millimetres,
+    and the inliers."""
+    inl = fit.weights > 0.5
+    group = fit.group
+    res_frame = np.array(
+        [
+            np.sqrt(np.mean(fit.residuals_m[inl & (group == i)] ** 2)) * 1e3 if np.any(inl & (group == i)) else np.nan
+            for i in range(n)
+        ]
+    )
+    rms_mm = float(np.sqrt(np.mean(fit.residuals_m[inl] ** 2)) * 1e3) if inl.any() else np.inf
+    return res_frame, rms_mm, inl
+
+
+def _intrinsics_result(fit: PlaneFit, problem: Problem) -> dict:
+    """:attr:`MarkerlessResult.intrinsics` of the final fit."""
+    if fit.intrinsics is None:
+        return {"model": "fixed", "given": [float(x) for x in problem.theta_given]}
+    return intrinsics_summary(
+        fit.intrinsics,
+        fit.intrinsics_covariance,
+        fit.intrinsics_covariance_frames,
+        problem.K_given,
+        problem.intrinsics_prior_sigma,
+        problem.opts.intrinsics_determined_share,
+    )
+
+
+def _refusal(opts: MarkerlessOptions, matched: float, rms_mm: float, expected_mm: float, step: float, depth: dict):
+    """Why the fit is no calibration (outside the basin, residual too large, not converged, depth not observable),
+    or None."""
+    observe = depth.get("observability", {})  # the frames' geometry alone decides whether the depth is observable
+    if matched < opts.min_matched_fraction:
+        return (
+            f"start outside the basin: only {matched:.0%} of the visible model lands on the observed surface "
+            f"(at least {opts.min_matched_fraction:.0%} needed)"
+        )
+    if rms_mm > opts.max_residual_ratio * expected_mm:
+        return f"residual too large: {rms_mm:.2f} mm RMS against {expected_mm:.2f} mm expected from the depth noise"
+    if step > 1e-4:
+        return f"did not converge: last step {step:.2g} (rad + m)"
+    if observe.get("scale_sigma", 0.0) > opts.max_depth_prior_share * opts.depth_scale_prior_sigma or (
+        observe.get("offset_sigma_mm", 0.0) > opts.max_depth_prior_share * opts.depth_offset_prior_sigma_m * 1e3
+    ):
+        return (
+            f"depth scale and offset not observable: the matched depths span {depth['range_m'][0]:.2f}-"
+            f"{depth['range_m'][1]:.2f} m, which leaves the scale at {observe['scale_sigma']:.2%} and the offset at "
+            f"{observe['offset_sigma_mm']:.1f} mm (1 sigma; at most {opts.max_depth_prior_share:.0%} of the prior's "
+            f"{opts.depth_scale_prior_sigma:.2%} and {opts.depth_offset_prior_sigma_m * 1e3:.1f} mm); move the arm "
+            "nearer to and farther from the camera, or take the depth as exact (depth_model='fixed')"
+        )
+    return None
+
+
+def _joint_offsets_result(fit, problem, opts: MarkerlessOptions) -> dict:
+    """:attr:`MarkerlessResult.joint_offsets` of the final fit."""
+    if problem.s.joint_twists_base is None:
+        return {"model": "fixed", "reason": "the surface carries no joint twists"}
+    if opts.joint_offsets_model == "fixed":
+        return {"model": "fixed", "reason": "joint_offsets_model='fixed': the recorded joints taken as exact"}
+    if problem.joint_estimated is None:  # every joint absorbed or not seen
+        return joint_offsets_summary(
+            problem.joint_offsets, problem.joint_status, None, None, problem.joint_prior_sigma, 0
+        )
+    return joint_offsets_summary(
+        problem.joint_offsets,
+        problem.joint_status,
+        fit.joint_offsets_covariance,
+        fit.joint_offsets_covariance_frames,
+        problem.joint_prior_sigma,
+        opts.joint_offset_determined_share,
+    )
