@@ -36,7 +36,7 @@ import numpy as np
 from classic.least_squares import loss_weights
 from classic.markerless import visible_points
 from classic.markerless.depth import pixel_rays
-from classic.markerless.visibility import project
+from classic.markerless.visibility import project, zbuffer_grid
 from handeye.core.errors import ShapeError
 
 __all__ = ["CheckOptions", "FrameCheck", "check_frame", "camera_rays", "unit_correction"]
@@ -223,9 +223,5 @@ def check_frame(
 
 def _visible(p_cam: np.ndarray, n_cam: np.ndarray, K: np.ndarray, height: int, width: int, stride: int) -> np.ndarray:
     """Indices of the front-facing points nearest the camera in each z-buffer pixel (``stride`` image pixels wide)."""
-    Ks = np.array(K, dtype=float)
-    if stride > 1:
-        Ks[:2] /= stride
-        Ks[:2, 2] = (np.asarray(K, dtype=float)[:2, 2] + 0.5) / stride - 0.5  # pixel centres of the coarser grid
     frame = np.zeros(len(p_cam), dtype=np.int64)
     return visible_points(p_cam, n_cam, frame, Ks, -(-height // stride), -(-width // stride))
