@@ -324,3 +324,27 @@ def test_page_loads_in_a_headless_browser(example_report, tmp_path):
     assert {name for name, *_ in result["images"]} == POSE_PNGS
     for name, complete, width, height in result["images"]:
         assert complete and width > 0 and height > 0, name
+
+
+def test_report_shows_the_error_against_the_truth(example_report, tmp_path):
+    """``--truth``: the report's error is the angle and distance of the result from the truth file's poses,
+    computed here apart (scipy's rotation angle); without ``--truth`` the report shows none."""
+    from scipy.spatial.transform import Rotation
+
+    truth_file = DATA / "example_eye_to_hand_truth.json"
+    folder = tmp_path / "rep"
+    args = ["calibrate", str(EXAMPLE), "--setup", "eye-to-hand", "--truth", str(truth_file), "--report", str(folder)]
+    assert main(args) == 0
+    res = classic.calibrate(*_example_poses(), setup="eye_to_hand")
+    truth = json.loads(truth_file.read_text())
+    doc = json.loads((folder / "report.json").read_text())["truth_error"]
+    page = (folder / "index.html").read_text(encoding="utf-8")
+    for name, T in (("T_base_cam", res.T_base_cam), ("T_ee_target", res.T_ee_target)):
+        T_true = np.asarray(truth[name])
+        angle = np.degrees(Rotation.from_matrix(T[:3, :3].T @ T_true[:3, :3]).magnitude())
+        dist = 1000 * np.linalg.norm(T[:3, 3] - T_true[:3, 3])
+        assert doc[name]["rotation_deg"] == pytest.approx(angle, abs=FLOAT)
+        assert doc[name]["translation_mm"] == pytest.approx(dist, abs=FLOAT)
+        assert f"error vs truth {name}" in page and f"{dist:.3f}" in page
+    assert json.loads((example_report / "report.json").read_text())["truth_error"] is None
+    assert "error vs truth" not in (example_report / "index.html").read_text(encoding="utf-8")

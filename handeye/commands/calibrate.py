@@ -273,6 +273,17 @@ def _check_outputs(args: argparse.Namespace) -> None:
                 check_output_path(args.report / name)
 
 
+#: Where the printed terms (1-sigma, residual, axis diversity, angle mismatch, ...) are defined.
+GLOSSARY = "docs/concepts/glossary.md"
+#: The 1-sigma's meaning, printed once after the first one.
+SIGMA_MEANS = "(predicted RMS error of the rotation angle and of the position, all axes together)"
+#: The motion line's two figures, printed once under it.
+MOTION_MEANS = [
+    "    axis diversity: how spread the rotation axes are (0 = one axis, 1 = all directions)",
+    "    angle mismatch: robot vs camera rotation angle of the same motions (near the noise when paired right)",
+]
+
+
 def _robot_noise_lines(rep) -> list[str]:
     """The robot pose error the image path estimated from the residuals, and its warning."""
     d = rep.diagnostics.get("robot_noise")
@@ -318,7 +329,7 @@ def _run_detections(args: argparse.Namespace) -> int:
         f"{len(views.views)} images, {len(views.accepted)} with a pose; method {res.method}",
         "pose-based:",
         _fmt_pose(x_name, res.X),
-        f"    1-sigma: {res.sigma['X_rotation_deg']:.4f} deg, {res.sigma['X_translation_mm']:.3f} mm",
+        f"    1-sigma: {res.sigma['X_rotation_deg']:.4f} deg, {res.sigma['X_translation_mm']:.3f} mm {SIGMA_MEANS}",
     ]
     for image, reason in out.rejected.items():
         lines.append(f"  rejected {image}: {reason}")
@@ -328,7 +339,9 @@ def _run_detections(args: argparse.Namespace) -> int:
         lines += [
             "refined on corner reprojection error:",
             _fmt_pose(x_name, rep.X),
-            f"    1-sigma: {rep.sigma['X_rotation_deg']:.4f} deg, {rep.sigma['X_translation_mm']:.3f} mm",
+            f"    1-sigma: {rep.sigma['X_rotation_deg']:.4f} deg, {rep.sigma['X_translation_mm']:.3f} mm (the "
+            "result's; each fit's sigma is scaled by its own residuals, poses above, corners here, so the two "
+            "may differ either way)",
             _fmt_pose(y_name, rep.Y),
             f"  pixel RMS {rep.rms_px:.3f} px; per view:",
         ]
@@ -337,6 +350,7 @@ def _run_detections(args: argparse.Namespace) -> int:
             lines.append(f"    {image}: {rms:.3f} px{flag}")
         lines += _robot_noise_lines(rep)
     lines += _truth_lines(args.truth, ((x_name, out.X), (y_name, out.Y)))
+    lines.append(f"  terms: {GLOSSARY}")
     lines += write_exports(args, setup, out.X)
     print("\n".join(lines))
     if args.output is not None:
@@ -475,10 +489,11 @@ def _run_poses(args: argparse.Namespace) -> int:
         f"handeye calibrate {source} --setup {setup.replace('_', '-')} --method {args.method}",
         f"{len(poses.T_base_ee)} poses, method {res.method}",
         _fmt_pose(x_name, res.X),
-        f"    1-sigma: {sig['X_rotation_deg']:.4f} deg, {sig['X_translation_mm']:.3f} mm",
+        f"    1-sigma: {sig['X_rotation_deg']:.4f} deg, {sig['X_translation_mm']:.3f} mm {SIGMA_MEANS}",
         _fmt_pose(y_name, res.Y),
         f"    1-sigma: {sig['Y_rotation_deg']:.4f} deg, {sig['Y_translation_mm']:.3f} mm",
-        f"  residual RMS per pose: {res.residuals.rms_rotation_deg:.4f} deg, {res.residuals.rms_translation_mm:.3f} mm",
+        f"  residual RMS per pose: {res.residuals.rms_rotation_deg:.4f} deg, {res.residuals.rms_translation_mm:.3f} mm "
+        "(measured camera pose vs the one the result predicts)",
     ]
     if res.diagnostics.get("outliers"):
         lines.append(f"  outlier poses (excluded): {res.diagnostics['outliers']}")
@@ -498,6 +513,7 @@ def _run_poses(args: argparse.Namespace) -> int:
         f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
         f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg"
     )
+    lines += MOTION_MEANS
     pairs = res.diagnostics.get("pairs", {})
     if pairs.get("rule") == "bounded":
         lines.append(
@@ -508,6 +524,7 @@ def _run_poses(args: argparse.Namespace) -> int:
         if w.category.__name__ != "SuspectPosesWarning":  # the lines above name those poses
             lines.append(f"  warning: {w.message}")
     lines += _truth_lines(args.truth, ((x_name, res.X), (y_name, res.Y)))
+    lines.append(f"  terms: {GLOSSARY}")
     lines += write_exports(args, setup, res.X, poses.frames)
     print("\n".join(lines), file=out)
     if args.output is not None:

@@ -68,6 +68,8 @@ class ReportData:
     images : ImagesPart, optional
     holdout_k : int, optional
         Poses held out per fold; default :func:`handeye.report.holdout.default_k`.
+    truth : dict of str -> array, shape (4, 4), optional
+        True poses by frame name (``calibrate --truth``, metres); the report shows the error against them.
     """
 
     result: object
@@ -83,6 +85,7 @@ class ReportData:
     camera_covariance: np.ndarray | None = None
     images: ImagesPart | None = None
     holdout_k: int | None = None
+    truth: dict | None = None
 
 
 def _final(data: ReportData):
@@ -201,6 +204,7 @@ def write_report(folder: str | Path, data: ReportData) -> Path:
         "holdout": None if check is None else check.to_dict(),
         "holdout_error": error,
         "figures": sorted(p.name for p in pngs.values()),
+        "truth_error": sec.truth_errors(data, final),
     }
     if overlays is not None:
         doc["views"] = [

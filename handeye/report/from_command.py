@@ -11,6 +11,16 @@ import numpy as np
 __all__ = ["command_line", "report_poses", "report_images"]
 
 
+def _truth(args: argparse.Namespace) -> dict | None:
+    """The true poses of ``--truth`` (frame name -> 4x4, checked), or None without one."""
+    if getattr(args, "truth", None) is None:
+        return None
+    from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
+    from handeye.truthfile import read_truth
+
+    return read_truth(args.truth, UNKNOWN_NAMES[normalize_setup(args.setup)])
+
+
 def command_line(args: argparse.Namespace, command: str = "calibrate") -> str:
     """The command as it could be typed again, from its parsed arguments.
 
@@ -103,6 +113,7 @@ def report_poses(
         pairs=args.pairs,
         warnings=list(warnings),
         camera_covariance=cov,
+        truth=_truth(args),
     )
     return write_report(args.report, data)
 
@@ -158,5 +169,6 @@ def report_images(args: argparse.Namespace, views, T_base_ee: np.ndarray, calibr
         labels=[Path(views.views[k].image).stem for k in accepted],
         camera_covariance=noise.camera_covariance,
         images=ImagesPart(views, T_base_ee, calibration),
+        truth=_truth(args),
     )
     return write_report(args.report, data)

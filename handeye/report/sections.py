@@ -11,6 +11,7 @@ from handeye.report import html
 from handeye.report.tables import POSE_HEADERS, holdout_rows, motion_rows, noise_text, pose_rows
 
 __all__ = [
+    "truth_errors",
     "result_section",
     "method_section",
     "residuals_section",
@@ -48,6 +49,59 @@ def _holdout_card(check) -> tuple[str, str, str, str]:
     )
 
 
+def truth_errors(data, final: tuple) -> dict | None:
+    """The error of the leading calibration against the truth (``calibrate --truth``), per frame name.
+
+    Parameters
+    ----------
+    data : handeye.report.build.ReportData
+    final : tuple
+        ``(X, Y, sigma, label)`` of the calibration the report leads with.
+
+    Returns
+    -------
+    dict or None
+        Frame name -> ``rotation_deg``, ``translation_mm`` (the error's angle and length) and ``sigma_rotation_deg``,
+        ``sigma_translation_mm`` (its predicted 1-sigma); None without a truth.
+    """
+    if not data.truth:
+        return None
+    from handeye.core.metrics import pose_error
+
+    X, Y, sigma, _ = final
+    out = {}
+    for block, name, T in zip("XY", UNKNOWN_NAMES[data.setup], (X, Y)):
+        if name in data.truth:
+            rot, trans = pose_error(T, data.truth[name])
+            out[name] = {
+                "rotation_deg": float(rot),
+                "translation_mm": float(trans),
+                "sigma_rotation_deg": float(sigma[f"{block}_rotation_deg"]),
+                "sigma_translation_mm": float(sigma[f"{block}_translation_mm"]),
+            }
+    return out
+
+
+def _truth_table(errors: dict) -> str:
+    """The error against the truth beside the predicted 1-sigma, one row per frame name."""
+    rows = [
+        [
+            escape(name),
+            f"{e['translation_mm']:.3f}",
+            f"{e['sigma_translation_mm']:.3f}",
+            f"{e['rotation_deg']:.4f}",
+            f"{e['sigma_rotation_deg']:.4f}",
+        ]
+        for name, e in errors.items()
+    ]
+    head = ["pose", "error [mm]", "1-sigma [mm]", "error [deg]", "1-sigma [deg]"]
+    return (
+        "<p>Error against the truth given with <code>--truth</code> (the angle between the rotations and the "
+        "distance between the translations), beside the predicted 1-sigma; an error within about 3 sigma is "
+        "what the noise explains.</p>" + html.table(head, rows, numeric=(1, 2, 3, 4))
+    )
+
+
 def result_section(data, final: tuple, check) -> str:
     """Headline numbers and X, Y by frame name (translation, quaternion, roll-pitch-yaw, 1-sigma).
 
@@ -65,6 +119,14 @@ def result_section(data, final: tuple, check) -> str:
         ("residual RMS per pose", f"{r.rms_translation_mm:.2f} mm", f"{r.rms_rotation_deg:.3f} deg", ""),
         (f"1-sigma {names[0]}", f"{sigma['X_translation_mm']:.2f} mm", f"{sigma['X_rotation_deg']:.3f} deg", ""),
     ]
+    errors = truth_errors(data, final)
+    for name, e in (errors or {}).items():
+        within = (
+            e["translation_mm"] <= 3 * e["sigma_translation_mm"] and e["rotation_deg"] <= 3 * e["sigma_rotation_deg"]
+        )
+        items.append(
+            (f"error vs truth {name}", f"{e['translation_mm']:.2f} mm", f"{e['rotation_deg']:.3f} deg", _level(within))
+        )
     if check is not None and len(check.indices):
         items.append(_holdout_card(check))
     motion = res.diagnostics["motion"]
@@ -91,6 +153,8 @@ def result_section(data, final: tuple, check) -> str:
     body = html.cards(items)
     body += f"<p>The camera and target poses by frame name, {escape(label)}:</p>"
     body += html.table(list(POSE_HEADERS), pose_rows(list(zip(names, (X, Y))), sigma), numeric=(1, 2, 3, 4))
+    if errors:
+        body += _truth_table(errors)
     if rep is not None:
         body += "<p>Pose-based (on the PnP poses), the refinement's start:</p>"
         body += html.table(
