@@ -612,3 +612,18 @@ POINT_ROUNDING_EPS = 8 * np.finfo(float).eps
 #: as one per pixel: their spread's standard deviation is 1.36 that of as many independent values (measured
 #: over 2000 noise images of 60 x 80), under sqrt(2).
 MAD_SD_SQRT_N = 1.167
+
+#: ``learned.keypoints.keypoint_loss`` charges a heatmap's spread s (px) as sqrt(s^2 + 1e-6), a floor that keeps
+#: its gradient finite at a single peak: high by 1e-6 / (2 s^2) relative, 2.5e-7 at the smallest spread the
+#: tests charge (half a cell's diagonal, 1.41 px), float64 rounding (1e-16) nothing beside it. 1e-6 relative is
+#: four times the floor's effect; a spread off by a tenth of a cell or a missing square root is off by 5 % or
+#: more.
+KEYPOINT_SPREAD_RTOL = 1e-6
+
+#: A rotation fitted to a float32 unit quaternion's label, against that label by eq. 2
+#: (``learned.metrics.rotation_errors_deg``, 360 / pi x the quaternion distance d for small angles): each
+#: component rounds at 2^-24 relative, so the label's norm is 1 within sum q_i^2 2^-24 = 2^-24, and the fit,
+#: which sees the normalised rotation, returns it at distance d = | |q| - 1 | <= 2^-24 from the label. Twice
+#: that, for the second order and the float64 fit's rounding: 1.4e-5 deg (measured 4.6e-7). A rotation error a
+#: fit can make (a camera turned, a keypoint off) is 1e-3 deg and up.
+FLOAT32_QUATERNION_DEG = 360.0 / np.pi * 2 * 2.0**-24

@@ -134,7 +134,7 @@ def test_selection_judges_novelty_by_the_placement_at_the_thresholds_the_command
     pc = results["per_camera"]["reservoir"]
     for j, region in enumerate(results["regions"]):
         mine = [e for e, r in zip(pc["learned_vs_label_mm"], pc["region"]) if r == region]
-        assert rec["placement_matrix"][-1][j] == pytest.approx(np.median(mine), rel=1e-9)
+        assert rec["placement_matrix"][-1][j] == pytest.approx(np.median(mine), rel=FLOAT)
     # placement novelty needs the keypoint model's one pose; thresholds must be positive: refused, not ignored
     assert main([*args, *novelty, "--out", str(tmp_path / "reg")]) == 2
     assert main([*args, "--family", "keypoints", "--threshold-mm", "0", "--out", str(tmp_path / "zero")]) == 2

@@ -8,6 +8,7 @@ from handeye.core.se3 import matrix_from_quat_xyzw, quat_xyzw_from_matrix, so3_e
 from learned.data import with_keypoints
 from learned.keypoints import keypoint_targets
 from tests.learned._synthetic import make_frames
+from tests.tolerances import ABSOLUTE_ONLY, FLOAT
 
 
 def test_a_camera_turned_about_the_robot_is_read_as_that_rotation_and_its_translation():
@@ -40,8 +41,10 @@ def test_a_camera_turned_about_the_robot_is_read_as_that_rotation_and_its_transl
         turns.append(np.degrees(w))
         offsets.append((p_c - R_w @ p_c) * 1000.0)
     ce = camera_frame_errors(pred, frames, index, stats=None)
-    np.testing.assert_allclose(ce[:, 3:6], turns, atol=1e-7)  # the rotation error, deg
-    np.testing.assert_allclose(ce[:, 0:3], offsets, atol=1e-6)  # the translation it makes, mm
+    # exact predictions: the fit is exact to rounding, FLOAT of unit-size quantities in their units: radians
+    # shown in degrees, and millimetres of the keypoints' distance |p_c| (about 1.4 m)
+    np.testing.assert_allclose(ce[:, 3:6], turns, atol=np.degrees(FLOAT), rtol=ABSOLUTE_ONLY)  # rotation, deg
+    np.testing.assert_allclose(ce[:, 0:3], offsets, atol=FLOAT * ce[:, 9].max(), rtol=ABSOLUTE_ONLY)  # its mm
     # -w x p_c is that translation to first order: (I - R_w) p_c = -w x p_c - w x (w x p_c) / 2 - ..., the rest
     # within |w|^2 |p_c| (twice the second-order term), against the translation itself, |w| |p_c|
     w, rest = np.radians(ce[:, 3:6]), np.linalg.norm(ce[:, 0:3] - ce[:, 6:9], axis=1)

@@ -8,6 +8,7 @@ import torch
 
 from learned.keypoints import KeypointNet, keypoint_loss
 from learned.model import ModelConfig
+from tests.tolerances import KEYPOINT_SPREAD_RTOL
 
 W, H = 16, 12  # input pixels; heatmaps at half resolution, 8 x 6
 
@@ -26,13 +27,13 @@ def test_a_diffuse_heatmap_costs_its_spread_and_a_peak_costs_nothing():
     ys = ((np.arange(hh) + 0.5) / hh - 0.5) * H
     expected_rms = np.sqrt(np.mean(xs**2) + np.mean(ys**2))
     diffuse = keypoint_loss(pred, target, (W, H), _uniform(), spread_weight=1.0).item()
-    np.testing.assert_allclose(diffuse, expected_rms, rtol=1e-6)
+    np.testing.assert_allclose(diffuse, expected_rms, rtol=KEYPOINT_SPREAD_RTOL)
     peak = torch.zeros(1, 1, hh, ww, dtype=torch.float64)
     peak[0, 0, hh // 2 - 1 : hh // 2 + 1, ww // 2 - 1 : ww // 2 + 1] = 0.25  # the four cells around the centre
     np.testing.assert_allclose(
         keypoint_loss(pred, target, (W, H), peak, spread_weight=1.0).item(),
         np.sqrt((W / ww / 2) ** 2 + (H / hh / 2) ** 2),
-        rtol=1e-6,
+        rtol=KEYPOINT_SPREAD_RTOL,
     )
     assert keypoint_loss(pred, target, (W, H)).item() == 0.0  # without heatmaps: the coordinates alone
 
