@@ -1,6 +1,6 @@
-"""The markerless registration's fitting problem for one camera placement: the depth frames, the model and the
-state the stages share (depth correction, intrinsics, joint offsets), with stages 2-4 (centroids, coarse ICP,
-fine projective registration) as its methods (:mod:`classic.markerless.register`).
+"""The markerless registration's fitting problem for one camera placement: the depth frames and the model, the state
+the stages share (depth correction, intrinsics, joint offsets), the z-buffered model, the projective association and
+the point-to-plane fit of its matches. The stages that drive it are :mod:`classic.markerless.register`'s.
 """
 
 from __future__ import annotations
@@ -26,8 +26,6 @@ from classic.markerless.sigma import depth_bins, image_tiles
 from classic.markerless.surface_frames import RobotSurfaceFrames
 from classic.markerless.visibility import project, visible_points, zbuffer_grid
 from handeye.core.errors import HandEyeInputError
-from handeye.core.metrics import pose_error
-from handeye.core.rigid import rigid_transform
 from handeye.core.se3 import invert_transform
 
 __all__ = ["Problem", "Outcome", "FALLBACK_SIGMA_M_AT_1M"]
@@ -57,7 +55,8 @@ FALLBACK_SIGMA_M_AT_1M = 0.001
 
 
 class Outcome(NamedTuple):
-    """The fine stage's outcome from one start (:meth:`Problem.fine`); ``fit`` None: too few points matched."""
+    """The fine stage's outcome from one start (:mod:`classic.markerless.register`); ``fit`` None: too few points
+    matched."""
 
     name: str  # the start's
     T: np.ndarray  # T_base_cam
@@ -235,66 +234,14 @@ class Problem:
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h)
         return sel[idx[inside]], uv[inside][:, ::-1], p[inside]
 
-    # -- stage 2: centroids
+    # -- stage 4's association and fits (the stages: classic.markerless.register)
 
-    def _centroids(self, frame, points):
-        count = np.bincount(frame, minlength=self.n).astype(float)
-        sums = np.stack([np.bincount(frame, points[:, k], minlength=self.n) for k in range(3)], axis=-1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return sums / count[:, None], count
-
-    def centroid_start(self, iterations=4):
-        c_obs, counts = self._centroids(self.moving_frame, self.moving_p_cam)
-        use = counts >= 20
-        if use.sum() < 3:
-            return None
-        T = None
-        for _ in range(iterations + 1):
-            idx = self.coarse_subset if T is None else self.visible(T, subset=self.coarse_subset)[0]
-            idx = idx[self.moving_part[idx]]
-            c_mod, n_mod = self._centroids(self.s.frame[idx], self.s.points_base[idx])
-            ok = use & (n_mod >= 10)
-            if ok.sum() < 3:
-                return T
-            T = rigid_transform(c_obs[ok], c_mod[ok], counts[ok])
-        return T
-
-    # -- stage 3: coarse ICP in 3-D
-
-    def coarse(self, T):
-        """3-D ICP of the moving pixels to the model, window shrinking; up to 3 matchings per window,
-        fewer once a matching moves the pose by less than a tenth of the window (the rotation taken at 1 m)."""
-        moving_p_cam = self.corrected(self.moving_p_cam)
-        for window in self.opts.coarse_windows_m:
-            for _ in range(3):
-                p_base = moving_p_cam @ T[:3, :3].T + T[:3, 3]
-                d, j = self.tree.query(
-                    np.c_[p_base, self.moving_frame * _FRAME_KEY_M], distance_upper_bound=window, workers=-1
-                )
-                ok = np.isfinite(d)
-                if ok.sum() < 50:
-                    break
-                jj = self.coarse_subset[j[ok]]
-                n = self.s.normals_base[jj]
-                # front-facing matches only: the normal must point towards the camera
-                towards = np.einsum("ij,ij->i", n, T[:3, 3] - self.s.points_base[jj]) > 0
-                sel = np.flatnonzero(ok)[towards]
-                jj = jj[towards]
-                if len(sel) < 50:
-                    break
-                fit = solve_point_to_plane(
-                    moving_p_cam[sel],
-                    MatchedModel(self.s.points_base[jj], self.s.normals_base[jj]),
-                    T,
-                    PlaneFitOptions(scale_m=window / 3, loss="cauchy", iterations=2, covariance=False),
-                )
-                moved = pose_error(T, fit.T_base_cam)
-                T = fit.T_base_cam
-                if np.radians(moved[0]) + moved[1] / 1e3 < 0.1 * window:
-                    break
-        return T
-
-    # -- stage 4: fine, projective
+    def nearest(self, p_base, frame, window_m):
+        """Each point's nearest model point of its frame (the coarse stages' subset), within ``window_m``: whether
+        one was found, and for those found its index into the whole model."""
+        d, j = self.tree.query(np.c_[p_base, frame * _FRAME_KEY_M], distance_upper_bound=window_m, workers=-1)
+        ok = np.isfinite(d)
+        return ok, self.coarse_subset[j[ok]]
 
     def associate(self, T, gate_m, cached=None):
         """Projective matches: each visible model point and the observed point in its pixel.
@@ -377,11 +324,11 @@ class Problem:
         ]
         return crosses or None
 
-    def _fitted(self, idx, close):
+    def fitted_matches(self, idx, close):
         """The matches the fine stage fits: ``close`` ones on the parts it fits (``static_parts``)."""
         return close if self.fitted_part is None else close & self.fitted_part[idx]
 
-    def _fit(self, T, idx, f, q_obs, close, covariance=True):
+    def fit_matches(self, T, idx, f, q_obs, close, covariance=True):
         """The fit of the ``close`` matches, adopted (:meth:`adopt`); returns it, the median expected residual and
         the matches ``(model points, frames, observed points)``."""
         sel = np.flatnonzero(close)
@@ -419,49 +366,3 @@ class Problem:
             return fit.T_base_cam, fit.covariance
 
         return split_excess(solve, f, frame_splits(f, q_obs, self.n))
-
-    def fine(self, T, name):
-        """Projective point-to-plane from ``T``, gate shrinking to 4 robust sigmas; returns the start ``name``'s
-        outcome.
-
-        The z-buffer is rebuilt on the first and fourth association and every fifth after; in between the
-        visible points are only projected again. The last association always has a fresh z-buffer, and the
-        matched fraction (visible model points with depth within 1 cm) is taken from it.
-        """
-        opts = self.opts
-        gates = [0.05, 0.03, 0.02, 0.01]
-        fit, step, scale, visible_idx = None, np.inf, None, None
-        for it in range(opts.fine_iterations):
-            gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)
-            full = it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
-            idx, f, q_obs, q, has_depth, close = self.associate(T, gate, None if full else visible_idx)
-            if full:
-                visible_idx = idx
-            fitted = self._fitted(idx, close)
-            if fitted.sum() < 50:
-                return Outcome(name, T, None, np.inf, 0.0)
-            fit, expected, _ = self._fit(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
-            T, step = fit.T_base_cam, fit.step_norm
-            inl = fit.weights > 0.5
-            scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
-            if it >= len(gates) and step < 1e-7:
-                break
-        # the final association, fresh z-buffer: one more fit on it, and the matched fraction
-        idx, f, q_obs, q, has_depth, close = self.associate(T, max(4 * scale, 0.004))
-        fitted = self._fitted(idx, close)
-        if fitted.sum() < 50:
-            return Outcome(name, T, None, np.inf, 0.0)
-        fit, _, matches = self._fit(T, idx, f, q_obs, fitted)
-        q = self.corrected(q_obs)
-        step = max(step, fit.step_norm)
-        matched_q = q[fitted]  # what calibrated the depth
-        geometry = (
-            float(np.median(matched_q[:, 2])),
-            float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
-        )
-        depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
-        within_1cm = has_depth & (
-            np.abs(q[:, 2] - (self.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
-        )
-        matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
-        return Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, matches)

@@ -60,10 +60,13 @@ from __future__ import annotations
 import numpy as np
 
 from classic.markerless.options import MarkerlessOptions
+from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, solve_point_to_plane
 from classic.markerless.problem import FALLBACK_SIGMA_M_AT_1M, Outcome, Problem
 from classic.markerless.result import MarkerlessResult, RefusedError, build_result, refused_result
 from classic.markerless.surface_frames import RobotSurfaceFrames
 from handeye.core.errors import NonFiniteError, ShapeError
+from handeye.core.metrics import pose_error
+from handeye.core.rigid import rigid_transform
 from handeye.core.validation import check_transforms
 
 __all__ = [
@@ -141,7 +144,7 @@ def register_robot(
             diag,
         )
     if centroid_start:
-        T0 = problem.centroid_start()
+        T0 = _centroid_start(problem)
         if T0 is not None:
             starts["centroids"] = T0
     if not starts:
@@ -160,7 +163,7 @@ def _best_of_starts(problem: Problem, starts: dict, diag: dict) -> Outcome | str
     opts, best = problem.opts, None
     for name, T_start in starts.items():
         problem.restart()
-        outcome = problem.fine(problem.coarse(np.asarray(T_start, dtype=float)), name)
+        outcome = _fine(problem, _coarse(problem, np.asarray(T_start, dtype=float)), name)
         diag["starts"][name] = {"matched_fraction": round(outcome.matched, 4), "converged_step": float(outcome.step)}
         if outcome.fit is not None and (best is None or outcome.matched > best.matched):
             best = outcome
@@ -172,7 +175,111 @@ def _best_of_starts(problem: Problem, starts: dict, diag: dict) -> Outcome | str
     # and the reported offsets read the problem's
     problem.adopt(best.fit)
     if problem.hold_undetermined(best.fit):  # static parts fitted, the base rotation not determined: absorbed
-        best = problem.fine(best.T, best.name)
+        best = _fine(problem, best.T, best.name)
         if best.fit is None:
             return "did not converge: the fit with the base rotation's offset absorbed kept too few points"
     return best
+
+
+def _centroids(frame, points, n):
+    """Per frame (``n`` of them), the centroid of ``points`` and how many there are (NaN centroids where none)."""
+    count = np.bincount(frame, minlength=n).astype(float)
+    sums = np.stack([np.bincount(frame, points[:, k], minlength=n) for k in range(3)], axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return sums / count[:, None], count
+
+
+def _centroid_start(problem: Problem, iterations=4):
+    """Stage 2: the rigid alignment of the moving pixels' centroids (camera frame) with the moving parts', per frame
+    (base frame), refined ``iterations`` times with the visible part of the model; None with too few frames."""
+    c_obs, counts = _centroids(problem.moving_frame, problem.moving_p_cam, problem.n)
+    use = counts >= 20
+    if use.sum() < 3:
+        return None
+    T = None
+    for _ in range(iterations + 1):
+        idx = problem.coarse_subset if T is None else problem.visible(T, subset=problem.coarse_subset)[0]
+        idx = idx[problem.moving_part[idx]]
+        c_mod, n_mod = _centroids(problem.s.frame[idx], problem.s.points_base[idx], problem.n)
+        ok = use & (n_mod >= 10)
+        if ok.sum() < 3:
+            return T
+        T = rigid_transform(c_obs[ok], c_mod[ok], counts[ok])
+    return T
+
+
+def _coarse(problem: Problem, T):
+    """3-D ICP of the moving pixels to the model, window shrinking; up to 3 matchings per window,
+    fewer once a matching moves the pose by less than a tenth of the window (the rotation taken at 1 m)."""
+    moving_p_cam = problem.corrected(problem.moving_p_cam)
+    for window in problem.opts.coarse_windows_m:
+        for _ in range(3):
+            p_base = moving_p_cam @ T[:3, :3].T + T[:3, 3]
+            ok, jj = problem.nearest(p_base, problem.moving_frame, window)
+            if ok.sum() < 50:
+                break
+            n = problem.s.normals_base[jj]
+            # front-facing matches only: the normal must point towards the camera
+            towards = np.einsum("ij,ij->i", n, T[:3, 3] - problem.s.points_base[jj]) > 0
+            sel = np.flatnonzero(ok)[towards]
+            jj = jj[towards]
+            if len(sel) < 50:
+                break
+            fit = solve_point_to_plane(
+                moving_p_cam[sel],
+                MatchedModel(problem.s.points_base[jj], problem.s.normals_base[jj]),
+                T,
+                PlaneFitOptions(scale_m=window / 3, loss="cauchy", iterations=2, covariance=False),
+            )
+            moved = pose_error(T, fit.T_base_cam)
+            T = fit.T_base_cam
+            if np.radians(moved[0]) + moved[1] / 1e3 < 0.1 * window:
+                break
+    return T
+
+
+def _fine(problem: Problem, T, name):
+    """Projective point-to-plane from ``T``, gate shrinking to 4 robust sigmas; returns the start ``name``'s
+    outcome.
+
+    The z-buffer is rebuilt on the first and fourth association and every fifth after; in between the
+    visible points are only projected again. The last association always has a fresh z-buffer, and the
+    matched fraction (visible model points with depth within 1 cm) is taken from it.
+    """
+    opts = problem.opts
+    gates = [0.05, 0.03, 0.02, 0.01]
+    fit, step, scale, visible_idx = None, np.inf, None, None
+    for it in range(opts.fine_iterations):
+        gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)
+        full = it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
+        idx, f, q_obs, q, has_depth, close = problem.associate(T, gate, None if full else visible_idx)
+        if full:
+            visible_idx = idx
+        fitted = problem.fitted_matches(idx, close)
+        if fitted.sum() < 50:
+            return Outcome(name, T, None, np.inf, 0.0)
+        fit, expected, _ = problem.fit_matches(T, idx, f, q_obs, fitted, covariance=False)  # the matches change next
+        T, step = fit.T_base_cam, fit.step_norm
+        inl = fit.weights > 0.5
+        scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
+        if it >= len(gates) and step < 1e-7:
+            break
+    # the final association, fresh z-buffer: one more fit on it, and the matched fraction
+    idx, f, q_obs, q, has_depth, close = problem.associate(T, max(4 * scale, 0.004))
+    fitted = problem.fitted_matches(idx, close)
+    if fitted.sum() < 50:
+        return Outcome(name, T, None, np.inf, 0.0)
+    fit, _, matches = problem.fit_matches(T, idx, f, q_obs, fitted)
+    q = problem.corrected(q_obs)
+    step = max(step, fit.step_norm)
+    matched_q = q[fitted]  # what calibrated the depth
+    geometry = (
+        float(np.median(matched_q[:, 2])),
+        float(np.sqrt(np.mean(np.sum((matched_q - matched_q.mean(0)) ** 2, axis=1)))),
+    )
+    depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
+    within_1cm = has_depth & (
+        np.abs(q[:, 2] - (problem.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
+    )
+    matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
+    return Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, matches)
