@@ -1,4 +1,16 @@
-"""The front: ``calibrate(T_base_ee, T_cam_target, setup, method)`` for both setups."""
+"""The front: ``calibrate(T_base_ee, T_cam_target, setup, method)`` for both setups.
+
+The outlier policy of :func:`calibrate`: every pose is tested against a fit without it
+(:mod:`classic.outlier_screen`: a clean set has a pose named with probability at most
+:data:`classic.outlier_screen.OUTLIER_ALPHA`, 0.1 %, whatever its size). When the named poses move a
+non-robust fit by more than :data:`classic.outlier_screen.ACCEPT_SHIFT_SIGMA` (2) of its sigma, the set is
+refused (:class:`handeye.core.errors.ContaminatedPosesError`, naming them) if one is gross
+(:data:`classic.outlier_screen.GROSS_FACTOR`, 6, times its bound), else the fit without them is returned; within
+2 sigma the fit with them is returned, its covariance widened to reach the fit without them. They are always
+named (a :class:`handeye.core.errors.SuspectPosesWarning` and ``diagnostics["suspect_poses"]``). With
+``robust=True`` the candidates come from least-median sampling and a Cauchy fit, each is confirmed by an F test
+against a least-squares fit without it, and least squares on the rest is returned.
+"""
 
 from __future__ import annotations
 
@@ -203,27 +215,16 @@ def calibrate(
 ) -> CalibrationResult:
     """Hand-eye calibration from paired robot and target poses.
 
-    Eye-to-hand (static camera, target on the flange) estimates
-    ``X = T_base_cam`` and ``Y = T_ee_target``; eye-in-hand (camera on the
-    flange, static target) ``X = T_ee_cam`` and ``Y = T_base_target``. Both
-    satisfy ``A_i Y = X B_i`` (:mod:`handeye.core.setups`).
+    Eye-to-hand (static camera, target on the flange) estimates ``X = T_base_cam`` and ``Y = T_ee_target``;
+    eye-in-hand (camera on the flange, static target) ``X = T_ee_cam`` and ``Y = T_base_target``. Both satisfy
+    ``A_i Y = X B_i`` (:mod:`handeye.core.setups`).
 
-    Steps: validate the input (raises a :class:`ValueError` subclass naming the
-    pose); check that robot and camera motions are consistent and that the
-    rotations determine X (raises on degenerate motion, warns on weak motion);
-    optionally flag gross outliers by least-median sampling; solve in closed
-    form by ``method`` (by default the better of Park and Shah); refine X and Y
-    jointly by maximum likelihood under the noise model (:mod:`classic.refine`);
-    test every pose against a fit without it (:mod:`classic.outlier_screen`: a
-    clean set has a pose named with probability at most
-    :data:`classic.outlier_screen.OUTLIER_ALPHA`, 0.1 %, whatever its size);
-    when the named poses move a non-robust fit by more than
-    :data:`classic.outlier_screen.ACCEPT_SHIFT_SIGMA` (2) of its sigma, refuse if
-    one is gross (:data:`classic.outlier_screen.GROSS_FACTOR`, 6, times its bound),
-    else return the fit without them; within 2 sigma return the fit with them, its
-    covariance widened to reach the fit without them; always name them (a
-    :class:`SuspectPosesWarning` and ``diagnostics["suspect_poses"]``); report
-    per-pose residuals and the covariance.
+    Steps: validate the input (raises a :class:`ValueError` subclass naming the pose); check that robot and
+    camera motions are consistent and that the rotations determine X (raises on degenerate motion, warns on weak
+    motion); optionally flag gross outliers by least-median sampling; solve in closed form by ``method`` (by
+    default the better of Park and Shah); refine X and Y jointly by maximum likelihood under the noise model
+    (:mod:`classic.refine`); test every pose against a fit without it and name, leave out or refuse the poses
+    beyond the bound (the outlier policy: this module's docstring); report per-pose residuals and the covariance.
 
     Parameters
     ----------
@@ -233,39 +234,32 @@ def calibrate(
         Target (board) poses in the camera's optical frame, metres.
     setup : {"eye_to_hand", "eye_in_hand"}
     method : str
-        Closed form: ``auto`` (default: the better of ``park`` and ``shah``),
-        ``tsai``, ``park``, ``horaud``, ``andreff``, ``daniilidis`` (AX=XB on
-        motion pairs) or ``shah``, ``li`` (AX=YB on poses).
+        Closed form: ``auto`` (default: the better of ``park`` and ``shah``), ``tsai``, ``park``, ``horaud``,
+        ``andreff``, ``daniilidis`` (AX=XB on motion pairs) or ``shah``, ``li`` (AX=YB on poses).
     pairs : {"all", "consecutive"}
         Motion pairs for the AX=XB methods.
     refine : bool
-        Refine (default). Without it the closed form is returned and the
-        covariance is evaluated at it.
+        Refine (default). Without it the closed form is returned and the covariance is evaluated at it.
     robust : bool
-        Leave out the poses the outlier test names (:mod:`classic.outlier_screen`:
-        candidates from least-median sampling and a Cauchy fit, each confirmed by
-        an F test against a least-squares fit without it, so a clean set loses a
-        pose with probability at most 0.1 % whatever its size) and return least
-        squares on the rest. Without it (and with a linear ``loss``), a set whose
-        named poses move the answer by more than 2 sigma is refused
-        (:class:`ContaminatedPosesError`, naming them) when one of them is gross,
-        and fitted without them otherwise.
+        Leave out the poses the outlier test names (a clean set loses one with probability at most 0.1 % whatever
+        its size) and return least squares on the rest. Without it (and with a linear ``loss``), a set whose named
+        poses move the answer by more than 2 sigma is refused (:class:`ContaminatedPosesError`, naming them) when
+        one of them is gross, and fitted without them otherwise.
     loss : {"linear", "huber", "cauchy"}, optional
         Loss of the refinement; default ``linear``, or ``cauchy`` when robust.
     noise : (float, float) or NoiseModel, optional
-        Per-axis camera noise ``(rad, m)``, or a :class:`classic.noise_model.NoiseModel`
-        with camera and robot noise (anisotropic, per pose, joint noise through the
-        robot's Jacobian); default: camera-only, the scales estimated from the residuals (rotation;
-        translation, split across and along the line of sight when the residuals say they differ).
+        Per-axis camera noise ``(rad, m)``, or a :class:`classic.noise_model.NoiseModel` with camera and robot
+        noise (anisotropic, per pose, joint noise through the robot's Jacobian); default: camera-only, the scales
+        estimated from the residuals (rotation; translation, split across and along the line of sight when the
+        residuals say they differ).
     check : bool
-        Run the consistency, motion and contamination checks (default). Turn off
-        only for data you have checked otherwise.
+        Run the consistency, motion and contamination checks (default). Turn off only for data you have checked
+        otherwise.
     rng : numpy.random.Generator, optional
         For the robust sampling; default seeded, so results are reproducible.
     estimate_scale : bool
-        Also estimate a metric scale of the camera translations (monocular SLAM
-        poses): ``t_cam_target <- s t_cam_target``; ``s`` and its sigma are in
-        ``diagnostics["scale"]``. Starts from :func:`classic.starts.scaled_start`.
+        Also estimate a metric scale ``s`` of the camera translations (monocular SLAM), ``t_cam_target <- s
+        t_cam_target``, from :func:`classic.starts.scaled_start`; ``s`` and its sigma are in ``diagnostics["scale"]``.
 
     Returns
     -------
@@ -291,40 +285,20 @@ def calibrate(
     True
     """
     setup, loss = _checked_arguments(setup, method, pairs, loss, robust)
-    model = as_noise_model(noise)
+    how = _How(method, loss, as_noise_model(noise), refine, robust, check, rng, estimate_scale)
     poses = _Poses.validated(T_base_ee, T_cam_target, setup, pairs)
-    if not estimate_scale:  # a scale-free camera (monocular SLAM) may have any distance
-        check_target_distance(poses.B)
     diagnostics: dict = {}
-    held = []
-    if robust:
-        poses = _reject_outliers(poses, rng, diagnostics)
-        held = _check_motion_held(poses, check, estimate_scale, diagnostics)
-    else:
-        try:
-            _check_motion(poses, check, estimate_scale, diagnostics)
-        except InconsistentPosesError as err:
-            _refuse_named_behind(err, poses, model, rng, estimate_scale)
+    poses, held = _checked_poses(poses, how, diagnostics)
     sampled = poses.inliers
     diagnostics["pairs"] = describe_pairs(len(poses.A_in), pairs)
-    X, Y, scale0, name = _start(poses, method, estimate_scale)
-    name = ("ransac+" if robust else "") + name
-    ref, poses = _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics)
-    if refine:
-        X, Y = ref.X, ref.Y
-        name += "+ml" if model is not None and model.has_robot_noise else "+lm"
+    fit, poses = _refine(poses, _start(poses, how), how, diagnostics)
     if robust:
         _motion_of_final_inliers(poses, sampled, held, diagnostics)
     if check and not robust:
-        # every pose judged against a fit without it; least squares must not hide an outlier, a robust
-        # loss is told which poses it had to discount
-        screening = _screen(poses, ref if refine else None, model, rng, estimate_scale)
-        ref, poses = _name_or_refuse(screening, ref, poses, (X, Y), diagnostics, act=refine and loss == "linear")
-        if refine:
-            X, Y = ref.X, ref.Y
+        fit, poses = _screened(poses, fit, how, diagnostics)
     if refine and check and loss == "linear":
-        _check_fit(poses, ref, model, estimate_scale)
-    return _result(poses, X, Y, name, ref, model, loss, refine and robust, estimate_scale, diagnostics)
+        _check_fit(poses, fit.ref, how.model, estimate_scale)
+    return _result(poses, fit, how, diagnostics)
 
 
 # -- the stages of calibrate(), in its order
@@ -371,6 +345,39 @@ class _Poses:
         return self.__dict__.get("motions")
 
 
+@dataclass(frozen=True)
+class _How:
+    """:func:`calibrate`'s choices as the stages read them (``setup`` and ``pairs`` travel with the poses)."""
+
+    method: str
+    loss: str
+    model: NoiseModel | None
+    refine: bool
+    robust: bool
+    check: bool
+    rng: np.random.Generator | None
+    estimate_scale: bool
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """The answer as the stages hand it on: ``X``, ``Y``, the method's name, the start's scale and the
+    refinement (evaluated at the start without ``refine``; None before it)."""
+
+    X: np.ndarray
+    Y: np.ndarray
+    name: str
+    scale0: float = 1.0
+    ref: object = None
+
+    def refined(self, ref, how: _How) -> "_Fit":
+        """This fit with the refinement ``ref``: its ``X`` and ``Y`` (and the refinement named) when ``refine``."""
+        if not how.refine:
+            return dataclasses.replace(self, ref=ref)
+        suffix = "+ml" if how.model is not None and how.model.has_robot_noise else "+lm"
+        return dataclasses.replace(self, X=ref.X, Y=ref.Y, name=self.name + suffix, ref=ref)
+
+
 def _checked_arguments(setup, method, pairs, loss, robust) -> tuple[str, str]:
     """The setup's canonical name and the loss (``cauchy`` when robust unless given); unknown names raise."""
     setup = normalize_setup(setup)
@@ -382,6 +389,22 @@ def _checked_arguments(setup, method, pairs, loss, robust) -> tuple[str, str]:
     if loss not in LOSSES:
         raise HandEyeInputError(f"unknown loss {loss!r}: use one of {LOSSES}")
     return setup, loss
+
+
+def _checked_poses(poses: _Poses, how: _How, diagnostics: dict) -> tuple[_Poses, list]:
+    """The checks before any fit: the target's distance; robust, the gross outliers left out and the motion
+    checked, its warnings held; else the motion and consistency checks, an inconsistent set refused naming
+    its outliers when they are what makes it so. Returns the poses and the held warnings."""
+    if not how.estimate_scale:  # a scale-free camera (monocular SLAM) may have any distance
+        check_target_distance(poses.B)
+    if how.robust:
+        poses = _reject_outliers(poses, how.rng, diagnostics)
+        return poses, _check_motion_held(poses, how.check, how.estimate_scale, diagnostics)
+    try:
+        _check_motion(poses, how.check, how.estimate_scale, diagnostics)
+    except InconsistentPosesError as err:
+        _refuse_named_behind(err, poses, how.model, how.rng, how.estimate_scale)
+    return poses, []
 
 
 def _reject_outliers(poses: _Poses, rng, diagnostics: dict) -> _Poses:
@@ -406,7 +429,7 @@ def _check_motion(poses: _Poses, check: bool, estimate_scale: bool, diagnostics:
     would blame the pairing for what is a lack of rotation.
     """
     T_base_ee, T_cam_target = poses.T_base_ee[poses.inliers], poses.B_in
-    # the warnings point at calibrate()'s caller: this stage and calibrate() lie between
+    # the warnings point at calibrate()'s caller: this stage, _checked_poses and calibrate() lie between
     motion = diagnose_motion(
         T_base_ee,
         T_cam_target,
@@ -414,7 +437,7 @@ def _check_motion(poses: _Poses, check: bool, estimate_scale: bool, diagnostics:
         poses.pairs,
         raise_on_degenerate=check,
         motions=poses.motions,
-        stacklevel=4,
+        stacklevel=5,
     )
     if check and not estimate_scale:  # the consistency fit assumes metric camera poses
         diagnostics["consistency"] = check_consistency(
@@ -444,44 +467,55 @@ def _motion_of_final_inliers(poses: _Poses, sampled: np.ndarray, held: list, dia
     diagnostics["motion"] = motion.to_dict()
 
 
-def _start(poses: _Poses, method: str, estimate_scale: bool) -> tuple[np.ndarray, np.ndarray, float, str]:
-    """The closed form the refinement starts from: ``(X, Y, scale, name)``."""
+def _start(poses: _Poses, how: _How) -> _Fit:
+    """The closed form the refinement starts from (named ``ransac+...`` when robust)."""
     A, B, pairs = poses.A_in, poses.B_in, poses.pairs
-    if estimate_scale:
+    sampled = "ransac+" if how.robust else ""
+    if how.estimate_scale:
         X, Y, scale0 = scaled_start(A, B, pairs)
-        return X, Y, scale0, "park+scale"
-    if method == "auto":
+        return _Fit(X, Y, sampled + "park+scale", scale0)
+    if how.method == "auto":
         solve = lambda a, b, m: initial_estimate(a, b, m, pairs, poses.motions)  # noqa: E731
         start, X, Y = best_start(A, B, solve, START_CANDIDATES)
-        return X, Y, 1.0, f"auto({start})"
-    X, Y = initial_estimate(A, B, method, pairs, poses.motions)
-    return X, Y, 1.0, method
+        return _Fit(X, Y, f"{sampled}auto({start})")
+    X, Y = initial_estimate(A, B, how.method, pairs, poses.motions)
+    return _Fit(X, Y, sampled + how.method)
 
 
-def _refine(poses, X, Y, scale0, loss, model, refine, robust, estimate_scale, diagnostics):
+def _refine(poses: _Poses, start: _Fit, how: _How, diagnostics: dict) -> tuple[_Fit, _Poses]:
     """The maximum-likelihood refinement (:func:`classic.refine.refine_xy`; evaluated at the start only
     without ``refine``); robust, the robust loss's fit on the sampling's inliers starts the outlier test
     (:func:`classic.outlier_screen.screen_poses`) and the poses it does not name are refit by least
-    squares. Returns the refinement and the poses with their final inliers."""
+    squares. Returns the fit and the poses with their final inliers."""
     options = RefineOptions(
-        loss=loss,
-        noise=_subset_model(model, poses.inliers),
-        max_iterations=50 if refine else 0,
+        loss=how.loss,
+        noise=_subset_model(how.model, poses.inliers),
+        max_iterations=50 if how.refine else 0,
         setup=poses.setup,
-        estimate_scale=estimate_scale and refine,
-        scale0=scale0,
+        estimate_scale=how.estimate_scale and how.refine,
+        scale0=start.scale0,
     )
-    ref = refine_xy(poses.A_in, poses.B_in, X, Y, options)
-    if not (refine and robust):
-        return ref, poses
+    ref = refine_xy(poses.A_in, poses.B_in, start.X, start.Y, options)
+    if not (how.refine and how.robust):
+        return start.refined(ref, how), poses
     # the sampling's flags are a generous first cut (three times the median residual): each pose is tested
     # against a least-squares fit without it, and only the named ones stay out
-    screening = screen_poses(poses.A, poses.B, ref, poses.setup, model=model, estimate_scale=estimate_scale)
+    screening = screen_poses(poses.A, poses.B, ref, poses.setup, model=how.model, estimate_scale=how.estimate_scale)
     inliers = np.ones(len(poses.A), dtype=bool)
     inliers[screening.outliers] = False
     diagnostics["outliers"] = [int(i) for i in np.flatnonzero(~inliers)]
     _record_screening(screening, diagnostics)
-    return screening.reference, poses.keeping(inliers)
+    return start.refined(screening.reference, how), poses.keeping(inliers)
+
+
+def _screened(poses: _Poses, fit: _Fit, how: _How, diagnostics: dict) -> tuple[_Fit, _Poses]:
+    """A non-robust fit's outlier test: every pose judged against a fit without it (least squares must not
+    hide an outlier; a robust loss is told which poses it had to discount), then :func:`_name_or_refuse`."""
+    screening = _screen(poses, fit.ref if how.refine else None, how.model, how.rng, how.estimate_scale)
+    ref, poses = _name_or_refuse(screening, fit, poses, diagnostics, act=how.refine and how.loss == "linear")
+    if how.refine:
+        return dataclasses.replace(fit, X=ref.X, Y=ref.Y, ref=ref), poses
+    return dataclasses.replace(fit, ref=ref), poses
 
 
 def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screening:
@@ -559,7 +593,7 @@ def _suspects_text(screening: Screening, most: int = 3) -> str:
     return "; ".join(parts) + (f"; and {more} more" if more > 0 else "")
 
 
-def _name_or_refuse(screening: Screening, ref, poses: _Poses, XY, diagnostics: dict, act: bool):
+def _name_or_refuse(screening: Screening, fit: _Fit, poses: _Poses, diagnostics: dict, act: bool):
     """Name the poses beyond the bound, and cover their influence (see :func:`calibrate`).
 
     With ``act`` (a least-squares fit), when leaving the named poses out moves the answer by more than
@@ -568,9 +602,9 @@ def _name_or_refuse(screening: Screening, ref, poses: _Poses, XY, diagnostics: d
     returned with named poses has its covariance widened by ``d d^T``, ``d`` the offset of the fit without them,
     so its sigma covers their influence. Returns the refinement and the poses (their inliers) of the answer."""
     _record_screening(screening, diagnostics)
+    ref = fit.ref
     if len(screening.outliers) == 0:
         return ref, poses
-    fit = _XY(*XY)
     shift = fit_shift_sigma(fit, screening.reference)
     test = diagnostics["outlier_test"]
     test["shift_sigma"] = shift
@@ -601,7 +635,7 @@ def _name_or_refuse(screening: Screening, ref, poses: _Poses, XY, diagnostics: d
             f"{head}, none beyond {GROSS_FACTOR:g} times the bound: returned the fit without {_them(out)}; "
             f"check {_them(out)}.",
             SuspectPosesWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
         return screening.reference, poses.keeping(keep)
     # returned with them: the sigma widened by the offset d of the fit without them (covariance + d d^T)
@@ -615,19 +649,13 @@ def _name_or_refuse(screening: Screening, ref, poses: _Poses, XY, diagnostics: d
         f"with {_them(out)}, its sigma widened to cover the fit "
         f"without {_them(out)} (up to {grow:.2f}x); check {_them(out)}.",
         SuspectPosesWarning,
-        stacklevel=3,
+        stacklevel=4,
     )
     return widened, poses
 
 
 def _list(poses) -> str:
     return ("pose " if len(poses) == 1 else "poses ") + ", ".join(str(int(k)) for k in poses)
-
-
-@dataclass
-class _XY:
-    X: np.ndarray
-    Y: np.ndarray
 
 
 def _check_fit(poses: _Poses, ref, model, estimate_scale: bool) -> None:
@@ -641,17 +669,18 @@ def _check_fit(poses: _Poses, ref, model, estimate_scale: bool) -> None:
         _check_pair_consensus(poses, ref.X, _consensus_model(model, ref))
 
 
-def _result(poses, X, Y, name, ref, model, loss, refit, estimate_scale, diagnostics) -> CalibrationResult:
+def _result(poses: _Poses, fit: _Fit, how: _How, diagnostics: dict) -> CalibrationResult:
     """The result: the noise estimate, the refinement's record, every pose's residual (outliers too)."""
+    ref, X, Y, estimate_scale = fit.ref, fit.X, fit.Y, how.estimate_scale
     diagnostics["noise_estimate"] = {
         "rotation_deg": float(np.degrees(ref.sigma_rot_rad)),
         "translation_mm": 1000 * ref.sigma_trans_m,
-        "given": model is not None,
+        "given": how.model is not None,
     }
     diagnostics["noise_model"] = ref.noise_model
     diagnostics["refinement"] = {
-        "loss": loss,
-        "then": "least squares on the inliers" if refit else None,
+        "loss": how.loss,
+        "then": "least squares on the inliers" if how.refine and how.robust else None,
         "iterations": ref.iterations,
         "converged": bool(ref.converged),
         "cost_initial": ref.cost_initial,
@@ -671,4 +700,4 @@ def _result(poses, X, Y, name, ref, model, loss, refit, estimate_scale, diagnost
         translation_mm=1000 * np.linalg.norm(r_trans, axis=1),
         inliers=poses.inliers,
     )
-    return CalibrationResult(poses.setup, name, X, Y, residuals, ref.covariance, diagnostics)
+    return CalibrationResult(poses.setup, fit.name, X, Y, residuals, ref.covariance, diagnostics)
