@@ -66,6 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.commands import GLOSSARY
 from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments, describe_noise, noise_model_from_args
 
@@ -273,8 +274,6 @@ def _check_outputs(args: argparse.Namespace) -> None:
                 check_output_path(args.report / name)
 
 
-#: Where the printed terms (1-sigma, residual, axis diversity, angle mismatch, ...) are defined.
-GLOSSARY = "docs/concepts/glossary.md"
 #: The 1-sigma's meaning, printed once after the first one.
 SIGMA_MEANS = "(predicted RMS error of the rotation angle and of the position, all axes together)"
 #: The motion line's two figures, printed once under it.
