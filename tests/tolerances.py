@@ -627,3 +627,27 @@ KEYPOINT_SPREAD_RTOL = 1e-6
 #: that, for the second order and the float64 fit's rounding: 1.4e-5 deg (measured 4.6e-7). A rotation error a
 #: fit can make (a camera turned, a keypoint off) is 1e-3 deg and up.
 FLOAT32_QUATERNION_DEG = 360.0 / np.pi * 2 * 2.0**-24
+
+#: One float32 network's prediction on a CUDA device and on the CPU, ``T_base_cam`` per entry (metres,
+#: unitless rotation entries). The test turns TF32 off (cuDNN's convolutions use it by default: 10 mantissa
+#: bits), so both devices compute in float32 and differ only in the order of their sums. A sum of K products
+#: rounds to within K 2^-24 of the sum of their magnitudes (Higham's gamma_K): the tiny preset's widest sum
+#: has K = 1031 terms (its first dense layer), 6.1e-5 of its outputs' size, over its 6 layers 3.7e-4; the
+#: translation head's normalised output (of order 1) times its 500 mm scale moves by <= 0.4 mm, a rotation
+#: entry, through its unit quaternion, by <= 7e-4. 1e-3 (1 mm; 1e-3 per rotation entry) is above both
+#: worst cases; weights lost in the reload (a layer at its initial values, batch norm's running statistics
+#: dropped) move the prediction by centimetres and degrees.
+DEVICE_PREDICTION_ATOL = 1e-3
+
+#: OpenCV's SGBM sub-pixel fit pulls a disparity toward whole pixels ("pixel locking") by up to a quarter
+#: pixel (tests/sim/test_stereo.py measures its first harmonic at about 0.2 px). Periodic in the disparity, a
+#: pull of amplitude a averages, over a surface whose disparities span L pixels, to at most a / (pi L): the
+#: integral of a sine over the part of a period left over, a / pi, shared by L periods.
+SGBM_LOCKING_MAX_PX = 0.25
+
+#: The outline of a pixel mask, as classic.markerless.silhouette.signed_distance finds it: its zero lies half-way
+#: between the last pixel centre in and the first out, so within 0.5 px of the true outline along a row or column
+#: and within half a diagonal, sqrt(2) / 2 px, in any direction. A sphere's outline radius r px is then off by at
+#: most that much, and a focal length fitted to it by at most OUTLINE_PX_BOUND / r relative (a grid's worst case;
+#: noise-free otherwise).
+OUTLINE_PX_BOUND = float(np.sqrt(2.0) / 2.0)

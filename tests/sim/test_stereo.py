@@ -15,7 +15,7 @@ pytest.importorskip("cv2")
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 from sim.sensors import SensorTruth, apply_sensor  # noqa: E402
 from sim.stereo import active_stereo_depth  # noqa: E402
-from tests.tolerances import FLOAT
+from tests.tolerances import FLOAT, SGBM_LOCKING_MAX_PX, SIGMA_BOUND
 
 K = np.array([[222.0, 0, 127.5], [0, 222.0, 127.5], [0, 0, 1]])
 U, V = np.meshgrid(np.arange(256.0), np.arange(256.0))
@@ -70,8 +70,15 @@ def test_the_sgbm_profile_goes_through_apply_sensor():
     depth = tilted_plane(1.0)
     out = apply_sensor(depth, K, sensor, truth, np.random.default_rng(2))
     ok = (out > 0) & (np.abs(U - 150) < 90)
-    # the unit's scale and offset on the matcher's depth
-    assert np.median(out[ok] - (1.01 * depth[ok] + 0.002)) == pytest.approx(0, abs=3e-3)
+    # the unit's scale and offset on the matcher's depth: what is left is the matcher's locking averaged over the
+    # plane's disparities (at 1 m, 1 px of disparity is 1 / fB m of depth) and the median's sampling error over
+    # the image's independent 7 x 7 matching windows
+    err = out[ok] - (1.01 * depth[ok] + 0.002)
+    disparities = sensor.stereo_fb_px_m / depth[ok]
+    locking_m = SGBM_LOCKING_MAX_PX / (np.pi * np.ptp(disparities)) / sensor.stereo_fb_px_m
+    sd = 1.4826 * np.median(np.abs(err - np.median(err)))
+    sampling_m = SIGMA_BOUND * np.sqrt(np.pi / 2) * sd / np.sqrt(ok.sum() / 7**2)
+    assert abs(np.median(err)) <= locking_m + sampling_m
 
 
 def _locking(scale: float) -> np.ndarray:

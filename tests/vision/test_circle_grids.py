@@ -70,6 +70,20 @@ def _centroid_offset_px(spec, T):
     return np.array(out)
 
 
+def _pose_bounds(spec, det, pose, T_true):
+    """The centres' per-axis noise sigma (px, from the pose's residuals), their bias bound (px), and the pose's
+    error bounds: ESTIMATED_SIGMA_BOUND of its predicted sigma plus the floor of a shift common to the centres
+    (rad, m)."""
+    M = len(det.ids)
+    sigma = per_axis_sigma_px(pose.rms_px, M, 6)
+    P = spec.corners_target()[det.ids]
+    bias = RENDER_BIAS_PX + np.abs(_centroid_offset_px(spec, T_true)).max()
+    J = numeric_jacobian(lambda d: project_points(P, perturbed(pose.T_cam_target, d), INTR).ravel(), 6)
+    sig_rot, sig_trans = predicted_block_sigma(J, sigma)
+    floor_rot, floor_trans = common_shift_floor(J, np.zeros(M, int), bias)
+    return sigma, bias, ESTIMATED_SIGMA_BOUND * sig_rot + floor_rot, ESTIMATED_SIGMA_BOUND * sig_trans + floor_trans
+
+
 @pytest.fixture(scope="module")
 def views():
     out = {}
@@ -92,19 +106,13 @@ def test_centres_at_true_projections_and_pnp_within_noise(views, name, seed):
     pose = estimate_pose(det, spec, INTR)
     assert pose.ok, pose.reason
     M = len(det.ids)
-    sigma = per_axis_sigma_px(pose.rms_px, M, 6)
-    P = spec.corners_target()[det.ids]
-    bias = RENDER_BIAS_PX + np.abs(_centroid_offset_px(spec, T_true)).max()
-    err = det.corners_px - project_points(P, T_true, INTR)
+    sigma, bias, rot_bound, trans_bound = _pose_bounds(spec, det, pose, T_true)
+    err = det.corners_px - project_points(spec.corners_target()[det.ids], T_true, INTR)
     assert np.linalg.norm(err, axis=1).max() <= np.sqrt(2) * bias + CORNER_SIGMA_BOUND * sigma
     assert np.all(np.abs(err.mean(axis=0)) <= bias + CORNER_SIGMA_BOUND * sigma / np.sqrt(M))
-
-    J = numeric_jacobian(lambda d: project_points(P, perturbed(pose.T_cam_target, d), INTR).ravel(), 6)
-    sig_rot, sig_trans = predicted_block_sigma(J, sigma)
-    floor_rot, floor_trans = common_shift_floor(J, np.zeros(M, int), bias)
-    assert rotation_error_rad(pose.T_cam_target, T_true) <= ESTIMATED_SIGMA_BOUND * sig_rot + floor_rot
-    assert translation_error_m(pose.T_cam_target, T_true) <= ESTIMATED_SIGMA_BOUND * sig_trans + floor_trans
-    assert ESTIMATED_SIGMA_BOUND * sig_trans + floor_trans < 0.01
+    assert rotation_error_rad(pose.T_cam_target, T_true) <= rot_bound
+    assert translation_error_m(pose.T_cam_target, T_true) <= trans_bound
+    assert trans_bound < 0.01
 
 
 @pytest.mark.parametrize("angle_deg", [60.0, 180.0])
@@ -125,7 +133,8 @@ def test_symmetric_grid_order_follows_the_image(angle_deg):
     err = det.corners_px - project_points(spec.corners_target()[det.ids], labelled, INTR)
     assert np.linalg.norm(err, axis=1).max() < 1.0  # a wrong order is a spacing, over 20 px, off
     pose = estimate_pose(det, spec, INTR)
-    assert np.degrees(rotation_error_rad(pose.T_cam_target, T)) == pytest.approx(180.0 * turned, abs=1.0)
+    # within its noise of the labelled pose (T, or T turned by 180 degrees about the board's centre)
+    assert rotation_error_rad(pose.T_cam_target, labelled) <= _pose_bounds(spec, det, pose, labelled)[2]
 
 
 def test_partial_view_not_found_with_the_reason():
