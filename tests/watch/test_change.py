@@ -7,6 +7,7 @@ import pytest
 from scipy import stats
 
 from handeye.watch.change import CHI2_6_MEDIAN, Cusum, NullModel, fit_null, llr
+from tests.tolerances import SCALE_RTOL
 
 # Tail probability at which a count is called inconsistent with its stated mean: a wrong threshold (h / 2 for h,
 # a rate in seconds for frames) multiplies the count by e^(h/2) or the frame rate, far beyond this.
@@ -78,7 +79,7 @@ def test_the_null_fit_recovers_the_scale_and_the_bias():
     assert abs(null.scale / scale - 1) <= 4 * sd
     x = np.array([null.statistic(d, c) for d, c in zip(deltas, cov)])
     # the fit makes the median chi2(6)'s, but for the reference's own error (a median of n frames) counted in
-    assert np.median(x) * (1 + np.pi / 2 / n) == pytest.approx(CHI2_6_MEDIAN, abs=1e-9)
+    assert np.median(x) * (1 + np.pi / 2 / n) == pytest.approx(CHI2_6_MEDIAN, rel=SCALE_RTOL)
 
 
 def test_bad_inputs_raise():

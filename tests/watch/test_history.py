@@ -14,6 +14,7 @@ import pytest
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.watch.history import History, TornLineWarning
+from tests.tolerances import ABSOLUTE_ONLY, FLOAT
 
 
 def pose_of(version: int) -> np.ndarray:
@@ -38,7 +39,7 @@ def _check_complete(h: History, at_least: int) -> int:
     versions = h.versions()
     assert [v.version for v in versions] == list(range(1, len(versions) + 1))
     for v in versions:
-        np.testing.assert_allclose(v.T_base_cam, pose_of(v.version), atol=1e-12)
+        np.testing.assert_allclose(v.T_base_cam, pose_of(v.version), atol=FLOAT, rtol=ABSOLUTE_ONLY)
         assert v.frames == tuple(range(v.version))
     assert len(versions) >= at_least
     return len(versions)
