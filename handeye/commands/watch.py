@@ -57,7 +57,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--sensor", default=None, help="depth sensor profile (default: the dataset's simulated one)")
     p.add_argument("--history", type=Path, help="the versions' history, JSON lines (append-only)")
     p.add_argument("--current", type=Path, help="the current calibration, JSON (replaced atomically)")
-    p.add_argument("--rate", type=cli_float, default=None, help="frame rate, Hz (default: stream.json's)")
+    p.add_argument(
+        "--rate", type=cli_float, default=None, help="frame rate, Hz (default: stream.json's; a bag's median; live 30)"
+    )
     p.add_argument(
         "--false-alarms-per-hour",
         type=cli_float,

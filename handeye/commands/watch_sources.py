@@ -48,7 +48,7 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--robot", default="ur5", help="a UR by name for a bag or live topics (default ur5)")
     g.add_argument("--depth-topic", default=BagTopics.depth, help=f"default {BagTopics.depth}")
     g.add_argument("--info-topic", default=BagTopics.info, help=f"the depth's camera_info, default {BagTopics.info}")
-    g.add_argument("--color-topic", default=BagTopics.color, help=f"bag only, default {BagTopics.color}")
+    g.add_argument("--color-topic", default=BagTopics.color, help=f"default {BagTopics.color} (live: '' for none)")
     g.add_argument("--joints-topic", default=BagTopics.joints, help=f"default {BagTopics.joints}")
     g.add_argument("--depth-unit", type=cli_float, default=None, help="metres per depth unit (default: REP 118)")
     g.add_argument("--joint-tolerance", type=cli_float, default=0.02, help="depth stamp to joints, s (default 0.02)")
@@ -123,7 +123,7 @@ def ros2_inputs(args) -> CellInputs:
 
     require_rclpy()  # before the robot is loaded: the refusal first
     robot = robot_model(args)
-    topics = Ros2Topics(args.depth_topic, args.info_topic, args.joints_topic)
+    topics = Ros2Topics(args.depth_topic, args.info_topic, args.joints_topic, args.color_topic or None)
     live = Ros2Frames(joint_names(robot), topics, args.depth_unit, args.joint_tolerance)
     K = live.wait_for_camera_info()
     surface, stride = _surface(robot, K, live.size[0])

@@ -11,10 +11,13 @@ A user runs, in a shell where ROS 2 is sourced::
         --depth-topic /camera/aligned_depth_to_color/image_raw --info-topic /camera/color/camera_info \\
         --joints-topic /joint_states --base-frame base --camera-frame camera_color_optical_frame
 
-Each depth image becomes a :class:`handeye.watch.Frame` with the joints of the latest ``JointState`` within
-``joint_tolerance_s`` of its stamp (none: the frame is left out and counted); its time is seconds since the
-first depth image's stamp. The depth is read as the bag reader reads it (:func:`handeye.ros_bag.image_array`;
-16-bit in millimetres, 32FC1 in metres, REP 118) and must be registered to the camera of ``camera_info``.
+Each depth image becomes a :class:`handeye.watch.Frame` with the joints of the ``JointState`` nearest its stamp
+within ``joint_tolerance_s`` (not interpolated: off by up to half the driver's period of motion; none: the frame
+is left out and counted); its time is seconds since the first depth image's stamp. The depth is read as the bag
+reader reads it (:func:`handeye.ros_bag.image_array`; 16-bit in millimetres, 32FC1 in metres, REP 118) and must
+be registered to the camera of ``camera_info``, without distortion (a distorted one is refused: replay a bag,
+which undistorts as the import does). The colour topic (``Ros2Topics.color``, None for none) gives each frame
+the colour image nearest its stamp within the same tolerance (the continual learner's input).
 """
 
 from __future__ import annotations
@@ -38,6 +41,8 @@ RCLPY_HINT = (
 )
 #: Joint samples kept to pair with depth stamps (a few seconds at a driver's 100-500 Hz).
 JOINT_SAMPLES_KEPT = 1000
+#: Colour images kept to pair with depth stamps (a second at 30 Hz).
+COLOUR_IMAGES_KEPT = 30
 
 
 def require_rclpy():
@@ -66,6 +71,7 @@ class Ros2Topics:
     depth: str = "/camera/aligned_depth_to_color/image_raw"
     info: str = "/camera/color/camera_info"
     joints: str = "/joint_states"
+    color: str | None = "/camera/color/image_raw"
 
 
 class Ros2Frames:
@@ -105,12 +111,15 @@ class Ros2Frames:
         self.size: tuple | None = None
         self.dropped = {"no camera_info yet": 0, "no joints within the tolerance": 0}
         self._joints: deque = deque(maxlen=JOINT_SAMPLES_KEPT)  # (stamp_s, q in the model's order)
+        self._colour: deque = deque(maxlen=COLOUR_IMAGES_KEPT)  # (stamp_s, message), decoded when taken
         self._pending: deque = deque()
         self._origin: float | None = None
         self._index = 0
         self.node.create_subscription(CameraInfo, self.topics.info, self._on_info, 10)
         self.node.create_subscription(JointState, self.topics.joints, self._on_joints, 100)
         self.node.create_subscription(Image, self.topics.depth, self._on_depth, 10)
+        if self.topics.color:
+            self.node.create_subscription(Image, self.topics.color, self._on_colour, 10)
 
     def _on_info(self, msg) -> None:
         from handeye.recording_checks import check_camera_matrix
@@ -132,12 +141,16 @@ class Ros2Frames:
         pos = np.asarray(msg.position, dtype=float)
         self._joints.append((_stamp_s(msg.header), pos[[names.index(n) for n in self.joint_names]]))
 
-    def _joints_at(self, stamp: float) -> np.ndarray | None:
+    def _on_colour(self, msg) -> None:
+        self._colour.append((_stamp_s(msg.header), msg))
+
+    def _nearest(self, samples: deque, stamp: float):
+        """The sample nearest ``stamp`` within the tolerance, None without one."""
         best = None
-        for t, q in self._joints:
+        for t, item in samples:
             gap = abs(t - stamp)
             if gap <= self.joint_tolerance_s and (best is None or gap < best[0]):
-                best = (gap, q)
+                best = (gap, item)
         return None if best is None else best[1]
 
     def _on_depth(self, msg) -> None:
@@ -147,17 +160,21 @@ class Ros2Frames:
             self.dropped["no camera_info yet"] += 1
             return
         stamp = _stamp_s(msg.header)
-        q = self._joints_at(stamp)
+        q = self._nearest(self._joints, stamp)
         if q is None:
             self.dropped["no joints within the tolerance"] += 1
             return
+        if isinstance(msg.data, (bytes, bytearray, memoryview)):  # some bindings give bytes, not an array
+            msg = _with_array_data(msg)
         img = image_array(msg)
         unit = self.depth_unit_m if self.depth_unit_m is not None else (1e-3 if img.dtype == np.uint16 else 1.0)
         depth = img.astype(np.float32) * np.float32(unit)
         depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(np.float32)
         if self._origin is None:
             self._origin = stamp
-        self._pending.append(Frame(stamp - self._origin, depth, q, self._index))
+        colour = self._nearest(self._colour, stamp)
+        rgb = None if colour is None else _rgb(colour)
+        self._pending.append(Frame(stamp - self._origin, depth, q, self._index, None, rgb))
         self._index += 1
 
     def wait_for_camera_info(self, timeout_s: float = 10.0) -> np.ndarray:
@@ -190,6 +207,26 @@ class Ros2Frames:
         self.node.destroy_node()
         if self.rclpy.ok():
             self.rclpy.shutdown()
+
+
+def _rgb(msg) -> np.ndarray | None:
+    """An 8-bit colour Image as (H, W, 3) RGB; None for another encoding (the frame then has no colour)."""
+    from handeye.ros_bag import image_array
+
+    if isinstance(msg.data, (bytes, bytearray, memoryview)):
+        msg = _with_array_data(msg)
+    img = image_array(msg, "rgb")
+    if img.dtype != np.uint8:
+        return None
+    return np.repeat(img[..., None], 3, axis=2) if img.ndim == 2 else img
+
+
+def _with_array_data(msg):
+    """An Image's fields with its data as a numpy array (what :func:`handeye.ros_bag.image_array` reads)."""
+    from types import SimpleNamespace
+
+    fields = ("header", "height", "width", "encoding", "is_bigendian", "step")
+    return SimpleNamespace(**{f: getattr(msg, f) for f in fields}, data=np.frombuffer(bytes(msg.data), np.uint8))
 
 
 class TfPublisher:

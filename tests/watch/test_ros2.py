@@ -36,6 +36,12 @@ def _image(t: float, depth_m: np.ndarray):
     )
 
 
+def _colour(t: float, rgb: np.ndarray):
+    return SimpleNamespace(
+        header=_header(t), height=H, width=W, encoding="rgb8", is_bigendian=0, step=3 * W, data=rgb.reshape(-1)
+    )
+
+
 def _info(t: float, d=(0.0,) * 5):
     return SimpleNamespace(header=_header(t), width=W, height=H, k=K.reshape(-1), d=list(d))
 
@@ -121,11 +127,12 @@ def fake_ros(monkeypatch, script):
 
 
 def _script(frames):
-    """camera_info once, then per frame its joint state and its depth image (one before any camera_info: left
+    """camera_info once, then per frame its joint state, colour and depth image (one before any camera_info: left
     out; one without a joint state within the tolerance: left out)."""
     out = [(TOPICS.depth, _image(0.0, frames[0].depth_m)), (TOPICS.info, _info(0.0))]
     for f in frames:
-        out += [(TOPICS.joints, _joints(f.t, f.joints)), (TOPICS.depth, _image(f.t, f.depth_m))]
+        out += [(TOPICS.joints, _joints(f.t, f.joints)), (TOPICS.color, _colour(f.t, f.rgb))]
+        out.append((TOPICS.depth, _image(f.t, f.depth_m)))
     out.append((TOPICS.depth, _image(frames[-1].t + 1.0, frames[-1].depth_m)))
     return out
 
@@ -141,6 +148,7 @@ def test_live_frames_come_from_the_topics(monkeypatch):
         ("CameraInfo", TOPICS.info),
         ("JointState", TOPICS.joints),
         ("Image", TOPICS.depth),
+        ("Image", TOPICS.color),
     ]
     assert ("destroy_node", "handeye_watch") in calls
     assert live.dropped == {"no camera_info yet": 1, "no joints within the tolerance": 1}
@@ -149,6 +157,7 @@ def test_live_frames_come_from_the_topics(monkeypatch):
         np.testing.assert_allclose(g.joints, f.joints, atol=EXACT)  # reordered to the model's names
         np.testing.assert_allclose(g.depth_m, np.round(f.depth_m * 1e3) * 1e-3, atol=1e-6)  # 16-bit mm to m
         assert g.t == pytest.approx(f.t - frames[0].t, abs=1e-6)
+        np.testing.assert_array_equal(g.rgb, f.rgb)
 
 
 def test_a_distorted_camera_info_is_refused(monkeypatch):
