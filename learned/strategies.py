@@ -10,9 +10,10 @@ the generator it is given.
   describes its baseline.
 - :class:`Naive`: fine-tuning on the current step's data only.
 - :class:`Reservoir`: Algorithm 1, reservoir buffer with class balance: the
-  current step's data (a fraction ``c3``) plus ``c1`` stored samples from each
-  of ``c2`` past camera poses (``None``: all); after training, ``c1`` samples
-  of each current camera pose join the buffer.
+  current step's data (a fraction ``c3``; the first step all of it, as naive
+  trains it, as the paper does) plus ``c1`` stored samples from each of ``c2``
+  past camera poses (``None``: all); after training, ``c1`` samples of each
+  current camera pose join the buffer.
 - :class:`Selection`: Algorithm 2, reservoir buffer with class balance and
   camera-pose selection: the first step as :class:`Reservoir`; afterwards
   each camera pose is its own time step: a ``sample_fraction`` sample of its
@@ -207,15 +208,17 @@ class Naive(Strategy):
 
 @dataclass
 class Reservoir(Strategy):
-    """Algorithm 1: current data (fraction c3) plus c1 samples from each of c2 past camera poses."""
+    """Algorithm 1: current data (fraction c3 after the first step) plus c1 samples from each of c2 past poses."""
 
     c1: int = 4
     c2: int | None = None
     c3: float = 1.0
     name = "reservoir"
 
-    def _rule(self, share: float = 1.0) -> ReplayRule:
-        return ReplayRule(self.c2, self.c3, share)
+    def _rule(self, share: float = 1.0, step: int = 1) -> ReplayRule:
+        """The step's replay rule; the first step trains on all its data, as naive does (the paper applies
+        ``c3`` to the later steps' current data only)."""
+        return ReplayRule(self.c2, self.c3 if step else 1.0, share)
 
     def _train_fn(self, step: int):
         return lambda data, index: self._train(data, index, step)
@@ -227,7 +230,7 @@ class Reservoir(Strategy):
             self._frames_of(frames, cameras),
             self.buffer,
             self.rng,
-            self._rule(),
+            self._rule(step=step),
             self._train_fn(step),
         )
         self.trained_on.append(list(cameras))
