@@ -1,13 +1,14 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
-Run from the repository root::
+The files: the README, the getting-started page and the your-own-robot guide (``FILES``). Run from the
+repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
 
 An example is a ``bash`` block whose ``handeye`` command is followed by a plain fenced block: that block is the
 command's output. The outputs are deterministic (seeded data, shipped example files); the tests
-(``tests/test_docs.py::test_calibrate_example_prints_what_is_shown``) compare them with a fresh run within the
+(``tests/test_docs.py::test_printed_examples_print_what_is_shown``) compare them with a fresh run within the
 last printed digit, so an output that drifts fails CI until this script is run again.
 """
 
@@ -19,11 +20,12 @@ import io
 import re
 import shlex
 import sys
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-FILES = (ROOT / "README.md", ROOT / "docs" / "getting-started.md")
+FILES = (ROOT / "README.md", ROOT / "docs" / "getting-started.md", ROOT / "docs" / "guides" / "your-robot.md")
 #: A bash block with a ``handeye`` command, then a plain block: the command's output.
 EXAMPLE = re.compile(
     r"(^```bash\n(?P<command>handeye [^\n]+)\n```\n\n(?:[^\n`][^\n]*\n)*?\n?```\n)(?P<output>.*?)(^```)", re.S | re.M
@@ -31,11 +33,14 @@ EXAMPLE = re.compile(
 
 
 def run(command: str) -> str:
-    """What ``command`` (a ``handeye`` command line) prints, run in-process from the repository root."""
+    """What ``command`` (a ``handeye`` command line) prints, run in-process from a fresh folder holding the
+    repository's ``handeye/`` (the shipped example files at the paths the documentation prints; the files a
+    command writes, a board or a plan, land in that folder and go with it)."""
     from handeye.cli import main
 
     out = io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.chdir(ROOT):
+    with tempfile.TemporaryDirectory() as folder, contextlib.redirect_stdout(out), contextlib.chdir(folder):
+        (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
         status = main(shlex.split(command)[1:])
     if status != 0:
         raise SystemExit(f"{command!r} exited {status}")

@@ -10,8 +10,6 @@ from pathlib import Path
 
 import pytest
 
-from handeye.cli import main
-
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs"
@@ -54,13 +52,31 @@ def _same_within_last_digit(printed: str, shown: str) -> None:
             assert abs(float(a) - float(b)) <= 2 * 10.0**-decimals, f"printed {g!r}, shown {w!r}"
 
 
-@pytest.mark.parametrize("path", [README, DOCS / "getting-started.md"], ids=lambda p: p.name)
-def test_calibrate_example_prints_what_is_shown(path, capsys, monkeypatch):
-    monkeypatch.chdir(ROOT)
-    command = next(line for line in code_blocks(path, "bash")[1].splitlines() if line.startswith("handeye calibrate"))
-    shown = path.read_text().split(command + "\n```\n", 1)[1].split("```\n", 1)[1].split("```", 1)[0]
-    assert main(command.split()[1:]) == 0
-    _same_within_last_digit(capsys.readouterr().out, shown)
+def _make_examples():
+    """``docs/make_examples.py``, the script that regenerates the printed outputs, as a module."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_examples", DOCS / "make_examples.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _printed_examples() -> list:
+    """Every command with its printed output in the pages ``make_examples`` keeps, with its file."""
+    mod = _make_examples()
+    return [
+        pytest.param(p.relative_to(ROOT).as_posix(), m["command"], m["output"], id=f"{p.name}#{k}")
+        for p in mod.FILES
+        for k, m in enumerate(mod.EXAMPLE.finditer(p.read_text()))
+    ]
+
+
+@pytest.mark.parametrize("where,command,shown", _printed_examples())
+def test_printed_examples_print_what_is_shown(where, command, shown):
+    """Each printed example (a ``handeye`` command, then its output) prints what is shown, run as
+    ``make_examples`` runs it: from a fresh folder holding the repository's ``handeye/``."""
+    _same_within_last_digit(_make_examples().run(command), shown)
 
 
 def _python_blocks() -> list[tuple[str, int, str]]:
@@ -227,13 +243,9 @@ def test_documented_benchmark_commands_parse(where, command, monkeypatch):
 
 def test_one_script_regenerates_every_printed_output(tmp_path, monkeypatch):
     """``docs/make_examples.py`` finds the printed outputs (the README's and the getting-started page's) and
-    rewrites one that went stale; ``test_calibrate_example_prints_what_is_shown`` keeps them current."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("make_examples", DOCS / "make_examples.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 1]
+    rewrites one that went stale; ``test_printed_examples_print_what_is_shown`` keeps them current."""
+    mod = _make_examples()
+    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5]
     stale = tmp_path / "README.md"
     stale.write_text(README.read_text().replace("15 poses, method auto", "14 poses, method auto", 1))
     text, changed = mod.regenerate(stale)

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from handeye.core.posefile import read_pose_file
 from tests.tolerances import FLOAT
@@ -26,13 +27,16 @@ def _named_call(csv: Path):
     return getattr(importlib.import_module(module), function), args
 
 
-def test_the_example_header_names_the_call_that_makes_it():
-    make, args = _named_call(DATA / "example_eye_to_hand.csv")
+@pytest.mark.parametrize(
+    "name,X,Y", [("eye_to_hand", "T_base_cam", "T_ee_target"), ("eye_in_hand", "T_ee_cam", "T_base_target")]
+)
+def test_the_example_header_names_the_call_that_makes_it(name, X, Y):
+    make, args = _named_call(DATA / f"example_{name}.csv")
     problem = eval(f"make({args})", {"make": make, "np": np})  # the header's own arguments
-    poses = read_pose_file(DATA / "example_eye_to_hand.csv")
+    poses = read_pose_file(DATA / f"example_{name}.csv")
     assert np.abs(poses.T_base_ee - problem.T_base_ee).max() < CSV_DIGITS
     assert np.abs(poses.T_cam_target - problem.T_cam_target).max() < CSV_DIGITS
-    truth = json.loads((DATA / "example_eye_to_hand_truth.json").read_text())
-    assert np.abs(np.array(truth["T_base_cam"]) - problem.X_true).max() < FLOAT
-    assert np.abs(np.array(truth["T_ee_target"]) - problem.Y_true).max() < FLOAT
+    truth = json.loads((DATA / f"example_{name}_truth.json").read_text())
+    assert np.abs(np.array(truth[X]) - problem.X_true).max() < FLOAT
+    assert np.abs(np.array(truth[Y]) - problem.Y_true).max() < FLOAT
     assert f"{make.__module__}.{make.__name__}" in truth["note"]
