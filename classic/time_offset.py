@@ -83,6 +83,28 @@ def calibrate_stream(
         raise HandEyeInputError(f"max_offset_s must be finite and >= 0, got {max_offset_s!r}")
     stream = RobotStream(robot_times_s, T_base_ee)
     check_units_metres(stream.T_base_ee, "T_base_ee")
+    t_cam, B, used = _camera_poses_inside(stream, camera_times_s, T_cam_target, max_offset_s)
+    grid = _offset_grid(stream, max_offset_s)
+    dt0, X0, Y0 = _grid_search(stream, t_cam, B, grid, setup, method)
+    options = RefineOptions(loss=loss, noise=noise, setup=setup, time_offset0_s=dt0)
+    ref = refine_xy(None, B, X0, Y0, options, stream=stream, camera_times_s=t_cam)
+    A = robot_side_poses(stream.at(t_cam + ref.time_offset_s)[0], setup)
+    r_rot, r_trans = pose_residuals(A, B, ref.X, ref.Y)
+    if check and loss == "linear":
+        check_contamination(ref.whitened, np.concatenate([r_rot, r_trans], axis=1), ref.jacobian)
+    residuals = PoseResiduals(
+        np.degrees(np.linalg.norm(r_rot, axis=1)), 1000 * np.linalg.norm(r_trans, axis=1), np.ones(len(B), dtype=bool)
+    )
+    diagnostics = _diagnostics(ref, grid, used, loss)
+    return CalibrationResult(setup, f"{method}+offset+lm", ref.X, ref.Y, residuals, ref.covariance, diagnostics)
+
+
+# -- the stages of calibrate_stream(), in its order
+
+
+def _camera_poses_inside(stream: RobotStream, camera_times_s, T_cam_target, max_offset_s: float):
+    """The camera's validated times and poses that stay inside the robot recording at any searched offset:
+    ``(t_cam, B, used)``, ``used`` their indices into the camera poses."""
     B_all = check_transforms(T_cam_target, "T_cam_target")
     check_units_metres(B_all, "T_cam_target")
     t_cam = np.asarray(camera_times_s, dtype=float)
@@ -95,10 +117,19 @@ def calibrate_stream(
             f"only {len(used)} camera poses lie at least {max_offset_s} s inside the robot recording "
             f"[{t0:.3f}, {t1:.3f}] s; at least {MIN_POSES} are needed (check the clocks, or lower max_offset_s)"
         )
-    t_cam, B = t_cam[used], B_all[used]
+    return t_cam[used], B_all[used], used
+
+
+def _offset_grid(stream: RobotStream, max_offset_s: float) -> np.ndarray:
+    """The searched offsets: one per half robot sample over ``[-max_offset_s, max_offset_s]``, at most
+    :data:`MAX_GRID_POINTS`."""
     spacing = float(np.median(np.diff(stream.times_s)))
     n_grid = int(min(MAX_GRID_POINTS, 2 * np.ceil(max_offset_s / (0.5 * spacing)) + 1)) if max_offset_s > 0 else 1
-    grid = np.linspace(-max_offset_s, max_offset_s, n_grid)
+    return np.linspace(-max_offset_s, max_offset_s, n_grid)
+
+
+def _grid_search(stream: RobotStream, t_cam, B, grid, setup: str, method: str):
+    """The offset of the grid whose closed form has the least pose residual: ``(offset, X, Y)``."""
     # the search needs the offset, not precision: at most GRID_POSES poses spread over the recording
     few = np.unique(np.linspace(0, len(B) - 1, min(GRID_POSES, len(B))).round().astype(int))
     best = None
@@ -116,14 +147,12 @@ def calibrate_stream(
             "no offset in the searched range gives a closed-form solution: more rotation "
             "between the camera poses is needed"
         )
-    _, dt0, X0, Y0 = best
-    options = RefineOptions(loss=loss, noise=noise, setup=setup, time_offset0_s=dt0)
-    ref = refine_xy(None, B, X0, Y0, options, stream=stream, camera_times_s=t_cam)
-    A = robot_side_poses(stream.at(t_cam + ref.time_offset_s)[0], setup)
-    r_rot, r_trans = pose_residuals(A, B, ref.X, ref.Y)
-    if check and loss == "linear":
-        check_contamination(ref.whitened, np.concatenate([r_rot, r_trans], axis=1), ref.jacobian)
-    diagnostics = {
+    return best[1:]
+
+
+def _diagnostics(ref, grid, used, loss: str) -> dict:
+    """The offset found, its sigma and the search's step, and the refinement's record."""
+    return {
         "time_offset": {
             "value_s": ref.time_offset_s,
             "sigma_s": ref.time_offset_sigma_s,
@@ -140,7 +169,3 @@ def calibrate_stream(
             "variance_factor": ref.variance_factor,
         },
     }
-    residuals = PoseResiduals(
-        np.degrees(np.linalg.norm(r_rot, axis=1)), 1000 * np.linalg.norm(r_trans, axis=1), np.ones(len(B), dtype=bool)
-    )
-    return CalibrationResult(setup, f"{method}+offset+lm", ref.X, ref.Y, residuals, ref.covariance, diagnostics)
