@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,11 +14,13 @@ from handeye.core.se3 import make_transform, so3_exp
 from handeye.watch.learner import BackgroundLearner, frame_set
 from tests.classic.test_markerless import K
 from tests.tolerances import EXACT
-from tests.watch.cell_streams import T_BUMPED, KnownAnswer, bumped_frames, watcher
+from tests.watch.cell_streams import RECAL_FRAMES, T_BUMPED, KnownAnswer, bumped_frames, watcher
 
 #: How long the slow fake trains at most (it waits for the test to let it end): a synchronous learner would hold
 #: feed() this long and the test would see its training finished before feed() returned.
 SLOW_TRAINING_S = 5.0
+#: Time a spawned process takes to start and import the project (seconds; generous on a loaded machine).
+SPAWN_S = 120.0
 T_LEARNED = make_transform(so3_exp([0.0, 0.02, 0.0]), [0.5, -0.4, 0.8])
 IMAGE_SIZE = (16, 12)
 
@@ -34,7 +37,7 @@ class SlowCalibrator:
     """Records observe's frames; observe blocks until ``release`` (at most SLOW_TRAINING_S), then is trained."""
 
     def __init__(self, trained: bool = False):
-        self.preset = type("P", (), {"image_size": IMAGE_SIZE})()
+        self.preset = SimpleNamespace(image_size=IMAGE_SIZE)
         self.models = {"translation": 1} if trained else {}
         self.started, self.finished, self.release = threading.Event(), threading.Event(), threading.Event()
         self.observed, self.predicted = [], []
@@ -108,6 +111,36 @@ def test_frames_without_colour_are_not_offered(tmp_path):
         w.feed(f)
     assert learner.wait(SLOW_TRAINING_S) and not cal.started.is_set()
     assert learner.reports == [f"learner: version {w.version} not offered: frames without colour"]
+
+
+class FileGatedCalibrator:
+    """A calibrator a child process can take (paths only): observe marks ``started``, waits for ``release`` (at
+    most SLOW_TRAINING_S), then is trained."""
+
+    def __init__(self, folder):
+        self.folder, self.preset, self.models, self.observed = folder, SimpleNamespace(image_size=IMAGE_SIZE), {}, 0
+
+    def observe(self, frames):
+        (self.folder / "started").touch()
+        end = time.monotonic() + SLOW_TRAINING_S
+        while not (self.folder / "release").exists() and time.monotonic() < end:
+            time.sleep(0.01)
+        self.models, self.observed = {"translation": 1}, len(frames)
+        return {"translation": {"novel": True, "sample_error": None, "processed": len(frames)}}
+
+
+@pytest.mark.slow
+def test_training_in_a_child_process_returns_the_trained_calibrator(tmp_path):
+    """in_process: the calibrator goes to a spawned process and comes back trained; feed() meanwhile returns."""
+    learner = BackgroundLearner(FileGatedCalibrator(tmp_path), reference, K, in_process=True)
+    w = watcher(tmp_path, KnownAnswer(), on_commit=[learner])
+    for f in bumped_frames():
+        w.feed(f)
+    assert not (tmp_path / "release").exists() and learner.calibrator.models == {}  # the parent's copy, untrained
+    (tmp_path / "release").touch()
+    assert learner.wait(SPAWN_S + SLOW_TRAINING_S), learner.reports
+    assert learner.calibrator.observed == RECAL_FRAMES and learner.calibrator.models == {"translation": 1}
+    assert (tmp_path / "started").exists()
 
 
 @pytest.mark.slow
