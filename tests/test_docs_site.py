@@ -119,6 +119,11 @@ def test_the_resolver_against_known_paths():
         'see <autoref identifier="classic.calibrate.solve" optional><code>solve</code></autoref> and '
         "`numpy.ndarray`, `x^2`"
     )
+    wrapped = ext.rewrite(":func:`classic.calibrate.\n    solve`", calibrate)  # a target wrapped across lines
+    assert (
+        wrapped
+        == '<autoref identifier="classic.calibrate.solve" optional><code>classic.calibrate.solve</code></autoref>'
+    )
 
 
 def test_every_image_is_a_file_of_the_site(site):

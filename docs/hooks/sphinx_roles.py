@@ -30,8 +30,9 @@ from griffe import Alias, Extension, GriffeLoader, Module, Object
 
 #: The project's top-level packages: a dotted name under one of them is the project's.
 PROJECT = ("classic", "handeye", "learned", "sim", "benchmarks")
-#: A cross-reference role and its target, ``~`` and a trailing ``()`` included.
-ROLE = re.compile(r":(?:py:)?(func|class|data|meth|attr|mod|exc|obj|const):`(~?)([\w.]+)(\(\))?`")
+#: A cross-reference role and its target, ``~`` and a trailing ``()`` included (a target wrapped across lines
+#: is read without its line break).
+ROLE = re.compile(r":(?:py:)?(func|class|data|meth|attr|mod|exc|obj|const):`(~?)([\w.]+(?:\s*\n\s*[\w.]+)*)(\(\))?`")
 #: Sphinx's inline math: printed as code.
 MATH = re.compile(r":math:`([^`]+)`")
 #: How many roles became links and how many plain code in this build (read by the tests, for the report).
@@ -72,6 +73,7 @@ def rewrite(text: str, obj: Object) -> str:
 
     def link(m: re.Match) -> str:
         _, tilde, name, call = m.groups()
+        name = re.sub(r"\s+", "", name)
         shown = (name.rsplit(".", 1)[-1] if tilde else name) + (call or "")
         path = resolve(name, obj)
         if path is None:
