@@ -7,6 +7,7 @@ import shutil
 import numpy as np
 import pytest
 
+from tests.shared_renders import shared_build
 from tests.tiers import (  # noqa: F401  (the tiers' hooks: --full, the slow tests counted, the work units)
     pytest_addoption,
     pytest_collection_modifyitems,
@@ -44,10 +45,13 @@ def small_dataset(tmp_path_factory):
     from handeye.labelling import label_dataset
     from sim.generate import Recipe, generate
 
-    root = tmp_path_factory.mktemp("data") / "small"
-    report = generate(root, Recipe("small", seed=0), options=EngineOptions(workers=2, progress=False))
-    label_dataset(root, workers=2, progress=False)
-    return root, report
+    def build(folder):
+        report = generate(folder / "small", Recipe("small", seed=0), options=EngineOptions(workers=2, progress=False))
+        label_dataset(folder / "small", workers=2, progress=False)
+        return report
+
+    folder, report = shared_build(tmp_path_factory, "small", build)  # one render for all the run's workers
+    return folder / "small", report
 
 
 @pytest.fixture
@@ -68,7 +72,10 @@ def marker_dataset(tmp_path_factory):
     from sim.generate import Recipe, generate
 
     preset = CameraPreset("marker", "ur5", ((0.0, 360.0),), (3,), (0,), 4, image_size=(320, 320))
-    root = tmp_path_factory.mktemp("data") / "marker"
     recipe = Recipe(preset, seed=3, recordings=("data",), marker_radius_m=MARKER_RADIUS_M)
-    generate(root, recipe, options=EngineOptions(workers=1, progress=False))
-    return root
+    folder, _ = shared_build(
+        tmp_path_factory,
+        "marker",
+        lambda f: generate(f / "marker", recipe, options=EngineOptions(workers=1, progress=False)),
+    )
+    return folder / "marker"
