@@ -318,35 +318,18 @@ class _Findings:
         )
         less = 1 - data[0] / np.where(data[1] > 0, data[1], np.nan)
         given = self.text.get(strategy)
-        ours_data = describe(less * 100, "{:.0f}", "% less data")
-        if not given:
-            self.add(
-                "cost",
-                net,
-                f"{strategy}'s error against the baseline",
-                "competitive with the baseline",
-                describe(diff, unit=u),
-                NO_CLAIM,
+        if given:
+            p_diff, p_less = given["minus_baseline"][i], given["less_data"]
+            paper = (f"{p_diff:+.1f} {u} at most", f"{p_less * 100:.0f} % less data at least")
+            verdict = (
+                against(diff, p_diff, at_most=True, decimals=1),
+                level or against(less, p_less, at_most=False, decimals=2),
             )
-            self.add("cost", net, f"{strategy}'s data against the baseline", "less data", ours_data, NO_CLAIM)
-            return
-        p_diff, p_less = given["minus_baseline"][i], given["less_data"]
-        self.add(
-            "cost",
-            net,
-            f"{strategy}'s error against the baseline",
-            f"{p_diff:+.1f} {u} at most",
-            describe(diff, unit=u),
-            against(diff, p_diff, at_most=True, decimals=1),
-        )
-        self.add(
-            "cost",
-            net,
-            f"{strategy}'s data against the baseline",
-            f"{p_less * 100:.0f} % less data at least",
-            ours_data,
-            level or against(less, p_less, at_most=False, decimals=2),
-        )
+        else:
+            paper, verdict = ("competitive with the baseline", "less data"), (NO_CLAIM, NO_CLAIM)
+        self.add("cost", net, f"{strategy}'s error against the baseline", paper[0], describe(diff, unit=u), verdict[0])
+        ours_data = describe(less * 100, "{:.0f}", "% less data")
+        self.add("cost", net, f"{strategy}'s data against the baseline", paper[1], ours_data, verdict[1])
 
     def eliminated(self, net: str) -> str | None:
         """Selection's eliminated poses at the preset's threshold; returns :data:`LEVEL` where the baseline's
