@@ -102,37 +102,70 @@ def solve_keypoint_pose(
     -------
     KeypointPoseResult
     """
-    p_cam = np.asarray(p_cam, dtype=float)
-    p_base = np.asarray(p_base, dtype=float)
-    if p_cam.shape != p_base.shape or p_cam.ndim != 2 or p_cam.shape[1] != 3:
-        raise ShapeError(f"keypoints must both be (M, 3), got {p_cam.shape} and {p_base.shape}")
+    p_cam, p_base = _checked_points(p_cam, p_base)
     m = len(p_cam)
-    given = [a is not None for a in (meas, intrinsics_norm, sigma)]
-    if any(given) and not all(given):
-        raise ShapeError("meas, intrinsics_norm and sigma go together: give all three or none")
-    if all(given):
-        meas, intrinsics_norm = np.asarray(meas, dtype=float), np.asarray(intrinsics_norm, dtype=float)
-        sigma = np.asarray(sigma, dtype=float)
-        if meas.shape != (m, 3) or intrinsics_norm.shape != (m, 4) or sigma.shape != (m, 3):
-            raise ShapeError(
-                f"meas and sigma must be (M, 3) and intrinsics_norm (M, 4) for M = {m}, got {meas.shape}, "
-                f"{sigma.shape} and {intrinsics_norm.shape}"
-            )
+    measured = _checked_measurements(m, meas, intrinsics_norm, sigma)
     frame = np.arange(m) if frame is None else np.asarray(frame)
     rng = np.random.default_rng(0) if rng is None else rng
     valid = np.isfinite(p_cam).all(1) & np.isfinite(p_base).all(1)
     idx = np.flatnonzero(valid)
-    nan6 = np.full((6, 6), np.nan)
-    empty_sigma = {"rotation_deg": np.nan, "translation_mm": np.nan}
     if len(idx) < 6:
         return KeypointPoseResult(
             None,
             f"too few keypoints: {len(idx)} valid (at least 6 needed)",
-            empty_sigma,
-            nan6,
+            {"rotation_deg": np.nan, "translation_mm": np.nan},
+            np.full((6, 6), np.nan),
             np.zeros(m, bool),
             np.nan,
         )
+    w0 = np.zeros(m)
+    w0[idx] = _consensus(p_cam, p_base, idx, inlier_m, iterations, rng)
+    T, w = robust_rigid_transform(p_cam, p_base, w0, floor_m=1e-6)
+    r3 = rigid_residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
+    inl = valid & (np.linalg.norm(r3, axis=1) < inlier_m)
+    sel = np.flatnonzero(inl)
+    if measured is not None and len(sel) >= 3:
+        T, cov = _likelihood_fit(T, measured, p_base, sel, frame)
+        r3 = rigid_residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
+    else:
+        cov = _rigid_covariance(T, p_cam, r3, w, sel, frame)
+    rms_mm = float(np.sqrt(np.mean(np.sum(r3[inl] ** 2, axis=1))) * 1e3) if inl.any() else np.nan
+    refused = _too_few_agree(inl, valid, inlier_m, min_inlier_fraction)
+    return KeypointPoseResult(None if refused else T, refused, pose_sigma(cov, T[:3, :3]), cov, inl, rms_mm)
+
+
+# -- the stages of solve_keypoint_pose(), in its order
+
+
+def _checked_points(p_cam, p_base) -> tuple[np.ndarray, np.ndarray]:
+    """The points as float arrays, both ``(M, 3)`` (else :class:`ShapeError`)."""
+    p_cam = np.asarray(p_cam, dtype=float)
+    p_base = np.asarray(p_base, dtype=float)
+    if p_cam.shape != p_base.shape or p_cam.ndim != 2 or p_cam.shape[1] != 3:
+        raise ShapeError(f"keypoints must both be (M, 3), got {p_cam.shape} and {p_base.shape}")
+    return p_cam, p_base
+
+
+def _checked_measurements(m: int, meas, intrinsics_norm, sigma):
+    """``(meas, intrinsics_norm, sigma)`` as float arrays for ``m`` points, or None when not given; some
+    without the others, or shapes that do not match, raise :class:`ShapeError`."""
+    given = [a is not None for a in (meas, intrinsics_norm, sigma)]
+    if any(given) and not all(given):
+        raise ShapeError("meas, intrinsics_norm and sigma go together: give all three or none")
+    if not all(given):
+        return None
+    meas, intrinsics_norm = np.asarray(meas, dtype=float), np.asarray(intrinsics_norm, dtype=float)
+    sigma = np.asarray(sigma, dtype=float)
+    if meas.shape != (m, 3) or intrinsics_norm.shape != (m, 4) or sigma.shape != (m, 3):
+        raise ShapeError(
+            f"meas and sigma must be (M, 3) and intrinsics_norm (M, 4) for M = {m}, got {meas.shape}, "
+            f"{sigma.shape} and {intrinsics_norm.shape}"
+        )
+    return meas, intrinsics_norm, sigma
+
+
+def _consensus(p_cam, p_base, idx, inlier_m: float, iterations: int, rng) -> np.ndarray:
+    """Step 1: which of the valid points ``idx`` lie within ``inlier_m`` of the RANSAC sample with the most."""
     best, best_count = None, -1
     for _ in range(iterations):
         s = rng.choice(idx, 3, replace=False)
@@ -142,33 +175,36 @@ def solve_keypoint_pose(
         count = int((np.linalg.norm(rigid_residuals(T, p_cam[idx], p_base[idx]), axis=1) < inlier_m).sum())
         if count > best_count:
             best, best_count = T, count
-    w0 = np.zeros(m)
-    w0[idx] = np.linalg.norm(rigid_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
-    T, w = robust_rigid_transform(p_cam, p_base, w0, floor_m=1e-6)
-    r3 = rigid_residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
-    inl = valid & (np.linalg.norm(r3, axis=1) < inlier_m)
+    return np.linalg.norm(rigid_residuals(best, p_cam[idx], p_base[idx]), axis=1) < inlier_m
+
+
+def _likelihood_fit(T, measured, p_base, sel, frame):
+    """Steps 3 and 4 with measurements: the maximum-likelihood fit of the consensus ``sel`` from ``T``, and the
+    covariance of its whitened residuals. Returns ``(T, covariance)``."""
+    meas, intrinsics_norm, sigma = measured
+    args = (meas[sel], p_base[sel], intrinsics_norm[sel], sigma[sel])
+    T = likelihood_fit(*(a[None] for a in args), T[None])[0][0]
+    r, J, ok = whitened_residuals(*args, T)
+    # the Cauchy loss's weights per component, as in the fit; J is d r / d (dw, dv), whose covariance is
+    # that of T_base_cam's camera-frame right perturbation (handeye.core.keypoint_fit)
+    wr = np.where(ok[:, None], cauchy_weights(r), 0.0)
+    return T, clustered_covariance(J.reshape(-1, 6), r.reshape(-1), wr.reshape(-1), np.repeat(frame[sel], 3))
+
+
+def _rigid_covariance(T, p_cam, r3, w, sel, frame) -> np.ndarray:
+    """Step 4 without measurements: the covariance of the consensus's 3-D residuals ``r3``, IRLS weights ``w``."""
+    # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R; three residual rows per point
+    R = T[:3, :3]
+    J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
+    return clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
+
+
+def _too_few_agree(inl, valid, inlier_m: float, min_inlier_fraction: float) -> str | None:
+    """The refusal when fewer than six points, or than ``min_inlier_fraction`` of the valid ones, agree."""
     frac = inl.sum() / max(valid.sum(), 1)
-    sel = np.flatnonzero(inl)
-    if all(given) and len(sel) >= 3:
-        args = (meas[sel], p_base[sel], intrinsics_norm[sel], sigma[sel])
-        T = likelihood_fit(*(a[None] for a in args), T[None])[0][0]
-        r, J, ok = whitened_residuals(*args, T)
-        # the Cauchy loss's weights per component, as in the fit; J is d r / d (dw, dv), whose covariance is
-        # that of T_base_cam's camera-frame right perturbation (handeye.core.keypoint_fit)
-        wr = np.where(ok[:, None], cauchy_weights(r), 0.0)
-        cov = clustered_covariance(J.reshape(-1, 6), r.reshape(-1), wr.reshape(-1), np.repeat(frame[sel], 3))
-        r3 = rigid_residuals(T, np.nan_to_num(p_cam), np.nan_to_num(p_base))
-    else:
-        # r = R (p + omega x p + v) + t - q  ->  dr/domega = -R [p]x, dr/dv = R; three residual rows per point
-        R = T[:3, :3]
-        J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
-        cov = clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
-    rms_mm = float(np.sqrt(np.mean(np.sum(r3[inl] ** 2, axis=1))) * 1e3) if inl.any() else np.nan
-    pose_sig = pose_sigma(cov, T[:3, :3])
-    refused = None
-    if inl.sum() < 6 or frac < min_inlier_fraction:
-        refused = (
-            f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
-            f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)"
-        )
-    return KeypointPoseResult(None if refused else T, refused, pose_sig, cov, inl, rms_mm)
+    if not (inl.sum() < 6 or frac < min_inlier_fraction):
+        return None
+    return (
+        f"too few keypoints agree: {int(inl.sum())} of {int(valid.sum())} ({frac:.0%}) within "
+        f"{inlier_m * 1e3:.0f} mm (at least {min_inlier_fraction:.0%} and 6 needed)"
+    )
