@@ -376,8 +376,19 @@ def _check_synchronised(source: str, what: str, n_total: int, n_kept: int, gap_s
 # ------------------------------------------------------------------ undistortion and checks
 
 
-def _undistorter(intrinsics):
-    """A function undistorting (colour, depth) to the pinhole of the same K, or None without distortion."""
+def undistorter(intrinsics):
+    """A function undistorting (colour, depth) to the pinhole of the same K, or None without distortion.
+
+    Parameters
+    ----------
+    intrinsics
+        The camera's intrinsics (``K`` (3, 3), ``dist`` (k,), ``width``, ``height``).
+
+    Returns
+    -------
+    callable or None
+        ``undistort(rgb (H, W, 3), depth (H, W)) -> (rgb, depth)``; ``None`` when ``dist`` is all zero.
+    """
     if not np.any(intrinsics.dist):
         return None
     import cv2
@@ -473,7 +484,7 @@ def assemble(part: RecordedPlacement, robot, options: ImportOptions) -> tuple[li
     dropped = len(times) - len(kept)
     if part.depth is not None:
         kept = kept[_spread(len(kept), options.max_frames)]
-    undistort = _undistorter(intr) if part.depth is not None else None
+    undistort = undistorter(intr) if part.depth is not None else None
     hint = (
         ": record the depth registered to the colour camera (RealSense: align_depth.enable:=true; Azure Kinect: "
         "depth_mode with the point cloud in the colour camera) and give that camera's camera_info"

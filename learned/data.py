@@ -105,7 +105,23 @@ def pose_targets(T_base_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t_mm, q_xyzw
 
 
-def _resize(image: np.ndarray, size: tuple, nearest: bool) -> np.ndarray:
+def resize_image(image: np.ndarray, size: tuple, nearest: bool) -> np.ndarray:
+    """One image resized to ``size`` = (width, height).
+
+    Parameters
+    ----------
+    image : numpy.ndarray, shape (H, W) or (H, W, 3)
+        uint8 colour or float32 depth.
+    size : tuple of int
+        (width, height) of the result.
+    nearest : bool
+        Nearest-neighbour (depth: no values invented across an edge) rather than box averaging (colour).
+
+    Returns
+    -------
+    numpy.ndarray, shape (height, width) or (height, width, 3)
+        The image itself when it already has that size.
+    """
     from PIL import Image
 
     if (image.shape[1], image.shape[0]) == tuple(size):
@@ -258,8 +274,8 @@ def _images(ds: Dataset, rows: list[tuple], size: tuple, progress: bool) -> tupl
                 f"{ds.shard_dir(c) / rel_rgb}: image size {img.shape[1]}x{img.shape[0]} (depth "
                 f"{d.shape[1]}x{d.shape[0]}), other frames are {native[1]}x{native[0]}"
             )
-        rgb[i] = _resize(img, (w, h), nearest=False).transpose(2, 0, 1)
-        depth[i, 0] = _resize(d, (w, h), nearest=True)
+        rgb[i] = resize_image(img, (w, h), nearest=False).transpose(2, 0, 1)
+        depth[i, 0] = resize_image(d, (w, h), nearest=True)
         t_m, q_xyzw = pos_quat_xyzw_from_transform(T_base_ref)
         pose_base_ref[i] = np.concatenate([t_m, q_xyzw])
     return rgb, depth, pose_base_ref

@@ -60,11 +60,13 @@ def frame_set(frames: list, T_base_cam: np.ndarray, reference: Callable, K: np.n
     -------
     learned.data.FrameSet
     """
-    from learned.data import FrameSet, _resize, pose_targets
+    from learned.data import FrameSet, pose_targets, resize_image
 
     n, (w, h) = len(frames), image_size
-    rgb = np.stack([_resize(np.asarray(f.rgb, np.uint8), (w, h), nearest=False).transpose(2, 0, 1) for f in frames])
-    depth = np.stack([_resize(np.asarray(f.depth_m, np.float32), (w, h), nearest=True)[None] for f in frames])
+    rgb = np.stack(
+        [resize_image(np.asarray(f.rgb, np.uint8), (w, h), nearest=False).transpose(2, 0, 1) for f in frames]
+    )
+    depth = np.stack([resize_image(np.asarray(f.depth_m, np.float32), (w, h), nearest=True)[None] for f in frames])
     q = np.stack([np.asarray(f.joints, dtype=float) for f in frames])
     t_m, q_xyzw = pos_quat_xyzw_from_transform(np.asarray(reference(q), dtype=float).reshape(n, 4, 4))
     target = np.full((4, 4), np.nan) if T_base_cam is None else np.asarray(T_base_cam, dtype=float)

@@ -221,7 +221,7 @@ def bag_frames(
         No depth frame with joints within the tolerance.
     """
     from handeye.import_bag import read_camera_bag
-    from handeye.recording_import import _undistorter, joints_at, nearest_in_time
+    from handeye.recording_import import joints_at, nearest_in_time, undistorter
 
     topics = topics or BagTopics()
     part = read_camera_bag(bag, topics.color, topics.info, topics.depth, topics.joints, depth_unit_m=depth_unit_m)
@@ -229,7 +229,7 @@ def bag_frames(
     times = part.depth.times_s[order]
     q, keep = joints_at(part.joints, list(joint_names), times, joint_tolerance_s)
     color_idx, has_color = nearest_in_time(times, part.color.times_s, sync_tolerance_s)
-    undistort = _undistorter(part.intrinsics)
+    undistort = undistorter(part.intrinsics)
     frames = []
     for k in np.flatnonzero(keep):
         depth = part.depth.images[order[k]]
