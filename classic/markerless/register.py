@@ -251,7 +251,7 @@ def _fine(problem: Problem, T, name):
     fit, step, scale, visible_idx = None, np.inf, None, None
     for it in range(opts.fine_iterations):
         gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)
-        full = it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
+        full = _fresh_zbuffer(it)
         idx, f, q_obs, q, has_depth, close = problem.associate(T, gate, None if full else visible_idx)
         if full:
             visible_idx = idx
@@ -264,8 +264,19 @@ def _fine(problem: Problem, T, name):
         scale = max(1.4826 * float(np.median(np.abs(fit.residuals_m[inl]))) if inl.any() else gate, expected)
         if it >= len(gates) and step < 1e-7:
             break
-    # the final association, fresh z-buffer: one more fit on it, and the matched fraction
-    idx, f, q_obs, q, has_depth, close = problem.associate(T, max(4 * scale, 0.004))
+    return _final_outcome(problem, T, name, step, max(4 * scale, 0.004))
+
+
+def _fresh_zbuffer(it: int) -> bool:
+    """Whether the fine stage's association ``it`` (from 0) rebuilds the z-buffer: the first, the fourth and every
+    fifth after."""
+    return it in (0, 3) or (it > 3 and (it - 3) % 5 == 0)
+
+
+def _final_outcome(problem: Problem, T, name, step, gate_m):
+    """The fine stage's last association, fresh z-buffer, within ``gate_m``: one more fit on it, and the matched
+    fraction; the start ``name``'s outcome, its last step the larger of ``step`` and this fit's."""
+    idx, f, q_obs, q, has_depth, close = problem.associate(T, gate_m)
     fitted = problem.fitted_matches(idx, close)
     if fitted.sum() < 50:
         return Outcome(name, T, None, np.inf, 0.0)

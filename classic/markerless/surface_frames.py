@@ -64,16 +64,7 @@ class RobotSurfaceFrames:
             for name, cols in (("curvatures", 2), ("direction_base", 3)):
                 setattr(self, name, _surface_array(name, getattr(self, name), (m, cols)))
         if self.joint_twists_base is not None:
-            a = np.asarray(self.joint_twists_base, dtype=float)
-            need = (int(self.frame.max()) + 1, int(self.part.max()) + 1) if m else (0, 0)
-            if a.ndim != 4 or a.shape[3] != 6 or a.shape[0] < need[0] or a.shape[1] < need[1]:
-                raise ShapeError(
-                    f"surface joint_twists_base must be (N_frames >= {need[0]}, n_parts >= {need[1]}, n_joints, 6), "
-                    f"got {a.shape}"
-                )
-            if not np.all(np.isfinite(a)):
-                raise NonFiniteError("surface joint_twists_base has NaN or inf")
-            self.joint_twists_base = a
+            self.joint_twists_base = _twists_array(self.joint_twists_base, self.frame, self.part)
 
 
 def _surface_array(name: str, a, shape: tuple) -> np.ndarray:
@@ -83,4 +74,19 @@ def _surface_array(name: str, a, shape: tuple) -> np.ndarray:
         raise ShapeError(f"surface {name} must be (M, {shape[1]}), got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise NonFiniteError(f"surface {name} has NaN or inf")
+    return a
+
+
+def _twists_array(a, frame: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """``a`` as floats of shape ``(N_frames, n_parts, n_joints, 6)`` covering every ``frame`` and ``part``, all finite,
+    or the error that says what the surface's ``joint_twists_base`` must be."""
+    a = np.asarray(a, dtype=float)
+    need = (int(frame.max()) + 1, int(part.max()) + 1) if len(frame) else (0, 0)
+    if a.ndim != 4 or a.shape[3] != 6 or a.shape[0] < need[0] or a.shape[1] < need[1]:
+        raise ShapeError(
+            f"surface joint_twists_base must be (N_frames >= {need[0]}, n_parts >= {need[1]}, n_joints, 6), "
+            f"got {a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError("surface joint_twists_base has NaN or inf")
     return a
