@@ -61,6 +61,18 @@ WRONG_SIGMAS = 3.0
 CONFIDENCE = 0.95
 
 
+def image_size(text: str) -> tuple[int, int]:
+    """``WIDTHxHEIGHT`` as two integers from 16 to 4096 (an argparse type)."""
+    parts = text.lower().split("x")
+    try:
+        size = tuple(int(v) for v in parts)
+    except ValueError:
+        size = ()
+    if len(size) != 2 or not all(16 <= v <= 4096 for v in size):
+        raise argparse.ArgumentTypeError(f"{text!r}: WIDTHxHEIGHT, two integers from 16 to 4096 (e.g. 256x256)")
+    return size
+
+
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--data", type=Path, default=None, help="folder of the rendered streams (reused when there)")
@@ -69,8 +81,24 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--rate", type=float, default=5.0, help="frames per second of both streams")
     p.add_argument("--minutes", type=float, default=None, help="length of the bumps stream (default the preset's)")
     p.add_argument("--static-minutes", type=float, default=3.0, help="length of the static stream")
-    p.add_argument("--size", default="256x256", help="image WIDTHxHEIGHT")
+    p.add_argument("--size", type=image_size, default=(256, 256), help="image WIDTHxHEIGHT")
+    p.add_argument(
+        "--static-size", type=image_size, default=None, help="the static stream's WIDTHxHEIGHT (default --size)"
+    )
+    p.add_argument("--static-rate", type=float, default=None, help="the static stream's rate (default --rate)")
+    p.add_argument(
+        "--profiles",
+        nargs="*",
+        default=[],
+        help="sensor profiles for a delay-per-bump-size table, each on its own bumps stream of --profile-minutes "
+        "at --profile-size",
+    )
+    p.add_argument("--profile-minutes", type=float, default=2.5, help="length of the profiles' bumps streams")
+    p.add_argument("--profile-size", type=image_size, default=(128, 128), help="the profiles' streams' size")
     p.add_argument("--null-seconds", type=float, default=10.0, help="seconds the watcher learns 'nothing moved'")
+    p.add_argument(
+        "--relearn-seconds", type=float, default=3.0, help="seconds the bias is relearnt over after a commit"
+    )
     p.add_argument("--recal-frames", type=int, default=20, help="frames a recalibration uses")
     p.add_argument("--false-alarms-per-hour", type=float, default=1.0, help="the watcher's stated bound")
     p.add_argument("--workers", type=int, default=2, help="rendering processes")
@@ -82,17 +110,21 @@ def parse_args(argv=None) -> argparse.Namespace:
 # ------------------------------------------------------------------ the streams
 
 
-def stream_dir(data: Path, preset: str, args) -> Path:
-    """The rendered stream of a preset, rendered now unless ``data/preset/stream.json`` exists."""
+def stream_dir(data: Path, preset: str, args, sensor: str | None = None) -> Path:
+    """The rendered stream of a preset, rendered now unless ``data/NAME/stream.json`` exists (``NAME`` the
+    preset, or ``bumps-SENSOR`` for a profile's stream)."""
     from sim.stream import generate_stream
 
-    root = data / preset
+    root = data / (preset if sensor is None else f"{preset}-{sensor}")
     if (root / "stream.json").is_file():
         return root
-    minutes = args.minutes if preset == "bumps" else args.static_minutes
-    size = tuple(int(v) for v in args.size.lower().split("x"))
+    minutes, size, rate = args.minutes, args.size, args.rate
+    if preset == "static":
+        minutes, size, rate = args.static_minutes, args.static_size or args.size, args.static_rate or args.rate
+    if sensor is not None:
+        minutes, size = args.profile_minutes, args.profile_size
     generate_stream(
-        root, preset, args.seed, args.sensor, minutes, args.rate, size, workers=args.workers, progress=False
+        root, preset, args.seed, sensor or args.sensor, minutes, rate, size, workers=args.workers, progress=False
     )
     return root
 
@@ -137,6 +169,7 @@ def replay(root: Path, args) -> tuple[Replay, dict, object]:
         rate_hz=doc["rate_hz"],
         false_alarms_per_hour=args.false_alarms_per_hour,
         null_frames=max(6, int(round(args.null_seconds * doc["rate_hz"]))),
+        relearn_frames=max(6, int(round(args.relearn_seconds * doc["rate_hz"]))),
         recal_frames=args.recal_frames,
     )
     history = Path(tempfile.mkdtemp(prefix="running-cell-history-"))
@@ -323,6 +356,19 @@ def unit_line(ds) -> str:
     )
 
 
+def blind_line(run: Replay, doc: dict) -> str:
+    """The time the change test watched nothing: learning (no reference yet: the first seconds, and the first
+    frames after each commit) and stale (an alarm until its commit: collecting frames, recalibrating)."""
+    rate = doc["rate_hz"]
+    learning = sum(s == "learning" for s in run.states) / rate
+    stale = sum(s in ("moved", "refused", "recalibrated") for s in run.states) / rate
+    first = learnt_at(run)
+    return (
+        f"blind time: {learning:.1f} s learning ({min(first, doc['duration_s']):.1f} s of it the first null, the rest "
+        f"after commits), {stale:.1f} s stale (from each alarm to its commit), of {doc['duration_s']:.0f} s"
+    )
+
+
 def state_counts(run: Replay) -> str:
     """How many frames the watcher left in each state."""
     states, counts = np.unique(run.states, return_counts=True)
@@ -333,6 +379,7 @@ def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
     rep.say("## Bumps stream")
     rep.say(unit_line(ds))
     rep.say(f"frames per state: {state_counts(run)}")
+    rep.say(blind_line(run, doc))
     rep.say(
         f"{doc['frames']} frames at {doc['rate_hz']:g} Hz ({doc['duration_s']:.0f} s), sensor {doc['sensor']}; "
         f"'nothing moved' learnt by t = {learnt_at(run):.1f} s"
@@ -403,7 +450,36 @@ def report_static(rep: Report, run: Replay, doc: dict, ds) -> None:
         f"{poisson_upper(alarms) / hours:.1f} per hour)"
     )
     rep.say(commits_line(run, ds.truth()))
+    rep.say(blind_line(run, doc))
     report_intervals(rep, run, doc)
+
+
+def report_profiles(rep: Report, runs: list[tuple[str, Replay, dict, object]]) -> None:
+    """Detection delay per bump size, one row per sensor profile (each its own bumps stream)."""
+    if not runs:
+        return
+    _, _, doc0, _ = runs[0]
+    sizes = [f"{e['translation_mm']:g} mm / {e['rotation_deg']:g} deg" for e in doc0["events"] if e["type"] == "bump"]
+    rep.say("## Detection delay per sensor profile")
+    rep.say(
+        f"each profile its own bumps stream: seed {doc0['seed']}, {doc0['frames']} frames at {doc0['rate_hz']:g} Hz "
+        f"({doc0['duration_s']:.0f} s), {runs[0][3].meta['recipe']['stream']['image_size']} pixels; seconds from "
+        "the bump to the first 'moved' before the next bump ('learning': it came while the watcher had no reference)"
+    )
+    rep.say()
+    rep.say("| profile | " + " | ".join(sizes) + " | false 'moved' | blind (learning / stale s) |")
+    rep.say("|---|" + "---|" * (len(sizes) + 2))
+    for name, run, doc, ds in runs:
+        cells = []
+        for row in score_bumps(run, doc, ds.truth()):
+            before = run.states[row["bump"]["frame"] - 1]
+            cell = "missed" if row["delay_s"] is None else f"{row['delay_s']:.1f}"
+            cells.append(cell + (" (learning)" if before == "learning" else ""))
+        rate = doc["rate_hz"]
+        learning = sum(s == "learning" for s in run.states) / rate
+        stale = sum(s in ("moved", "refused", "recalibrated") for s in run.states) / rate
+        extra = sum(row["extra_alarms"] for row in score_bumps(run, doc, ds.truth()))
+        rep.say(f"| {name} | " + " | ".join(cells) + f" | {extra} | {learning:.0f} / {stale:.0f} |")
 
 
 def report_cost(rep: Report, runs: list[Replay]) -> None:
@@ -438,6 +514,12 @@ def main(argv=None) -> int:
     rep.say()
     run_s, doc_s, ds_s = replay(static, args)
     report_static(rep, run_s, doc_s, ds_s)
+    rep.say()
+    profiles = []
+    for name in args.profiles:
+        run, doc, ds = replay(stream_dir(data, "bumps", args, sensor=name), args)
+        profiles.append((name, run, doc, ds))
+    report_profiles(rep, profiles)
     rep.say()
     report_cost(rep, [run_b, run_s])
     if args.plot and args.out:

@@ -189,13 +189,13 @@ def _stream_doc(preset: StreamPreset, seed: int, sensor: DepthSensor, timeline: 
         "duration_s": len(timeline) / preset.rate_hz,
         "segments": [
             {
-                "camera_id": s,
-                "first_frame": int(k0),
-                "t0_s": float(k0) / preset.rate_hz,
-                "frames": int(k1 - k0),
-                # the names handeye.watch.source reads (its frame i of a segment at start_s + i / rate_hz)
+                # the dataset's camera id of the segment, and its first frame's time: handeye.watch.source reads
+                # these (a segment's frame i at start_s + i / rate_hz); files of version 1 before this also
+                # held them as camera_id and t0_s, which nothing reads
                 "camera": s,
+                "first_frame": int(k0),
                 "start_s": float(k0) / preset.rate_hz,
+                "frames": int(k1 - k0),
             }
             for s, (k0, k1) in enumerate(zip(timeline.segment_first, ends))
         ],

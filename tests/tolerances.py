@@ -651,3 +651,9 @@ SGBM_LOCKING_MAX_PX = 0.25
 #: most that much, and a focal length fitted to it by at most OUTLINE_PX_BOUND / r relative (a grid's worst case;
 #: noise-free otherwise).
 OUTLINE_PX_BOUND = float(np.sqrt(2.0) / 2.0)
+
+#: Tail probability at which a count of false alarms is called inconsistent with the stated rate's mean (a
+#: Poisson upper quantile; the CUSUM's bound is a mean rate, and rare alarms are Poisson at most): one run in
+#: a thousand of a correct watcher fails; a fault that multiplies the rate (the depth unit left uncorrected:
+#: the statistic follows the arm's pose for whole dwells) gives counts several times the mean, far beyond.
+FALSE_ALARM_COUNT_TAIL = 1e-3

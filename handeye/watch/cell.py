@@ -11,11 +11,17 @@ then
   collected; with ``recal_frames`` of them, ``recalibrate(frames, T_start)`` is called (by default the
   markerless registration from the last calibration, :func:`markerless_recalibration`). Its answer is taken
   only when the registration accepted it (its sigma and split check passed, ``result.ok``): then it is
-  committed to the history and published; then **learning** again for ``relearn_frames`` usable frames: the
-  null's bias anew against the new calibration (its own error, within its sigma, is "nothing moved" from now
-  on; the CUSUM integrates over enough frames to see an error the recalibration's sigma allows), its scale
-  kept, and the change test re-armed. A small move during those frames goes into the bias; one that leaves the
-  new calibration fitting none of ``relearn_frames`` frames in a row (lost or occluded) is "moved" again.
+  committed to the history and published; then **relearning**: the null's bias anew against the new
+  calibration (its own error, within its sigma, is "nothing moved" from now on), its scale kept (a camera
+  move does not change the sensor's noise), the change test re-armed and **watching through it**: after
+  ``relearn_min_frames`` usable frames (blind until then: "learning") each frame is tested against the median
+  of those before it (its error counted in, :meth:`handeye.watch.change.NullModel.statistic`), until
+  ``relearn_frames`` fix the bias.
+- the end of the first learning also estimates the depth unit's correction (:func:`handeye.watch.change.
+  fit_depth_unit`: a wrong scale or offset makes the statistic depend on the arm's pose, correlated from frame
+  to frame, and the stated rate fails), applies it, and relearns the bias against it as after a commit. A
+  starting calibration that fits none of ``null_frames`` frames in a row (lost, or a consistent offset) is
+  "moved".
   A refusal is an event with the reason, and the collection starts again; until a validated answer exists
   every event says "calibration stale since t".
 
@@ -31,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from classic.markerless import MarkerlessOptions, register_robot
-from handeye.watch.change import Cusum, NullModel, fit_null
+from handeye.watch.change import Cusum, NullModel, fit_depth_unit, fit_null
 from handeye.watch.check import CheckOptions, FrameCheck, check_frame, unit_correction
 from handeye.watch.events import Event
 from handeye.watch.history import History
@@ -39,6 +45,11 @@ from handeye.watch.source import Frame
 from handeye.watch.states import FrameStates, StateOptions, is_lost, screen
 
 __all__ = ["WatchOptions", "CellWatcher", "markerless_recalibration"]
+
+#: The depth correction has settled when a new fit would move the frames' steps by less than this many of their
+#: sigmas (median over the frames); at most ``UNIT_ROUNDS`` fits (the first learning's and the relearnings').
+UNIT_SETTLED = 0.5
+UNIT_ROUNDS = 4
 
 
 @dataclass(frozen=True)
@@ -57,6 +68,8 @@ class WatchOptions:
         Usable frames "nothing moved" is learnt from (about the first 10 s at 30 Hz by default).
     relearn_frames : int
         Usable frames the null's bias is learnt from after a recalibration (3 s at 30 Hz by default).
+    relearn_min_frames : int
+        Of those, the first ones taken before the change test resumes (blind for so long: 0.2 s at 30 Hz).
     rho : float
         The CUSUM's alternative (:class:`handeye.watch.change.Cusum`).
     recal_frames : int
@@ -70,6 +83,7 @@ class WatchOptions:
     false_alarms_per_hour: float = 1.0
     null_frames: int = 300
     relearn_frames: int = 90
+    relearn_min_frames: int = 6
     rho: float = 1.0
     recal_frames: int = 30
     recal_min_joint_step_rad: float = 0.05
@@ -198,6 +212,8 @@ class CellWatcher:
         self.states: FrameStates | None = None
         self.last_check: FrameCheck | None = None
         self._null_checks: list[FrameCheck] = []
+        self._note = ""  # said with the first frame watched after the first learning
+        self._settling, self._unit_rounds = False, 0  # the depth correction fitted again after the first learning
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._collected: list[Frame] = []
 
@@ -228,10 +244,10 @@ class CellWatcher:
         self.last_check = check
         if self.mode == "learning":
             state, detail = self._learn(check, frame.t)
-        elif self.mode == "watching":
-            state, detail = self.states.classify(check)
+        elif self.mode in ("watching", "relearning"):
+            state, detail = self.states.classify(check) if self.mode == "watching" else self._relearn(check)
             if state == "moved":
-                self.mode, self.stale_since, self._collected = "collecting", frame.t, []
+                self.mode, self.stale_since, self._collected, self._null_checks = "collecting", frame.t, [], []
         else:
             state, detail = self._collect(frame, check)
         events = []
@@ -251,27 +267,74 @@ class CellWatcher:
             self._misfits = 0
         elif unusable is None or unusable[0] == "occluded":
             self._misfits += 1
-        n, relearn = len(self._null_checks), self.states is not None
-        need = self.options.relearn_frames if relearn else self.options.null_frames
-        if relearn and self._misfits >= need:  # the new calibration fits no frame: moved again meanwhile
+        n, need = len(self._null_checks), self.options.null_frames
+        if self._misfits >= need:  # the calibration fits no frame: moved (or a depth unit far off)
             self.mode, self.stale_since, self._collected, self._null_checks = "collecting", t, [], []
-            return "moved", f"the new calibration fits none of the last {self._misfits} frames (lost or occluded)"
+            return "moved", f"the calibration fits none of the last {self._misfits} frames (lost or occluded)"
         if n < need:
-            return "learning", f"{n} of {need} frames for the null" + (" of the new calibration" if relearn else "")
-        deltas = np.stack([c.delta for c in self._null_checks])
-        covariances = np.stack([c.covariance for c in self._null_checks])
-        self.mode, self._null_checks = "watching", []
-        if relearn:  # the bias anew (the new calibration's own error is "nothing moved" now), the scale kept
-            self.null = NullModel(np.median(deltas, axis=0), self.null.scale, n)
-            self.states.rearm(self.null)
-            return "ok", f"bias of the new calibration learnt from {n} frames"
+            return "learning", f"{n} of {need} frames for the null"
+        checks, self._null_checks = self._null_checks, []
+        deltas, covariances = np.stack([c.delta for c in checks]), np.stack([c.covariance for c in checks])
+        u, deltas = fit_depth_unit(deltas, covariances, np.stack([c.unit_gain for c in checks]))
+        k, c0 = self.depth_correction
+        self.depth_correction = (k + float(u[0]), c0 + float(u[1]))
         self.null = fit_null(deltas, covariances)
         cusum = Cusum(self.options.frames_per_false_alarm, self.options.rho)
         self.states = FrameStates(self.null, cusum, self.options.states)
-        return "ok", (
+        self.mode, self._settling = "relearning", True  # the bias anew against the corrected depth, watching on
+        self._note = (
             f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
             f"(at most {self.options.false_alarms_per_hour:g} false alarms per hour at {self.options.rate_hz:g} Hz "
-            "while the frames follow the null)"
+            f"while the frames follow the null); depth correction now k {self.depth_correction[0]:.5f}, "
+            f"c {self.depth_correction[1] * 1e3:+.2f} mm (changed by {u[0]:+.5f}, {u[1] * 1e3:+.2f} mm); "
+        )
+        return "learning", f"null learnt from {n} frames; the bias against the corrected depth next"
+
+    def _relearn(self, check: FrameCheck) -> tuple[str, str]:
+        """The bias of a new calibration (or depth correction) learnt while the change test watches on."""
+        o, pool = self.options, self._null_checks
+        n = len(pool)
+        usable = screen(check, o.states) is None and not is_lost(check, o.states)
+        if n < o.relearn_min_frames:
+            pool += [check] if usable else []
+            return "learning", f"{len(pool)} of {o.relearn_min_frames} frames before watching the new bias again"
+        self.states.null = NullModel(np.median([c.delta for c in pool], axis=0), self.null.scale, n)
+        state, detail = self.states.classify(check, drift=False)
+        detail, self._note = self._note + detail, ""
+        if usable and state == "ok":
+            pool.append(check)
+        need = o.null_frames if self._settling else o.relearn_frames
+        if len(pool) >= need:
+            detail += "; " + self._fix_reference(pool)
+        return state, f"{detail} (bias from {n} of {need} frames)"
+
+    def _fix_reference(self, pool: list[FrameCheck]) -> str:
+        """The end of a relearning: the bias fixed (the scale kept), or while the depth correction settles, the
+        unit fitted again on exact checks: applied and relearnt while it moves the steps by more than
+        ``UNIT_SETTLED`` of their sigma (a linearised fit is off for a unit off by more than the match window),
+        else the null refitted, scale and all, on these frames."""
+        deltas = np.stack([c.delta for c in pool])
+        self._null_checks = []
+        if not self._settling:
+            self.null = NullModel(np.median(deltas, axis=0), self.null.scale, len(pool))
+            self.states.null, self.mode = self.null, "watching"
+            return f"bias learnt from {len(pool)} frames"
+        covariances, gains = np.stack([c.covariance for c in pool]), np.stack([c.unit_gain for c in pool])
+        u, corrected = fit_depth_unit(deltas, covariances, gains)
+        shift = gains @ u
+        moved = np.median(np.einsum("ni,ni->n", shift, np.linalg.solve(covariances, shift[..., None])[..., 0]))
+        self._unit_rounds += 1
+        if np.sqrt(moved / self.null.scale) > UNIT_SETTLED and self._unit_rounds < UNIT_ROUNDS:
+            k, c = self.depth_correction
+            self.depth_correction = (k + float(u[0]), c + float(u[1]))
+            self.states.rearm()
+            return f"depth correction changed by {u[0]:+.5f}, {u[1] * 1e3:+.2f} mm: the bias relearnt against it"
+        self.null, self._settling = fit_null(deltas, covariances), False
+        self.states.rearm(self.null)
+        self.mode = "watching"
+        return (
+            f"null refitted from {len(pool)} frames at the settled depth correction (k {self.depth_correction[0]:.5f},"
+            f" c {self.depth_correction[1] * 1e3:+.2f} mm): chi2 scale {self.null.scale:.2f}"
         )
 
     def _collect(self, frame: Frame, check: FrameCheck) -> tuple[str, str]:
@@ -314,7 +377,12 @@ class CellWatcher:
             self.version = v.version
         stale = self.stale_since
         self.stale_since = None
-        self.mode, self._misfits = "learning", 0  # the bias of the new calibration, then the change test again
+        self._misfits, self._null_checks = 0, []
+        if self.states is None:  # the first calibration replaced before any null: learn it
+            self.mode = "learning"
+        else:  # the bias of the new calibration, watching through it
+            self.mode = "relearning"
+            self.states.rearm()
         s = getattr(result, "sigma", {}) or {}
         detail = f"new calibration from {len(frames)} frames (stale since {stale:.3f}s)"
         if "rotation_deg" in s and "translation_mm" in s:

@@ -100,6 +100,13 @@ class FrameCheck:
         more; without depth.
     rms_m : float
         RMS point-to-plane residual of the matched points, metres (NaN with none).
+    n_at_offset : int
+        Visible points with depth whose ``z_obs - z_mod`` lies within the match window of its median over them:
+        most of them there while the median is off is a consistent offset (a moved camera or a wrong depth
+        unit), not an occluder (which leaves the rest matched).
+    unit_gain : array, shape (6, 2), or None
+        ``d delta / d (k, c)``: how the step moves when the depth correction ``(k, c)`` changes (to first order:
+        ``delta(k + dk, c + dc) = delta(k, c) + unit_gain @ (dk, dc)``); None without a step.
     """
 
     delta: np.ndarray | None
@@ -111,6 +118,8 @@ class FrameCheck:
     n_behind: int
     n_dropout: int
     rms_m: float
+    n_at_offset: int = 0
+    unit_gain: np.ndarray | None = None
 
     def fraction(self, count: int) -> float:
         """``count`` over the visible model points with depth (0 when none)."""
@@ -180,10 +189,11 @@ def check_frame(
     n_cam = np.asarray(surface.normals_base, dtype=float) @ R
     idx = _visible(p_cam, n_cam, K, height, width, o.zbuffer_stride)
     uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
-    z_obs = depth_m[uv[:, 1], uv[:, 0]]
-    have = np.isfinite(z_obs) & (z_obs > 0)
+    z_raw = depth_m[uv[:, 1], uv[:, 0]]
+    have = np.isfinite(z_raw) & (z_raw > 0)
+    z_raw = np.where(have, z_raw, 0.0)
     k, c = depth_correction
-    z_obs = np.where(have, k * np.where(have, z_obs, 0.0) + c, 0.0)
+    z_obs = np.where(have, k * z_raw + c, 0.0)
     z_mod = p_cam[idx, 2]
     sigma_z = np.asarray(sigma_m(z_mod), dtype=float)
     window = o.window_sigmas * sigma_z + o.window_floor_m
@@ -191,12 +201,14 @@ def check_frame(
     occluder = have & (dz < -window)
     behind = have & (dz > window)
     matched = have & ~occluder & ~behind
+    offset = np.median(dz[have]) if have.any() else 0.0
     counts = dict(
         n_visible=len(idx),
         n_matched=int(matched.sum()),
         n_occluders=int(occluder.sum()),
         n_behind=int(behind.sum()),
         n_dropout=int((~have).sum()),
+        n_at_offset=int((have & (np.abs(dz - offset) <= window)).sum()),
     )
     if counts["n_matched"] < o.min_matched:
         rms = float(np.sqrt(np.mean(dz[matched] ** 2))) if matched.any() else float("nan")
@@ -218,10 +230,14 @@ def check_frame(
         return FrameCheck(None, None, float("nan"), rms_m=float(np.sqrt(np.mean(r**2))), **counts)
     delta = -covariance @ g
     chi2 = float(delta @ H @ delta)
-    return FrameCheck(delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), **counts)
+    # r moves by (n . ray)(z_raw dk + dc) when (k, c) does; the step by -(J^T W J)^-1 J^T W of that
+    nr = np.einsum("ij,ij->i", n, ray) / s
+    unit = np.stack([nr * z_raw[matched], nr], axis=1)
+    gain = -covariance @ ((A * w[:, None]).T @ unit)
+    return FrameCheck(delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), unit_gain=gain, **counts)
 
 
 def _visible(p_cam: np.ndarray, n_cam: np.ndarray, K: np.ndarray, height: int, width: int, stride: int) -> np.ndarray:
     """Indices of the front-facing points nearest the camera in each z-buffer pixel (``stride`` image pixels wide)."""
     frame = np.zeros(len(p_cam), dtype=np.int64)
-    return visible_points(p_cam, n_cam, frame, Ks, -(-height // stride), -(-width // stride))
+    return visible_points(p_cam, n_cam, frame, *zbuffer_grid(K, height, width, stride))

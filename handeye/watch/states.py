@@ -7,7 +7,11 @@ In order, per frame (:class:`FrameStates.classify`):
 3. **occluded**: more than ``occluded_fraction`` of those with depth see something in front of the arm
    (outside the match window) while few see the background behind it: an occluder can only be in front,
    a moved camera puts model pixels on the background too. These frames do not enter the change test
-   (their matched points would, but a half-hidden arm biases the step at the occluder's edge);
+   (their matched points would, but a half-hidden arm biases the step at the occluder's edge). Not when the
+   residuals are consistent: if at least ``1 - occluded_fraction`` of the pixels with depth lie within the
+   match window of their median residual, the whole surface is off by one offset (a moved camera, or a depth
+   unit whose scale or offset is wrong), which no occluder makes (it leaves the pixels beside it matched);
+   such a frame goes on to the change test (a lost frame, when the offset is beyond the window);
 4. the frame enters the CUSUM (:mod:`handeye.watch.change`) with ``x = chi2 / c``; a frame whose matched
    points fall below ``lost_matched_fraction`` (the surface is off by more than the match window) enters
    with the largest increment. An alarm is **moved** when the corrections of the frames since the CUSUM left
@@ -67,8 +71,10 @@ def screen(check: FrameCheck, options: StateOptions, occlusion: bool = True) -> 
     if check.n_dropout > o.dropout_fraction * check.n_visible:
         return "dropout", f"{check.n_dropout} of {check.n_visible} model pixels without depth"
     occluders, behind = check.fraction(check.n_occluders), check.fraction(check.n_behind)
-    if occlusion and occluders > o.occluded_fraction and behind < o.behind_fraction_of_occluders * occluders:
-        return "occluded", f"{occluders:.0%} of the model's pixels see something in front"
+    consistent = check.fraction(check.n_at_offset) >= 1 - o.occluded_fraction  # one offset: a move or a unit
+    if occluders > o.occluded_fraction and behind < o.behind_fraction_of_occluders * occluders:
+        if occlusion and not consistent:
+            return "occluded", f"{occluders:.0%} of the model's pixels see something in front"
     return None
 
 
@@ -108,8 +114,9 @@ class FrameStates:
         self._ewma[:] = 0.0
         self._ewma_cov, self._ewma_frames = None, 0
 
-    def classify(self, check: FrameCheck) -> tuple[str, str]:
-        """The frame's state and a short detail (module docstring)."""
+    def classify(self, check: FrameCheck, drift: bool = True) -> tuple[str, str]:
+        """The frame's state and a short detail (module docstring); ``drift`` False skips step 5 (while the
+        reference is still being learnt)."""
         o = self.options
         unusable = screen(check, o)
         if unusable is not None:
@@ -129,7 +136,7 @@ class FrameStates:
             self.cusum.reset()
             self._run.clear()
             return "occluded", f"{detail}; alarm without a consistent direction ({why})"
-        if not lost and self._drifting(check):
+        if drift and not lost and self._drifting(check):
             return "drift", f"{detail}; EWMA of the correction beyond its {o.drift_level:g} tail"
         return "ok", detail
 

@@ -58,7 +58,7 @@ def _frames(ds):
 
 def _segment(doc, k):
     """The segment (camera id) holding frame ``k``."""
-    return next(s["camera_id"] for s in doc["segments"] if s["first_frame"] <= k < s["first_frame"] + s["frames"])
+    return next(s["camera"] for s in doc["segments"] if s["first_frame"] <= k < s["first_frame"] + s["frames"])
 
 
 def _events(doc, kind):
@@ -72,9 +72,10 @@ def test_dataset_opens_validates_and_frames_run_in_time_order(stream):
     assert np.array_equal(frames["frame"], np.arange(PRESET.n_frames))
     assert doc["rate_hz"] == PRESET.rate_hz and doc["frames"] == PRESET.n_frames == 40
     for seg in doc["segments"]:
-        shard = ds.select(seg["camera_id"], "data")
+        shard = ds.select(seg["camera"], "data")
         assert shard["frame"][0] == seg["first_frame"] and len(shard["frame"]) == seg["frames"]
-        assert seg["t0_s"] == seg["first_frame"] / PRESET.rate_hz
+        assert seg["start_s"] == seg["first_frame"] / PRESET.rate_hz
+        assert "camera_id" not in seg and "t0_s" not in seg  # one name each
 
 
 def test_events_take_effect_at_the_first_frame_at_or_after_their_stated_time(stream):
