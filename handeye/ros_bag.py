@@ -28,6 +28,7 @@ Example
 
 from __future__ import annotations
 
+import struct
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -265,93 +266,111 @@ def check_mcap(path) -> None:
         Naming the file, the record and its byte offset.
     """
     import mmap
-    import struct
 
     path = Path(path)
-    u16, u64 = struct.Struct("<H"), struct.Struct("<Q")
-
     try:
         with path.open("rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
             size = len(mm)
             if size < 8 + 37:
                 _refuse_mcap(path, f"{size} bytes, shorter than the magic and footer")
-            (summary,) = u64.unpack_from(mm, size - 28)  # the footer's summary_start
-            data_end = summary or size - 37
-            schemas, channels, counts = {0}, {}, {}  # channel id -> [(schema id, where)]; id -> [count, where]
-            chunks = {}  # offset -> record length, opcode and length prefix included
-
-            def walk(buf, start: int, end: int, base: int | None, packed: bool = False) -> None:
-                """The records of buf[start:end]; base: the chunk's offset in the file (None: the file); packed:
-                buf is the chunk's decompressed records (offsets in them), else the file."""
-                k = start
-                inside = "its chunk" if base is not None else "the file"
-                while k < end:
-                    at = f"byte {k}" + (f" in the chunk at byte {base}" if base is not None else "")
-                    if packed:
-                        at = f"byte {k} of the decompressed chunk at byte {base}"
-                    if end - k < 9:
-                        _refuse_mcap(path, f"{end - k} stray bytes at {at}, not a record")
-                    op, (n,) = buf[k], u64.unpack_from(buf, k + 1)
-                    name = _MCAP_RECORDS.get(op, f"0x{op:02x}")
-                    if n > end - k - 9:
-                        _refuse_mcap(path, f"the {name} record at {at} declares {n} bytes, past the end of {inside}")
-                    body = k + 9
-                    if op in (3, 4, 5) and n < {3: 2, 4: 4, 5: 22}[op]:
-                        _refuse_mcap(path, f"the {name} record at {at} is {n} bytes, too short")
-                    if op == 3:
-                        schemas.add(u16.unpack_from(buf, body)[0])
-                    elif op == 4:
-                        cid, sid = struct.unpack_from("<HH", buf, body)
-                        channels.setdefault(cid, []).append((sid, at))
-                    elif op == 5:
-                        counts.setdefault(u16.unpack_from(buf, body)[0], [0, at])[0] += 1
-                    elif op == 6 and base is None:
-                        if n < 40:
-                            _refuse_mcap(path, f"the chunk record at {at} is {n} bytes, too short")
-                        raw_size, crc, clen = struct.unpack_from("<QII", buf, body + 16)
-                        head = body + 32 + clen
-                        if head + 8 > body + n:
-                            _refuse_mcap(
-                                path, f"the chunk at {at} declares a compression name of {clen} bytes, past its record"
-                            )
-                        (records,) = u64.unpack_from(buf, head)
-                        if records > body + n - head - 8:
-                            past = "the file" if head + 8 + records > size else "its record"
-                            _refuse_mcap(
-                                path, f"the chunk at {at} declares {records} bytes of records, past the end of {past}"
-                            )
-                        compression = bytes(buf[body + 32 : head]).decode("utf-8", "replace")
-                        chunks[k] = n + 9
-                        if not compression:
-                            walk(buf, head + 8, head + 8 + records, k)
-                        else:
-                            from rosbags.rosbag2.storage_mcap import decompress
-
-                            try:
-                                raw = decompress(bytes(buf[head + 8 : head + 8 + records]), compression, raw_size, crc)
-                            except Exception as exc:
-                                _refuse_mcap(path, f"the chunk at {at} cannot be decompressed ({_reason(exc)})")
-                            walk(raw, 0, len(raw), k, packed=True)
-                    elif op == 11 and base is None and n >= 46:  # statistics (in the summary)
-                        total, per = (
-                            u64.unpack_from(buf, body)[0],
-                            min(struct.unpack_from("<I", buf, body + 42)[0], n - 46),
-                        )
-                        stats.update(
-                            total=total,
-                            per=dict(struct.iter_unpack("<HQ", buf[body + 46 : body + 46 + per // 10 * 10])),
-                        )
-                    elif op == 8 and base is None and n >= 32:  # a chunk index (in the summary)
-                        index.append(struct.unpack_from("<QQ", buf, body + 16))
-                    k = body + n
-
-            stats, index = {}, []
-            walk(mm, 8, data_end, None)
+            (summary,) = _U64.unpack_from(mm, size - 28)  # the footer's summary_start
+            walked = _McapWalk(path, size)
+            walked.records(mm, 8, summary or size - 37, None)
             if summary:
-                walk(mm, summary, size - 37, None)
+                walked.records(mm, summary, size - 37, None)
     except OSError as exc:
         raise BagError(f"{path}: the MCAP file cannot be read ({_reason(exc)})") from None
-    _check_mcap_summary(path, chunks, index, schemas, channels, counts, stats)
+    _check_mcap_summary(path, walked.chunks, walked.index, walked.schemas, walked.channels, walked.counts, walked.stats)
+
+
+_U16, _U64 = struct.Struct("<H"), struct.Struct("<Q")
+
+
+class _McapWalk:
+    """What :func:`check_mcap` gathers walking an MCAP file's records, each record checked to fit as it goes.
+
+    ``schemas``: the declared schema ids (0, none, included); ``channels``: channel id -> [(schema id, where)];
+    ``counts``: channel id -> [messages, where of the first]; ``chunks``: offset -> record length, opcode and
+    length prefix included; ``stats``: the summary's statistics; ``index``: its (offset, length) chunk indexes.
+    """
+
+    def __init__(self, path: Path, size: int):
+        self.path, self.size = path, size
+        self.schemas, self.channels, self.counts = {0}, {}, {}
+        self.chunks, self.stats, self.index = {}, {}, []
+
+    def records(self, buf, start: int, end: int, base: int | None, packed: bool = False) -> None:
+        """The records of buf[start:end]; base: the chunk's offset in the file (None: the file); packed:
+        buf is the chunk's decompressed records (offsets in them), else the file."""
+        k = start
+        inside = "its chunk" if base is not None else "the file"
+        while k < end:
+            at = f"byte {k}" + (f" in the chunk at byte {base}" if base is not None else "")
+            if packed:
+                at = f"byte {k} of the decompressed chunk at byte {base}"
+            if end - k < 9:
+                _refuse_mcap(self.path, f"{end - k} stray bytes at {at}, not a record")
+            op, (n,) = buf[k], _U64.unpack_from(buf, k + 1)
+            name = _MCAP_RECORDS.get(op, f"0x{op:02x}")
+            if n > end - k - 9:
+                _refuse_mcap(self.path, f"the {name} record at {at} declares {n} bytes, past the end of {inside}")
+            if op in (3, 4, 5) and n < {3: 2, 4: 4, 5: 22}[op]:
+                _refuse_mcap(self.path, f"the {name} record at {at} is {n} bytes, too short")
+            self._record(buf, op, k, n, at, base)
+            k += 9 + n
+
+    def _record(self, buf, op: int, k: int, n: int, at: str, base: int | None) -> None:
+        """One record of ``n`` bytes at ``k``, opcode ``op``: what it declares, counts or indexes."""
+        body = k + 9
+        if op == 3:
+            self.schemas.add(_U16.unpack_from(buf, body)[0])
+        elif op == 4:
+            cid, sid = struct.unpack_from("<HH", buf, body)
+            self.channels.setdefault(cid, []).append((sid, at))
+        elif op == 5:
+            self.counts.setdefault(_U16.unpack_from(buf, body)[0], [0, at])[0] += 1
+        elif base is None:
+            self._file_record(buf, op, k, n, at)
+
+    def _file_record(self, buf, op: int, k: int, n: int, at: str) -> None:
+        """A record of the file outside the chunks: a chunk, the summary's statistics and chunk indexes."""
+        body = k + 9
+        if op == 6:
+            self._chunk(buf, k, n, at)
+        elif op == 11 and n >= 46:  # statistics (in the summary)
+            total, per = _U64.unpack_from(buf, body)[0], min(struct.unpack_from("<I", buf, body + 42)[0], n - 46)
+            self.stats.update(
+                total=total, per=dict(struct.iter_unpack("<HQ", buf[body + 46 : body + 46 + per // 10 * 10]))
+            )
+        elif op == 8 and n >= 32:  # a chunk index (in the summary)
+            self.index.append(struct.unpack_from("<QQ", buf, body + 16))
+
+    def _chunk(self, buf, k: int, n: int, at: str) -> None:
+        """A chunk record of the file: its header checked, its records walked (read in place when uncompressed,
+        else decompressed as rosbags does)."""
+        body = k + 9
+        if n < 40:
+            _refuse_mcap(self.path, f"the chunk record at {at} is {n} bytes, too short")
+        raw_size, crc, clen = struct.unpack_from("<QII", buf, body + 16)
+        head = body + 32 + clen
+        if head + 8 > body + n:
+            _refuse_mcap(self.path, f"the chunk at {at} declares a compression name of {clen} bytes, past its record")
+        (records,) = _U64.unpack_from(buf, head)
+        if records > body + n - head - 8:
+            past = "the file" if head + 8 + records > self.size else "its record"
+            _refuse_mcap(self.path, f"the chunk at {at} declares {records} bytes of records, past the end of {past}")
+        compression = bytes(buf[body + 32 : head]).decode("utf-8", "replace")
+        self.chunks[k] = n + 9
+        if not compression:
+            self.records(buf, head + 8, head + 8 + records, k)
+            return
+        from rosbags.rosbag2.storage_mcap import decompress
+
+        try:
+            raw = decompress(bytes(buf[head + 8 : head + 8 + records]), compression, raw_size, crc)
+        except Exception as exc:
+            _refuse_mcap(self.path, f"the chunk at {at} cannot be decompressed ({_reason(exc)})")
+        self.records(raw, 0, len(raw), k, packed=True)
 
 
 def _check_mcap_summary(path: Path, chunks: dict, index: list, schemas: set, channels: dict, counts: dict, stats: dict):
@@ -554,61 +573,84 @@ def read_bag(
         cam = {"stamps": [], "t": [], "q": [], "frames": set()}
         for conn, msg in bag_messages(reader, name, tf_conns + cam_conns):
             if conn.topic == marker_topic:
-                t, q = _pose_of(msg, conn.msgtype)
-                cam["stamps"].append(stamp_ns(msg.header))
-                cam["t"].append(t)
-                cam["q"].append(q)
-                cam["frames"].add(msg.header.frame_id.lstrip("/"))
-                continue
-            for tr in msg.transforms:
-                tf["parents"].append(tr.header.frame_id)
-                tf["children"].append(tr.child_frame_id)
-                tf["stamps"].append(stamp_ns(tr.header))
-                r, p = tr.transform.rotation, tr.transform.translation
-                tf["t"].append((p.x, p.y, p.z))
-                tf["q"].append((r.x, r.y, r.z, r.w))
-                tf["static"].append(conn.topic == tf_static_topic)
+                _add_marker_pose(cam, msg, conn.msgtype)
+            else:
+                _add_transforms(tf, msg, conn.topic == tf_static_topic)
         origin = int(reader.start_time)
     topics = tf_topic + (f" and {tf_static_topic}" if static_conns else "")
+    chain = _tf_tree(tf, f"{name}, {topics}").chain(base_frame, ee_frame)
+    rec = BagRecording(name, origin, (chain.stamps_ns - origin) * 1e-9, chain.T_base_ee, chain.frames)
+    if marker_topic:
+        rec.camera_times_s, rec.T_cam_target = _marker_poses(cam, name, marker_topic, origin)
+        rec.camera_frame = ", ".join(sorted(cam["frames"]))
+        rec.marker_topic = marker_topic
+    return rec
+
+
+# -- the stages of read_bag(), in its order
+
+
+def _add_marker_pose(cam: dict, msg, msgtype: str) -> None:
+    """A marker pose message's stamp, translation, quaternion and camera frame, appended to ``cam``'s lists."""
+    t, q = _pose_of(msg, msgtype)
+    cam["stamps"].append(stamp_ns(msg.header))
+    cam["t"].append(t)
+    cam["q"].append(q)
+    cam["frames"].add(msg.header.frame_id.lstrip("/"))
+
+
+def _add_transforms(tf: dict, msg, static: bool) -> None:
+    """A tf message's transforms (parent, child, stamp, translation, quaternion, static), appended to ``tf``."""
+    for tr in msg.transforms:
+        tf["parents"].append(tr.header.frame_id)
+        tf["children"].append(tr.child_frame_id)
+        tf["stamps"].append(stamp_ns(tr.header))
+        r, p = tr.transform.rotation, tr.transform.translation
+        tf["t"].append((p.x, p.y, p.z))
+        tf["q"].append((r.x, r.y, r.z, r.w))
+        tf["static"].append(static)
+
+
+def _tf_tree(tf: dict, source: str) -> TfTree:
+    """The tf tree of the transforms read; a translation not finite or beyond
+    :data:`handeye.core.limits.ABSURD_TRANSLATION_M` is a :class:`BagError` naming the first."""
     t = np.asarray(tf["t"], dtype=float).reshape(-1, 3)
     far = np.flatnonzero(~(np.abs(t).max(axis=1, initial=0.0) <= ABSURD_TRANSLATION_M))
     if len(far):
         i = far[0]
         raise BagError(
-            f"{name}, {topics}: transform {tf['parents'][i]} -> {tf['children'][i]} at stamp {tf['stamps'][i]} ns has "
+            f"{source}: transform {tf['parents'][i]} -> {tf['children'][i]} at stamp {tf['stamps'][i]} ns has "
             f"a translation of {t[i].tolist()} m: not finite or beyond {ABSURD_TRANSLATION_M:g} m ({len(far)} such)"
         )
-    tree = TfTree.from_transforms(
-        tf["parents"], tf["children"], tf["stamps"], tf["t"], tf["q"], tf["static"], source=f"{name}, {topics}"
+    return TfTree.from_transforms(
+        tf["parents"], tf["children"], tf["stamps"], tf["t"], tf["q"], tf["static"], source=source
     )
-    chain = tree.chain(base_frame, ee_frame)
-    rec = BagRecording(name, origin, (chain.stamps_ns - origin) * 1e-9, chain.T_base_ee, chain.frames)
-    if marker_topic:
-        if not cam["stamps"]:
-            raise BagTopicError(f"{name}: topic {marker_topic!r} has no messages")
-        stamps = np.asarray(cam["stamps"], dtype=np.int64)
-        q = np.asarray(cam["q"], dtype=float)
-        norm = np.linalg.norm(q, axis=1)
-        bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
-        if len(bad):
-            raise BagError(
-                f"{name}, {marker_topic}: the message stamped {stamps[bad[0]]} ns has an orientation of "
-                f"norm {norm[bad[0]]:.4g}, not 1 ({len(bad)} such messages)"
-            )
-        t = np.asarray(cam["t"], dtype=float)
-        far = np.flatnonzero(~(np.abs(t).max(axis=1) <= ABSURD_TRANSLATION_M))
-        if len(far):
-            raise BagError(
-                f"{name}, {marker_topic}: the message stamped {stamps[far[0]]} ns has a position of "
-                f"{t[far[0]].tolist()} m: not finite or beyond {ABSURD_TRANSLATION_M:g} m (metres are read; "
-                f"{len(far)} such messages)"
-            )
-        order = np.argsort(stamps, kind="stable")
-        rec.camera_times_s = (stamps[order] - origin) * 1e-9
-        rec.T_cam_target = transform_from_pos_quat_xyzw(np.asarray(cam["t"])[order], q[order])
-        rec.camera_frame = ", ".join(sorted(cam["frames"]))
-        rec.marker_topic = marker_topic
-    return rec
+
+
+def _marker_poses(cam: dict, name: str, topic: str, origin: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(camera_times_s, T_cam_target)`` of the marker poses read, sorted by stamp; none, a non-unit quaternion
+    or a position not finite or beyond :data:`handeye.core.limits.ABSURD_TRANSLATION_M` is refused."""
+    if not cam["stamps"]:
+        raise BagTopicError(f"{name}: topic {topic!r} has no messages")
+    stamps = np.asarray(cam["stamps"], dtype=np.int64)
+    q = np.asarray(cam["q"], dtype=float)
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
+    if len(bad):
+        raise BagError(
+            f"{name}, {topic}: the message stamped {stamps[bad[0]]} ns has an orientation of "
+            f"norm {norm[bad[0]]:.4g}, not 1 ({len(bad)} such messages)"
+        )
+    t = np.asarray(cam["t"], dtype=float)
+    far = np.flatnonzero(~(np.abs(t).max(axis=1) <= ABSURD_TRANSLATION_M))
+    if len(far):
+        raise BagError(
+            f"{name}, {topic}: the message stamped {stamps[far[0]]} ns has a position of "
+            f"{t[far[0]].tolist()} m: not finite or beyond {ABSURD_TRANSLATION_M:g} m (metres are read; "
+            f"{len(far)} such messages)"
+        )
+    order = np.argsort(stamps, kind="stable")
+    return (stamps[order] - origin) * 1e-9, transform_from_pos_quat_xyzw(np.asarray(cam["t"])[order], q[order])
 
 
 def image_array(msg, order: str = "bgr") -> np.ndarray:
