@@ -11,6 +11,7 @@ import torch
 from handeye.core.errors import HandEyeInputError
 from learned import distributed
 from learned.data import FrameSet
+from learned.device_data import DeviceFrames, keypoint_training_targets, shift_batch, shift_target_batch
 from learned.global_batchnorm import global_batchnorm
 from learned.losses import chordal_loss, translation_loss
 from learned.metrics import rotation_errors_deg, translation_errors_mm
@@ -51,6 +52,9 @@ class TrainConfig:
         weight averaging, Izmailov et al. 2018, ``torch.optim.swa_utils.AveragedModel``; with a constant
         learning rate the iterates scatter about a minimum and their mean lies nearer it), the batch-norm
         statistics then recomputed on the call's frames; 0 (default) keeps the last weights.
+    compile : bool
+        Run the training's forward passes through ``torch.compile`` (off by default: compiling costs
+        seconds to minutes per call and pays only on an accelerator's long calls).
     """
 
     epochs: int = 10
@@ -61,6 +65,7 @@ class TrainConfig:
     heatmap_spread_weight: float = 0.0
     average_epochs: int = 0
     shift_px: int = 0
+    compile: bool = False
 
     def __post_init__(self):
         if self.schedule not in ("constant", "cosine"):
@@ -75,86 +80,81 @@ def _device(model: CalibrationNet) -> torch.device:
     return next(model.parameters()).device
 
 
-def _tensors(frames: FrameSet, index: np.ndarray, device: torch.device):
-    return (
-        torch.from_numpy(frames.rgb[index]).to(device),
-        torch.from_numpy(frames.depth_m[index].astype(np.float32)).to(device),
-        torch.from_numpy(frames.pose_base_ref[index]).to(device),
-    )
-
-
-def _keypoint_targets(frames: FrameSet, index: np.ndarray, against: str = "label") -> np.ndarray:
-    from learned.keypoints import keypoint_targets
-
-    if frames.keypoints_base.shape[1] == 0:
-        raise HandEyeInputError(
-            "the keypoint model needs the keypoints' base-frame positions (learned.data."
-            "with_keypoints; 'handeye learned run --family keypoints' fills them)"
-        )
-    t, q = (
-        (frames.t_base_cam_mm, frames.q_base_cam_xyzw)
-        if against == "label"
-        else (frames.truth_t_base_cam_mm, frames.truth_q_base_cam_xyzw)
-    )
-    return keypoint_targets(frames.keypoints_base[index], t[index], q[index], frames.intrinsics_norm[index])
+def _on_device(model: CalibrationNet, frames, index) -> tuple[DeviceFrames, torch.Tensor]:
+    """``(data, positions)``: ``frames`` as they are when already on the device, else uploaded for ``index``."""
+    if isinstance(frames, DeviceFrames):
+        return frames, index
+    data = DeviceFrames.upload(frames, index, _device(model), model.config.kind)
+    return data, data.positions(index)
 
 
 def _loss(
     model: CalibrationNet,
-    frames: FrameSet,
-    index: np.ndarray,
+    frames: DeviceFrames | FrameSet,
+    index,
     net: torch.nn.Module | None = None,
     spread_weight: float = 0.0,
-    shifts: np.ndarray | None = None,
+    shifts: torch.Tensor | None = None,
+    shift_px: int = 0,
 ):
-    """The training loss of the frames at ``index`` and how many terms it averages.
+    """The training loss of a batch and how many terms it averages.
 
-    ``net`` runs the forward pass (the data-parallel wrapper of ``model``; ``model`` by default);
-    ``spread_weight`` is :attr:`TrainConfig.heatmap_spread_weight`; ``shifts`` (len(index), 2), the
-    keypoint model only: whole input pixels ``(dx, dy)`` each frame's image and targets are moved by.
-    The count is the samples, or for the keypoint model the keypoints inside the image; an empty
-    ``index`` gives a zero loss that still reaches every parameter (a rank's empty slice of a batch).
+    ``frames`` and ``index``: the call's :class:`learned.device_data.DeviceFrames` and the batch's
+    positions in it (a tensor), or a FrameSet and the batch's frame indices (uploaded here).
+    ``net`` runs the forward pass (the data-parallel or compiled wrapper of ``model``; ``model`` by
+    default); ``spread_weight`` is :attr:`TrainConfig.heatmap_spread_weight`; ``shifts`` (len(index), 2),
+    the keypoint model only: whole input pixels ``(dx, dy)`` each frame's image and targets are moved by,
+    at most ``shift_px``. The count is the samples, or for the keypoint model the keypoints inside the
+    image (a tensor: read it only where needed); an empty ``index`` gives a zero loss that still reaches
+    every parameter (a rank's empty slice of a batch).
     """
-    device = _device(model)
+    data, pos = _on_device(model, frames, index)
+    net = model if net is None else net
+    rgb, depth, ref = data.batch(pos)
     if model.config.kind == "keypoints":
-        from learned.keypoints import inside_image, keypoint_loss, shift_images, shift_targets
+        from learned.keypoints import inside_image, keypoint_loss
 
-        rgb, depth, ref = _tensors(frames, index, device)
-        target = _keypoint_targets(frames, index) if len(index) else None
-        if shifts is not None and len(index):
-            rgb, depth = shift_images(rgb, depth, shifts)
-            target = shift_targets(target, shifts, model.config.image_size)
-        out, prob = (model if net is None else net)(rgb, depth, ref, heatmaps=True)
-        if len(index) == 0:
+        target = data.target[pos]
+        if shifts is not None and len(pos):
+            shifts = torch.as_tensor(shifts).to(rgb.device)
+            rgb, depth = shift_batch(rgb, depth, shifts, shift_px or int(shifts.abs().max()))
+            target = shift_target_batch(target, shifts, model.config.image_size)
+        out, prob = net(rgb, depth, ref, heatmaps=True)
+        if len(pos) == 0:
             return out.sum() * 0.0, 0
-        target = torch.from_numpy(target.astype(np.float32)).to(device)
+        target = target.float()
         loss = keypoint_loss(out, target, model.config.image_size, prob, spread_weight)
-        return loss, int(inside_image(target).sum().item())
-    out = (model if net is None else net)(*_tensors(frames, index, device))
-    if len(index) == 0:
+        return loss, inside_image(target).sum()
+    out = net(rgb, depth, ref)
+    if len(pos) == 0:
         return out.sum() * 0.0, 0
     if model.config.kind == "translation":
-        return translation_loss(out, torch.from_numpy(frames.t_base_cam_mm[index]).to(device)), len(index)
-    return chordal_loss(out, torch.from_numpy(frames.q_base_cam_xyzw[index]).to(device)), len(index)
+        return translation_loss(out, data.target[pos]), len(pos)
+    return chordal_loss(out, data.target[pos]), len(pos)
 
 
 def _slice_loss(
     net: torch.nn.Module,
     model: CalibrationNet,
-    frames: FrameSet,
-    batch: np.ndarray,
+    frames: DeviceFrames | FrameSet,
+    batch,
     spread_weight: float = 0.0,
-    shifts: np.ndarray | None = None,
+    shifts: torch.Tensor | None = None,
+    shift_px: int = 0,
 ) -> torch.Tensor:
     """This rank's share of a global batch's loss, weighted so that the ranks' average gradient is the batch's.
 
-    The loss on the slice averages ``n_r`` terms (samples, or keypoints in the image) of the batch's
-    ``n``; weighted by ``n_r / n * world_size``, the mean over ranks of the slices' gradients (what
+    ``frames``, ``batch``: as :func:`_loss`'s ``frames`` and ``index``. The loss on the slice averages
+    ``n_r`` terms (samples, or keypoints in the image) of the batch's ``n``; weighted by
+    ``n_r / n * world_size``, the mean over ranks of the slices' gradients (what
     DistributedDataParallel computes) is the gradient of the whole batch's mean loss.
     """
-    mine = distributed.shard(np.arange(len(batch)))
-    loss, count = _loss(model, frames, batch[mine], net, spread_weight, None if shifts is None else shifts[mine])
-    total = len(batch) if model.config.kind != "keypoints" else distributed.sum_over_ranks(count)
+    data, pos = _on_device(model, frames, batch)
+    mine = torch.from_numpy(distributed.shard(np.arange(len(pos)))).to(pos.device)
+    shifts = None if shifts is None else torch.as_tensor(shifts).to(pos.device)[mine]
+    loss, count = _loss(model, data, pos[mine], net, spread_weight, shifts, shift_px)
+    count = int(count)
+    total = len(pos) if model.config.kind != "keypoints" else distributed.sum_over_ranks(count)
     return loss * (count / max(total, 1) * distributed.world_size())
 
 
@@ -176,6 +176,9 @@ def train(
     gradients, so each step is the one-process step on the whole batch up to float32 rounding. The
     model is wrapped for the call only; it ends with the same parameters on every rank.
 
+    The frames at ``index`` are uploaded to the model's device once per call and every batch is
+    gathered (and, for the keypoint model, shifted) there (:mod:`learned.device_data`).
+
     Parameters
     ----------
     model : CalibrationNet
@@ -196,13 +199,15 @@ def train(
     if len(index) == 0:
         return 0
     torch.manual_seed(int(rng.integers(2**31)))
+    data = DeviceFrames.upload(frames, index, _device(model), model.config.kind)
     if distributed.world_size() > 1:
         with global_batchnorm(model):
-            mean = _epochs(model, distributed.data_parallel(model), frames, index, config, rng, progress, desc)
+            net = _compiled(distributed.data_parallel(model), config)
+            mean = _epochs(model, net, True, data, index, config, rng, progress, desc)
     else:
-        mean = _epochs(model, None, frames, index, config, rng, progress, desc)
+        mean = _epochs(model, _compiled(model, config), False, data, index, config, rng, progress, desc)
     if mean is not None:
-        _take_average(model, mean, frames, index, config.batch_size)
+        _take_average(model, mean, data, data.positions(index), config.batch_size)
     model.eval()
     if model.config.kind == "keypoints":
         estimate_residuals(model, frames, index)
@@ -225,17 +230,22 @@ def estimate_residuals(model: CalibrationNet, frames: FrameSet, index: np.ndarra
     index = np.asarray(index)
     if len(index) > RESIDUAL_FRAMES:
         index = index[np.linspace(0, len(index) - 1, RESIDUAL_FRAMES).round().astype(int)]
-    stats = residual_stats(predict(model, frames, index), _keypoint_targets(frames, index))
+    stats = residual_stats(predict(model, frames, index), keypoint_training_targets(frames, index))
     model.residual_stats.copy_(torch.from_numpy(stats))
 
 
+def _compiled(net: torch.nn.Module, config: TrainConfig) -> torch.nn.Module:
+    """``net`` through ``torch.compile`` when ``config.compile``, else ``net`` itself."""
+    return torch.compile(net) if config.compile else net
+
+
 @torch.no_grad()
-def _take_average(model, mean, frames: FrameSet, index: np.ndarray, batch_size: int) -> None:
+def _take_average(model, mean, data: DeviceFrames, pos: torch.Tensor, batch_size: int) -> None:
     """Load the averaged weights into ``model`` and recompute its batch-norm statistics on the frames.
 
     The running statistics of the last weights do not belong to their mean: they are reset and
-    accumulated anew (cumulative average, ``momentum=None``) over the frames in ``batch_size`` batches,
-    in order, the same on every rank.
+    accumulated anew (cumulative average, ``momentum=None``) over the frames at ``pos`` (positions in
+    ``data``) in ``batch_size`` batches, in order, the same on every rank.
     """
     for p, q in zip(model.parameters(), mean.module.parameters()):
         p.copy_(q)
@@ -245,29 +255,32 @@ def _take_average(model, mean, frames: FrameSet, index: np.ndarray, batch_size: 
         m.reset_running_stats()
         m.momentum = None
     model.train()
-    device = _device(model)
-    for start in range(0, len(index), batch_size):
-        batch = index[start : start + batch_size]
+    for start in range(0, len(pos), batch_size):
+        batch = pos[start : start + batch_size]
         if len(batch) >= 2:
-            model(*_tensors(frames, batch, device))
+            model(*data.batch(batch))
     for m, momentum in zip(norms, momenta):
         m.momentum = momentum
 
 
 def _epochs(
     model: CalibrationNet,
-    net: torch.nn.Module | None,
-    frames: FrameSet,
+    net: torch.nn.Module,
+    sliced: bool,
+    data: DeviceFrames,
     index: np.ndarray,
     config: TrainConfig,
     rng: np.random.Generator,
     progress: bool,
     desc: str,
 ):
-    """The epochs of :func:`train`; ``net``: the data-parallel wrapper of ``model`` (None: one process).
+    """The epochs of :func:`train` on ``data`` (the frames at ``index``, on the device).
 
-    Every rank draws the same permutations from the same generator, so all see the same batches and
-    skip the same ones; each rank then computes the loss of its slice (:func:`_slice_loss`). Returns
+    ``net`` runs the forward passes (``model``, or its compiled or data-parallel wrapper); ``sliced``:
+    data-parallel, each rank computing its slice of every batch. Every rank draws the same
+    permutations from the same generator, so all see the same batches and skip the same ones; each
+    rank then computes the loss of its slice (:func:`_slice_loss`). Per epoch the permutation's
+    positions go to the device once; per batch only the keypoint model's shifts (when on). Returns
     the mean of the weights over the last ``config.average_epochs`` epochs (an ``AveragedModel``), or
     None when that is 0.
     """
@@ -286,23 +299,23 @@ def _epochs(
 
         bar = tqdm(total=config.epochs, desc=desc, unit="epoch", file=sys.stderr, leave=False)
     for epoch in range(config.epochs):
-        order = rng.permutation(index)
+        order = data.positions(rng.permutation(index))
         for start in range(0, len(order), config.batch_size):
-            batch = np.sort(order[start : start + config.batch_size])
+            batch = torch.sort(order[start : start + config.batch_size]).values  # as the frames' order
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             optimizer.zero_grad()
             spread = config.heatmap_spread_weight
             # drawn for the whole batch (the same on every rank), and only when on: the stream is unchanged when off
             shifts = (
-                rng.integers(-config.shift_px, config.shift_px + 1, size=(len(batch), 2))
+                torch.from_numpy(rng.integers(-config.shift_px, config.shift_px + 1, size=(len(batch), 2)))
                 if config.shift_px > 0 and model.config.kind == "keypoints"
                 else None
             )
             loss = (
-                _loss(model, frames, batch, spread_weight=spread, shifts=shifts)[0]
-                if net is None
-                else _slice_loss(net, model, frames, batch, spread, shifts)
+                _slice_loss(net, model, data, batch, spread, shifts, config.shift_px)
+                if sliced
+                else _loss(model, data, batch, net, spread, shifts, config.shift_px)[0]
             )
             loss.backward()
             optimizer.step()
@@ -329,11 +342,9 @@ def predict(
     """Predictions for the frames at ``index`` (all by default): (N, 3) mm or (N, 4) quaternions."""
     index = np.arange(len(frames)) if index is None else np.asarray(index)
     model.eval()
-    device = _device(model)
-    out = [
-        model(*_tensors(frames, index[s : s + batch_size], device)).cpu().numpy()
-        for s in range(0, len(index), batch_size)
-    ]
+    data = DeviceFrames.upload(frames, index, _device(model))
+    pos = data.positions(index)
+    out = [model(*data.batch(pos[s : s + batch_size])).cpu().numpy() for s in range(0, len(index), batch_size)]
     if model.config.kind == "keypoints":
         return np.concatenate(out) if out else np.zeros((0, model.config.n_keypoints, 3))
     width = 3 if model.config.kind == "translation" else 4
