@@ -101,6 +101,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     )
     p.add_argument("--recal-frames", type=int, default=20, help="frames a recalibration uses")
     p.add_argument("--false-alarms-per-hour", type=float, default=1.0, help="the watcher's stated bound")
+    p.add_argument(
+        "--streams", nargs="+", choices=("bumps", "static"), default=["bumps", "static"], help="which to replay"
+    )
     p.add_argument("--workers", type=int, default=2, help="rendering processes")
     p.add_argument("--plot", action="store_true", help="a PNG of the statistic and the events beside --out")
     p.add_argument("--out", default=None, help="write the report here (markdown)")
@@ -499,31 +502,32 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     Report.cut(args, rate=2.0, minutes=0.5, static_minutes=0.5)  # a smoke run (handeye.core.smoke)
     if smoke_test():
-        args.size = "96x96"
+        args.size = (96, 96)
     rep = Report("Running cell: the watcher on simulated streams", "benchmarks/running_cell.py", argv, _versions())
     rep.say(f"watcher: handeye/watch at commit {watcher_commit()}; streams: seed {args.seed}, sensor {args.sensor}")
     rep.say()
     data = args.data or Path(tempfile.mkdtemp(prefix="running-cell-"))
     t0 = time.perf_counter()
-    bumps = stream_dir(data, "bumps", args)
-    static = stream_dir(data, "static", args)
-    print(f"streams ready in {time.perf_counter() - t0:.0f} s: {bumps}, {static}", file=sys.stderr)
-    run_b, doc_b, ds_b = replay(bumps, args)
-    report_bumps(rep, run_b, doc_b, ds_b)
-    report_intervals(rep, run_b, doc_b)
-    rep.say()
-    run_s, doc_s, ds_s = replay(static, args)
-    report_static(rep, run_s, doc_s, ds_s)
-    rep.say()
+    roots = {name: stream_dir(data, name, args) for name in args.streams}
+    print(f"streams ready in {time.perf_counter() - t0:.0f} s: {', '.join(map(str, roots.values()))}", file=sys.stderr)
+    runs = {}
+    for name, root in roots.items():
+        runs[name] = replay(root, args)
+        if name == "bumps":
+            report_bumps(rep, *runs[name])
+            report_intervals(rep, *runs[name][:2])
+        else:
+            report_static(rep, *runs[name])
+        rep.say()
     profiles = []
     for name in args.profiles:
         run, doc, ds = replay(stream_dir(data, "bumps", args, sensor=name), args)
         profiles.append((name, run, doc, ds))
     report_profiles(rep, profiles)
     rep.say()
-    report_cost(rep, [run_b, run_s])
+    report_cost(rep, [run for run, _, _ in runs.values()])
     if args.plot and args.out:
-        for run, doc, name in ((run_b, doc_b, "bumps"), (run_s, doc_s, "static")):
+        for name, (run, doc, _) in runs.items():
             png = str(Path(args.out).with_suffix("")) + f"_{name}.png"
             plot(run, doc, png, f"{name} stream")
             rep.say(f"plot: {Path(png).name}")

@@ -293,10 +293,16 @@ class CellWatcher:
     def _relearn(self, check: FrameCheck) -> tuple[str, str]:
         """The bias of a new calibration (or depth correction) learnt while the change test watches on."""
         o, pool = self.options, self._null_checks
-        n = len(pool)
-        usable = screen(check, o.states) is None and not is_lost(check, o.states)
+        n, unusable = len(pool), screen(check, o.states)
+        usable = unusable is None and not is_lost(check, o.states)
         if n < o.relearn_min_frames:
-            pool += [check] if usable else []
+            if usable:
+                pool.append(check)
+                self._misfits = 0
+            elif unusable is None or unusable[0] == "occluded":
+                self._misfits += 1
+            if self._misfits >= o.relearn_frames:  # the new calibration fits no frame: moved again meanwhile
+                return "moved", f"the calibration fits none of the last {self._misfits} frames (lost or occluded)"
             return "learning", f"{len(pool)} of {o.relearn_min_frames} frames before watching the new bias again"
         self.states.null = NullModel(np.median([c.delta for c in pool], axis=0), self.null.scale, n)
         state, detail = self.states.classify(check, drift=False)
