@@ -48,10 +48,11 @@ class ModelConfig:
     n_keypoints : int
         Keypoints of the ``keypoints`` kind (0 for the others).
     trunk_dtype : {"float32", "bfloat16"}
-        The keypoint model's convolutions run in this precision (``torch.autocast``); its heads, the
+        The convolutions run in this precision (``torch.autocast``). The keypoint model's heads, the
         soft-argmax and the depths stay float32 (bfloat16 holds a normalised coordinate to 1/256 and a
-        depth of 2 m to 8 mm). On a CPU with AMX a width-32 model trained in 270 against 311 s in float32
-        (``benchmarks/results/keypoint_training.md``).
+        depth of 2 m to 8 mm); on a CPU with AMX a width-32 model trained in 270 against 311 s in float32
+        (``benchmarks/results/keypoint_training.md``). The regression networks' encoders run in it, their
+        fully connected head in float32 (``benchmarks/training_throughput.py``).
     """
 
     kind: str
@@ -69,8 +70,6 @@ class ModelConfig:
             raise ValueError(f"kind must be one of {ALL_KINDS}, got {self.kind!r}")
         if self.trunk_dtype not in ("float32", "bfloat16"):
             raise ValueError(f"trunk_dtype must be 'float32' or 'bfloat16', got {self.trunk_dtype!r}")
-        if self.trunk_dtype != "float32" and self.kind != "keypoints":
-            raise ValueError(f"trunk_dtype {self.trunk_dtype!r} is for the keypoint model only, not {self.kind!r}")
         if self.kind == "keypoints":
             if self.n_keypoints < 3:
                 raise ValueError(f"the keypoint model needs at least 3 keypoints, got {self.n_keypoints}")
@@ -147,7 +146,13 @@ class CalibrationNet(nn.Module):
         """
         x = rgb.float() / 255.0 if rgb.dtype == torch.uint8 else rgb.float()
         d = depth_m.float() / self.config.depth_scale_m
-        features = torch.cat([self.rgb_encoder(x), self.depth_encoder(d), ref.float()], dim=1)
+        # channels-last (NHWC) on an accelerator (learned.trainer.train turns the weights so); on the CPU the
+        # default layout, whose float32 rounding the project's CPU results were made with
+        layout = torch.contiguous_format if x.device.type == "cpu" else torch.channels_last
+        x, d = x.contiguous(memory_format=layout), d.contiguous(memory_format=layout)
+        with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=self.config.trunk_dtype == "bfloat16"):
+            encoded = [self.rgb_encoder(x), self.depth_encoder(d)]
+        features = torch.cat([e.float() for e in encoded] + [ref.float()], dim=1)  # the head in float32
         out = self.head(features)
         if self.config.kind == "translation":
             return out * self.config.translation_scale_mm + out.new_tensor(self.config.translation_offset_mm)

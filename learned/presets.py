@@ -59,6 +59,10 @@ class Preset:
     keypoint_batch_size : int, optional
         The keypoint model's batch size; ``batch_size`` when omitted (it underfits, and more, smaller
         steps per sample lower its error at the same cost: ``benchmarks/keypoint_training.py``).
+    trunk_dtype : {"float32", "bfloat16"}
+        Precision of the regression networks' encoders (:class:`learned.model.ModelConfig`); float32 default.
+    compile : bool
+        Training through ``torch.compile`` (:attr:`learned.trainer.TrainConfig.compile`); off by default.
     keypoint_trunk_dtype : {"float32", "bfloat16"}
         Precision of the keypoint model's convolutions (:class:`learned.model.ModelConfig`).
     keypoint_shift_px : int
@@ -111,6 +115,8 @@ class Preset:
     keypoint_channels: tuple | None = None
     keypoint_batch_size: int | None = None
     keypoint_trunk_dtype: str = "float32"
+    trunk_dtype: str = "float32"
+    compile: bool = False
     keypoint_average_epochs: int = 0
     keypoint_shift_px: int = 0
     keypoint_reference_frames: int = 0
@@ -179,6 +185,7 @@ class Preset:
             tuple(self.channels),
             tuple(self.hidden),
             translation_offset_mm=tuple(float(v) for v in offset_mm),
+            trunk_dtype=self.trunk_dtype,
         )
 
     def epoch_scale(self, kind: str, n_train_frames: int | None) -> float:
@@ -216,8 +223,8 @@ class Preset:
         if scale != 1.0:
             first_e, later_e = max(1, round(first_e * scale)), max(1, round(later_e * scale))
         return (
-            TrainConfig(first_e, batch_size, self.learning_rate, **extra),
-            TrainConfig(later_e, batch_size, self.learning_rate, **extra),
+            TrainConfig(first_e, batch_size, self.learning_rate, compile=self.compile, **extra),
+            TrainConfig(later_e, batch_size, self.learning_rate, compile=self.compile, **extra),
         )
 
     def to_dict(self) -> dict:

@@ -199,6 +199,8 @@ def train(
     if len(index) == 0:
         return 0
     torch.manual_seed(int(rng.integers(2**31)))
+    if _device(model).type != "cpu":  # channels-last convolutions (NHWC): the tensor cores' layout
+        model.to(memory_format=torch.channels_last)
     data = DeviceFrames.upload(frames, index, _device(model), model.config.kind)
     if distributed.world_size() > 1:
         with global_batchnorm(model):

@@ -657,3 +657,10 @@ OUTLINE_PX_BOUND = float(np.sqrt(2.0) / 2.0)
 #: a thousand of a correct watcher fails; a fault that multiplies the rate (the depth unit left uncorrected:
 #: the statistic follows the arm's pose for whole dwells) gives counts several times the mean, far beyond.
 FALSE_ALARM_COUNT_TAIL = 1e-3
+
+#: bfloat16 keeps 8 significant bits: a rounding moves a value by at most 2^-9 of it. A regression network's
+#: bfloat16 encoder rounds each layer's input and weights, so to first order a layer's output moves by at most
+#: 2 x 2^-9 of the magnitude of its terms, and L layers by 2 L 2^-9; the tiny networks' 3 convolutions and the
+#: float32 head's first dense layer fed by them: 2 x 4 x 2^-9 = 0.016 of the raw output's size. An encoder left
+#: in float32 differs by 0 (the test also asks for a difference).
+BF16_ENCODER_RTOL = 8 * 2.0**-9
