@@ -1,7 +1,7 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
-The files: the README, the getting-started page and the your-own-robot guide (``FILES``). Run from the
-repository root::
+The files: the README, the getting-started page, the your-own-robot and the images guides (``FILES``).
+Run from the repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
@@ -17,42 +17,68 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import os
 import re
 import shlex
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-FILES = (ROOT / "README.md", ROOT / "docs" / "getting-started.md", ROOT / "docs" / "guides" / "your-robot.md")
+#: The pages whose examples print their output.
+FILES = tuple(
+    ROOT / f for f in ("README.md", "docs/getting-started.md", "docs/guides/your-robot.md", "docs/guides/images.md")
+)
 #: A bash block with a ``handeye`` command, then a plain block: the command's output.
 EXAMPLE = re.compile(
     r"(^```bash\n(?P<command>handeye [^\n]+)\n```\n\n(?:[^\n`][^\n]*\n)*?\n?```\n)(?P<output>.*?)(^```)", re.S | re.M
 )
 
 
-def run(command: str) -> str:
-    """What ``command`` (a ``handeye`` command line) prints, run in-process from a fresh folder holding the
-    repository's ``handeye/`` (the shipped example files at the paths the documentation prints; the files a
-    command writes, a board or a plan, land in that folder and go with it)."""
+#: A bash block of one ``python -c`` line: a step that writes a page's inputs (a synthetic recording).
+SETUP = re.compile(r"^```bash\n(?P<setup>python -c [^\n]+)\n```\n", re.M)
+
+
+def run(command: str, folder: Path) -> str:
+    """What ``command`` (a ``handeye`` command line) prints, run in-process in ``folder``."""
     from handeye.cli import main
 
     out = io.StringIO()
-    with tempfile.TemporaryDirectory() as folder, contextlib.redirect_stdout(out), contextlib.chdir(folder):
-        (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
+    with contextlib.redirect_stdout(out), contextlib.chdir(folder):
         status = main(shlex.split(command)[1:])
     if status != 0:
         raise SystemExit(f"{command!r} exited {status}")
     return out.getvalue()
 
 
+def outputs(path: Path) -> list[tuple[re.Match, str]]:
+    """Each example of the file with what its command prints today: the file's steps (its ``python -c``
+    blocks and its examples) run in their order in one fresh folder holding the repository's ``handeye/``
+    (the shipped example files at the paths the documentation prints); what a step writes is there for the
+    next, and goes with the folder."""
+    text = path.read_text()
+    steps = sorted([*SETUP.finditer(text), *EXAMPLE.finditer(text)], key=lambda m: m.start())
+    printed = []
+    with tempfile.TemporaryDirectory() as folder:
+        (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
+        for m in steps:
+            if "setup" in m.groupdict():
+                env = dict(os.environ, PYTHONPATH=str(ROOT))
+                subprocess.run([sys.executable, *shlex.split(m["setup"])[1:]], cwd=folder, env=env, check=True)
+            else:
+                printed.append((m, run(m["command"], Path(folder))))
+    return printed
+
+
 def regenerate(path: Path) -> tuple[str, list[str]]:
     """The file's text with every example output regenerated, and the commands whose output changed."""
     text, changed = path.read_text(), []
+    fresh = {m.start(): output for m, output in outputs(path)}
 
     def replace(m: re.Match) -> str:
-        output = run(m["command"])
+        output = fresh[m.start()]
         if output != m["output"]:
             changed.append(m["command"])
         return m.group(1) + output + m.group(4)

@@ -223,15 +223,23 @@ def _board_of(block: str, kind: str | None, scratch: Path):
     return BoardSpec.load((scratch / argv[out]).with_suffix(".json"))
 
 
-def _images_guide_0(folder, home, block, request):
+def _images_guide_steps(folder, home, block, request):
+    """The images guide's steps 1 to 4: the stand-in recording (images/, robot.csv, board.json, camera.json,
+    truth.json, detections.json), whose board is the one step 1 prints."""
     rec = request.getfixturevalue("image_recording")
     from classic.vision.board import BoardSpec
 
-    assert _board_of(block, None, home.parent / "board") == BoardSpec.load(rec / "board.json"), (
-        "the stand-in images show another board than the one the block prints"
-    )
-    _copy(rec / "images", folder / "images")
-    _copy(rec / "robot.csv", folder / "robot.csv")
+    if "handeye board" in block:
+        assert _board_of(block, None, home.parent / "board") == BoardSpec.load(rec / "board.json"), (
+            "the stand-in images show another board than the one the block prints"
+        )
+    for name in ("images", "robot.csv", "board.json", "camera.json", "truth.json", "detections.json"):
+        _copy(rec / name, folder / name)
+
+
+def _vision(folder, home, block, request):
+    """Nothing: the block writes its own recording (OpenCV installed)."""
+    _have("cv2")
 
 
 def _images_guide_1(folder, home, block, request):
@@ -461,8 +469,12 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "renders and labels the 1,000 placements of dense-sim on a running Ray cluster: 3.4 core-hours",
         _ray_head,
     ),
-    ("docs/guides/images.md", 0): Block("handeye board --squares 7x5", "a", "", _images_guide_0),
-    ("docs/guides/images.md", 1): Block("handeye board --kind checkerboard", "a", "", _images_guide_1),
+    ("docs/guides/images.md", 0): Block("python -c", "a", "", _vision),
+    ("docs/guides/images.md", 1): Block("handeye board --squares 7x5", "a", "", _images_guide_steps),
+    ("docs/guides/images.md", 2): Block("handeye intrinsics images/", "a", "", _images_guide_steps),
+    ("docs/guides/images.md", 3): Block("handeye detect images/", "a", "", _images_guide_steps),
+    ("docs/guides/images.md", 4): Block("handeye calibrate --detections", "a", "", _images_guide_steps),
+    ("docs/guides/images.md", 5): Block("handeye board --kind checkerboard", "a", "", _images_guide_1),
     ("docs/guides/learned.md", 0): Block(
         "handeye learned run --data data/paper-sim --preset cpu", "b", _CPU_TRAINING, _paper_sim
     ),
