@@ -63,7 +63,9 @@ class WatchOptions:
     false_alarms_per_hour : float
         The change test's false-alarm rate: an upper bound while the frames' statistic follows the null learnt
         (independent frames, ``chi2(6)`` after the fit; :mod:`handeye.watch.change`); correlated frames and
-        unmodelled changes (a dimmed light) raise it (docs/benchmarks/running-cell.md).
+        unmodelled changes (a dimmed light, an occluder too small to screen) raise it: the measured rate is in
+        docs/benchmarks/running-cell.md. A depth unit left uncorrected made the frames correlated (the statistic
+        follows the arm's pose); the first learning fits it (:func:`handeye.watch.change.fit_depth_unit`).
     null_frames : int
         Usable frames "nothing moved" is learnt from (about the first 10 s at 30 Hz by default).
     relearn_frames : int
