@@ -63,6 +63,8 @@ __all__ = [
     "ImportReport",
     "joints_at",
     "nearest_in_time",
+    "check_image_size",
+    "UNREGISTERED_DEPTH_HINT",
     "assemble",
     "import_recordings",
 ]
@@ -71,6 +73,11 @@ __all__ = [
 DEPTH_SCALE_M = 1e-4
 #: The temporary folder an import writes beside its target and renames to it when complete (then host and pid).
 _TMP_PREFIX = ".{name}.importing-"
+#: What a depth image of another size than the colour camera_info's needs (:func:`check_image_size`).
+UNREGISTERED_DEPTH_HINT = (
+    ": record the depth registered to the colour camera (RealSense: align_depth.enable:=true; Azure Kinect: "
+    "depth_mode with the point cloud in the colour camera) and give that camera's camera_info"
+)
 #: The furthest depth the dataset's 16-bit PNGs hold, metres (beyond it a pixel is stored as no depth).
 MAX_DEPTH_M = DEPTH_SCALE_M * np.iinfo(np.uint16).max
 #: More than this fraction of a recording's frames without a partner within the tolerance is refused as
@@ -404,12 +411,27 @@ def undistorter(intrinsics):
     return undistort
 
 
-def _check_size(image: np.ndarray, intrinsics, what: str, where: str, hint: str) -> None:
+def check_image_size(image: np.ndarray, size: tuple, what: str, where: str, hint: str = "") -> None:
+    """Refuse an image of another size than its camera's.
+
+    Parameters
+    ----------
+    image : array, shape (H, W) or (H, W, C)
+    size : (int, int)
+        The camera_info's ``(width, height)``.
+    what, where : str
+        The image's name and where it came from (for the message).
+    hint : str
+        Appended to the message (:data:`UNREGISTERED_DEPTH_HINT` for a depth image).
+
+    Raises
+    ------
+    ImageSizeError
+    """
     h, w = image.shape[:2]
-    if (w, h) != (int(intrinsics.width), int(intrinsics.height)):
-        raise ImageSizeError(
-            f"{where}: {what} is {w}x{h}, the camera_info is for {int(intrinsics.width)}x{int(intrinsics.height)}{hint}"
-        )
+    width, height = int(size[0]), int(size[1])
+    if (w, h) != (width, height):
+        raise ImageSizeError(f"{where}: {what} is {w}x{h}, the camera_info is for {width}x{height}{hint}")
 
 
 def _check_depth_in_range(depth_m: np.ndarray, where: str) -> None:
@@ -485,10 +507,7 @@ def assemble(part: RecordedPlacement, robot, options: ImportOptions) -> tuple[li
     if part.depth is not None:
         kept = kept[_spread(len(kept), options.max_frames)]
     undistort = undistorter(intr) if part.depth is not None else None
-    hint = (
-        ": record the depth registered to the colour camera (RealSense: align_depth.enable:=true; Azure Kinect: "
-        "depth_mode with the point cloud in the colour camera) and give that camera's camera_info"
-    )
+    size = (intr.width, intr.height)
     if part.depth is not None:
         check_depth_stream([lead.images[order[i]] for i in kept], lead.source)
     frames = []
@@ -497,11 +516,11 @@ def assemble(part: RecordedPlacement, robot, options: ImportOptions) -> tuple[li
         if part.depth is not None:
             depth = lead.images[order[i]]
             where = f"{lead.source}, {lead.names[order[i]]}"
-            _check_size(depth, intr, "the depth image", where, hint)
+            check_image_size(depth, size, "the depth image", where, UNREGISTERED_DEPTH_HINT)
             check_depth_frame(depth, 1.0, where)
             _check_depth_in_range(depth, where)
         rgb = part.color.images[color_idx[i]]
-        _check_size(rgb, intr, "the colour image", f"{part.color.source}, {part.color.names[color_idx[i]]}", "")
+        check_image_size(rgb, size, "the colour image", f"{part.color.source}, {part.color.names[color_idx[i]]}")
         if part.depth is not None:
             depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(np.float32)
             if undistort is not None:

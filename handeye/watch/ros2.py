@@ -15,9 +15,10 @@ Each depth image becomes a :class:`handeye.watch.Frame` with the joints of the `
 within ``joint_tolerance_s`` (not interpolated: off by up to half the driver's period of motion; none: the frame
 is left out and counted); its time is seconds since the first depth image's stamp. The depth is read as the bag
 reader reads it (:func:`handeye.ros_bag.image_array`; 16-bit in millimetres, 32FC1 in metres, REP 118) and must
-be registered to the camera of ``camera_info``, without distortion (a distorted one is refused: replay a bag,
-which undistorts as the import does). The colour topic (``Ros2Topics.color``, None for none) gives each frame
-the colour image nearest its stamp within the same tolerance (the continual learner's input).
+be registered to the camera of ``camera_info``, of its size (another size is refused, as the import refuses it),
+without distortion (a distorted one is refused: replay a bag, which undistorts as the import does). The colour
+topic (``Ros2Topics.color``, None for none) gives each frame the colour image nearest its stamp within the same
+tolerance (the continual learner's input).
 """
 
 from __future__ import annotations
@@ -154,6 +155,7 @@ class Ros2Frames:
         return None if best is None else best[1]
 
     def _on_depth(self, msg) -> None:
+        from handeye.recording_import import UNREGISTERED_DEPTH_HINT, check_image_size
         from handeye.ros_bag import image_array
 
         if self.K is None:
@@ -167,6 +169,9 @@ class Ros2Frames:
         if isinstance(msg.data, (bytes, bytearray, memoryview)):  # some bindings give bytes, not an array
             msg = _with_array_data(msg)
         img = image_array(msg)
+        check_image_size(
+            img, self.size, "the depth image", f"{self.topics.depth} at {stamp:.6f} s", UNREGISTERED_DEPTH_HINT
+        )
         unit = self.depth_unit_m if self.depth_unit_m is not None else (1e-3 if img.dtype == np.uint16 else 1.0)
         depth = img.astype(np.float32) * np.float32(unit)
         depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(np.float32)
@@ -174,6 +179,8 @@ class Ros2Frames:
             self._origin = stamp
         colour = self._nearest(self._colour, stamp)
         rgb = None if colour is None else _rgb(colour)
+        if rgb is not None:
+            check_image_size(rgb, self.size, "the colour image", f"{self.topics.color} at {stamp:.6f} s")
         self._pending.append(Frame(stamp - self._origin, depth, q, self._index, None, rgb))
         self._index += 1
 

@@ -215,16 +215,25 @@ def bag_frames(
     ------
     NotABagError, BagTopicError, BagError, RecordingError, IntrinsicsError
         As :func:`handeye.import_bag.read_camera_bag`.
+    ImageSizeError
+        A depth or colour image of another size than the camera_info's (depth not registered to that camera).
     JointNamesError
         A model joint the bag does not have.
     HandEyeInputError
         No depth frame with joints within the tolerance.
     """
     from handeye.import_bag import read_camera_bag
-    from handeye.recording_import import joints_at, nearest_in_time, undistorter
+    from handeye.recording_import import (
+        UNREGISTERED_DEPTH_HINT,
+        check_image_size,
+        joints_at,
+        nearest_in_time,
+        undistorter,
+    )
 
     topics = topics or BagTopics()
     part = read_camera_bag(bag, topics.color, topics.info, topics.depth, topics.joints, depth_unit_m=depth_unit_m)
+    size = (int(part.intrinsics.width), int(part.intrinsics.height))
     order = np.argsort(part.depth.times_s, kind="stable")
     times = part.depth.times_s[order]
     q, keep = joints_at(part.joints, list(joint_names), times, joint_tolerance_s)
@@ -233,8 +242,17 @@ def bag_frames(
     frames = []
     for k in np.flatnonzero(keep):
         depth = part.depth.images[order[k]]
+        check_image_size(
+            depth,
+            size,
+            "the depth image",
+            f"{part.depth.source}, {part.depth.names[order[k]]}",
+            UNREGISTERED_DEPTH_HINT,
+        )
         depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(np.float32)
         rgb = part.color.images[color_idx[k]] if has_color[k] else None
+        if rgb is not None:
+            check_image_size(rgb, size, "the colour image", f"{part.color.source}, {part.color.names[color_idx[k]]}")
         if undistort is not None:
             rgb, depth = undistort(rgb if rgb is not None else np.zeros(depth.shape + (3,), np.uint8), depth)
             rgb = rgb if has_color[k] else None
@@ -243,9 +261,7 @@ def bag_frames(
         raise HandEyeInputError(
             f"{part.source}: no depth frame has joint states within {joint_tolerance_s} s ({topics.joints})"
         )
-    intr = part.intrinsics
-    size = (int(intr.width), int(intr.height))
-    return BagStream(np.asarray(intr.K, dtype=float), size, frames, int((~keep).sum()), part.source)
+    return BagStream(np.asarray(part.intrinsics.K, dtype=float), size, frames, int((~keep).sum()), part.source)
 
 
 def paced(frames: Iterable[Frame], speed: float = 1.0, clock=time.monotonic, sleep=time.sleep) -> Iterator[Frame]:
