@@ -112,15 +112,10 @@ def _setup(network: str, size: str, dtype: str, batch: int | None, n_keypoints: 
 
 def _step(model, data, pos, optimizer, config, rng):
     """One training step as :func:`learned.trainer.train` takes it (its loss, backward, Adam)."""
-    import torch
-
-    from learned.trainer import _loss
+    from learned.trainer import batch_loss
 
     optimizer.zero_grad()
-    shifts = None
-    if config.shift_px and model.config.kind == "keypoints":
-        shifts = torch.from_numpy(rng.integers(-config.shift_px, config.shift_px + 1, size=(len(pos), 2)))
-    loss = _loss(model, data, pos, None, config.heatmap_spread_weight, shifts, config.shift_px)[0]
+    loss = batch_loss(model, model, False, data, pos, config, rng)
     loss.backward()
     optimizer.step()
 

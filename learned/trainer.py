@@ -17,7 +17,7 @@ from learned.losses import chordal_loss, translation_loss
 from learned.metrics import rotation_errors_deg, translation_errors_mm
 from learned.model import CalibrationNet
 
-__all__ = ["TrainConfig", "train", "predict", "errors", "default_device"]
+__all__ = ["TrainConfig", "train", "batch_loss", "predict", "errors", "default_device"]
 
 
 def default_device() -> torch.device:
@@ -236,6 +236,48 @@ def estimate_residuals(model: CalibrationNet, frames: FrameSet, index: np.ndarra
     model.residual_stats.copy_(torch.from_numpy(stats))
 
 
+def batch_loss(
+    model: CalibrationNet,
+    net: torch.nn.Module,
+    sliced: bool,
+    data: DeviceFrames,
+    pos: torch.Tensor,
+    config: TrainConfig,
+    rng: np.random.Generator,
+) -> torch.Tensor:
+    """The loss of one training batch as :func:`train` computes it (what its step differentiates).
+
+    Parameters
+    ----------
+    model : CalibrationNet
+    net : torch.nn.Module
+        Runs the forward pass: ``model``, or its compiled or data-parallel wrapper.
+    sliced : bool
+        Data-parallel: this rank's weighted share of the batch (:func:`_slice_loss`).
+    data : DeviceFrames
+    pos : tensor of int, shape (B,)
+        The batch's positions in ``data``.
+    config : TrainConfig
+    rng : numpy.random.Generator
+        The keypoint model's shifts are drawn from it, for the whole batch and only when
+        ``config.shift_px`` is on (the stream is unchanged when off).
+
+    Returns
+    -------
+    tensor
+        A scalar.
+    """
+    spread = config.heatmap_spread_weight
+    shifts = (
+        torch.from_numpy(rng.integers(-config.shift_px, config.shift_px + 1, size=(len(pos), 2)))
+        if config.shift_px > 0 and model.config.kind == "keypoints"
+        else None
+    )
+    if sliced:
+        return _slice_loss(net, model, data, pos, spread, shifts, config.shift_px)
+    return _loss(model, data, pos, net, spread, shifts, config.shift_px)[0]
+
+
 def _compiled(net: torch.nn.Module, config: TrainConfig) -> torch.nn.Module:
     """``net`` through ``torch.compile`` when ``config.compile``, else ``net`` itself."""
     return torch.compile(net) if config.compile else net
@@ -307,18 +349,7 @@ def _epochs(
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             optimizer.zero_grad()
-            spread = config.heatmap_spread_weight
-            # drawn for the whole batch (the same on every rank), and only when on: the stream is unchanged when off
-            shifts = (
-                torch.from_numpy(rng.integers(-config.shift_px, config.shift_px + 1, size=(len(batch), 2)))
-                if config.shift_px > 0 and model.config.kind == "keypoints"
-                else None
-            )
-            loss = (
-                _slice_loss(net, model, data, batch, spread, shifts, config.shift_px)
-                if sliced
-                else _loss(model, data, batch, net, spread, shifts, config.shift_px)[0]
-            )
+            loss = batch_loss(model, net, sliced, data, batch, config, rng)
             loss.backward()
             optimizer.step()
             if scheduler is not None:
