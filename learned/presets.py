@@ -89,6 +89,13 @@ class Preset:
         The naive strategy's batch size; the others' when omitted.
     pose_steps : bool
         Record selection's error on every test subset after each camera pose (the paper's Tables 17-18).
+    label_method : str
+        The closed form of the labels the classic targets must be (``handeye label --method``): ``park``
+        (this project's), ``tsai`` (the paper's).
+    label_repeats : int
+        The labels' repeats (``handeye label --repeats``): 0, this project's label (closed form, maximum
+        likelihood, corner reprojection); 5, the paper's (the closed form alone, repeated, averaged). A run
+        from the command line refuses a dataset labelled otherwise (:func:`learned.label_kind.check_labels`).
     """
 
     name: str
@@ -127,6 +134,8 @@ class Preset:
     batch_every_step: bool = False
     naive_batch_size: int | None = None
     pose_steps: bool = False
+    label_method: str = "park"
+    label_repeats: int = 0
 
     def __post_init__(self):
         if self.protocol not in PROTOCOLS:

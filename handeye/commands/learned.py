@@ -119,7 +119,8 @@ def _add_protocol_args(r: argparse.ArgumentParser) -> None:
         "--protocol",
         choices=("paper", "handeye"),
         help="paper: the seed paper's protocol as written (RMSE, normal sampling, c2 = 14, four samples per past "
-        "novel pose, the baseline retrained at every step, a small naive batch, per-pose steps of selection); "
+        "novel pose, the baseline retrained at every step, a small naive batch, per-pose steps of selection, the "
+        "paper's labels: 'handeye label --method tsai --repeats 5'); "
         "handeye: this project's (default: the preset's; paper for the paper preset, handeye for the others)",
     )
     r.add_argument(
@@ -181,6 +182,9 @@ def _prepare(args: argparse.Namespace, writer: bool):
         "threshold_deg": args.threshold_deg,
     }
     preset = dataclasses.replace(preset, **{k: v for k, v in changes.items() if v is not None})
+    from learned.label_kind import check_labels
+
+    check_labels(preset, args.data, args.labels)  # the paper's protocol trains on the paper's labels (Tsai x5)
     data = args.data
     if args.family == "keypoints":
         from handeye.core.optional import require_package

@@ -141,11 +141,11 @@ def test_selection_judges_novelty_by_the_placement_at_the_thresholds_the_command
     assert not (tmp_path / "reg").exists() and not (tmp_path / "zero").exists()
 
 
-def test_the_papers_protocol_from_the_command_line(small_dataset, tmp_path, capsys):
+def test_the_papers_protocol_from_the_command_line(paper_labelled, tmp_path, capsys):
     """--protocol paper sets the paper's choices, --c2 all replays every past pose; bad --c2 values refused."""
     from handeye.cli import main
 
-    root, out = small_dataset[0], tmp_path / "paper"
+    root, out = paper_labelled, tmp_path / "paper"
     args = ["learned", "run", "--data", str(root), "--preset", "tiny", "--quiet", "--threads", "2"]
     paper = ["--strategies", "batch,selection", "--protocol", "paper", "--c2", "all"]
     assert main([*args, *paper, "--out", str(out)]) == 0

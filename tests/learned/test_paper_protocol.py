@@ -28,6 +28,8 @@ def test_the_paper_preset_runs_the_papers_protocol_and_the_others_this_projects(
     assert paper.protocol == "paper" and paper.metric == "rmse" and paper.sampling == "normal"
     assert paper.c2 == 14 and paper.selection_replay == "all" and paper.batch_every_step and paper.pose_steps
     assert paper.naive_batch_size == PAPER_NAIVE_BATCH
+    assert (paper.label_method, paper.label_repeats) == ("tsai", 5)  # the paper's labels: Tsai, 5 repeats
+    assert (PRESETS["cpu"].label_method, PRESETS["cpu"].label_repeats) == ("park", 0)
     for name in ("tiny", "demo", "cpu"):
         assert PRESETS[name].protocol == "handeye"
         assert PRESETS[name].with_protocol("handeye") == PRESETS[name]  # the defaults are this project's mode
@@ -37,8 +39,9 @@ def test_the_paper_preset_runs_the_papers_protocol_and_the_others_this_projects(
 def test_every_field_where_the_modes_differ_is_a_named_departure():
     differing = {k for k in PROTOCOLS["paper"] if PROTOCOLS["paper"][k] != PROTOCOLS["handeye"][k]}
     named = {"metric", "sampling", "c2", "selection_replay", "batch_every_step", "naive_batch_size", "pose_steps"}
-    assert differing == named
-    assert len(DEPARTURES) == len(named) + 1  # and the labels, chosen by 'handeye label --method'
+    labels = {"label_method", "label_repeats"}  # one departure: the labels ('handeye label --method --repeats')
+    assert differing == named | labels
+    assert len(DEPARTURES) == len(named) + 1
     assert all(len(row) == 4 and all(row) for row in DEPARTURES)
 
 
