@@ -185,14 +185,22 @@ class BackgroundLearner:
 
     def starts(self, frames: list) -> dict:
         """``{"learned": T_base_cam}`` predicted from ``frames`` (the watcher's ``extra_starts``); ``{}`` when
-        untrained, training now, or the frames have no colour."""
+        untrained, training now, or the frames have no colour, and when the prediction fails or is not a rigid
+        transform (a line in :attr:`reports` says why: the learner never stops the watcher, and the registration
+        raises on a start that is not a rigid transform)."""
+        from handeye.core.validation import check_transforms
+
         if not getattr(self.calibrator, "models", None) or any(getattr(f, "rgb", None) is None for f in frames):
             return {}
         if not self._busy.acquire(blocking=False):
             return {}
         try:
             data = frame_set(frames, None, self.reference, self.K, self.image_size, 0)
-            return {"learned": self.calibrator.predict(data.rgb, data.depth_m, data.pose_base_ref)}
+            T = self.calibrator.predict(data.rgb, data.depth_m, data.pose_base_ref)
+            return {"learned": check_transforms(T, "the learned T_base_cam")[0]}
+        except Exception as exc:  # reported: the recalibration starts without it
+            self.reports.append(f"learner: no start: {type(exc).__name__}: {exc}")
+            return {}
         finally:
             self._busy.release()
 
