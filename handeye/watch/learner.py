@@ -7,8 +7,10 @@ background, its prediction an extra start of the markerless recalibration.
 - as a :class:`handeye.watch.CellWatcher` ``on_commit`` hook it takes the committed ``T_base_cam`` and the
   frames it came from and queues them; one worker thread turns them into a :class:`learned.data.FrameSet` (the
   committed calibration is the target, ``T_base_ref`` from the robot's kinematics, the images at the preset's
-  size) and calls ``observe``, whose novelty test decides whether it trains. The hook returns at once: the check
-  never waits for the training (it shares the CPU with it, though: give the process a core for each);
+  size; its camera pose number the calibration's version, or the next unused one where the learner has seen that
+  number or there is no history) and calls ``observe``, whose novelty test decides whether it trains. The hook
+  returns at once: the check never waits for the training (it shares the CPU with it, though: give the process a
+  core for each);
 - as the watcher's ``extra_starts`` it gives ``{"learned": T_base_cam}`` predicted from the collected frames,
   when a model is trained and not training at that moment (a prediction never waits for a training either:
   while one runs the recalibration starts from the last calibration alone; with ``in_process`` the training
@@ -133,6 +135,7 @@ class BackgroundLearner:
         self._offers: queue.Queue = queue.Queue()
         self._worker: threading.Thread | None = None
         self._pending = 0  # offers queued or being learnt
+        self._cameras: set[int] = set()  # the camera pose numbers given to offers
         self._idle = threading.Condition()
 
     @property
@@ -155,7 +158,7 @@ class BackgroundLearner:
         while True:
             T, frames, version = self._offers.get()
             try:
-                data = frame_set(frames, T, self.reference, self.K, self.image_size, version or 0)
+                data = frame_set(frames, T, self.reference, self.K, self.image_size, self._camera(version))
                 out = self._observe(data)
                 trained = any(isinstance(v, dict) and v.get("novel") for v in out.values()) or out.get("first")
                 if trained and self.save_path is not None:
@@ -168,6 +171,15 @@ class BackgroundLearner:
                 with self._idle:
                     self._pending -= 1
                     self._idle.notify_all()
+
+    def _camera(self, version: int | None) -> int:
+        """The offer's camera pose number: the calibration's version unless the learner has seen that number (a
+        state loaded from another history) or there is none (no history), then the next unused one."""
+        seen = {int(c) for e in getattr(self.calibrator, "history", []) for c in e.get("cameras", [])}
+        seen |= self._cameras
+        camera = version if version is not None and version not in seen else max(seen, default=-1) + 1
+        self._cameras.add(camera)
+        return camera
 
     def _observe(self, data) -> dict:
         """``observe`` here (the calibrator locked) or in a child process (the calibrator replaced after)."""
