@@ -268,11 +268,11 @@ def _jacobian_numeric(A, B, X, Y, s_r, s_t, h=1e-7):
 
 
 class _Problem:
-    """The residuals and Jacobian of one pass, about a base point ``(X, Y, s, dt)`` with fixed ``W_i``."""
+    """The residuals and Jacobian of one pass, about a base point ``at = (X, Y, s, dt)`` with fixed ``W_i``."""
 
-    def __init__(self, A_of, B, setup, X, Y, s, dt, W, with_scale, with_offset):
+    def __init__(self, A_of, B, setup, at: tuple, W, with_scale, with_offset):
         self.A_of, self.B, self.setup = A_of, B, setup
-        self.X, self.Y, self.s, self.dt, self.W = X, Y, s, dt, W
+        (self.X, self.Y, self.s, self.dt), self.W = at, W
         self.with_scale, self.with_offset = with_scale, with_offset
         self.n_params = 12 + int(with_scale) + int(with_offset)
         self._last = None
@@ -421,7 +421,7 @@ class _Run:
     def problem(self, W: np.ndarray, X=None, Y=None, s=None, dt=None) -> _Problem:
         """The residuals about the estimate (or the given point) with the whitening ``W`` fixed."""
         at = (self.X, self.Y, self.s, self.dt) if X is None else (X, Y, s, dt)
-        return _Problem(self.A_of, self.B, self.opts.setup, *at, W, self.opts.estimate_scale, self.with_offset)
+        return _Problem(self.A_of, self.B, self.opts.setup, at, W, self.opts.estimate_scale, self.with_offset)
 
     def whitening(self) -> np.ndarray:
         """``W_i`` of the noise model at the estimate, shape (N, 6, 6)."""

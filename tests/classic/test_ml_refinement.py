@@ -202,7 +202,7 @@ def test_problem_jacobian_with_scale_and_time_offset_matches_central_differences
         return robot_side_poses(T, setup), rate
 
     W = whitening(residual_covariances(MODEL, A, B, p.X_true, p.Y_true, setup))
-    prob = _Problem(A_of, B, setup, p.X_true, p.Y_true, 1.3, 0.05, W, True, True)
+    prob = _Problem(A_of, B, setup, (p.X_true, p.Y_true, 1.3, 0.05), W, True, True)
     x = rng.normal(scale=1e-3, size=prob.n_params)
     J = prob.jac(x)
     h = 1e-7
