@@ -328,7 +328,8 @@ class _Findings:
         else:
             paper, verdict = ("competitive with the baseline", "less data"), (NO_CLAIM, NO_CLAIM)
         self.add("cost", net, f"{strategy}'s error against the baseline", paper[0], describe(diff, unit=u), verdict[0])
-        ours_data = describe(less * 100, "{:.0f}", "% less data")
+        more = np.nanmean(less) < 0
+        ours_data = describe(-less * 100 if more else less * 100, "{:.0f}", "% more data" if more else "% less data")
         self.add("cost", net, f"{strategy}'s data against the baseline", paper[1], ours_data, verdict[1])
 
     def eliminated(self, net: str) -> str | None:
