@@ -66,6 +66,7 @@ import pytest
 
 from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
+from tests.shared_renders import shared_build
 from tests.test_docs import DOCS, README, ROOT, code_blocks
 from tests.tiers import hold_ray_lock
 from tests.tolerances import FLOAT
@@ -124,16 +125,19 @@ def paper_sim_standin(tmp_path_factory):
     from sim.cameras import PRESETS
     from sim.generate import Recipe, generate
 
-    root = tmp_path_factory.mktemp("paper-sim")
     # 16 placements: the block names cameras 14 and 15; 4 configurations: with 3, the registration refuses 7 of
     # the 16 placements and the block's 'handeye markerless data/paper-sim --write-labels' exits 1
     preset = dataclasses.replace(
         PRESETS["small"], name="paper-sim-standin", train_per_region=(7, 7), test_per_region=(1, 1), configurations=4
     )
-    generate(root / "data", Recipe(preset, seed=0), options=EngineOptions(workers=2, progress=False))
-    label_dataset(root / "data", workers=2, progress=False)
-    argv = ["learned", "run", "--data", str(root / "data"), "--preset", "tiny", "--strategies", "reservoir"]
-    assert main([*argv, "--out", str(root / "runs"), "--quiet"]) == 0
+
+    def build(root):
+        generate(root / "data", Recipe(preset, seed=0), options=EngineOptions(workers=2, progress=False))
+        label_dataset(root / "data", workers=2, progress=False)
+        argv = ["learned", "run", "--data", str(root / "data"), "--preset", "tiny", "--strategies", "reservoir"]
+        assert main([*argv, "--out", str(root / "runs"), "--quiet"]) == 0
+
+    root, _ = shared_build(tmp_path_factory, "paper-sim-standin", build)  # one for the blocks on every worker
     return root / "data", root / "runs" / "reservoir"
 
 
@@ -151,17 +155,22 @@ def d435_cell(tmp_path_factory):
     from sim.generate import NoiseModel, Recipe, generate
     from tests.test_import_recording import PRESET
 
-    root = tmp_path_factory.mktemp("cell")
     preset = dataclasses.replace(PRESET, name="cell", image_size=(480, 480), configurations=8)
     noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
     recipe = Recipe(preset, seed=5, noise=noise, sensor="d435")
-    generate(root / "sim", recipe, options=EngineOptions(workers=2, progress=False))
-    ds = Dataset.open(root / "sim")
-    bags = [write_placement_bags(ds, c, root / "bags") for c in range(2)]
-    BoardSpec(**ds.meta["board"]).save(root / "board.json")
-    argv = ["import", "bag", *(str(b["data"]) for b in bags), "--calibration", *(str(b["calibration"]) for b in bags)]
-    assert main([*argv, "--robot", "ur5", "--board", str(root / "board.json"), "--out", str(root / "my-cell")]) == 0
-    return ds, bags, root / "board.json", root / "my-cell"
+
+    def build(root):
+        generate(root / "sim", recipe, options=EngineOptions(workers=2, progress=False))
+        ds = Dataset.open(root / "sim")
+        bags = [write_placement_bags(ds, c, root / "bags") for c in range(2)]
+        BoardSpec(**ds.meta["board"]).save(root / "board.json")
+        argv = ["import", "bag", *(str(b["data"]) for b in bags)]
+        argv += ["--calibration", *(str(b["calibration"]) for b in bags)]
+        assert main([*argv, "--robot", "ur5", "--board", str(root / "board.json"), "--out", str(root / "my-cell")]) == 0
+        return bags
+
+    root, bags = shared_build(tmp_path_factory, "d435-cell", build)  # one for the blocks on every worker
+    return Dataset.open(root / "sim"), bags, root / "board.json", root / "my-cell"
 
 
 @pytest.fixture(scope="session")
