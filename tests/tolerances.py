@@ -281,6 +281,11 @@ MM = 1e-3
 #: whole square (>= 1e-2 m).
 FLOAT32_M = 1e-7
 
+#: A value stored as float32 after at most three float32 roundings (each <= 2^-24 relative: a cast, a product of
+#: two cast factors such as a 16-bit depth times its unit): <= 3 x 2^-24 relative; 2^-22 leaves a factor 4/3. A
+#: millimetre lost on a metre (a wrong unit, a frame paired with another frame's value) is 1e-3 relative.
+FLOAT32_RTOL = 2.0**-22
+
 #: Corners detected on a flat image from BoardSpec.render at a scale with a
 #: whole number of pixels per square: each corner is an exact symmetric saddle
 #: on a pixel boundary, which cornerSubPix's fixed point is; ChArUco's sub-pixel

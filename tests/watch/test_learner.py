@@ -13,7 +13,7 @@ import pytest
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.watch.learner import BackgroundLearner, frame_set
 from tests.classic.test_markerless import K
-from tests.tolerances import EXACT
+from tests.tolerances import EXACT, FLOAT32_RTOL
 from tests.watch.cell_streams import RECAL_FRAMES, T_BUMPED, KnownAnswer, bumped_frames, watcher
 
 #: How long the slow fake trains at most (it waits for the test to let it end): a synchronous learner would hold
@@ -74,11 +74,11 @@ def test_a_commit_is_offered_and_feed_returns_while_the_learner_trains(tmp_path)
     data = cal.observed[0]
     n = len(data)
     assert data.rgb.shape == (n, 3, IMAGE_SIZE[1], IMAGE_SIZE[0]) and data.depth_m.shape == (n, 1, 12, 16)
-    np.testing.assert_allclose(data.t_base_cam_mm, np.tile(1e3 * T_BUMPED[:3, 3], (n, 1)), rtol=1e-6)
+    np.testing.assert_allclose(data.t_base_cam_mm, np.tile(1e3 * T_BUMPED[:3, 3], (n, 1)), rtol=FLOAT32_RTOL)
     assert set(data.camera) == {w.version}
     # the reference poses are the kinematics' at each frame's joints
     q = np.stack([f.joints for f in bumped_frames() if f.index in w.history.latest().frames])
-    np.testing.assert_allclose(data.pose_base_ref[:, :3], q[:, :3], atol=1e-6)
+    np.testing.assert_allclose(data.pose_base_ref[:, :3], q[:, :3], rtol=FLOAT32_RTOL)
 
 
 def test_the_learned_prediction_is_an_extra_start_unless_it_is_training(tmp_path):
