@@ -40,6 +40,7 @@ __all__ = [
 
 def add_source_arguments(p: argparse.ArgumentParser) -> None:
     """The options of a bag, of live ROS 2, of the published transform and of the learner."""
+    from handeye.watch.ros2 import BASE_FRAME
     from handeye.watch.source import BagTopics
 
     g = p.add_argument_group("ROS 2 bag or live topics (module handeye.commands.watch_sources)")
@@ -53,7 +54,12 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--depth-unit", type=cli_float, default=None, help="metres per depth unit (default: REP 118)")
     g.add_argument("--joint-tolerance", type=cli_float, default=0.02, help="depth stamp to joints, s (default 0.02)")
     g.add_argument("--publish-tf", action="store_true", help="publish the static transform (implied by --ros2)")
-    g.add_argument("--base-frame", default="base", help="tf parent frame (default base)")
+    g.add_argument(
+        "--base-frame",
+        default=BASE_FRAME,
+        help=f"tf parent frame: the robot model's root, whose kinematics T_base_cam is in (default {BASE_FRAME}; "
+        "not UR's 'base', turned 180 deg about z from it)",
+    )
     g.add_argument("--camera-frame", default="camera_color_optical_frame", help="tf child frame")
     g.add_argument("--learner", type=Path, help="continual learner state (loaded when there, saved after training)")
     g.add_argument("--learner-preset", default="cpu", help="preset of a new learner (default cpu)")

@@ -9,7 +9,7 @@ A user runs, in a shell where ROS 2 is sourced::
 
     handeye watch --ros2 --sensor d435 --camera-start start.json --history cell.jsonl --current cell.json \\
         --depth-topic /camera/aligned_depth_to_color/image_raw --info-topic /camera/color/camera_info \\
-        --joints-topic /joint_states --base-frame base --camera-frame camera_color_optical_frame
+        --joints-topic /joint_states --base-frame base_link --camera-frame camera_color_optical_frame
 
 Each depth image becomes a :class:`handeye.watch.Frame` with the joints of the ``JointState`` nearest its stamp
 within ``joint_tolerance_s`` (not interpolated: off by up to half the driver's period of motion; none: the frame
@@ -32,7 +32,7 @@ import numpy as np
 from handeye.core.errors import HandEyeInputError
 from handeye.watch.source import Frame
 
-__all__ = ["Ros2Topics", "Ros2Frames", "TfPublisher", "require_rclpy"]
+__all__ = ["BASE_FRAME", "Ros2Topics", "Ros2Frames", "TfPublisher", "require_rclpy"]
 
 #: What a user does to get rclpy (it comes with ROS 2, not from PyPI).
 RCLPY_HINT = (
@@ -40,6 +40,9 @@ RCLPY_HINT = (
     "pip: install ROS 2 and run `source /opt/ros/<distro>/setup.bash` in this shell, with this Python the "
     "distribution's (python3 -c 'import rclpy, tf2_ros' must work); or replay a recording: handeye watch BAG"
 )
+#: The static transform's parent frame: the robot model's root, the frame its kinematics (and so ``T_base_cam``)
+#: are in; for the UR models ``base_link`` (UR's ``base`` link is turned 180 degrees about z from it).
+BASE_FRAME = "base_link"
 #: Joint samples kept to pair with depth stamps (a few seconds at a driver's 100-500 Hz).
 JOINT_SAMPLES_KEPT = 1000
 #: Colour images kept to pair with depth stamps (a second at 30 Hz).
@@ -246,10 +249,11 @@ class TfPublisher:
     ----------
     node : rclpy.node.Node
     parent_frame, camera_frame : str
-        The robot base's tf frame and the depth camera's optical frame.
+        The tf frame of the robot model's root, in which its kinematics give ``T_base_cam`` (:data:`BASE_FRAME`),
+        and the depth camera's optical frame.
     """
 
-    def __init__(self, node, parent_frame: str = "base", camera_frame: str = "camera_color_optical_frame"):
+    def __init__(self, node, parent_frame: str = BASE_FRAME, camera_frame: str = "camera_color_optical_frame"):
         from tf2_ros import StaticTransformBroadcaster
 
         self.node = node

@@ -193,7 +193,7 @@ def test_rollback_publishes_the_version_it_restores(tmp_path, capsys, monkeypatc
     h.append(make_transform(np.eye(3), [1.0, 2.0, 3.0]), "test")
     h.append(np.eye(4), "test")
     assert main(["watch", "rollback", "--history", str(h.path), "1", "--publish-tf", "--camera-frame", "cam"]) == 0
-    assert "published base -> cam" in capsys.readouterr().out
+    assert "published base_link -> cam" in capsys.readouterr().out
     sent = [c[1] for c in calls if c[0] == "sendTransform"]
     tr = sent[0].transform.translation
     assert len(sent) == 1 and [tr.x, tr.y, tr.z] == [1.0, 2.0, 3.0]
