@@ -286,8 +286,9 @@ class CellWatcher:
         self.mode, self._settling = "relearning", True  # the bias anew against the corrected depth, watching on
         self._note = (
             f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
-            f"(at most {self.options.false_alarms_per_hour:g} false alarms per hour at {self.options.rate_hz:g} Hz "
-            f"while the frames follow the null); depth correction now k {self.depth_correction[0]:.5f}, "
+            f"(designed for {self.options.false_alarms_per_hour:g} false alarm per hour at {self.options.rate_hz:g} Hz "
+            f"while the frames follow the null: occluders and lighting raise it, the measured rate is in "
+            f"docs/benchmarks/running-cell.md); depth correction now k {self.depth_correction[0]:.5f}, "
             f"c {self.depth_correction[1] * 1e3:+.2f} mm (changed by {u[0]:+.5f}, {u[1] * 1e3:+.2f} mm); "
         )
         return "learning", f"null learnt from {n} frames; the bias against the corrected depth next"
