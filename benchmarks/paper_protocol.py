@@ -99,9 +99,9 @@ def main() -> int:
     emit(
         f"Preset {preset.name} ({preset.repeats} repeats, images {preset.image_size[0]} px), the paper's two "
         "networks (translation, orientation). Errors: RMSE over a subset's test frames (the paper's metric), mean "
-        "over repeats. Verdicts by the paper's own comparisons (learned.paper_tables.judge): a strategy is as the "
-        "paper when its difference from the baseline, as a share of that baseline, is at most the paper's and it "
-        "trains on less data (the paper's baselines: about 1.5 mm / 2 deg in simulation, 1.4 mm / 2.8 deg real)."
+        "over repeats. Verdicts by the paper's own comparisons (learned.paper_tables.judge): each with the paper's "
+        "figure as the bound, over >= 3 repeats, a verdict only beyond the repeats' spread; selection's eliminations "
+        "and data saving not judgeable where the baseline's error is above the threshold."
     )
     for root in args.data:
         frames = load_frames(root, preset.frame_size("regression"), "classic", progress=not args.quiet)
