@@ -6,8 +6,9 @@ Example
 
     handeye demo                       # data in data/demo, run in runs/demo
 
-1. renders the ``demo`` preset (a UR5 seen from 10 camera poses in 2 azimuth
-   regions; calibration and data recordings), resumable;
+1. renders the ``demo`` preset (a UR5 seen from 14 camera poses, 6 to train and
+   1 to test in each of 2 azimuth regions; 10 board views and 20 data frames
+   per camera pose), resumable;
 2. labels every camera pose with the classic calibration (ChArUco, PnP,
    eye-to-hand solve, reprojection refinement) and prints the label errors;
 3. trains the learned calibration continually (region by region) with each
