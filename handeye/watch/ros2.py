@@ -15,10 +15,10 @@ Each depth image becomes a :class:`handeye.watch.Frame` with the joints of the `
 within ``joint_tolerance_s`` (not interpolated: off by up to half the driver's period of motion; none: the frame
 is left out and counted); its time is seconds since the first depth image's stamp. The depth is read as the bag
 reader reads it (:func:`handeye.ros_bag.image_array`; 16-bit in millimetres, 32FC1 in metres, REP 118) and must
-be registered to the camera of ``camera_info``, of its size (another size is refused, as the import refuses it),
-without distortion (a distorted one is refused: replay a bag, which undistorts as the import does). The colour
-topic (``Ros2Topics.color``, None for none) gives each frame the colour image nearest its stamp within the same
-tolerance (the continual learner's input).
+be registered to the camera of ``camera_info`` (the first one; a different one later is refused), of its size
+(another size is refused, as the import refuses it), without distortion (a distorted one is refused: replay a bag,
+which undistorts as the import does). The colour topic (``Ros2Topics.color``, None for none) gives each frame the
+colour image nearest its stamp within the same tolerance (the continual learner's input).
 """
 
 from __future__ import annotations
@@ -135,8 +135,13 @@ class Ros2Frames:
                 f"{where}: distortion {list(msg.d)}: the live source takes rectified depth (a camera_info without "
                 "distortion, as aligned RealSense depth has); record a bag and replay it, which undistorts"
             )
-        self.K = np.asarray(msg.k, dtype=float).reshape(3, 3)
-        self.size = (int(msg.width), int(msg.height))
+        K, size = np.asarray(msg.k, dtype=float).reshape(3, 3), (int(msg.width), int(msg.height))
+        if self.K is not None and (size != self.size or not np.array_equal(K, self.K)):
+            raise HandEyeInputError(
+                f"{where}: the camera_info changed ({self.size[0]}x{self.size[1]}, K {self.K.tolist()} -> "
+                f"{size[0]}x{size[1]}, K {K.tolist()}): the watcher keeps the first camera's K; restart it"
+            )
+        self.K, self.size = K, size
 
     def _on_joints(self, msg) -> None:
         names = [str(n) for n in msg.name]

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from handeye.core.errors import ImageSizeError  # noqa: E402
+from handeye.core.errors import HandEyeInputError, ImageSizeError  # noqa: E402
 from handeye.watch.ros2 import Ros2Frames  # noqa: E402
 from handeye.watch.source import bag_frames  # noqa: E402
 from tests.watch.cell_streams import bumped_frames  # noqa: E402
@@ -46,3 +46,16 @@ def test_a_live_depth_image_of_another_size_than_the_camera_info_is_refused(monk
     live.rclpy.spin_once(live.node)  # the joint state
     with pytest.raises(ImageSizeError, match="the camera_info is for"):
         live.node.subscriptions[LIVE.depth](msg)
+
+
+def test_a_live_camera_info_that_changes_is_refused(monkeypatch):
+    """The watcher keeps the first camera_info's K: a later, different one (the driver restarted with another
+    profile) would leave it checking the new images with the old K."""
+    other = _info(1.0)
+    other.k = other.k + np.array([0, 0, 2.0, 0, 0, 0, 0, 0, 0])  # the principal point 2 px over
+    fake_ros(monkeypatch, [(LIVE.info, _info(0.0)), (LIVE.info, _info(0.5)), (LIVE.info, other)])
+    live = Ros2Frames(NAMES, LIVE)
+    live.wait_for_camera_info()
+    live.rclpy.spin_once(live.node)  # the same camera_info again: taken
+    with pytest.raises(HandEyeInputError, match="camera_info changed"):
+        live.rclpy.spin_once(live.node)
