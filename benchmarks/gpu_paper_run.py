@@ -7,6 +7,10 @@ frames of each of the dataset's camera poses, the number printed and stored in t
 
     python benchmarks/gpu_paper_run.py frames --data data/paper-sim-noisy --out runs/paper_frames.npz
 
+The ``paper`` preset's protocol trains on the paper's labels (Tsai's closed form, 5 repeats averaged): label
+a copy of the dataset so first (``handeye label COPY --method tsai --repeats 5``); the frames file keeps
+whatever classic labels the dataset holds (``--labels truth``: the truth).
+
 There (numpy and torch only: no renderer, Pinocchio or dataset), the training throughput benchmark
 (``benchmarks/training_throughput.py`` at the cpu and paper sizes, float32 and bfloat16), then the
 ``paper`` preset's simulation protocol (bfloat16 encoders), one strategy at a time in the paper's order,
@@ -157,6 +161,7 @@ def main(argv=None) -> int:
     from benchmarks import training_throughput
 
     deadline = time.perf_counter() + 60 * args.minutes
+    torch.backends.cudnn.benchmark = True  # fixed input sizes: let cuDNN pick its fastest convolutions
     args.out.mkdir(parents=True, exist_ok=True)
     bench = ["--sizes", *args.sizes, "--networks", *args.networks, "--steps", str(args.steps)]
     training_throughput.main(bench + ["--out", str(args.out / "training_throughput.md")])
