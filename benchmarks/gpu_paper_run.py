@@ -5,11 +5,13 @@ written to one file small enough to carry (at most ``--max-mib``, 60 by default;
 noisy and compress to about 190 kB a frame at 256 x 256, so the file keeps an even spread of a few
 frames of each of the dataset's camera poses, the number printed and stored in the file's name)::
 
-    python benchmarks/gpu_paper_run.py frames --data data/paper-sim-noisy --out runs/paper_frames.npz
+    cp -r data/paper-sim-noisy data/paper-sim-tsai5
+    handeye label data/paper-sim-tsai5 --method tsai --repeats 5
+    python benchmarks/gpu_paper_run.py frames --data data/paper-sim-tsai5 --out runs/paper_frames.npz
 
-The ``paper`` preset's protocol trains on the paper's labels (Tsai's closed form, 5 repeats averaged): label
-a copy of the dataset so first (``handeye label COPY --method tsai --repeats 5``); the frames file keeps
-whatever classic labels the dataset holds (``--labels truth``: the truth).
+The ``paper`` preset's protocol trains on the paper's labels (Tsai's closed form, 5 repeats averaged, hence
+the labelled copy); the frames file keeps the dataset's classic labels, refused when of the other kind than
+the preset's protocol trains on (:func:`learned.label_kind.check_labels`; ``--labels truth``: the truth).
 
 There (numpy and torch only: no renderer, Pinocchio or dataset), the training throughput benchmark
 (``benchmarks/training_throughput.py`` at the cpu and paper sizes, float32 and bfloat16), then the
@@ -58,9 +60,12 @@ def write_frames(data: Path, out: Path, preset_name: str, labels: str, max_mib: 
     from handeye.core.errors import HandEyeInputError
     from learned.data import load_frames
     from learned.frames_file import save_frames, thin_frames
+    from learned.label_kind import check_labels
     from learned.presets import get_preset
 
-    size = get_preset(preset_name).frame_size("regression")
+    preset = get_preset(preset_name)
+    check_labels(preset, data, labels)  # the paper's protocol on the paper's labels, as 'handeye learned run'
+    size = preset.frame_size("regression")
     frames = load_frames(data, size, labels, progress=False)
     cameras = frames.cameras()
     if per_camera is None:
