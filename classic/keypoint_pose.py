@@ -101,7 +101,14 @@ def solve_keypoint_pose(
     Returns
     -------
     KeypointPoseResult
+
+    Raises
+    ------
+    ValueError
+        ``inlier_m`` not a positive number, ``min_inlier_fraction`` not in [0, 1] (a NaN would never refuse),
+        ``iterations`` below 1.
     """
+    _check_settings(inlier_m, min_inlier_fraction, iterations)
     p_cam, p_base = _checked_points(p_cam, p_base)
     m = len(p_cam)
     measured = _checked_measurements(m, meas, intrinsics_norm, sigma)
@@ -197,6 +204,16 @@ def _rigid_covariance(T, p_cam, r3, w, sel, frame) -> np.ndarray:
     R = T[:3, :3]
     J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
     return clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
+
+
+def _check_settings(inlier_m: float, min_inlier_fraction: float, iterations: int) -> None:
+    """Refuse settings under which the consensus or its refusal cannot work (NaN compares False: never refused)."""
+    if not (np.isfinite(inlier_m) and inlier_m > 0):
+        raise ValueError(f"inlier_m must be a positive number of metres, got {inlier_m!r}")
+    if not (0.0 <= min_inlier_fraction <= 1.0):
+        raise ValueError(f"min_inlier_fraction must be in [0, 1], got {min_inlier_fraction!r}")
+    if int(iterations) != iterations or iterations < 1:
+        raise ValueError(f"iterations must be a whole number >= 1, got {iterations!r}")
 
 
 def _too_few_agree(inl, valid, inlier_m: float, min_inlier_fraction: float) -> str | None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from classic.keypoint_pose import solve_keypoint_pose
 from handeye.core.se3 import make_transform, so3_exp
@@ -115,3 +116,20 @@ def test_measurements_come_complete_and_shaped_or_are_refused(rng):
         solve_keypoint_pose(p_cam, p_base, frame, meas=meas, intrinsics_norm=intr)
     with pytest.raises(ShapeError, match="intrinsics_norm"):
         solve_keypoint_pose(p_cam, p_base, frame, meas=meas, intrinsics_norm=intr[:, :3], sigma=sigma)
+
+
+@pytest.mark.parametrize(
+    "setting",
+    [
+        {"min_inlier_fraction": float("nan")},
+        {"min_inlier_fraction": 1.5},
+        {"inlier_m": float("nan")},
+        {"inlier_m": 0.0},
+        {"iterations": 0},
+    ],
+)
+def test_settings_that_would_never_refuse_are_refused(setting):
+    # min_inlier_fraction = NaN compared False with every fraction: a pose from no agreement at all came back unchecked
+    p = np.random.default_rng(0).normal(size=(10, 3))
+    with pytest.raises(ValueError, match=next(iter(setting))):
+        solve_keypoint_pose(p, p, **setting)
