@@ -14,9 +14,9 @@ then
   committed to the history and published; then **relearning**: the null's bias anew against the new
   calibration (its own error, within its sigma, is "nothing moved" from now on), its scale kept (a camera
   move does not change the sensor's noise), the change test re-armed and **watching through it**: after
-  ``relearn_min_frames`` usable frames (blind until then: "learning") each frame is tested against the median
-  of those before it (its error counted in, :meth:`handeye.watch.change.NullModel.statistic`), until
-  ``relearn_frames`` fix the bias.
+  ``relearn_min_frames`` usable frames (blind until then: "learning") each frame is tested against the mean
+  of those before it, weighted by their information (its error counted in,
+  :meth:`handeye.watch.change.NullModel.statistic`), until ``relearn_frames`` fix the bias.
 - the end of the first learning also estimates the depth unit's correction (:func:`handeye.watch.change.
   fit_depth_unit`: a wrong scale or offset makes the statistic depend on the arm's pose, correlated from frame
   to frame, and the stated rate fails), applies it, and relearns the bias against it as after a commit. A
@@ -103,6 +103,11 @@ class WatchOptions:
     @property
     def frames_per_false_alarm(self) -> float:
         return 3600.0 * self.rate_hz / self.false_alarms_per_hour
+
+
+def _pool_null(pool: list[FrameCheck], scale: float) -> NullModel:
+    """The null's reference from a relearning's frames, the scale kept (:func:`handeye.watch.change.fit_null`)."""
+    return fit_null(np.stack([c.delta for c in pool]), np.stack([c.covariance for c in pool]), scale)
 
 
 def markerless_recalibration(
@@ -307,7 +312,7 @@ class CellWatcher:
             if self._misfits >= o.relearn_frames:  # the new calibration fits no frame: moved again meanwhile
                 return "moved", f"the calibration fits none of the last {self._misfits} frames (lost or occluded)"
             return "learning", f"{len(pool)} of {o.relearn_min_frames} frames before watching the new bias again"
-        self.states.null = NullModel(np.median([c.delta for c in pool], axis=0), self.null.scale, n)
+        self.states.null = _pool_null(pool, self.null.scale)
         state, detail = self.states.classify(check, drift=False)
         detail, self._note = self._note + detail, ""
         if usable and state == "ok":
@@ -325,7 +330,7 @@ class CellWatcher:
         deltas = np.stack([c.delta for c in pool])
         self._null_checks = []
         if not self._settling:
-            self.null = NullModel(np.median(deltas, axis=0), self.null.scale, len(pool))
+            self.null = _pool_null(pool, self.null.scale)
             self.states.null, self.mode = self.null, "watching"
             return f"bias learnt from {len(pool)} frames"
         covariances, gains = np.stack([c.covariance for c in pool]), np.stack([c.unit_gain for c in pool])

@@ -19,8 +19,8 @@ In order, per frame (:class:`FrameStates.classify`):
    ``consistency_ratio`` times their scatter's, or most of them were lost frames), else **occluded** (large
    but inconsistent: a person passing) and the CUSUM is re-armed;
 5. **drift**: an EWMA of ``delta - delta_ref`` (weight ``drift_alpha``) outside the ``drift_level`` tail of its
-   stationary ``chi2(6)`` (covariance ``c Sigma (alpha / (2 - alpha) + pi / (2 N))``, ``Sigma`` an EWMA of the
-   frames', the second term the error of ``delta_ref``, a median of ``N`` frames): a slow
+   stationary ``chi2(6)`` (covariance ``c (Sigma alpha / (2 - alpha) + Sigma_ref)``, ``Sigma`` an EWMA of the
+   frames', ``Sigma_ref`` the error of ``delta_ref``, :class:`handeye.watch.change.NullModel`): a slow
    consistent trend below the alarm. Reported, never a recalibration; its per-frame tail probability is not
    a false-alarm rate (the EWMA is correlated from frame to frame) and none is stated;
 6. else **ok**.
@@ -166,7 +166,11 @@ class FrameStates:
         self._ewma_frames += 1
         if self._ewma_frames < 1.0 / a:
             return False
-        # the EWMA's own spread plus the reference's: a median of N frames (variance pi / 2 / N of one frame's)
-        spread = a / (2 - a) + np.pi / 2 / max(self.null.frames, 1)
-        stat = float(self._ewma @ np.linalg.solve(self._ewma_cov * spread, self._ewma))
+        # the EWMA's own spread plus the reference's (without its covariance: a median of N frames, pi / 2 / N)
+        ref = self.null.ref_covariance
+        if ref is None:
+            spread = self._ewma_cov * (a / (2 - a) + np.pi / 2 / max(self.null.frames, 1))
+        else:
+            spread = self._ewma_cov * (a / (2 - a)) + ref * self.null.scale
+        stat = float(self._ewma @ np.linalg.solve(spread, self._ewma))
         return stat > self._drift_bound
