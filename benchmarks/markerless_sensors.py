@@ -227,7 +227,17 @@ def parse_joint_offsets(text: str) -> np.ndarray:
 
 
 def run_profile(
-    ds, surface, stride, cams, sensor, seed, intrinsics_error=None, modes=None, registration=None, joint_offsets=None
+    ds,
+    surface,
+    stride,
+    cams,
+    sensor,
+    seed,
+    intrinsics_error=None,
+    modes=None,
+    registration=None,
+    joint_offsets=None,
+    options=None,
 ):
     """Per placement and mode: (status, err_deg, err_mm, sigma_deg, sigma_mm, s, depth dict, truth, intrinsics).
 
@@ -236,6 +246,7 @@ def run_profile(
     (:data:`classic.markerless.intrinsics.INTRINSICS_PRIORS`), ``"self-calibrated, intrinsics taken as exact"``
     as exact. ``joint_offsets`` (degrees, one per joint): the method is told the joints less these, and the truth
     is the camera in the kinematic base frame (:func:`kinematic_truth`). Each row ends with the joint offsets' dict.
+    ``options``: further :class:`MarkerlessOptions` fields of the self-calibrated modes (a dict).
     """
     K = told_intrinsics(ds.meta["intrinsics"]["K"], intrinsics_error)
     T_true = ds.truth()
@@ -244,6 +255,7 @@ def run_profile(
         depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
         depth_extrinsic_sigma_deg=sensor.registration_roll_sigma_deg,  # the profile's depth-to-colour roll spread
         stereo_fb_px_m=sensor.stereo_fb_px_m,
+        **(options or {}),
     )
     all_modes = {
         "self-calibrated": self_calibrated,

@@ -669,3 +669,14 @@ FALSE_ALARM_COUNT_TAIL = 1e-3
 #: float32 head's first dense layer fed by them: 2 x 4 x 2^-9 = 0.016 of the raw output's size. An encoder left
 #: in float32 differs by 0 (the test also asks for a difference).
 BF16_ENCODER_RTOL = 8 * 2.0**-9
+
+#: The markerless fit's per-pixel depth effect eliminated in closed form (classic.markerless.pixel_effect) against
+#: the joint solve with one unknown per pixel: the same numbers in exact arithmetic, through two linear solves of
+#: 5 and 45 unknowns on well-conditioned random normal equations (condition ~1e2): float64's 2.2e-16 times that
+#: and the few hundred terms summed, about 1e-13 relative; 1e-10 leaves room and still fails on any wrong term
+#: (a prior dropped or doubled moves the step by percents).
+PIXEL_EFFECT_SCHUR_RTOL = 1e-10
+
+#: The per-pixel effect's variance from the method of moments within this many of its sampling standard
+#: deviations (the spread derived in the test from the pixels' count): 4 leaves a 6e-5 chance of a false failure.
+PIXEL_EFFECT_SIGMA_SDS = 4.0

@@ -117,6 +117,11 @@ class MarkerlessOptions:
         pattern, multipath, a flat-field error) is one error repeated in every frame: it biases the pose and
         the frames cannot reveal it. The moving parts, seen anew in every frame, carry the calibration. With no
         part moving, the static ones are used.
+    pixel_effect_px : int
+        Above 0: marginalise a depth error per image cell of this many pixels square, the same in every frame where
+        the arm covers the cell (a sensor's fixed pattern, correlated over a few pixels), under a sigma measured
+        from the residuals (:mod:`classic.markerless.pixel_effect`). 0 (the default): not modelled. A prototype,
+        off by default: it halves the fixed pattern's cost and no more (``benchmarks/results/markerless_errors.md``).
     seed : int
     """
 
@@ -149,6 +154,7 @@ class MarkerlessOptions:
     image_tiles: int = 0
     split_check: bool = True
     static_parts: bool = False
+    pixel_effect_px: int = 0
     seed: int = 0
 
     def __post_init__(self):
@@ -197,6 +203,8 @@ class MarkerlessOptions:
             value = getattr(self, key)
             if not (np.isfinite(value) and value >= 0):
                 raise HandEyeInputError(f"{key} must be a finite value >= 0, got {value}")
+        if not (isinstance(self.pixel_effect_px, (int, np.integer)) and self.pixel_effect_px >= 0):
+            raise HandEyeInputError(f"pixel_effect_px must be an integer >= 0, got {self.pixel_effect_px!r}")
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")

@@ -57,6 +57,7 @@ from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns
+from classic.markerless.pixel_effect import pixel_effect_sigma, pixel_gain, reduced_rows, schur_reduction
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = [
@@ -197,6 +198,10 @@ class PlaneFitOptions:
         With :attr:`MatchedModel.joint_twists`: the joint offsets' start, radians (0 by default).
     joint_prior_sigma : array, shape (J,), optional
         Sigmas of a Gaussian prior on them about 0, radians. None: no prior.
+    pixel_effect : bool
+        With the matches' pixels given (``solve_point_to_plane(pixel=...)``): a depth error per image pixel, the
+        same in every frame (a fixed pattern), marginalised under a sigma measured from the residuals
+        (:mod:`classic.markerless.pixel_effect`).
     """
 
     scale_m: float
@@ -213,6 +218,7 @@ class PlaneFitOptions:
     intrinsics_prior: tuple | None = None
     joint_start: np.ndarray | None = None
     joint_prior_sigma: np.ndarray | None = None
+    pixel_effect: bool = False
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -394,6 +400,7 @@ def solve_point_to_plane(
     options: PlaneFitOptions,
     group: np.ndarray | None = None,
     cross_group=None,
+    pixel: np.ndarray | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -416,15 +423,22 @@ def solve_point_to_plane(
         Further clusterings for the covariance (the depth bin of each match: the sensor's depth-dependent
         error is shared by all frames; its image tile: a fixed pattern is), multiway with ``group``
         (:func:`classic.clustered_covariance.clustered_covariance`).
+    pixel : array of int, shape (N,), optional
+        Image pixel of each match (any integer id), for ``options.pixel_effect``.
 
     Returns
     -------
     PlaneFit
     """
     x = _Unknowns(options, model.joint_twists)
-    T, steps, step_norm = _gauss_newton(p_cam, model, np.array(T_base_cam, dtype=float), x, options)
+    pixel = pixel if options.pixel_effect else None
+    T, steps, step_norm = _gauss_newton(p_cam, model, np.array(T_base_cam, dtype=float), x, options, pixel)
     r, J = _linearise(p_cam, model, T, x)
     w = loss_weights(r / options.scale_m, options.loss, 1.0)
+    if pixel is not None:  # the covariance of the rows with each pixel's effect taken out
+        reduction = _pixel_reduction(p_cam, J, r, w, pixel)
+        if reduction is not None:
+            J, r = reduced_rows(J, r, *reduction[2:])
     groups = np.zeros(len(r), dtype=np.int64) if group is None else np.asarray(group)
     correction = None if x.depth is None else tuple(float(v) for v in x.depth)
     fit = PlaneFit(T, None, r, w, groups, steps, step_norm, correction, intrinsics=x.theta, joint_offsets=x.delta)
@@ -439,15 +453,32 @@ def solve_point_to_plane(
     return fit
 
 
-def _gauss_newton(p_cam: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns, options: PlaneFitOptions):
+def _pixel_reduction(p_cam, J, r, w, pixel):
+    """:func:`classic.markerless.pixel_effect.schur_reduction` with the effect's sigma measured from ``r``, and the
+    rows' gains; None where the residuals show no per-pixel effect."""
+    gain = pixel_gain(J[:, 3:6], p_cam)  # the translation's columns are the normals in the camera frame
+    sigma_p = pixel_effect_sigma(r, w, gain, pixel)
+    if not sigma_p > 0:
+        return None
+    variance = float((w * r**2).sum() / max(float(w.sum()), 1.0))
+    dH, dg, pix, coef = schur_reduction(J, r, w, gain, pixel, sigma_p, variance)
+    return dH, dg, gain, pix, coef
+
+
+def _gauss_newton(
+    p_cam: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns, options: PlaneFitOptions, pixel=None
+):
     """Iteratively reweighted Gauss-Newton from the pose ``T`` and the unknowns ``x`` (updated in place); returns
-    the pose, the steps taken and the last step's size."""
+    the pose, the steps taken and the last step's size. With ``pixel``, each pixel's effect marginalised."""
     step_norm, steps = np.inf, 0
     for steps in range(1, options.iterations + 1):
         r, J = _linearise(p_cam, model, T, x)
         w = loss_weights(r / options.scale_m, options.loss, 1.0)
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
+        reduction = None if pixel is None else _pixel_reduction(p_cam, J, r, w, pixel)
+        if reduction is not None:
+            H, g = H - reduction[0], g - reduction[1]
         if x.has_prior:
             # the prior in the residuals' units: their variance over the prior's
             P = _prior_information(x.precision, r, w)

@@ -305,11 +305,21 @@ class Problem:
             depth_prior_sigma=(self.opts.depth_scale_prior_sigma, self.opts.depth_offset_prior_sigma_m),
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
+            pixel_effect=self.opts.pixel_effect_px > 0,
             **intrinsics,
             **joints,
         )
-        fit = solve_point_to_plane(observed, model, T, options, group=f, cross_group=self._cross_groups(q_obs))
+        pixel = self._pixels(q_obs) if self.opts.pixel_effect_px > 0 else None
+        fit = solve_point_to_plane(
+            observed, model, T, options, group=f, cross_group=self._cross_groups(q_obs), pixel=pixel
+        )
         return fit, expected
+
+    def _pixels(self, q_obs):
+        """Each observed point's image cell (``pixel_effect_px`` square) as one integer (``q_obs`` as back-projected
+        with the camera matrix given, so its pixel is found again exactly)."""
+        uv = np.rint(project(q_obs, self.K_given)).astype(np.int64) // self.opts.pixel_effect_px
+        return uv[:, 1] * self.w + uv[:, 0]
 
     def _cross_groups(self, q_obs):
         """The covariance's clusterings beside the frames: depth bins, and image tiles where asked; None without
