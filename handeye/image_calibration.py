@@ -138,6 +138,7 @@ def calibrate_from_views(
     reprojection: bool = True,
     refine_intrinsics: bool = False,
     robot_noise: str = "estimate",
+    intrinsics_prior: bool = False,
 ) -> ImageCalibration:
     """Calibrate from detected views: pose-based solve, then the corner-reprojection refinement.
 
@@ -159,6 +160,9 @@ def calibrate_from_views(
         The refinement's model of the robot's pose error
         (:func:`classic.vision.reprojection.refine_reprojection`): estimated from the residuals and
         carried into the sigma, or none (every corner independent, the robot exact).
+    intrinsics_prior : bool
+        Refine the intrinsics with their one-sigma as a prior (``ReprojectionOptions.intrinsics_prior``), so
+        that the sigma counts their error; ``handeye calibrate --detections`` does by default.
 
     Returns
     -------
@@ -190,7 +194,12 @@ def calibrate_from_views(
             views.intrinsics,
             res.X,
             res.Y,
-            ReprojectionOptions(setup=setup, refine_intrinsics=refine_intrinsics, robot_noise=robot_noise),
+            ReprojectionOptions(
+                setup=setup,
+                refine_intrinsics=refine_intrinsics,
+                intrinsics_prior=intrinsics_prior,
+                robot_noise=robot_noise,
+            ),
         )
         images = [views.views[k].image for k in keep]
     return ImageCalibration(res, rep, images, rejected)

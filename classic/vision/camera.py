@@ -12,7 +12,22 @@ from handeye.core.errors import IntrinsicsError
 from handeye.core.limits import FOV_RANGE_DEG
 from handeye.core.safe_write import write_text_atomic
 
-__all__ = ["CameraIntrinsics", "IntrinsicsError"]
+__all__ = ["CameraIntrinsics", "IntrinsicsError", "STD_NAMES", "DEFAULT_STD_RULE"]
+
+#: The parameters whose one-sigma ``CameraIntrinsics.std`` holds, in the reprojection refinement's order.
+STD_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
+#: The one-sigma taken for intrinsics that come without their own (a ROS camera_info, a vendor's YAML, a
+#: factory calibration): 0.5 % of the focal lengths and 3 px of the principal point, the size by which a
+#: factory or one-off ``calibrateCamera`` calibration is typically off (an assumed size, not a measured
+#: one: give the file its ``std`` where you know better); each distortion coefficient's is the value that
+#: moves the image's corner by 1 px.
+DEFAULT_FOCAL_STD = 0.005
+DEFAULT_CENTRE_STD_PX = 3.0
+DEFAULT_DISTORTION_EFFECT_PX = 1.0
+DEFAULT_STD_RULE = (
+    f"{100 * DEFAULT_FOCAL_STD:g} % of f, {DEFAULT_CENTRE_STD_PX:g} px of the principal point, distortion "
+    f"coefficients {DEFAULT_DISTORTION_EFFECT_PX:g} px at the image corner"
+)
 
 
 @dataclass
@@ -27,12 +42,17 @@ class CameraIntrinsics:
         OpenCV's ``(k1, k2, p1, p2, k3)``.
     width, height : int
         Image size in pixels.
+    std : dict or None
+        One-sigma of ``fx, fy, cx, cy`` (pixels) and ``k1, k2, p1, p2, k3`` (:data:`STD_NAMES`), as the
+        calibration that gave them estimated it; None when unknown (:meth:`std_vector` then takes
+        :data:`DEFAULT_STD_RULE`).
     """
 
     K: np.ndarray
     dist: np.ndarray = field(default_factory=lambda: np.zeros(5))
     width: int = 0
     height: int = 0
+    std: dict | None = None
 
     def __post_init__(self):
         self.K = np.asarray(self.K, dtype=float)
@@ -52,6 +72,39 @@ class CameraIntrinsics:
                 )
         if self.dist.size not in (4, 5, 8, 12, 14) or not np.isfinite(self.dist).all():
             raise IntrinsicsError(f"distortion must hold 4, 5, 8, 12 or 14 finite coefficients, got {self.dist.size}")
+        if self.std is not None:
+            self.std = _checked_std(self.std)
+
+    def std_vector(self) -> tuple[np.ndarray, str]:
+        """One-sigma of ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)`` and where it comes from.
+
+        Returns
+        -------
+        std : array, shape (9,)
+            The file's own (:attr:`std`), or :data:`DEFAULT_STD_RULE`'s for this camera.
+        source : str
+            ``"the intrinsics file's own"`` or the default's rule.
+        """
+        if self.std is not None:
+            return np.array([self.std[n] for n in STD_NAMES]), "the intrinsics file's own"
+        K = self.K
+        w = self.width or 2 * K[0, 2] + 1
+        h = self.height or 2 * K[1, 2] + 1
+        # the image corner farthest from the principal point, normalised
+        x = max(K[0, 2], w - 1 - K[0, 2]) / K[0, 0]
+        y = max(K[1, 2], h - 1 - K[1, 2]) / K[1, 1]
+        r2 = x * x + y * y
+        f = max(K[0, 0], K[1, 1])
+        effect = f * np.array([np.hypot(x, y) * r2, np.hypot(x, y) * r2**2, r2 + 2 * y * y, r2 + 2 * x * x])
+        effect = np.append(effect, f * np.hypot(x, y) * r2**3)  # px per unit of k1, k2, p1, p2, k3
+        std = np.concatenate(
+            [
+                DEFAULT_FOCAL_STD * K[[0, 1], [0, 1]],
+                [DEFAULT_CENTRE_STD_PX] * 2,
+                DEFAULT_DISTORTION_EFFECT_PX / effect,
+            ]
+        )
+        return std, f"not in the intrinsics file; taken as {DEFAULT_STD_RULE}"
 
     def to_dict(self) -> dict:
         """JSON-serialisable dictionary."""
@@ -61,7 +114,7 @@ class CameraIntrinsics:
             "width": int(self.width),
             "height": int(self.height),
             "distortion_model": "opencv (k1, k2, p1, p2, k3)",
-        }
+        } | ({"std": dict(self.std)} if self.std is not None else {})
 
     def save(self, path: str | Path) -> None:
         """Write as JSON, or as OpenCV FileStorage YAML when the name ends in ``.yaml``/``.yml`` (what :meth:`load`
@@ -95,6 +148,7 @@ class CameraIntrinsics:
             float_array(doc.get("dist", [0.0] * 5), "dist", IntrinsicsError),
             pixels("width"),
             pixels("height"),
+            doc.get("std"),
         )
 
     @classmethod
@@ -122,3 +176,22 @@ class CameraIntrinsics:
             raise IntrinsicsError(f"{path}: no such intrinsics file") from None
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
             raise IntrinsicsError(f"{path}: not a valid intrinsics file ({exc})") from None
+
+
+def _checked_std(std) -> dict:
+    """The one-sigma dictionary of :data:`STD_NAMES`, each a finite number >= 0.
+
+    Raises
+    ------
+    IntrinsicsError
+    """
+    from handeye.core.numbers import float_array
+
+    if not isinstance(std, dict) or set(std) != set(STD_NAMES):
+        got = sorted(std) if isinstance(std, dict) else type(std).__name__
+        raise IntrinsicsError(f"std must give the one-sigma of {', '.join(STD_NAMES)}, got {got}")
+    out = {n: float(float_array(std[n], f"std {n}", IntrinsicsError)) for n in STD_NAMES}
+    bad = [n for n, v in out.items() if not v >= 0]
+    if bad:
+        raise IntrinsicsError(f"std of {', '.join(bad)} is negative")
+    return out

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from classic.vision.board import BoardSpec
-from classic.vision.camera import CameraIntrinsics
+from classic.vision.camera import STD_NAMES, CameraIntrinsics
 from classic.vision.detect import POSE_LIMITS, Detection, corners_collinear
 from handeye.core.errors import HandEyeInputError
 
@@ -87,12 +87,8 @@ def calibrate_intrinsics(detections: list[Detection], spec: BoardSpec, min_views
         )
     size = sizes.pop()
     rms, K, dist, _, _, std_intr, _, per_view = cv2.calibrateCameraExtended(obj, img, size, None, None)
-    std = std_intr.ravel()
-    names = ["fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"]
+    std = {n: float(v) for n, v in zip(STD_NAMES, std_intr.ravel()[: len(STD_NAMES)])}
+    # the std travels with the intrinsics (written into their file), for the hand-eye refinement's prior
     return IntrinsicsResult(
-        CameraIntrinsics(K, dist.ravel()[:5], size[0], size[1]),
-        float(rms),
-        per_view.ravel(),
-        used,
-        {n: float(v) for n, v in zip(names, std[: len(names)])},
+        CameraIntrinsics(K, dist.ravel()[:5], size[0], size[1], std), float(rms), per_view.ravel(), used, std
     )

@@ -265,7 +265,14 @@ class ReprojectionOptions:
     ----------
     setup : {"eye_to_hand", "eye_in_hand"}
     refine_intrinsics : bool
-        Also refine ``fx, fy, cx, cy`` and the first five distortion coefficients (further ones stay fixed).
+        Also refine ``fx, fy, cx, cy`` and the first five distortion coefficients (further ones stay fixed),
+        freely: the corners alone determine them.
+    intrinsics_prior : bool
+        Refine them as ``refine_intrinsics`` does, with the given intrinsics as a Gaussian prior of their
+        one-sigma (:meth:`~classic.vision.camera.CameraIntrinsics.std_vector`: the file's own, or a stated
+        default), so that their uncertainty is in the covariance and the views improve them where they
+        determine them. False with ``refine_intrinsics`` False: the intrinsics are taken as exact, and the
+        covariance leaves their error out.
     loss : {"linear", "huber", "cauchy", "soft_l1"}
         scipy's loss on each pixel residual.
     loss_scale_px : float
@@ -282,6 +289,7 @@ class ReprojectionOptions:
 
     setup: str = "eye_to_hand"
     refine_intrinsics: bool = False
+    intrinsics_prior: bool = False
     loss: str = "linear"
     loss_scale_px: float = 1.0
     robot_noise: str = "estimate"
@@ -328,23 +336,17 @@ def refine_reprojection(
     _check_arguments(T_base_ee, corner_ids, corners_px, robot_noise)
     corners = _Corners.of(corner_ids, corners_px, spec)
     A = robot_side_poses(np.asarray(T_base_ee, dtype=float), setup)
-    prob = _Problem(A, corners, intrinsics, X0, Y0, opts.refine_intrinsics)
-    fit = fit_least_squares(
-        prob.residuals,
-        prob.jac,
-        prob.n_params,
-        loss=loss,
-        loss_scale=opts.loss_scale_px,
-        max_evaluations=200,
-        tol=1e-12,
-    )
+    prior = intrinsics.std_vector()[0] if opts.intrinsics_prior else None
+    prob = _Problem(A, corners, intrinsics, X0, Y0, opts.refine_intrinsics or opts.intrinsics_prior, prior)
+    fit = _fit_plain(prob, loss, opts.loss_scale_px)
     robot, cov = None, None
     if robot_noise == "estimate" and loss == "linear":
-        fit, robot, cov = _fit_with_robot_noise(prob.residuals, prob.jac, prob.robot_jacobian(setup), corners.rows, fit)
+        fit, robot, cov = _fit_with_robot_noise(prob, prob.robot_jacobian(setup), corners.rows, fit)
     X, Y, intr = prob.unpack(fit.x)
-    per_view, outliers, rms = _view_errors(fit.residuals, corners.view, len(T_base_ee))
+    n_pix = 2 * len(corners.view)
+    per_view, outliers, rms = _view_errors(fit.residuals[:n_pix], corners.view, len(T_base_ee))
     if robot is None or not robot.has_robot_error:
-        cov = _scaled_covariance(fit, loss, prob.n_params)
+        cov = _scaled_covariance(fit, loss, prob)
     diagnostics = _robot_diagnostics(robot, rms, robot_noise, loss)
     warned = []
     if diagnostics.get("robot_dominates"):
@@ -353,6 +355,34 @@ def refine_reprojection(
     return ReprojectionResult(
         X, Y, prob.intrinsics_at(intr), rms, per_view, outliers, cov, sigma_of_blocks(cov), robot, diagnostics, warned
     )
+
+
+def _fit_plain(prob: "_Problem", loss: str, loss_scale_px: float):
+    """The fit with every corner independent; with a prior on the intrinsics, refitted once with the prior's
+    rows in the pixel noise's units (the first pass guesses 1 px)."""
+    fit = fit_least_squares(
+        prob.residuals, prob.jac, prob.n_params, loss=loss, loss_scale=loss_scale_px, max_evaluations=200, tol=1e-12
+    )
+    if prob.prior_std is None:
+        return fit
+    n_pix = 2 * len(prob.corners.view)
+    prob.prior_scale = float(np.sqrt(np.mean(fit.residuals[:n_pix] ** 2)))
+    return _refit_from(prob, fit.x, loss, loss_scale_px)
+
+
+def _refit_from(prob: "_Problem", x0: np.ndarray, loss: str, loss_scale_px: float):
+    """:func:`fit_least_squares` started at ``x0`` instead of zero; the fit's ``x`` is the total increment."""
+    jac = prob.jac if isinstance(prob.jac, str) else (lambda d: prob.jac(x0 + d))
+    fit = fit_least_squares(
+        lambda d: prob.residuals(x0 + d),
+        jac,
+        prob.n_params,
+        loss=loss,
+        loss_scale=loss_scale_px,
+        max_evaluations=200,
+        tol=1e-12,
+    )
+    return dataclasses.replace(fit, x=x0 + fit.x)
 
 
 def _check_arguments(T_base_ee, corner_ids, corners_px, robot_noise: str) -> None:
@@ -390,11 +420,20 @@ class _Corners:
 
 
 class _Problem:
-    """The pixel residuals and their Jacobians of the increment ``[w_X, v_X, w_Y, v_Y, (intrinsics)]``."""
+    """The pixel residuals and their Jacobians of the increment ``[w_X, v_X, w_Y, v_Y, (intrinsics)]``.
 
-    def __init__(self, A, corners: _Corners, intrinsics: CameraIntrinsics, X0, Y0, refine_intrinsics: bool):
+    With a prior on the intrinsics (``prior_std``, shape (9,)), 9 rows follow the pixels':
+    ``prior_scale * (intrinsics - given) / prior_std``, in the pixel noise's units (``prior_scale`` its
+    one-sigma per axis).
+    """
+
+    def __init__(
+        self, A, corners: _Corners, intrinsics: CameraIntrinsics, X0, Y0, refine_intrinsics: bool, prior_std=None
+    ):
         self.A, self.corners, self.intrinsics, self.X0, self.Y0 = A, corners, intrinsics, X0, Y0
         self.refine_intrinsics = refine_intrinsics
+        self.prior_std = None if prior_std is None else np.maximum(np.asarray(prior_std, dtype=float), 1e-12)
+        self.prior_scale = 1.0
         K0 = intrinsics.K
         # rational / thin prism / tilted: cv2.projectPoints, 2-point
         self.full_model = bool(np.any(intrinsics.dist[5:]))
@@ -425,13 +464,21 @@ class _Problem:
         T_cam_target = invert_transform(X) @ self.A @ Y  # (V, 4, 4)
         R, t = T_cam_target[c.view, :3, :3], T_cam_target[c.view, :3, 3]
         p_cam = np.einsum("mab,mb->ma", R, c.p_target) + t
-        return (project(p_cam, *intr[:4], np.concatenate([intr[4:9], self.tail])) - c.uv).ravel()
+        r = (project(p_cam, *intr[:4], np.concatenate([intr[4:9], self.tail])) - c.uv).ravel()
+        if self.prior_std is None:
+            return r
+        return np.concatenate([r, self.prior_scale * params[12:] / self.prior_std])
 
     def jacobian(self, params):
         X, Y, intr = self.unpack(params)
-        return _reprojection_jacobian(
-            self.A[self.corners.view], X, Y, self.corners.p_target, intr, self.refine_intrinsics
-        )
+        J = _reprojection_jacobian(self.A[self.corners.view], X, Y, self.corners.p_target, intr, self.refine_intrinsics)
+        if self.prior_std is None:
+            return J
+        return np.vstack([J, self.prior_rows(self.prior_scale)])
+
+    def prior_rows(self, scale: float) -> np.ndarray:
+        """The prior rows' Jacobian at the pixel noise ``scale``, shape (9, 21)."""
+        return np.hstack([np.zeros((9, 12)), np.diag(scale / self.prior_std)])
 
     def robot_jacobian(self, setup: str):
         """``params -> (2M, 6)``: :func:`robot_pose_jacobian` at those parameters."""
@@ -461,18 +508,24 @@ def _view_errors(residuals: np.ndarray, view: np.ndarray, n_views: int) -> tuple
     return per_view, outliers, float(np.sqrt(np.mean(sq)))
 
 
-def _scaled_covariance(fit, loss: str, n_params: int) -> np.ndarray:
-    """``s^2 (G^T G)^-1`` with ``s`` the per-axis pixel noise from the residuals (robustly with a robust loss)."""
-    sq = np.sum(fit.residuals.reshape(-1, 2) ** 2, axis=1)
+def _scaled_covariance(fit, loss: str, prob: "_Problem") -> np.ndarray:
+    """``s^2 (G^T G)^-1`` with ``s`` the per-axis pixel noise from the residuals (robustly with a robust loss);
+    with a prior on the intrinsics, ``(G^T G / s^2 + diag(1 / std^2))^-1``."""
+    n_pix = 2 * len(prob.corners.view)
+    sq = np.sum(fit.residuals[:n_pix].reshape(-1, 2) ** 2, axis=1)
     if loss == "linear":
-        s2 = float(np.sum(sq)) / max(len(fit.residuals) - n_params, 1)  # per-axis variance, dof-corrected
+        s2 = float(np.sum(sq)) / max(n_pix - prob.n_params, 1)  # per-axis variance, dof-corrected
     else:
         # a robust fit's outliers must not set the scale: |r|^2 / s^2 is chi2 with 2 dof, median 1.386
         s2 = float(np.median(sq)) / 1.3863
-    return covariance_from_jacobian(fit.jacobian, fit.weights, s2)
+    J, weights = fit.jacobian, fit.weights
+    if prob.prior_std is not None:
+        J = np.vstack([J[:n_pix], prob.prior_rows(np.sqrt(s2))])
+        weights = np.concatenate([weights[:n_pix], np.ones(9)])
+    return covariance_from_jacobian(J, weights, s2)
 
 
-def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
+def _fit_with_robot_noise(prob: "_Problem", robot_jacobian, rows, fit):
     """The REML estimate of the variance components, then the generalised least-squares fit under it.
 
     The estimate is taken once, at the unweighted fit: REML's residual term ``r^T P r`` (``P G = 0``) is the
@@ -481,8 +534,9 @@ def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
 
     Parameters
     ----------
-    residuals, jac : callable
-        The pixel residuals and their Jacobian (or "2-point") of the parameter increment.
+    prob : _Problem
+        The pixel residuals (and the intrinsics' prior rows, after them) and their Jacobian (or "2-point") of
+        the parameter increment.
     robot_jacobian : callable
         ``params -> (2M, 6)``: :func:`robot_pose_jacobian` at those parameters.
     rows : list of slice
@@ -498,6 +552,9 @@ def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
     covariance : array, shape (P, P) or None
         ``(G^T S^-1 G)^-1`` under the estimate at the weighted fit; None when it finds no robot error.
     """
+    residuals, jac = prob.residuals, prob.jac
+    n_pix = 2 * len(prob.corners.view)
+    unit = 1.0 / prob.prior_scale  # the prior rows (none without a prior) in units of their own sigma
     J_rob = robot_jacobian(fit.x)
     estimate = estimate_robot_noise(
         [J_rob[s] for s in rows], [fit.jacobian[s] for s in rows], [fit.residuals[s] for s in rows]
@@ -509,11 +566,11 @@ def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
 
     def whitened(d):
         v = residuals(x0 + d)
-        return np.concatenate([w @ v[s] for w, s in zip(W, rows)])
+        return np.concatenate([w @ v[s] for w, s in zip(W, rows)] + [unit * v[n_pix:]])
 
     def whitened_jacobian(d):
         Jm = jac(x0 + d)
-        return np.concatenate([w @ Jm[s] for w, s in zip(W, rows)])
+        return np.concatenate([w @ Jm[s] for w, s in zip(W, rows)] + [unit * Jm[n_pix:]])
 
     # increments about where the unweighted fit ended; every row belongs to one view, so the whitened
     # residuals keep the rows' layout
@@ -521,12 +578,14 @@ def _fit_with_robot_noise(residuals, jac, robot_jacobian, rows, fit):
     gls = fit_least_squares(whitened, jac if numeric else whitened_jacobian, len(x0), max_evaluations=200)
     x = x0 + gls.x
     if numeric:  # unwhiten scipy's finite differences: G_i = W_i^-1 (W_i G_i)
-        G = np.concatenate([np.linalg.solve(w, gls.jacobian[s]) for w, s in zip(W, rows)])
+        G = np.concatenate(
+            [np.linalg.solve(w, gls.jacobian[s]) for w, s in zip(W, rows)] + [gls.jacobian[n_pix:] / unit]
+        )
     else:
         G = np.asarray(jac(x))
     J_rob = robot_jacobian(x)
     W = [_inverse_cholesky(S) for S in view_covariances([J_rob[s] for s in rows], estimate)]
-    Gw = np.concatenate([w @ G[s] for w, s in zip(W, rows)])
+    Gw = np.concatenate([w @ G[s] for w, s in zip(W, rows)] + [unit * G[n_pix:]])
     fit = dataclasses.replace(gls, x=x, residuals=residuals(x), jacobian=G)
     return fit, estimate, np.linalg.inv(Gw.T @ Gw)
 

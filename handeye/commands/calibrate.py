@@ -135,10 +135,18 @@ def add_parser(sub) -> argparse.ArgumentParser:
         action="store_true",
         help="with --detections: skip the refinement on corner reprojection error",
     )
-    p.add_argument(
+    intrinsics = p.add_mutually_exclusive_group()
+    intrinsics.add_argument(
         "--refine-intrinsics",
         action="store_true",
-        help="with --detections: refine the camera intrinsics in the reprojection refinement",
+        help="with --detections: refine the camera intrinsics from the corners alone, without the prior of "
+        "their one-sigma that the refinement otherwise takes (the intrinsics file's std, or a stated default)",
+    )
+    intrinsics.add_argument(
+        "--fixed-intrinsics",
+        action="store_true",
+        help="with --detections: take the intrinsics as exact; the sigma then leaves their error out (only for "
+        "intrinsics known far better than the corners determine them)",
     )
     p.add_argument(
         "--setup",
@@ -296,6 +304,34 @@ def _robot_noise_lines(rep) -> list[str]:
     return lines + [f"  warning: {w}" for w in rep.warnings]
 
 
+def _detections_command(args: argparse.Namespace, setup: str) -> str:
+    """The command as run, with the options that change the result or what is printed."""
+    flags = [name for name in ("no_reprojection", "refine_intrinsics", "fixed_intrinsics") if getattr(args, name)]
+    return " ".join(
+        [
+            f"handeye calibrate --detections {args.detections} --robot-poses {args.robot_poses}",
+            f"--setup {setup.replace('_', '-')}",
+            *(f"--{name.replace('_', '-')}" for name in flags),
+            *([f"--truth {args.truth}"] if args.truth is not None else []),
+        ]
+    )
+
+
+def _intrinsics_line(args: argparse.Namespace, intrinsics, refined: bool) -> str:
+    """How the camera's intrinsics enter the result and its 1-sigma."""
+    if not refined:
+        return "  intrinsics: taken as exact (no reprojection refinement); the 1-sigma leaves their error out"
+    if args.fixed_intrinsics:
+        return "  intrinsics: taken as exact (--fixed-intrinsics); the 1-sigma leaves their error out"
+    if args.refine_intrinsics:
+        return "  intrinsics: refined from the corners alone (--refine-intrinsics); their error is in the 1-sigma"
+    _, source = intrinsics.std_vector()
+    return (
+        "  intrinsics: refined with the given ones as a prior of their one-sigma "
+        f"({source}); their error is in the 1-sigma"
+    )
+
+
 def _run_detections(args: argparse.Namespace) -> int:
     from classic.vision.views import Views
     from handeye.core.posefile import read_robot_poses
@@ -319,12 +355,12 @@ def _run_detections(args: argparse.Namespace) -> int:
             robust=args.robust,
             reprojection=not args.no_reprojection,
             refine_intrinsics=args.refine_intrinsics,
+            intrinsics_prior=not (args.refine_intrinsics or args.fixed_intrinsics),
         )
     x_name, y_name = UNKNOWN_NAMES[setup]
     res = out.pose_based
     lines = [
-        f"handeye calibrate --detections {args.detections} --robot-poses {args.robot_poses} --setup "
-        f"{setup.replace('_', '-')}",
+        _detections_command(args, setup),
         f"{len(views.views)} images, {len(views.accepted)} with a pose; method {res.method}",
         "pose-based:",
         _fmt_pose(x_name, res.X),
@@ -348,6 +384,7 @@ def _run_detections(args: argparse.Namespace) -> int:
             flag = "  <- outlier" if k in rep.outlier_views else ""
             lines.append(f"    {image}: {rms:.3f} px{flag}")
         lines += _robot_noise_lines(rep)
+    lines.append(_intrinsics_line(args, views.intrinsics, rep is not None))
     lines += _truth_lines(args.truth, ((x_name, out.X), (y_name, out.Y)))
     lines.append(f"  terms: {GLOSSARY}")
     lines += write_exports(args, setup, out.X)

@@ -8,7 +8,9 @@ Example
 
 prints the RMS reprojection error and the one-sigma of fx, fy, cx, cy, so a
 person can judge the calibration: below 0.5 px RMS and sigmas of a pixel or
-two are typical of a good one.
+two are typical of a good one. The one-sigma of every parameter is written into the file
+(``std``): ``handeye detect`` carries it into detections.json, and ``handeye calibrate --detections``
+refines the intrinsics with it as their prior, so that the hand-eye sigma counts their error.
 """
 
 from __future__ import annotations
@@ -64,5 +66,5 @@ def run(args: argparse.Namespace) -> int:
     for k in skipped:
         print(f"  {files[k].name}: not used ({detections[k].reason or 'too few or collinear corners'})")
     res.intrinsics.save(args.output)
-    print(f"  written: {args.output}")
+    print(f"  written: {args.output} (with their one-sigma: the prior 'handeye calibrate --detections' takes)")
     return 0
