@@ -1,10 +1,11 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
-The files: the README, the getting-started page, the your-own-robot and the images guides (``FILES``).
+The files: the README, the getting-started page, the your-own-robot, images and poses guides (``FILES``).
 Run from the repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
+    python docs/make_examples.py docs/guides/poses.md   # one page
 
 An example is a ``bash`` block whose ``handeye`` command is followed by a plain fenced block: that block is the
 command's output. The outputs are deterministic (seeded data, shipped example files); the tests
@@ -29,7 +30,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 #: The pages whose examples print their output.
 FILES = tuple(
-    ROOT / f for f in ("README.md", "docs/getting-started.md", "docs/guides/your-robot.md", "docs/guides/images.md")
+    ROOT / f
+    for f in (
+        "README.md",
+        "docs/getting-started.md",
+        "docs/guides/your-robot.md",
+        "docs/guides/images.md",
+        "docs/guides/poses.md",
+    )
 )
 #: A bash block with a ``handeye`` command, then a plain block: the command's output.
 EXAMPLE = re.compile(
@@ -89,9 +97,10 @@ def regenerate(path: Path) -> tuple[str, list[str]]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="change nothing; exit 1 where an output is not today's")
+    ap.add_argument("files", nargs="*", type=Path, help="only these pages (default: every page of FILES)")
     args = ap.parse_args(argv)
     stale = 0
-    for path in FILES:
+    for path in [p.resolve() for p in args.files] or FILES:
         text, changed = regenerate(path)
         for command in changed:
             name = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path

@@ -377,6 +377,20 @@ def _your_robot(folder, home, block, request):
     _have(*(["cv2"] if "handeye board" in block else []), *(["matplotlib"] if "--report" in block else []))
 
 
+def _after_step(page: str, index: int) -> Callable:
+    """A block's stand-ins written by an earlier block of its page (a ``python -c`` step), run as written in
+    the block's folder, which holds the shipped example files."""
+
+    def prepare(folder, home, block, request):
+        _repository_files(folder)
+        path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
+        env = dict(os.environ, PYTHONPATH=str(ROOT), PATH=path)
+        step = docs_bash_blocks()[(page, index)]
+        subprocess.run(["bash", "-euo", "pipefail", "-c", step], cwd=folder, env=env, check=True)
+
+    return prepare
+
+
 def _nothing(folder, home, block, request):
     """The block makes its own inputs."""
     if "handeye sim" in block:
@@ -521,6 +535,14 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "b",
         "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy even on 8 frames",
         _paper_sim,
+    ),
+    ("docs/guides/poses.md", 0): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _your_robot),
+    ("docs/guides/poses.md", 1): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _your_robot),
+    ("docs/guides/poses.md", 2): Block("python -c", "a", "", _your_robot),
+    ("docs/guides/poses.md", 3): Block("handeye calibrate bumped.csv", "a", "", _after_step("docs/guides/poses.md", 2)),
+    ("docs/guides/poses.md", 4): Block("python -c", "a", "", _nothing),
+    ("docs/guides/poses.md", 5): Block(
+        "handeye calibrate --robot-poses robot.txt", "a", "", _after_step("docs/guides/poses.md", 4)
     ),
     ("docs/guides/real-cell.md", 0): Block("handeye calibrate kuka_poses.csv", "a", "", _real_cell_0),
     ("docs/guides/real-cell.md", 1): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1),
