@@ -1,7 +1,7 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
-The files: the README, the getting-started page, the your-own-robot, images and poses guides (``FILES``).
-Run from the repository root::
+The files: the README, the getting-started page, the your-own-robot, images, poses and real-cell guides
+(``FILES``). Run from the repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
@@ -37,6 +37,7 @@ FILES = tuple(
         "docs/guides/your-robot.md",
         "docs/guides/images.md",
         "docs/guides/poses.md",
+        "docs/guides/real-cell.md",
     )
 )
 #: A bash block with a ``handeye`` command, then a plain block: the command's output.
@@ -45,8 +46,9 @@ EXAMPLE = re.compile(
 )
 
 
-#: A bash block of one ``python -c`` line: a step that writes a page's inputs (a synthetic recording).
-SETUP = re.compile(r"^```bash\n(?P<setup>python -c [^\n]+)\n```\n", re.M)
+#: A bash block of one ``python -c "..."`` (its code on one line or several): a step that writes a page's inputs
+#: (a synthetic recording).
+SETUP = re.compile(r'^```bash\n(?P<setup>python -c "[^"]*")\n```\n', re.M)
 
 
 def run(command: str, folder: Path) -> str:

@@ -544,14 +544,20 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/poses.md", 5): Block(
         "handeye calibrate --robot-poses robot.txt", "a", "", _after_step("docs/guides/poses.md", 4)
     ),
-    ("docs/guides/real-cell.md", 0): Block("handeye calibrate kuka_poses.csv", "a", "", _real_cell_0),
-    ("docs/guides/real-cell.md", 1): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1),
-    ("docs/guides/real-cell.md", 2): Block("handeye detect images/", "a", "", _real_cell_2),
-    ("docs/guides/real-cell.md", 3): Block("handeye bag-poses recording/", "a", "", _real_cell_3),
-    ("docs/guides/real-cell.md", 4): Block(
+    ("docs/guides/real-cell.md", 0): Block("python -c", "a", "", _getting_started_1),
+    ("docs/guides/real-cell.md", 1): Block("handeye calibrate kuka_poses.csv", "a", "", _real_cell_0),
+    ("docs/guides/real-cell.md", 2): Block("python -c", "a", "", _getting_started_1),
+    **{
+        ("docs/guides/real-cell.md", k): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1)
+        for k in (3, 4)
+    },
+    ("docs/guides/real-cell.md", 5): Block("python -c", "a", "", _vision),
+    ("docs/guides/real-cell.md", 6): Block("handeye detect images/", "a", "", _real_cell_2),
+    ("docs/guides/real-cell.md", 7): Block("handeye bag-poses recording/", "a", "", _real_cell_3),
+    ("docs/guides/real-cell.md", 8): Block(
         "handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _real_cell_4
     ),
-    ("docs/guides/real-cell.md", 5): Block("handeye plan", "a", "", _nothing),
+    ("docs/guides/real-cell.md", 9): Block("handeye plan", "a", "", _nothing),
     ("docs/guides/your-robot.md", 0): Block("handeye board --squares 7x5", "a", "", _your_robot),
     ("docs/guides/your-robot.md", 1): Block("handeye plan --setup eye-in-hand", "a", "", _your_robot),
     # steps 4 to 6: the shipped eye-in-hand example calibrated, then with a report, then exported
@@ -602,7 +608,9 @@ def executed_text(block: str) -> tuple[str, list[str]]:
 
 
 def _outputs(text: str) -> list[str]:
-    """What the commands write: the value after each of :data:`OUTPUT_OPTIONS`."""
+    """What the commands write: the value after each of :data:`OUTPUT_OPTIONS` (a ``python -c "..."``
+    step's code, on one line or several, is not read as commands)."""
+    text = re.sub(r'python -c "[^"]*"', "python -c", text)
     out = []
     for command in _commands(text):
         words = shlex.split(command)
