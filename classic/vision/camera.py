@@ -83,10 +83,10 @@ class CameraIntrinsics:
         std : array, shape (9,)
             The file's own (:attr:`std`), or :data:`DEFAULT_STD_RULE`'s for this camera.
         source : str
-            ``"the intrinsics file's own"`` or the default's rule.
+            ``"their own, from their calibration"`` or the default's rule.
         """
         if self.std is not None:
-            return np.array([self.std[n] for n in STD_NAMES]), "the intrinsics file's own"
+            return np.array([self.std[n] for n in STD_NAMES]), "their own, from their calibration"
         K = self.K
         w = self.width or 2 * K[0, 2] + 1
         h = self.height or 2 * K[1, 2] + 1

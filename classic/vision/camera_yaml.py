@@ -23,7 +23,11 @@ OpenCV FileStorage YAML (first line ``%YAML:1.0``, matrices tagged
 calibration samples save: the camera matrix under ``camera_matrix``,
 ``cameraMatrix``, ``K`` or ``M``, the distortion under
 ``distortion_coefficients``, ``dist_coeffs``, ``distCoeffs``, ``D`` or ``dist``,
-the size as ``image_width``/``image_height`` or ``image_size``/``imageSize``.
+the size as ``image_width``/``image_height`` or ``image_size``/``imageSize``, and the one-sigma of
+``fx, fy, cx, cy, k1, k2, p1, p2, k3`` as ``intrinsics_std`` (1 x 9, what :func:`write_opencv_yaml` writes
+of :attr:`CameraIntrinsics.std <classic.vision.camera.CameraIntrinsics.std>`; OpenCV's own files have none).
+A camera_info file carries no one-sigma: :meth:`~classic.vision.camera.CameraIntrinsics.std_vector` then
+takes its stated default.
 
 Both are parsed with ``cv2.FileStorage`` (OpenCV's YAML subset: sequences
 indented or in brackets). A malformed file raises
@@ -48,6 +52,8 @@ YAML_SUFFIXES = (".yaml", ".yml")
 ROS_DISTORTION_MODELS = {"plumb_bob": (4, 5), "rational_polynomial": (8,)}
 _K_KEYS = ("camera_matrix", "cameraMatrix", "K", "M")
 _D_KEYS = ("distortion_coefficients", "dist_coeffs", "distCoeffs", "D", "dist")
+_STD_KEY = "intrinsics_std"
+_STD_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")  # classic.vision.camera.STD_NAMES
 _MAX_BYTES = 1024 * 1024
 
 
@@ -182,8 +188,9 @@ def load_intrinsics_yaml(path: str | Path, build):
     ----------
     path : str or Path
     build : callable
-        ``build(K, dist, width, height)`` makes the result (:meth:`CameraIntrinsics.load` passes the class,
-        so that this module needs not import it); its :class:`IntrinsicsError` gets the file and line.
+        ``build(K, dist, width, height[, std])`` makes the result (:meth:`CameraIntrinsics.load` passes the
+        class, so that this module needs not import it); ``std`` only where the file has ``intrinsics_std``;
+        its :class:`IntrinsicsError` gets the file and line.
 
     Returns
     -------
@@ -233,8 +240,12 @@ def load_intrinsics_yaml(path: str | Path, build):
                 f"coefficients, {d_key} holds {dist.size}",
             )
         width, height = _size(path, text, fs)
+        s_key, std = _get(path, text, fs, (_STD_KEY,), "one-sigma of the intrinsics", required=False)
+        if std is not None and std.size != len(_STD_NAMES):
+            raise _error(path, text, s_key, f"{s_key} holds {std.size} numbers; it has one per {', '.join(_STD_NAMES)}")
+        extra = [] if std is None else [dict(zip(_STD_NAMES, map(float, std)))]
         try:
-            return build(K.reshape(3, 3), dist, width, height)
+            return build(K.reshape(3, 3), dist, width, height, *extra)
         except IntrinsicsError as exc:
             raise _error(path, text, k_key, str(exc)) from None
     finally:
@@ -285,7 +296,8 @@ def write_opencv_yaml(path: str | Path, intrinsics) -> None:
     """Write an OpenCV FileStorage YAML file with ``cv2.FileStorage``.
 
     Keys ``camera_matrix``, ``distortion_coefficients`` (``!!opencv-matrix``,
-    1 x n), ``image_width``, ``image_height``, as OpenCV's calibration sample writes them.
+    1 x n), ``image_width``, ``image_height``, as OpenCV's calibration sample writes them, and
+    ``intrinsics_std`` (1 x 9) when the intrinsics have their one-sigma.
 
     Parameters
     ----------
@@ -300,5 +312,8 @@ def write_opencv_yaml(path: str | Path, intrinsics) -> None:
         fs.write("image_height", int(intrinsics.height))
         fs.write("camera_matrix", np.asarray(intrinsics.K, dtype=np.float64))
         fs.write("distortion_coefficients", np.asarray(intrinsics.dist, dtype=np.float64).reshape(1, -1))
+        std = getattr(intrinsics, "std", None)
+        if std is not None:
+            fs.write(_STD_KEY, np.array([[std[n] for n in _STD_NAMES]], dtype=np.float64))
     finally:
         fs.release()

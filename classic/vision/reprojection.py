@@ -33,7 +33,7 @@ from scipy.linalg import solve_triangular
 
 from classic.least_squares import covariance_from_jacobian, fit_least_squares, sigma_of_blocks
 from classic.vision.board import BoardSpec
-from classic.vision.camera import CameraIntrinsics
+from classic.vision.camera import STD_NAMES, CameraIntrinsics
 from classic.vision.robot_noise import (
     RobotNoiseEstimate,
     RobotPoseErrorWarning,
@@ -353,7 +353,17 @@ def refine_reprojection(
         warned.append(diagnostics["warning"])
         warnings.warn(diagnostics["warning"], RobotPoseErrorWarning, stacklevel=2)
     return ReprojectionResult(
-        X, Y, prob.intrinsics_at(intr), rms, per_view, outliers, cov, sigma_of_blocks(cov), robot, diagnostics, warned
+        X,
+        Y,
+        prob.intrinsics_at(intr, cov),
+        rms,
+        per_view,
+        outliers,
+        cov,
+        sigma_of_blocks(cov),
+        robot,
+        diagnostics,
+        warned,
     )
 
 
@@ -489,12 +499,16 @@ class _Problem:
 
         return robot_jacobian
 
-    def intrinsics_at(self, intr: np.ndarray) -> CameraIntrinsics:
-        """The camera of the parameters ``intr`` (the skew and the distortion beyond the fifth kept)."""
+    def intrinsics_at(self, intr: np.ndarray, cov: np.ndarray) -> CameraIntrinsics:
+        """The camera of the parameters ``intr`` (the skew and the distortion beyond the fifth kept); refined,
+        with their one-sigma from the covariance ``cov``, else with the given one-sigma (or none)."""
         K0 = self.intrinsics.K
         K = np.array([[intr[0], K0[0, 1], intr[2]], [0, intr[1], intr[3]], [0, 0, 1]])
         dist = np.concatenate([intr[4:9], self.tail])
-        return CameraIntrinsics(K, dist, self.intrinsics.width, self.intrinsics.height)
+        std = self.intrinsics.std
+        if self.refine_intrinsics:
+            std = dict(zip(STD_NAMES, map(float, np.sqrt(np.diag(cov)[12:21]))))
+        return CameraIntrinsics(K, dist, self.intrinsics.width, self.intrinsics.height, std)
 
 
 def _view_errors(residuals: np.ndarray, view: np.ndarray, n_views: int) -> tuple[np.ndarray, list, float]:
