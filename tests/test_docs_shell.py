@@ -289,6 +289,23 @@ def _markerless_guide_2(folder, home, block, request):
     _my_arm(folder, home)
 
 
+def _my_cell(folder, home, block, request):
+    """data/my-cell (the D435 cell's bags imported) and guess.json."""
+    ds, _, _, my_cell = request.getfixturevalue("d435_cell")
+    _copy(my_cell, folder / "data" / "my-cell")
+    _guess(folder, ds)
+
+
+def _my_cell_labelled(folder, home, block, request):
+    """data/my-cell with its board label and its markerless label (the guide's steps 2 and 3 before it)."""
+    from handeye.cli import main
+
+    _my_cell(folder, home, block, request)
+    data = str(folder / "data" / "my-cell")
+    assert main(["label", data]) == 0
+    assert main(["markerless", data, "--start", str(folder / "guess.json"), "--sensor", "d435", "--write-labels"]) == 0
+
+
 def _markerless_guide_3(folder, home, block, request):
     """placement_0/, placement_1/: frame folders (data frames as test_import_recording writes them, PNG and
     NPY depth) with calibration/ (the board views and their joints), and board.json."""
@@ -507,34 +524,32 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "trains the keypoint family with the cpu learned preset: more than 7 minutes even on the small preset",
         _paper_sim,
     ),
-    ("docs/guides/markerless.md", 0): Block(
+    ("docs/guides/markerless.md", 0): Block("handeye import bag data_0/ data_1/", "a", "", _markerless_guide_2),
+    ("docs/guides/markerless.md", 1): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
+    ("docs/guides/markerless.md", 2): Block("handeye label data/my-cell", "a", "", _my_cell),
+    # steps 3 and 4 register the cell (31 s; 70 s with the labels step 4 needs first, on the loaded 2-core Xeon)
+    ("docs/guides/markerless.md", 3): Block("handeye markerless data/my-cell --start", "a", "", _my_cell, slow=True),
+    ("docs/guides/markerless.md", 4): Block("handeye compare data/my-cell", "a", "", _my_cell_labelled, slow=True),
+    ("docs/guides/markerless.md", 5): Block("handeye sim generate --preset small", "a", "", _nothing),
+    ("docs/guides/markerless.md", 6): Block(
         "handeye markerless data/paper-sim --camera 14 15",
         "a",
         "",
         _markerless_guide_0,
         slow=True,  # 63 s
     ),
-    ("docs/guides/markerless.md", 1): Block(
+    ("docs/guides/markerless.md", 7): Block(
+        "handeye markerless data/paper-sim-noisy",
+        "b",
+        "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy even on 8 frames",
+        _paper_sim,
+    ),
+    ("docs/guides/markerless.md", 8): Block(
         "handeye sim generate --preset paper-real",
         "b",
         "renders paper-real with the D435 profile (2,400 data frames: minutes), then two markerless passes over "
         "24 placements",
         _nothing,
-    ),
-    ("docs/guides/markerless.md", 2): Block(
-        "handeye import bag data_0/ data_1/",
-        "a",
-        "",
-        _markerless_guide_2,
-        slow=True,  # 21 s
-    ),
-    ("docs/guides/markerless.md", 3): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
-    ("docs/guides/markerless.md", 4): Block("handeye sim generate --preset small", "a", "", _nothing),
-    ("docs/guides/markerless.md", 5): Block(
-        "handeye markerless data/paper-sim-noisy",
-        "b",
-        "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy even on 8 frames",
-        _paper_sim,
     ),
     ("docs/guides/poses.md", 0): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _your_robot),
     ("docs/guides/poses.md", 1): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _your_robot),
