@@ -67,7 +67,7 @@ class ReprojectionResult:
     X, Y : array, shape (4, 4)
         Camera pose and target pose (:mod:`handeye.core.setups`).
     intrinsics : CameraIntrinsics
-        Refined when asked for, else equal to the input.
+        Refined when asked for (with their one-sigma from ``covariance`` as ``std``), else equal to the input.
     rms_px : float
         Over all corners.
     per_view_rms_px : array, shape (V,)
@@ -78,7 +78,7 @@ class ReprojectionResult:
         the estimated corner noise and robot pose error (:mod:`classic.vision.robot_noise`), or
         ``s^2 (G^T G)^-1`` when no robot error is found or modelled. With fixed intrinsics it leaves
         out their own uncertainty: intrinsics calibrated from few views bias X by more than this
-        predicts; refine them (``refine_intrinsics=True``) to include it.
+        predicts; refine them (``intrinsics_prior=True``, or ``refine_intrinsics=True``) to include it.
     sigma : dict
         ``X_rotation_deg``, ``X_translation_mm``, ``Y_rotation_deg``, ``Y_translation_mm``.
     robot_noise : RobotNoiseEstimate or None

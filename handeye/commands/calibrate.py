@@ -15,9 +15,13 @@ JSON. From images instead::
     handeye calibrate --detections detections.json --robot-poses robot.csv --setup eye-in-hand
 
 takes the views accepted by ``handeye detect``, solves on their PnP poses,
-then refines X and Y on the corners' reprojection error (``--refine-intrinsics``
-to refine K and distortion too) and reports the pixel RMS per view, flagging
-outlier views.
+then refines X and Y on the corners' reprojection error and reports the pixel RMS
+per view, flagging outlier views. The intrinsics are refined with them, with the given
+ones as a prior of their one-sigma (the file's ``std``, which ``handeye intrinsics``
+writes, or a stated default: :data:`classic.vision.camera.DEFAULT_STD_RULE`), so that
+the sigma counts their error; ``--refine-intrinsics`` refines them from the corners
+alone, ``--fixed-intrinsics`` takes them as exact (the sigma then leaves their error
+out). The line ``intrinsics:`` says which.
 
 The pose file may also be an easy_handeye / easy_handeye2 sample list
 (``.yaml``, ``.yml``, ``.samples``; :mod:`handeye.core.easy_handeye`), read for
