@@ -64,6 +64,38 @@ def cases() -> list[dict]:
     ]
 
 
+#: The cases run when --cases names none: the table's (the diagnostic ones after them only on request).
+TABLE_CASES = 10
+
+
+def diagnostic_cases() -> list[dict]:
+    """Cases 11 and 12, run only when named: the fixed pattern with no other noise or error (the d435's noise
+    near 0, no scale or offset error), correlated over the d435's matching window as in the table, and white."""
+    quiet = {"noise_quadratic_per_m": 1e-6, "scale_sigma": 0.0, "offset_sigma_m": 0.0}
+    d435 = PROFILES["d435"]
+    return [
+        {"name": "fixed pattern 3.6 mm at 1 m alone", "sensor": replace(with_errors(d435, 3.6), **quiet)},
+        {"name": "fixed pattern 3.6 mm at 1 m alone, white", "sensor": replace(with_errors(d435, 3.6, 0.0), **quiet)},
+    ]
+
+
+def parse_option(text: str) -> tuple[str, object]:
+    """``key=value`` of a MarkerlessOptions field: an int, a float, true/false, none, or else the text."""
+    key, sep, value = (part.strip() for part in text.partition("="))
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"--option: {text!r} is not key=value")
+    if value.lower() in ("true", "false"):
+        return key, value.lower() == "true"
+    if value.lower() == "none":
+        return key, None
+    for kind in (int, float):
+        try:
+            return key, kind(value)
+        except ValueError:
+            pass
+    return key, value
+
+
 def row(name: str, rows: list) -> str:
     ok = [r for r in rows if r[0] == "ok"]
     n = len(rows)
@@ -90,7 +122,11 @@ def main():
     ap.add_argument("--band", default="1.2", help="distance band of the rendered placements, metres")
     ap.add_argument("--work", type=Path, default=Path("data/sensor-bands"), help="where --presets renders")
     ap.add_argument("--max-placements", type=int, default=5, help="at most this many test placements per dataset")
-    ap.add_argument("--cases", help="comma-separated case numbers (1-based) to run, default all")
+    ap.add_argument(
+        "--cases",
+        help=f"comma-separated case numbers (1-based) to run, default the table's 1-{TABLE_CASES}; "
+        "11 and 12: the fixed pattern alone, correlated and white",
+    )
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
     ap.add_argument(
         "--pixel-effect-px",
@@ -99,13 +135,24 @@ def main():
         help="MarkerlessOptions.pixel_effect_px: marginalise a depth error per image cell this many pixels square, "
         "the same in every frame (a fixed pattern); 0, the default, off",
     )
+    ap.add_argument(
+        "--option",
+        type=parse_option,
+        action="append",
+        default=[],
+        help="key=value: a further MarkerlessOptions field of the run (intrinsics_model=fixed, static_parts=true, "
+        "...); repeatable",
+    )
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_errors.md"))
     args = ap.parse_args()
     Report.cut(args, max_placements=1)
     title = "Markerless calibration against a real cell's errors"
     rep = Report(title, "benchmarks/markerless_errors.py", None, versions())
+    options = {"pixel_effect_px": args.pixel_effect_px, **dict(args.option)}
     if args.pixel_effect_px:
         rep.say(f"With a depth error per {args.pixel_effect_px} px image cell marginalised (--pixel-effect-px).\n")
+    if args.option:
+        rep.say("Options beside the front's defaults: " + ", ".join(f"{k}={v}" for k, v in args.option) + ".\n")
     rep.say(
         "Each row: one error the method is not told (the last, all together), the front's defaults. Wrong: "
         "accepted more than 3 predicted sigmas from the truth (translation or rotation). Time: wall seconds per "
@@ -113,9 +160,8 @@ def main():
     )
     # the bands markerless_sensors.py renders with its default seed (render seed 1): the same datasets
     data = args.data or [render_band(args.work, preset, args.band, 1) for preset in args.presets]
-    chosen = cases()
-    if args.cases:
-        chosen = [chosen[int(i) - 1] for i in args.cases.split(",")]
+    chosen = cases() + diagnostic_cases()
+    chosen = [chosen[int(i) - 1] for i in args.cases.split(",")] if args.cases else chosen[:TABLE_CASES]
     for root in data:
         ds = Dataset.open(root)
         surface, stride = robot_surface_for(ds)
@@ -135,7 +181,7 @@ def main():
                 modes=("self-calibrated",),
                 registration=case.get("registration"),
                 joint_offsets=case.get("joints"),
-                options={"pixel_effect_px": args.pixel_effect_px},
+                options=options,
             )
             rep.say(row(case["name"], rows["self-calibrated"]))
     return rep.write(str(args.out))
