@@ -578,7 +578,14 @@ BLOCKS: dict[tuple[str, int], Block] = {
     # steps 4 to 6: the shipped eye-in-hand example calibrated, then with a report, then exported
     **{("docs/guides/your-robot.md", k): Block(_EYE_IN_HAND, "a", "", _your_robot) for k in (2, 3, 4)},
     ("docs/guides/simulate-label.md", 0): Block(
-        "handeye sim generate --preset paper-sim", "b", _PAPER_PRESET, _nothing
+        "handeye sim generate --preset paper-sim",
+        "b",
+        "renders the paper-sim preset (108 placements, 7,020 frames: 5 minutes on 2 cores)",
+        _nothing,
+    ),
+    ("docs/guides/simulate-label.md", 1): Block("handeye label data/paper-sim", "a", "", _paper_sim, slow=True),
+    ("docs/guides/simulate-label.md", 2): Block(
+        "handeye show data/paper-sim --camera 14", "a", "", _paper_sim, slow=True
     ),
     ("docs/reproduce-paper.md", 0): Block(
         "handeye sim generate --preset paper-sim",
