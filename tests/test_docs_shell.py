@@ -446,6 +446,13 @@ def _paper_sim(folder, home, block, request):
     _copy(data, folder / "data" / name)
 
 
+def _paper_sim_run(folder, home, block, request):
+    """data/paper-sim and runs/sim: the labelled stand-in and its run (the reservoir strategy, ``tiny``)."""
+    data, model = request.getfixturevalue("paper_sim_standin")
+    _copy(data, folder / "data" / "paper-sim")
+    _copy(model.parent, folder / "runs" / "sim")
+
+
 def _ray_head(folder, home, block, request):
     """A running Ray cluster of 2 CPUs on this machine (``ray start --head``), stopped after the block."""
     _nothing(folder, home, block, request)
@@ -518,7 +525,11 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/learned.md", 0): Block(
         "handeye learned run --data data/paper-sim --preset cpu", "b", _CPU_TRAINING, _paper_sim
     ),
-    ("docs/guides/learned.md", 1): Block(
+    # steps 2 and 3 (and simulate-label's): seconds, but on the paper-sim stand-in, which only the slow tier builds
+    # otherwise (render, label, train: 100 s on the loaded 2-core Xeon)
+    ("docs/guides/learned.md", 1): Block("handeye learned report runs/sim", "a", "", _paper_sim_run, slow=True),
+    ("docs/guides/learned.md", 2): Block("handeye compare data/paper-sim --model", "a", "", _paper_sim_run, slow=True),
+    ("docs/guides/learned.md", 3): Block(
         "handeye learned run",
         "b",
         "trains the keypoint family with the cpu learned preset: more than 7 minutes even on the small preset",
