@@ -1,19 +1,20 @@
 """CellWatcher on null streams with the correlation a static scene has: the arm dwelling in one pose for many
-frames, seen by a depth unit whose scale and offset are off; the false alarms against the stated rate, and a
-unit's offset told from an occluder."""
+frames, seen by a depth unit whose scale and offset are off, with and without partial occluders in front of the
+arm; the false alarms against the stated rate, and a unit's offset told from an occluder."""
 
 from __future__ import annotations
 
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, Frame, WatchOptions
 from handeye.watch.check import check_frame
 from handeye.watch.states import StateOptions, screen
-from tests.classic.test_markerless import SIGMA_1M, K, render_depth
+from tests.classic.test_markerless import SIGMA_1M, H, K, W, render_depth
 from tests.tolerances import FALSE_ALARM_COUNT_TAIL
 from tests.watch.test_cell import RATE_HZ, T_TRUE, Spheres
 
@@ -27,15 +28,32 @@ DWELL = 10
 FRAMES_PER_ALARM = 300.0
 
 
-def _static_frames(rng, n, scale=SCALE, offset_m=OFFSET_M):
-    """Null frames: the spheres jump to a new place every DWELL frames and stay; fresh sensor noise each frame."""
-    clean, q = None, None
+#: Partial occluders: in every other dwell a flat plate (a hand, a carried part) this far from the camera, metres
+#: (the spheres are 1.2 to 1.6 m away), over a rectangle of this many pixels of the 160 x 120 image: from none of
+#: the spheres to half of them hidden.
+PLATE_DEPTH_M, PLATE_ROWS, PLATE_COLS = (0.6, 1.0), (15, 40), (15, 50)
+
+
+def _plate(rng):
+    """A plate's rows, columns and depth (:data:`PLATE_DEPTH_M`)."""
+    h, w = rng.integers(*PLATE_ROWS), rng.integers(*PLATE_COLS)
+    r, c = rng.integers(0, H - h), rng.integers(0, W - w)
+    return slice(r, r + h), slice(c, c + w), rng.uniform(*PLATE_DEPTH_M)
+
+
+def _static_frames(rng, n, scale=SCALE, offset_m=OFFSET_M, plates=False):
+    """Null frames: the spheres jump to a new place every DWELL frames and stay; fresh sensor noise each frame;
+    with ``plates``, a plate in front in every other dwell (:data:`PLATE_DEPTH_M`)."""
+    clean, q, plate = None, None, None
     for i in range(n):
         if i % DWELL == 0:
             q = rng.uniform([-0.3, -0.3, 0.25], [0.3, 0.3, 0.65], size=(3, 3))
             clean = render_depth(np.vstack([[0, 0, 0.09], q])[None], T_TRUE)[0]
+            plate = _plate(rng) if plates and (i // DWELL) % 2 else None
         noise = rng.normal(size=clean.shape) * SIGMA_1M * clean**2
         depth = np.where(clean > 0, scale * (clean + noise) + offset_m, 0.0)
+        if plate is not None:
+            depth[plate[0], plate[1]] = scale * plate[2] + offset_m
         yield Frame(i / RATE_HZ, depth, q.ravel(), i)
 
 
@@ -44,7 +62,7 @@ def _same_calibration(frames, T_start, **kwargs):
     return SimpleNamespace(ok=True, T_base_cam=T_TRUE, covariance=None, sigma={}, refused=None)
 
 
-def _count(tmp_path, n_frames, seed=0):
+def _count(tmp_path, n_frames, seed=0, plates=False):
     options = WatchOptions(
         rate_hz=RATE_HZ,
         false_alarms_per_hour=3600 * RATE_HZ / FRAMES_PER_ALARM,
@@ -54,7 +72,7 @@ def _count(tmp_path, n_frames, seed=0):
     )
     w = CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
     alarms, watched = 0, 0
-    for f in _static_frames(np.random.default_rng(seed), n_frames):
+    for f in _static_frames(np.random.default_rng(seed), n_frames, plates=plates):
         alarms += sum(e.state == "moved" for e in w.feed(f))
         watched += w.mode in ("watching", "relearning") and w.state not in ("learning", "moved")
     return alarms, watched, w
@@ -81,6 +99,38 @@ def test_without_the_unit_correction_the_same_stream_exceeds_the_bound(tmp_path,
     monkeypatch.setattr(cell, "fit_depth_unit", lambda d, c, g: (np.zeros(2), d))
     alarms, watched, _ = _count(tmp_path, 3000)
     assert alarms > stats.poisson.isf(FALSE_ALARM_COUNT_TAIL, watched / FRAMES_PER_ALARM), (alarms, watched)
+
+
+#: The partial occluders' stream: seed 1, the one that showed a reference learnt from one dwell (38 alarms against
+#: a bound of 14 while the reference's error counted its frames, not their distinct poses).
+PLATES_SEED = 1
+
+
+def _plates_within_the_bound(tmp_path):
+    alarms, watched, _ = _count(tmp_path, 3000, PLATES_SEED, plates=True)
+    return alarms <= stats.poisson.isf(FALSE_ALARM_COUNT_TAIL, watched / FRAMES_PER_ALARM), (alarms, watched)
+
+
+def test_partial_occluders_in_front_of_the_arm_keep_the_stated_rate(tmp_path):
+    """The same stream with a plate in front in every other dwell (PLATE_DEPTH_M): the plate's pixels are screened
+    one by one (in front of the model by more than the match window), the step uses the pixels left with their own
+    covariance, and a frame mostly hidden is 'occluded'; the alarms within the same Poisson bound of the stated
+    rate over the frames watched."""
+    ok, (alarms, watched) = _plates_within_the_bound(tmp_path)
+    assert watched > 1500, watched
+    assert ok, (alarms, watched)
+
+
+@pytest.mark.slow
+def test_the_partial_occluders_check_fails_on_a_planted_fault(tmp_path, monkeypatch):
+    """The check above can fail: the relearnt reference's frames counted as independent (one dwell's 10 frames as
+    10 poses) gives 38 alarms against a bound of 14. (The plate's pixels taken as matched, a match window of 1000
+    sigmas with only the Cauchy loss against them, is not told by this stream: 14 alarms against a bound of 18.)"""
+    import handeye.watch.cell as cell
+
+    monkeypatch.setattr(cell, "replace", lambda null, ref_covariance: null)
+    ok, counts = _plates_within_the_bound(tmp_path)
+    assert not ok, counts
 
 
 def test_a_depth_unit_off_is_a_consistent_offset_not_an_occluder():
