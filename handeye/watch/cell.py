@@ -63,8 +63,8 @@ class WatchOptions:
     false_alarms_per_hour : float
         The change test's false-alarm rate: an upper bound while the frames' statistic follows the null learnt
         (independent frames, ``chi2(6)`` after the fit; :mod:`handeye.watch.change`); correlated frames, the
-        error of a null learnt from few frames (its scale's: a median of 20 frames is 17 % off, one sigma) and
-        unmodelled changes (an occluder too small to screen) raise it: the measured rate is in
+        error of the null learnt (its scale from 20 frames is 17 % off, one sigma) and unmodelled changes raise
+        it: the measured rate is in
         docs/benchmarks/running-cell.md. A depth unit left uncorrected made the frames correlated (the statistic
         follows the arm's pose); the first learning fits it (:func:`handeye.watch.change.fit_depth_unit`).
     null_frames : int
@@ -289,7 +289,7 @@ class CellWatcher:
         self._note = (
             f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
             f"(designed for {self.options.false_alarms_per_hour:g} false alarm per hour at {self.options.rate_hz:g} Hz "
-            f"while the frames follow the null: a scale learnt from few frames raises it, the measured rate is in "
+            f"while the frames follow the null learnt: the measured rate is in "
             f"docs/benchmarks/running-cell.md); depth correction now k {self.depth_correction[0]:.5f}, "
             f"c {self.depth_correction[1] * 1e3:+.2f} mm (changed by {u[0]:+.5f}, {u[1] * 1e3:+.2f} mm); "
         )
