@@ -120,8 +120,9 @@ class MarkerlessOptions:
     pixel_effect_px : int
         Above 0: marginalise a depth error per image cell of this many pixels square, the same in every frame where
         the arm covers the cell (a sensor's fixed pattern, correlated over a few pixels), under a sigma measured
-        from the residuals (:mod:`classic.markerless.pixel_effect`). 0 (the default): not modelled. A prototype,
-        off by default: it halves the fixed pattern's cost and no more (``benchmarks/results/markerless_errors.md``).
+        from the residuals (:mod:`classic.markerless.pixel_effect`). 0 (the default): not modelled. Off by default:
+        it takes out what repeats within a cell, not the pattern's correlation between cells; measured with 2 px
+        cells on ten placements only (``benchmarks/results/markerless_errors.md``).
     seed : int
     """
 
