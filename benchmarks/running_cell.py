@@ -15,8 +15,9 @@ Printed and written (``--out``):
   the registration's own sigma;
 - per stream, every commit and every refusal counted apart: a commit more than :data:`WRONG_SIGMAS` of its own
   sigmas from the truth (translation or rotation) is a wrong answer reported as a success;
-- false alarms: ``moved`` alarms on the static stream per hour, with the 95 % upper bound of a Poisson rate
-  given the count; on the bumps stream, every ``moved`` but the first after each bump;
+- false alarms: ``moved`` alarms on the static stream per hour (:func:`is_alarm`: a return to ``moved`` while
+  collecting after a refusal or a dropout is not one), with the 95 % upper bound of a Poisson rate given the
+  count; on the bumps stream, every alarm but the first after each bump;
 - what the watcher said during each occlusion and dropout (the share of their frames it called so);
 - the check's cost per frame (wall time of ``feed`` on frames without a recalibration, numpy on one
   thread) and each recalibration's time;
@@ -217,7 +218,7 @@ def score_bumps(run: Replay, doc: dict, truth: np.ndarray) -> list[dict]:
             ev, T, s = commit
             row["error"], row["ratio"] = commit_error(run, T, truth[s])
         row["refused"] = sum(ev.state == "refused" for ev, _, _ in inside)
-        row["extra_alarms"] = max(sum(ev.state == "moved" for ev, _, _ in inside) - 1, 0)
+        row["extra_alarms"] = max(sum(is_alarm(ev) for ev, _, _ in inside) - 1, 0)
         rows.append(row)
     return rows
 
@@ -433,10 +434,16 @@ def report_intervals(rep: Report, run: Replay, doc: dict) -> None:
             rep.say(f"{kind}s called '{state}' (share of their watched frames): {cells}")
 
 
+def is_alarm(ev) -> bool:
+    """Whether an event is an alarm: the 'moved' that made the calibration stale (not a return to 'moved' while
+    collecting frames after a refusal or a dropout, which the events also report)."""
+    return ev.state == "moved" and ev.stale_since == ev.t
+
+
 def report_static(rep: Report, run: Replay, doc: dict, ds) -> None:
     rep.say("## Static stream")
     rep.say(unit_line(ds))
-    alarms = sum(ev.state == "moved" for ev, _, _ in run.events)
+    alarms = sum(is_alarm(ev) for ev, _, _ in run.events)
     if learnt_at(run) == float("inf"):
         rep.say(
             f"{doc['frames']} frames at {doc['rate_hz']:g} Hz: the watcher never finished learning 'nothing moved' "

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.running_cell import Replay, called, learnt_at, poisson_upper, score_bumps, score_commits
+from benchmarks.running_cell import Replay, called, is_alarm, learnt_at, poisson_upper, score_bumps, score_commits
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.watch.events import Event
 from tests.tolerances import EXACT
@@ -42,9 +42,9 @@ def _replay(truth):
     run = Replay()
     run.events = [
         (Event(1.0, "ok", "learning"), truth[0], 0),
-        (Event(4.5, "moved", "ok"), truth[0], 1),
+        (Event(4.5, "moved", "ok", stale_since=4.5), truth[0], 1),
         (Event(6.0, "recalibrated", "moved"), committed, 1),
-        (Event(9.0, "moved", "ok"), committed, 2),  # the second bump's alarm, never recalibrated
+        (Event(9.0, "moved", "ok", stale_since=9.0), committed, 2),  # the second bump's alarm, never recalibrated
     ]
     run.recal = [(1.0, _Result(committed))]
     run.states = ["learning", "learning", "occluded", "ok", "occluded", "occluded"] + ["ok"] * 6
@@ -63,6 +63,19 @@ def test_bumps_are_scored_by_their_first_alarm_and_the_commit_after_it():
     assert first["ratio"] == pytest.approx((2.0, 0.5))
     assert second["delay_s"] == pytest.approx(1.0) and second["error"] is None
     assert learnt_at(_replay(truth)) == 1.0
+
+
+def test_a_return_to_moved_while_collecting_is_not_another_alarm():
+    """After a refusal (or a dropout) the watcher says 'moved' again, stale since the first alarm: one alarm, as
+    the false-alarm count and the bumps' extra alarms take it (both counted these returns before)."""
+    truth = _truth()
+    run = _replay(truth)
+    run.events += [
+        (Event(9.5, "refused", "moved", stale_since=9.0), truth[2], 2),
+        (Event(9.5, "moved", "refused", stale_since=9.0), truth[2], 2),
+    ]
+    assert [is_alarm(ev) for ev, _, _ in run.events] == [False, True, False, True, False, False]
+    assert [row["extra_alarms"] for row in score_bumps(run, _doc(), truth)] == [0, 0]
 
 
 def test_every_commit_is_scored_and_refusals_and_wrong_commits_are_counted_apart():
