@@ -141,3 +141,20 @@ def test_two_rotation_forms_for_one_pose_are_refused(tmp_path, problem):
     )
     with pytest.raises(PoseFileError, match=r"line 1\): columns for T_base_ee give 2 rotations"):
         read_pose_file(path)
+
+
+@pytest.mark.parametrize("kind", ["kuka", "fanuc", "abb"])
+def test_controller_file_in_metres_is_refused_not_read_as_millimetres(tmp_path, problem, kind):
+    """A controller file written in metres read as its millimetres put every flange within 2 mm of the base and
+    calibrated with exit 0 (a 145 mm residual, no hint at the units); it is refused with the fix, and --units m
+    reads it right."""
+    header, robot = _robot_columns(kind, problem.T_base_ee)
+    robot[:, :3] /= 1000.0  # the same poses, translations in metres
+    t, q = pos_quat_xyzw_from_transform(problem.T_cam_target)
+    path = tmp_path / f"{kind}_metres.csv"
+    _write(path, header + CAMERA_COLUMNS, np.column_stack([robot, t, q]))
+    with pytest.raises(PoseFileError, match="give --units m"):
+        read_pose_file(path)
+    with pytest.raises(PoseFileError, match="give --units m"):
+        read_robot_poses(path)
+    np.testing.assert_allclose(read_pose_file(path, units="m").T_base_ee, problem.T_base_ee, atol=FLOAT)

@@ -101,6 +101,9 @@ POSE_NAMES = ("T_base_ee", "T_cam_target")
 QUAT_ORDERS = ("xyzw", "wxyz")
 #: Rotation columns of robot controllers, and the translation unit those controllers report with them.
 ROBOT_CONTROLLER_UNITS = {"kuka_abc": "mm", "fanuc_wpr": "mm", "abb_quat": "mm"}
+#: No industrial arm holds its flange this close to its base frame in every pose: a controller file whose robot
+#: translations, read in the controller's millimetres, all fall within it was written in metres.
+MIN_CONTROLLER_REACH_M = 0.05
 #: Suffixes of easy_handeye sample lists (YAML; easy_handeye2 saves `<name>.samples`).
 YAML_SUFFIXES = (".yaml", ".yml", ".samples")
 _QUAT_NORM_TOL = 1e-3
@@ -347,7 +350,19 @@ def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, .
             lambda ln, n=name: f"{path}, line {ln}, {n}",
             rows,
         )
+        if units is None and unit == "mm":
+            _check_controller_reach(path, name, out[name])
     return out, rows, kinds
+
+
+def _check_controller_reach(path: Path, name: str, T: np.ndarray) -> None:
+    """Refuse a controller's pose columns in metres read as its millimetres (every pose within a few mm)."""
+    reach_m = float(np.max(np.linalg.norm(T[:, :3, 3], axis=1))) if len(T) else np.inf
+    if reach_m < MIN_CONTROLLER_REACH_M:
+        raise PoseFileError(
+            f"{path}: {name}'s translations, read in millimetres as the controller writes them, are all within "
+            f"{reach_m * 1e3:.2f} mm of the base; no arm reaches that close: written in metres? give --units m"
+        )
 
 
 def read_pose_file(
