@@ -286,6 +286,12 @@ FLOAT32_M = 1e-7
 #: millimetre lost on a metre (a wrong unit, a frame paired with another frame's value) is 1e-3 relative.
 FLOAT32_RTOL = 2.0**-22
 
+#: A ROS header stamp holds whole nanoseconds since the epoch: written as one a time is rounded by <= 0.5 ns, and
+#: read back as float64 seconds (about 1.7e9 s, in [2^30, 2^31): spacing 2^-22 s) by <= 2^-23 s; a difference of
+#: two such times is off by <= 2^-22 s + 1 ns (0.24 us). A frame paired with the next one is a frame period
+#: (>= 1 ms) off.
+ROS_STAMP_S = 2.0**-22 + 1e-9
+
 #: Corners detected on a flat image from BoardSpec.render at a scale with a
 #: whole number of pixels per square: each corner is an exact symmetric saddle
 #: on a pixel boundary, which cornerSubPix's fixed point is; ChArUco's sub-pixel

@@ -15,7 +15,7 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import pos_quat_xyzw_from_transform
 from handeye.watch.ros2 import Ros2Frames, Ros2Topics, TfPublisher, require_rclpy
 from tests.classic.test_markerless import H, K, W
-from tests.tolerances import EXACT, FLOAT32_RTOL
+from tests.tolerances import EXACT, FLOAT32_RTOL, ROS_STAMP_S
 from tests.watch.cell_streams import T_BUMPED, KnownAnswer, bumped_frames, watcher
 
 NAMES = [f"c{i}" for i in range(9)]
@@ -156,7 +156,7 @@ def test_live_frames_come_from_the_topics(monkeypatch):
     for g, f in zip(got, frames):
         np.testing.assert_allclose(g.joints, f.joints, atol=EXACT)  # reordered to the model's names
         np.testing.assert_allclose(g.depth_m, np.round(f.depth_m * 1e3) * 1e-3, rtol=FLOAT32_RTOL)  # 16-bit mm to m
-        assert g.t == pytest.approx(f.t - frames[0].t, abs=1e-6)
+        assert g.t == pytest.approx(f.t - frames[0].t, abs=ROS_STAMP_S)
         np.testing.assert_array_equal(g.rgb, f.rgb)
 
 
