@@ -179,6 +179,9 @@ def test_ctrl_c_is_the_parents_to_handle(tmp_path):
         start_new_session=True,
         stderr=subprocess.PIPE,
         text=True,
+        # as from a terminal: an ignored SIGINT is inherited across exec, and an earlier test in the same pytest
+        # worker left it ignored (the script then never saw the Ctrl-C: 30 s timeouts in CI, never alone)
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     _wait_for(lambda: len(list(tmp_path.glob("*.started"))) == 2, START_TIMEOUT_S, "two busy workers")
     workers = [int(p.name.split(".")[0]) for p in tmp_path.glob("*.started")]
