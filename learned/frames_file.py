@@ -11,11 +11,13 @@ the frames prepared elsewhere: numpy only, no pickled objects. Every field of th
 from __future__ import annotations
 
 import dataclasses
+import io
 from pathlib import Path
 
 import numpy as np
 
 from handeye.core.errors import DatasetError
+from handeye.core.safe_write import write_bytes_atomic
 from learned.data import FrameSet
 
 __all__ = ["FORMAT", "save_frames", "read_frames", "thin_frames"]
@@ -27,7 +29,10 @@ _META = ("label_source", "image_size")
 
 
 def save_frames(frames: FrameSet, path: str | Path) -> int:
-    """Write ``frames`` to ``path`` (``.npz``, zlib-compressed); returns the file's size in bytes.
+    """Write ``frames`` to ``path`` (``.npz``, zlib-compressed) whole; returns the file's size in bytes.
+
+    The file is built in memory and written by :func:`handeye.core.safe_write.write_bytes_atomic`: a
+    failure leaves the old file as it was, and a FIFO or device at ``path`` is refused.
 
     Parameters
     ----------
@@ -37,19 +42,24 @@ def save_frames(frames: FrameSet, path: str | Path) -> int:
     Returns
     -------
     int
+
+    Raises
+    ------
+    OutputFileError
+        ``path`` is not a place for a regular file, or the write failed.
     """
     arrays = {f.name: getattr(frames, f.name) for f in dataclasses.fields(FrameSet) if f.name not in _META}
     arrays["split"] = np.asarray(frames.split).astype("U")
-    path = Path(path)
-    with open(path, "wb") as f:  # a file object: numpy adds no ".npz" to the name
-        np.savez_compressed(
-            f,
-            format=np.array(FORMAT),
-            label_source=np.array(frames.label_source),
-            image_size=np.asarray(frames.image_size, dtype=np.int64),
-            **arrays,
-        )
-    return path.stat().st_size
+    buffer = io.BytesIO()  # a file object: numpy adds no ".npz" to the name
+    np.savez_compressed(
+        buffer,
+        format=np.array(FORMAT),
+        label_source=np.array(frames.label_source),
+        image_size=np.asarray(frames.image_size, dtype=np.int64),
+        **arrays,
+    )
+    write_bytes_atomic(Path(path), buffer.getvalue())
+    return buffer.tell()
 
 
 def read_frames(path: str | Path) -> FrameSet:

@@ -4,6 +4,7 @@ throughput benchmark, and the protocol trained from the file alone."""
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 import pytest
@@ -73,3 +74,24 @@ def test_the_frames_step_writes_a_file_of_the_dataset_within_its_size(small_data
     frames = read_frames(path)
     assert path.stat().st_size <= 2**20 and "written" in line
     assert frames.image_size == (32, 32) and len(np.unique(np.bincount(frames.camera))) == 1
+
+
+def test_a_frames_file_is_written_whole_or_not_at_all(tmp_path):
+    from handeye.core.errors import OutputFileError
+
+    frames = count_frames()
+    path = tmp_path / "f.npz"
+    save_frames(frames, path)
+    before = path.read_bytes()
+
+    class Unreadable:
+        def __array__(self, *args, **kwargs):
+            raise RuntimeError("a failure mid-write")
+
+    broken = dataclasses.replace(frames, depth_m=Unreadable())
+    with pytest.raises(RuntimeError, match="mid-write"):
+        save_frames(broken, path)
+    assert path.read_bytes() == before  # the old file kept, not a truncated one
+    with pytest.raises(OutputFileError, match="FIFO"):
+        os.mkfifo(tmp_path / "fifo")
+        save_frames(frames, tmp_path / "fifo")
