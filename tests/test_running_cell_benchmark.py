@@ -5,7 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.running_cell import Replay, called, is_alarm, learnt_at, poisson_upper, score_bumps, score_commits
+from benchmarks.running_cell import (
+    Replay,
+    called,
+    false_alarm_line,
+    is_alarm,
+    learnt_at,
+    poisson_lower,
+    poisson_upper,
+    score_bumps,
+    score_commits,
+)
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.watch.events import Event
 from tests.tolerances import EXACT
@@ -101,3 +111,20 @@ def test_interval_shares_count_the_frames_called_so():
 def test_poisson_upper_bound():
     assert poisson_upper(0) == pytest.approx(-np.log(0.05), rel=EXACT)  # 2.996
     assert poisson_upper(5) == pytest.approx(10.513, abs=TABLE_DIGITS)  # Garwood's table
+
+
+def test_poisson_lower_bound():
+    assert poisson_lower(0) == 0.0
+    assert poisson_lower(1) == pytest.approx(-np.log(0.95), rel=EXACT)  # 0.0513
+    assert poisson_lower(5) == pytest.approx(1.970, abs=TABLE_DIGITS)  # Garwood's table (one-sided 95 %)
+
+
+def test_the_false_alarm_line_names_the_stated_rate_and_whether_the_count_exceeds_it():
+    """The static stream's figure is printed beside the watcher's stated rate (it was printed alone, so 4.1 per
+    hour read as the watcher's own figure); 13 alarms in 1628 s show a rate above 1 per hour, 2 in 1752 s do not;
+    no watched time gives no rate (it divided by zero)."""
+    many, few = false_alarm_line(13, 1628.0, 1.0), false_alarm_line(2, 1752.0, 1.0)
+    assert "stated rate 1 per hour" in many and "stated rate 1 per hour" in few
+    assert "28.7 per hour" in many and "the count shows a rate above it" in many
+    assert "4.1 per hour" in few and "the count does not show a rate above it" in few
+    assert "no false-alarm rate" in false_alarm_line(0, 0.0, 1.0)
