@@ -20,8 +20,10 @@ from typing import Any
 
 import pytest
 
-#: Written last into a finished build, with the builder's value pickled: a folder without it is a build that
-#: was interrupted (its worker crashed), removed and built again.
+from handeye.core.safe_write import write_bytes_atomic
+
+#: Written last into a finished build, whole or not at all, with the builder's value pickled: a folder without
+#: it is a build that was interrupted (its worker crashed), removed and built again.
 DONE = "shared-build.pickle"
 
 
@@ -60,5 +62,5 @@ def shared_build(tmp_path_factory: pytest.TempPathFactory, key: str, build: Call
             shutil.rmtree(folder, ignore_errors=True)
             folder.mkdir()
             value = build(folder)
-            done.write_bytes(pickle.dumps(value))
+            write_bytes_atomic(done, pickle.dumps(value))  # a crash mid-write leaves no half marker
         return folder, pickle.loads(done.read_bytes())
