@@ -367,12 +367,17 @@ def unit_line(ds) -> str:
     )
 
 
+def blind_seconds(run: Replay, doc: dict) -> tuple[float, float]:
+    """Seconds the watcher spent learning and stale (:func:`blind_line`)."""
+    learning = sum(s == "learning" for s in run.states) / doc["rate_hz"]
+    stale = sum(s in ("moved", "refused", "recalibrated") for s in run.states) / doc["rate_hz"]
+    return learning, stale
+
+
 def blind_line(run: Replay, doc: dict) -> str:
     """The time the change test watched nothing: learning (no reference yet: the first seconds, and the first
     frames after each commit) and stale (an alarm until its commit: collecting frames, recalibrating)."""
-    rate = doc["rate_hz"]
-    learning = sum(s == "learning" for s in run.states) / rate
-    stale = sum(s in ("moved", "refused", "recalibrated") for s in run.states) / rate
+    learning, stale = blind_seconds(run, doc)
     first = learnt_at(run)
     return (
         f"blind time: {learning:.1f} s learning ({min(first, doc['duration_s']):.1f} s of it the first null, the rest "
@@ -502,15 +507,13 @@ def report_profiles(rep: Report, runs: list[tuple[str, Replay, dict, object]]) -
     rep.say("| profile | " + " | ".join(sizes) + " | false 'moved' | blind (learning / stale s) |")
     rep.say("|---|" + "---|" * (len(sizes) + 2))
     for name, run, doc, ds in runs:
-        cells = []
-        for row in score_bumps(run, doc, ds.truth()):
+        cells, rows = [], score_bumps(run, doc, ds.truth())
+        for row in rows:
             before = run.states[row["bump"]["frame"] - 1]
             cell = "missed" if row["delay_s"] is None else f"{row['delay_s']:.1f}"
             cells.append(cell + (" (learning)" if before == "learning" else ""))
-        rate = doc["rate_hz"]
-        learning = sum(s == "learning" for s in run.states) / rate
-        stale = sum(s in ("moved", "refused", "recalibrated") for s in run.states) / rate
-        extra = sum(row["extra_alarms"] for row in score_bumps(run, doc, ds.truth()))
+        learning, stale = blind_seconds(run, doc)
+        extra = sum(row["extra_alarms"] for row in rows)
         rep.say(f"| {name} | " + " | ".join(cells) + f" | {extra} | {learning:.0f} / {stale:.0f} |")
 
 
