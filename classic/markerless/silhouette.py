@@ -31,6 +31,9 @@ import numpy as np
 from scipy import ndimage, optimize
 from scipy.spatial.transform import Rotation
 
+from classic.clustered_covariance import clustered_covariance
+from classic.least_squares import loss_weights
+
 __all__ = ["SilhouetteOptions", "SilhouetteFit", "foreground_masks", "signed_distance", "refine_silhouette"]
 
 
@@ -235,7 +238,8 @@ def refine_silhouette(rgb, theta0, T_base_cam0, points, normals, frame, moving, 
             residuals, x0, loss="soft_l1", f_scale=opts.loss_scale_px, x_scale=scale, diff_step=1e-6, max_nfev=50
         )
         theta, T = sol.x[:4], _pose(T, sol.x[4:])
-    cov = _clustered_covariance(sol, fr, opts.loss_scale_px)
+    # frame-clustered sandwich at the soft-L1 fit's IRLS weights (its k/(k-1) and the plain floor included)
+    cov = clustered_covariance(sol.jac, sol.fun, loss_weights(sol.fun, "soft_l1", opts.loss_scale_px), fr)
     shift = _uniform_offset_shift(sol, opts.loss_scale_px, opts.grid_bias_px)
     cov = cov + np.outer(shift, shift)
     r = sol.fun
@@ -253,18 +257,6 @@ def refine_silhouette(rgb, theta0, T_base_cam0, points, normals, frame, moving, 
 
 def _uniform_offset_shift(sol, scale, offset_px):
     """The parameters' first-order shift when every residual moves by ``offset_px``: ``-A^-1 J^T W 1 b``."""
-    w1 = 1.0 / np.sqrt(1.0 + (sol.fun / scale) ** 2)
+    w1 = loss_weights(sol.fun, "soft_l1", scale)
     A = (sol.jac * w1[:, None]).T @ sol.jac
     return -np.linalg.solve(A, sol.jac.T @ (w1 * offset_px))
-
-
-def _clustered_covariance(sol, frame, scale):
-    """Frame-clustered sandwich covariance of the soft-L1 fit: ``A^-1 (sum_f g_f g_f^T) A^-1``."""
-    r, J = sol.fun, sol.jac
-    z = (r / scale) ** 2
-    w1 = 1.0 / np.sqrt(1.0 + z)  # rho'(z) of soft-L1: the IRLS weight
-    A = (J * w1[:, None]).T @ J
-    g = J * (w1 * r)[:, None]
-    G = np.stack([g[frame == f].sum(axis=0) for f in np.unique(frame)])
-    Ainv = np.linalg.inv(A)
-    return Ainv @ (G.T @ G) @ Ainv
