@@ -41,21 +41,15 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import cv2  # noqa: E402
 
 from benchmarks._report import Report  # noqa: E402
-from classic.vision.board import BoardSpec  # noqa: E402
+from benchmarks.vision_robot_noise import CORNER_NOISE_PX, INTR, KEYS, SPEC, board_views  # noqa: E402
 from classic.vision.camera import CameraIntrinsics  # noqa: E402
-from classic.vision.detect import Detection, project_points  # noqa: E402
+from classic.vision.detect import Detection  # noqa: E402
 from classic.vision.intrinsics import calibrate_intrinsics  # noqa: E402
 from classic.vision.reprojection import ReprojectionOptions, refine_reprojection  # noqa: E402
 from classic.vision.robot_noise import RobotPoseErrorWarning  # noqa: E402
-from classic.vision.synthetic import default_intrinsics  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
-from handeye.core.se3 import make_transform  # noqa: E402
 from handeye.core.synthetic import make_problem  # noqa: E402
 
-SPEC = BoardSpec(7, 5, 0.04, 0.03, "5X5_100")
-INTR = default_intrinsics()
-CORNER_NOISE_PX = 0.1
-KEYS = ("X_rotation_deg", "X_translation_mm", "Y_rotation_deg", "Y_translation_mm")
 MODES = {
     "fixed": ReprojectionOptions(),
     "free": ReprojectionOptions(refine_intrinsics=True),
@@ -65,16 +59,9 @@ SOURCES = ("same views", "vendor")
 
 
 def corners(setup: str, n_views: int, rng: np.random.Generator):
-    """The problem, its target pose at the board's centre, and each view's corner ids and noisy pixels."""
+    """The problem, the board's frame in its Y frame, and each view's corner ids and noisy pixels."""
     p = make_problem(n_views, setup, rng)
-    centre = make_transform(np.eye(3), [-SPEC.size_m[0] / 2, -SPEC.size_m[1] / 2, 0.0])
-    ids, uv = [], []
-    for T in p.T_cam_target @ centre:
-        u = project_points(SPEC.corners_target(), T, INTR) + rng.normal(scale=CORNER_NOISE_PX, size=(24, 2))
-        inside = np.all((u >= 0) & (u <= [INTR.width - 1, INTR.height - 1]), axis=1)
-        ids.append(np.flatnonzero(inside))
-        uv.append(u[inside])
-    return p, p.Y_true @ centre, ids, uv
+    return (p, *board_views(p, rng))
 
 
 def given_intrinsics(source: str, ids, uv, rng: np.random.Generator) -> CameraIntrinsics:

@@ -50,11 +50,26 @@ KEYS = ("X_rotation_deg", "X_translation_mm", "Y_rotation_deg", "Y_translation_m
 TARGET_COVERAGE = 0.95
 
 
-def trial(setup: str, n_views: int, robot_error, rng: np.random.Generator) -> dict:
-    """Errors over sigma (X rot, X trans, Y rot, Y trans) of both models, the estimate and the warning."""
-    p = make_problem(n_views, setup, rng, robot_noise=robot_error)
+def board_views(p, rng: np.random.Generator):
+    """``SPEC``'s corners seen in each of the problem's views through ``INTR``, with ``CORNER_NOISE_PX`` noise.
+
+    Parameters
+    ----------
+    p : handeye.core.synthetic.HandEyeProblem
+        Its target frame (``T_cam_target``, shape (N, 4, 4), and ``Y_true``) is taken as the board's centre.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    Y_true : array, shape (4, 4)
+        ``p.Y_true`` moved to the board's own frame (the origin of ``SPEC.corners_target()``), which the
+        refinement estimates.
+    ids : list of N int arrays
+        The corners inside the 640x480 image.
+    corners : list of N arrays, shape (n_i, 2)
+        Their noisy pixels.
+    """
     centre = make_transform(np.eye(3), [-SPEC.size_m[0] / 2, -SPEC.size_m[1] / 2, 0.0])
-    Y_true = p.Y_true @ centre
     ids, corners = [], []
     for T in p.T_cam_target @ centre:
         uv = project_points(SPEC.corners_target(), T, INTR)
@@ -62,6 +77,13 @@ def trial(setup: str, n_views: int, robot_error, rng: np.random.Generator) -> di
         inside = np.all((uv >= 0) & (uv <= [INTR.width - 1, INTR.height - 1]), axis=1)
         ids.append(np.flatnonzero(inside))
         corners.append(uv[inside])
+    return p.Y_true @ centre, ids, corners
+
+
+def trial(setup: str, n_views: int, robot_error, rng: np.random.Generator) -> dict:
+    """Errors over sigma (X rot, X trans, Y rot, Y trans) of both models, the estimate and the warning."""
+    p = make_problem(n_views, setup, rng, robot_noise=robot_error)
+    Y_true, ids, corners = board_views(p, rng)
     out = {}
     for model in ("estimate", "none"):
         with warnings.catch_warnings(record=True) as caught:
