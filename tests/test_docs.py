@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs"
 #: The README is a newcomer's page; guides, figures and history live in docs/ and CHANGELOG.md.
-README_MAX_LINES = 250
+README_MAX_LINES = 150
 NUMBER = re.compile(r"[-+]?\d+\.\d+|[-+]?\d+")
 
 
