@@ -12,7 +12,9 @@ A bag (sqlite3 or MCAP) is read by the import's reader (:func:`handeye.watch.sou
 its recorded rate unless ``--fast``. ``--ros2`` subscribes to ``--depth-topic``, ``--info-topic`` and
 ``--joints-topic`` (:class:`handeye.watch.ros2.Ros2Frames`) and publishes the calibration as a static
 transform ``--base-frame`` -> ``--camera-frame`` at the start and on each commit (``--publish-tf`` does it for a
-replay too); the ROS 2 code is untested against a real ROS 2 (its tests use a fake rclpy). ``--learner PATH``
+replay too; while the watcher says the calibration is stale the old transform stays published, as a static
+transform cannot be withdrawn: follow the event lines); the ROS 2 code is untested against a real ROS 2 (its
+tests use a fake rclpy). ``--learner PATH``
 loads a :class:`learned.calibrator.ContinualCalibrator` saved there (a new one of ``--learner-preset`` when
 there is none), offers it each committed camera pose in the background, saves it after each training, and
 starts each recalibration from its prediction too.

@@ -250,6 +250,10 @@ class TfPublisher:
     Untested against a real ROS 2 (module docstring). A :class:`handeye.watch.CellWatcher` ``on_commit`` hook:
     called with each committed ``T_base_cam``; :meth:`publish` for the start and a rollback.
 
+    A static transform cannot be withdrawn: from a ``moved`` until the next commit the old calibration stays on
+    ``/tf_static`` though the watcher calls it stale, and nothing on tf says so (nor in ``--current``'s JSON);
+    a consumer must follow the watcher's event lines ("calibration stale since t").
+
     Parameters
     ----------
     node : rclpy.node.Node
