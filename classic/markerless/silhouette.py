@@ -33,6 +33,14 @@ from scipy.spatial.transform import Rotation
 
 from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
+from handeye.core.errors import TooFewPosesError
+
+#: Unknowns of the outline's fit: ``(f_x, f_y, c_x, c_y)`` and the camera's pose.
+N_PARAMS = 10
+#: Fewest frames with outline points: the frame-clustered covariance has rank at most frames - 1, so with fewer
+#: than ``N_PARAMS + 1`` some direction of the fit has no sigma at all (3 frames of the test scene: c_x 42 px off
+#: at 57 sigma).
+MIN_FRAMES = N_PARAMS + 1
 
 __all__ = ["SilhouetteOptions", "SilhouetteFit", "foreground_masks", "signed_distance", "refine_silhouette"]
 
@@ -206,6 +214,11 @@ def refine_silhouette(rgb, theta0, T_base_cam0, points, normals, frame, moving, 
     Returns
     -------
     SilhouetteFit
+
+    Raises
+    ------
+    TooFewPosesError
+        The outline is seen in fewer than :data:`MIN_FRAMES` frames.
     """
     opts = options or SilhouetteOptions()
     n_frames, h, w = rgb.shape[:3]
@@ -217,6 +230,7 @@ def refine_silhouette(rgb, theta0, T_base_cam0, points, normals, frame, moving, 
         usable = masks.mean(axis=0) <= opts.max_cover
         idx = _outline_points(theta, T, points, normals, frame, moving, masks, usable, opts)
         pts, fr = points[idx], frame[idx]
+        _check_frames(fr)
         flat = sdf.reshape(n_frames, -1)
 
         def residuals(x, pts=pts, fr=fr, T=T):
@@ -253,6 +267,16 @@ def refine_silhouette(rgb, theta0, T_base_cam0, points, normals, frame, moving, 
         n_points=len(r),
         diagnostics={"inlier_share": float(inl.mean()), "median_abs_px": float(np.median(np.abs(r)))},
     )
+
+
+def _check_frames(frame: np.ndarray) -> None:
+    """Refuse an outline seen in fewer than :data:`MIN_FRAMES` frames: its frame-clustered sigma is not defined."""
+    n = len(np.unique(frame))
+    if n < MIN_FRAMES:
+        raise TooFewPosesError(
+            f"the arm's outer outline is seen in {n} frame(s); the outline's fit needs at least {MIN_FRAMES} "
+            f"(its sigma is clustered by frame over {N_PARAMS} unknowns): record more frames of the arm moving"
+        )
 
 
 def _uniform_offset_shift(sol, scale, offset_px):
