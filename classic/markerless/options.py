@@ -121,8 +121,11 @@ class MarkerlessOptions:
         Above 0: marginalise a depth error per image cell of this many pixels square, the same in every frame where
         the arm covers the cell (a sensor's fixed pattern, correlated over a few pixels), under a sigma measured
         from the residuals (:mod:`classic.markerless.pixel_effect`). 0 (the default): not modelled. Off by default:
-        it takes out what repeats within a cell, not the pattern's correlation between cells; measured with 2 px
-        cells on ten placements only (``benchmarks/results/markerless_errors.md``).
+        it takes out what repeats within a cell, not the pattern's correlation between cells, and the sigma then
+        runs short of the error (the pattern alone, 2 px cells: 2.69 mm at a sigma of 1.29 mm, 2.1 sigma; without
+        it 5.82 mm); it does not always help (paper-sim's fixed-pattern row 0.89 -> 1.29 mm median, paper-real's
+        4.07 -> 3.53); measured with 2 px cells on ten simulated placements only
+        (``benchmarks/results/markerless_errors.md``), never on a real sensor.
     seed : int
     """
 
