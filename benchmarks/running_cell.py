@@ -10,14 +10,15 @@ calibration: the benchmark measures the watching, not the first calibration).
 
 Printed and written (``--out``):
 
-- per bump: the detection delay (the first ``moved`` at or after the bump, before the next camera change),
+- per bump: the detection delay (the first alarm, :func:`is_alarm`, at or after the bump, before the next
+  camera change; "stale already" where the bump came while an earlier alarm's recalibration was pending),
   the committed calibration's error against the truth of the frame it was committed at, and that error over
   the registration's own sigma;
 - per stream, every commit and every refusal counted apart: a commit more than :data:`WRONG_SIGMAS` of its own
   sigmas from the truth (translation or rotation) is a wrong answer reported as a success;
 - false alarms: ``moved`` alarms on the static stream per hour (:func:`is_alarm`: a return to ``moved`` while
-  collecting after a refusal or a dropout is not one), with the 95 % upper bound of a Poisson rate given the
-  count; on the bumps stream, every alarm but the first after each bump;
+  collecting after a refusal or a dropout is not one), with the 95 % bounds of a Poisson rate given the
+  count, against the watcher's stated rate; on the bumps stream, every alarm but the first after each bump;
 - what the watcher said during each occlusion and dropout (the share of their frames it called so);
 - the check's cost per frame (wall time of ``feed`` on frames without a recalibration, numpy on one
   thread) and each recalibration's time;
@@ -202,18 +203,22 @@ def replay(root: Path, args) -> tuple[Replay, dict, object]:
 
 
 def score_bumps(run: Replay, doc: dict, truth: np.ndarray) -> list[dict]:
-    """Per bump: delay, committed error, error over sigma (module docstring)."""
+    """Per bump: delay (to its first alarm, :func:`is_alarm`: a return to 'moved' while collecting after an
+    earlier alarm is no detection), committed error, error over sigma (module docstring); ``stale``: the bump
+    came while an earlier alarm's recalibration was pending (its frames may mix both camera poses)."""
     changes = sorted(e["t_s"] for e in doc["events"] if e["type"] in ("bump",))
     rows = []
     for e in (e for e in doc["events"] if e["type"] == "bump"):
         later = [t for t in changes if t > e["t_s"]]
         end = later[0] if later else doc["duration_s"]
         inside = [(ev, T, s) for ev, T, s in run.events if e["t_s"] <= ev.t < end]
-        moved = next((ev for ev, _, _ in inside if ev.state == "moved"), None)
+        moved = next((ev for ev, _, _ in inside if is_alarm(ev)), None)
         after = [(ev, T, s) for ev, T, s in inside if moved is not None and ev.t > moved.t]
         commit = next(((ev, T, s) for ev, T, s in after if ev.state == "recalibrated"), None)
         row = {"bump": e, "delay_s": None if moved is None else moved.t - e["t_s"], "error": None, "ratio": None}
         row["learning"] = e["t_s"] < learnt_at(run)
+        before = [ev for ev, _, _ in run.events if ev.t < e["t_s"]]
+        row["stale"] = bool(before) and before[-1].stale_since is not None  # an earlier alarm not yet committed
         if commit is not None:
             ev, T, s = commit
             row["error"], row["ratio"] = commit_error(run, T, truth[s])
@@ -411,6 +416,8 @@ def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
         delay = "missed" if row["delay_s"] is None else f"{row['delay_s']:.2f}"
         if row["learning"]:
             delay = "during learning"
+        elif row["stale"] and row["delay_s"] is None:
+            delay = "stale already"
         err = "none committed" if row["error"] is None else f"{row['error'][0]:.2f} / {row['error'][1]:.3f}"
         ratio = "-" if row["ratio"] is None else f"{row['ratio'][0]:.1f} / {row['ratio'][1]:.1f}"
         size = f"{e['translation_mm']:g} mm / {e['rotation_deg']:g} deg {e['label']}"
@@ -421,7 +428,8 @@ def report_bumps(rep: Report, run: Replay, doc: dict, ds) -> None:
         )
     rep.say()
     rep.say(
-        "detected after: the first 'moved' between the bump and the next one (a late one may have another cause: "
+        "detected after: the first alarm between the bump and the next one ('stale already': the bump came "
+        "while an earlier alarm's recalibration was pending; a late alarm may have another cause: "
         "the static stream's alarms give the false-alarm rate); committed error: the first calibration committed "
         "after that alarm, against the truth of the frame it was committed at; error / sigma: over the "
         "registration's own sigma (translation / rotation)"
@@ -501,7 +509,7 @@ def report_profiles(rep: Report, runs: list[tuple[str, Replay, dict, object]]) -
     rep.say(
         f"each profile its own bumps stream: seed {doc0['seed']}, {doc0['frames']} frames at {doc0['rate_hz']:g} Hz "
         f"({doc0['duration_s']:.0f} s), {runs[0][3].meta['recipe']['stream']['image_size']} pixels; seconds from "
-        "the bump to the first 'moved' before the next bump ('learning': it came while the watcher had no reference)"
+        "the bump to the first alarm before the next bump ('learning': it came while the watcher had no reference)"
     )
     rep.say()
     rep.say("| profile | " + " | ".join(sizes) + " | false 'moved' | blind (learning / stale s) |")
@@ -510,7 +518,8 @@ def report_profiles(rep: Report, runs: list[tuple[str, Replay, dict, object]]) -
         cells, rows = [], score_bumps(run, doc, ds.truth())
         for row in rows:
             before = run.states[row["bump"]["frame"] - 1]
-            cell = "missed" if row["delay_s"] is None else f"{row['delay_s']:.1f}"
+            cell = f"{row['delay_s']:.1f}" if row["delay_s"] is not None else "missed"
+            cell = "stale already" if row["delay_s"] is None and row["stale"] else cell
             cells.append(cell + (" (learning)" if before == "learning" else ""))
         learning, stale = blind_seconds(run, doc)
         extra = sum(row["extra_alarms"] for row in rows)

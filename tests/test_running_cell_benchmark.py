@@ -128,3 +128,18 @@ def test_the_false_alarm_line_names_the_stated_rate_and_whether_the_count_exceed
     assert "28.7 per hour" in many and "the count shows a rate above it" in many
     assert "4.1 per hour" in few and "the count does not show a rate above it" in few
     assert "no false-alarm rate" in false_alarm_line(0, 0.0, 1.0)
+
+
+def test_a_bump_while_stale_is_not_detected_by_a_return_to_moved():
+    """An alarm at 7.5 s, before the second bump (8 s), its recalibration refused at 8.5 s: the 'moved' that
+    follows is a return, not the bump's detection (it was scored as one, 0.5 s); the bump came stale."""
+    truth = _truth()
+    run = _replay(truth)
+    run.events = run.events[:3] + [
+        (Event(7.5, "moved", "ok", stale_since=7.5), truth[1], 1),
+        (Event(8.5, "refused", "moved", stale_since=7.5), truth[1], 2),
+        (Event(8.5, "moved", "refused", stale_since=7.5), truth[1], 2),
+    ]
+    first, second = score_bumps(run, _doc(), truth)
+    assert second["delay_s"] is None and second["stale"] and second["error"] is None
+    assert first["delay_s"] == pytest.approx(1.5) and not first["stale"]
