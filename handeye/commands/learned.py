@@ -105,8 +105,9 @@ def _add_protocol_args(r: argparse.ArgumentParser) -> None:
     r.add_argument(
         "--trunk-dtype",
         choices=("float32", "bfloat16"),
-        help="precision of the keypoint model's convolutions (default: the preset's; the cpu preset's bfloat16 "
-        "is fast on a CPU with AMX or AVX-512 BF16 and emulated, slower than float32, on one without)",
+        help="precision of the convolutions: the keypoint model's, or with --family regression the two networks' "
+        "encoders, the heads in float32 (default: the preset's; the cpu preset's keypoint bfloat16 is fast on a CPU "
+        "with AMX or AVX-512 BF16 and emulated, slower than float32, on one without)",
     )
     r.add_argument(
         "--novelty",
@@ -168,9 +169,8 @@ def _prepare(args: argparse.Namespace, writer: bool):
     if args.c2 is not None:
         preset = dataclasses.replace(preset, c2=_parse_c2(args.c2))
     if args.trunk_dtype:
-        if args.family != "keypoints":
-            raise HandEyeInputError("--trunk-dtype is for the keypoint model: add --family keypoints")
-        preset = dataclasses.replace(preset, keypoint_trunk_dtype=args.trunk_dtype)
+        field = "keypoint_trunk_dtype" if args.family == "keypoints" else "trunk_dtype"
+        preset = dataclasses.replace(preset, **{field: args.trunk_dtype})
     if args.novelty == "placement" and args.family != "keypoints":
         raise HandEyeInputError("--novelty placement needs the keypoint model's one pose: add --family keypoints")
     for name, value in (("threshold_mm", args.threshold_mm), ("threshold_deg", args.threshold_deg)):

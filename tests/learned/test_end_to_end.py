@@ -107,9 +107,11 @@ def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(sm
     assert mine[0]["worst_deg"] == pytest.approx(np.max(pc["learned_vs_truth_deg"]), rel=FLOAT)
     assert main(["learned", "report", str(out)]) == 0
     assert "Every repeat's model" in (out / "report.md").read_text()
-    # the regression networks have no such setting: refused, not ignored
-    assert main([*args, "--trunk-dtype", "bfloat16", "--out", str(tmp_path / "reg")]) == 2
-    assert not (tmp_path / "reg").exists()
+    # the regression networks: their encoders in the precision asked for (the keypoint setting untouched)
+    assert main([*args, "--trunk-dtype", "bfloat16", "--out", str(tmp_path / "reg"), "--threads", "1"]) == 0
+    preset = json.loads((tmp_path / "reg" / "results.json").read_text())["preset"]
+    assert preset["trunk_dtype"] == "bfloat16" and preset["keypoint_trunk_dtype"] == "float32"
+    assert load_model(tmp_path / "reg" / "batch" / "translation.pt").config.trunk_dtype == "bfloat16"
 
 
 def test_selection_judges_novelty_by_the_placement_at_the_thresholds_the_command_line_asks_for(small_dataset, tmp_path):
