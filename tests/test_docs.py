@@ -118,38 +118,6 @@ def _browser() -> str | None:
     return os.environ.get("HANDEYE_TEST_BROWSER") or next(filter(None, map(shutil.which, names)), None)
 
 
-def build_site(out: Path) -> Path:
-    """The site as ``mkdocs build --strict`` writes it into ``out`` (asserting the build succeeds)."""
-    build = subprocess.run(
-        [sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert build.returncode == 0, build.stderr[-3000:]
-    return out
-
-
-@pytest.mark.skipif(_browser() is None, reason="no headless browser (chromium; .ci/run installs it)")
-def test_the_built_documentation_opens_in_a_browser(tmp_path):
-    """The site as mkdocs builds it: its index renders in headless Chromium with the navigation, the
-    README's headline and no script error."""
-    site = build_site(tmp_path / "site")
-    run = subprocess.run(
-        [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr",
-         "--virtual-time-budget=5000", "--dump-dom", (site / "index.html").as_uri()],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )  # fmt: skip
-    assert run.returncode == 0, run.stderr[-2000:]
-    dom = run.stdout
-    assert "Getting started" in dom and "Markerless" in dom  # the navigation
-    assert "md-content" in dom and "robot hand" in dom.lower()  # the page body, the index text
-    assert "Uncaught" not in run.stderr
-
-
 def _command_parts(path: Path, inline: str | None = None):
     """Each command of the file's bash blocks (and of its inline code spans that start with ``inline``):
     continuation lines joined, comments dropped, split at ``&&`` and ``|``."""

@@ -10,13 +10,14 @@ from __future__ import annotations
 import importlib.util
 import re
 import subprocess
+import sys
 from html.parser import HTMLParser
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
 import pytest
 
-from tests.test_docs import ROOT, _browser, build_site
+from tests.test_docs import ROOT, _browser
 
 #: A Sphinx role as mkdocs prints one it did not understand: ``:func:`` then the name in code (or a backtick).
 RAW_ROLE = re.compile(r":(?:py:)?(?:func|class|data|meth|attr|mod|exc|obj|const|math):(?:<code>|`)")
@@ -27,6 +28,19 @@ def _extension():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+def build_site(out: Path) -> Path:
+    """The site as ``mkdocs build --strict`` writes it into ``out`` (asserting the build succeeds)."""
+    build = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert build.returncode == 0, build.stderr[-3000:]
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -145,22 +159,40 @@ def test_the_image_check_finds_a_missing_figure(site, tmp_path):
     assert missing_images(page, page.read_text() + '<img src="img/no-such-figure.png">') == ["img/no-such-figure.png"]
 
 
+def _rendered(page: Path, site: Path) -> str:
+    """The page's DOM as headless Chromium leaves it after its scripts ran, asserting it rendered with no
+    script error."""
+    run = subprocess.run(
+        [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr",
+         "--virtual-time-budget=3000", "--dump-dom", page.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )  # fmt: skip
+    name = page.relative_to(site).as_posix()
+    assert run.returncode == 0 and "md-content" in run.stdout, f"{name}: {run.stderr[-1000:]}"
+    assert "Uncaught" not in run.stderr, f"{name}: a script error: {run.stderr[-1000:]}"
+    return run.stdout
+
+
+@pytest.mark.skipif(_browser() is None, reason="no headless browser (chromium; .ci/run installs it)")
+def test_the_index_in_a_browser(site):
+    """The home page renders with the navigation and its text, its figure a file of the site."""
+    dom = _rendered(site / "index.html", site)
+    assert "Getting started" in dom and "Markerless" in dom  # the navigation
+    assert "robot hand" in dom.lower()  # the index text
+    assert not missing_images(site / "index.html", dom)
+
+
 @pytest.mark.slow  # a browser per page: about 50 s for the 13 pages on 2 shared cores
 @pytest.mark.skipif(_browser() is None, reason="no headless browser (chromium; .ci/run installs it)")
 def test_the_pages_in_a_browser(site):
-    """Each API page and each page with a figure, as headless Chromium renders it (its DOM after the scripts
-    ran): no raw role in the text, every ``<img>`` a file of the site."""
-    chosen = [p for p in pages(site) if "reference" in p.parts or _parsed(p)]
+    """Each API page and each other page with a figure, as headless Chromium renders it: no raw role in the
+    text, every ``<img>`` a file of the site, no script error."""
+    chosen = [p for p in pages(site) if p != site / "index.html" and ("reference" in p.parts or _parsed(p))]
     assert chosen
     for page in chosen:
-        run = subprocess.run(
-            [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=3000",
-             "--dump-dom", page.as_uri()],
-            capture_output=True,
-            text=True,
-            timeout=120,
-        )  # fmt: skip
+        dom = _rendered(page, site)
         name = page.relative_to(site).as_posix()
-        assert run.returncode == 0 and "md-content" in run.stdout, f"{name}: {run.stderr[-1000:]}"
-        assert not RAW_ROLE.search(run.stdout), f"{name}: a raw role in the rendered page"
-        assert not missing_images(page, run.stdout), f"{name}: {missing_images(page, run.stdout)}"
+        assert not RAW_ROLE.search(dom), f"{name}: a raw role in the rendered page"
+        assert not missing_images(page, dom), f"{name}: {missing_images(page, dom)}"
