@@ -7,8 +7,9 @@
 - the seed paper's (``--method tsai --repeats 5``): the closed form alone, repeated on subsets of the views and
   averaged, with no sigma (the repeats share most of their views, so their spread says little of the error).
 
-``cameras.csv`` does not name the method, so the kind is read from what each writes: a labelled pose without a
-reprojection RMS or sigma carries the paper's kind of label, one with them this project's. The closed form
+``cameras.csv`` does not name the method, so the kind is read from what each writes: a labelled pose with
+none of the reprojection RMS and the two sigmas carries the paper's kind of label, one with any of them this
+project's (its RMS is always written; a sigma can be NaN where the covariance is singular). The closed form
 itself (Tsai or another) is not recorded and cannot be checked.
 """
 
@@ -43,10 +44,10 @@ def label_kind(root: str | Path) -> str | None:
     ok = np.array([s == "ok" for s in cams["label_status"]])
     if not ok.any():
         return None
-    has_sigma = np.all([np.isfinite(np.asarray(cams[c], dtype=float)) for c in _WRITTEN_BY_HANDEYE], axis=0)[ok]
-    if has_sigma.all():
+    ours = np.any([np.isfinite(np.asarray(cams[c], dtype=float)) for c in _WRITTEN_BY_HANDEYE], axis=0)[ok]
+    if ours.all():
         return HANDEYE
-    return PAPER if not has_sigma.any() else "mixed"
+    return PAPER if not ours.any() else "mixed"
 
 
 def check_labels(preset, root: str | Path, labels: str) -> None:

@@ -40,3 +40,21 @@ def test_this_projects_mode_on_the_papers_labels_is_refused(paper_labelled, tmp_
     err = capsys.readouterr().err
     assert f"'handeye label {paper_labelled}'" in err and "the paper's" in err
     assert not out.exists()
+
+
+def test_a_label_of_this_project_whose_sigma_is_nan_is_still_this_projects(monkeypatch):
+    import numpy as np
+
+    import learned.label_kind as lk
+
+    nan = float("nan")
+    table = {
+        "label_status": np.array(["ok", "ok", "failed: no views"]),
+        "label_rms_px": np.array([0.31, 0.28, nan]),
+        "label_sigma_trans_mm": np.array([0.4, nan, nan]),  # a singular covariance: no sigma, the RMS written
+        "label_sigma_rot_deg": np.array([0.02, nan, nan]),
+    }
+    monkeypatch.setattr(lk.Dataset, "open", staticmethod(lambda root: type("D", (), {"cameras": lambda self: table})()))
+    assert label_kind("any") == HANDEYE
+    table["label_rms_px"][1] = nan  # a pose with none of them: the paper's kind beside ours
+    assert label_kind("any") == "mixed"
