@@ -51,6 +51,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._report import Report  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.numbers import parse_int  # noqa: E402
 from handeye.core.safe_write import write_figure_atomic  # noqa: E402
 from handeye.core.smoke import smoke_test  # noqa: E402
 
@@ -64,10 +65,12 @@ CONFIDENCE = 0.95
 
 
 def image_size(text: str) -> tuple[int, int]:
-    """``WIDTHxHEIGHT`` as two integers from 16 to 4096 (an argparse type)."""
+    """``WIDTHxHEIGHT`` as two integers from 16 to 4096 (an argparse type), each side in the number grammar of
+    :func:`handeye.core.numbers.parse_int`, as ``handeye sim stream --size`` reads it (``int()`` takes ``9_6``
+    and full-width digits)."""
     parts = text.lower().split("x")
     try:
-        size = tuple(int(v) for v in parts)
+        size = tuple(parse_int(v, "--size", ValueError) for v in parts)
     except ValueError:
         size = ()
     if len(size) != 2 or not all(16 <= v <= 4096 for v in size):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from benchmarks.running_cell import (
     Replay,
     called,
     false_alarm_line,
+    image_size,
     is_alarm,
     learnt_at,
     poisson_lower,
@@ -143,3 +146,11 @@ def test_a_bump_while_stale_is_not_detected_by_a_return_to_moved():
     first, second = score_bumps(run, _doc(), truth)
     assert second["delay_s"] is None and second["stale"] and second["error"] is None
     assert first["delay_s"] == pytest.approx(1.5) and not first["stale"]
+
+
+@pytest.mark.parametrize("text", ["96", "96x96x3", "9_6x96", "\uff19\uff16x96", "8x96", "ninety-sixx96"])
+def test_image_size_is_two_integers_in_the_number_grammar(text):
+    """As ``handeye sim stream --size``: int() took '9_6' and full-width digits as 96."""
+    with pytest.raises(argparse.ArgumentTypeError):
+        image_size(text)
+    assert image_size("256X128") == (256, 128)
