@@ -108,7 +108,9 @@ def main(argv=None) -> int:
             name = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
             print(f"{name}: the output of {command!r} {'differs' if args.check else 'rewritten'}")
         if changed and not args.check:
-            path.write_text(text)
+            from handeye.core.safe_write import write_text_atomic
+
+            write_text_atomic(path, text)  # a page is rewritten whole or left as it was
         stale += len(changed)
     return 1 if args.check and stale else 0
 

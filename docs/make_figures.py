@@ -51,7 +51,9 @@ def cell_figure(ds, path: Path) -> Path:
     for ax in axes:
         ax.set_axis_off()
     fig.tight_layout()
-    fig.savefig(path)
+    from handeye.core.safe_write import write_figure_atomic
+
+    write_figure_atomic(fig, path)
     plt.close(fig)
     return path
 

@@ -261,7 +261,9 @@ def markerless_basin(out: Path) -> Figure:
 def _save(fig, path: Path, caption: str, *, laid_out: bool = False) -> Figure:
     if not laid_out:
         fig.tight_layout()
-    fig.savefig(path, metadata={"Software": None})
+    from handeye.core.safe_write import write_figure_atomic
+
+    write_figure_atomic(fig, path, metadata={"Software": None})  # whole or not at all; a FIFO or device refused
     plt.close(fig)
     return Figure(path, caption)
 

@@ -81,3 +81,29 @@ def test_the_image_check_finds_a_missing_image():
     page = DOCS / "benchmarks" / "classic.md"
     text = '![x](../img/classic_bound.png) ![y](../img/no-such.png) <img src="../img/nor-this.png">'
     assert missing_images(page, text) == ["../img/no-such.png", "../img/nor-this.png"]
+
+
+def test_a_figure_is_written_whole_and_never_into_a_fifo(tmp_path):
+    """A FIFO where a figure goes is refused, naming it (a plain ``savefig`` opened it and blocked, or wrote a
+    half image into whatever read it); the figure beside it is a whole PNG, no temporary file left."""
+    import os
+    import signal
+
+    from handeye.core.errors import OutputFileError
+
+    os.mkfifo(tmp_path / "classic_bound.png")
+
+    def _blocked(*_):
+        raise TimeoutError("the figure was written into the FIFO (open blocked)")
+
+    old = signal.signal(signal.SIGALRM, _blocked)
+    signal.alarm(20)
+    try:
+        with pytest.raises(OutputFileError, match="FIFO"):
+            rf.classic_bound(tmp_path)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    fig = rf.markerless_basin(tmp_path)
+    assert fig.path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["classic_bound.png", "markerless_basin.png"]
