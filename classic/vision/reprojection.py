@@ -295,6 +295,12 @@ class ReprojectionOptions:
     robot_noise: str = "estimate"
 
 
+#: A parameter whose stated one-sigma is zero (held fixed by its calibration) is held to this share of the default
+#: rule's one-sigma (:data:`classic.vision.camera.DEFAULT_STD_RULE`): for a distortion coefficient a thousandth of a
+#: pixel at the image corner.
+HELD_STD_SHARE = 1e-3
+
+
 def refine_reprojection(
     T_base_ee: np.ndarray,
     corner_ids: list[np.ndarray],
@@ -336,7 +342,7 @@ def refine_reprojection(
     _check_arguments(T_base_ee, corner_ids, corners_px, robot_noise)
     corners = _Corners.of(corner_ids, corners_px, spec)
     A = robot_side_poses(np.asarray(T_base_ee, dtype=float), setup)
-    prior = intrinsics.std_vector()[0] if opts.intrinsics_prior else None
+    prior = _prior_std(intrinsics) if opts.intrinsics_prior else None
     prob = _Problem(A, corners, intrinsics, X0, Y0, opts.refine_intrinsics or opts.intrinsics_prior, prior)
     fit = _fit_plain(prob, loss, opts.loss_scale_px)
     robot, cov = None, None
@@ -365,6 +371,16 @@ def refine_reprojection(
         diagnostics,
         warned,
     )
+
+
+def _prior_std(intrinsics: CameraIntrinsics) -> np.ndarray:
+    """The prior's one-sigma of ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)``: the intrinsics' own
+    (:meth:`~classic.vision.camera.CameraIntrinsics.std_vector`), a zero (what OpenCV writes for a parameter its
+    calibration held fixed) taken as :data:`HELD_STD_SHARE` of the default rule's, so that the parameter stays put
+    without a row of 1e12 that the covariance's pseudo-inverse answers with zero variance for the pose."""
+    std = intrinsics.std_vector()[0]
+    default = dataclasses.replace(intrinsics, std=None).std_vector()[0]
+    return np.where(std > 0, std, HELD_STD_SHARE * default)
 
 
 def _fit_plain(prob: "_Problem", loss: str, loss_scale_px: float):
@@ -442,7 +458,7 @@ class _Problem:
     ):
         self.A, self.corners, self.intrinsics, self.X0, self.Y0 = A, corners, intrinsics, X0, Y0
         self.refine_intrinsics = refine_intrinsics
-        self.prior_std = None if prior_std is None else np.maximum(np.asarray(prior_std, dtype=float), 1e-12)
+        self.prior_std = None if prior_std is None else np.asarray(prior_std, dtype=float)
         self.prior_scale = 1.0
         K0 = intrinsics.K
         # rational / thin prism / tilted: cv2.projectPoints, 2-point

@@ -106,6 +106,23 @@ def test_the_prior_covers_intrinsics_off_by_their_sigma(seed, n_views, robot_err
     assert not within(ReprojectionOptions(setup=SETUP))  # the old default: intrinsics exact, robot error estimated
 
 
+def test_a_zero_std_holds_its_parameter_without_collapsing_the_sigma():
+    """OpenCV writes a zero one-sigma for a parameter its calibration held fixed (CALIB_FIX_K3): the prior holds it
+    there, and the pose's sigma still covers the vendor offset. Before, the zero became a prior row of 1e12 and
+    the covariance's pseudo-inverse cut the pose's directions: X's sigma 0.0005 deg at 0.197 deg of error."""
+    ids, uv, T_base_ee, X_true, Y_true = _views(2)
+    vendor = _vendor_intrinsics()
+    std = dict(zip(STD_NAMES, map(float, vendor.std_vector()[0])), k3=0.0)
+    given = CameraIntrinsics(vendor.K, vendor.dist, vendor.width, vendor.height, std)
+    res = refine_reprojection(
+        T_base_ee, ids, uv, SPEC, given, X_true, Y_true, ReprojectionOptions(setup=SETUP, intrinsics_prior=True)
+    )
+    rot, trans = pose_error(res.X, X_true)
+    assert rot <= ESTIMATED_SIGMA_BOUND * res.sigma["X_rotation_deg"]
+    assert trans <= ESTIMATED_SIGMA_BOUND * res.sigma["X_translation_mm"]
+    assert abs(res.intrinsics.dist[4] - given.dist[4]) < res.intrinsics.std["k3"]
+
+
 def test_calibrate_command_says_how_the_intrinsics_enter(tmp_path, capsys):
     """The echo line keeps the options that change the result; the intrinsics line says which way was taken."""
     ids, uv, T_base_ee, X_true, Y_true = _views(4)
