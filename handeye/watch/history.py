@@ -2,12 +2,18 @@
 
 Each version is one line (``version``, ``time`` (Unix seconds), ``stream_t`` (seconds into the stream),
 ``reason``, ``T_base_cam`` (4x4, metres), ``sigma`` (6,: rotation rad and position m, camera frame, or null),
-``frames`` (the stream's frame indices it came from), ``replaces`` (the version it replaced)), written with one
-``write`` and ``fsync``-ed before :meth:`History.append` returns: a version is committed when its line and
+``frames`` (the stream's frame indices it came from), ``replaces`` (the version it replaced), ``extra``), written
+with one ``write`` and ``fsync``-ed before :meth:`History.append` returns: a version is committed when its line and
 newline are on disk. A ``kill -9`` during the write leaves at most a line without its newline at the end;
 reading ignores it with a warning, and the next append truncates it first (it was never committed). A
 complete line that does not parse is corruption, not a torn write, and raises. Nothing is rewritten:
 :meth:`History.rollback` appends a new version equal to an older one.
+
+A :class:`handeye.watch.CellWatcher` commit's ``sigma`` is the registration's noise part only (the square roots of
+its covariance's diagonal, :attr:`classic.markerless.MarkerlessResult.covariance`): it does not cover the model's
+sampling, the frames' disagreement or the depth-to-colour registration, and is smaller than the error to expect.
+That predicted RMS error, all of them in quadrature, is ``extra["sigma_summary"]`` (``rotation_deg``,
+``translation_mm``: :attr:`classic.markerless.MarkerlessResult.sigma`), the one the event line prints.
 
 The current calibration is a JSON file replaced atomically (:func:`handeye.core.safe_write.write_text_atomic`)
 after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two).
