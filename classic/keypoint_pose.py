@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from classic.clustered_covariance import clustered_covariance, pose_sigma
-from handeye.core.errors import ShapeError
+from handeye.core.errors import HandEyeInputError, ShapeError
 from handeye.core.keypoint_fit import cauchy_weights, likelihood_fit, whitened_residuals
 from handeye.core.rigid import rigid_residuals, rigid_transform, robust_rigid_transform
 from handeye.core.se3 import hat
@@ -104,7 +104,7 @@ def solve_keypoint_pose(
 
     Raises
     ------
-    ValueError
+    HandEyeInputError
         ``inlier_m`` not a positive number, ``min_inlier_fraction`` not in [0, 1] (a NaN would never refuse),
         ``iterations`` below 1.
     """
@@ -209,11 +209,11 @@ def _rigid_covariance(T, p_cam, r3, w, sel, frame) -> np.ndarray:
 def _check_settings(inlier_m: float, min_inlier_fraction: float, iterations: int) -> None:
     """Refuse settings under which the consensus or its refusal cannot work (NaN compares False: never refused)."""
     if not (np.isfinite(inlier_m) and inlier_m > 0):
-        raise ValueError(f"inlier_m must be a positive number of metres, got {inlier_m!r}")
+        raise HandEyeInputError(f"inlier_m must be a positive number of metres, got {inlier_m!r}")
     if not (0.0 <= min_inlier_fraction <= 1.0):
-        raise ValueError(f"min_inlier_fraction must be in [0, 1], got {min_inlier_fraction!r}")
+        raise HandEyeInputError(f"min_inlier_fraction must be in [0, 1], got {min_inlier_fraction!r}")
     if int(iterations) != iterations or iterations < 1:
-        raise ValueError(f"iterations must be a whole number >= 1, got {iterations!r}")
+        raise HandEyeInputError(f"iterations must be a whole number >= 1, got {iterations!r}")
 
 
 def _too_few_agree(inl, valid, inlier_m: float, min_inlier_fraction: float) -> str | None:

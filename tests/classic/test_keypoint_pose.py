@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from classic.keypoint_pose import solve_keypoint_pose
+from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, so3_exp
 from tests.tolerances import EXACT, SIGMA_BOUND
 
@@ -131,5 +132,5 @@ def test_measurements_come_complete_and_shaped_or_are_refused(rng):
 def test_settings_that_would_never_refuse_are_refused(setting):
     # min_inlier_fraction = NaN compared False with every fraction: a pose from no agreement at all came back unchecked
     p = np.random.default_rng(0).normal(size=(10, 3))
-    with pytest.raises(ValueError, match=next(iter(setting))):
+    with pytest.raises(HandEyeInputError, match=next(iter(setting))):
         solve_keypoint_pose(p, p, **setting)
