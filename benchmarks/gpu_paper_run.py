@@ -3,7 +3,7 @@
 Two steps. Here (the renderer's and the dataset's machine), the frames at the ``paper`` preset's size
 written to one file small enough to carry (at most ``--max-mib``, 60 by default; the paper-sim images are
 noisy and compress to about 190 kB a frame at 256 x 256, so the file keeps an even spread of a few
-frames of each of the dataset's camera poses, the number printed and stored in the file's name)::
+frames of each of the dataset's camera poses, the number printed)::
 
     cp -r data/paper-sim-noisy data/paper-sim-tsai5
     handeye label data/paper-sim-tsai5 --method tsai --repeats 5
@@ -54,31 +54,34 @@ def write_frames(data: Path, out: Path, preset_name: str, labels: str, max_mib: 
     """The frames step: read ``data`` at the preset's size, keep what fits in ``max_mib``, write ``out``.
 
     The frames per camera pose are ``per_camera`` when given, else the most whose compressed size (measured
-    on the first camera pose's frames) fits with a 5 % margin; a file that still comes out larger is removed
-    and refused. Returns the line to print.
+    on the first camera pose's frames) fits with a 5 % margin; frames that still come out larger are refused
+    with ``out`` left as it was (sizes are measured in memory, the file written once). Returns the line to print.
     """
     from handeye.core.errors import HandEyeInputError
+    from handeye.core.safe_write import check_output_path, write_bytes_atomic
     from learned.data import load_frames
-    from learned.frames_file import save_frames, thin_frames
+    from learned.frames_file import frames_bytes, thin_frames
     from learned.label_kind import check_labels
     from learned.presets import get_preset
 
     preset = get_preset(preset_name)
+    check_output_path(out)  # before the dataset is read
     check_labels(preset, data, labels)  # the paper's protocol on the paper's labels, as 'handeye learned run'
     size = preset.frame_size("regression")
     frames = load_frames(data, size, labels, progress=False)
     cameras = frames.cameras()
     if per_camera is None:
         probe = frames.subset(frames.camera == cameras[0])
-        per_frame = save_frames(probe, out) / len(probe)
+        per_frame = len(frames_bytes(probe)) / len(probe)
         per_camera = int(0.95 * max_mib * 2**20 // (per_frame * len(cameras)))
         if per_camera < 1:
             raise HandEyeInputError(f"not one frame per camera pose fits in {max_mib} MiB ({per_frame:.0f} B a frame)")
     thin = thin_frames(frames, per_camera)
-    n = save_frames(thin, out)
+    content = frames_bytes(thin)
+    n = len(content)
     if n > max_mib * 2**20:
-        out.unlink()
         raise HandEyeInputError(f"{out}: {n / 2**20:.1f} MiB is over {max_mib} MiB; ask for fewer --per-camera")
+    write_bytes_atomic(out, content)
     return (
         f"written {out}: {len(thin)} frames ({per_camera} of each of {len(cameras)} camera poses) at "
         f"{size[0]}x{size[1]}, labels {labels}, {n / 2**20:.1f} MiB"

@@ -20,7 +20,7 @@ from handeye.core.errors import DatasetError
 from handeye.core.safe_write import write_bytes_atomic
 from learned.data import FrameSet
 
-__all__ = ["FORMAT", "save_frames", "read_frames", "thin_frames"]
+__all__ = ["FORMAT", "frames_bytes", "save_frames", "read_frames", "thin_frames"]
 
 #: The file's format name and version, stored in it as ``format``.
 FORMAT = "handeye-frames-1"
@@ -28,11 +28,35 @@ FORMAT = "handeye-frames-1"
 _META = ("label_source", "image_size")
 
 
-def save_frames(frames: FrameSet, path: str | Path) -> int:
-    """Write ``frames`` to ``path`` (``.npz``, zlib-compressed) whole; returns the file's size in bytes.
+def frames_bytes(frames: FrameSet) -> bytes:
+    """The content of the ``.npz`` file :func:`save_frames` writes (zlib-compressed), built in memory.
 
-    The file is built in memory and written by :func:`handeye.core.safe_write.write_bytes_atomic`: a
-    failure leaves the old file as it was, and a FIFO or device at ``path`` is refused.
+    Parameters
+    ----------
+    frames : FrameSet
+
+    Returns
+    -------
+    bytes
+    """
+    arrays = {f.name: getattr(frames, f.name) for f in dataclasses.fields(FrameSet) if f.name not in _META}
+    arrays["split"] = np.asarray(frames.split).astype("U")
+    buffer = io.BytesIO()  # a file object: numpy adds no ".npz" to a name
+    np.savez_compressed(
+        buffer,
+        format=np.array(FORMAT),
+        label_source=np.array(frames.label_source),
+        image_size=np.asarray(frames.image_size, dtype=np.int64),
+        **arrays,
+    )
+    return buffer.getvalue()
+
+
+def save_frames(frames: FrameSet, path: str | Path) -> int:
+    """Write ``frames`` to ``path`` (``.npz``, :func:`frames_bytes`) whole; returns the file's size in bytes.
+
+    Written by :func:`handeye.core.safe_write.write_bytes_atomic`: a failure leaves the old file as it was,
+    and a FIFO or device at ``path`` is refused.
 
     Parameters
     ----------
@@ -48,18 +72,9 @@ def save_frames(frames: FrameSet, path: str | Path) -> int:
     OutputFileError
         ``path`` is not a place for a regular file, or the write failed.
     """
-    arrays = {f.name: getattr(frames, f.name) for f in dataclasses.fields(FrameSet) if f.name not in _META}
-    arrays["split"] = np.asarray(frames.split).astype("U")
-    buffer = io.BytesIO()  # a file object: numpy adds no ".npz" to the name
-    np.savez_compressed(
-        buffer,
-        format=np.array(FORMAT),
-        label_source=np.array(frames.label_source),
-        image_size=np.asarray(frames.image_size, dtype=np.int64),
-        **arrays,
-    )
-    write_bytes_atomic(Path(path), buffer.getvalue())
-    return buffer.tell()
+    data = frames_bytes(frames)
+    write_bytes_atomic(Path(path), data)
+    return len(data)
 
 
 def read_frames(path: str | Path) -> FrameSet:

@@ -95,3 +95,17 @@ def test_a_frames_file_is_written_whole_or_not_at_all(tmp_path):
     with pytest.raises(OutputFileError, match="FIFO"):
         os.mkfifo(tmp_path / "fifo")
         save_frames(frames, tmp_path / "fifo")
+
+
+def test_frames_over_the_size_are_refused_with_the_old_file_kept(tmp_path, monkeypatch):
+    from handeye.core.errors import HandEyeInputError
+
+    monkeypatch.setattr("learned.data.load_frames", lambda *args, **kwargs: count_frames())
+    path = tmp_path / "frames.npz"
+    path.write_bytes(b"an earlier frames file")
+    for per_camera in (None, 2):  # the probe's estimate, and a number asked for
+        with pytest.raises(HandEyeInputError, match="MiB"):
+            gpu_paper_run.write_frames(tmp_path, path, "tiny", "truth", max_mib=1e-4, per_camera=per_camera)
+        assert path.read_bytes() == b"an earlier frames file"
+    line = gpu_paper_run.write_frames(tmp_path, path, "tiny", "truth", max_mib=1.0, per_camera=2)
+    assert "written" in line and len(read_frames(path)) == 2 * len(count_frames().cameras())
