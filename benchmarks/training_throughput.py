@@ -175,14 +175,15 @@ def measure(
 
 
 def peak_tflops(device, dtype: str) -> tuple[float | None, str]:
-    """The device's peak rate in ``dtype`` and where the figure comes from."""
+    """The device's peak rate in ``dtype`` and where the figure comes from (float32: TF32's, named so)."""
     import torch
 
     if device.type == "cuda":
         name = torch.cuda.get_device_name(device)
         for key, peaks in PEAK_TFLOPS:
             if key in name:
-                return peaks[dtype], f"datasheet, {key}"
+                precision = "TF32 tensor cores, as float32 convolutions run" if dtype == "float32" else dtype
+                return peaks[dtype], f"datasheet, {key}, {precision}"
         return None, f"unknown ({name} not in the table)"
     return _matmul_rate(dtype, device), "estimate: a 2048^2 matrix product's measured rate"
 

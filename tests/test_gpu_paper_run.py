@@ -109,3 +109,12 @@ def test_frames_over_the_size_are_refused_with_the_old_file_kept(tmp_path, monke
         assert path.read_bytes() == b"an earlier frames file"
     line = gpu_paper_run.write_frames(tmp_path, path, "tiny", "truth", max_mib=1.0, per_camera=2)
     assert "written" in line and len(read_frames(path)) == 2 * len(count_frames().cameras())
+
+
+def test_the_float32_peak_is_named_as_tf32s(monkeypatch):
+    import torch
+
+    monkeypatch.setattr(torch.cuda, "get_device_name", lambda device=None: "NVIDIA H100 80GB HBM3")
+    value, source = training_throughput.peak_tflops(torch.device("cuda"), "float32")
+    assert value == 495.0 and "TF32" in source and "H100" in source
+    assert "TF32" not in training_throughput.peak_tflops(torch.device("cuda"), "bfloat16")[1]
