@@ -217,9 +217,11 @@ class History:
         return v
 
     def rollback(self, version: int, stream_t: float | None = None) -> Version:
-        """Append a new version equal to ``version`` (nothing is rewritten)."""
+        """Append a new version equal to ``version``, its ``extra`` too (the full sigma, the depth correction it
+        was fitted with); nothing is rewritten."""
         old = self.get(version)
-        return self.append(old.T_base_cam, f"rollback to version {version}", old.sigma, old.frames, stream_t)
+        reason = f"rollback to version {version}"
+        return self.append(old.T_base_cam, reason, old.sigma, old.frames, stream_t, old.extra)
 
     def publish(self) -> Version | None:
         """Rewrite the current calibration's JSON from the latest version (after a crash between the two)."""

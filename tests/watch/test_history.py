@@ -164,3 +164,15 @@ def test_two_writers_appending_at_once_number_every_version_once(tmp_path):
     assert [v.version for v in versions] == list(range(1, 81))
     assert [v.replaces for v in versions] == [None, *range(1, 80)]
     assert json.loads(current.read_text())["version"] == 80
+
+
+def test_a_rollback_keeps_the_versions_extra(tmp_path):
+    """The rolled-back version's extra (a commit's full sigma and depth correction) comes with it: it was dropped,
+    so after a rollback the current file had only the noise part of the sigma (module docstring)."""
+    h = History(tmp_path / "h.jsonl", tmp_path / "current.json")
+    extra = {"sigma_summary": {"rotation_deg": 0.05, "translation_mm": 1.2}, "depth_correction_k_c_m": [1.001, -0.002]}
+    h.append(pose_of(1), "commit", np.full(6, 1e-3), (0, 1), extra=extra)
+    h.append(pose_of(2), "commit")
+    v = h.rollback(1)
+    assert v.extra == extra and h.latest().extra == extra
+    assert json.loads((tmp_path / "current.json").read_text())["extra"] == extra
