@@ -5,10 +5,8 @@ from __future__ import annotations
 import base64
 import html
 import json
-import os
 import re
 import shlex
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -25,6 +23,7 @@ from handeye.core.synthetic import make_problem  # noqa: E402
 from handeye.report import hold_out_check  # noqa: E402
 from handeye.report.from_command import command_line  # noqa: E402
 from handeye.report.tables import rpy_deg  # noqa: E402
+from tests.test_docs import _browser  # noqa: E402
 from tests.tolerances import DEG, FLOAT
 
 DATA = Path(__file__).resolve().parents[1] / "handeye" / "data"
@@ -272,11 +271,6 @@ def test_images_report_overlays_and_statuses(image_recording, tmp_path):
     assert worst["index"] == 3 and worst["translation_mm"] > 3 * worst["sigma_translation_mm"]
     assert 0.7 * SHIFT_MM < worst["translation_mm"] < 1.3 * SHIFT_MM
     assert "board not found" in page and "refined on corner reprojection error" in page
-
-
-def _browser() -> str | None:
-    names = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chromium-headless-shell")
-    return os.environ.get("HANDEYE_TEST_BROWSER") or next(filter(None, map(shutil.which, names)), None)
 
 
 #: Put into a copy of the page: records errors (scripts, resources, console) and each image's natural size.
