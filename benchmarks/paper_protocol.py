@@ -56,6 +56,26 @@ def sweep_minutes(folder: Path) -> float:
     return sum(r["wall_s"] for s in settings for r in load_results(folder / s["name"])["runs"]) / 60
 
 
+def labels_line(root: Path) -> str:
+    """Which kind of label both modes train on here, and where that is not the paper's mode as written.
+
+    Both modes read the one dataset's classic labels; the paper's mode as written trains on the paper's
+    (``handeye label --method tsai --repeats 5``, :mod:`learned.label_kind`), so on this project's labels
+    its column is the paper's protocol on other labels, and is said to be.
+    """
+    from learned.label_kind import PAPER, label_kind
+
+    kind = label_kind(root)
+    line = f"Labels: {kind or 'none'} (learned.label_kind), the same for both modes."
+    if kind != PAPER:
+        line += (
+            " The paper's mode as written trains on the paper's labels ('handeye learned run --protocol paper' "
+            "refuses these; label a copy with 'handeye label COPY --method tsai --repeats 5'): its column here is "
+            "the paper's protocol on other labels."
+        )
+    return line
+
+
 def run_mode(frames, preset, mode: str, where: str | None, out: Path, args) -> tuple[dict, float]:
     """One protocol run in ``mode``; its results and wall time (0 when read back from an earlier run)."""
     from learned.experiment import run_experiment
@@ -110,6 +130,8 @@ def main() -> int:
         name = Path(root).name
         emit()
         emit(f"## {name}: {len(probe['regions'])} subsets ({where or 'neither of the paper setups'})")
+        emit()
+        emit(labels_line(root))
         emit()
         results, walls = {}, {}
         for mode in MODES:

@@ -58,3 +58,12 @@ def test_a_label_of_this_project_whose_sigma_is_nan_is_still_this_projects(monke
     assert label_kind("any") == HANDEYE
     table["label_rms_px"][1] = nan  # a pose with none of them: the paper's kind beside ours
     assert label_kind("any") == "mixed"
+
+
+def test_the_paper_protocol_benchmark_names_the_labels_both_modes_train_on(small_dataset, paper_labelled):
+    from benchmarks.paper_protocol import labels_line
+
+    ours = labels_line(small_dataset[0])
+    assert HANDEYE in ours and "the paper's protocol on other labels" in ours
+    papers = labels_line(paper_labelled)
+    assert PAPER in papers and "other labels" not in papers
