@@ -167,6 +167,7 @@ def main(argv=None) -> int:
     import torch
 
     from benchmarks import training_throughput
+    from handeye.core.safe_write import write_text_atomic
 
     deadline = time.perf_counter() + 60 * args.minutes
     torch.backends.cudnn.benchmark = True  # fixed input sizes: let cuDNN pick its fastest convolutions
@@ -177,7 +178,7 @@ def main(argv=None) -> int:
         "The paper preset on an accelerator", "benchmarks/gpu_paper_run.py", argv, f"torch {torch.__version__}"
     )
     run_protocol(args.frames, args.out, args, report, deadline)
-    (args.out / "args.json").write_text(json.dumps({k: str(v) for k, v in vars(args).items()}, indent=1))
+    write_text_atomic(args.out / "args.json", json.dumps({k: str(v) for k, v in vars(args).items()}, indent=1))
     return report.write(str(args.out / "gpu_paper_run.md"))
 
 

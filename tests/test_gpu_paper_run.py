@@ -118,3 +118,20 @@ def test_the_float32_peak_is_named_as_tf32s(monkeypatch):
     value, source = training_throughput.peak_tflops(torch.device("cuda"), "float32")
     assert value == 495.0 and "TF32" in source and "H100" in source
     assert "TF32" not in training_throughput.peak_tflops(torch.device("cuda"), "bfloat16")[1]
+
+
+def test_the_run_steps_args_file_is_not_written_into_a_fifo(tmp_path):
+    from handeye.core.errors import OutputFileError
+
+    save_frames(thin_frames(count_frames(), 4), tmp_path / "frames.npz")
+    out = tmp_path / "out"
+    out.mkdir()
+    os.mkfifo(out / "args.json")
+    reader = os.open(out / "args.json", os.O_RDONLY | os.O_NONBLOCK)  # a plain write would go in and succeed
+    argv = ["run", "--frames", str(tmp_path / "frames.npz"), "--out", str(out), "--preset", "tiny", "--minutes", "0"]
+    argv += ["--strategies", "batch", "--repeats", "1", "--sizes", "tiny", "--steps", "1", "--networks", "regression"]
+    try:
+        with pytest.raises(OutputFileError, match="args.json"):
+            gpu_paper_run.main(argv)
+    finally:
+        os.close(reader)
