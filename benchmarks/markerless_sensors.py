@@ -218,6 +218,48 @@ def kinematic_truth(T_phys: np.ndarray, twists: np.ndarray, offsets_rad: np.ndar
     return expm(-offsets_rad[0] * hat) @ T_phys
 
 
+def told_posed(surface, q: np.ndarray, T_base_cam: np.ndarray, joint_offsets_deg=None) -> tuple:
+    """The robot's surface at the joints the method is told, and the camera pose it should find.
+
+    Parameters
+    ----------
+    surface : handeye.markerless robot surface (``robot_surface_for``'s)
+    q : array, shape (n_frames, n_joints)
+        The joints as they stand (radians).
+    T_base_cam : array, shape (4, 4)
+        The camera in the robot's physical base frame (metres).
+    joint_offsets_deg : array, shape (n_joints,), or None
+        Joint zero offsets (degrees): the method is told ``q`` less these.
+
+    Returns
+    -------
+    posed : the surface posed at the told joints
+    T_base_cam : array, shape (4, 4)
+        The camera in the kinematic base frame of the told joints (:func:`kinematic_truth`); as given without
+        offsets.
+    """
+    if joint_offsets_deg is None:
+        return surface.posed(q), T_base_cam
+    delta = np.radians(joint_offsets_deg)
+    if len(delta) != q.shape[1]:
+        raise SystemExit(f"--joint-offsets gives {len(delta)} values for a robot of {q.shape[1]} joints")
+    posed = surface.posed(q - delta)
+    return posed, kinematic_truth(T_base_cam, posed.joint_twists_base[0], delta)
+
+
+def front_options(sensor, stride: int, **options) -> MarkerlessOptions:
+    """The front's self-calibrated registration for ``sensor``'s profile: its depth-to-colour spreads (the
+    registration's offset and roll) and stereo baseline stated, the z-buffer at ``stride``, ``options`` further
+    :class:`MarkerlessOptions` fields."""
+    return MarkerlessOptions(
+        zbuffer_stride=stride,
+        depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
+        depth_extrinsic_sigma_deg=sensor.registration_roll_sigma_deg,  # the profile's depth-to-colour roll spread
+        stereo_fb_px_m=sensor.stereo_fb_px_m,
+        **options,
+    )
+
+
 def parse_joint_offsets(text: str) -> np.ndarray:
     """``0.2,-0.3,...``: joint zero offsets in degrees, one per joint."""
     try:
@@ -250,13 +292,7 @@ def run_profile(
     """
     K = told_intrinsics(ds.meta["intrinsics"]["K"], intrinsics_error)
     T_true = ds.truth()
-    self_calibrated = MarkerlessOptions(
-        zbuffer_stride=stride,
-        depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
-        depth_extrinsic_sigma_deg=sensor.registration_roll_sigma_deg,  # the profile's depth-to-colour roll spread
-        stereo_fb_px_m=sensor.stereo_fb_px_m,
-        **(options or {}),
-    )
+    self_calibrated = front_options(sensor, stride, **(options or {}))
     all_modes = {
         "self-calibrated": self_calibrated,
         "self-calibrated, intrinsics taken as exact": replace(self_calibrated, intrinsics_model="fixed"),
@@ -269,15 +305,7 @@ def run_profile(
     rows = {m: [] for m in modes}
     for c in cams:
         depth, q, truth = observe(ds, c, sensor, seed, registration)
-        T_c = T_true[c]
-        if joint_offsets is not None:
-            delta = np.radians(joint_offsets)
-            if len(delta) != q.shape[1]:
-                raise SystemExit(f"--joint-offsets gives {len(delta)} values for a robot of {q.shape[1]} joints")
-            posed = surface.posed(q - delta)
-            T_c = kinematic_truth(T_true[c], posed.joint_twists_base[0], delta)
-        else:
-            posed = surface.posed(q)
+        posed, T_c = told_posed(surface, q, T_true[c], joint_offsets)
         for mode, opts in modes.items():
             t0 = time.perf_counter()
             res = register_robot(depth, K, posed, options=opts)

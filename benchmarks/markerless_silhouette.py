@@ -36,8 +36,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._report import Report  # noqa: E402
 from benchmarks.markerless_errors import cases  # noqa: E402
-from benchmarks.markerless_sensors import kinematic_truth, observe, placements, told_intrinsics, versions  # noqa: E402
-from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
+from benchmarks.markerless_sensors import (  # noqa: E402
+    front_options,
+    observe,
+    placements,
+    told_intrinsics,
+    told_posed,
+    versions,
+)
+from classic.markerless import register_robot  # noqa: E402
 from classic.markerless.kinematics import moved_surface  # noqa: E402
 from classic.markerless.silhouette import SilhouetteOptions, refine_silhouette  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
@@ -91,17 +98,8 @@ def run_placement(ds, surface, stride, c, case, seed, opts_sil) -> dict:
     K_true = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     K = told_intrinsics(K_true, case.get("intrinsics"))
     depth, q, _ = observe(ds, c, sensor, seed, case.get("registration"))
-    T_truth = ds.truth()[c]
-    delta = np.radians(case["joints"]) if case.get("joints") is not None else None
-    posed = surface.posed(q - delta if delta is not None else q)
-    if delta is not None:
-        T_truth = kinematic_truth(T_truth, posed.joint_twists_base[0], delta)
-    opts = MarkerlessOptions(
-        zbuffer_stride=stride,
-        depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
-        depth_extrinsic_sigma_deg=sensor.registration_roll_sigma_deg,
-        stereo_fb_px_m=sensor.stereo_fb_px_m,
-    )
+    posed, T_truth = told_posed(surface, q, ds.truth()[c], case.get("joints"))
+    opts = front_options(sensor, stride)
     f_true = K_true[[0, 1], [0, 1]]
     t0 = time.perf_counter()
     first = register_robot(depth, K, posed, options=opts)
