@@ -205,9 +205,9 @@ def train(
     if distributed.world_size() > 1:
         with global_batchnorm(model):
             net = _compiled(distributed.data_parallel(model), config)
-            mean = _epochs(model, net, True, data, index, config, rng, progress, desc)
+            mean = _epochs(model, net, data, index, config, rng, progress, desc)
     else:
-        mean = _epochs(model, _compiled(model, config), False, data, index, config, rng, progress, desc)
+        mean = _epochs(model, _compiled(model, config), data, index, config, rng, progress, desc)
     if mean is not None:
         _take_average(model, mean, data, data.positions(index), config.batch_size)
     model.eval()
@@ -310,7 +310,6 @@ def _take_average(model, mean, data: DeviceFrames, pos: torch.Tensor, batch_size
 def _epochs(
     model: CalibrationNet,
     net: torch.nn.Module,
-    sliced: bool,
     data: DeviceFrames,
     index: np.ndarray,
     config: TrainConfig,
@@ -320,8 +319,8 @@ def _epochs(
 ):
     """The epochs of :func:`train` on ``data`` (the frames at ``index``, on the device).
 
-    ``net`` runs the forward passes (``model``, or its compiled or data-parallel wrapper); ``sliced``:
-    data-parallel, each rank computing its slice of every batch. Every rank draws the same
+    ``net`` runs the forward passes (``model``, or its compiled or data-parallel wrapper); data-parallel
+    (more than one process), each rank computes its slice of every batch. Every rank draws the same
     permutations from the same generator, so all see the same batches and skip the same ones; each
     rank then computes the loss of its slice (:func:`_slice_loss`). Per epoch the permutation's
     positions go to the device once; per batch only the keypoint model's shifts (when on). Returns
@@ -329,6 +328,7 @@ def _epochs(
     None when that is 0.
     """
     mean = None
+    sliced = distributed.world_size() > 1  # as train wraps net
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
     steps = config.epochs * -(-len(index) // config.batch_size)  # a last batch of one, skipped, leaves it above 0
     scheduler = (
