@@ -179,8 +179,11 @@ def test_ctrl_c_is_the_parents_to_handle(tmp_path):
         start_new_session=True,
         stderr=subprocess.PIPE,
         text=True,
-        # as from a terminal: an ignored SIGINT is inherited across exec, and an earlier test in the same pytest
-        # worker left it ignored (the script then never saw the Ctrl-C: 30 s timeouts in CI, never alone)
+        # as from a terminal: an ignored SIGINT is inherited across exec, and pytest may run with it ignored (a
+        # shell without job control starts a background job so: `bash -c 'pytest ... &'` fails this test
+        # without this line, 30 s timeout, as CI did); no test here was found to leave it ignored (/proc's SigIgn
+        # after every test of test_ray_engine, test_processes, learned/test_distributed, test_accelerator_path,
+        # watch's learner, history and ros2 tests: SIGINT at its default)
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     _wait_for(lambda: len(list(tmp_path.glob("*.started"))) == 2, START_TIMEOUT_S, "two busy workers")
