@@ -688,3 +688,10 @@ PIXEL_EFFECT_SCHUR_RTOL = 1e-10
 #: The per-pixel effect's variance from the method of moments within this many of its sampling standard
 #: deviations (the spread derived in the test from the pixels' count): 4 leaves a 6e-5 chance of a false failure.
 PIXEL_EFFECT_SIGMA_SDS = 4.0
+
+#: The per-pixel effect's variance components (one-way random effects, ANOVA) within this many of their standard
+#: errors, each derived in the test from the design (the within mean square's chi^2(N - k), each pixel's between
+#: term (s_p sigma_p^2 + v) chi^2(1), their ratio's by the delta method): 4 leaves a 6e-5 chance per check of a
+#: false failure (normal tail). The total variance in place of the within one moves the ratio by
+#: log(1 + mean(g^2) sigma_p^2 / v), 0.55 at the test's sizes, against 4 x 0.035 (the old code failed by it).
+PIXEL_VARIANCE_SPLIT_SDS = 4.0

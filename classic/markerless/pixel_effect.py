@@ -8,17 +8,19 @@ percent. Modelled as one unknown ``e_p`` per pixel under a Gaussian prior of sig
 1 m), each match's residual moves by ``g_i e_p`` with ``g_i = (n_cam . r_i) z_i^2`` (its normal along its ray
 times its depth squared). The per-pixel unknowns are eliminated in closed form (Schur complement), so the fit
 keeps its few parameters: the information of pixel ``p``'s matches is reduced by
-``b_p b_p^T / a_p`` with ``a_p = sum w g^2 + v / sigma_p^2`` and ``b_p = sum w g J`` (``v`` the residual variance,
-the units of ``J^T W J``). Where the pixel's matches differ in depth and normal across frames, the pose is still
-determined by them; what they share is not counted again. ``sigma_p`` is measured from the residuals: the spread
-of the per-pixel estimates beyond their own noise.
+``b_p b_p^T / a_p`` with ``a_p = sum w g^2 + v / sigma_p^2`` and ``b_p = sum w g J`` (``v`` the residuals' temporal
+variance, the part that does not repeat at a pixel: the units of ``J^T W J``). Where the pixel's matches differ in
+depth and normal across frames, the pose is still determined by them; what they share is not counted again.
+``sigma_p`` and ``v`` are measured from the residuals, split into the spread of the per-pixel estimates beyond
+their own noise and the scatter within a pixel (:func:`pixel_variance_components`); the residuals' total
+variance holds the effect as well, and in place of ``v`` it would make the prior too tight.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["pixel_gain", "pixel_effect_sigma", "schur_reduction", "reduced_rows"]
+__all__ = ["pixel_gain", "pixel_variance_components", "schur_reduction", "reduced_rows"]
 
 
 def pixel_gain(n_cam: np.ndarray, q_obs: np.ndarray) -> np.ndarray:
@@ -46,13 +48,20 @@ def _per_pixel(pixel: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.bincount(pixel, values[:, k], minlength=n) for k in range(values.shape[1])], axis=1)
 
 
-def pixel_effect_sigma(r: np.ndarray, w: np.ndarray, g: np.ndarray, pixel: np.ndarray, min_matches: int = 3) -> float:
-    """The per-pixel effect's sigma (metres at 1 m) the residuals show: method of moments.
+def pixel_variance_components(
+    r: np.ndarray, w: np.ndarray, g: np.ndarray, pixel: np.ndarray, min_matches: int = 3
+) -> tuple[float, float]:
+    """The residuals' variance split into the part each pixel repeats and the part it does not (one-way random
+    effects, the ANOVA estimator).
 
-    Per pixel with at least ``min_matches`` matches, the weighted least-squares effect ``e_p = sum w g r / sum w g^2``
-    and its noise ``v / sum w g^2``, ``v`` the residuals' variance about their pixels' effects (the within-pixel
-    scatter over its degrees of freedom); the sigma is the square root of the mean ``e_p^2`` less the mean noise
-    (0 when the pixels' estimates spread no more than their noise).
+    Model ``r_i = g_i e_p + n_i``: ``e_p`` the pixel's effect (metres at 1 m, the same in every frame, about 0
+    with sigma ``sigma_p``), ``n_i`` the temporal noise of variance ``v``. Over the pixels with at least
+    ``min_matches`` matches, each pixel's weighted least-squares effect ``e_p = c_p / s_p`` (``c_p = sum w g r``,
+    ``s_p = sum w g^2``); the within-pixel mean square ``MSW = sum w (r - g e_p)^2 / (sum w - k)`` (``k`` pixels)
+    estimates ``v``; the between-pixel mean square ``MSB = sum s_p e_p^2 / k`` has the expectation
+    ``v + (S / k) sigma_p^2`` (``S = sum s_p``), so ``sigma_p^2 = (MSB - MSW) / (S / k)``, floored at 0. MSB is
+    taken about 0, the prior's mean, not about the effects' mean: a share common to all pixels is part of what
+    the prior must cover (the pose takes most of it out of ``r`` anyway).
 
     Parameters
     ----------
@@ -61,10 +70,15 @@ def pixel_effect_sigma(r: np.ndarray, w: np.ndarray, g: np.ndarray, pixel: np.nd
     pixel : array of int, shape (N,)
         Each match's pixel index.
     min_matches : int
+        Matches of weight above 0.5 a pixel needs to count.
 
     Returns
     -------
-    float
+    sigma_p : float
+        The effect's sigma, metres at 1 m (0 when the pixels' estimates spread no more than their noise, or
+        no pixel has ``min_matches``).
+    variance : float
+        ``v``, the within-pixel variance, m^2 (the weighted mean square of all residuals where no pixel counts).
     """
     _, pix = np.unique(pixel, return_inverse=True)
     n = int(pix.max()) + 1 if len(pix) else 0
@@ -73,15 +87,15 @@ def pixel_effect_sigma(r: np.ndarray, w: np.ndarray, g: np.ndarray, pixel: np.nd
     wgr = _per_pixel(pix, w * g * r, n)
     use = (count >= min_matches) & (wgg > 0)
     if not use.any():
-        return 0.0
+        return 0.0, float((w * r**2).sum() / max(float(w.sum()), 1.0))
     e_all = np.where(wgg > 0, wgr / np.where(wgg > 0, wgg, 1.0), 0.0)
     inside = use[pix]
     within = r[inside] - g[inside] * e_all[pix[inside]]
-    dof = max(float(w[inside].sum()) - float(use.sum()), 1.0)
-    variance = float((w[inside] * within**2).sum() / dof)
-    e = e_all[use]
-    noise = variance / wgg[use]
-    return float(np.sqrt(max(np.mean(e**2) - np.mean(noise), 0.0)))
+    k = float(use.sum())
+    msw = float((w[inside] * within**2).sum() / max(float(w[inside].sum()) - k, 1.0))
+    msb = float((wgg[use] * e_all[use] ** 2).sum() / k)
+    n0 = float(wgg[use].sum()) / k
+    return float(np.sqrt(max(msb - msw, 0.0) / n0)), msw
 
 
 def schur_reduction(
@@ -97,7 +111,7 @@ def schur_reduction(
     sigma_p : float
         The effect's prior sigma, metres at 1 m (> 0).
     variance : float
-        The residual variance (the prior's units).
+        The residuals' within-pixel (temporal) variance, the prior's units (:func:`pixel_variance_components`).
 
     Returns
     -------

@@ -57,7 +57,7 @@ from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns
-from classic.markerless.pixel_effect import pixel_effect_sigma, pixel_gain, reduced_rows, schur_reduction
+from classic.markerless.pixel_effect import pixel_gain, pixel_variance_components, reduced_rows, schur_reduction
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = [
@@ -454,13 +454,13 @@ def solve_point_to_plane(
 
 
 def _pixel_reduction(p_cam, J, r, w, pixel):
-    """:func:`classic.markerless.pixel_effect.schur_reduction` with the effect's sigma measured from ``r``, and the
-    rows' gains; None where the residuals show no per-pixel effect."""
+    """:func:`classic.markerless.pixel_effect.schur_reduction` with the effect's sigma and the temporal variance
+    measured from ``r`` (their one-way split), and the rows' gains; None where the residuals show no per-pixel
+    effect."""
     gain = pixel_gain(J[:, 3:6], p_cam)  # the translation's columns are the normals in the camera frame
-    sigma_p = pixel_effect_sigma(r, w, gain, pixel)
+    sigma_p, variance = pixel_variance_components(r, w, gain, pixel)
     if not sigma_p > 0:
         return None
-    variance = float((w * r**2).sum() / max(float(w.sum()), 1.0))
     dH, dg, pix, coef = schur_reduction(J, r, w, gain, pixel, sigma_p, variance)
     return dH, dg, gain, pix, coef
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic.markerless.pixel_effect import pixel_effect_sigma, reduced_rows, schur_reduction
+from classic.markerless.pixel_effect import pixel_variance_components, reduced_rows, schur_reduction
 from tests.tolerances import PIXEL_EFFECT_SCHUR_RTOL, PIXEL_EFFECT_SIGMA_SDS
 
 
@@ -58,8 +58,8 @@ def test_sigma_recovered_and_zero_without_effect():
     mean_gg = per_pixel * np.mean(g**2)
     spread = np.sqrt(2.0) * (sigma_p**2 + noise**2 / mean_gg) / np.sqrt(n_pixels)
     r = g * effect[pixel] + rng.normal(0.0, noise, len(pixel))
-    got = pixel_effect_sigma(r, w, g, pixel)
+    got = pixel_variance_components(r, w, g, pixel)[0]
     assert abs(got**2 - sigma_p**2) < PIXEL_EFFECT_SIGMA_SDS * spread
     r0 = rng.normal(0.0, noise, len(pixel))
     spread0 = np.sqrt(2.0) * (noise**2 / mean_gg) / np.sqrt(n_pixels)
-    assert pixel_effect_sigma(r0, w, g, pixel) ** 2 < PIXEL_EFFECT_SIGMA_SDS * spread0
+    assert pixel_variance_components(r0, w, g, pixel)[0] ** 2 < PIXEL_EFFECT_SIGMA_SDS * spread0
