@@ -2,3 +2,6 @@
 
 #: The page that defines the figures the commands print (1-sigma, residual, axis diversity, matched, ...).
 GLOSSARY = "docs/concepts/glossary.md"
+#: How the commands print where it is: a path in the repository (the project names no documentation site URL:
+#: mkdocs.yml has no ``site_url``), so a reader outside the repository knows where to look.
+GLOSSARY_WHERE = f"{GLOSSARY} (in the repository)"

@@ -70,7 +70,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.commands import GLOSSARY
+from handeye.commands import GLOSSARY_WHERE
 from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments, describe_noise, noise_model_from_args
 
@@ -390,7 +390,7 @@ def _run_detections(args: argparse.Namespace) -> int:
         lines += _robot_noise_lines(rep)
     lines.append(_intrinsics_line(args, views.intrinsics, rep is not None))
     lines += _truth_lines(args.truth, ((x_name, out.X), (y_name, out.Y)))
-    lines.append(f"  terms: {GLOSSARY}")
+    lines.append(f"  terms: {GLOSSARY_WHERE}")
     lines += write_exports(args, setup, out.X)
     print("\n".join(lines))
     if args.output is not None:
@@ -564,7 +564,7 @@ def _run_poses(args: argparse.Namespace) -> int:
         if w.category.__name__ != "SuspectPosesWarning":  # the lines above name those poses
             lines.append(f"  warning: {w.message}")
     lines += _truth_lines(args.truth, ((x_name, res.X), (y_name, res.Y)))
-    lines.append(f"  terms: {GLOSSARY}")
+    lines.append(f"  terms: {GLOSSARY_WHERE}")
     lines += write_exports(args, setup, res.X, poses.frames)
     print("\n".join(lines), file=out)
     if args.output is not None:

@@ -25,7 +25,7 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from handeye.commands import GLOSSARY
+from handeye.commands import GLOSSARY_WHERE
 from handeye.core.numbers import cli_float, cli_int, parse_float
 
 __all__ = ["add_parser", "run"]
@@ -179,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
     note = out.registration_note()
     if note:
         print(note)
-    print(f"terms (sigma, matched, depth scale and offset): {GLOSSARY}")
+    print(f"terms (sigma, matched, depth scale and offset): {GLOSSARY_WHERE}")
     if args.out:
         write_json_atomic(args.out, out.to_dict())
         print(f"written: {args.out}")
