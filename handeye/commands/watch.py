@@ -110,14 +110,18 @@ def _rollback(args: argparse.Namespace) -> int:
         raise HandEyeInputError("handeye watch rollback --history PATH VERSION: both are needed")
     if not args.history.is_file():
         raise HandEyeInputError(f"{args.history}: no such history")
-    v = History(args.history, args.current).rollback(args.version)
-    print(f"version {v.version}: {v.reason} (replaces {v.replaces})")
-    if args.publish_tf or args.ros2:
-        from handeye.commands.watch_sources import hold, tf_publisher
+    tf = None
+    if args.publish_tf or args.ros2:  # before the append: a refused frame leaves the history as it was
+        from handeye.commands.watch_sources import tf_publisher
 
         tf = tf_publisher(args)
-        tf.publish(v.T_base_cam)
-        print(f"published {args.base_frame} -> {args.camera_frame}; held until Ctrl-C", flush=True)
+    v = History(args.history, args.current).rollback(args.version)
+    print(f"version {v.version}: {v.reason} (replaces {v.replaces})")
+    if tf is not None:
+        from handeye.commands.watch_sources import hold
+
+        tf.publish(v.T_base_cam, v.version)
+        print(f"published {tf.parent_frame} -> {tf.child_frame}; held until Ctrl-C", flush=True)
         hold(tf)
     return 0
 
@@ -186,9 +190,10 @@ def _watch_dataset(args: argparse.Namespace) -> int:
         depth_correction=depth_correction,
         on_commit=hooks,
         extra_starts=starts,
+        on_stale=() if tf is None else [tf.stale],
     )
     if tf is not None:
-        tf.publish(watcher.T_base_cam)
+        tf.publish(watcher.T_base_cam, watcher.version)
     frames = dataset_frames(args.dataset, args.rate, colour=learner is not None)
     last = _replay(watcher, frames, learner)
     if last is not None and np.isfinite(truth[last.segment]).all():
@@ -228,9 +233,10 @@ def _watch_ros(args: argparse.Namespace) -> int:
             args.current,
             on_commit=hooks,
             extra_starts=starts,
+            on_stale=() if tf is None else [tf.stale],
         )
         if tf is not None:
-            tf.publish(watcher.T_base_cam)
+            tf.publish(watcher.T_base_cam, watcher.version)
         _replay(watcher, inputs.frames, learner)
     finally:
         if inputs.source is not None:

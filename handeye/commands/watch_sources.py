@@ -13,8 +13,10 @@ its recorded rate unless ``--fast``. ``--ros2`` subscribes to ``--depth-topic``,
 ``--joints-topic`` (:class:`handeye.watch.ros2.Ros2Frames`) and publishes the calibration as a static
 transform ``--base-frame`` -> ``--camera-frame`` at the start and on each commit (``--publish-tf`` does it for a
 replay too; while the watcher says the calibration is stale the old transform stays published, as a static
-transform cannot be withdrawn: follow the event lines); the ROS 2 code is untested against a real ROS 2 (its
-tests use a fake rclpy). ``--learner PATH``
+transform cannot be withdrawn: ``/handeye/calibration_status`` and ``--current``'s ``stale_since`` say it is
+stale; a ``--camera-frame`` with a parent on ``/tf_static``, as a camera driver's optical frame has, is reached
+through its tree's root: :class:`handeye.watch.ros2.TfPublisher`); the ROS 2 code is untested against a real
+ROS 2 (its tests use a fake rclpy). ``--learner PATH``
 loads a :class:`learned.calibrator.ContinualCalibrator` saved there (a new one of ``--learner-preset`` when
 there is none), offers it each committed camera pose in the background, saves it after each training, and
 starts each recalibration from its prediction too.
@@ -161,15 +163,19 @@ def outputs(args, robot, K, node=None) -> tuple:
 
 
 def tf_publisher(args, node=None):
-    """The static transform's publisher (``--base-frame`` -> ``--camera-frame``) on ``node`` or a new one."""
+    """The static transform's publisher (``--base-frame`` -> ``--camera-frame``) on ``node`` or a new one, after
+    ``/tf_static`` was read for the camera frame's parent (:meth:`handeye.watch.ros2.TfPublisher.attach`, which
+    refuses a camera already placed under the base); prints the transform it will publish."""
     from handeye.watch.ros2 import TfPublisher, require_rclpy
 
+    rclpy = require_rclpy()
     if node is None:
-        rclpy = require_rclpy()
         if not rclpy.ok():
             rclpy.init()
         node = rclpy.create_node("handeye_watch")
-    return TfPublisher(node, args.base_frame, args.camera_frame)
+    tf = TfPublisher(node, args.base_frame, args.camera_frame)
+    print(f"tf: publishing {tf.attach(rclpy)}", flush=True)
+    return tf
 
 
 def hold(tf) -> None:

@@ -170,6 +170,10 @@ class CellWatcher:
         ``extra_starts(frames) -> {name: T_base_cam}``, more starts for a recalibration beside the last
         calibration (:meth:`handeye.watch.learner.BackgroundLearner.starts`); passed as
         ``recalibrate(frames, T_start, extra_starts=...)`` when it gives any.
+    on_stale : sequence of callable, optional
+        Each called ``hook(stale_since, version)`` when the calibration in use becomes stale (a ``moved``), after
+        ``current_path``'s JSON says so (:meth:`handeye.watch.history.History.mark_stale`):
+        :meth:`handeye.watch.ros2.TfPublisher.stale`.
     """
 
     def __init__(
@@ -185,6 +189,7 @@ class CellWatcher:
         depth_correction: tuple = (1.0, 0.0),
         on_commit=(),
         extra_starts: Callable | None = None,
+        on_stale=(),
     ):
         self.surface = robot_surface
         self.K = np.asarray(K, dtype=float)
@@ -207,7 +212,7 @@ class CellWatcher:
         self.depth_correction = tuple(float(v) for v in depth_correction)
         stride = self.options.check.zbuffer_stride
         self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor, zbuffer_stride=stride)
-        self.on_commit, self.extra_starts = tuple(on_commit), extra_starts
+        self.on_commit, self.extra_starts, self.on_stale = tuple(on_commit), extra_starts, tuple(on_stale)
         self.mode = "learning"
         self.state = "learning"
         self.stale_since: float | None = None
@@ -246,6 +251,7 @@ class CellWatcher:
         """
         check = self._check(frame)
         self.last_check = check
+        was_stale = self.stale_since is not None
         if self.mode == "learning":
             state, detail = self._learn(check, frame.t)
         elif self.mode in ("watching", "relearning"):
@@ -258,7 +264,16 @@ class CellWatcher:
         if state != self.state or state in ("recalibrated", "refused"):
             events.append(self._event(frame.t, state, detail))
             self.state = state
+        if self.stale_since is not None and not was_stale:
+            self._mark_stale()
         return events
+
+    def _mark_stale(self) -> None:
+        """Say on every output that the calibration in use is stale: the current JSON, then the hooks."""
+        if self.history is not None:
+            self.history.mark_stale(self.stale_since)
+        for hook in self.on_stale:
+            hook(self.stale_since, self.version)
 
     def _event(self, t: float, state: str, detail: str) -> Event:
         return Event(t, state, self.state, detail, self.stale_since, self.version)

@@ -16,7 +16,10 @@ That predicted RMS error, all of them in quadrature, is ``extra["sigma_summary"]
 ``translation_mm``: :attr:`classic.markerless.MarkerlessResult.sigma`), the one the event line prints.
 
 The current calibration is a JSON file replaced atomically (:func:`handeye.core.safe_write.write_text_atomic`)
-after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two).
+after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two). Beside
+the version's fields it has ``stale_since``: null while the watcher holds the version valid, else the stream time
+(seconds) from which the watcher knows it is off (:meth:`History.mark_stale`, on a ``moved``), until the next
+version replaces it: a consumer must not use a calibration whose ``stale_since`` is not null.
 Appenders take the history's ``flock`` (advisory, released when the process ends however it ends): two
 processes appending at once number their versions one after the other. A history path that is not a regular
 file (a device, a FIFO, a link to one) is refused, never read from or appended to.
@@ -230,9 +233,18 @@ class History:
             self._publish(v)
         return v
 
-    def _publish(self, v: Version) -> None:
+    def mark_stale(self, stale_since: float) -> Version | None:
+        """Rewrite the current calibration's JSON from the latest version with ``stale_since`` (stream seconds):
+        the watcher knows it is off from then (module docstring); the next append clears it."""
+        v = self.latest()
+        if v is not None:
+            self._publish(v, float(stale_since))
+        return v
+
+    def _publish(self, v: Version, stale_since: float | None = None) -> None:
         if self.current_path is not None:
-            write_text_atomic(self.current_path, json.dumps(v.to_dict(), indent=1) + "\n")
+            doc = {**v.to_dict(), "stale_since": stale_since}
+            write_text_atomic(self.current_path, json.dumps(doc, indent=1) + "\n")
 
 
 def _fsync_dir(folder: Path) -> None:

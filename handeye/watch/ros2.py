@@ -32,7 +32,7 @@ import numpy as np
 from handeye.core.errors import HandEyeInputError
 from handeye.watch.source import Frame
 
-__all__ = ["BASE_FRAME", "Ros2Topics", "Ros2Frames", "TfPublisher", "require_rclpy"]
+__all__ = ["BASE_FRAME", "STATUS_TOPIC", "Ros2Topics", "Ros2Frames", "TfPublisher", "require_rclpy"]
 
 #: What a user does to get rclpy (it comes with ROS 2, not from PyPI).
 RCLPY_HINT = (
@@ -47,6 +47,12 @@ BASE_FRAME = "base_link"
 JOINT_SAMPLES_KEPT = 1000
 #: Colour images kept to pair with depth stamps (a second at 30 Hz).
 COLOUR_IMAGES_KEPT = 30
+#: The calibration's status (std_msgs/String, JSON; :class:`TfPublisher`): tf cannot say a pose is stale.
+STATUS_TOPIC = "/handeye/calibration_status"
+#: The latched static transforms read before publishing (:meth:`TfPublisher.attach`).
+STATIC_TOPIC = "/tf_static"
+#: Seconds ``/tf_static`` is read for (latched: a running driver's tree comes within the first spins).
+TF_STATIC_WAIT_S = 2.0
 
 
 def require_rclpy():
@@ -245,14 +251,27 @@ def _with_array_data(msg):
 
 
 class TfPublisher:
-    """The current calibration as a static transform ``parent_frame -> camera_frame`` (``T_base_cam``).
+    """The current calibration as a static transform ``parent_frame -> camera_frame`` (``T_base_cam``), and its
+    status on :data:`STATUS_TOPIC`.
 
     Untested against a real ROS 2 (module docstring). A :class:`handeye.watch.CellWatcher` ``on_commit`` hook:
-    called with each committed ``T_base_cam``; :meth:`publish` for the start and a rollback.
+    called with each committed ``T_base_cam``; :meth:`publish` for the start and a rollback; :meth:`stale` its
+    ``on_stale`` hook.
 
-    A static transform cannot be withdrawn: from a ``moved`` until the next commit the old calibration stays on
-    ``/tf_static`` though the watcher calls it stale, and nothing on tf says so (nor in ``--current``'s JSON);
-    a consumer must follow the watcher's event lines ("calibration stale since t").
+    **A stale calibration on tf**: a static transform cannot be withdrawn (``/tf_static`` is latched and tf2 keeps
+    the last one), so from a ``moved`` until the next commit the old pose stays on tf and nothing new is sent
+    there. What says it is stale: a ``std_msgs/String`` on :data:`STATUS_TOPIC` (transient local, so a late
+    subscriber gets the last one), JSON ``{"calibration": "stale" | "valid", "stale_since": s | null,
+    "version": n, "parent_frame", "child_frame"}``, sent ``valid`` with each transform and ``stale`` on a
+    ``moved``; and ``--current``'s JSON (``stale_since``). A consumer that picks must check one of them before
+    it trusts the transform: tf alone cannot tell.
+
+    **A camera frame that has a parent**: a camera driver publishes its own tree (``camera_link ->
+    camera_color_optical_frame`` on ``/tf_static``); a second parent of the optical frame is rejected or flaps
+    in tf2. :meth:`attach` reads ``/tf_static`` first: a camera frame with a static parent is reached through the
+    root of its tree (``parent_frame -> root``, ``T_base_cam`` composed with the driver's chain); a tree already
+    joined to ``parent_frame`` (a URDF that places the camera, another watcher) is refused, naming the chain.
+    Parents on ``/tf`` (dynamic) are not seen.
 
     Parameters
     ----------
@@ -260,30 +279,119 @@ class TfPublisher:
     parent_frame, camera_frame : str
         The tf frame of the robot model's root, in which its kinematics give ``T_base_cam`` (:data:`BASE_FRAME`),
         and the depth camera's optical frame.
+
+    Attributes
+    ----------
+    child_frame : str
+        The frame published under ``parent_frame``: ``camera_frame``, or the root of its driver's tree after
+        :meth:`attach`.
+    T_cam_child : array, shape (4, 4)
+        ``child_frame``'s pose in ``camera_frame`` (identity unless composed).
     """
 
     def __init__(self, node, parent_frame: str = BASE_FRAME, camera_frame: str = "camera_color_optical_frame"):
+        from std_msgs.msg import String
         from tf2_ros import StaticTransformBroadcaster
 
         self.node = node
         self.parent_frame, self.camera_frame = parent_frame, camera_frame
+        self.child_frame, self.T_cam_child = camera_frame, np.eye(4)
         self.broadcaster = StaticTransformBroadcaster(node)
+        self.status = node.create_publisher(String, STATUS_TOPIC, _latched_qos())
 
     def __call__(self, T_base_cam: np.ndarray, frames=(), version: int | None = None) -> None:
-        self.publish(T_base_cam)
+        self.publish(T_base_cam, version)
 
-    def publish(self, T_base_cam: np.ndarray) -> None:
-        """Send ``T_base_cam`` (4x4, metres) as the static transform."""
+    def attach(self, rclpy, wait_s: float = TF_STATIC_WAIT_S) -> str:
+        """Read ``/tf_static`` for ``wait_s`` and choose :attr:`child_frame` (class docstring); what was chosen.
+
+        Raises
+        ------
+        HandEyeInputError
+            The camera frame's tree already joined to ``parent_frame``, naming the chain and ``--camera-frame``.
+        """
+        from tf2_msgs.msg import TFMessage
+
+        from handeye.core.se3 import invert_transform
+
+        parents = {}  # child -> (parent, T_parent_child)
+
+        def take(msg) -> None:
+            for tr in msg.transforms:
+                parents[str(tr.child_frame_id)] = (str(tr.header.frame_id), _matrix(tr.transform))
+
+        self.node.create_subscription(TFMessage, STATIC_TOPIC, take, _latched_qos())
+        clock = self.node.get_clock()
+        start = clock.now().nanoseconds
+        while rclpy.ok() and clock.now().nanoseconds - start < wait_s * 1e9:
+            rclpy.spin_once(self.node, timeout_sec=0.1)
+        chain, T_root_cam = [self.camera_frame], np.eye(4)
+        while chain[-1] in parents and len(chain) <= len(parents):
+            parent, T = parents[chain[-1]]
+            chain.append(parent)
+            T_root_cam = T @ T_root_cam
+        if len(chain) == 1:
+            return f"{self.parent_frame} -> {self.camera_frame}"
+        base_chain = [self.parent_frame]
+        while base_chain[-1] in parents and len(base_chain) <= len(parents):
+            base_chain.append(parents[base_chain[-1]][0])
+        if chain[-1] in base_chain:
+            raise HandEyeInputError(
+                f"{self.camera_frame} is already placed under {self.parent_frame} on {STATIC_TOPIC} "
+                f"({' <- '.join(chain)}; {' <- '.join(base_chain)}): another publisher (a URDF joint, a running "
+                f"handeye watch) places the camera, and a second parent is rejected by tf2; stop it, or name with "
+                f"--camera-frame a frame without a parent"
+            )
+        self.child_frame, self.T_cam_child = chain[-1], invert_transform(T_root_cam)
+        return (
+            f"{self.parent_frame} -> {self.child_frame} (the root of {self.camera_frame}'s tree on {STATIC_TOPIC}: "
+            f"{' <- '.join(chain)}; composed with it, as {self.camera_frame} has a parent)"
+        )
+
+    def publish(self, T_base_cam: np.ndarray, version: int | None = None) -> None:
+        """Send ``T_base_cam`` (4x4, metres) as the static transform (to :attr:`child_frame`), and ``valid``."""
         from geometry_msgs.msg import TransformStamped
 
         from handeye.core.se3 import pos_quat_xyzw_from_transform
 
-        t, q = pos_quat_xyzw_from_transform(np.asarray(T_base_cam, dtype=float))
+        T = np.asarray(T_base_cam, dtype=float) @ self.T_cam_child
+        t, q = pos_quat_xyzw_from_transform(T)
         msg = TransformStamped()
         msg.header.stamp = self.node.get_clock().now().to_msg()
         msg.header.frame_id = self.parent_frame
-        msg.child_frame_id = self.camera_frame
+        msg.child_frame_id = self.child_frame
         msg.transform.translation.x, msg.transform.translation.y, msg.transform.translation.z = (float(v) for v in t)
         r = msg.transform.rotation
         r.x, r.y, r.z, r.w = (float(v) for v in q)
         self.broadcaster.sendTransform(msg)
+        self._send_status("valid", None, version)
+
+    def stale(self, stale_since: float, version: int | None = None) -> None:
+        """The ``on_stale`` hook: nothing sent on tf (it cannot be withdrawn), ``stale`` on :data:`STATUS_TOPIC`."""
+        self._send_status("stale", stale_since, version)
+
+    def _send_status(self, calibration: str, stale_since: float | None, version: int | None) -> None:
+        import json
+
+        from std_msgs.msg import String
+
+        doc = {"calibration": calibration, "stale_since": stale_since, "version": version}
+        doc.update(parent_frame=self.parent_frame, child_frame=self.child_frame)
+        msg = String()
+        msg.data = json.dumps(doc)
+        self.status.publish(msg)
+
+
+def _latched_qos():
+    """Transient local, depth 1: a late subscriber gets the last message (as ``/tf_static``)."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+
+    return QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def _matrix(transform) -> np.ndarray:
+    """A ``geometry_msgs/Transform`` as a 4x4."""
+    from handeye.core.se3 import transform_from_pos_quat_xyzw
+
+    t, r = transform.translation, transform.rotation
+    return transform_from_pos_quat_xyzw([t.x, t.y, t.z], [r.x, r.y, r.z, r.w])

@@ -69,6 +69,16 @@ class FakeNode:
 
         return Clock()
 
+    def create_publisher(self, msg_type, topic, qos):
+        calls = self.calls
+
+        class Publisher:
+            def publish(self, msg):
+                calls.append(("publish", topic, msg))
+
+        self.calls.append(("publisher", msg_type.__name__, topic, qos.durability))
+        return Publisher()
+
     def destroy_node(self):
         self.calls.append(("destroy_node", self.name))
 
@@ -119,8 +129,19 @@ def fake_ros(monkeypatch, script):
             calls.append(("sendTransform", m))
 
     tf2.StaticTransformBroadcaster = StaticTransformBroadcaster
+    qos = ModuleType("rclpy.qos")
+    qos.DurabilityPolicy = SimpleNamespace(TRANSIENT_LOCAL="transient_local", VOLATILE="volatile")
+    qos.QoSProfile = lambda depth, durability: SimpleNamespace(depth=depth, durability=durability)
+    rclpy.qos = qos
+    std_msgs, std_msg = ModuleType("std_msgs"), ModuleType("std_msgs.msg")
+    std_msg.String = type("String", (), {"data": ""})
+    std_msgs.msg = std_msg
+    tf2_msgs, tf2_msg = ModuleType("tf2_msgs"), ModuleType("tf2_msgs.msg")
+    tf2_msg.TFMessage = type("TFMessage", (), {})
+    tf2_msgs.msg = tf2_msg
     modules = {"rclpy": rclpy, "sensor_msgs": sensor_msgs, "sensor_msgs.msg": msg, "geometry_msgs": geometry}
-    modules.update({"geometry_msgs.msg": geometry_msg, "tf2_ros": tf2})
+    modules.update({"geometry_msgs.msg": geometry_msg, "tf2_ros": tf2, "rclpy.qos": qos})
+    modules.update({"std_msgs": std_msgs, "std_msgs.msg": std_msg, "tf2_msgs": tf2_msgs, "tf2_msgs.msg": tf2_msg})
     for name, module in modules.items():
         monkeypatch.setitem(sys.modules, name, module)
     return calls
