@@ -110,6 +110,9 @@ class Problem:
         self.moving_part = _moving_parts(surface)
         # the model points the fine stage fits: the moving parts' (MarkerlessOptions.static_parts)
         self.fitted_part = self.moving_part if self.moving_part.any() and not opts.static_parts else None
+        # static parts fitted beside moving ones: seen at the same pixels in every frame, their matches count once
+        # (static_once)
+        self.static_once = bool(opts.static_parts and self.moving_part.any())
         self._init_joints(surface, opts)  # the joints whose offsets the fine stage estimates
         # the coarse stages work on a subset of the model (their windows are centimetres)
         m = len(surface.frame)
@@ -310,10 +313,35 @@ class Problem:
             **joints,
         )
         pixel = self._pixels(q_obs) if self.opts.pixel_effect_px > 0 else None
+        group = np.where(self.static_rows(m), self.n, f)  # the static parts' matches: one cluster, as one view
         fit = solve_point_to_plane(
-            observed, model, T, options, group=f, cross_group=self._cross_groups(q_obs), pixel=pixel
+            observed, model, T, options, group=group, cross_group=self._cross_groups(q_obs), pixel=pixel
         )
         return fit, expected
+
+    def static_rows(self, m):
+        """Which of the matched model points ``m`` are on a static part counted once (:meth:`once_per_cell`); all
+        False unless ``static_once``."""
+        return ~self.moving_part[m] if self.static_once else np.zeros(len(m), bool)
+
+    def once_per_cell(self, m, q_obs):
+        """Which matches (model points ``m``, observed ``q_obs`` as back-projected with the camera matrix given) the
+        fine stage fits: every one on a moving part, and on the static parts one per z-buffer cell.
+
+        A static part is seen at the same pixels in every frame, so the sensor's error there (a fixed pattern,
+        multipath on the static scene) and the model's are one error repeated in every frame: n_frames copies of one
+        sample, not n_frames samples. Kept once per cell of ``zbuffer_stride`` pixels (the z-buffer gives one visible
+        point per cell and frame), they weigh as one frame's matches, and the covariance takes them as one cluster
+        (:meth:`_solve`), however many frames saw them.
+        """
+        static = self.static_rows(m)
+        if not static.any():
+            return np.ones(len(m), bool)
+        uv = np.rint(project(q_obs[static], self.K_given)).astype(np.int64) // self.opts.zbuffer_stride
+        first = np.unique(uv[:, 1] * self.w + uv[:, 0], return_index=True)[1]
+        keep = ~static
+        keep[np.flatnonzero(static)[first]] = True
+        return keep
 
     def _pixels(self, q_obs):
         """Each observed point's image cell (``pixel_effect_px`` square) as one integer (``q_obs`` as back-projected
@@ -339,9 +367,11 @@ class Problem:
         return close if self.fitted_part is None else close & self.fitted_part[idx]
 
     def fit_matches(self, T, idx, f, q_obs, close, covariance=True):
-        """The fit of the ``close`` matches, adopted (:meth:`adopt`); returns it, the median expected residual and
-        the matches ``(model points, frames, observed points)``."""
+        """The fit of the ``close`` matches (the static parts' once per cell, :meth:`once_per_cell`), adopted
+        (:meth:`adopt`); returns it, the median expected residual and the matches ``(model points, frames, observed
+        points)``."""
         sel = np.flatnonzero(close)
+        sel = sel[self.once_per_cell(idx[sel], q_obs[sel])]
         matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
         fit, expected = self._solve(T, matches, iterations, covariance)
@@ -370,9 +400,11 @@ class Problem:
         and joint offsets (those of the fit that made the matches): the sigma their scatter adds
         (:func:`classic.markerless.consistency.split_excess`)."""
         m, f, q_obs = matches
+        shared = self.static_rows(m)  # the static parts' matches: seen by every frame, in every group
 
         def solve(mask):
+            mask = mask | shared
             fit, _ = self._solve(T, (m[mask], f[mask], q_obs[mask]), iterations=5)
             return fit.T_base_cam, fit.covariance
 
-        return split_excess(solve, f, frame_splits(f, q_obs, self.n))
+        return split_excess(solve, f, frame_splits(f[~shared], q_obs[~shared], self.n))

@@ -50,7 +50,9 @@ class MarkerlessResult:
         Which start led to the answer.
     diagnostics : dict
         Among others ``fitted_parts``: ``"moving"`` (the fine stage fitted the parts that move over the recording)
-        or ``"all"`` (``static_parts``, or no part moved).
+        or ``"all"`` (``static_parts``, or no part moved); with ``static_parts`` beside moving parts,
+        ``static_matches``: the static parts' matches fitted, one per z-buffer cell however many frames saw it
+        (a repeated error counted once), one cluster of the covariance.
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
@@ -142,7 +144,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     """The best start's fit as the answer with its sigma, or refused with the reason; ``diag`` completed."""
     opts, fit = problem.opts, best.fit
     z_med, lever_m = best.geometry
-    res_frame, rms_mm, inl = _residuals_mm(fit, problem.n)
+    res_frame, rms_mm, inl = _residuals_mm(fit, best.matches[1], problem.n)
     noise_mm = float(problem.sigma_z(z_med) * 1e3)
     expected_mm = float(np.hypot(noise_mm, opts.model_floor_m * 1e3))
     noise = pose_sigma(fit.covariance, best.T[:3, :3])
@@ -167,6 +169,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
             "last_step": float(best.step),
             "matched_points": int(inl.sum()),
             "fitted_parts": "all" if problem.fitted_part is None else "moving",
+            **({"static_matches": int(problem.static_rows(best.matches[0]).sum())} if problem.static_once else {}),
             "sigma_noise": noise,
             "sigma_sampling": sampling,
             "sigma_consistency": split,
@@ -188,11 +191,11 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     )
 
 
-def _residuals_mm(fit: PlaneFit, n: int) -> tuple[np.ndarray, float, np.ndarray]:
-    """The inliers' (weight above 1/2) RMS residual per frame (NaN where none) and over all frames, millimetres,
-    and the inliers."""
+def _residuals_mm(fit: PlaneFit, frame: np.ndarray, n: int) -> tuple[np.ndarray, float, np.ndarray]:
+    """The inliers' (weight above 1/2) RMS residual per frame (``frame``: each residual's, NaN where none) and over
+    all frames, millimetres, and the inliers."""
     inl = fit.weights > 0.5
-    group = fit.group
+    group = frame
     res_frame = np.array(
         [
             np.sqrt(np.mean(fit.residuals_m[inl & (group == i)] ** 2)) * 1e3 if np.any(inl & (group == i)) else np.nan
