@@ -261,7 +261,7 @@ def _options(args: argparse.Namespace, rate: float, stride: int):
 
 def _replay(watcher, frames, learner=None):
     """Feed every frame, printing each event (and the learner's reports) as one line; the last frame."""
-    n, spent, last = 0, 0.0, None
+    n, spent, last, ended = 0, 0.0, None, False
     try:
         for frame in frames:
             t0 = time.perf_counter()
@@ -270,16 +270,27 @@ def _replay(watcher, frames, learner=None):
             spent += time.perf_counter() - t0
             n, last = n + 1, frame
             _print_reports(learner)
+        ended = True
     except KeyboardInterrupt:
         print("interrupted")
-    print(f"{n} frames, {1e3 * spent / max(n, 1):.1f} ms per frame on average (recalibrations included)")
-    if learner is not None:
-        print("waiting for the learner's training to end ...", flush=True)
-        learner.wait()
-        _print_reports(learner)
+    finally:  # a frame that raises too: no training outlives the command
+        print(f"{n} frames, {1e3 * spent / max(n, 1):.1f} ms per frame on average (recalibrations included)")
+        if learner is not None:
+            _close_learner(learner, ended)
     if watcher.stale_since is not None:
         print(f"calibration stale since {watcher.stale_since:.3f}s: no validated answer yet")
     return last
+
+
+def _close_learner(learner, ended: bool) -> None:
+    """At the stream's end, wait for the queued offers to be learnt; else drop them, end a child's training and
+    wait for the thread's (:meth:`handeye.watch.learner.BackgroundLearner.close`)."""
+    if ended:
+        print("waiting for the learner's training to end ...", flush=True)
+    else:
+        print("stopping the learner: queued offers dropped; a training under way in its thread ends first", flush=True)
+    learner.close(wait=ended)
+    _print_reports(learner)
 
 
 def _print_reports(learner) -> None:

@@ -20,6 +20,11 @@ The training shares the machine's cores with the check: on the 2-core developmen
 check's median cost per frame went from 4-8 ms to 12-20 ms while a ``tiny`` preset trained, in a thread or a
 child process alike; give the learner cores of its own on a cell.
 
+:meth:`BackgroundLearner.close` ends it (``with`` does too): with ``wait`` (a stream's end) after every queued
+offer is learnt; without (the watch stopped by an error or Ctrl-C) the queued offers are dropped and reported, a
+training in a child process is terminated and the process joined, and a training in the worker thread, which
+cannot be interrupted, is waited for; so no training outlives the watch.
+
 Frames without colour (a source without a colour topic) are not offered: the network takes RGB-D. A user runs::
 
     handeye watch BAG --sensor d435 --camera-start start.json --history cell.jsonl \\
@@ -38,6 +43,9 @@ import numpy as np
 from handeye.core.se3 import pos_quat_xyzw_from_transform
 
 __all__ = ["BackgroundLearner", "frame_set"]
+
+#: Seconds between looks at ``close(wait=False)`` and at the child's life while a child process trains.
+STOP_POLL_S = 0.1
 
 
 def frame_set(frames: list, T_base_cam: np.ndarray, reference: Callable, K: np.ndarray, image_size: tuple, camera: int):
@@ -137,6 +145,8 @@ class BackgroundLearner:
         self._pending = 0  # offers queued or being learnt
         self._cameras: set[int] = set()  # the camera pose numbers given to offers
         self._idle = threading.Condition()
+        self._stopping = False  # close() without waiting: queued offers dropped, a child's training ended
+        self._closed = False
 
     @property
     def image_size(self) -> tuple:
@@ -147,6 +157,9 @@ class BackgroundLearner:
         if any(getattr(f, "rgb", None) is None for f in frames):
             self.reports.append(f"learner: version {version} not offered: frames without colour")
             return
+        if self._closed:
+            self.reports.append(f"learner: version {version} not offered: the learner is closed")
+            return
         with self._idle:
             self._pending += 1
         self._offers.put((np.array(T_base_cam, dtype=float), list(frames), version))
@@ -156,8 +169,13 @@ class BackgroundLearner:
 
     def _work(self) -> None:
         while True:
-            T, frames, version = self._offers.get()
+            item = self._offers.get()
+            if item is None:  # close()
+                return
+            T, frames, version = item
             try:
+                if self._stopping:
+                    raise _Stopped
                 data = frame_set(frames, T, self.reference, self.K, self.image_size, self._camera(version))
                 out = self._observe(data)
                 trained = any(isinstance(v, dict) and v.get("novel") for v in out.values()) or out.get("first")
@@ -165,6 +183,8 @@ class BackgroundLearner:
                     with self._busy:
                         self.calibrator.save(self.save_path)
                 self.reports.append(f"learner: version {version} observed: {_summary(out)}")
+            except _Stopped:
+                self.reports.append(f"learner: version {version} not learnt: the watch stopped")
             except Exception as exc:  # the learner never stops the watcher: its failure is reported
                 self.reports.append(f"learner: version {version} failed: {type(exc).__name__}: {exc}")
             finally:
@@ -187,10 +207,27 @@ class BackgroundLearner:
             with self._busy:
                 return self.calibrator.observe(data)
         import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-            calibrator, out = pool.submit(_observe_elsewhere, self.calibrator, data).result()
+        ctx = multiprocessing.get_context("spawn")
+        answer, sender = ctx.Pipe(duplex=False)
+        child = ctx.Process(target=_observe_child, args=(self.calibrator, data, sender), name="handeye-learner")
+        child.start()
+        sender.close()
+        try:
+            while not answer.poll(STOP_POLL_S):
+                if self._stopping:
+                    raise _Stopped
+                if not child.is_alive() and not answer.poll():
+                    raise RuntimeError(f"the training process ended (exit code {child.exitcode}) without an answer")
+            ok, payload = answer.recv()
+        finally:  # stopped or failed: no training outlives this call
+            if child.is_alive():
+                child.terminate()
+            child.join()
+            answer.close()
+        if not ok:
+            raise payload
+        calibrator, out = payload
         with self._busy:
             self.calibrator = calibrator
         return out
@@ -220,6 +257,41 @@ class BackgroundLearner:
         """Wait for the offers queued to be learnt (at the end of a replay); whether they all were."""
         with self._idle:
             return self._idle.wait_for(lambda: self._pending == 0, timeout_s)
+
+    def close(self, wait: bool = True) -> None:
+        """End the worker (module docstring): with ``wait`` after the queued offers are learnt; without, they are
+        dropped (each reported) and a child process's training terminated. Returns when the worker has ended;
+        later offers are refused (reported)."""
+        self._closed = True
+        if not wait:
+            self._stopping = True
+        if self._worker is not None:
+            self._offers.put(None)
+            self._worker.join()
+
+    def __enter__(self) -> "BackgroundLearner":
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        self.close(wait=kind is None)
+
+
+def _observe_child(calibrator, data, sender) -> None:
+    """A spawned process's target: ``(True, (calibrator, answer))`` or ``(False, the exception)`` sent back."""
+    try:
+        result = (True, _observe_elsewhere(calibrator, data))
+    except Exception as exc:  # sent back to be reported by the worker thread
+        result = (False, exc)
+    try:
+        sender.send(result)
+    except Exception as exc:  # an answer or exception that does not pickle
+        sender.send((False, RuntimeError(f"the training's answer could not be sent back: {type(exc).__name__}: {exc}")))
+    finally:
+        sender.close()
+
+
+class _Stopped(Exception):
+    """The watch stopped (``close(wait=False)``): the offer is dropped."""
 
 
 def _observe_elsewhere(calibrator, data, threads: int = 1) -> tuple:
