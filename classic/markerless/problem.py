@@ -320,13 +320,14 @@ class Problem:
         return fit, expected
 
     def static_rows(self, m):
-        """Which of the matched model points ``m`` are on a static part counted once (:meth:`once_per_cell`); all
-        False unless ``static_once``."""
+        """Whether each matched model point (``m``, indices, shape (M,)) is on a static part counted once
+        (:meth:`_once_per_cell`): bool, shape (M,); all False unless ``static_once``."""
         return ~self.moving_part[m] if self.static_once else np.zeros(len(m), bool)
 
-    def once_per_cell(self, m, q_obs):
-        """Which matches (model points ``m``, observed ``q_obs`` as back-projected with the camera matrix given) the
-        fine stage fits: every one on a moving part, and on the static parts one per z-buffer cell.
+    def _once_per_cell(self, m, q_obs):
+        """Which matches (model points ``m``, shape (M,); observed ``q_obs``, shape (M, 3), as back-projected with the
+        camera matrix given) the fine stage fits, bool, shape (M,): every one on a moving part, and on the static
+        parts one per z-buffer cell.
 
         A static part is seen at the same pixels in every frame, so the sensor's error there (a fixed pattern,
         multipath on the static scene) and the model's are one error repeated in every frame: n_frames copies of one
@@ -367,11 +368,11 @@ class Problem:
         return close if self.fitted_part is None else close & self.fitted_part[idx]
 
     def fit_matches(self, T, idx, f, q_obs, close, covariance=True):
-        """The fit of the ``close`` matches (the static parts' once per cell, :meth:`once_per_cell`), adopted
+        """The fit of the ``close`` matches (the static parts' once per cell, :meth:`_once_per_cell`), adopted
         (:meth:`adopt`); returns it, the median expected residual and the matches ``(model points, frames, observed
         points)``."""
         sel = np.flatnonzero(close)
-        sel = sel[self.once_per_cell(idx[sel], q_obs[sel])]
+        sel = sel[self._once_per_cell(idx[sel], q_obs[sel])]
         matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
         fit, expected = self._solve(T, matches, iterations, covariance)
