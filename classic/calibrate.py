@@ -494,6 +494,7 @@ def _refine(poses: _Poses, start: _Fit, how: _How, diagnostics: dict) -> tuple[_
         setup=poses.setup,
         estimate_scale=how.estimate_scale and how.refine,
         scale0=start.scale0,
+        undetermined="refuse" if how.check else "infinite",  # checks off: an undetermined sigma reads inf
     )
     ref = refine_xy(poses.A_in, poses.B_in, start.X, start.Y, options)
     if not (how.refine and how.robust):

@@ -3,7 +3,9 @@
 Every refinement (pose residuals in :mod:`classic.refine`, corner reprojection in
 :mod:`classic.vision.reprojection`) hands this module a residual function of a parameter
 increment, its Jacobian and a loss; it gets back the increment, the residuals, the Jacobian at the
-optimum, the loss's weights and one covariance computed one way (:func:`covariance_from_jacobian`).
+optimum, the loss's weights and one covariance computed one way (:func:`covariance_from_jacobian`), which
+refuses a direction of the parameters the residuals do not determine (:func:`undetermined_directions`) instead
+of giving it the pseudo-inverse's zero variance.
 The optimiser is :func:`scipy.optimize.least_squares` (MINPACK's Levenberg-Marquardt for least
 squares, trust-region reflective with a robust loss); poses are
 parametrised by increments about the start (``R <- so3_exp(w) R0``, ``t <- t0 + v``), so the
@@ -14,22 +16,38 @@ translation (m) errors.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
+
+from handeye.core.errors import DegenerateMotionError
 
 __all__ = [
     "LOSSES",
     "LeastSquaresFit",
     "fit_least_squares",
     "covariance_from_jacobian",
+    "undetermined_directions",
+    "require_determined",
+    "RANK_TOLERANCE",
+    "POSE_NAMES",
     "loss_weights",
     "sigma_of_blocks",
 ]
 
 #: Losses on the (whitened) residuals, as scipy names them.
 LOSSES = ("linear", "huber", "cauchy", "soft_l1")
+#: A direction of the parameters is undetermined where the singular value of the weighted Jacobian, its columns
+#: scaled to unit norm (so that radians, metres and pixels weigh alike), is below this share of the largest:
+#: ``sqrt(eps)`` = 1.5e-8. An exact degeneracy leaves rounding there (a few ``eps``: 1e-16 to 1e-15 on the
+#: motions about one axis); a direction above it is determined, if weakly, and keeps its (large) sigma.
+RANK_TOLERANCE = float(np.sqrt(np.finfo(float).eps))
+#: The pose parameters ``[w_X, v_X, w_Y, v_Y]`` (:func:`sigma_of_blocks`' order), as a refusal names them.
+POSE_NAMES = ("X rotation",) * 3 + ("X translation",) * 3 + ("Y rotation",) * 3 + ("Y translation",) * 3
+#: A block of parameters is named in a refusal when its share of the undetermined directions (the norm of their
+#: unit-free components on it) is at least this.
+_NAMED_SHARE = 0.1
 
 
 @dataclass
@@ -167,25 +185,153 @@ def _numeric_jacobian(fun, x, r, h=1e-7):
     return np.stack(cols, axis=1)
 
 
-def covariance_from_jacobian(J: np.ndarray, weights: np.ndarray | None = None, variance: float = 1.0) -> np.ndarray:
-    """Covariance of the parameters, ``variance * (J^T W J)^-1`` (pseudo-inverse when singular).
+def covariance_from_jacobian(
+    J: np.ndarray,
+    weights: np.ndarray | None = None,
+    variance: float = 1.0,
+    names: Sequence[str] | None = None,
+    remedy: str = "",
+    undetermined: str = "refuse",
+) -> np.ndarray:
+    """Covariance of the parameters, ``variance * (J^T W J)^-1``; refused where ``J`` does not determine them.
 
     With whitened residuals (unit variance under the noise model) ``variance`` is 1, or the
     a-posteriori variance factor when the noise level was estimated. The loss's weights down-weight
-    the residuals a robust fit discounted.
+    the residuals a robust fit discounted. A direction the residuals do not see
+    (:func:`undetermined_directions`) would get zero variance from the pseudo-inverse, the smallest sigma
+    exactly where the answer is unknown: it is refused (:func:`require_determined`), or, where the caller
+    asked for no refusal, the parameters it moves get an infinite variance. A caller whose parametrisation
+    has a genuine gauge freedom fixes it (a prior's rows, a held parameter) before calling.
 
     Parameters
     ----------
     J : array, shape (M, P)
     weights : array, shape (M,), optional
     variance : float
+    names : sequence of P str, optional
+        What each parameter is, e.g. ``"X rotation"`` three times: consecutive equal names form a block,
+        named in a refusal. Default ``"parameter k"``.
+    remedy : str
+        Appended to a refusal's message: what data would determine the estimate.
+    undetermined : {"refuse", "infinite"}
+        ``infinite``: no refusal; each parameter an undetermined direction moves (its unit-free component
+        above :data:`RANK_TOLERANCE`) gets variance ``inf`` and covariances ``nan`` with the others.
 
     Returns
     -------
     array, shape (P, P)
+
+    Raises
+    ------
+    DegenerateMotionError
+        A direction of the parameters is undetermined; the message names the blocks it moves.
     """
-    Jw = J if weights is None else J * np.sqrt(np.asarray(weights, dtype=float))[:, None]
-    return float(variance) * np.linalg.pinv(Jw.T @ Jw)
+    Jw = _weighted(J, weights)
+    if undetermined == "refuse":
+        require_determined(Jw, names=names, remedy=remedy)
+        return float(variance) * np.linalg.pinv(Jw.T @ Jw)
+    if undetermined != "infinite":
+        raise ValueError(f"undetermined must be 'refuse' or 'infinite', got {undetermined!r}")
+    C = float(variance) * np.linalg.pinv(Jw.T @ Jw)
+    V, _ = _null_space(np.asarray(Jw, dtype=float))
+    free = np.flatnonzero(np.linalg.norm(V, axis=1) > RANK_TOLERANCE)
+    C[free, :] = np.nan
+    C[:, free] = np.nan
+    C[free, free] = np.inf
+    return C
+
+
+def _weighted(J: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+    return J if weights is None else J * np.sqrt(np.asarray(weights, dtype=float))[:, None]
+
+
+def undetermined_directions(J: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """Unit directions ``d`` of the parameters with ``J d = 0`` to working precision (:data:`RANK_TOLERANCE`).
+
+    Judged on ``J sqrt(W)`` with its columns scaled to unit norm, so the parameters' units do not matter; a
+    parameter the residuals do not depend on (a zero column) is one such direction.
+
+    Parameters
+    ----------
+    J : array, shape (M, P)
+    weights : array, shape (M,), optional
+
+    Returns
+    -------
+    array, shape (P, k)
+        Orthonormal in the column-scaled parameters; each column scaled back to the parameters' units and
+        normalised. ``k = 0`` when every direction is determined.
+    """
+    V, norms = _null_space(_weighted(np.asarray(J, dtype=float), weights))
+    D = V / norms[:, None]
+    return D / np.linalg.norm(D, axis=0, keepdims=True) if D.size else D
+
+
+def _null_space(Jw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The undetermined directions in the column-scaled parameters, shape (P, k), and the column scales (P,)."""
+    P = Jw.shape[1]
+    norms = np.linalg.norm(Jw, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    R = np.linalg.qr(Jw / norms, mode="r")  # the singular values and right vectors of the tall Jacobian, cheaply
+    _, s, Vt = np.linalg.svd(R)
+    sv = np.zeros(P)
+    sv[: len(s)] = s
+    null = sv <= RANK_TOLERANCE * sv.max() if sv.max() > 0 else np.ones(P, dtype=bool)
+    return Vt[null].T, norms
+
+
+def require_determined(
+    J: np.ndarray,
+    weights: np.ndarray | None = None,
+    names: Sequence[str] | None = None,
+    remedy: str = "",
+) -> None:
+    """Raise when ``J sqrt(W)`` leaves a direction of the parameters undetermined, naming what it moves.
+
+    Parameters
+    ----------
+    J : array, shape (M, P)
+    weights : array, shape (M,), optional
+    names : sequence of P str, optional
+        As :func:`covariance_from_jacobian` takes them.
+    remedy : str
+        Appended to the message.
+
+    Raises
+    ------
+    DegenerateMotionError
+        With the number of undetermined directions and the blocks of parameters they move (for a single
+        direction, its unit vector on each block of several parameters, in that block's units).
+    """
+    V, norms = _null_space(_weighted(np.asarray(J, dtype=float), weights))
+    k = V.shape[1]
+    if k == 0:
+        return
+    labels = list(names) if names is not None else [f"parameter {i}" for i in range(len(norms))]
+    parts = []
+    for label, idx in _blocks(labels):
+        if np.linalg.norm(V[idx]) / np.sqrt(k) < _NAMED_SHARE:
+            continue
+        if k == 1 and len(idx) > 1:
+            d = V[idx, 0] / norms[idx]
+            d = d / np.linalg.norm(d)
+            label += " along [" + ", ".join(f"{c:+.3f}" for c in d) + "]"
+        parts.append(label)
+    raise DegenerateMotionError(
+        f"the data do not determine {k} direction{'s' if k > 1 else ''} of the estimate: {', '.join(parts)} "
+        "(its sigma would read as 0 where the answer is unknown)" + (f"; {remedy}" if remedy else "")
+    )
+
+
+def _blocks(labels: list[str]) -> list[tuple[str, list[int]]]:
+    """Runs of equal consecutive labels: ``(label, indices)``."""
+    out: list[tuple[str, list[int]]] = []
+    for i, label in enumerate(labels):
+        if out and out[-1][0] == label and out[-1][1][-1] == i - 1:
+            out[-1][1].append(i)
+        else:
+            out.append((label, [i]))
+    return out
 
 
 def sigma_of_blocks(covariance: np.ndarray) -> dict:

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from classic.least_squares import covariance_from_jacobian, fit_least_squares, loss_weights
+from classic.least_squares import POSE_NAMES, covariance_from_jacobian, fit_least_squares, loss_weights
 from classic.noise_model import (
     NoiseModel,
     as_noise_model,
@@ -68,6 +68,12 @@ _PASSES = 4
 #: the cell (``benchmarks/classic_ml.py``, its efficiency table's last column).
 _ANISOTROPY_P = 0.05
 _ANISOTROPY_MIN_POSES = 8
+#: What a refusal of an undetermined direction (:func:`classic.least_squares.require_determined`) asks for.
+_REMEDY = (
+    "record robot motions that turn about at least two different axes (turns about one axis leave the "
+    "translation along it free, pure translations the whole translation); a metric scale needs camera translations, "
+    "a time offset robot motion"
+)
 
 
 @dataclass
@@ -346,6 +352,10 @@ class RefineOptions:
         Its start.
     time_offset0_s : float
         Start of the time offset, estimated with a robot stream (robot time = camera time + offset).
+    undetermined : {"refuse", "infinite"}
+        What a direction the poses do not determine does (:func:`classic.least_squares.covariance_from_jacobian`):
+        refused with :class:`~handeye.core.errors.DegenerateMotionError` naming it, or (for a caller whose
+        motion check is off) an infinite variance of the parameters it moves.
     """
 
     loss: str = "linear"
@@ -356,6 +366,7 @@ class RefineOptions:
     estimate_scale: bool = False
     scale0: float = 1.0
     time_offset0_s: float = 0.0
+    undetermined: str = "refuse"
 
 
 def refine_xy(
@@ -389,6 +400,12 @@ def refine_xy(
     Returns
     -------
     Refinement
+
+    Raises
+    ------
+    DegenerateMotionError
+        The poses leave a direction of X, Y (or the scale, the time offset) undetermined: its sigma would
+        read as 0. The message names it. Not with ``undetermined="infinite"``.
     """
     run = _start(A, B, X0, Y0, options or RefineOptions(), stream, camera_times_s)
     for p in range(_PASSES if run.opts.max_iterations > 0 else 1):
@@ -529,7 +546,9 @@ def _outcome(run: _Run) -> Refinement:
     zero = np.zeros(prob.n_params)
     r_final = prob.fun(zero)
     J = prob.jac(zero)
-    cov_full = covariance_from_jacobian(J, loss_weights(r_final, opts.loss, ROBUST_SCALE))
+    names = POSE_NAMES + ("scale",) * int(opts.estimate_scale) + ("time offset",) * int(run.with_offset)
+    weights = loss_weights(r_final, opts.loss, ROBUST_SCALE)
+    cov_full = covariance_from_jacobian(J, weights, names=names, remedy=_REMEDY, undetermined=opts.undetermined)
     # the start's cost under the final noise model
     start = run.problem(W, run.X0, run.Y0, float(opts.scale0), float(opts.time_offset0_s))
     sigmas = np.sqrt(np.diag(cov_full)[12:])  # (s), (dt)
@@ -617,6 +636,11 @@ def cramer_rao_bound(A: np.ndarray, X: np.ndarray, Y: np.ndarray, noise, setup: 
     -------
     array, shape (12, 12)
         Covariance bound (rad, m); ``classic.least_squares.sigma_of_blocks`` gives its magnitudes.
+
+    Raises
+    ------
+    DegenerateMotionError
+        The pose set leaves a direction of ``[w_X, v_X, w_Y, v_Y]`` undetermined (an infinite bound), named.
     """
     model = as_noise_model(noise)
     if model is None:
@@ -625,4 +649,4 @@ def cramer_rao_bound(A: np.ndarray, X: np.ndarray, Y: np.ndarray, noise, setup: 
     B = np.linalg.inv(X) @ A @ Y
     W = whitening(residual_covariances(model, A, B, X, Y, setup))
     J = np.einsum("nij,njk->nik", W, pose_residual_jacobian(A, B, X, Y)).reshape(-1, 12)
-    return covariance_from_jacobian(J)
+    return covariance_from_jacobian(J, names=POSE_NAMES, remedy=_REMEDY)

@@ -31,7 +31,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import solve_triangular
 
-from classic.least_squares import covariance_from_jacobian, fit_least_squares, sigma_of_blocks
+from classic.least_squares import (
+    POSE_NAMES,
+    covariance_from_jacobian,
+    fit_least_squares,
+    require_determined,
+    sigma_of_blocks,
+)
 from classic.vision.board import BoardSpec
 from classic.vision.camera import STD_NAMES, CameraIntrinsics
 from classic.vision.robot_noise import (
@@ -299,6 +305,11 @@ class ReprojectionOptions:
 #: rule's one-sigma (:data:`classic.vision.camera.DEFAULT_STD_RULE`): for a distortion coefficient a thousandth of a
 #: pixel at the image corner.
 HELD_STD_SHARE = 1e-3
+#: What a refusal of an undetermined direction (:func:`classic.least_squares.require_determined`) asks for.
+_REMEDY = (
+    "record views whose robot motions turn about at least two different axes; refined intrinsics also need "
+    "the board tilted and across the image, or their prior (intrinsics_prior)"
+)
 
 
 def refine_reprojection(
@@ -336,6 +347,9 @@ def refine_reprojection(
     ------
     HandEyeInputError
         Mismatched counts, or fewer than 3 views with corners.
+    DegenerateMotionError
+        The views leave a direction of X, Y (or of the refined intrinsics) undetermined: its sigma would read
+        as 0. The message names it.
     """
     opts = options or ReprojectionOptions()
     setup, loss, robot_noise = normalize_setup(opts.setup), opts.loss, opts.robot_noise
@@ -473,6 +487,11 @@ class _Problem:
         return 12 + (9 if self.refine_intrinsics else 0)
 
     @property
+    def names(self) -> tuple:
+        """What each parameter is, as a refusal of an undetermined direction names it."""
+        return POSE_NAMES + (STD_NAMES if self.refine_intrinsics else ())
+
+    @property
     def jac(self):
         """The analytic Jacobian, or scipy's "2-point" with a full distortion model."""
         return "2-point" if self.full_model else self.jacobian
@@ -552,7 +571,7 @@ def _scaled_covariance(fit, loss: str, prob: "_Problem") -> np.ndarray:
     if prob.prior_std is not None:
         J = np.vstack([J[:n_pix], prob.prior_rows(np.sqrt(s2))])
         weights = np.concatenate([weights[:n_pix], np.ones(9)])
-    return covariance_from_jacobian(J, weights, s2)
+    return covariance_from_jacobian(J, weights, s2, names=prob.names, remedy=_REMEDY)
 
 
 def _fit_with_robot_noise(prob: "_Problem", robot_jacobian, rows, fit):
@@ -616,6 +635,7 @@ def _fit_with_robot_noise(prob: "_Problem", robot_jacobian, rows, fit):
     J_rob = robot_jacobian(x)
     W = [_inverse_cholesky(S) for S in view_covariances([J_rob[s] for s in rows], estimate)]
     Gw = np.concatenate([w @ G[s] for w, s in zip(W, rows)] + [unit * G[n_pix:]])
+    require_determined(Gw, names=prob.names, remedy=_REMEDY)
     fit = dataclasses.replace(gls, x=x, residuals=residuals(x), jacobian=G)
     return fit, estimate, np.linalg.inv(Gw.T @ Gw)
 
