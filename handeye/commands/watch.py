@@ -21,7 +21,8 @@ stale since t". The start: ``--camera-start`` (JSON, as ``handeye markerless --s
 ``--truth-start`` (the first segment's truth, simulated data, with the sensor's true depth scale and offset
 where the dataset has them), else the history's latest version. Until the first
 recalibration estimates it, the depth is otherwise taken as exact. ``rollback`` appends to the history a new
-version equal to an older one (``--publish-tf`` also publishes it as the static transform).
+version equal to an older one (``--publish-tf`` also publishes it as the static transform); a watcher running on
+that history takes it at its next frame (its event ``replaced``), publishing it itself.
 A ROS 2 bag (a path with ``metadata.yaml``, or its ``.db3``/``.mcap``) is replayed at its recorded rate
 (``--fast``: as fast as possible), live topics are watched with ``--ros2``, the calibration is published as a
 static transform and the continual learner fed (``--learner``): :mod:`handeye.commands.watch_sources`.
@@ -117,6 +118,7 @@ def _rollback(args: argparse.Namespace) -> int:
         tf = tf_publisher(args)
     v = History(args.history, args.current).rollback(args.version)
     print(f"version {v.version}: {v.reason} (replaces {v.replaces})")
+    print("a handeye watch running on this history takes it at its next frame (event 'replaced') and publishes it")
     if tf is not None:
         from handeye.commands.watch_sources import hold
 

@@ -24,6 +24,11 @@ then
   "moved".
   A refusal is an event with the reason, and the collection starts again; until a validated answer exists
   every event says "calibration stale since t".
+- a version **another process appended** to the history (``handeye watch rollback`` while this watcher runs):
+  seen at the next frame (the history file's ``stat`` changed and its latest version is not the one in use),
+  taken as a commit is (a stale calibration no longer stale: a person chose it), published (the current JSON,
+  the ``on_commit`` hooks with no frames) and relearnt; the event is ``replaced``. It is not validated here: the
+  change test, after the relearning, is what checks it.
 
 Events are returned on every change of state (and on learning's end, a recalibration, a refusal).
 """
@@ -225,6 +230,7 @@ class CellWatcher:
         self._settling, self._unit_rounds = False, 0  # the depth correction fitted again after the first learning
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._collected: list[Frame] = []
+        self._history_stamp = None if self.history is None else self.history.stamp()
 
     def _check(self, frame: Frame) -> FrameCheck:
         posed = self.surface.posed(np.asarray(frame.joints, dtype=float)[None], twists=False)
@@ -249,6 +255,7 @@ class CellWatcher:
         -------
         list of Event
         """
+        events = self._follow_history(frame.t)
         check = self._check(frame)
         self.last_check = check
         was_stale = self.stale_since is not None
@@ -260,7 +267,6 @@ class CellWatcher:
                 self.mode, self.stale_since, self._collected, self._null_checks = "collecting", frame.t, [], []
         else:
             state, detail = self._collect(frame, check)
-        events = []
         if state != self.state or state in ("recalibrated", "refused"):
             events.append(self._event(frame.t, state, detail))
             self.state = state
@@ -274,6 +280,39 @@ class CellWatcher:
             self.history.mark_stale(self.stale_since)
         for hook in self.on_stale:
             hook(self.stale_since, self.version)
+
+    def _follow_history(self, t: float) -> list[Event]:
+        """Take a version another process appended to the history since the last look (module docstring)."""
+        if self.history is None:
+            return []
+        stamp = self.history.stamp()
+        if stamp == self._history_stamp:
+            return []
+        self._history_stamp = stamp
+        latest = self.history.latest()
+        if latest is None or latest.version == self.version:  # this watcher's own append
+            return []
+        self.version, self.T_base_cam = latest.version, np.array(latest.T_base_cam)
+        correction = latest.extra.get("depth_correction_k_c_m")
+        if correction is not None:
+            self.depth_correction = tuple(float(v) for v in correction)
+        self._restart()
+        event = self._event(t, "replaced", f"version {latest.version} appended to the history: {latest.reason}")
+        self.state = "replaced"
+        self.history.publish()  # the current JSON: this version, not stale
+        for hook in self.on_commit:
+            hook(self.T_base_cam, [], self.version)
+        return [event]
+
+    def _restart(self) -> None:
+        """After a new calibration: not stale; the bias learnt anew, watching through it (the null first, if none)."""
+        self.stale_since, self._collected = None, []
+        self._misfits, self._null_checks = 0, []
+        if self.states is None:  # the first calibration replaced before any null: learn it
+            self.mode = "learning"
+        else:  # the bias of the new calibration, watching through it
+            self.mode = "relearning"
+            self.states.rearm()
 
     def _event(self, t: float, state: str, detail: str) -> Event:
         return Event(t, state, self.state, detail, self.stale_since, self.version)
@@ -425,13 +464,7 @@ class CellWatcher:
             )
             self.version = v.version
         stale = self.stale_since
-        self.stale_since = None
-        self._misfits, self._null_checks = 0, []
-        if self.states is None:  # the first calibration replaced before any null: learn it
-            self.mode = "learning"
-        else:  # the bias of the new calibration, watching through it
-            self.mode = "relearning"
-            self.states.rearm()
+        self._restart()
         s = getattr(result, "sigma", {}) or {}
         detail = f"new calibration from {len(frames)} frames (stale since {stale:.3f}s)"
         if "rotation_deg" in s and "translation_mm" in s:

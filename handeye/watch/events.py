@@ -17,6 +17,7 @@ STATES = (
     "moved",  # the change test alarmed with a consistent correction: recalibration starts
     "recalibrated",  # a validated new calibration was committed
     "refused",  # the recalibration's answer was refused: still stale
+    "replaced",  # another process appended a version to the history (a rollback): taken, not validated here
 )
 
 

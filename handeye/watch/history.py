@@ -233,6 +233,15 @@ class History:
             self._publish(v)
         return v
 
+    def stamp(self) -> tuple | None:
+        """``(inode, size, mtime_ns)`` of the file, None while there is none: any append changes it, and a look
+        costs one ``stat`` (a running watcher's, per frame: :meth:`handeye.watch.CellWatcher.feed`)."""
+        try:
+            st = self.path.stat()
+        except FileNotFoundError:
+            return None
+        return (st.st_ino, st.st_size, st.st_mtime_ns)
+
     def mark_stale(self, stale_since: float) -> Version | None:
         """Rewrite the current calibration's JSON from the latest version with ``stale_since`` (stream seconds):
         the watcher knows it is off from then (module docstring); the next append clears it."""

@@ -154,6 +154,8 @@ class BackgroundLearner:
 
     def __call__(self, T_base_cam: np.ndarray, frames: list, version: int | None = None) -> None:
         """Offer a committed camera pose (the ``on_commit`` hook): queued, never waited for."""
+        if not frames:  # a version the watcher took from the history (a rollback): nothing new to learn
+            return
         if any(getattr(f, "rgb", None) is None for f in frames):
             self.reports.append(f"learner: version {version} not offered: frames without colour")
             return

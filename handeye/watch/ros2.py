@@ -338,14 +338,13 @@ class TfPublisher:
         if chain[-1] in base_chain:
             raise HandEyeInputError(
                 f"{self.camera_frame} is already placed under {self.parent_frame} on {STATIC_TOPIC} "
-                f"({' <- '.join(chain)}; {' <- '.join(base_chain)}): another publisher (a URDF joint, a running "
-                f"handeye watch) places the camera, and a second parent is rejected by tf2; stop it, or name with "
-                f"--camera-frame a frame without a parent"
+                f"({'<-'.join(chain)}; {'<-'.join(base_chain)}); tf2 takes one parent: stop that publisher (a running "
+                f"handeye watch takes a rollback itself: omit --publish-tf) or name one without with --camera-frame"
             )
         self.child_frame, self.T_cam_child = chain[-1], invert_transform(T_root_cam)
         return (
             f"{self.parent_frame} -> {self.child_frame} (the root of {self.camera_frame}'s tree on {STATIC_TOPIC}: "
-            f"{' <- '.join(chain)}; composed with it, as {self.camera_frame} has a parent)"
+            f"{'<-'.join(chain)}; composed with it, as {self.camera_frame} has a parent)"
         )
 
     def publish(self, T_base_cam: np.ndarray, version: int | None = None) -> None:

@@ -95,7 +95,7 @@ def test_a_camera_frame_with_a_driver_parent_is_reached_through_its_trees_root(t
     h.append(T_BASE_CAM, "test")
     assert main(["watch", "rollback", "--history", str(h.path), "1", "--publish-tf"]) == 0
     out = capsys.readouterr().out
-    assert "published base_link -> camera_link" in out and "camera_color_optical_frame <- camera_color_frame" in out
+    assert "published base_link -> camera_link" in out and "camera_color_optical_frame<-camera_color_frame" in out
     (sent,) = [c[1] for c in calls if c[0] == "sendTransform"]
     assert sent.header.frame_id == "base_link" and sent.child_frame_id == "camera_link"
     # the optical frame tf2 computes through the driver's tree is the calibration's
