@@ -16,8 +16,9 @@ first ``--null-seconds``: "nothing moved" is learnt), ``ok``, ``drift``, ``occlu
 ``dropout``, ``moved`` (the change test alarmed with a consistent direction; its threshold allows at most
 ``--false-alarms-per-hour`` false alarms while the frames follow the null learnt, more where frames are
 correlated: docs/benchmarks/running-cell.md measures it on simulated streams), ``recalibrated`` (a validated
-markerless answer committed) or ``refused``. From ``moved`` until a commit every line says "calibration
-stale since t". The start: ``--camera-start`` (JSON, as ``handeye markerless --start`` reads),
+markerless answer committed), ``refused`` or ``replaced`` (a rollback by another process, taken). From ``moved``
+until a commit every line says "calibration stale since t", and so does ``--current``'s JSON (``stale_since``,
+null while valid). The start: ``--camera-start`` (JSON, as ``handeye markerless --start`` reads),
 ``--truth-start`` (the first segment's truth, simulated data, with the sensor's true depth scale and offset
 where the dataset has them), else the history's latest version. Until the first
 recalibration estimates it, the depth is otherwise taken as exact. ``rollback`` appends to the history a new

@@ -19,7 +19,8 @@ through its tree's root: :class:`handeye.watch.ros2.TfPublisher`); the ROS 2 cod
 ROS 2 (its tests use a fake rclpy). ``--learner PATH``
 loads a :class:`learned.calibrator.ContinualCalibrator` saved there (a new one of ``--learner-preset`` when
 there is none), offers it each committed camera pose in the background, saves it after each training, and
-starts each recalibration from its prediction too.
+starts each recalibration from its prediction too; the command ends after the offers are learnt, or, stopped by
+Ctrl-C or an error, after the training under way (the offers not yet learnt are dropped, each said).
 """
 
 from __future__ import annotations
