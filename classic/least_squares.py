@@ -302,12 +302,16 @@ def require_determined(
     DegenerateMotionError
         With the number of undetermined directions and the blocks of parameters they move (for a single
         direction, its unit vector on each block of several parameters, in that block's units).
+    ValueError
+        ``names`` does not name every parameter.
     """
     V, norms = _null_space(_weighted(np.asarray(J, dtype=float), weights))
+    labels = list(names) if names is not None else [f"parameter {i}" for i in range(len(norms))]
+    if len(labels) != len(norms):
+        raise ValueError(f"{len(labels)} names for {len(norms)} parameters")
     k = V.shape[1]
     if k == 0:
         return
-    labels = list(names) if names is not None else [f"parameter {i}" for i in range(len(norms))]
     parts = []
     for label, idx in _blocks(labels):
         if np.linalg.norm(V[idx]) / np.sqrt(k) < _NAMED_SHARE:

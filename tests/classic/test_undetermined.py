@@ -83,6 +83,8 @@ def test_a_parameter_the_residuals_do_not_depend_on_is_named():
         covariance_from_jacobian(J, names=["w", "scale", "w"])
     V = undetermined_directions(J)
     assert V.shape == (3, 1) and abs(abs(V[1, 0]) - 1.0) < EXACT
+    with pytest.raises(ValueError, match="2 names for 3 parameters"):
+        covariance_from_jacobian(J, names=["w", "scale"])
 
 
 def test_a_weak_but_determined_direction_is_kept_with_its_large_sigma():
