@@ -82,6 +82,7 @@ from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.numbers import NumberError, parse_float  # noqa: E402
+from handeye.core.smoke import smoke_test  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 from sim.sensors import apply_sensor, draw_systematic  # noqa: E402
@@ -106,6 +107,10 @@ def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:
     preset = get_preset(preset_name)
     k = len(preset.region_azimuths_deg)
     preset = replace(preset, name=f"{preset_name}-{band}", train_per_region=(0,) * k)
+    if smoke_test():  # a smoke run measures one placement (Report.cut): it renders that one, board and label too
+        preset = replace(
+            preset, region_azimuths_deg=preset.region_azimuths_deg[:1], train_per_region=(0,), test_per_region=(1,)
+        )
     if BANDS[band] is not None:
         preset = replace(preset, radius_m=BANDS[band])
     root = work / f"{preset_name}-{band}"
@@ -117,6 +122,17 @@ def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:
             raise SystemExit(f"labelling {root} failed")
         (root / "labels.done").write_text("")
     return root
+
+
+def smoke_profiles(names: list[str], first: bool) -> list[str]:
+    """The profiles a dataset is measured with: ``names``, but in a smoke run (:mod:`handeye.core.smoke`) one per
+    sensing principle and fixed pattern (every branch of :func:`sim.sensors.apply_sensor`) on the first dataset,
+    and the first of those on the others (the same loop, table and notes for each)."""
+    if not smoke_test():
+        return names
+    kinds = {(PROFILES[n].principle, PROFILES[n].fixed_pattern_sigma_m_at_1m > 0): n for n in reversed(names)}
+    kept = [n for n in names if n in kinds.values()]
+    return kept if first else kept[:1]
 
 
 def placements(ds: Dataset, split: str, at_most: int | None = None) -> list[int]:
@@ -513,7 +529,7 @@ def main():
             t0 = time.perf_counter()
             roots.append(render_band(args.work, preset, band, args.seed + 1))
             print(f"{roots[-1]}: ready in {time.perf_counter() - t0:.0f} s", flush=True)
-    for root in roots:
+    for i, root in enumerate(roots):
         ds = Dataset.open(root)
         noise = ds.meta.get("recipe", {}).get("noise", {}).get("depth_sigma_m_at_1m", 0.0)
         if noise or ds.meta.get("recipe", {}).get("sensor"):
@@ -547,7 +563,7 @@ def main():
         )
         emit("|---|---|---|---|---|---|---|---|---|")
         notes = []
-        for name in args.profiles.split(","):
+        for name in smoke_profiles(args.profiles.split(","), first=i == 0):
             sensor = with_errors(PROFILES[name], args.fixed_pattern, args.fixed_pattern_px)
             modes = [m.strip().replace(";", ",") for m in args.modes.split(",")]
             rows = run_profile(
