@@ -18,9 +18,10 @@ first ``--null-seconds``: "nothing moved" is learnt), ``ok``, ``drift``, ``occlu
 correlated: docs/benchmarks/running-cell.md measures it on simulated streams), ``recalibrated`` (a validated
 markerless answer committed), ``refused`` or ``replaced`` (a rollback by another process, taken). From ``moved``
 until a commit every line says "calibration stale since t", and so does ``--current``'s JSON (``stale_since``,
-null while valid). The start: ``--camera-start`` (JSON, as ``handeye markerless --start`` reads),
-``--truth-start`` (the first segment's truth, simulated data, with the sensor's true depth scale and offset
-where the dataset has them), else the history's latest version. Until the first
+null while valid); a watch started again on that history and JSON stays stale (no transform published) and
+recalibrates before it calls any pose valid. The start: ``--camera-start`` (JSON, as
+``handeye markerless --start`` reads), ``--truth-start`` (the first segment's truth, simulated data, with the
+sensor's true depth scale and offset where the dataset has them), else the history's latest version. Until the first
 recalibration estimates it, the depth is otherwise taken as exact. ``rollback`` appends to the history a new
 version equal to an older one (``--publish-tf`` also publishes it as the static transform); a watcher running on
 that history takes it at its next frame (its event ``replaced``), publishing it itself.
@@ -196,7 +197,7 @@ def _watch_dataset(args: argparse.Namespace) -> int:
         on_stale=() if tf is None else [tf.stale],
     )
     if tf is not None:
-        tf.publish(watcher.T_base_cam, watcher.version)
+        tf.start(watcher.T_base_cam, watcher.version, watcher.stale_since)
     frames = dataset_frames(args.dataset, args.rate, colour=learner is not None)
     last = _replay(watcher, frames, learner)
     if last is not None and np.isfinite(truth[last.segment]).all():
@@ -239,7 +240,7 @@ def _watch_ros(args: argparse.Namespace) -> int:
             on_stale=() if tf is None else [tf.stale],
         )
         if tf is not None:
-            tf.publish(watcher.T_base_cam, watcher.version)
+            tf.start(watcher.T_base_cam, watcher.version, watcher.stale_since)
         _replay(watcher, inputs.frames, learner)
     finally:
         if inputs.source is not None:

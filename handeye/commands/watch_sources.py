@@ -14,9 +14,10 @@ its recorded rate unless ``--fast``. ``--ros2`` subscribes to ``--depth-topic``,
 transform ``--base-frame`` -> ``--camera-frame`` at the start and on each commit (``--publish-tf`` does it for a
 replay too; while the watcher says the calibration is stale the old transform stays published, as a static
 transform cannot be withdrawn: ``/handeye/calibration_status`` and ``--current``'s ``stale_since`` say it is
-stale; a ``--camera-frame`` with a parent on ``/tf_static``, as a camera driver's optical frame has, is reached
-through its tree's root: :class:`handeye.watch.ros2.TfPublisher`); the ROS 2 code is untested against a real
-ROS 2 (its tests use a fake rclpy). ``--learner PATH``
+stale, also after a restart, which publishes no transform until a recalibration; a ``--camera-frame`` with a
+parent on ``/tf_static``, as a camera driver's optical frame has, is reached through its tree's root:
+:class:`handeye.watch.ros2.TfPublisher`); the ROS 2 code is untested against a real ROS 2 (its tests use a fake
+rclpy). ``--learner PATH``
 loads a :class:`learned.calibrator.ContinualCalibrator` saved there (a new one of ``--learner-preset`` when
 there is none), offers it each committed camera pose in the background, saves it after each training, and
 starts each recalibration from its prediction too; the command ends after the offers are learnt, or, stopped by

@@ -29,6 +29,13 @@ then
   taken as a commit is (a stale calibration no longer stale: a person chose it), published (the current JSON,
   the ``on_commit`` hooks with no frames) and relearnt; the event is ``replaced``. It is not validated here: the
   change test, after the relearning, is what checks it.
+- a **stale start**: a watcher started on the history's latest version while the current JSON says an earlier run
+  found it off (``stale_since``, :meth:`handeye.watch.history.History.recorded_stale`) is stale from its first
+  frame, with that ``stale_since`` (the earlier run's stream time), and starts by collecting frames to
+  recalibrate, as after a ``moved`` (its first event says so). The check on the first frames cannot validate it:
+  the null's bias is learnt on them, so a pose a few millimetres off would be learnt as "nothing moved". Only a
+  validated recalibration (or a version appended by a person: ``replaced``) ends it. Any other start publishes
+  the current JSON from the history (valid).
 
 Events are returned on every change of state (and on learning's end, a recalibration, a refusal).
 """
@@ -221,6 +228,9 @@ class CellWatcher:
         self.mode = "learning"
         self.state = "learning"
         self.stale_since: float | None = None
+        self._start_note, self._earlier = "", ""  # said with the first event of a stale start, and in its commit
+        if self.history is not None and self.history.latest() is not None:
+            self._start_from_record()
         self.null: NullModel | None = None
         self.states: FrameStates | None = None
         self.last_check: FrameCheck | None = None
@@ -231,6 +241,19 @@ class CellWatcher:
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._collected: list[Frame] = []
         self._history_stamp = None if self.history is None else self.history.stamp()
+
+    def _start_from_record(self) -> None:
+        """A stale start (module docstring) when the current JSON says the version in use is stale, else the current
+        JSON written from the history."""
+        stale = self.history.recorded_stale() if self.version == self.history.latest().version else None
+        if stale is None:
+            self.history.publish()
+            return
+        self.mode, self.stale_since, self._earlier = "collecting", stale, " of an earlier run"
+        self._start_note = (
+            f"version {self.version} was found off at t={stale:.3f}s of an earlier run ({self.history.current_path}"
+            "'s stale_since): recalibrating before it is called valid; "
+        )
 
     def _check(self, frame: Frame) -> FrameCheck:
         posed = self.surface.posed(np.asarray(frame.joints, dtype=float)[None], twists=False)
@@ -268,6 +291,7 @@ class CellWatcher:
         else:
             state, detail = self._collect(frame, check)
         if state != self.state or state in ("recalibrated", "refused"):
+            detail, self._start_note = self._start_note + detail, ""
             events.append(self._event(frame.t, state, detail))
             self.state = state
         if self.stale_since is not None and not was_stale:
@@ -306,7 +330,7 @@ class CellWatcher:
 
     def _restart(self) -> None:
         """After a new calibration: not stale; the bias learnt anew, watching through it (the null first, if none)."""
-        self.stale_since, self._collected = None, []
+        self.stale_since, self._collected, self._start_note, self._earlier = None, [], "", ""
         self._misfits, self._null_checks = 0, []
         if self.states is None:  # the first calibration replaced before any null: learn it
             self.mode = "learning"
@@ -453,7 +477,7 @@ class CellWatcher:
         if self.history is not None:
             v = self.history.append(
                 self.T_base_cam,
-                f"moved at t={self.stale_since:.3f}s",
+                f"moved at t={self.stale_since:.3f}s{self._earlier}",
                 sigma,
                 [f.index for f in frames],
                 stream_t=frame.t,

@@ -19,7 +19,9 @@ The current calibration is a JSON file replaced atomically (:func:`handeye.core.
 after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two). Beside
 the version's fields it has ``stale_since``: null while the watcher holds the version valid, else the stream time
 (seconds) from which the watcher knows it is off (:meth:`History.mark_stale`, on a ``moved``), until the next
-version replaces it: a consumer must not use a calibration whose ``stale_since`` is not null.
+version replaces it: a consumer must not use a calibration whose ``stale_since`` is not null. A watcher restarted
+on the history reads it (:meth:`History.recorded_stale`) and does not call that version valid before it was
+re-registered; without ``current_path`` an earlier run's ``moved`` is recorded nowhere it could read.
 Appenders take the history's ``flock`` (advisory, released when the process ends however it ends): two
 processes appending at once number their versions one after the other. A history path that is not a regular
 file (a device, a FIFO, a link to one) is refused, never read from or appended to.
@@ -241,6 +243,40 @@ class History:
         except FileNotFoundError:
             return None
         return (st.st_ino, st.st_size, st.st_mtime_ns)
+
+    def recorded_stale(self) -> float | None:
+        """The current JSON's ``stale_since`` when the JSON is about the history's latest version, else None.
+
+        A watcher restarted on this history reads it (:class:`handeye.watch.CellWatcher`): an earlier run's
+        ``moved`` is said there only (the history has versions, not states). A JSON about an older version (a
+        version appended by a process without ``--current``, or a crash between the append and the JSON) says
+        nothing about the latest; none (no ``current_path``, no file) says nothing either.
+
+        Returns
+        -------
+        float or None
+            The earlier run's stream time (seconds) from which the latest version is known to be off.
+
+        Raises
+        ------
+        HandEyeInputError
+            The JSON is there but not a calibration's (unreadable, not an object, ``stale_since`` not a number):
+            whether the pose is stale cannot be told, so nothing is assumed.
+        """
+        if self.current_path is None or not self.current_path.is_file():
+            return None
+        latest = self.latest()
+        try:
+            doc = json.loads(self.current_path.read_text())
+            if latest is None or doc["version"] != latest.version:
+                return None
+            return None if doc["stale_since"] is None else float(doc["stale_since"])
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+            raise HandEyeInputError(
+                f"{self.current_path}: not a current calibration ({type(exc).__name__}: {exc}), so whether version "
+                f"{None if latest is None else latest.version} is stale cannot be told; remove it (it is rewritten "
+                "from the history) if that version is known valid"
+            ) from None
 
     def mark_stale(self, stale_since: float) -> Version | None:
         """Rewrite the current calibration's JSON from the latest version with ``stale_since`` (stream seconds):

@@ -255,8 +255,8 @@ class TfPublisher:
     status on :data:`STATUS_TOPIC`.
 
     Untested against a real ROS 2 (module docstring). A :class:`handeye.watch.CellWatcher` ``on_commit`` hook:
-    called with each committed ``T_base_cam``; :meth:`publish` for the start and a rollback; :meth:`stale` its
-    ``on_stale`` hook.
+    called with each committed ``T_base_cam``; :meth:`start` for the start, :meth:`publish` for a rollback;
+    :meth:`stale` its ``on_stale`` hook.
 
     **A stale calibration on tf**: a static transform cannot be withdrawn (``/tf_static`` is latched and tf2 keeps
     the last one), so from a ``moved`` until the next commit the old pose stays on tf and nothing new is sent
@@ -364,6 +364,15 @@ class TfPublisher:
         r.x, r.y, r.z, r.w = (float(v) for v in q)
         self.broadcaster.sendTransform(msg)
         self._send_status("valid", None, version)
+
+    def start(self, T_base_cam: np.ndarray, version: int | None, stale_since: float | None) -> None:
+        """A watcher's start: :meth:`publish` ``T_base_cam`` when it is valid; when the record says it is stale
+        (``stale_since``, a restart after an earlier run's ``moved``: :class:`handeye.watch.CellWatcher`) nothing on
+        tf (a pose known off is not put there) and ``stale`` on :data:`STATUS_TOPIC`."""
+        if stale_since is None:
+            self.publish(T_base_cam, version)
+        else:
+            self.stale(stale_since, version)
 
     def stale(self, stale_since: float, version: int | None = None) -> None:
         """The ``on_stale`` hook: nothing sent on tf (it cannot be withdrawn), ``stale`` on :data:`STATUS_TOPIC`."""
