@@ -1,7 +1,7 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
-The files: the README, the getting-started page, the your-own-robot, images, poses and real-cell guides
-(``FILES``). Run from the repository root::
+The files: the README, the getting-started page, the your-own-robot, images, poses, real-cell and
+simulate-and-label guides (``FILES``). Run from the repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
@@ -11,6 +11,10 @@ An example is a ``bash`` block whose ``handeye`` command is followed by a plain 
 command's output. The outputs are deterministic (seeded data, shipped example files); the tests
 (``tests/test_docs.py::test_printed_examples_print_what_is_shown``) compare them with a fresh run within the
 last printed digit, so an output that drifts fails CI until this script is run again.
+
+A page that renders (``SMOKE``) runs its steps in a smoke run (``HANDEYE_SMOKE_TEST=1``: every preset cut to
+seconds, :mod:`handeye.core.smoke`), and says so above its outputs; the run times and rates a command prints
+change per run and are printed as ``…`` (``TIME``).
 """
 
 from __future__ import annotations
@@ -38,8 +42,13 @@ FILES = tuple(
         "docs/guides/images.md",
         "docs/guides/poses.md",
         "docs/guides/real-cell.md",
+        "docs/guides/simulate-label.md",
     )
 )
+#: The pages whose steps render: run in a smoke run, their outputs a smoke run's.
+SMOKE = tuple(ROOT / f for f in ("docs/guides/simulate-label.md",))
+#: A run time or rate (``38.6 s``, ``7.5 frames/s``), which changes per run: printed as ``… s``.
+TIME = re.compile(r"\b\d+(?:\.\d+)?(?= (?:s|min|frames/s|camera/s)\b)")
 #: A bash block with a ``handeye`` command, then a plain block: the command's output.
 EXAMPLE = re.compile(
     r"(^```bash\n(?P<command>handeye [^\n]+)\n```\n\n(?:[^\n`][^\n]*\n)*?\n?```\n)(?P<output>.*?)(^```)", re.S | re.M
@@ -60,7 +69,25 @@ def run(command: str, folder: Path) -> str:
         status = main(shlex.split(command)[1:])
     if status != 0:
         raise SystemExit(f"{command!r} exited {status}")
-    return out.getvalue()
+    return TIME.sub("…", out.getvalue())
+
+
+@contextlib.contextmanager
+def smoke_run(on: bool):
+    """``HANDEYE_SMOKE_TEST`` set to 1 within the block where ``on`` (for this process and the steps it
+    starts), as it was before after it."""
+    from handeye.core.smoke import ENV
+
+    before = os.environ.get(ENV)
+    if on:
+        os.environ[ENV] = "1"
+    try:
+        yield
+    finally:
+        if on and before is None:
+            os.environ.pop(ENV)
+        elif on:
+            os.environ[ENV] = before
 
 
 def outputs(path: Path) -> list[tuple[re.Match, str]]:
@@ -71,7 +98,7 @@ def outputs(path: Path) -> list[tuple[re.Match, str]]:
     text = path.read_text()
     steps = sorted([*SETUP.finditer(text), *EXAMPLE.finditer(text)], key=lambda m: m.start())
     printed = []
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, smoke_run(path.resolve() in SMOKE):
         (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
         for m in steps:
             if "setup" in m.groupdict():

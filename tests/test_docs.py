@@ -62,7 +62,12 @@ def _make_examples():
     return mod
 
 
-@pytest.mark.parametrize("path", _make_examples().FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "path",
+    # a page that renders (a smoke run: about a minute, two on the loaded 2-core Xeon) is the slow tier's
+    [pytest.param(p, marks=[pytest.mark.slow] if p in _make_examples().SMOKE else []) for p in _make_examples().FILES],
+    ids=lambda p: p.name,
+)
 def test_printed_examples_print_what_is_shown(path):
     """Each printed example of the page (a ``handeye`` command, then its output) prints what is shown, run as
     ``make_examples`` runs it: the page's steps in order in a fresh folder holding the repository's
@@ -208,7 +213,7 @@ def test_one_script_regenerates_every_printed_output(tmp_path, monkeypatch):
     """``docs/make_examples.py`` finds the printed outputs (the README's and the getting-started page's) and
     rewrites one that went stale; ``test_printed_examples_print_what_is_shown`` keeps them current."""
     mod = _make_examples()
-    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5, 4, 4, 5]
+    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5, 4, 4, 5, 3]
     stale = tmp_path / "README.md"
     stale.write_text(README.read_text().replace("15 poses, method auto", "14 poses, method auto", 1))
     text, changed = mod.regenerate(stale)
@@ -217,6 +222,14 @@ def test_one_script_regenerates_every_printed_output(tmp_path, monkeypatch):
     monkeypatch.setattr(mod, "FILES", (stale,))
     assert mod.main(["--check"]) == 1 and "14 poses" in stale.read_text()  # --check changes nothing
     assert mod.main([]) == 0 and "15 poses, method auto" in stale.read_text()
+
+
+def test_run_times_are_masked_and_nothing_else():
+    """A run time or rate changes per run and is printed as ``…``; the figures the test compares stay."""
+    mod = _make_examples()
+    line = "rendered 18 camera poses (288 frames, 38.6 s, 7.5 frames/s); label vs truth 0.0029 deg / 0.049 mm (2 s)"
+    want = "rendered 18 camera poses (288 frames, … s, … frames/s); label vs truth 0.0029 deg / 0.049 mm (… s)"
+    assert mod.TIME.sub("…", line) == want
 
 
 def test_documented_installs_name_extras_the_project_has():

@@ -446,6 +446,12 @@ def _paper_sim(folder, home, block, request):
     _copy(data, folder / "data" / name)
 
 
+def _small_standin(folder, home, block, request):
+    """data/small: the labelled paper-sim stand-in (16 placements at the ``small`` preset's sizes)."""
+    data, _ = request.getfixturevalue("paper_sim_standin")
+    _copy(data, folder / "data" / "small")
+
+
 def _paper_sim_run(folder, home, block, request):
     """data/paper-sim and runs/sim: the labelled stand-in and its run (the reservoir strategy, ``tiny``)."""
     data, model = request.getfixturevalue("paper_sim_standin")
@@ -462,6 +468,13 @@ def _ray_head(folder, home, block, request):
     start += ["--include-dashboard", "false", "--disable-usage-stats"]
     request.addfinalizer(lambda: subprocess.run([ray, "stop", "--force"], capture_output=True, timeout=120))
     subprocess.run(start, check=True, capture_output=True, timeout=300, env=dict(os.environ, HOME=str(home)))
+
+
+def _dense_standin_on_cluster(folder, home, block, request):
+    """A running Ray cluster (:func:`_ray_head`) and data/dense-sim: the paper-sim stand-in, labelled."""
+    _ray_head(folder, home, block, request)
+    data, _ = request.getfixturevalue("paper_sim_standin")
+    _copy(data, folder / "data" / "dense-sim")
 
 
 _EYE_IN_HAND = "handeye calibrate handeye/data/example_eye_in_hand.csv"
@@ -507,14 +520,36 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/beyond-one-machine.md", 0): Block(
         "handeye sim generate --preset small --out data/small --engine ray",
         "b",
-        "renders on a local Ray cluster and trains the paper learned preset with torchrun: hours on CPUs",
+        "starts a local Ray cluster and renders the small preset on it",
+        _nothing,
+    ),
+    # steps 2, 4 and 7: seconds of labelling, but on the paper-sim stand-in, which only the slow tier builds
+    ("docs/guides/beyond-one-machine.md", 1): Block(
+        "handeye label data/small --engine ray", "a", "", _small_standin, slow=True
+    ),
+    ("docs/guides/beyond-one-machine.md", 2): Block(
+        "handeye sim generate --preset dense-sim --out data/dense-sim --cameras 0:10",
+        "b",
+        "renders 10 placements of dense-sim (650 frames: minutes on 2 cores)",
+        _nothing,
+    ),
+    ("docs/guides/beyond-one-machine.md", 3): Block(
+        "handeye label data/paper-sim --method tsai", "a", "", _paper_sim, slow=True
+    ),
+    ("docs/guides/beyond-one-machine.md", 4): Block(
+        "torchrun --nproc-per-node 2 -m handeye learned run",
+        "b",
+        "trains the paper learned preset with torchrun: hours on CPUs",
         _paper_sim,
     ),
-    ("docs/guides/beyond-one-machine.md", 1): Block(
+    ("docs/guides/beyond-one-machine.md", 5): Block(
         "handeye sim generate --preset dense-sim --out data/dense-sim --engine ray --address auto",
         "b",
-        "renders and labels the 1,000 placements of dense-sim on a running Ray cluster: 3.4 core-hours",
+        "renders the 1,000 placements of dense-sim on a running Ray cluster: 3.2 core-hours",
         _ray_head,
+    ),
+    ("docs/guides/beyond-one-machine.md", 6): Block(
+        "handeye label data/dense-sim --engine ray --address auto", "a", "", _dense_standin_on_cluster, slow=True
     ),
     ("docs/guides/images.md", 0): Block("python -c", "a", "", _vision),
     ("docs/guides/images.md", 1): Block("handeye board --squares 7x5", "a", "", _images_guide_steps),
