@@ -268,9 +268,12 @@ class History:
         latest = self.latest()
         try:
             doc = json.loads(self.current_path.read_text())
+            if not isinstance(doc, dict):
+                raise TypeError("not a JSON object")
             if latest is None or doc["version"] != latest.version:
                 return None
-            return None if doc["stale_since"] is None else float(doc["stale_since"])
+            stale = doc.get("stale_since")  # absent from a JSON written before it was recorded: never marked
+            return None if stale is None else float(stale)
         except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
             raise HandEyeInputError(
                 f"{self.current_path}: not a current calibration ({type(exc).__name__}: {exc}), so whether version "

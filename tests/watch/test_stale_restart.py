@@ -63,12 +63,24 @@ def test_a_json_about_an_older_version_says_nothing_about_the_latest(tmp_path):
     assert doc["version"] == 2 and doc["stale_since"] is None
 
 
-def test_an_unreadable_current_json_is_refused_not_taken_as_valid(tmp_path):
+@pytest.mark.parametrize("text", ["{", "[1]", '{"version": 1, "stale_since": "soon"}'])
+def test_an_unreadable_current_json_is_refused_not_taken_as_valid(tmp_path, text):
     h = History(tmp_path / "h.jsonl", tmp_path / "c.json")
     h.append(T_TRUE, "start")
-    (tmp_path / "c.json").write_text("{")
+    (tmp_path / "c.json").write_text(text)
     with pytest.raises(HandEyeInputError, match="whether version 1 is stale cannot be told"):
         watcher(tmp_path, KnownAnswer(), current_path=tmp_path / "c.json")
+
+
+def test_a_current_json_from_before_stale_since_was_recorded_is_not_stale(tmp_path):
+    h = History(tmp_path / "h.jsonl", tmp_path / "c.json")
+    h.append(T_TRUE, "start")
+    doc = _current(tmp_path)
+    del doc["stale_since"]
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    w = watcher(tmp_path, KnownAnswer(), current_path=tmp_path / "c.json")
+    assert w.version == 1 and w.stale_since is None and w.mode == "learning"
+    assert _current(tmp_path)["stale_since"] is None  # written anew from the history, with the field
 
 
 @pytest.mark.parametrize("stale", [True, False])
