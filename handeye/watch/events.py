@@ -34,7 +34,8 @@ class Event:
     detail : str
         What made it (counts, the statistic, the refusal's reason).
     stale_since : float or None
-        Time of the "moved" alarm while no validated calibration has replaced the one it found off.
+        Time of the "moved" alarm while no validated calibration has replaced the one it found off (at a stale
+        start, the earlier run's time, from the current JSON: :class:`handeye.watch.CellWatcher`).
     version : int or None
         The calibration version in use (the history's), when there is a history.
     """

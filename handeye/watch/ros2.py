@@ -263,8 +263,9 @@ class TfPublisher:
     there. What says it is stale: a ``std_msgs/String`` on :data:`STATUS_TOPIC` (transient local, so a late
     subscriber gets the last one), JSON ``{"calibration": "stale" | "valid", "stale_since": s | null,
     "version": n, "parent_frame", "child_frame"}``, sent ``valid`` with each transform and ``stale`` on a
-    ``moved``; and ``--current``'s JSON (``stale_since``). A consumer that picks must check one of them before
-    it trusts the transform: tf alone cannot tell.
+    ``moved`` or at a restart on a version the record says is stale (:meth:`start`); and ``--current``'s JSON
+    (``stale_since``). A consumer that picks must check one of them before it trusts the transform: tf alone
+    cannot tell.
 
     **A camera frame that has a parent**: a camera driver publishes its own tree (``camera_link ->
     camera_color_optical_frame`` on ``/tf_static``); a second parent of the optical frame is rejected or flaps
