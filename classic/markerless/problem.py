@@ -26,6 +26,7 @@ from classic.markerless.sigma import depth_bins, image_tiles
 from classic.markerless.surface_frames import RobotSurfaceFrames
 from classic.markerless.visibility import project, visible_points, zbuffer_grid
 from handeye.core.errors import HandEyeInputError
+from handeye.core.metrics import pose_error
 from handeye.core.se3 import invert_transform
 
 __all__ = ["Problem", "Outcome", "FALLBACK_SIGMA_M_AT_1M"]
@@ -409,3 +410,21 @@ class Problem:
             return fit.T_base_cam, fit.covariance
 
         return split_excess(solve, f, frame_splits(f[~shared], q_obs[~shared], self.n))
+
+    def static_pull(self, T, matches) -> tuple[dict, np.ndarray]:
+        """What the static parts counted once moved the answer ``T``, and the moving parts' own covariance: the final
+        ``matches`` of the moving parts solved again alone, from ``T`` and the current depth correction, intrinsics
+        and joint offsets. Returns the difference as a sigma term (``rotation_deg``, ``translation_mm``) and that
+        fit's covariance, shape (6, 6).
+
+        Their error repeats in every frame, so the frames cannot measure it: the covariance holds them as one
+        cluster, whose score the fit itself shrinks where they decide a direction the moving parts leave loose
+        (the focal length, the distance along the axis and the depth offset together), and the split check has
+        them in every group. So they may move the answer, but not narrow its sigma: the sigma is the moving parts'
+        own, and their pull is added to it whole.
+        """
+        m, f, q_obs = matches
+        moving = ~self.static_rows(m)
+        fit, _ = self._solve(T, (m[moving], f[moving], q_obs[moving]), iterations=5)
+        rot_deg, trans_mm = pose_error(fit.T_base_cam, T)
+        return {"rotation_deg": float(rot_deg), "translation_mm": float(trans_mm)}, fit.covariance

@@ -36,12 +36,14 @@ class MarkerlessResult:
         Why no answer is given (too few robot pixels, did not converge, residual too large,
         start outside the basin); None when accepted.
     covariance : array, shape (6, 6)
-        Of the camera's rotation (rad, camera frame) and position (m, camera frame).
+        Of the camera's rotation (rad, camera frame) and position (m, camera frame); with ``static_parts``, the
+        moving parts' alone (``sigma_static``).
     sigma : dict
         ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
         the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
-        groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), and the bounded part
-        of the depth-to-colour registration (``registration``).
+        groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), the bounded part
+        of the depth-to-colour registration (``registration``), and with ``static_parts`` their pull on the answer
+        (``sigma_static``).
     residual_mm_per_frame : array, shape (N,)
         RMS point-to-plane residual of the matched points of each frame.
     matched_fraction : float
@@ -52,7 +54,9 @@ class MarkerlessResult:
         Among others ``fitted_parts``: ``"moving"`` (the fine stage fitted the parts that move over the recording)
         or ``"all"`` (``static_parts``, or no part moved); with ``static_parts`` beside moving parts,
         ``static_matches``: the static parts' matches fitted, one per z-buffer cell however many frames saw it
-        (a repeated error counted once), one cluster of the covariance.
+        (a repeated error counted once), and ``sigma_static``: how far they moved the answer from the moving parts'
+        alone, added whole to the sigma, which is otherwise the moving parts' own (``sigma_noise``: their
+        covariance's): the static parts may move the answer, not narrow its sigma.
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
@@ -147,7 +151,6 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     res_frame, rms_mm, inl = _residuals_mm(fit, best.matches[1], problem.n)
     noise_mm = float(problem.sigma_z(z_med) * 1e3)
     expected_mm = float(np.hypot(noise_mm, opts.model_floor_m * 1e3))
-    noise = pose_sigma(fit.covariance, best.T[:3, :3])
     sampling = sampling_sigma(z_med, lever_m, problem.K_given, opts)
     # the depth camera is what the registration finds; the colour camera's pose carries the extrinsic's error
     registration = registration_terms(opts, fit, problem.theta_given)
@@ -162,6 +165,13 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     if opts.split_check and not refused:
         split = problem.split_check(best.T, best.matches)
     no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
+    # the static parts' repeated error: the moving parts' own covariance, and the static parts' pull on the answer
+    # added whole (an answer only)
+    covariance, static = fit.covariance, []
+    if problem.static_once and not refused:
+        pull, covariance = problem.static_pull(best.T, best.matches)
+        static = [pull]
+    noise = pose_sigma(covariance, best.T[:3, :3])
     diag.update(
         {
             "inlier_rms_mm": rms_mm,
@@ -170,6 +180,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
             "matched_points": int(inl.sum()),
             "fitted_parts": "all" if problem.fitted_part is None else "moving",
             **({"static_matches": int(problem.static_rows(best.matches[0]).sum())} if problem.static_once else {}),
+            **({"sigma_static": static[0]} if static else {}),
             "sigma_noise": noise,
             "sigma_sampling": sampling,
             "sigma_consistency": split,
@@ -178,8 +189,8 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     return MarkerlessResult(
         None if refused else best.T,
         refused,
-        fit.covariance,
-        in_quadrature(noise, sampling, extrinsic, split or no_split),
+        covariance,
+        in_quadrature(noise, sampling, extrinsic, split or no_split, *static),
         res_frame,
         best.matched,
         best.name,
