@@ -161,7 +161,7 @@ def _watch_dataset(args: argparse.Namespace) -> int:
     if not cameras:
         raise HandEyeInputError(f"{args.dataset}: no complete shard to replay")
     truth = ds.truth()
-    T_start, depth_correction = None, (1.0, 0.0)
+    T_start, depth_correction = None, None  # None: the started version's own
     if args.camera_start is not None:
         T_start = read_start(args.camera_start)
     elif args.truth_start:

@@ -171,9 +171,10 @@ class CellWatcher:
         ``recalibrate(frames, T_start) -> result`` with ``ok``, ``T_base_cam``, ``covariance``, ``sigma`` and
         ``refused`` (a :class:`classic.markerless.MarkerlessResult`); :func:`markerless_recalibration` by default.
         Where its ``depth`` has ``scale`` and ``offset_mm`` they replace the depth correction.
-    depth_correction : (float, float)
+    depth_correction : (float, float), optional
         ``(k, c)``: the true depth is ``k z_obs + c`` (:func:`handeye.watch.check.check_frame`), until a
-        recalibration estimates it anew.
+        recalibration estimates it anew. None: the version started from's own (its history record's
+        ``depth_correction_k_c_m``), else ``(1, 0)``.
     on_commit : sequence of callable, optional
         Each called ``hook(T_base_cam, frames, version)`` after a validated calibration is committed (and
         published to ``current_path``): :class:`handeye.watch.ros2.TfPublisher`,
@@ -198,7 +199,7 @@ class CellWatcher:
         history_path: str | Path | None = None,
         current_path: str | Path | None = None,
         recalibrate: Callable | None = None,
-        depth_correction: tuple = (1.0, 0.0),
+        depth_correction: tuple | None = None,
         on_commit=(),
         extra_starts: Callable | None = None,
         on_stale=(),
@@ -221,6 +222,9 @@ class CellWatcher:
             same = latest is not None and np.allclose(latest.T_base_cam, T_base_cam, atol=1e-12)
             self.version = latest.version if same else self.history.append(T_base_cam, "start", stream_t=0.0).version
         self.T_base_cam = np.array(T_base_cam, dtype=float)
+        if depth_correction is None:  # the version in use's own, as a rollback's (_follow_history)
+            started = latest if latest is not None and latest.version == self.version else None
+            depth_correction = (1.0, 0.0) if started is None else _recorded_correction(started)
         self.depth_correction = tuple(float(v) for v in depth_correction)
         stride = self.options.check.zbuffer_stride
         self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor, zbuffer_stride=stride)
@@ -317,9 +321,7 @@ class CellWatcher:
         if latest is None or latest.version == self.version:  # this watcher's own append
             return []
         self.version, self.T_base_cam = latest.version, np.array(latest.T_base_cam)
-        correction = latest.extra.get("depth_correction_k_c_m")
-        if correction is not None:
-            self.depth_correction = tuple(float(v) for v in correction)
+        self.depth_correction = _recorded_correction(latest, self.depth_correction)
         self._restart()
         event = self._event(t, "replaced", f"version {latest.version} appended to the history: {latest.reason}")
         self.state = "replaced"
@@ -496,3 +498,9 @@ class CellWatcher:
         for hook in self.on_commit:
             hook(self.T_base_cam, frames, self.version)
         return "recalibrated", detail
+
+
+def _recorded_correction(version, default: tuple = (1.0, 0.0)) -> tuple:
+    """A history version's depth correction ``(k, c)`` (``depth_correction_k_c_m``), else ``default``."""
+    correction = version.extra.get("depth_correction_k_c_m")
+    return default if correction is None else tuple(float(v) for v in correction)

@@ -100,3 +100,17 @@ def test_a_current_file_without_a_history_is_refused(tmp_path):
     """The current calibration is published from the history: without one it would never be written."""
     with pytest.raises(ValueError, match="give history_path"):
         CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), current_path=tmp_path / "current.json")
+
+
+def test_a_start_from_the_history_takes_its_versions_depth_correction(tmp_path):
+    """A watcher started from the history (no pose given) checks with the depth correction that version was
+    committed with, as a rollback does; it started at (1, 0), so a unit with a scale error read every frame off.
+    A correction given explicitly is kept."""
+    h = History(tmp_path / "h.jsonl")
+    h.append(T_TRUE, "commit", extra={"depth_correction_k_c_m": [1.01, -0.003]})
+    w = CellWatcher(Spheres(), K, None, sensor_profile("ideal"), history_path=tmp_path / "h.jsonl")
+    assert w.depth_correction == (1.01, -0.003)
+    w = CellWatcher(
+        Spheres(), K, None, sensor_profile("ideal"), history_path=tmp_path / "h.jsonl", depth_correction=(1.0, 0.0)
+    )
+    assert w.depth_correction == (1.0, 0.0)
