@@ -80,3 +80,35 @@ def test_a_benchmark_cuts_its_sizes_and_says_so(monkeypatch, capsys):
     assert (args.placements, args.frames, args.seed) == (1, 10, 3)
     rep = Report("t", "benchmarks/x.py", [], "numpy")
     assert any(NOTICE in line for line in rep.lines)
+
+
+def test_the_sensor_benchmark_keeps_one_profile_per_principle(monkeypatch):
+    """markerless_sensors' smoke run: every principle and fixed pattern on the first dataset (every branch of
+    sim.sensors.apply_sensor), one profile on the others; outside a smoke run every profile asked for."""
+    from benchmarks.markerless_sensors import smoke_profiles
+    from handeye.robot.depth_sensors import PROFILES
+
+    names = list(PROFILES)
+    monkeypatch.delenv(ENV, raising=False)
+    assert smoke_profiles(names, first=True) == smoke_profiles(names, first=False) == names
+    monkeypatch.setenv(ENV, "1")
+    kept = smoke_profiles(names, first=True)
+    kinds = lambda ns: {(PROFILES[n].principle, PROFILES[n].fixed_pattern_sigma_m_at_1m > 0) for n in ns}  # noqa: E731
+    assert kinds(kept) == kinds(names) and len(kept) == len(kinds(names)) < len(names)
+    assert smoke_profiles(names, first=False) == kept[:1]
+
+
+def test_the_ablation_sweeps_two_settings_in_a_smoke_run(monkeypatch, tmp_path):
+    """handeye learned ablation's smoke run: the grid's first and last settings; all of them otherwise."""
+    import learned.ablation as ablation
+
+    swept = []
+    monkeypatch.setattr(
+        ablation, "_sweep", lambda frames, preset, settings, out, strategies, **run: swept.append(settings)
+    )
+    monkeypatch.delenv(ENV, raising=False)
+    ablation.run_ablation(None, None, tmp_path)
+    monkeypatch.setenv(ENV, "1")
+    ablation.run_ablation(None, None, tmp_path)
+    full, cut = ([s[2] for s in settings] for settings in swept)
+    assert len(full) == len(ablation.DEFAULT_GRID) > 2 and cut == [full[0], full[-1]]
