@@ -695,3 +695,10 @@ PIXEL_EFFECT_SIGMA_SDS = 4.0
 #: false failure (normal tail). The total variance in place of the within one moves the ratio by
 #: log(1 + mean(g^2) sigma_p^2 / v), 0.55 at the test's sizes, against 4 x 0.035 (the old code failed by it).
 PIXEL_VARIANCE_SPLIT_SDS = 4.0
+
+#: The field repeated per image pixel (classic.markerless.repeated_error) against its truth: its variance from one
+#: draw has a relative sd of sqrt(2 / n) over the n = area / (4 pi L^2) independent cells the frames see, and the
+#: predicted covariance of its pull against a Monte Carlo one over M fields the same plus sqrt(2 / M), each derived
+#: in the test from its sizes; 4 of them leave a 6e-5 chance of a false failure (normal tail), while the temporal
+#: noise taken in (4 times the field's variance) or the correlation dropped (a factor 4 pi L^2 / 1 = 50) fail.
+REPEATED_FIELD_SDS = 4.0

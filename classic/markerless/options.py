@@ -129,6 +129,11 @@ class MarkerlessOptions:
         it 5.82 mm); it does not always help (paper-sim's fixed-pattern row 0.89 -> 1.29 mm median, paper-real's
         4.07 -> 3.53); measured with 2 px cells on ten simulated placements only
         (``benchmarks/results/markerless_errors.md``), never on a real sensor.
+    repeated_error_px : int
+        Above 0: the sigma holds what a depth error repeated at one image position in every frame adds (a fixed
+        pattern; an error of the camera matrix or the depth image's registration the fit leaves), its covariance
+        over the image measured from the final residuals across frames out to this many pixels
+        (:mod:`classic.markerless.repeated_error`; ``diagnostics["sigma_repeated"]``). 0: not counted.
     seed : int
     """
 
@@ -162,6 +167,7 @@ class MarkerlessOptions:
     split_check: bool = True
     static_parts: bool = False
     pixel_effect_px: int = 0
+    repeated_error_px: int = 0
     seed: int = 0
 
     def __post_init__(self):
@@ -210,8 +216,10 @@ class MarkerlessOptions:
             value = getattr(self, key)
             if not (np.isfinite(value) and value >= 0):
                 raise HandEyeInputError(f"{key} must be a finite value >= 0, got {value}")
-        if not (isinstance(self.pixel_effect_px, (int, np.integer)) and self.pixel_effect_px >= 0):
-            raise HandEyeInputError(f"pixel_effect_px must be an integer >= 0, got {self.pixel_effect_px!r}")
+        for key in ("pixel_effect_px", "repeated_error_px"):
+            value = getattr(self, key)
+            if not (isinstance(value, (int, np.integer)) and value >= 0):
+                raise HandEyeInputError(f"{key} must be an integer >= 0, got {value!r}")
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")

@@ -58,6 +58,7 @@ from classic.markerless.curvature import second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns
 from classic.markerless.pixel_effect import pixel_gain, pixel_variance_components, reduced_rows, schur_reduction
+from classic.markerless.repeated_error import repeated_error_covariance
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = [
@@ -109,6 +110,9 @@ class PlaneFit:
         The estimated joint zero offsets, radians, when asked for (``MatchedModel.joint_twists``).
     joint_offsets_covariance, joint_offsets_covariance_frames : array, shape (J, J) or None
         Their covariance, two-way and frame-clustered as the depth's.
+    repeated : dict or None
+        With ``PlaneFitOptions.repeated_radius_px``: what an error repeated per image pixel across frames adds,
+        :func:`classic.markerless.repeated_error.repeated_error_covariance` (``covariance`` of all parameters).
     """
 
     T_base_cam: np.ndarray
@@ -127,6 +131,7 @@ class PlaneFit:
     joint_offsets: np.ndarray | None = None
     joint_offsets_covariance: np.ndarray | None = None
     joint_offsets_covariance_frames: np.ndarray | None = None
+    repeated: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -202,6 +207,10 @@ class PlaneFitOptions:
         With the matches' pixels given (``solve_point_to_plane(pixel=...)``): a depth error per image pixel, the
         same in every frame (a fixed pattern), marginalised under a sigma measured from the residuals
         (:mod:`classic.markerless.pixel_effect`).
+    repeated_radius_px : int
+        With the matches' image pixels given (``solve_point_to_plane(uv=...)``) and above 0: the covariance an
+        error repeated per image pixel across frames adds (:mod:`classic.markerless.repeated_error`), its field's
+        covariance measured out to this many pixels; ``PlaneFit.repeated``. 0: not computed.
     """
 
     scale_m: float
@@ -219,6 +228,7 @@ class PlaneFitOptions:
     joint_start: np.ndarray | None = None
     joint_prior_sigma: np.ndarray | None = None
     pixel_effect: bool = False
+    repeated_radius_px: int = 0
 
 
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -401,6 +411,7 @@ def solve_point_to_plane(
     group: np.ndarray | None = None,
     cross_group=None,
     pixel: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
 ) -> PlaneFit:
     """Camera pose from fixed point-to-plane matches (IRLS Gauss-Newton).
 
@@ -425,6 +436,8 @@ def solve_point_to_plane(
         (:func:`classic.clustered_covariance.clustered_covariance`).
     pixel : array of int, shape (N,), optional
         Image pixel of each match (any integer id), for ``options.pixel_effect``.
+    uv : array of int, shape (N, 2), optional
+        Image pixel of each match (column, row), for ``options.repeated_radius_px``.
 
     Returns
     -------
@@ -447,6 +460,9 @@ def solve_point_to_plane(
     prior = _prior_information(x.precision, r, w) if x.has_prior else None
     cov = clustered_covariance(J, r, w, group, prior, cross_group)
     fit.covariance = cov[:6, :6]
+    if uv is not None and options.repeated_radius_px > 0:
+        gain = pixel_gain(J[:, 3:6], p_cam)  # the translation's columns are the normals in the camera frame
+        fit.repeated = repeated_error_covariance(J, r, w, gain, uv, groups, prior, options.repeated_radius_px)
     if x.n_par > 6:
         frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
         _set_covariances(fit, x, cov, frames)

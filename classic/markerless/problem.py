@@ -269,10 +269,10 @@ class Problem:
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
         return idx, f, q_obs, q, has_depth, close
 
-    def _solve(self, T, matches, iterations, covariance=True):
+    def _solve(self, T, matches, iterations, covariance=True, repeated=False):
         """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
         and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
-        residual."""
+        residual. ``repeated``: with the covariance an error repeated per pixel adds (``PlaneFit.repeated``)."""
         m, f, q_obs = matches
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
@@ -310,13 +310,15 @@ class Problem:
             stereo_fb_px_m=self.opts.stereo_fb_px_m,
             pixel_locking_prior_px=self.opts.pixel_locking_prior_px,
             pixel_effect=self.opts.pixel_effect_px > 0,
+            repeated_radius_px=self.opts.repeated_error_px if repeated else 0,
             **intrinsics,
             **joints,
         )
         pixel = self._pixels(q_obs) if self.opts.pixel_effect_px > 0 else None
         group = np.where(self.static_rows(m), self.n, f)  # the static parts' matches: one cluster, as one view
+        uv = np.rint(project(q_obs, self.K_given)).astype(np.int64) if repeated else None
         fit = solve_point_to_plane(
-            observed, model, T, options, group=group, cross_group=self._cross_groups(q_obs), pixel=pixel
+            observed, model, T, options, group=group, cross_group=self._cross_groups(q_obs), pixel=pixel, uv=uv
         )
         return fit, expected
 
@@ -410,6 +412,13 @@ class Problem:
             return fit.T_base_cam, fit.covariance
 
         return split_excess(solve, f, frame_splits(f[~shared], q_obs[~shared], self.n))
+
+    def repeated_error(self, T, matches) -> dict:
+        """What an error repeated at one image position in every frame adds to the covariance of the answer ``T``
+        (:func:`classic.markerless.repeated_error.repeated_error_covariance`): the final ``matches`` linearised at
+        ``T`` and the current depth correction, intrinsics and joint offsets (no step taken)."""
+        fit, _ = self._solve(T, matches, iterations=0, repeated=True)
+        return fit.repeated
 
     def static_pull(self, T, matches) -> tuple[dict, np.ndarray]:
         """What the static parts counted once moved the answer ``T``, and the moving parts' own covariance: the final

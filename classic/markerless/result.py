@@ -172,6 +172,10 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         pull, covariance = problem.static_pull(best.T, best.matches)
         static = [pull]
     noise = pose_sigma(covariance, best.T[:3, :3])
+    # an error repeated at one image position in every frame: the covariance between frames the clustering omits
+    repeated = []
+    if opts.repeated_error_px > 0 and not refused:
+        repeated = [_repeated_term(problem.repeated_error(best.T, best.matches), best.T[:3, :3])]
     diag.update(
         {
             "inlier_rms_mm": rms_mm,
@@ -184,13 +188,14 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
             "sigma_noise": noise,
             "sigma_sampling": sampling,
             "sigma_consistency": split,
+            **({"sigma_repeated": repeated[0]} if repeated else {}),
         }
     )
     return MarkerlessResult(
         None if refused else best.T,
         refused,
         covariance,
-        in_quadrature(noise, sampling, extrinsic, split or no_split, *static),
+        in_quadrature(noise, sampling, extrinsic, split or no_split, *static, *repeated),
         res_frame,
         best.matched,
         best.name,
@@ -200,6 +205,13 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         registration=registration,
         joint_offsets=_joint_offsets_result(fit, problem, opts),
     )
+
+
+def _repeated_term(repeated: dict, R_base_cam: np.ndarray) -> dict:
+    """The pose's sigma from :attr:`PlaneFit.repeated`, with the repeated field's sigma (mm at 1 m) and
+    correlation length (pixels) measured."""
+    term = pose_sigma(repeated["covariance"][:6, :6], R_base_cam)
+    return {**term, "field_mm_at_1m": repeated["sigma_m_at_1m"] * 1e3, "length_px": repeated["length_px"]}
 
 
 def _residuals_mm(fit: PlaneFit, frame: np.ndarray, n: int) -> tuple[np.ndarray, float, np.ndarray]:

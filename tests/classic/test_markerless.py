@@ -42,13 +42,13 @@ def _scene(rng, n_frames=8, noise=True, in_view=True):
     return render_depth(centres, T_base_cam, rng if noise else None), sphere_model(centres), T_base_cam
 
 
-def render_depth(centres, T_base_cam, rng=None, radii=RADII):
+def render_depth(centres, T_base_cam, rng=None, radii=RADII, K=K, size=(H, W)):
     """Ray-cast depth of the spheres (``centres``: (frames, spheres, 3), base frame; ``radii`` per sphere) over the
-    floor z = 0.
+    floor z = 0, through the camera ``K`` at ``size`` (rows, columns).
 
     With ``rng``, noise of ``SIGMA_1M`` at 1 m growing with depth squared.
     """
-    n_frames = len(centres)
+    n_frames, (H, W) = len(centres), size
     rays_cam = pixel_rays(K, H, W).reshape(-1, 3)
     R, o = T_base_cam[:3, :3], T_base_cam[:3, 3]
     d_base = rays_cam @ R.T  # ray direction scaled so that t is the camera-frame depth z
@@ -69,10 +69,11 @@ def render_depth(centres, T_base_cam, rng=None, radii=RADII):
     return depth.reshape(n_frames, H, W)
 
 
-def sphere_model(centres, radii=RADII):
-    """The spheres' surface at every frame: each sampled (Fibonacci) at 0.7 of the pixel footprint at 0.8 m."""
+def sphere_model(centres, radii=RADII, f_px=F_PX):
+    """The spheres' surface at every frame: each sampled (Fibonacci) at 0.7 of the pixel footprint at 0.8 m (focal
+    length ``f_px``)."""
     n_frames = len(centres)
-    spacing = 0.7 * 0.8 / F_PX
+    spacing = 0.7 * 0.8 / f_px
     pts, nrm, frame, part = [], [], [], []
     for k, r in enumerate(radii):
         n = int(4 * np.pi * r**2 / spacing**2)

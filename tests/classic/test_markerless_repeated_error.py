@@ -1,0 +1,97 @@
+"""The covariance an error repeated per image pixel across frames adds (classic.markerless.repeated_error), on a
+linear problem whose pull is known: a depth field fixed over the image, seen by many frames through overlapping
+windows, beside noise that is correlated within a frame and independent between frames."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from classic.markerless.repeated_error import repeated_error_covariance
+from tests.tolerances import REPEATED_FIELD_SDS
+
+H, W = 96, 128
+FIELD_PX = 2.0  # the field's Gaussian filter sigma: correlation function exp(-d^2 / (4 L^2)), area 4 pi L^2
+NOISE_PX = 3.0  # the temporal noise's, within a frame
+NOISE_OVER_FIELD = 2.0  # temporal noise sigma over the field's
+FRAMES, WINDOW = 40, 48
+DRAWS = 300  # fields drawn for the pull's Monte Carlo covariance
+
+
+def _field(rng, length_px, shape=(H, W)):
+    """Unit-variance Gaussian noise correlated over ``length_px`` (as sim.sensors draws a fixed pattern)."""
+    return ndimage.gaussian_filter(rng.normal(size=shape), length_px, mode="reflect") * np.sqrt(
+        4 * np.pi * length_px**2
+    )
+
+
+def _design(rng):
+    """Each frame sees a WINDOW x WINDOW window of the image at a random place; the parameters: the two
+    image gradients shared by all frames (as the intrinsics are), and an offset per frame (a pose-like unknown its
+    frame alone decides). Returns uv, frame, J, g."""
+    uv, frame = [], []
+    v, u = np.mgrid[0:WINDOW, 0:WINDOW]
+    for f in range(FRAMES):
+        du, dv = rng.integers(0, W - WINDOW), rng.integers(0, H - WINDOW)
+        uv.append(np.column_stack([u.ravel() + du, v.ravel() + dv]))
+        frame.append(np.full(WINDOW * WINDOW, f))
+    uv, frame = np.concatenate(uv), np.concatenate(frame)
+    per_frame = (frame[:, None] == np.arange(FRAMES)).astype(float)
+    J = np.column_stack([uv[:, 0] / W - 0.5, uv[:, 1] / H - 0.5, per_frame])
+    g = 0.5 + rng.random(len(frame))  # the gain varies as the normals along the rays do
+    return uv, frame, J, g
+
+
+def _noise(rng, frame):
+    """Temporal noise: a field correlated within each frame, drawn anew per frame."""
+    return np.concatenate([_field(rng, NOISE_PX, (WINDOW, WINDOW)).ravel() for _ in range(FRAMES)])
+
+
+def test_the_repeated_field_and_its_pull_are_measured_not_the_temporal_noise():
+    """The field's variance from the residuals, and the predicted covariance of its pull against the pull's spread
+    over DRAWS fields (the pull of a linear fit: -H^-1 sum_i b_i e(u_i)). The temporal noise, four times the
+    field's variance and correlated within a frame, does not enter either.
+
+    Derivation of the bounds: the field spans the frames' union (all H x W pixels here) in about
+    n = H W / (4 pi L^2) independent cells, so its variance from one draw has a relative sd of sqrt(2 / n) (0.09),
+    and the Monte Carlo covariance's trace one of sqrt(2 / DRAWS) at most (0.08); REPEATED_FIELD_SDS of them.
+    """
+    rng = np.random.default_rng(0)
+    uv, frame, J, g = _design(rng)
+    w = np.ones(len(frame))
+    field = _field(rng, FIELD_PX)
+    e = field[uv[:, 1], uv[:, 0]]
+    r = g * e + NOISE_OVER_FIELD * _noise(rng, frame)
+    out = repeated_error_covariance(J, r, w, g, uv, frame, radius_px=12)
+    cells = H * W / (4 * np.pi * FIELD_PX**2)
+    sd_field = np.sqrt(2 / cells)
+    sample_var = float(np.mean(field**2))  # the drawn field's own variance over the image
+    assert abs(out["sigma_m_at_1m"] ** 2 / sample_var - 1) <= REPEATED_FIELD_SDS * sd_field
+    # the pull's spread over fields drawn anew, with the same frames
+    b = (w * g)[:, None] * J
+    H_inv = np.linalg.inv((J * w[:, None]).T @ J)
+    pulls = np.array([H_inv @ (b.T @ _field(rng, FIELD_PX)[uv[:, 1], uv[:, 0]]) for _ in range(DRAWS)])
+    mc = pulls.T @ pulls / DRAWS
+    ratio = np.trace(out["covariance"][:2, :2]) / np.trace(mc[:2, :2])  # the shared unknowns'
+    sd = np.sqrt(sd_field**2 + 2 / DRAWS)
+    assert abs(ratio - 1) <= REPEATED_FIELD_SDS * sd, ratio
+
+
+def test_no_repeated_field_adds_next_to_nothing():
+    """Temporal noise alone (correlated within a frame, independent between frames): the field's variance measured
+    is within its sampling spread of 0.
+
+    The estimate is the mean of products of independent noises over the pairs of one pixel in different frames,
+    sum_p m_p (m_p - 1) of them (m_p frames at pixel p), correlated over the noise's cells (4 pi L^2 pixels): its sd
+    is about the noise's variance over the square root of the pairs per cell. Taking in the same frame's pairs
+    (each match with itself among them) gives a positive bias of several sds.
+    """
+    rng = np.random.default_rng(1)
+    uv, frame, J, g = _design(rng)
+    w = np.ones(len(frame))
+    r = NOISE_OVER_FIELD * _noise(rng, frame)
+    out = repeated_error_covariance(J, r, w, g, uv, frame, radius_px=12)
+    m = np.bincount(uv[:, 1] * W + uv[:, 0], minlength=H * W).astype(float)
+    pairs = float((m * (m - 1)).sum())
+    sd = NOISE_OVER_FIELD**2 / np.sqrt(pairs / (4 * np.pi * NOISE_PX**2))
+    assert out["sigma_m_at_1m"] ** 2 <= REPEATED_FIELD_SDS * sd
