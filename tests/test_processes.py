@@ -156,6 +156,26 @@ def test_a_worker_killed_mid_task_stops_the_work_instead_of_hanging():
         list(PoolEngine().run(_kill_self_on_one, range(4), EngineOptions(workers=2, progress=False)))
 
 
+def test_a_pool_whose_task_lock_a_killed_worker_holds_is_stopped_not_waited_for():
+    """CPython's ``Pool.terminate`` takes the task queue's read lock, which an idle worker holds while it waits for
+    a task; killed then, the worker leaves it held and the terminate waits for ever (this file's test above hung
+    so once). Made here for certain: one worker, idle after a task, killed; ``_stop`` must return and leave no
+    worker alive."""
+    import multiprocessing
+
+    from handeye.core import pool as pool_module
+
+    pool = multiprocessing.get_context("spawn").Pool(1)
+    assert pool.apply(abs, (-3,)) == 3
+    time.sleep(1.0)  # the worker is back in its queue's get(), holding the read lock
+    os.kill(pool._pool[0].pid, signal.SIGKILL)
+    time.sleep(1.0)  # the pool starts a replacement, which waits on the lock
+    start = time.monotonic()
+    pool_module._stop(pool, timeout_s=2.0)
+    assert time.monotonic() - start < 2.0 + 5.0
+    assert all(p.exitcode is not None for p in pool._pool)
+
+
 def test_an_initializer_failure_is_raised_not_restarted_for_ever():
     from handeye.core.engine_protocol import EngineOptions
     from handeye.core.pool import PoolEngine

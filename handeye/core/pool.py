@@ -53,6 +53,8 @@ _PARENT: int | None = None
 _INIT_FAILURE: Exception | None = None
 #: Seconds between the parent's checks that no worker died while it waits for a result.
 WORKER_CHECK_S = 0.5
+#: How long a failed pool's own ``terminate`` may take before its workers are killed here (:func:`_stop`).
+STOP_TIMEOUT_S = 10.0
 
 
 class WorkerDiedError(ChildProcessError):
@@ -160,6 +162,26 @@ def _death(process) -> str:
     return f"a worker process (pid {process.pid}) {how} in the middle of the work; the work was stopped"
 
 
+def _stop(pool, timeout_s: float = STOP_TIMEOUT_S) -> None:
+    """Terminate a failed pool, killing its workers here if the pool's own ``terminate`` hangs.
+
+    CPython's ``Pool.terminate`` first takes its task queue's read lock, which an idle worker holds while it waits
+    for a task: a worker killed then (the out-of-memory killer, ``kill -9``) leaves it held for ever, and the
+    terminate, which the work's own failure called, waits for ever (seen in this project's test of a worker that
+    kills itself). Here it runs in a daemon thread; past ``timeout_s`` the workers are killed and the pool left to
+    that thread (its finalizer has run, so the interpreter's exit does not wait on it again).
+    """
+    stopper = threading.Thread(target=pool.terminate, name="handeye-pool-stop", daemon=True)
+    stopper.start()
+    stopper.join(timeout_s)
+    if not stopper.is_alive():
+        pool.join()
+        return
+    for process in list(pool._pool):  # the live workers (a private list, stable since Python 3.2)
+        process.kill()
+        process.join(timeout_s)
+
+
 class PoolEngine:
     """The :class:`~handeye.core.engine_protocol.Engine` of this machine: ``workers`` spawned processes.
 
@@ -213,8 +235,8 @@ class PoolEngine:
             if pool is not None:
                 if finished:
                     pool.close()
+                    pool.join()
                 else:  # a failure: stop the remaining work
-                    pool.terminate()
-                pool.join()
+                    _stop(pool)
             if bar is not None:
                 bar.close()
