@@ -68,7 +68,7 @@ def repeated_error_covariance(
     r, w, g : array, shape (N,)
         Residuals (m), robust weights, gains (:func:`classic.markerless.pixel_effect.pixel_gain`).
     uv : array of int, shape (N, 2)
-        Each match's image pixel (column, row), >= 0.
+        Each match's image pixel (column, row).
     frame : array of int, shape (N,)
         Each match's frame.
     prior_information : array, shape (P, P), optional
@@ -84,6 +84,7 @@ def repeated_error_covariance(
         repeats, the covariance is 0); ``rings``: ``C(k)`` as measured, metres at 1 m squared.
     """
     uv = np.asarray(uv, dtype=np.int64)
+    uv = uv - uv.min(axis=0)  # only the pixels' offsets matter
     frame = np.asarray(frame, dtype=np.int64)
     n_par = J.shape[1]
     shape = (int(uv[:, 1].max()) + 1, int(uv[:, 0].max()) + 1)

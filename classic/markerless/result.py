@@ -42,8 +42,9 @@ class MarkerlessResult:
         ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
         the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
         groups (``diagnostics`` ``sigma_noise``, ``sigma_sampling``, ``sigma_consistency``), the bounded part
-        of the depth-to-colour registration (``registration``), and with ``static_parts`` their pull on the answer
-        (``sigma_static``).
+        of the depth-to-colour registration (``registration``), with ``static_parts`` their pull on the answer
+        (``sigma_static``), and with ``repeated_error_px`` what a depth error repeated at one image position in every
+        frame adds (``sigma_repeated``: with the field's ``field_mm_at_1m`` and ``length_px`` as measured).
     residual_mm_per_frame : array, shape (N,)
         RMS point-to-plane residual of the matched points of each frame.
     matched_fraction : float

@@ -84,8 +84,9 @@ def test_frames_are_grouped_by_depth_and_by_image_column():
 
 
 def test_the_registration_adds_the_groups_scatter_to_its_sigma():
-    """On the analytic scene (12 frames: three groups of four), the sigma is the noise, the sampling bound and
-    the groups' scatter in quadrature; without the check it is the first two only, and the answer the same."""
+    """On the analytic scene (12 frames: three groups of four), the sigma is the noise, the sampling bound, the
+    groups' scatter and the repeated error's term in quadrature; without the check the scatter is left out, and the
+    answer the same."""
     depth, surface, T_true = _scene(np.random.default_rng(5), n_frames=12)
     opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M)
     res = register_robot(depth, K, surface, options=opts)
@@ -93,7 +94,7 @@ def test_the_registration_adds_the_groups_scatter_to_its_sigma():
     d = res.diagnostics
     assert set(d["sigma_consistency"]["splits"]) == {"depth", "column"}
     for key in ("rotation_deg", "translation_mm"):
-        parts = [d["sigma_noise"][key], d["sigma_sampling"][key], d["sigma_consistency"][key]]
+        parts = [d["sigma_noise"][key], d["sigma_sampling"][key], d["sigma_consistency"][key], d["sigma_repeated"][key]]
         assert abs(res.sigma[key] - np.sqrt(np.sum(np.square(parts)))) <= 1e3 * FLOAT * res.sigma[key]
     rot_deg, trans_mm = pose_error(res.T_base_cam, T_true)
     bias_mm, bias_deg = _bias_bounds(depth)
