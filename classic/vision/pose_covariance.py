@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from classic.least_squares import require_determined
 from classic.vision.board import BoardSpec
 from classic.vision.camera import CameraIntrinsics
 from classic.vision.reprojection import project
-from handeye.core.errors import HandEyeInputError
+from handeye.core.errors import DegenerateMotionError, HandEyeInputError
 from handeye.core.se3 import so3_exp
 
 __all__ = ["pose_covariances"]
@@ -66,7 +67,7 @@ def pose_covariances(
     corners = spec.corners_target()
     h = 1e-6
     infos, sq, dof = [], 0.0, 0
-    for Tv, ids, uv in zip(T, corner_ids, corners_px):
+    for view, (Tv, ids, uv) in enumerate(zip(T, corner_ids, corners_px)):
         p = corners[np.asarray(ids, dtype=int)]
         uv = np.asarray(uv, dtype=float).reshape(-1, 2)
         if len(p) < 4:
@@ -80,6 +81,12 @@ def pose_covariances(
             e = np.zeros(6)
             e[k] = h
             J[:, k] = (_pixels(Tv, p, K, dist, e) - _pixels(Tv, p, K, dist, -e)).ravel() / (2 * h)
+        try:  # corners on one line leave the turn about it free: the pseudo-inverse would give it sigma 0
+            require_determined(J, names=["rotation"] * 3 + ["translation"] * 3)
+        except DegenerateMotionError as exc:
+            raise HandEyeInputError(
+                f"view {view}: its {len(p)} corners do not determine the board's pose ({exc}); leave the view out"
+            ) from None
         infos.append(J.T @ J)
     s = float(pixel_sigma) if pixel_sigma is not None else float(np.sqrt(sq / max(dof, 1)))
     s = max(s, 1e-6)

@@ -67,3 +67,13 @@ def test_pooled_pixel_noise_from_the_residuals():
     assert s == pytest.approx(SIGMA_PX, rel=POOLED_SIGMA_RTOL)
     with pytest.raises(HandEyeInputError, match="at least 4"):
         pose_covariances(np.stack(Ts[:1]), [ids[0][:3]], [uvs[0][:3]], SPEC, INTR)
+
+
+def test_corners_on_one_line_are_refused_not_given_sigma_0():
+    """Corners on one row of the board leave the turn about that row free: the pseudo-inverse gave it sigma 0."""
+    T = board_pose(np.random.default_rng(2))
+    ids, uv = corners_in_image(T)
+    row = SPEC.corners_target()[ids][:, 1] == SPEC.corners_target()[ids[0]][1]
+    assert row.sum() >= 4
+    with pytest.raises(HandEyeInputError, match="view 0: its .* corners do not determine the board's pose"):
+        pose_covariances(T[None], [ids[row]], [uv[row]], SPEC, INTR, pixel_sigma=SIGMA_PX)
