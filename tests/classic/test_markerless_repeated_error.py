@@ -6,6 +6,7 @@ spheres of tests/classic/test_markerless.py with a fixed pattern in every frame'
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy import ndimage
 
 from classic.markerless import MarkerlessOptions, register_robot
@@ -124,6 +125,7 @@ def _pattern_scene(seed: int, scale: int):
     return depth, K, sphere_model(centres, f_px=f), T_base_cam
 
 
+@pytest.mark.slow  # 34 s on one core: the slow tier (CI), not the run between edits
 def test_a_fixed_pattern_is_covered_at_two_image_sizes():
     """A pattern the same in every frame: each accepted answer within SIGMA_BOUND of its sigma, and over the draws
     (both sizes) the errors' RMS in sigmas, sqrt(mean (|e| / sigma)^2), within REPEATED_SCENE_SDS of 1.
