@@ -9,7 +9,7 @@ import numpy as np
 
 from classic.markerless import pixel_effect
 from classic.markerless.point_to_plane import _pixel_reduction
-from tests.tolerances import PIXEL_VARIANCE_SPLIT_SDS
+from tests.tolerances import EXACT, PIXEL_VARIANCE_SPLIT_SDS
 
 N_PIXELS, PER_PIXEL, SIGMA_P, NOISE = 3000, 6, 0.002, 0.003  # effect metres at 1 m, noise metres
 OUTLIER_SHARE = 0.02  # matches with robust weight 0 and a residual far off: the estimator must ignore them
@@ -63,6 +63,6 @@ def test_reduction_prior_is_noise_over_effect():
     b = np.bincount(pixel, w * g, minlength=N_PIXELS)
     s = np.bincount(pixel, w * g * g, minlength=N_PIXELS)
     prior = b / coef[:, 5] - s
-    np.testing.assert_allclose(prior, prior[0], rtol=1e-9)  # one prior for every pixel
+    np.testing.assert_allclose(prior, prior[0], rtol=EXACT)  # one prior for every pixel
     log_ratio = np.log(prior[0] / (NOISE**2 / SIGMA_P**2))
     assert abs(log_ratio) < PIXEL_VARIANCE_SPLIT_SDS * spread["log_ratio"]
