@@ -29,13 +29,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._report import Report  # noqa: E402
-from benchmarks.markerless_errors import cases, row  # noqa: E402
-from benchmarks.markerless_sensors import intrinsics_line, placements, run_profile, sigma_line, versions  # noqa: E402
+from benchmarks.markerless_errors import cases, row, run_case  # noqa: E402
+from benchmarks.markerless_sensors import intrinsics_line, placements, sigma_line, versions  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
-
-#: The front's defaults (markerless_errors.py's only mode).
-MODE = "self-calibrated"
 
 
 def render_at(base: Path, size: tuple, fov_deg: float, workers: int) -> Path:
@@ -105,9 +102,7 @@ def main():
         rep.say("|---|---|---|---|---|---|")
         notes = []
         for case in chosen:
-            told = {"intrinsics_error": "intrinsics", "registration": "registration", "joint_offsets": "joints"}
-            told = {arg: case.get(key) for arg, key in told.items()}  # markerless_errors.py's case keys
-            rows = run_profile(ds, surface, stride, cams, case["sensor"], args.seed, modes=(MODE,), **told)[MODE]
+            rows = run_case(ds, surface, stride, cams, case, args.seed)
             rep.say(row(case["name"], rows))
             notes += [sigma_line(case["name"], rows), intrinsics_line(case["name"], rows, K)]
         rep.say("")
