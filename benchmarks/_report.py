@@ -1,10 +1,19 @@
-"""The printed report of a benchmark: a header with the command, the machine and the versions, then lines."""
+"""The printed report of a benchmark: a header with the command, the machine and the versions, then lines.
+
+One rule for every benchmark: the report is printed, and written to a file only when ``--out`` names one
+(:meth:`Report.add_out`, :meth:`Report.write`). No benchmark defaults ``--out`` to a page under
+``benchmarks/results/``: a run cut short (``--max-placements 1``, a smoke run) would replace the page the
+documentation quotes without a word.
+"""
 
 from __future__ import annotations
 
+import argparse
 import datetime
+import os
 import shlex
 import sys
+from pathlib import Path
 
 from benchmarks._machine import machine
 from handeye.core.safe_write import write_text_atomic
@@ -50,8 +59,18 @@ class Report:
         print(s, flush=True)
         self.lines.append(s)
 
-    def write(self, out: str | None) -> int:
-        """Write the kept lines to ``out`` when given; returns 0 (the scripts' exit status)."""
+    @staticmethod
+    def add_out(ap: argparse.ArgumentParser, flag: str = "--out") -> None:
+        """Add ``flag`` (a path, default None) to ``ap``: the file the report is written to, printed only without it."""
+        ap.add_argument(
+            flag,
+            type=Path,
+            default=None,
+            help="also write the report to this file (Markdown); without it the report is printed only",
+        )
+
+    def write(self, out: str | os.PathLike | None) -> int:
+        """Write the kept lines to ``out`` when given, nothing otherwise; returns 0 (the scripts' exit status)."""
         if out:
             write_text_atomic(out, "\n".join(self.lines) + "\n")  # no half report, no FIFO or link written into
             print(f"written: {out}", file=sys.stderr)

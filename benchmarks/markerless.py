@@ -21,7 +21,7 @@ Run from the repository root, on datasets rendered with the default sensor noise
    own precision). Once with the centroid start tried beside the
    given one (the default), once with the given start alone (the coarse stage's own basin).
 
-Prints markdown tables and writes them to ``--results``.
+Prints markdown tables, and writes them to ``--results`` when it names a file (printed only without it).
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._machine import machine  # noqa: E402
+from benchmarks._report import Report  # noqa: E402
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
@@ -69,9 +70,10 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None):
         if res.ok:
             rot, tr = pose_error(res.T_base_cam, truth[c])
             # the translation error along the true camera's axes (z: the optical axis), and the noise part of
-            # the predicted sigma on the same axes (covariance of the camera-frame right perturbation)
+            # the predicted sigma on the same axes (the noise's covariance of the camera-frame right perturbation;
+            # res.covariance is the whole sigma's, its bounded terms spread evenly over the axes)
             e_cam_mm = truth[c][:3, :3].T @ (res.T_base_cam[:3, 3] - truth[c][:3, 3]) * 1e3
-            sd_cam_mm = np.sqrt(np.diag(res.covariance)[3:]) * 1e3
+            sd_cam_mm = np.sqrt(np.diag(res.diagnostics["covariance_noise"])[3:]) * 1e3
             row = ("ok", rot, tr, res.sigma["rotation_deg"], res.sigma["translation_mm"], dt, e_cam_mm, sd_cam_mm)
             rows.append(row)
         else:
@@ -177,7 +179,7 @@ def main(argv=None):
         "--basin-trials-alone", type=int, default=50, help="trials per cell, the given start alone (0: skip)"
     )
     ap.add_argument("--basin-cells", default="50:5,100:10,200:20,300:30", help="start offsets, mm:deg, comma-separated")
-    ap.add_argument("--results", type=Path, default=Path("benchmarks/results/markerless.md"))
+    Report.add_out(ap, "--results")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
     lines = [
@@ -285,9 +287,10 @@ def main(argv=None):
             emit("|---|---|---|---|---|")
             for (mm, deg), (g, wr, rf, w3, n) in basin(bds, bsurface, bopts, cells, trials, centroid, rng).items():
                 emit(f"| {mm} mm, {deg} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {w3} | {rf} |")
-    args.results.parent.mkdir(parents=True, exist_ok=True)
-    args.results.write_text("\n".join(lines) + "\n")
-    print(f"written: {args.results}")
+    if args.results:
+        args.results.parent.mkdir(parents=True, exist_ok=True)
+        args.results.write_text("\n".join(lines) + "\n")
+        print(f"written: {args.results}")
 
 
 if __name__ == "__main__":

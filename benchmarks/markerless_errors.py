@@ -8,12 +8,15 @@ placement from the ``d435-real-cell`` profile. The rows: accepted, median and wo
 how many were accepted beyond 3 predicted sigmas, and the wall time per placement (run it under
 ``taskset -c N`` for one core).
 
-    taskset -c 0 python benchmarks/markerless_errors.py --data data/sensor-bands/paper-real-1.2 --max-placements 5
+    taskset -c 0 python benchmarks/markerless_errors.py --data data/sensor-bands/paper-real-1.2 --max-placements 5 \\
+        --out /tmp/err/real.md
 
 Without ``--data`` it renders the datasets first, without depth noise, as ``benchmarks/markerless_sensors.py
 --presets paper-real paper-sim --bands 1.2`` does (kept in ``data/sensor-bands``, reused when there):
-``python benchmarks/markerless_errors.py`` alone makes both tables. The joint offsets' truth is the camera in
-the robot's kinematic base frame (:func:`benchmarks.markerless_sensors.kinematic_truth`).
+``python benchmarks/markerless_errors.py`` alone prints both tables (``--out FILE`` writes them there too;
+``benchmarks/results/markerless_errors.md`` is put together from several such runs, not one to write over). The
+joint offsets' truth is the camera in the robot's kinematic base frame
+(:func:`benchmarks.markerless_sensors.kinematic_truth`).
 """
 
 from __future__ import annotations
@@ -162,7 +165,7 @@ def main():
         help="key=value: a further MarkerlessOptions field of the run (intrinsics_model=fixed, static_parts=true, "
         "...); repeatable",
     )
-    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_errors.md"))
+    Report.add_out(ap)
     args = ap.parse_args()
     Report.cut(args, max_placements=1)
     title = "Markerless calibration against a real cell's errors"
@@ -190,7 +193,7 @@ def main():
         rep.say("|---|---|---|---|---|---|")
         for case in chosen:
             rep.say(row(case["name"], run_case(ds, surface, stride, cams, case, args.seed, options)))
-    return rep.write(str(args.out))
+    return rep.write(args.out)
 
 
 if __name__ == "__main__":

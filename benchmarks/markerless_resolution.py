@@ -81,7 +81,7 @@ def main():
     )
     ap.add_argument("--workers", type=int, default=1, help="rendering processes")
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
-    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_resolution.md"))
+    Report.add_out(ap)
     args = ap.parse_args()
     Report.cut(args, max_placements=1)
     rep = Report(
@@ -108,7 +108,7 @@ def main():
         rep.say("")
         for line in filter(None, notes):
             rep.say(line)
-    return rep.write(str(args.out))
+    return rep.write(args.out)
 
 
 if __name__ == "__main__":

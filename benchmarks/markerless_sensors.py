@@ -484,7 +484,7 @@ def main():
         "the true joints, the method told the recorded ones; the error is measured against the camera in the "
         "robot's kinematic base frame (joint 1's offset moves it: exp(-delta_1 xi_1) T_phys)",
     )
-    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/markerless_sensors.md"))
+    Report.add_out(ap)
     args = ap.parse_args()
     Report.cut(args, max_placements=1)
     rep = Report("Markerless calibration on real sensors' depth", "benchmarks/markerless_sensors.py", None, versions())
@@ -588,8 +588,9 @@ def main():
             emit()
             for line in notes:
                 emit(line)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    return rep.write(str(args.out))
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    return rep.write(args.out)
 
 
 if __name__ == "__main__":

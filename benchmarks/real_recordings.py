@@ -2,8 +2,8 @@
 
 Run from the repository root::
 
-    python benchmarks/real_recordings.py                                  # the shipped recordings
-    python benchmarks/real_recordings.py --rwhe PATH/Datasets/kuka_1 PATH/Datasets/kuka_2   # and images
+    python benchmarks/real_recordings.py --out benchmarks/results/real_recordings.md     # the shipped recordings
+    python benchmarks/real_recordings.py --rwhe PATH/Datasets/kuka_1 PATH/Datasets/kuka_2   # and images, printed only
 
 Per recording, every method: ``classic.calibrate`` with the default (``auto``, refined), each closed form
 refined (``+lm``) and bare (the closed form alone, as OpenCV returns it), the default with ``robust=True``,
@@ -355,7 +355,7 @@ def main(argv=None) -> int:
     p.add_argument("--no-opencv", action="store_true", help="leave OpenCV's methods out")
     p.add_argument("--max-poses", type=int, default=None, help="at most this many poses per recording, evenly")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", default="benchmarks/results/real_recordings.md")
+    Report.add_out(p)
     args = p.parse_args(argv)
     Report.cut(args, splits=2, halves=1, max_poses=16)
     import scipy
