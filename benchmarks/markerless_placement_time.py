@@ -1,0 +1,94 @@
+"""Benchmark: one placement's markerless registration, timed (issue 41's <= 10 s per placement on one core).
+
+One test placement of a band dataset, one case of :mod:`benchmarks.markerless_errors` (default 1: the d435 as
+is), the front's defaults, as :func:`benchmarks.markerless_sensors.run_profile` calls it: the sensor's frames
+drawn, the surface posed, then ``register_robot`` timed ``--repeat`` times (wall seconds and this process's CPU
+seconds, which other processes' load does not inflate). Prints the answer (``T_base_cam``, sigma) so that a
+change meant to be faster only can be checked to give the same one (``--save`` / ``--compare``)::
+
+    OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 taskset -c 0 python benchmarks/markerless_placement_time.py \\
+        --data data/sensor-bands/paper-real-1.2 --placement 0 --repeat 2
+
+``--profile out.prof``: a cProfile of the last repeat (read it with ``python -m pstats``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.markerless_errors import cases, diagnostic_cases  # noqa: E402
+from benchmarks.markerless_sensors import front_options, observe, placements, told_intrinsics, told_posed  # noqa: E402
+from classic.markerless.register import register_robot  # noqa: E402
+from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.markerless import robot_surface_for  # noqa: E402
+
+
+def answer(res) -> np.ndarray:
+    """The registration's answer as one vector: ``T_base_cam`` (16) and its sigma (rotation deg, translation mm)."""
+    if not res.ok:
+        return np.full(18, np.nan)
+    return np.concatenate([res.T_base_cam.ravel(), [res.sigma["rotation_deg"], res.sigma["translation_mm"]]])
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", type=Path, default=Path("data/sensor-bands/paper-real-1.2"), help="a band dataset")
+    ap.add_argument("--placement", type=int, default=0, help="which test placement (0-based, in the split's order)")
+    ap.add_argument("--case", type=int, default=1, help="markerless_errors.py's case number (1: d435 as is)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the sensor's draws")
+    ap.add_argument("--repeat", type=int, default=2, help="time the registration this many times")
+    ap.add_argument("--profile", type=Path, help="write a cProfile of the last repeat here")
+    ap.add_argument("--save", type=Path, help="write the answer (T_base_cam, sigma) here (.npy)")
+    ap.add_argument("--compare", type=Path, help="print the answer's largest difference from one --save wrote")
+    args = ap.parse_args()
+    case = (cases() + diagnostic_cases())[args.case - 1]
+    ds = Dataset.open(args.data)
+    surface, stride = robot_surface_for(ds)
+    c = placements(ds, "test")[args.placement]
+    K = told_intrinsics(ds.meta["intrinsics"]["K"], case.get("intrinsics"))
+    depth, q, _ = observe(ds, c, case["sensor"], args.seed, case.get("registration"))
+    posed, _ = told_posed(surface, q, ds.truth()[c], case.get("joints"))
+    opts = front_options(case["sensor"], stride)
+    print(
+        f"{ds.root.name}, camera {c}, case {args.case} ({case['name']}): {depth.shape[0]} frames "
+        f"{depth.shape[2]}x{depth.shape[1]}, z-buffer stride {stride}"
+    )
+    for i in range(args.repeat):
+        profiler = None
+        if args.profile and i == args.repeat - 1:
+            import cProfile
+
+            profiler = cProfile.Profile(time.process_time)  # CPU seconds: load does not inflate them
+            profiler.enable()
+        wall, cpu = time.perf_counter(), time.process_time()
+        res = register_robot(depth, K, posed, options=opts)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        if profiler is not None:
+            profiler.disable()
+            profiler.dump_stats(str(args.profile))
+        print(f"repeat {i + 1}: {wall:.2f} s wall, {cpu:.2f} s CPU, {res.refused or 'accepted'}", flush=True)
+    vec = answer(res)
+    np.set_printoptions(precision=12, suppress=True)
+    print("T_base_cam:\n", vec[:16].reshape(4, 4))
+    print(f"sigma: {vec[16]:.9f} deg, {vec[17]:.9f} mm")
+    if args.save:
+        np.save(args.save, vec)
+    if args.compare:
+        ref = np.load(args.compare)
+        dT = np.abs(vec[:16] - ref[:16]).max()
+        print(
+            f"vs {args.compare}: T_base_cam {dT:.3g} (largest element), sigma {abs(vec[16] - ref[16]):.3g} deg "
+            f"{abs(vec[17] - ref[17]):.3g} mm"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
