@@ -65,7 +65,12 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     millions of points)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    # each component written in place (no stack of three temporaries): the same products and differences
+    for k, (x, y, z, w) in enumerate(((a1, b2, a2, b1), (a2, b0, a0, b2), (a0, b1, a1, b0))):
+        np.multiply(x, y, out=out[..., k])
+        out[..., k] -= z * w
+    return out
 
 
 def joint_status(twists: np.ndarray, frames: np.ndarray, parts: np.ndarray) -> list[str]:
@@ -203,7 +208,7 @@ def joint_offsets_summary(
 
 def moved_surface(
     points: np.ndarray,
-    normals: np.ndarray,
+    normals: np.ndarray | None,
     frame: np.ndarray,
     part: np.ndarray,
     twists: np.ndarray,
@@ -216,8 +221,10 @@ def moved_surface(
 
     Parameters
     ----------
-    points, normals : array, shape (M, 3)
+    points : array, shape (M, 3)
         Base frame, posed at the recorded joints.
+    normals : array, shape (M, 3), or None
+        Their normals; None where only the points are wanted (they are then returned as None).
     frame, part : array of int, shape (M,)
     twists : array, shape (N_frames, n_parts, n_joints, 6)
     delta : array, shape (n_joints,)
@@ -225,7 +232,7 @@ def moved_surface(
 
     Returns
     -------
-    points, normals : array, shape (M, 3)
+    points, normals : array, shape (M, 3) (normals None where not given)
     """
     delta = np.asarray(delta, dtype=float)
     if not np.any(delta):
@@ -235,9 +242,11 @@ def moved_surface(
     return _moved(points, normals, np.einsum("fpjk,j->fpk", twists, delta).reshape(-1, 6)[frame * n_parts + part])
 
 
-def _moved(points: np.ndarray, normals: np.ndarray, motion: np.ndarray):
-    """Points moved by ``omega x p + v`` and normals turned by ``omega x n`` (unit again), ``motion`` (N, 6) the
-    ``(omega, v)`` of each."""
+def _moved(points: np.ndarray, normals: np.ndarray | None, motion: np.ndarray):
+    """Points moved by ``omega x p + v`` and normals turned by ``omega x n`` (unit again; None where ``normals``
+    is), ``motion`` (N, 6) the ``(omega, v)`` of each."""
     moved = points + _cross(motion[:, :3], points) + motion[:, 3:]
+    if normals is None:
+        return moved, None
     n = normals + _cross(motion[:, :3], normals)
     return moved, n / np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]

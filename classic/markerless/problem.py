@@ -135,7 +135,7 @@ class Problem:
 
     def _init_joints(self, surface, opts):
         """Which joints' offsets the fine stage estimates (:func:`classic.markerless.kinematics.joint_status`)."""
-        self._moved = (surface.points_base, surface.normals_base)  # the model while no offset moves it (model())
+        self._moved = surface.points_base  # the model while no offset moves it (model_points())
         self.joint_estimated, self.joint_status = None, None
         twists = surface.joint_twists_base
         if twists is None or opts.joint_offsets_model != "estimate":
@@ -189,16 +189,17 @@ class Problem:
     def set_joint_offsets(self, delta):
         """Move the model by the joint offsets ``delta`` (radians, all joints) from now on."""
         self.joint_offsets = np.asarray(delta, dtype=float)
-        self._moved = None if self.joint_offsets.any() else (self.s.points_base, self.s.normals_base)
+        self._moved = None if self.joint_offsets.any() else self.s.points_base
 
-    def model(self, idx):
-        """The points and normals (base frame) of the model points ``idx``, moved by the current joint offsets."""
+    def model_points(self, idx):
+        """The points (base frame) of the model points ``idx``, moved by the current joint offsets (their normals
+        not turned: the z-buffer and the projections need none; the fits move the matched ones themselves)."""
         s = self.s
-        if self._moved is not None:
-            return self._moved[0][idx], self._moved[1][idx]
-        return moved_surface(
-            s.points_base[idx], s.normals_base[idx], s.frame[idx], s.part[idx], s.joint_twists_base, self.joint_offsets
-        )
+        if self._moved is None:
+            return moved_surface(
+                s.points_base[idx], None, s.frame[idx], s.part[idx], s.joint_twists_base, self.joint_offsets
+            )[0]
+        return self._moved[idx]
 
     def set_intrinsics(self, theta):
         """Project the model with the intrinsics ``theta`` ``(f_x, f_y, c_x, c_y)`` from now on."""
@@ -231,7 +232,7 @@ class Problem:
         # model at the recorded joints (the offsets turn a normal by tenths of a degree), then the front moved
         front = np.flatnonzero(np.einsum("ij,ij->i", nrm, pts - T_base_cam[:3, 3]) < 0)
         sel = front if subset is None else subset[front]
-        p = self.model(sel)[0] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+        p = self.model_points(sel) @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
         idx = visible_points(p, None, frm[front], *zbuffer_grid(self.K, self.h, self.w, stride))
         p = p[idx]
         uv = np.rint(project(p, self.K)).astype(np.int64)
@@ -258,7 +259,7 @@ class Problem:
         else:
             idx = cached
             T_cam_base = invert_transform(T)
-            p_cam = self.model(idx)[0] @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+            p_cam = self.model_points(idx) @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
             uv = np.rint(project(p_cam, self.K)).astype(np.int64)
             inside = (uv[:, 0] >= 0) & (uv[:, 0] < self.w) & (uv[:, 1] >= 0) & (uv[:, 1] < self.h) & (p_cam[:, 2] > 0)
             idx, p_cam, pix = idx[inside], p_cam[inside], uv[inside][:, ::-1]

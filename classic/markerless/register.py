@@ -290,7 +290,7 @@ def _final_outcome(problem: Problem, T, name, step, gate_m):
     )
     depth_range = tuple(np.percentile(matched_q[:, 2], [10, 90]))
     within_1cm = has_depth & (
-        np.abs(q[:, 2] - (problem.model(idx)[0] - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
+        np.abs(q[:, 2] - (problem.model_points(idx) - fit.T_base_cam[:3, 3]) @ fit.T_base_cam[:3, 2]) < 0.01
     )
     matched = float(within_1cm.sum()) / max(int(has_depth.sum()), 1)
     return Outcome(name, fit.T_base_cam, fit, step, matched, geometry, depth_range, matches)
