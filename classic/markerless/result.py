@@ -36,8 +36,11 @@ class MarkerlessResult:
         Why no answer is given (too few robot pixels, did not converge, residual too large,
         start outside the basin); None when accepted.
     covariance : array, shape (6, 6)
-        Of the camera's rotation (rad, camera frame) and position (m, camera frame); with ``static_parts``, the
-        moving parts' alone (``sigma_static``).
+        Of the camera's right perturbation ``(omega, v)``: rotation (rad) and position (m), camera frame. The whole
+        of what :attr:`sigma` adds: the noise's covariance (``diagnostics`` ``covariance_noise``; with
+        ``static_parts`` the moving parts' alone), plus the repeated error's (``sigma_repeated``), plus each bounded
+        term (the sampling bias, the depth-to-colour extrinsic, the groups' scatter, the static parts' pull) as an
+        isotropic block, a third of its square per axis; so ``pose_sigma(covariance, R_base_cam)`` is :attr:`sigma`.
     sigma : dict
         ``rotation_deg`` and ``translation_mm``: predicted RMS error of the estimate, in quadrature: the noise
         the frame-clustered covariance sees, the model's sampling bias bound, the frames' disagreement between
@@ -57,7 +60,8 @@ class MarkerlessResult:
         ``static_matches``: the static parts' matches fitted, one per z-buffer cell however many frames saw it
         (a repeated error counted once), and ``sigma_static``: how far they moved the answer from the moving parts'
         alone, added whole to the sigma, which is otherwise the moving parts' own (``sigma_noise``: their
-        covariance's): the static parts may move the answer, not narrow its sigma.
+        covariance's): the static parts may move the answer, not narrow its sigma. ``covariance_noise``: the
+        noise's covariance alone (6 lists of 6), the part of :attr:`covariance` the frames measure.
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
@@ -174,9 +178,13 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         static = [pull]
     noise = pose_sigma(covariance, best.T[:3, :3])
     # an error repeated at one image position in every frame: the covariance between frames the clustering omits
-    repeated = []
+    repeated, repeated_covariance = [], np.zeros((6, 6))
     if opts.repeated_error_px > 0 and not refused:
-        repeated = [_repeated_term(problem.repeated_error(best.T, best.matches), best.T[:3, :3])]
+        shared = problem.repeated_error(best.T, best.matches)
+        repeated, repeated_covariance = [_repeated_term(shared, best.T[:3, :3])], shared["covariance"][:6, :6]
+    # the whole: the noise's and the repeated error's covariances, each bounded term an isotropic block
+    bounded = (sampling, extrinsic, split or no_split, *static)
+    whole = covariance + repeated_covariance + sum((_isotropic(term) for term in bounded), np.zeros((6, 6)))
     diag.update(
         {
             "inlier_rms_mm": rms_mm,
@@ -187,6 +195,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
             **({"static_matches": int(problem.static_rows(best.matches[0]).sum())} if problem.static_once else {}),
             **({"sigma_static": static[0]} if static else {}),
             "sigma_noise": noise,
+            "covariance_noise": covariance.tolist(),
             "sigma_sampling": sampling,
             "sigma_consistency": split,
             **({"sigma_repeated": repeated[0]} if repeated else {}),
@@ -195,8 +204,8 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     return MarkerlessResult(
         None if refused else best.T,
         refused,
-        covariance,
-        in_quadrature(noise, sampling, extrinsic, split or no_split, *static, *repeated),
+        whole,
+        in_quadrature(noise, *bounded, *repeated),
         res_frame,
         best.matched,
         best.name,
@@ -213,6 +222,14 @@ def _repeated_term(repeated: dict, R_base_cam: np.ndarray) -> dict:
     correlation length (pixels) measured."""
     term = pose_sigma(repeated["covariance"][:6, :6], R_base_cam)
     return {**term, "field_mm_at_1m": repeated["sigma_m_at_1m"] * 1e3, "length_px": repeated["length_px"]}
+
+
+def _isotropic(term: dict) -> np.ndarray:
+    """A sigma term (``rotation_deg``, ``translation_mm``: RMS over the three axes) as a covariance of ``(omega, v)``
+    (rad, m), shape (6, 6): a third of its square on each axis, the same in every frame."""
+    rotation_rad2 = np.radians(term["rotation_deg"]) ** 2 / 3
+    translation_m2 = (term["translation_mm"] * 1e-3) ** 2 / 3
+    return np.diag([rotation_rad2] * 3 + [translation_m2] * 3)
 
 
 def _residuals_mm(fit: PlaneFit, frame: np.ndarray, n: int) -> tuple[np.ndarray, float, np.ndarray]:

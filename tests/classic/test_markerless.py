@@ -11,12 +11,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from classic.clustered_covariance import pose_sigma
 from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, register_robot
 from classic.markerless.depth import pixel_rays
 from handeye.core.errors import NonFiniteError, ShapeError
 from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
-from tests.tolerances import SIGMA_BOUND
+from tests.tolerances import FLOAT, SIGMA_BOUND
 
 W, H, F_PX = 160, 120, 150.0
 K = np.array([[F_PX, 0, (W - 1) / 2], [0, F_PX, (H - 1) / 2], [0, 0, 1.0]])
@@ -103,6 +104,20 @@ def within_sigma(res, T_true, depth, radii=RADII) -> bool:
     return (
         trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm
         and rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg
+    )
+
+
+def covariance_carries_sigma(res) -> bool:
+    """The accepted result's covariance is its whole sigma: :func:`classic.clustered_covariance.pose_sigma` of it is
+    the printed sigma, and of ``diagnostics["covariance_noise"]`` the noise term, to float rounding (measured
+    5e-16 relative: a sum of a few 6x6 matrices, a trace and a square root)."""
+    R = res.T_base_cam[:3, :3]
+    whole = pose_sigma(res.covariance, R)
+    noise = pose_sigma(np.array(res.diagnostics["covariance_noise"]), R)
+    return all(
+        abs(whole[key] - res.sigma[key]) <= FLOAT * res.sigma[key]
+        and abs(noise[key] - res.diagnostics["sigma_noise"][key]) <= FLOAT * res.diagnostics["sigma_noise"][key]
+        for key in ("rotation_deg", "translation_mm")
     )
 
 

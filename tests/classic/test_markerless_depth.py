@@ -23,6 +23,7 @@ from tests.classic.test_markerless import (
     _bias_bounds,
     _look_at,
     _scene,
+    covariance_carries_sigma,
     render_depth,
     sphere_model,
 )
@@ -263,7 +264,8 @@ def test_a_static_parts_frozen_error_is_counted_once():
     """The static base is seen the same way in every frame: a sensor error on it (2 cm at its rim) repeats in every
     frame, so the frames cannot reveal it. Left out (the default), the moving parts give the truth within their
     sigma. Fitted (``static_parts``), its matches count once per z-buffer cell, not once per frame, and its pull on
-    the answer is added whole to the moving parts' own sigma: the answer stays within its own sigma's bound. Counted
+    the answer is added whole to the moving parts' own sigma: the answer stays within its own sigma's bound, and the
+    covariance carries the whole sigma (the noise, the repeated error, the groups' scatter, the pull). Counted
     once per frame (the old code), the base pulled the camera 24.6 mm at a sigma of 4.5 mm, beyond the bound
     (20.8 mm); without the pull, the sigma (0.71 mm) is narrower than the 1.48 mm the base moved the answer. The
     camera matrix is exact here and taken as exact (a 3 px prior on the principal point of this 150 px camera would
@@ -284,6 +286,11 @@ def test_a_static_parts_frozen_error_is_counted_once():
         rot_deg, trans_mm = pose_error(res.T_base_cam, T_base_cam)
         assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + bias_mm, res.diagnostics["fitted_parts"]
         assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + bias_deg, res.diagnostics["fitted_parts"]
+        assert covariance_carries_sigma(res), res.diagnostics["fitted_parts"]
+    # the terms the covariance carries here beside the noise and the sampling bound: all of them but the extrinsic
+    assert moving.diagnostics["sigma_consistency"]["translation_mm"] > 0
+    assert fitted.diagnostics["sigma_static"]["translation_mm"] > 0
+    assert fitted.diagnostics["sigma_repeated"]["translation_mm"] > 0
     # the base counted once: no more of its matches fitted than it has pixels in the image (not one set per frame)
     base_pixels = int((render_depth(centres[:1, :1], T_base_cam) > 0).sum())
     assert fitted.diagnostics["fitted_parts"] == "all"

@@ -15,7 +15,14 @@ import pytest
 from classic.markerless import MarkerlessOptions, register_robot
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, so3_exp
-from tests.classic.test_markerless import K, _look_at, render_depth, sphere_model, within_sigma
+from tests.classic.test_markerless import (
+    K,
+    _look_at,
+    covariance_carries_sigma,
+    render_depth,
+    sphere_model,
+    within_sigma,
+)
 from tests.tolerances import SIGMA_BOUND
 
 #: The extrinsic's rotation error, degrees (tilt about y, roll about z): large against the scene's rotation
@@ -58,6 +65,7 @@ def test_a_turned_extrinsic_is_bounded_by_its_sigma(turned):
     assert rotation["treatment"] == "bounded" and rotation["sigma_deg"] == sigma_deg
     assert rotation["rss_deg"] == pytest.approx(np.sqrt(3) * sigma_deg)
     assert res.sigma["rotation_deg"] >= rotation["rss_deg"]
+    assert covariance_carries_sigma(res)  # the extrinsic's bound in the covariance too, not only in the sigma
 
 
 def test_a_shifted_depth_image_is_estimated_as_the_principal_point():
