@@ -9,11 +9,12 @@ reading ignores it with a warning, and the next append truncates it first (it wa
 complete line that does not parse is corruption, not a torn write, and raises. Nothing is rewritten:
 :meth:`History.rollback` appends a new version equal to an older one.
 
-A :class:`handeye.watch.CellWatcher` commit's ``sigma`` is the registration's noise part only (the square roots of
-its covariance's diagonal, :attr:`classic.markerless.MarkerlessResult.covariance`): it does not cover the model's
-sampling, the frames' disagreement or the depth-to-colour registration, and is smaller than the error to expect.
-That predicted RMS error, all of them in quadrature, is ``extra["sigma_summary"]`` (``rotation_deg``,
-``translation_mm``: :attr:`classic.markerless.MarkerlessResult.sigma`), the one the event line prints.
+A :class:`handeye.watch.CellWatcher` commit's ``sigma`` is the registration's per axis (the square roots of its
+covariance's diagonal, :attr:`classic.markerless.MarkerlessResult.covariance`): the whole predicted error, the
+noise with the repeated error, the model's sampling, the frames' disagreement, the depth-to-colour registration
+and the static parts' pull (each bounded term spread evenly over the three axes). Its three rotations and three
+positions in quadrature are ``extra["sigma_summary"]`` (``rotation_deg``, ``translation_mm``:
+:attr:`classic.markerless.MarkerlessResult.sigma`), the one the event line prints.
 
 The current calibration is a JSON file replaced atomically (:func:`handeye.core.safe_write.write_text_atomic`)
 after each append; :meth:`History.publish` rewrites it from the history (after a crash between the two). Beside

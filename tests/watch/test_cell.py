@@ -11,7 +11,7 @@ from handeye.core.se3 import make_transform, so3_exp
 from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, Frame, History, WatchOptions
 from tests.classic.test_markerless import K, _bias_bounds, _look_at, render_depth, sphere_model
-from tests.tolerances import SIGMA_BOUND
+from tests.tolerances import FLOAT, SIGMA_BOUND
 
 RATE_HZ = 30.0
 T_TRUE = _look_at(np.array([1.2, -0.6, 0.9]), np.array([0.0, 0.0, 0.35]))
@@ -86,6 +86,9 @@ def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path
     s = v.extra["sigma_summary"]
     assert trans_mm <= SIGMA_BOUND * s["translation_mm"] + bias_mm
     assert rot_deg <= SIGMA_BOUND * s["rotation_deg"] + bias_deg
+    # the committed per-axis sigma is the whole of it, not the noise part: the summary from its six axes
+    assert np.degrees(np.linalg.norm(v.sigma[:3])) == pytest.approx(s["rotation_deg"], rel=FLOAT)
+    assert np.linalg.norm(v.sigma[3:]) * 1e3 == pytest.approx(s["translation_mm"], rel=FLOAT)
     # every event between the alarm and the commit says the calibration is stale
     between = [e for e in events if moved[0].t <= e.t < recal[0].t]
     assert between and all(e.stale_since == moved[0].t for e in between)
