@@ -10,7 +10,6 @@ arm. This gives a mask of the arm without a model, a start or a colour cue.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from handeye.core.errors import ShapeError
 
@@ -196,6 +195,21 @@ def _spatial_second_difference(frames: np.ndarray, med: np.ndarray, valid: np.nd
     return np.concatenate(out, axis=0)
 
 
+def _extreme_3x3(image: np.ndarray, extreme) -> np.ndarray:
+    """Per frame, the minimum (``extreme`` ``np.minimum``) or maximum (``np.maximum``) of each pixel's 3x3
+    neighbourhood within the image: ``scipy.ndimage``'s filter of size (1, 3, 3) (its border reflected, which
+    adds no other value), in four passes of whole-array numpy. ``image``: shape (N, H, W); so is the result."""
+    out = image.copy()
+    for axis in (1, 2):
+        src = out.copy()
+        lo, hi = [slice(None)] * 3, [slice(None)] * 3
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        lo, hi = tuple(lo), tuple(hi)
+        extreme(out[hi], src[lo], out=out[hi])  # the neighbour before
+        extreme(out[lo], src[hi], out=out[lo])  # the neighbour after
+    return out
+
+
 def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> np.ndarray:
     """Pixels at a depth edge whose depth lies between the two surfaces: a sensor's "flying" pixels.
 
@@ -222,27 +236,29 @@ def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> 
     """
     depth_m = np.asarray(depth_m, dtype=float)
     valid = depth_m > 0
-    size = (1, 3, 3)
-    near = ndimage.minimum_filter(np.where(valid, depth_m, np.inf).astype(np.float32), size=size)
-    far = ndimage.maximum_filter(np.where(valid, depth_m, 0.0).astype(np.float32), size=size)
+    near = _extreme_3x3(np.where(valid, depth_m, np.inf).astype(np.float32), np.minimum)
+    far = _extreme_3x3(np.where(valid, depth_m, 0.0).astype(np.float32), np.maximum)
     edge = valid & (far - near > min_jump_m)
     if not edge.any():
         return edge
-    # the neighbour test at the edge pixels only (a few percent of the image), in inverse depth
-    padded = np.pad(depth_m, ((0, 0), (1, 1), (1, 1)))  # 0: missing
+    # the neighbour test at the edge pixels only, in inverse depth (NaN where missing, and in a border of one pixel)
+    n_frames, height, width = depth_m.shape
+    inv = np.full((n_frames, height + 2, width + 2), np.nan)
+    inner = inv[:, 1:-1, 1:-1]
+    with np.errstate(divide="ignore"):
+        np.divide(1.0, depth_m, out=inner)
+    inner[~valid] = np.nan
+    inv = inv.reshape(-1)
     n, v, u = np.nonzero(edge)
-    v, u = v + 1, u + 1  # in the padded image
-
-    def inverse(z):
-        with np.errstate(divide="ignore"):
-            return np.where(z > 0, 1.0 / z, np.nan)
-
-    centre = inverse(padded[n, v, u])
+    at = (n * (height + 2) + v + 1) * (width + 2) + u + 1  # flat, in the bordered image
+    centre = inv[at]
     tol_inv = np.broadcast_to(tolerance_m, depth_m.shape)[edge] * centre**2  # d(1/z) = dz / z^2
-    on_a_surface = np.zeros(len(n), dtype=bool)
+    left = np.arange(len(at))  # the edge pixels no pair of neighbours has put on a surface yet
     for dv, du in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a, b = inverse(padded[n, v + dv, u + du]), inverse(padded[n, v - dv, u - du])
+        step = dv * (width + 2) + du
+        a, b = inv[at[left] + step], inv[at[left] - step]
         with np.errstate(invalid="ignore"):
-            on_a_surface |= np.abs(centre - 0.5 * (a + b)) <= tol_inv
-    edge[n[on_a_surface], v[on_a_surface] - 1, u[on_a_surface] - 1] = False
-    return edge
+            left = left[~(np.abs(centre[left] - 0.5 * (a + b)) <= tol_inv[left])]
+    mixed = np.zeros(depth_m.shape, dtype=bool)
+    mixed[n[left], v[left], u[left]] = True
+    return mixed

@@ -89,15 +89,16 @@ class Problem:
             self.noise_z, self.noise_sigma = depth_noise_curve(depth_m)
             self.noise_source = "measured on the static background" if len(self.noise_z) else "fallback 1 mm at 1 m"
         # pixels that straddle a depth edge report a depth between its two surfaces: treated as missing
-        mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * self.sigma_z(np.where(depth_m > 0, depth_m, 1.0))))
+        sigma = self.sigma_z(np.where(depth_m > 0, depth_m, 1.0))  # per pixel, taken at 1 m where missing
+        mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * sigma))
         self.n_mixed = int(mixed.sum())
         depth_m = np.where(mixed, 0.0, depth_m)
+        sigma = np.where(mixed, self.sigma_z(1.0), sigma)  # the mixed ones now missing
         self.n, self.h, self.w = depth_m.shape
         self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
         static = static_depth(depth_m)
         # moved there: nearer than the static depth by 2 cm or six depth-noise sigmas, whichever is larger
-        z = np.where(depth_m > 0, depth_m, 1.0)
-        moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * self.sigma_z(z)))
+        moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * sigma))
         # the arm moves as a body, many pixels wide; what moves in a line a pixel or two wide is the sensor's
         # (flying pixels along static edges, holes that come and go): an opening keeps bodies only
         self.moving = ndimage.binary_opening(moving, structure=np.ones((1, 3, 3), bool))

@@ -82,3 +82,41 @@ def test_a_pixel_between_two_surfaces_is_mixed_and_a_slanted_plane_is_not(tolera
     flagged = {tuple(x) for x in np.argwhere(mixed[0])}
     assert all(u in (W // 2 - 1, W // 2) and (v in (0, H - 1) or abs(v - 10) <= 1) for v, u in flagged), flagged
     assert not mixed[1].any()
+
+
+def _mixed_by_loops(depth, tolerance, min_jump=0.03):
+    """``mixed_pixels`` by its definition, pixel by pixel: a valid pixel whose 3x3 neighbourhood within the image
+    (valid pixels only) spans more than ``min_jump``, and whose inverse depth is the mean of no pair of opposite
+    neighbours' (both valid and inside the image) within ``tolerance / z^2``."""
+    n, h, w = depth.shape
+    out = np.zeros(depth.shape, bool)
+    for f, v, u in np.argwhere(depth > 0):
+        window = depth[f, max(v - 1, 0) : v + 2, max(u - 1, 0) : u + 2]
+        window = window[window > 0]
+        if window.max() - window.min() <= min_jump:
+            continue
+        z = depth[f, v, u]
+        on_a_surface = False
+        for dv, du in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            (va, ua), (vb, ub) = (v + dv, u + du), (v - dv, u - du)
+            if not (0 <= va < h and 0 <= ua < w and 0 <= vb < h and 0 <= ub < w):
+                continue
+            a, b = depth[f, va, ua], depth[f, vb, ub]
+            if a > 0 and b > 0 and abs(1 / z - 0.5 * (1 / a + 1 / b)) <= tolerance[f, v, u] / z**2:
+                on_a_surface = True
+        out[f, v, u] = not on_a_surface
+    return out
+
+
+def test_mixed_pixels_as_a_loop_finds_them():
+    """``mixed_pixels`` (whole-array filters, the neighbour test on the edge pixels) flags the pixels its definition
+    does, on noisy depth steps with holes, at the image's border too."""
+    from classic.markerless.depth import mixed_pixels
+
+    rng = np.random.default_rng(5)
+    depth = np.where(rng.random((3, 20, 24)) < 0.5, 1.0, 1.2) + rng.normal(0, 0.004, (3, 20, 24))
+    depth[rng.random(depth.shape) < 0.1] = 0.0  # missing
+    tolerance = np.full(depth.shape, 0.004)
+    expected = _mixed_by_loops(depth, tolerance)
+    assert expected.sum() > 20 and (~expected & (depth > 0)).sum() > 20  # both kinds present
+    np.testing.assert_array_equal(mixed_pixels(depth, tolerance), expected)
