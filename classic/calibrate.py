@@ -56,6 +56,7 @@ from classic.result import CalibrationResult, PoseResiduals
 from classic.starts import START_CANDIDATES, best_start, scaled_start
 from handeye.core.errors import (
     ContaminatedPosesError,
+    DegenerateMotionError,
     HandEyeInputError,
     InconsistentPosesError,
     SuspectPosesWarning,
@@ -175,11 +176,16 @@ def _check_pair_consensus(poses, X, model) -> None:
     keep[suspects] = False
     if len(suspects) == 0 or keep.sum() < MIN_POSES:
         return
+    numbers = np.flatnonzero(poses.inliers)[suspects]  # as the caller numbers them: the screen may have left some out
     X0, Y0 = best_start(A[keep], B[keep], initial_estimate, START_CANDIDATES)[1:]
-    clean = refine_xy(A[keep], B[keep], X0, Y0, RefineOptions(noise=_subset_model(model, keep), setup=poses.setup))
+    try:
+        clean = refine_xy(A[keep], B[keep], X0, Y0, RefineOptions(noise=_subset_model(model, keep), setup=poses.setup))
+    except DegenerateMotionError as err:
+        why = "suspected by the pair consensus check (breaking the motion pairs' invariants)"
+        raise _resting_on(err, numbers, why) from None
     shift = x_shift_sigma(X, clean.X, clean.covariance)
     if shift > MAX_SHIFT_SIGMA:
-        refuse_shift(suspects, shift, len(A))
+        refuse_shift(numbers, shift, len(A))
 
 
 def _consensus_model(model, ref) -> NoiseModel:
@@ -525,7 +531,24 @@ def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screeni
     candidates, then :func:`classic.outlier_screen.screen_poses`. Least squares, not a Cauchy loss: scipy's
     robust losses take an SVD per step, 0.2 s a step at 200 poses here."""
     found = lmeds_inliers(poses.A, poses.B, rng)
-    keep = found.inliers if found.inliers.sum() >= MIN_POSES else np.ones(len(poses.A), dtype=bool)
+    every = np.ones(len(poses.A), dtype=bool)
+    keep = found.inliers if found.inliers.sum() >= MIN_POSES else every
+    try:
+        robust_fit = _screen_start(poses, keep, model, estimate_scale)
+    except DegenerateMotionError:
+        # the sampling fits triples of poses; one that turns about a single axis leaves the translation along it
+        # free, and the poses that fix it then look like outliers: start from all poses, which the fit determined
+        robust_fit = _screen_start(poses, every, model, estimate_scale)
+    try:
+        return screen_poses(
+            poses.A, poses.B, robust_fit, poses.setup, model=model, fit_all=fit_all, estimate_scale=estimate_scale
+        )
+    except DegenerateMotionError as err:
+        raise _resting_on(err, None, "set aside by the outlier test to test them") from None
+
+
+def _screen_start(poses: _Poses, keep: np.ndarray, model, estimate_scale: bool):
+    """Shah's closed form and least squares on the poses ``keep``: the fit :func:`_screen` starts from."""
     A, B = poses.A[keep], poses.B[keep]
     if estimate_scale:
         X0, Y0, scale0 = scaled_start(A, B, poses.pairs)
@@ -534,9 +557,18 @@ def _screen(poses: _Poses, fit_all, model, rng, estimate_scale: bool) -> Screeni
     options = RefineOptions(
         loss="linear", noise=_subset_model(model, keep), setup=poses.setup, estimate_scale=estimate_scale, scale0=scale0
     )
-    robust_fit = refine_xy(A, B, X0, Y0, options)
-    return screen_poses(
-        poses.A, poses.B, robust_fit, poses.setup, model=model, fit_all=fit_all, estimate_scale=estimate_scale
+    return refine_xy(A, B, X0, Y0, options)
+
+
+def _resting_on(err: DegenerateMotionError, named, why: str) -> DegenerateMotionError:
+    """A check's refit without some poses found the rest undetermined: the answer along that direction rests on
+    poses nothing else checks, so it is refused. The message: which poses (``named``, or None when the check does
+    not say), why they were set aside, then ``err``'s (the direction)."""
+    which = "the poses " if named is None or len(named) == 0 else _list(named) + ", "
+    them = "them" if named is None else _them(named)
+    return DegenerateMotionError(
+        f"Without {which}{why}, the other poses leave a direction of the answer free, so nothing checks {them}: "
+        f"{err} Refused: check {them}, or add poses that turn about other axes."
     )
 
 

@@ -707,3 +707,8 @@ REPEATED_FIELD_SDS = 4.0
 #: predicted sigmas over M draws within this many of its sd, sqrt(1 / (2 M)) (derived in the test), of 1: 3 leaves
 #: a 0.3 % chance of a false failure for the seeded draws; the frame-clustered sigma alone is short by 1.98 there.
 REPEATED_SCENE_SDS = 3.0
+
+#: A unit vector printed with three decimals (classic.least_squares.require_determined's direction) against the
+#: exact one: each component rounded by <= 5e-4, so the difference's norm is <= sqrt(3) x 5e-4 = 8.7e-4; 1e-3 keeps
+#: that, while a direction off by a degree (1.7e-2) or another axis (order 1) fails.
+PRINTED_THREE_DECIMALS_UNIT_VECTOR = 1e-3
