@@ -296,8 +296,9 @@ def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
     return q_obs * (z / z_obs)[:, None], jacobian
 
 
-def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns):
-    """The residuals ``r`` (N,) at the current unknowns and their Jacobian (N, ``x.n_par``), pose columns first."""
+def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns, jacobian: bool = True):
+    """The residuals ``r`` (N,) at the current unknowns and their Jacobian (N, ``x.n_par``), pose columns first
+    (None without ``jacobian``)."""
     R, t = T[:3, :3], T[:3, 3]
     m_base, n_base = model.points_base, model.normals_base
     if x.delta is not None:  # the model moved by the joint offsets delta
@@ -315,20 +316,25 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
     else:
         r, grad = second_order_residual(x_base, m_base, n_base, model.curvatures, model.direction_base)
+    if not jacobian:
+        return r, None
     n_cam = grad @ R  # R^T grad, row-wise
-    cols = [np.cross(p_cam, n_cam), n_cam]
+    J = np.empty((len(r), x.n_par))  # each block written in place
+    J[:, :3] = np.cross(p_cam, n_cam)
+    J[:, 3:6] = n_cam
     if x.depth is not None:
         ray = q_obs / q_obs[:, 2:3]
         n_ray = np.einsum("ij,ij->i", n_cam, ray)[:, None]
         if x.fb is None:
-            cols += [np.einsum("ij,ij->i", n_cam, q_obs)[:, None], n_ray]
+            J[:, 6] = np.einsum("ij,ij->i", n_cam, q_obs)
+            J[:, 7:8] = n_ray
         else:
-            cols.append(n_ray * dz)
+            np.multiply(n_ray, dz, out=J[:, x.depth_cols])
     if x.theta is not None:
-        cols.append(p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1]))
+        J[:, x.intrinsics_cols] = p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
     if x.delta is not None:
-        cols.append(offset_columns(grad, m_base, x.twists))
-    return r, np.hstack(cols)
+        J[:, x.joint_cols] = offset_columns(grad, m_base, x.twists)
+    return r, J
 
 
 class _Unknowns:
@@ -446,7 +452,8 @@ def solve_point_to_plane(
     x = _Unknowns(options, model.joint_twists)
     pixel = pixel if options.pixel_effect else None
     T, steps, step_norm = _gauss_newton(p_cam, model, np.array(T_base_cam, dtype=float), x, options, pixel)
-    r, J = _linearise(p_cam, model, T, x)
+    # the Jacobian at the answer only where the covariance or the pixel effect needs it: the residuals otherwise
+    r, J = _linearise(p_cam, model, T, x, jacobian=options.covariance or pixel is not None)
     w = loss_weights(r / options.scale_m, options.loss, 1.0)
     if pixel is not None:  # the covariance of the rows with each pixel's effect taken out
         reduction = _pixel_reduction(p_cam, J, r, w, pixel)
@@ -490,8 +497,9 @@ def _gauss_newton(
     for steps in range(1, options.iterations + 1):
         r, J = _linearise(p_cam, model, T, x)
         w = loss_weights(r / options.scale_m, options.loss, 1.0)
-        H = (J * w[:, None]).T @ J
-        g = (J * w[:, None]).T @ r
+        Jw = J * w[:, None]
+        H = Jw.T @ J
+        g = Jw.T @ r
         reduction = None if pixel is None else _pixel_reduction(p_cam, J, r, w, pixel)
         if reduction is not None:
             H, g = H - reduction[0], g - reduction[1]
