@@ -695,11 +695,10 @@ def _check_fit(poses: _Poses, ref, model, estimate_scale: bool) -> None:
     """Refuse a least-squares fit that outlier poses pulled off (:mod:`classic.contamination`)."""
     B_fit = poses.B_in.copy()
     B_fit[:, :3, 3] *= ref.scale
-    check_contamination(
-        ref.whitened, np.concatenate(pose_residuals(poses.A_in, B_fit, ref.X, ref.Y), axis=1), ref.jacobian
-    )
+    residuals = np.concatenate(pose_residuals(poses.A_in, B_fit, ref.X, ref.Y), axis=1)
+    check_contamination(ref.whitened, residuals, ref.jacobian, numbers=np.flatnonzero(poses.inliers))
     if not estimate_scale:
-        _check_pair_consensus(poses, ref.X, _consensus_model(model, ref))
+        _check_pair_consensus(poses, ref.X, _consensus_model(_subset_model(model, poses.inliers), ref))
 
 
 def _result(poses: _Poses, fit: _Fit, how: _How, diagnostics: dict) -> CalibrationResult:

@@ -248,6 +248,7 @@ def check_contamination(
     raw: np.ndarray | None = None,
     jacobian: np.ndarray | None = None,
     alpha: float = CONTAMINATION_ALPHA,
+    numbers: np.ndarray | None = None,
 ) -> None:
     """Raise :class:`ContaminatedPosesError` when a pose is a gross outlier (see the module).
 
@@ -262,6 +263,8 @@ def check_contamination(
         Whitened Jacobian at the fit: a suspect pose then only refuses the fit when leaving it out
         moves X by more than :data:`MAX_SHIFT_SIGMA` (without it every suspect refuses).
     alpha : float
+    numbers : array of int, shape (N,), optional
+        Each pose's number as the caller's poses number it (the fit may hold a subset); default ``0 .. N-1``.
     """
     bad, n_sigma = suspect_poses(whitened, alpha)
     if raw is not None and len(bad):
@@ -281,15 +284,18 @@ def check_contamination(
         bad = bad[shifts[bad] > MAX_SHIFT_SIGMA]
         if len(bad) == 0:
             return
+    every = np.arange(len(n_sigma))
+    numbers = every if numbers is None else np.asarray(numbers)
+    fitted = "" if np.array_equal(numbers, every) else " fitted"
     shown = ", ".join(
-        f"{int(i)} ({n_sigma[i]:.1f} sigma"
+        f"{int(numbers[i])} ({n_sigma[i]:.1f} sigma"
         + (f", moves X by {shifts[i]:.1f} sigma)" if np.isfinite(shifts[i]) else ")")
         for i in bad[:8]
     )
     more = f" and {len(bad) - 8} more" if len(bad) > 8 else ""
     typical = float(np.median(n_sigma))
     raise ContaminatedPosesError(
-        f"{len(bad)} of {len(n_sigma)} poses disagree with the rest far beyond the noise (typical residual "
+        f"{len(bad)} of {len(n_sigma)} poses{fitted} disagree with the rest far beyond the noise (typical residual "
         f"{typical:.1f} sigma): pose {shown}{more}. A least-squares fit is pulled off by them, so none is "
         "returned. Check those poses (a bad board detection, a robot pose recorded before the arm settled), "
         "remove them, or calibrate with robust=True (CLI: --robust) to fit without them."

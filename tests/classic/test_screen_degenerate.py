@@ -5,20 +5,23 @@ The data: robot motions about one axis (``make_problem(..., motion="one_axis")``
 and a few poses turned about other axes, which alone fix it. Gross errors on those few: the poses that would be
 checked are the only ones that fix the direction, so nothing can check them and the answer is refused naming the
 free direction, never returned with a sigma read as 0 along it. Clean, they are answered, even where least-median
-sampling (which fits triples of poses, most of them turning about the one axis) sets them aside.
+sampling (which fits triples of poses, most of them turning about the one axis) sets them aside. The checks after
+the outlier test left poses out fit the poses left, and name a pose by its own number.
 """
 
 from __future__ import annotations
 
 import re
+import sys
 import warnings
 
 import numpy as np
 import pytest
 
 import classic
+from classic.noise_model import NoiseModel
 from classic.ransac import lmeds_inliers
-from handeye.core.errors import DegenerateMotionError, SuspectPosesWarning
+from handeye.core.errors import ContaminatedPosesError, DegenerateMotionError, SuspectPosesWarning
 from handeye.core.metrics import pose_error
 from handeye.core.se3 import invert_transform, so3_exp, so3_log
 from handeye.core.synthetic import make_problem
@@ -97,3 +100,29 @@ def test_a_clean_set_whose_sampling_sets_aside_the_other_axes_is_answered():
     found = lmeds_inliers(T_base_ee, T_cam_target, np.random.default_rng(0))
     assert np.flatnonzero(~found.inliers).tolist() == [12, 13]
     _assert_recovers(_calibrate(T_base_ee, T_cam_target), X)
+
+
+def test_a_pose_refused_after_the_screen_left_one_out_is_named_by_its_own_number():
+    """Seed 3, the two other-axis poses moved 5 cm: the outlier test leaves pose 12 out (warned), then the
+    contamination check refuses pose 13, which it named 12 among the 13 poses left."""
+    T_base_ee, T_cam_target, _, _, _ = _one_axis_and_others(2, 3, shift_m=0.05)
+    with pytest.raises(ContaminatedPosesError, match=r"^1 of 13 poses fitted disagree .*: pose 13 \("):
+        with pytest.warns(SuspectPosesWarning, match=r"pose 12: .* returned the fit without it"):
+            classic.calibrate(T_base_ee, T_cam_target, setup="eye_to_hand")
+
+
+def test_the_pair_consensus_refit_takes_the_callers_per_pose_noise_of_the_poses_left(monkeypatch):
+    """A per-pose noise model holds every pose; after the outlier test leaves one out the consensus check's refit
+    takes the model of the poses left (the full model cut by the inliers' mask raised IndexError)."""
+    rng = np.random.default_rng(0)
+    p = make_problem(15, "eye_to_hand", rng, camera_noise=CAMERA_NOISE)
+    B = p.T_cam_target.copy()
+    B[4, :3, 3] += [0.004, -0.003, 0.002]  # 5.4 mm: left out, not gross
+    C = np.tile(np.diag([np.radians(CAMERA_NOISE[0]) ** 2] * 3 + [(CAMERA_NOISE[1] * 1e-3) ** 2] * 3), (15, 1, 1))
+    front = sys.modules["classic.calibrate"]
+    monkeypatch.setattr(front, "pair_consensus_suspects", lambda *args: np.array([0]))  # a suspect, to refit
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SuspectPosesWarning)
+        res = classic.calibrate(p.T_base_ee, B, noise=NoiseModel(camera_covariance=C))
+    assert res.diagnostics["outlier_test"]["action"] == "left out" and res.diagnostics["outliers"] == [4]
+    _assert_recovers(res, p.X_true)
