@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from classic.markerless.rows import cross_rows
+
 __all__ = ["sample_curvatures", "second_order_residual"]
 
 
@@ -130,7 +132,7 @@ def second_order_residual(
         ``n + S d``: the surface normal at the observed point, to first order.
     """
     delta = x_base - m_base
-    e2 = np.cross(n_base, direction_base)
+    e2 = cross_rows(n_base, direction_base)
     a = np.einsum("ij,ij->i", delta, direction_base)
     b = np.einsum("ij,ij->i", delta, e2)
     k1, k2 = curvatures[:, 0], curvatures[:, 1]

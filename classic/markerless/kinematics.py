@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from classic.markerless.rows import cross_rows
+
 __all__ = [
     "JOINT_OFFSET_PRIORS_DEG",
     "joint_status",
@@ -58,19 +60,6 @@ def joint_offset_prior_deg(robot_name) -> float:
 
 #: Twists equal within this (rad/rad and m/rad) on every fitted part and frame: the joint moves them rigidly.
 _SAME_TWIST = 1e-7
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` over the last axis, broadcast (component arithmetic: several times faster than ``np.cross`` on
-    millions of points)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
-    # each component written in place (no stack of three temporaries): the same products and differences
-    for k, (x, y, z, w) in enumerate(((a1, b2, a2, b1), (a2, b0, a0, b2), (a0, b1, a1, b0))):
-        np.multiply(x, y, out=out[..., k])
-        out[..., k] -= z * w
-    return out
 
 
 def joint_status(twists: np.ndarray, frames: np.ndarray, parts: np.ndarray) -> list[str]:
@@ -140,7 +129,7 @@ def offset_columns(grad: np.ndarray, points: np.ndarray, twists: np.ndarray) -> 
     """
     # n . (omega x m + v) = omega . (m x n) + v . n: one cross product per point, not per joint
     return -(
-        np.einsum("nk,njk->nj", _cross(points, grad), twists[:, :, :3])
+        np.einsum("nk,njk->nj", cross_rows(points, grad), twists[:, :, :3])
         + np.einsum("nk,njk->nj", grad, twists[:, :, 3:])
     )
 
@@ -245,8 +234,8 @@ def moved_surface(
 def _moved(points: np.ndarray, normals: np.ndarray | None, motion: np.ndarray):
     """Points moved by ``omega x p + v`` and normals turned by ``omega x n`` (unit again; None where ``normals``
     is), ``motion`` (N, 6) the ``(omega, v)`` of each."""
-    moved = points + _cross(motion[:, :3], points) + motion[:, 3:]
+    moved = points + cross_rows(motion[:, :3], points) + motion[:, 3:]
     if normals is None:
         return moved, None
-    n = normals + _cross(motion[:, :3], normals)
+    n = normals + cross_rows(motion[:, :3], normals)
     return moved, n / np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]

@@ -59,6 +59,7 @@ from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns
 from classic.markerless.pixel_effect import pixel_gain, pixel_variance_components, reduced_rows, schur_reduction
 from classic.markerless.repeated_error import repeated_error_covariance
+from classic.markerless.rows import cross_rows
 from handeye.core.se3 import make_transform, so3_exp
 
 __all__ = [
@@ -320,7 +321,7 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
         return r, None
     n_cam = grad @ R  # R^T grad, row-wise
     J = np.empty((len(r), x.n_par))  # each block written in place
-    J[:, :3] = np.cross(p_cam, n_cam)
+    cross_rows(p_cam, n_cam, out=J[:, :3])
     J[:, 3:6] = n_cam
     if x.depth is not None:
         ray = q_obs / q_obs[:, 2:3]
