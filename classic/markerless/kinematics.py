@@ -75,7 +75,8 @@ def joint_status(twists: np.ndarray, frames: np.ndarray, parts: np.ndarray) -> l
     -------
     list of str, length n_joints
     """
-    key = np.unique(np.asarray(frames) * twists.shape[1] + np.asarray(parts))  # each (frame, part) once
+    # each (frame, part) once, in order: a count per pair (no sort of the millions of points)
+    key = np.flatnonzero(np.bincount(np.asarray(frames) * twists.shape[1] + np.asarray(parts)))
     t = twists.reshape(-1, *twists.shape[2:])[key]  # (P, n_joints, 6)
     out = []
     for j in range(t.shape[1]):

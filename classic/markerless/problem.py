@@ -293,7 +293,7 @@ class Problem:
         joints, twists = {}, None
         if self.joint_estimated is not None:  # the model posed at the recorded joints; the fit moves it
             e = self.joint_estimated
-            twists = self.s.joint_twists_base[f, self.s.part[m]][:, e]
+            twists = self.s.joint_twists_base[f[:, None], self.s.part[m][:, None], np.flatnonzero(e)]  # (M, E, 6)
             joints = {"joint_start": self.joint_offsets[e], "joint_prior_sigma": self.joint_prior_sigma[e]}
         model = MatchedModel(
             self.s.points_base[m],
