@@ -57,6 +57,20 @@ def _static_frames(rng, n, scale=SCALE, offset_m=OFFSET_M, plates=False):
         yield Frame(i / RATE_HZ, depth, q.ravel(), i)
 
 
+class _DwellSpheres(Spheres):
+    """:class:`Spheres` posed once per dwell: the joints stay the same for DWELL frames, and so does the model
+    (built again each frame it was two fifths of a stream's time; the same arrays, so the counts are unchanged)."""
+
+    def __init__(self):
+        self._last = None, None
+
+    def posed(self, q, twists=False):
+        key = (np.asarray(q, dtype=float).tobytes(), twists)
+        if self._last[0] != key:
+            self._last = key, super().posed(q, twists)
+        return self._last[1]
+
+
 def _same_calibration(frames, T_start, **kwargs):
     """A recalibration after a false alarm: the truth, at once (the count is of alarms, not of answers)."""
     return SimpleNamespace(ok=True, T_base_cam=T_TRUE, covariance=None, sigma={}, refused=None)
@@ -70,7 +84,7 @@ def _count(tmp_path, n_frames, seed=0, plates=False):
         recal_frames=4,
         relearn_frames=60,
     )
-    w = CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
+    w = CellWatcher(_DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
     alarms, watched = 0, 0
     for f in _static_frames(np.random.default_rng(seed), n_frames, plates=plates):
         alarms += sum(e.state == "moved" for e in w.feed(f))
@@ -92,8 +106,11 @@ def test_false_alarms_on_a_correlated_static_stream_stay_within_the_stated_rate(
     assert abs(k - 1 / SCALE) < 0.5 * abs(1 / SCALE - 1) and abs(c + OFFSET_M / SCALE) < 0.5 * OFFSET_M
 
 
+@pytest.mark.slow
 def test_without_the_unit_correction_the_same_stream_exceeds_the_bound(tmp_path, monkeypatch):
-    """The planted fault: the depth unit left uncorrected (fit_depth_unit returning no change)."""
+    """The planted fault: the depth unit left uncorrected (fit_depth_unit returning no change). It shows the test
+    above can fail, as the partial occluders' planted fault below does: CI's run (its 3000 frames are 13 s of a
+    core); the test above checks the correction itself (k and c learnt) in the default run."""
     import handeye.watch.cell as cell
 
     monkeypatch.setattr(cell, "fit_depth_unit", lambda d, c, g: (np.zeros(2), d))
