@@ -712,3 +712,14 @@ REPEATED_SCENE_SDS = 3.0
 #: exact one: each component rounded by <= 5e-4, so the difference's norm is <= sqrt(3) x 5e-4 = 8.7e-4; 1e-3 keeps
 #: that, while a direction off by a degree (1.7e-2) or another axis (order 1) fails.
 PRINTED_THREE_DECIMALS_UNIT_VECTOR = 1e-3
+
+#: The running cell's change statistic x (handeye.watch.change: chi2(6) when nothing moved, after the null's fit) of
+#: frames at the truth, each within chi2(6)'s upper quantile at this tail over the frames a test checks (Bonferroni:
+#: a correct check fails one run in 10 000), tests/watch/test_check_native_size.py.
+WATCH_STATISTIC_TAIL = 1e-4
+
+#: ... and that quantile widened by the null's fitted scale being low by this many of its standard errors (derived in
+#: the test from the frames it is fitted on): 3.1 leaves a one-sided normal tail of 1e-3. Over 40 frames (sd 12 %)
+#: the bound is 1.6x chi2(6)'s quantile: 52.7 for 10 frames; measured at most 16.6 there, and a camera moved by
+#: 1 mm / 0.1 deg gives 443 and more at 848x480.
+WATCH_STATISTIC_SCALE_SDS = 3.1

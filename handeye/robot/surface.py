@@ -8,6 +8,8 @@ is what :func:`classic.markerless.register_robot` registers to depth.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from classic.markerless import RobotSurfaceFrames
@@ -68,6 +70,22 @@ class RobotSurface:
     def n_points(self) -> int:
         """Samples per frame."""
         return sum(len(p) for _, p, _ in self.parts)
+
+    def thinned(self, every: int) -> "RobotSurface":
+        """The same surface with every ``every``-th sample of each part: the samples are drawn at random over the
+        area, so these are again such a sample, ``sqrt(every)`` times as far apart (a z-buffer that many times
+        coarser suits it). ``every`` 1 gives ``self``."""
+        every = int(every)
+        if every < 1:
+            raise HandEyeInputError(f"thinned: every must be >= 1, got {every}")
+        if every == 1:
+            return self
+        out = copy.copy(self)
+        out.spacing_m = self.spacing_m * float(np.sqrt(every))
+        cut = np.s_[::every]  # copied whole: posing a strided view costs twice as much
+        out.parts = [(name, p[cut].copy(), n[cut].copy()) for name, p, n in self.parts]
+        out.curvatures = [(c[cut].copy(), e[cut].copy()) for c, e in self.curvatures]
+        return out
 
     def joint_twists(self, q: np.ndarray) -> np.ndarray:
         """Each part's motion per joint at each configuration: twists in the base frame.

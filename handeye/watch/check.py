@@ -62,6 +62,13 @@ class CheckOptions:
         The z-buffer's pixels are this many image pixels wide (the surface sampled for it, as
         :func:`handeye.markerless.robot_surface_for` returns it: a sparser surface would leak hidden parts through
         the gaps of a finer z-buffer); each visible point is compared with the depth at its own pixel.
+    reference_focal_px : float
+        The camera the check's work is made for, by its focal length in pixels (the arm's area in pixels grows as
+        its square): with a longer focal length ``f`` the z-buffer's stride is ``zbuffer_stride`` times
+        ``factor = max(1, round(f / reference_focal_px))`` (:meth:`stride_for`), so a larger image checks about as
+        many points as this one, at as much CPU per frame. The default, 222 px, is 256 pixels over 60 degrees
+        (the running-cell benchmark's frames); a D435's 848x480 depth over 87 degrees (447 px) gets ``factor``
+        2. 0: the stride as given at any size. Fewer points widen the step's covariance; they do not bias it.
     """
 
     window_sigmas: float = 4.0
@@ -70,9 +77,10 @@ class CheckOptions:
     robust_sigmas: float = 3.0
     min_matched: int = 50
     zbuffer_stride: int = 1
+    reference_focal_px: float = 222.0
 
     def __post_init__(self):
-        for key in ("window_sigmas", "window_floor_m", "model_sigma_m", "robust_sigmas"):
+        for key in ("window_sigmas", "window_floor_m", "model_sigma_m", "robust_sigmas", "reference_focal_px"):
             value = getattr(self, key)
             if not np.isfinite(value) or value < 0:
                 raise ValueError(f"CheckOptions.{key} must be finite and >= 0, got {value}")
@@ -80,6 +88,19 @@ class CheckOptions:
             raise ValueError(f"CheckOptions.zbuffer_stride must be >= 1, got {self.zbuffer_stride}")
         if self.min_matched < 6:
             raise ValueError(f"CheckOptions.min_matched must be >= 6 (6 unknowns), got {self.min_matched}")
+
+    def factor_for(self, K: np.ndarray) -> int:
+        """``max(1, round(f / reference_focal_px))`` for the camera ``K`` (3, 3), ``f`` its larger focal length in
+        pixels; 1 with ``reference_focal_px`` 0."""
+        if self.reference_focal_px == 0:
+            return 1
+        f_px = float(max(K[0][0], K[1][1]))
+        return max(1, int(np.floor(f_px / self.reference_focal_px + 0.5)))
+
+    def stride_for(self, K: np.ndarray) -> int:
+        """The z-buffer's stride :func:`check_frame` uses with the camera ``K``: ``zbuffer_stride`` times
+        :meth:`factor_for`."""
+        return self.zbuffer_stride * self.factor_for(K)
 
 
 @dataclass
@@ -164,7 +185,10 @@ def check_frame(
     K : array, shape (3, 3)
         Camera matrix of the depth image (OpenCV convention).
     surface : object with ``points_base`` and ``normals_base``, arrays of shape (M, 3)
-        The robot's surface posed at the frame's joints, base frame, outward normals (``RobotSurface.posed``).
+        The robot's surface posed at the frame's joints, base frame, outward normals (``RobotSurface.posed``),
+        sampled for the z-buffer's stride ``options.zbuffer_stride`` or, as :class:`handeye.watch.CellWatcher`
+        thins it for a long focal length, for :meth:`CheckOptions.stride_for` (a denser one costs more to pose,
+        for about as many points checked).
     T_base_cam : array, shape (4, 4)
         The calibration being checked.
     sigma_m : callable
@@ -187,7 +211,7 @@ def check_frame(
     R, t_cam = T_base_cam[:3, :3], T_base_cam[:3, 3]
     p_cam = (np.asarray(surface.points_base, dtype=float) - t_cam) @ R  # R^T (p - t), row-wise
     n_cam = np.asarray(surface.normals_base, dtype=float) @ R
-    idx = _visible(p_cam, n_cam, K, height, width, o.zbuffer_stride)
+    idx = _visible(p_cam, n_cam, K, height, width, o.stride_for(K))
     uv = np.rint(project(p_cam[idx], K)).astype(np.int64)
     z_raw = depth_m[uv[:, 1], uv[:, 0]]
     have = np.isfinite(z_raw) & (z_raw > 0)
