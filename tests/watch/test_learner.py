@@ -70,6 +70,7 @@ def test_a_commit_is_offered_and_feed_returns_while_the_learner_trains(tmp_path)
     assert not cal.finished.is_set()  # the frames after the commit were checked while it trained
     cal.release.set()
     assert learner.wait(SLOW_TRAINING_S)
+    learner.close()  # its idle worker thread ended (tests/watch/conftest.py)
     assert learner.reports == [f"learner: version {w.version} observed: translation novel, trained"]
     data = cal.observed[0]
     n = len(data)
@@ -139,6 +140,7 @@ def test_training_in_a_child_process_returns_the_trained_calibrator(tmp_path):
     assert not (tmp_path / "release").exists() and learner.calibrator.models == {}  # the parent's copy, untrained
     (tmp_path / "release").touch()
     assert learner.wait(SPAWN_S + SLOW_TRAINING_S), learner.reports
+    learner.close()
     assert learner.calibrator.observed == RECAL_FRAMES and learner.calibrator.models == {"translation": 1}
     assert (tmp_path / "started").exists()
 

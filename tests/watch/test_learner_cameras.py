@@ -24,11 +24,11 @@ class Remembering:
 
 
 def _offered(calibrator, versions) -> list:
-    learner = BackgroundLearner(calibrator, reference, K)
     frames = bumped_frames()[:6]
-    for v in versions:
-        learner(T_BUMPED, frames, v)
-    assert learner.wait(SLOW_TRAINING_S), learner.reports
+    with BackgroundLearner(calibrator, reference, K) as learner:  # its worker ended on leaving
+        for v in versions:
+            learner(T_BUMPED, frames, v)
+        assert learner.wait(SLOW_TRAINING_S), learner.reports
     return [e["cameras"] for e in calibrator.history]
 
 
