@@ -6,7 +6,10 @@ Two streams are rendered (or reused from ``--data``): the ``bumps`` preset (bump
 the ``static`` preset (no camera change; persons, boxes, dimmed lights and dropouts repeated). Each frame is
 fed to the watcher in time order, ``t = frame / rate_hz``; a frame whose depth was lost is fed with an empty
 depth image (the sensor sent none). The watcher starts from the true first placement (a perfect initial
-calibration: the benchmark measures the watching, not the first calibration).
+calibration: the benchmark measures the watching, not the first calibration), with its options and its
+recalibration as ``handeye watch`` builds them (:func:`handeye.commands.watch.watch_options`: the check's and the
+recalibration's z-buffer at the stride the robot surface was sampled for, 2 beyond 160 pixels of width); the
+depth unit is not given: the first learning fits it (``--truth-start`` would give the simulator's).
 
 Printed and written (``--out``):
 
@@ -154,36 +157,40 @@ class Replay:
 
 def replay(root: Path, args) -> tuple[Replay, dict, object]:
     """Feed a stream to a fresh watcher; the replay, ``stream.json`` and the dataset."""
+    from handeye.commands.watch import watch_options
     from handeye.core.dataset import Dataset
     from handeye.markerless import robot_surface_for
     from handeye.robot.depth_sensors import sensor_profile
-    from handeye.watch import CellWatcher, WatchOptions, dataset_frames, markerless_recalibration
+    from handeye.watch import CellWatcher, dataset_frames
     from sim.stream import read_stream
 
     ds, doc = Dataset.open(root), read_stream(root)
     K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     sensor = sensor_profile(doc["sensor"])
-    surface, _ = robot_surface_for(ds)
+    surface, stride = robot_surface_for(ds)
     out = Replay()
-    inner = markerless_recalibration(surface, K, sensor)
-
-    def timed(frames, T_start):
-        t0 = time.perf_counter()
-        result = inner(frames, T_start)
-        out.recal.append((time.perf_counter() - t0, result))
-        return result
-
-    options = WatchOptions(
-        rate_hz=doc["rate_hz"],
+    # as handeye watch builds them: the check's z-buffer and the recalibration's at the surface's stride
+    options = watch_options(
+        doc["rate_hz"],
+        stride,
         false_alarms_per_hour=args.false_alarms_per_hour,
-        null_frames=max(6, int(round(args.null_seconds * doc["rate_hz"]))),
-        relearn_frames=max(6, int(round(args.relearn_seconds * doc["rate_hz"]))),
+        null_seconds=args.null_seconds,
+        relearn_seconds=args.relearn_seconds,
         recal_frames=args.recal_frames,
     )
     history = Path(tempfile.mkdtemp(prefix="running-cell-history-"))
     watcher = CellWatcher(
-        surface, K, ds.truth()[0], sensor, options, history / "history.jsonl", history / "current.json", timed
+        surface, K, ds.truth()[0], sensor, options, history / "history.jsonl", history / "current.json"
     )
+    inner = watcher.recalibrate  # the watcher's own, as handeye watch's, timed
+
+    def timed(frames, T_start, **kwargs):
+        t0 = time.perf_counter()
+        result = inner(frames, T_start, **kwargs)
+        out.recal.append((time.perf_counter() - t0, result))
+        return result
+
+    watcher.recalibrate = timed
     for frame in dataset_frames(root):
         if abs(frame.t - frame.index / doc["rate_hz"]) > 1e-9 or frame.index != len(out.states):
             raise RuntimeError(f"{root}: frame {frame.index} at t = {frame.t} s, not at frame / rate: replay broken")

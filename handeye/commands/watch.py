@@ -39,7 +39,7 @@ from pathlib import Path
 from handeye.commands.watch_sources import add_source_arguments
 from handeye.core.numbers import cli_float, cli_int
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "watch_options"]
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -249,17 +249,57 @@ def _watch_ros(args: argparse.Namespace) -> int:
 
 
 def _options(args: argparse.Namespace, rate: float, stride: int):
-    """The watcher's options from the command line at the stream's rate."""
+    """The watcher's options from the command line at the stream's rate (:func:`watch_options`)."""
+    return watch_options(
+        rate,
+        stride,
+        false_alarms_per_hour=args.false_alarms_per_hour,
+        null_seconds=args.null_seconds,
+        relearn_seconds=args.relearn_seconds,
+        recal_frames=args.recal_frames,
+    )
+
+
+def watch_options(
+    rate_hz: float,
+    zbuffer_stride: int,
+    *,
+    false_alarms_per_hour: float,
+    null_seconds: float,
+    relearn_seconds: float,
+    recal_frames: int,
+):
+    """The watcher's options as ``handeye watch`` builds them (benchmarks/running_cell.py builds its own here too).
+
+    Parameters
+    ----------
+    rate_hz : float
+        The stream's frame rate.
+    zbuffer_stride : int
+        The z-buffer stride the robot surface was sampled for (:func:`handeye.markerless.robot_surface_for`'s
+        second value): the check's, and so the default recalibration's (:class:`handeye.watch.CellWatcher`). A
+        finer z-buffer than the surface's sampling lets hidden points show through.
+    false_alarms_per_hour : float
+    null_seconds, relearn_seconds : float
+        Seconds "nothing moved" is learnt from, and its bias relearnt over after a commit: as frames at
+        ``rate_hz``, at least 6.
+    recal_frames : int
+        Frames per recalibration.
+
+    Returns
+    -------
+    handeye.watch.WatchOptions
+    """
     from handeye.watch import WatchOptions
     from handeye.watch.check import CheckOptions
 
     return WatchOptions(
-        rate_hz=rate,
-        false_alarms_per_hour=args.false_alarms_per_hour,
-        null_frames=max(6, round(args.null_seconds * rate)),
-        relearn_frames=max(6, round(args.relearn_seconds * rate)),
-        recal_frames=args.recal_frames,
-        check=CheckOptions(zbuffer_stride=stride),
+        rate_hz=rate_hz,
+        false_alarms_per_hour=false_alarms_per_hour,
+        null_frames=max(6, round(null_seconds * rate_hz)),
+        relearn_frames=max(6, round(relearn_seconds * rate_hz)),
+        recal_frames=recal_frames,
+        check=CheckOptions(zbuffer_stride=zbuffer_stride),
     )
 
 
