@@ -39,6 +39,7 @@ __all__ = [
     "moved_model",
     "moved_surface",
     "offset_columns",
+    "turned_directions",
     "joint_offsets_summary",
 ]
 
@@ -110,6 +111,31 @@ def moved_model(points: np.ndarray, normals: np.ndarray, twists: np.ndarray, del
     if not np.any(delta):
         return points, normals
     return _moved(points, normals, np.einsum("njk,j->nk", twists, delta))
+
+
+def turned_directions(directions: np.ndarray, twists: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """Tangent directions turned with the surface by the joint offsets ``delta``, to first order, as
+    :func:`moved_model` turns the normals (so a direction orthogonal to its normal stays so, to first order).
+
+    Parameters
+    ----------
+    directions : array, shape (N, 3)
+        Unit tangents posed at the recorded joints, base frame.
+    twists : array, shape (N, J, 6)
+    delta : array, shape (J,)
+        Offsets, radians.
+
+    Returns
+    -------
+    array, shape (N, 3)
+        Turned, unit length.
+    """
+    delta = np.asarray(delta, dtype=float)
+    if not np.any(delta):
+        return directions
+    omega = np.einsum("njk,j->nk", twists[:, :, :3], delta)
+    d = directions + cross_rows(omega, directions)
+    return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
 
 
 def offset_columns(grad: np.ndarray, points: np.ndarray, twists: np.ndarray) -> np.ndarray:

@@ -56,7 +56,7 @@ from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
-from classic.markerless.kinematics import moved_model, offset_columns
+from classic.markerless.kinematics import moved_model, offset_columns, turned_directions
 from classic.markerless.pixel_effect import pixel_gain, pixel_variance_components, reduced_rows, schur_reduction
 from classic.markerless.repeated_error import repeated_error_covariance
 from classic.markerless.rows import cross_rows
@@ -301,9 +301,11 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
     """The residuals ``r`` (N,) at the current unknowns and their Jacobian (N, ``x.n_par``), pose columns first
     (None without ``jacobian``)."""
     R, t = T[:3, :3], T[:3, 3]
-    m_base, n_base = model.points_base, model.normals_base
-    if x.delta is not None:  # the model moved by the joint offsets delta
+    m_base, n_base, d_base = model.points_base, model.normals_base, model.direction_base
+    if x.delta is not None:  # the model moved by the joint offsets delta, its tangents turned with it
         m_base, n_base = moved_model(m_base, n_base, x.twists, x.delta)
+        if d_base is not None:
+            d_base = turned_directions(d_base, x.twists, x.delta)
     if x.theta is not None:  # the points' rays with the intrinsics theta
         q_obs, dray = rays_for(q_obs, x.K_ref, x.theta)
     if x.depth is None:
@@ -316,7 +318,7 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
     if model.curvatures is None:
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
     else:
-        r, grad = second_order_residual(x_base, m_base, n_base, model.curvatures, model.direction_base)
+        r, grad = second_order_residual(x_base, m_base, n_base, model.curvatures, d_base)
     if not jacobian:
         return r, None
     n_cam = grad @ R  # R^T grad, row-wise

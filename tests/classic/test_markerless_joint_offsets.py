@@ -20,6 +20,7 @@ from classic.markerless.kinematics import (
     joint_status,
     moved_surface,
     offset_columns,
+    turned_directions,
 )
 from handeye.core.errors import HandEyeInputError, ShapeError
 from handeye.core.se3 import make_transform, so3_exp
@@ -135,6 +136,32 @@ def test_moved_surface_and_columns_are_first_order_of_the_chain():
     normals = np.tile([1.0, 0, 0], (n, 1))
     cols = offset_columns(normals, centres, twists)
     assert np.allclose(cols[:, 2], -(np.cross(twists[:, 2, :3], centres) + twists[:, 2, 3:])[:, 0])
+
+
+def test_tangent_directions_turn_with_the_normals():
+    """The curvature residual's principal direction turns with the link, as the normal does: a tangent left at
+    the recorded joints drifts off the turned normal by the offsets' angle (the second tangent n x d no longer
+    a unit vector)."""
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-1, 1, 6)
+    centres, twists = chain(q)
+    delta = np.radians([0.2, -0.3, 0.15, -0.1, 0.25, -0.2])
+    n = len(centres)
+    normals = rng.normal(size=(n, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    tangents = np.cross(normals, rng.normal(size=(n, 3)))
+    tangents /= np.linalg.norm(tangents, axis=1)[:, None]
+    _, turned_n = moved_surface(centres, normals, np.zeros(n, int), np.arange(n), twists[None], delta)
+    turned_d = turned_directions(tangents, twists, delta)
+    omega = np.einsum("njk,j->nk", twists[:, :, :3], delta)
+    exact = np.einsum("nij,nj->ni", np.array([so3_exp(w) for w in omega]), tangents)
+    angle = np.linalg.norm(omega, axis=1)
+    # first order: off the exact rotation and off orthogonality by the angle squared at most
+    assert np.all(np.linalg.norm(turned_d - exact, axis=1) <= angle**2)
+    assert np.all(np.abs(np.einsum("ij,ij->i", turned_n, turned_d)) <= angle**2)
+    # left unturned, the tangent is off the turned normal by the angle itself
+    assert np.max(np.abs(np.einsum("ij,ij->i", turned_n, tangents))) > np.max(angle**2)
+    assert turned_directions(tangents, twists, np.zeros(6)) is tangents
 
 
 def test_joint_status_finds_the_absorbed_and_the_unseen():
