@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
+import matplotlib.patches
 import matplotlib.ticker
 
 matplotlib.use("Agg")
@@ -34,7 +35,28 @@ class Figure:
 
 def tables(path: Path) -> list[tuple[str, list[str], list[list[str]]]]:
     """Every Markdown table of a results file: ``(heading above it, header cells, rows of cells)``."""
-    out, heading, lines = [], "", path.read_text(encoding="utf-8").splitlines()
+    return _tables_in(path.read_text(encoding="utf-8").splitlines())
+
+
+def sections(path: Path) -> list[tuple[str, list[tuple[str, list[str], list[list[str]]]]]]:
+    """The reports a results file puts together, split at its ``---`` lines: ``(command, its tables)`` each.
+
+    The command is the ``command:`` line of the report's first four lines, ``""`` where it has none (a reading
+    written by hand).
+    """
+    out, chunk = [], []
+    for line in path.read_text(encoding="utf-8").splitlines() + ["---"]:
+        if line.strip() != "---":
+            chunk.append(line)
+            continue
+        head = [c.split(":", 1)[1].strip() for c in chunk[:4] if c.startswith("command:")]
+        out.append((head[0] if head else "", _tables_in(chunk)))
+        chunk = []
+    return out
+
+
+def _tables_in(lines: list[str]) -> list[tuple[str, list[str], list[list[str]]]]:
+    out, heading = [], ""
     k = 0
     while k < len(lines):
         line = lines[k]
@@ -102,9 +124,7 @@ def classic_bound(out: Path) -> Figure:
         ax.set_xlabel("number of poses")
         ax.set_title(f"{what}: default (dots) on the bound (lines)", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8)
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    _legend_below(fig, *axes[0].get_legend_handles_labels(), ncol=4, height=0.12)
     return _save(
         fig,
         out / "classic_bound.png",
@@ -258,6 +278,243 @@ def markerless_basin(out: Path) -> Figure:
     )
 
 
+def _placements(cell: str) -> tuple[np.ndarray, np.ndarray]:
+    """``"2.06 (1.82), 1.79 (2.24)"`` (translation error mm (sigma mm) per placement) -> (errors, sigmas)."""
+    pairs = re.findall(r"([0-9.]+) \(([0-9.]+)\)", cell)
+    if not pairs:
+        raise ValueError(f"no 'error (sigma)' pairs in {cell!r}")
+    return np.array(pairs, dtype=float).T
+
+
+def _error_rows(src: Path, preset: str) -> list[dict]:
+    """The rows of ``markerless_errors.md``'s run of ``preset`` at the front's defaults (all cases, no option)."""
+    runs = [
+        rows
+        for command, found in sections(src)
+        if command and not re.search(r"--(cases|option|pixel-effect-px|seed)\b", command)
+        for heading, header, rows in found
+        if heading.startswith(f"{preset}-1.2:") and header[0] == "error the method is not told"
+    ]
+    if len(runs) != 1:
+        raise ValueError(f"{src}: {len(runs)} runs of {preset} at the front's defaults, not one")
+    return [
+        {
+            "row": r[0],
+            "accepted": int(r[1].split("/")[0]),
+            "placements": int(r[1].split("/")[1]),
+            "median": _pair(r[2])[0],
+            "worst": _pair(r[3])[0],
+            "beyond": int(r[4]),
+            "sigma": float("nan"),
+        }
+        for r in runs[0]
+    ]
+
+
+def _sigma_rows(src: Path) -> dict[str, dict]:
+    """Today's sigma per resolution and row: ``markerless_resolution.md``'s 'before -> after' table, seed 0.
+
+    Keyed ``"256x256, none (d435 as is)"``; each the per-placement errors' median and worst, the per-placement
+    sigmas' median and the beyond-3-sigma count after.
+    """
+    (_, _, rows), *_ = [t for t in tables(src) if t[1][:3] == ["resolution, row", "before", "after"]]
+    out = {}
+    for r in rows:
+        if "seed 1" in r[0]:
+            continue
+        errors, sigmas = _placements(r[2])
+        out[r[0].replace(", seed 0", "")] = {
+            "median": float(np.median(errors)),
+            "worst": float(errors.max()),
+            "sigma": float(np.median(sigmas)),
+            "beyond": int(r[3].split("->")[-1].strip(" *")),
+            "placements": len(errors),
+        }
+    return out
+
+
+def markerless_errors(out: Path) -> Figure:
+    """A real cell's errors, one row each: median and worst error, the median sigma and its 3-sigma band."""
+    src, res = RESULTS / "markerless_errors.md", RESULTS / "markerless_resolution.md"
+    sig = _sigma_rows(src=res)
+    panels = []
+    for preset in ("paper-real", "paper-sim"):
+        rows = _error_rows(src, preset)
+        if preset == "paper-real":
+            for r in rows:
+                key = next((k for k in sig if k.startswith("256x256, ") and r["row"].startswith(k[9:])), None)
+                if key is None:
+                    continue
+                if (round(sig[key]["median"], 2), round(sig[key]["worst"], 2)) != (r["median"], r["worst"]):
+                    raise ValueError(f"{res}: {key}'s placements do not give {src.name}'s {r['row']!r}")
+                r["sigma"] = sig[key]["sigma"]
+        panels.append((f"{preset}, 256x256 (f 222 px)", rows))
+    labels = [r["row"] for r in panels[0][1]]
+    (_, _, run1), *_ = [t for t in tables(res) if t[0].startswith("paper-real-1.2-848:")]
+    accepted = {r[0]: r[1] for r in run1}
+    wide = []
+    for row in labels:
+        key = next((k for k in sig if k.startswith("848x480, ") and row.startswith(k[9:])), None)
+        if key is None:
+            wide.append(None)
+            continue
+        acc, n = (int(v) for v in accepted[row].split("/"))
+        wide.append({"row": row, "accepted": acc, **sig[key], "placements": n})
+    panels.append(("paper-real, 848x480 (f 447 px)", wide))
+    fig, axes = plt.subplots(1, 3, figsize=(14, 5.2), dpi=100, sharey=True, sharex=True)
+    y = np.arange(len(labels))
+    for ax, (title, rows) in zip(axes, panels):
+        for k, r in enumerate(rows):
+            if r is None:
+                ax.text(4, k, "not run at this size", va="center", fontsize=7, color="0.5")
+                continue
+            if np.isfinite(r["sigma"]):
+                ax.barh(k, 3 * r["sigma"], height=0.6, color="tab:green", alpha=0.18, zorder=0)
+                ax.plot([r["sigma"]] * 2, [k - 0.3, k + 0.3], "-", color="tab:green", lw=2)
+            ax.plot([r["median"], r["worst"]], [k, k], "-", color="0.6", lw=1, zorder=1)
+            ax.plot(r["median"], k, "o", color="tab:blue", zorder=2)
+            ax.plot(r["worst"], k, "s", mfc="none", color="tab:red", zorder=2)
+            refused = r["placements"] - r["accepted"]
+            ax.text(
+                23.7,
+                k,
+                f"{refused} refused, {r['beyond']} > 3σ",
+                va="center",
+                ha="right",
+                fontsize=7,
+                color="tab:red" if refused or r["beyond"] else "0.3",
+            )
+        ax.axvline(1, color="tab:blue", ls="--", lw=1)
+        ax.axvline(3, color="tab:red", ls=":", lw=1)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("translation error against the truth [mm]")
+        ax.set_xlim(0, 24)
+        ax.grid(True, axis="x", alpha=0.3)
+    axes[0].set_yticks(y, labels, fontsize=8)
+    axes[0].set_ylim(len(labels) - 0.5, -0.5)
+    handles = [
+        plt.Line2D([], [], marker="o", ls="", color="tab:blue", label="median over the placements"),
+        plt.Line2D([], [], marker="s", ls="", mfc="none", color="tab:red", label="worst"),
+        plt.Line2D([], [], color="tab:green", lw=2, label="median sigma (where the file records it)"),
+        matplotlib.patches.Patch(color="tab:green", alpha=0.18, label="0 to 3 sigma (> 3σ: accepted beyond it)"),
+        plt.Line2D([], [], color="tab:blue", ls="--", label="target: median 1 mm"),
+        plt.Line2D([], [], color="tab:red", ls=":", label="target: worst 3 mm"),
+    ]
+    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=6, height=0.07)
+    commands = "; ".join(c for c, _ in sections(src) if c and not re.search(r"--(cases|option|pixel-effect-px)", c))
+    return _save(
+        fig,
+        out / "markerless_errors.png",
+        _caption(
+            "A real cell's errors, simulated: the `d435` profile (all together: `d435-real-cell`) at 1.2 m, "
+            "256x256 (right: `paper-real` at 848x480, the sensors' first draw), five test placements per row, the "
+            "front's defaults; the sigma, recorded for three rows only, is the median of the per-placement sigmas "
+            "in the resolution file's table of the repeated-error term (after: today's default).",
+            [(src, commands), (res, command_of_section(res, "paper-real-1.2-848:"))],
+        ),
+        laid_out=True,
+    )
+
+
+def command_of_section(path: Path, heading: str) -> str:
+    """The command of the first report in ``path`` with a table under a heading starting ``heading``."""
+    for command, found in sections(path):
+        if command and any(h.startswith(heading) for h, _, _ in found):
+            return command
+    raise ValueError(f"{path}: no report with a table under {heading!r}")
+
+
+def charuco_medians(text: str) -> dict[str, float | None]:
+    """The ChArUco label's median translation error [mm] under each ``## dataset-band:`` heading of
+    ``markerless_sensors.md``'s text; None where the line says none (no board view at that distance)."""
+    found = re.findall(r"^## (\S+):.*\n\nChArUco label[^:\n]*: (?:median ([0-9.]+) mm|none)", text, re.M)
+    return {name: float(mm) if mm else None for name, mm in found}
+
+
+def markerless_sensors(out: Path) -> Figure:
+    """The real-sensor tables as one figure: per dataset and distance, each profile's median and worst error."""
+    src = RESULTS / "markerless_sensors.md"
+    charuco = charuco_medians(src.read_text(encoding="utf-8"))
+    panels = []
+    for heading, _, rows in tables(src):
+        m = re.match(r"((paper-\w+)-\S+): .*cameras ([0-9.]+) m", heading)
+        if m:
+            panels.append((m[2], float(m[3]), m[1], rows))
+    presets = sorted({p[0] for p in panels})
+    ncol = max(sum(p[0] == preset for p in panels) for preset in presets)
+    fig, axes = plt.subplots(
+        len(presets), ncol, figsize=(15, 4.2 * len(presets)), dpi=100, squeeze=False, sharex=True, sharey=True
+    )
+    y = np.arange(len(SENSORS))
+    modes = (("self-calibrated", -0.17, "tab:blue", "o"), ("depth taken as exact", 0.17, "tab:red", "x"))
+    for row, preset in zip(axes, presets):
+        mine = sorted((p for p in panels if p[0] == preset), key=lambda p: p[1])
+        for ax, (_, distance, name, rows) in zip(row, mine):
+            cells = {tuple(r[0].split(", ", 1)): r for r in rows}
+            for k, sensor in enumerate(SENSORS):
+                for mode, dy, colour, mark in modes:
+                    r = cells.get((sensor, mode))
+                    if r is None:
+                        continue
+                    accepted = r[1]
+                    med, worst = _pair(r[2])[0], _pair(r[3])[0]
+                    if np.isfinite(med):
+                        ax.plot([med, worst], [k + dy] * 2, "-", color=colour, lw=1, alpha=0.5)
+                        ax.plot(med, k + dy, mark, color=colour)
+                        ax.plot(worst, k + dy, "|", color=colour, ms=9, mew=2)
+                        z, wrong = _pair(r[4])[0], int(r[5])
+                        note = f"{accepted}, z {z:.1f}" + (f", {wrong} wrong" if wrong else "")
+                    else:
+                        note = f"{accepted}: all refused"
+                    ax.text(
+                        900,
+                        k + dy,
+                        note,
+                        va="center",
+                        ha="right",
+                        fontsize=6.5,
+                        color=colour if wrong or "all" in note else "0.35",
+                    )
+            if charuco.get(name):
+                ax.axvline(charuco[name], color="0.4", ls="-.", lw=1)
+            ax.axvline(1, color="0.6", ls="--", lw=0.8)
+            ax.set_title(f"{preset} at {distance:.2f} m", fontsize=10)
+            ax.set_xscale("log")
+            ax.set_xlim(0.01, 1000)
+            ax.set_xticks([0.01, 0.1, 1, 10], ["0.01", "0.1", "1", "10"])
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+            ax.grid(True, axis="x", which="major", alpha=0.3)
+            ax.set_xlabel("translation error [mm]")
+        row[0].set_yticks(y, SENSORS, fontsize=8)
+        row[0].set_ylim(len(SENSORS) - 0.5, -0.5)
+    handles = [
+        plt.Line2D([], [], marker="o", ls="", color="tab:blue", label="self-calibrated depth (default): median"),
+        plt.Line2D([], [], marker="x", ls="", color="tab:red", label="depth taken as exact: median"),
+        plt.Line2D([], [], marker="|", ls="", mew=2, ms=9, color="0.3", label="worst"),
+        plt.Line2D([], [], color="0.4", ls="-.", label="ChArUco label's median (none at 0.7 m)"),
+        plt.Line2D([], [], color="0.6", ls="--", label="1 mm"),
+    ]
+    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=5, height=0.05)
+    return _save(
+        fig,
+        out / "markerless_sensors.png",
+        _caption(
+            "The six tables below as one figure, simulated: per dataset and camera distance, each depth sensor "
+            "profile's median (dot, cross) and worst (bar) translation error over the test placements, 256x256; "
+            "beside it accepted of all, z (the RMS of error over predicted sigma, 1 when the sigma is right) and "
+            "the answers accepted beyond 3 sigma (wrong).",
+            [(src, command_of(src))],
+        ),
+        laid_out=True,
+    )
+
+
+def _legend_below(fig, handles: list, labels: list[str], *, ncol: int, height: float) -> None:
+    """One legend for the whole figure under its panels, which are laid out above ``height`` (figure fraction)."""
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=8)
+    fig.tight_layout(rect=(0, height, 1, 1))
+
+
 def _save(fig, path: Path, caption: str, *, laid_out: bool = False) -> Figure:
     if not laid_out:
         fig.tight_layout()
@@ -269,7 +526,14 @@ def _save(fig, path: Path, caption: str, *, laid_out: bool = False) -> Figure:
 
 
 #: Every figure drawn from the results files, in the order the pages show them.
-RESULT_FIGURES = (classic_bound, markerless_distance, learned_steps, markerless_basin)
+RESULT_FIGURES = (
+    classic_bound,
+    markerless_distance,
+    markerless_sensors,
+    learned_steps,
+    markerless_basin,
+    markerless_errors,
+)
 
 
 def draw_all(out: Path) -> list[Figure]:

@@ -107,3 +107,62 @@ def test_a_figure_is_written_whole_and_never_into_a_fifo(tmp_path):
     fig = rf.markerless_basin(tmp_path)
     assert fig.path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["classic_bound.png", "markerless_basin.png"]
+
+
+def test_sections_split_a_file_into_its_reports(tmp_path):
+    path = tmp_path / "r.md"
+    path.write_text(
+        "# A reading by hand\n\n| a |\n|---|\n| 1 |\n\n---\n\n# Run\ncommand: python b.py --cases 2\n\n## c\n\n"
+        "| b |\n|---|\n| 2 |\n"
+    )
+    assert rf.sections(path) == [
+        ("", [("A reading by hand", ["a"], [["1"]])]),
+        ("python b.py --cases 2", [("c", ["b"], [["2"]])]),
+    ]
+    assert rf.command_of_section(path, "c") == "python b.py --cases 2"
+
+
+def test_the_real_cell_figure_reads_the_rows_the_page_quotes():
+    """The figure's rows are the page's table (docs/benchmarks/markerless.md, 'A real cell's errors'): the run at
+    the front's defaults, not the later runs with options put together in the same file; its sigmas are the
+    resolution file's after-column medians, quoted in its text (2.28, 4.46 and 3.75 mm)."""
+    page = DOCS / "benchmarks" / "markerless.md"
+    (_, header, quoted), *_ = [t for t in rf.tables(page) if t[0] == "A real cell's errors"]
+    assert header[1] == "`paper-real`: accepted" and header[6] == "`paper-sim`: accepted"
+    for preset, first in (("paper-real", 1), ("paper-sim", 6)):
+        rows = rf._error_rows(rf.RESULTS / "markerless_errors.md", preset)
+        assert len(rows) == 10
+        for r, q in zip(rows, quoted):
+            assert f"{r['accepted']}/{r['placements']}" == q[first]
+            assert (r["median"], r["worst"], r["beyond"]) == (
+                float(q[first + 1].split()[0]),
+                float(q[first + 2]),
+                int(q[first + 3]),
+            )
+    sigma = rf._sigma_rows(rf.RESULTS / "markerless_resolution.md")
+    assert [
+        round(sigma[k]["sigma"], 2)
+        for k in ("256x256, none (d435 as is)", "256x256, fixed pattern 3.6 mm", "256x256, all together")
+    ] == [2.28, 4.46, 3.75]
+    assert sigma["848x480, all together"]["beyond"] == 0 and sigma["848x480, all together"]["worst"] == 12.03
+
+
+def test_the_real_cell_figure_refuses_two_runs_at_the_defaults(tmp_path):
+    src = (rf.RESULTS / "markerless_errors.md").read_text(encoding="utf-8")
+    first = src.split("\n---\n")[1]
+    path = tmp_path / "markerless_errors.md"
+    path.write_text(src + "\n---\n" + first, encoding="utf-8")
+    with pytest.raises(ValueError, match="2 runs of paper-real"):
+        rf._error_rows(path, "paper-real")
+
+
+def test_the_sensor_figure_reads_the_charuco_lines():
+    text = (rf.RESULTS / "markerless_sensors.md").read_text(encoding="utf-8")
+    assert rf.charuco_medians(text) == {
+        "paper-real-native": 0.19,
+        "paper-real-0.7": None,
+        "paper-real-1.8": 0.81,
+        "paper-sim-native": 0.36,
+        "paper-sim-0.7": None,
+        "paper-sim-1.8": 0.45,
+    }
