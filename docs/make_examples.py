@@ -90,15 +90,16 @@ def smoke_run(on: bool):
             os.environ[ENV] = before
 
 
-def outputs(path: Path) -> list[tuple[re.Match, str]]:
+def outputs(path: Path, folder: Path | None = None) -> list[tuple[re.Match, str]]:
     """Each example of the file with what its command prints today: the file's steps (its ``python -c``
     blocks and its examples) run in their order in one fresh folder holding the repository's ``handeye/``
     (the shipped example files at the paths the documentation prints); what a step writes is there for the
-    next, and goes with the folder."""
+    next, and goes with the folder (a temporary one, or the empty ``folder`` given, where it stays)."""
     text = path.read_text()
     steps = sorted([*SETUP.finditer(text), *EXAMPLE.finditer(text)], key=lambda m: m.start())
     printed = []
-    with tempfile.TemporaryDirectory() as folder, smoke_run(path.resolve() in SMOKE):
+    with contextlib.ExitStack() as stack, smoke_run(path.resolve() in SMOKE):
+        folder = folder if folder is not None else stack.enter_context(tempfile.TemporaryDirectory())
         (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
         for m in steps:
             if "setup" in m.groupdict():

@@ -16,6 +16,8 @@ DOCS = ROOT / "docs"
 #: The README is a newcomer's page; guides, figures and history live in docs/ and CHANGELOG.md.
 README_MAX_LINES = 150
 NUMBER = re.compile(r"[-+]?\d+\.\d+|[-+]?\d+")
+#: Options whose value a command writes (a file or a folder).
+OUTPUT_OPTIONS = ("-o", "--out", "--report", "--board-out", "--export-easy-handeye", "--export-launch", "--export-urdf")
 
 
 def markdown_files() -> list[Path]:
@@ -25,6 +27,25 @@ def markdown_files() -> list[Path]:
 def code_blocks(path: Path, language: str) -> list[str]:
     """The fenced blocks of one language in a markdown file, in order."""
     return re.findall(rf"^```{language}\n(.*?)^```", path.read_text(), flags=re.S | re.M)
+
+
+def command_lines(text: str) -> list[str]:
+    """A bash block's command lines: continuations joined, comments and blank lines dropped."""
+    joined = re.sub(r"\\\n\s*", " ", text)
+    return [ln.split(" #")[0].strip() for ln in joined.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+
+
+def written_paths(text: str) -> list[str]:
+    """What a bash block's commands write: the value after each of :data:`OUTPUT_OPTIONS` (a ``python -c
+    "..."`` step's code, on one line or several, is not read as commands)."""
+    import shlex
+
+    text = re.sub(r'python -c "[^"]*"', "python -c", text)
+    out = []
+    for command in command_lines(text):
+        words = shlex.split(command)
+        out += [words[k + 1] for k, w in enumerate(words[:-1]) if w in OUTPUT_OPTIONS]
+    return out
 
 
 def test_readme_is_short():
@@ -68,15 +89,31 @@ def _make_examples():
     [pytest.param(p, marks=[pytest.mark.slow] if p in _make_examples().SMOKE else []) for p in _make_examples().FILES],
     ids=lambda p: p.name,
 )
-def test_printed_examples_print_what_is_shown(path):
+def test_printed_examples_print_what_is_shown(path, tmp_path):
     """Each printed example of the page (a ``handeye`` command, then its output) prints what is shown, run as
     ``make_examples`` runs it: the page's steps in order in a fresh folder holding the repository's
-    ``handeye/``."""
+    ``handeye/``; every file or folder a command names as its output (:data:`OUTPUT_OPTIONS`) is there after.
+    These steps are the bash blocks of kind p of ``tests/test_docs_shell.py``, not run again there."""
     mod = _make_examples()
-    printed = mod.outputs(path)
+    printed = mod.outputs(path, tmp_path)
     assert printed, f"{path.name}: no printed example"
     for m, output in printed:
         _same_within_last_digit(output, m["output"])
+        for out in written_paths(m["command"]):
+            assert (tmp_path / out).exists(), f"{path.name}: {m['command']!r} did not write {out}"
+
+
+def printed_steps() -> set[tuple[str, int]]:
+    """The bash blocks ``docs/make_examples.py`` runs (its ``SETUP`` steps and ``EXAMPLE`` commands on the pages
+    of its ``FILES``), by (file, index among the file's bash blocks), as :func:`code_blocks` numbers them."""
+    mod = _make_examples()
+    out = set()
+    for path in mod.FILES:
+        text = path.read_text()
+        starts = [m.start() for m in re.finditer(r"^```bash\n", text, flags=re.M)]
+        steps = {m.start() for m in (*mod.EXAMPLE.finditer(text), *mod.SETUP.finditer(text))}
+        out |= {(path.relative_to(ROOT).as_posix(), i) for i, start in enumerate(starts) if start in steps}
+    return out
 
 
 def _python_blocks() -> list[tuple[str, int, str]]:

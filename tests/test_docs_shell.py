@@ -19,6 +19,12 @@ classification fails ``test_every_docs_bash_block_is_classified``):
     README prints too): the tests line is ``.ci/run``'s own, whose fresh install CI makes;
     :func:`test_the_install_blocks_agree_with_ci` checks that the core install and the demo's installs make
     the same environment with fewer extras (the demo itself runs as a block of kind b).
+``p``
+    A printed example, or the ``python -c`` step that writes its inputs (``docs/make_examples.py``'s
+    ``EXAMPLE`` and ``SETUP``, on a page of its ``FILES``): ``tests/test_docs.py``'s
+    ``test_printed_examples_print_what_is_shown`` runs the page's steps as written, in order, in one folder (in
+    a smoke run where the page renders), compares what each prints with the page and checks the outputs it
+    names exist; not run a second time here.
 
 The commands are the documentation's, unchanged. Two kinds of line are left out of the executed text and
 checked instead: ``pip install -e ".[extras]"`` or ``pip install torch==2.13.0 ...`` (every requirement of
@@ -67,14 +73,14 @@ import pytest
 from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
 from tests.shared_renders import shared_build
-from tests.test_docs import DOCS, README, ROOT, code_blocks
+from tests.test_docs import DOCS, README, ROOT, code_blocks, printed_steps
+from tests.test_docs import command_lines as _commands
+from tests.test_docs import written_paths as _outputs
 from tests.tiers import hold_ray_lock
 from tests.tolerances import FLOAT
 
 #: Left out of the executed text (checked instead): no network, no ROS installation here.
 DROPPED = ("pip install", "ros2 launch")
-#: Options whose value a command writes (a file or a folder).
-OUTPUT_OPTIONS = ("-o", "--out", "--report", "--board-out", "--export-easy-handeye", "--export-launch", "--export-urdf")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -206,11 +212,6 @@ def _copy(src: Path, dst: Path) -> None:
     (shutil.copytree if src.is_dir() else shutil.copy)(src, dst)
 
 
-def _repository_files(folder: Path) -> None:
-    """``handeye/data/...`` as from the repository root (the shipped example files)."""
-    (folder / "handeye").symlink_to(ROOT / "handeye")
-
-
 # --------------------------------------------------------------------------- per-block stand-ins
 
 
@@ -230,25 +231,6 @@ def _board_of(block: str, kind: str | None, scratch: Path):
     argv[out] = str(scratch / argv[out])
     assert main(argv) == 0
     return BoardSpec.load((scratch / argv[out]).with_suffix(".json"))
-
-
-def _images_guide_steps(folder, home, block, request):
-    """The images guide's steps 1 to 4: the stand-in recording (images/, robot.csv, board.json, camera.json,
-    truth.json, detections.json), whose board is the one step 1 prints."""
-    rec = request.getfixturevalue("image_recording")
-    from classic.vision.board import BoardSpec
-
-    if "handeye board" in block:
-        assert _board_of(block, None, home.parent / "board") == BoardSpec.load(rec / "board.json"), (
-            "the stand-in images show another board than the one the block prints"
-        )
-    for name in ("images", "robot.csv", "board.json", "camera.json", "truth.json", "detections.json"):
-        _copy(rec / name, folder / name)
-
-
-def _vision(folder, home, block, request):
-    """Nothing: the block writes its own recording (OpenCV installed)."""
-    _have("cv2")
 
 
 def _images_guide_1(folder, home, block, request):
@@ -328,15 +310,6 @@ def _markerless_guide_3(folder, home, block, request):
     _copy(board, folder / "board.json")
 
 
-def _real_cell_0(folder, home, block, request):
-    """kuka_poses.csv: a KUKA export (mm, A B C degrees) of an eye-to-hand problem."""
-    from handeye.core.synthetic import make_problem
-    from tests.test_posefile_controllers import _controller_file
-
-    path = _controller_file(home, "kuka", make_problem(8, "eye_to_hand", np.random.default_rng(6)))
-    shutil.move(path, folder / "kuka_poses.csv")
-
-
 def _real_cell_1(folder, home, block, request):
     """my_eob_calib.samples: an easy_handeye2 eye-on-base sample list with the block's frame names; the
     easy_handeye2 calibrations folder under ~/.ros2 (easy_handeye2 creates it)."""
@@ -352,17 +325,6 @@ def _real_cell_1(folder, home, block, request):
     (home / ".ros2" / "easy_handeye2" / "calibrations").mkdir(parents=True)
 
 
-def _real_cell_2(folder, home, block, request):
-    """images/, board.json and camera_info.yaml (the images' camera as ROS writes it)."""
-    rec = request.getfixturevalue("image_recording")
-    from classic.vision.camera import CameraIntrinsics
-    from classic.vision.camera_yaml import write_camera_info_yaml
-
-    _copy(rec / "images", folder / "images")
-    _copy(rec / "board.json", folder / "board.json")
-    write_camera_info_yaml(folder / "camera_info.yaml", CameraIntrinsics.load(rec / "camera.json"))
-
-
 def _real_cell_3(folder, home, block, request):
     """recording/: a ROS 2 bag of tf and marker poses (test_ros_bag's)."""
     _have("rosbags")
@@ -371,41 +333,9 @@ def _real_cell_3(folder, home, block, request):
     write_exact_bag(folder / "recording", "sqlite3")
 
 
-def _real_cell_4(folder, home, block, request):
-    rec = request.getfixturevalue("image_recording")
-    _repository_files(folder)
-    for name in ("images", "robot.csv", "camera.json", "board.json", "detections.json"):
-        _copy(rec / name, folder / name)
-
-
-def _getting_started_1(folder, home, block, request):
-    _repository_files(folder)
-
-
 def _demo(folder, home, block, request):
     """Nothing: the demo renders its own cell (the simulator and torch installed)."""
     _have("pyrender", "pinocchio", "torch")
-
-
-def _your_robot(folder, home, block, request):
-    """The shipped example files (the guide's stand-in for a recording); OpenCV for the board, matplotlib for
-    the report."""
-    _repository_files(folder)
-    _have(*(["cv2"] if "handeye board" in block else []), *(["matplotlib"] if "--report" in block else []))
-
-
-def _after_step(page: str, index: int) -> Callable:
-    """A block's stand-ins written by an earlier block of its page (a ``python -c`` step), run as written in
-    the block's folder, which holds the shipped example files."""
-
-    def prepare(folder, home, block, request):
-        _repository_files(folder)
-        path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
-        env = dict(os.environ, PYTHONPATH=str(ROOT), PATH=path)
-        step = docs_bash_blocks()[(page, index)]
-        subprocess.run(["bash", "-euo", "pipefail", "-c", step], cwd=folder, env=env, check=True)
-
-    return prepare
 
 
 def _nothing(folder, home, block, request):
@@ -512,10 +442,8 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/getting-started.md", 0): Block(
         "python3 -m venv .venv", "c", "creates a virtual environment and installs the project from the network"
     ),
-    ("docs/getting-started.md", 1): Block(
-        "handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _getting_started_1
-    ),
-    ("docs/getting-started.md", 2): Block(_EYE_IN_HAND, "a", "", _getting_started_1),
+    ("docs/getting-started.md", 1): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
+    ("docs/getting-started.md", 2): Block(_EYE_IN_HAND, "p"),
     ("docs/getting-started.md", 3): Block(
         "handeye demo", "b", "installs torch and the simulator from the network, then the demo (minutes)", _demo
     ),
@@ -559,11 +487,11 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/beyond-one-machine.md", 6): Block(
         "handeye label data/dense-sim --engine ray --address auto", "a", "", _dense_standin_on_cluster, slow=True
     ),
-    ("docs/guides/images.md", 0): Block("python -c", "a", "", _vision),
-    ("docs/guides/images.md", 1): Block("handeye board --squares 7x5", "a", "", _images_guide_steps),
-    ("docs/guides/images.md", 2): Block("handeye intrinsics images/", "a", "", _images_guide_steps),
-    ("docs/guides/images.md", 3): Block("handeye detect images/", "a", "", _images_guide_steps),
-    ("docs/guides/images.md", 4): Block("handeye calibrate --detections", "a", "", _images_guide_steps),
+    ("docs/guides/images.md", 0): Block("python -c", "p"),
+    ("docs/guides/images.md", 1): Block("handeye board --squares 7x5", "p"),
+    ("docs/guides/images.md", 2): Block("handeye intrinsics images/", "p"),
+    ("docs/guides/images.md", 3): Block("handeye detect images/", "p"),
+    ("docs/guides/images.md", 4): Block("handeye calibrate --detections", "p"),
     ("docs/guides/images.md", 5): Block("handeye board --kind checkerboard", "a", "", _images_guide_1),
     ("docs/guides/learned.md", 0): Block(
         "handeye learned run --data data/paper-sim --preset cpu", "b", _CPU_TRAINING, _paper_sim
@@ -605,42 +533,33 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "24 placements",
         _nothing,
     ),
-    ("docs/guides/poses.md", 0): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _your_robot),
-    ("docs/guides/poses.md", 1): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _your_robot),
-    ("docs/guides/poses.md", 2): Block("python -c", "a", "", _your_robot),
-    ("docs/guides/poses.md", 3): Block("handeye calibrate bumped.csv", "a", "", _after_step("docs/guides/poses.md", 2)),
-    ("docs/guides/poses.md", 4): Block("python -c", "a", "", _nothing),
-    ("docs/guides/poses.md", 5): Block(
-        "handeye calibrate --robot-poses robot.txt", "a", "", _after_step("docs/guides/poses.md", 4)
-    ),
-    ("docs/guides/real-cell.md", 0): Block("python -c", "a", "", _getting_started_1),
-    ("docs/guides/real-cell.md", 1): Block("handeye calibrate kuka_poses.csv", "a", "", _real_cell_0),
-    ("docs/guides/real-cell.md", 2): Block("python -c", "a", "", _getting_started_1),
-    **{
-        ("docs/guides/real-cell.md", k): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1)
-        for k in (3, 4)
-    },
-    ("docs/guides/real-cell.md", 5): Block("python -c", "a", "", _vision),
-    ("docs/guides/real-cell.md", 6): Block("handeye detect images/", "a", "", _real_cell_2),
+    ("docs/guides/poses.md", 0): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
+    ("docs/guides/poses.md", 1): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
+    ("docs/guides/poses.md", 2): Block("python -c", "p"),
+    ("docs/guides/poses.md", 3): Block("handeye calibrate bumped.csv", "p"),
+    ("docs/guides/poses.md", 4): Block("python -c", "p"),
+    ("docs/guides/poses.md", 5): Block("handeye calibrate --robot-poses robot.txt", "p"),
+    ("docs/guides/real-cell.md", 0): Block("python -c", "p"),
+    ("docs/guides/real-cell.md", 1): Block("handeye calibrate kuka_poses.csv", "p"),
+    ("docs/guides/real-cell.md", 2): Block("python -c", "p"),
+    ("docs/guides/real-cell.md", 3): Block("handeye calibrate my_eob_calib.samples", "p"),
+    ("docs/guides/real-cell.md", 4): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1),
+    ("docs/guides/real-cell.md", 5): Block("python -c", "p"),
+    ("docs/guides/real-cell.md", 6): Block("handeye detect images/", "p"),
     ("docs/guides/real-cell.md", 7): Block("handeye bag-poses recording/", "a", "", _real_cell_3),
-    ("docs/guides/real-cell.md", 8): Block(
-        "handeye calibrate handeye/data/example_eye_to_hand.csv", "a", "", _real_cell_4
-    ),
-    ("docs/guides/real-cell.md", 9): Block("handeye plan", "a", "", _nothing),
-    ("docs/guides/your-robot.md", 0): Block("handeye board --squares 7x5", "a", "", _your_robot),
-    ("docs/guides/your-robot.md", 1): Block("handeye plan --setup eye-in-hand", "a", "", _your_robot),
+    ("docs/guides/real-cell.md", 8): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
+    ("docs/guides/real-cell.md", 9): Block("handeye plan", "p"),
+    ("docs/guides/your-robot.md", 0): Block("handeye board --squares 7x5", "p"),
+    ("docs/guides/your-robot.md", 1): Block("handeye plan --setup eye-in-hand", "p"),
     # steps 4 to 6: the shipped eye-in-hand example calibrated, then with a report, then exported
-    **{("docs/guides/your-robot.md", k): Block(_EYE_IN_HAND, "a", "", _your_robot) for k in (2, 3, 4)},
+    **{("docs/guides/your-robot.md", k): Block(_EYE_IN_HAND, "p") for k in (2, 3, 4)},
     ("docs/guides/simulate-label.md", 0): Block(
         "handeye sim generate --preset paper-sim",
-        "b",
+        "p",
         "renders the paper-sim preset (108 placements, 7,020 frames: 5 minutes on 2 cores)",
-        _nothing,
     ),
-    ("docs/guides/simulate-label.md", 1): Block("handeye label data/paper-sim", "a", "", _paper_sim, slow=True),
-    ("docs/guides/simulate-label.md", 2): Block(
-        "handeye show data/paper-sim --camera 14", "a", "", _paper_sim, slow=True
-    ),
+    ("docs/guides/simulate-label.md", 1): Block("handeye label data/paper-sim", "p"),
+    ("docs/guides/simulate-label.md", 2): Block("handeye show data/paper-sim --camera 14", "p"),
     ("docs/reproduce-paper.md", 0): Block(
         "handeye sim generate --preset paper-sim",
         "b",
@@ -669,29 +588,12 @@ def docs_bash_blocks() -> dict[tuple[str, int], str]:
     }
 
 
-def _commands(text: str) -> list[str]:
-    """The block's command lines: continuations joined, comments and blank lines dropped."""
-    joined = re.sub(r"\\\n\s*", " ", text)
-    return [ln.split(" #")[0].strip() for ln in joined.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-
-
 def executed_text(block: str) -> tuple[str, list[str]]:
     """The block without its ``pip install`` and ``ros2 launch`` lines, and those lines."""
     kept, dropped = [], []
     for line in block.splitlines():
         (dropped if line.startswith(DROPPED) else kept).append(line)
     return "\n".join(kept) + "\n", [ln.split(" #")[0].strip() for ln in dropped]
-
-
-def _outputs(text: str) -> list[str]:
-    """What the commands write: the value after each of :data:`OUTPUT_OPTIONS` (a ``python -c "..."``
-    step's code, on one line or several, is not read as commands)."""
-    text = re.sub(r'python -c "[^"]*"', "python -c", text)
-    out = []
-    for command in _commands(text):
-        words = shlex.split(command)
-        out += [words[k + 1] for k, w in enumerate(words[:-1]) if w in OUTPUT_OPTIONS]
-    return out
 
 
 def test_every_docs_bash_block_is_classified():
@@ -701,11 +603,13 @@ def test_every_docs_bash_block_is_classified():
     assert set(blocks) - set(BLOCKS) == set(), "bash blocks without a classification in BLOCKS"
     assert set(BLOCKS) - set(blocks) == set(), "rows of BLOCKS without a bash block (moved or removed?)"
     for key, block in BLOCKS.items():
-        assert block.kind in "abc" and len(block.kind) == 1, key
+        assert block.kind in "abcp" and len(block.kind) == 1, key
         first = next(c for c in _commands(blocks[key]) if not c.startswith("pip install"))
         assert first.startswith(block.first), f"{key}: its first command is {first!r}"
         assert (block.kind in "ab") == (block.prepare is not None), key
-        assert block.kind == "a" or block.why, f"{key}: say why it does not run at full size"
+        assert block.kind in "ap" or block.why, f"{key}: say why it does not run at full size"
+    printed = {k for k, b in BLOCKS.items() if b.kind == "p"}
+    assert printed == printed_steps() & set(blocks), "kind p is for the blocks make_examples runs, and only those"
 
 
 def test_the_documentation_states_the_count():
@@ -715,13 +619,12 @@ def test_the_documentation_states_the_count():
     text = (DOCS / "benchmarks" / "index.md").read_text()
     stated = (
         f"all {len(kinds)} bash blocks run as written: {kinds.count('a')} at full size, {kinds.count('b')} in a "
-        f"smoke run and {kinds.count('c')} in a fresh virtual environment"
+        f"smoke run, {kinds.count('p')} as printed examples (their output compared) and {kinds.count('c')} in a "
+        "fresh virtual environment"
     )
     assert stated.lower() in " ".join(text.split()).lower(), f"docs/benchmarks/index.md should say '{stated}'"
-    rows = re.findall(r"^\| `([^`]+)` \| ([abc]) \|", text, flags=re.M)
-    expected = [
-        (f"{path.removeprefix('docs/')}#{index}", b.kind) for (path, index), b in BLOCKS.items() if b.kind != "a"
-    ]
+    rows = re.findall(r"^\| `([^`]+)` \| ([abcp]) \|", text, flags=re.M)
+    expected = [(f"{path.removeprefix('docs/')}#{index}", b.kind) for (path, index), b in BLOCKS.items() if b.why]
     assert sorted(rows) == sorted(expected), "docs/benchmarks/index.md: the table of blocks not run"
 
 
