@@ -116,9 +116,18 @@ def printed_steps() -> set[tuple[str, int]]:
     return out
 
 
-def _python_blocks() -> list[tuple[str, int, str]]:
+#: A Python block that renders a preset (``generate(...)``: simulate-label's, the ``small`` preset rendered on 2
+#: processes and labelled, 75 s of the default run on the loaded 2-core Xeon) is the slow tier's; the default
+#: run renders and labels the same preset through the same calls, without the noise (``small_dataset``,
+#: ``tests/conftest.py``).
+RENDERS = re.compile(r"\bgenerate\(")
+
+
+def _python_blocks() -> list:
     return [
-        (p.relative_to(ROOT).as_posix(), i, b) for p in markdown_files() for i, b in enumerate(code_blocks(p, "python"))
+        pytest.param(p.relative_to(ROOT).as_posix(), i, b, marks=[pytest.mark.slow] if RENDERS.search(b) else [])
+        for p in markdown_files()
+        for i, b in enumerate(code_blocks(p, "python"))
     ]
 
 
