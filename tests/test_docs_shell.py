@@ -51,7 +51,11 @@ less data:
 - ``benchmarks/``: the repository's scripts, linked, beside an empty ``results/`` (a benchmark's ``--out``
   lands in the test's folder); for ``calibrate_identity.py``, which adds a git worktree of an earlier
   revision, the folder is a git clone of the repository (its committed tree) instead;
-- a running Ray cluster (``ray start --head``, stopped after the block) for the block that joins one.
+- a running Ray cluster (``ray start --head``, stopped after the blocks) for the blocks that join one;
+- for a block that reads what the block before it on its page wrote (``Block.after``: a guide's label step after
+  its render), that block's output: the two run in order in one folder, in one test (``page#5+6``);
+- for reproduce-paper's two blocks, which start with the same render, that render made once (a smoke run) and
+  copied: the command, run again as written, keeps the complete placements (:func:`_render_shared`).
 """
 
 from __future__ import annotations
@@ -95,6 +99,10 @@ class Block:
     prepare: Callable | None = None
     #: A block of kind a that takes long enough at full size to leave to CI's run (``--full``).
     slow: bool = False
+    #: The index of the page's block whose output this one reads, as a reader runs the page: it runs right after
+    #: that one, in its folder, in the same test (``page#3+4``), instead of from stand-ins that repeat that
+    #: block's work (:func:`_after_previous`).
+    after: int | None = None
 
 
 # --------------------------------------------------------------------------- stand-ins, built once a session
@@ -279,13 +287,11 @@ def _my_cell(folder, home, block, request):
 
 
 def _my_cell_labelled(folder, home, block, request):
-    """data/my-cell with its board label and its markerless label (the guide's steps 2 and 3 before it)."""
+    """data/my-cell with its board label (the guide's step 2 before it; step 3 runs as written, step 4 after it)."""
     from handeye.cli import main
 
     _my_cell(folder, home, block, request)
-    data = str(folder / "data" / "my-cell")
-    assert main(["label", data]) == 0
-    assert main(["markerless", data, "--start", str(folder / "guess.json"), "--sensor", "d435", "--write-labels"]) == 0
+    assert main(["label", str(folder / "data" / "my-cell")]) == 0
 
 
 def _markerless_guide_3(folder, home, block, request):
@@ -352,6 +358,30 @@ def _benchmarks(folder, home, block, request):
         (folder / "benchmarks" / script.name).symlink_to(script)
 
 
+def _render_shared(then: Callable) -> Callable:
+    """A block's stand-ins (``then``'s) and the render its first command makes (a smoke run), made once for every
+    block that starts with the same command (reproduce-paper's two blocks render the same preset) and copied into
+    its folder: the command, run again as written, finds every placement complete and keeps them (``kept N
+    complete``), and the rest of the block reads them."""
+
+    def prepare(folder, home, block, request):
+        then(folder, home, block, request)
+        first = _commands(block)[0].split("&&")[0].strip()
+        out = shlex.split(first)[shlex.split(first).index("--out") + 1]
+
+        def build(root):
+            (root / "home").mkdir()
+            env = _block_env(root / "home", request.getfixturevalue("mpl_config"), smoke=True)
+            run = subprocess.run(["bash", "-c", first], cwd=root, env=env, capture_output=True, text=True, timeout=900)
+            assert run.returncode == 0, f"{first!r} failed (exit {run.returncode}):\n{run.stderr[-3000:]}"
+
+        key = "render-" + re.sub(r"[^A-Za-z0-9]+", "-", first)
+        root, _ = shared_build(request.getfixturevalue("tmp_path_factory"), key, build)
+        _copy(root / out, folder / out)
+
+    return prepare
+
+
 def _git_clone(dest: Path) -> None:
     """``dest`` a clone of the repository's committed tree (its objects shared, nothing written to its .git);
     skips where the repository is not a git checkout."""
@@ -376,18 +406,8 @@ def _paper_sim(folder, home, block, request):
     _copy(data, folder / "data" / name)
 
 
-def _paper_labels(folder, home, block, request):
-    """data/paper-sim labelled as the paper protocol reads it (step 4 of the guide before the block): the stand-in,
-    then ``handeye label data/paper-sim --method tsai --repeats 5`` (seconds on its 16 placements)."""
-    _paper_sim(folder, home, block, request)
-    label = [sys.executable, "-m", "handeye", "label", "data/paper-sim", "--method", "tsai", "--repeats", "5"]
-    subprocess.run(label, cwd=folder, check=True, capture_output=True, timeout=600)
-
-
-def _small_standin(folder, home, block, request):
-    """data/small: the labelled paper-sim stand-in (16 placements at the ``small`` preset's sizes)."""
-    data, _ = request.getfixturevalue("paper_sim_standin")
-    _copy(data, folder / "data" / "small")
+def _after_previous(folder, home, block, request):
+    """Nothing: the block reads what the block before it (``Block.after``) wrote into the same folder."""
 
 
 def _paper_sim_run(folder, home, block, request):
@@ -406,13 +426,6 @@ def _ray_head(folder, home, block, request):
     start += ["--include-dashboard", "false", "--disable-usage-stats"]
     request.addfinalizer(lambda: subprocess.run([ray, "stop", "--force"], capture_output=True, timeout=120))
     subprocess.run(start, check=True, capture_output=True, timeout=300, env=dict(os.environ, HOME=str(home)))
-
-
-def _dense_standin_on_cluster(folder, home, block, request):
-    """A running Ray cluster (:func:`_ray_head`) and data/dense-sim: the paper-sim stand-in, labelled."""
-    _ray_head(folder, home, block, request)
-    data, _ = request.getfixturevalue("paper_sim_standin")
-    _copy(data, folder / "data" / "dense-sim")
 
 
 _EYE_IN_HAND = "handeye calibrate handeye/data/example_eye_in_hand.csv"
@@ -459,9 +472,10 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "starts a local Ray cluster and renders the small preset on it",
         _nothing,
     ),
-    # steps 2, 4 and 7: seconds of labelling, but on the paper-sim stand-in, which only the slow tier builds
+    # steps 2, 5 and 7 read what steps 1, 4 and 6 wrote (run after them: one test each pair); step 4 labels the
+    # paper-sim stand-in, which only the slow tier builds
     ("docs/guides/beyond-one-machine.md", 1): Block(
-        "handeye label data/small --engine ray", "a", "", _small_standin, slow=True
+        "handeye label data/small --engine ray", "a", "", _after_previous, slow=True, after=0
     ),
     ("docs/guides/beyond-one-machine.md", 2): Block(
         "handeye sim generate --preset dense-sim --out data/dense-sim --cameras 0:10",
@@ -476,7 +490,8 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "torchrun --nproc-per-node 2 -m handeye learned run",
         "b",
         "trains the paper learned preset with torchrun: hours on CPUs",
-        _paper_labels,
+        _after_previous,
+        after=3,
     ),
     ("docs/guides/beyond-one-machine.md", 5): Block(
         "handeye sim generate --preset dense-sim --out data/dense-sim --engine ray --address auto",
@@ -485,7 +500,7 @@ BLOCKS: dict[tuple[str, int], Block] = {
         _ray_head,
     ),
     ("docs/guides/beyond-one-machine.md", 6): Block(
-        "handeye label data/dense-sim --engine ray --address auto", "a", "", _dense_standin_on_cluster, slow=True
+        "handeye label data/dense-sim --engine ray --address auto", "a", "", _after_previous, slow=True, after=5
     ),
     ("docs/guides/images.md", 0): Block("python -c", "p"),
     ("docs/guides/images.md", 1): Block("handeye board --squares 7x5", "p"),
@@ -509,9 +524,13 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/markerless.md", 0): Block("handeye import bag data_0/ data_1/", "a", "", _markerless_guide_2),
     ("docs/guides/markerless.md", 1): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
     ("docs/guides/markerless.md", 2): Block("handeye label data/my-cell", "a", "", _my_cell),
-    # steps 3 and 4 register the cell (31 s; 70 s with the labels step 4 needs first, on the loaded 2-core Xeon)
-    ("docs/guides/markerless.md", 3): Block("handeye markerless data/my-cell --start", "a", "", _my_cell, slow=True),
-    ("docs/guides/markerless.md", 4): Block("handeye compare data/my-cell", "a", "", _my_cell_labelled, slow=True),
+    # steps 4 and 5 register the cell and compare its labels (31 s on the loaded 2-core Xeon), in one test
+    ("docs/guides/markerless.md", 3): Block(
+        "handeye markerless data/my-cell --start", "a", "", _my_cell_labelled, slow=True
+    ),
+    ("docs/guides/markerless.md", 4): Block(
+        "handeye compare data/my-cell", "a", "", _after_previous, slow=True, after=3
+    ),
     ("docs/guides/markerless.md", 5): Block("handeye sim generate --preset small", "a", "", _nothing),
     ("docs/guides/markerless.md", 6): Block(
         "handeye markerless data/paper-sim --camera 14 15",
@@ -564,13 +583,13 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "handeye sim generate --preset paper-sim",
         "b",
         _PAPER_PRESET + "; then the paper protocol's training, ablation and thresholds (10 to 30 minutes each)",
-        _nothing,
+        _render_shared(_nothing),
     ),
     ("docs/reproduce-paper.md", 1): Block(
         "handeye sim generate --preset paper-sim",
         "b",
         _PAPER_PRESET + "; then paper-real and two protocol benchmarks",
-        _benchmarks,
+        _render_shared(_benchmarks),
     ),
     ("docs/reproduce-paper.md", 2): Block("handeye sim generate --preset small", "a", "", _nothing),
 }
@@ -671,43 +690,67 @@ def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -
     assert (parent, child) == (calib.parent_frame, calib.child_frame)
 
 
-def _marks(b: Block) -> list:
+def _marks(keys: list[tuple[str, int]]) -> list:
     """A smoke run (b), or a block marked slow, is the slow tier's (a block on Ray holds the Ray lock)."""
-    return [pytest.mark.slow] if b.kind == "b" or b.slow else []
+    return [pytest.mark.slow] if any(BLOCKS[k].kind == "b" or BLOCKS[k].slow for k in keys) else []
+
+
+def runs() -> list[list[tuple[str, int]]]:
+    """The blocks of kinds a and b as the tests run them: each alone, or after the block it reads
+    (``Block.after``), in order."""
+    order = [key for key, b in BLOCKS.items() if b.kind in "ab"]
+    out = {key: [key] for key in order if BLOCKS[key].after is None}
+    for key in order:  # a block follows one before it on its page
+        if BLOCKS[key].after is not None:
+            head = next(run for run in out.values() if run[-1] == (key[0], BLOCKS[key].after))
+            head.append(key)
+    return list(out.values())
 
 
 def _executed() -> list:
     blocks = docs_bash_blocks()
     return [
-        pytest.param(key, blocks[key], id=f"{key[0].removeprefix('docs/')}#{key[1]}", marks=_marks(b))
-        for key, b in BLOCKS.items()
-        if b.kind in "ab" and key in blocks
+        pytest.param(
+            keys,
+            [blocks[k] for k in keys],
+            id=f"{keys[0][0].removeprefix('docs/')}#{'+'.join(str(k[1]) for k in keys)}",
+            marks=_marks(keys),
+        )
+        for keys in runs()
+        if all(k in blocks for k in keys)
     ]
 
 
-@pytest.mark.parametrize("key,block", _executed())
-def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
+def test_a_block_run_after_another_follows_it_on_its_page():
+    """A block that reads another's output (``Block.after``) comes after it on the same page, and is run right
+    after it: every block of kinds a and b runs once."""
+    for key, b in BLOCKS.items():
+        assert b.after is None or (b.after < key[1] and (key[0], b.after) in BLOCKS), key
+        assert b.after is None or b.prepare is _after_previous, key
+    ran = [k for run in runs() for k in run]
+    assert sorted(ran) == sorted(k for k, b in BLOCKS.items() if b.kind in "ab")
+    assert [("docs/guides/markerless.md", 3), ("docs/guides/markerless.md", 4)] in runs()
+
+
+@pytest.mark.parametrize("keys,blocks", _executed())
+def test_docs_bash_block_runs(keys, blocks, tmp_path, request, mpl_config):
     """The block, as written, from a folder of stand-ins (a b block in a smoke run): exit 0 and every output
-    it names written."""
+    it names written; a block that reads another's output (``Block.after``) right after that one, in its
+    folder."""
     folder, home = tmp_path / "cwd", tmp_path / "home"
     folder.mkdir()
     home.mkdir()
-    if "--engine ray" in block:  # a local cluster, or the one the setup starts: one on the machine at a time
+    if any("--engine ray" in b for b in blocks):  # a local cluster, or the one the setup starts: one at a time
         hold_ray_lock(request)
+    for key, block in zip(keys, blocks):
+        _run_block(key, block, folder, home, request, mpl_config)
+
+
+def _run_block(key, block, folder: Path, home: Path, request, mpl_config) -> None:
+    """One block of :func:`test_docs_bash_block_runs`: its stand-ins, then the block as written, and its checks."""
     BLOCKS[key].prepare(folder, home, block, request)
     text, dropped = executed_text(block)
-    path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
-    env = dict(
-        os.environ,
-        PYOPENGL_PLATFORM="egl",
-        PYTHONPATH=str(ROOT),
-        PATH=path,
-        HOME=str(home),
-        MPLCONFIGDIR=str(mpl_config),
-    )
-    env.pop(SMOKE_ENV, None)
-    if BLOCKS[key].kind == "b":
-        env[SMOKE_ENV] = "1"
+    env = _block_env(home, mpl_config, smoke=BLOCKS[key].kind == "b")
     run = subprocess.run(
         ["bash", "-euo", "pipefail", "-c", text], cwd=folder, env=env, capture_output=True, text=True, timeout=900
     )
@@ -722,6 +765,24 @@ def test_docs_bash_block_runs(key, block, tmp_path, request, mpl_config):
             _extras_installed(line)
         else:
             _launch_file_is_what_ros2_launch_runs(folder, home, line)
+
+
+def _block_env(home: Path, mpl_config: Path, smoke: bool) -> dict:
+    """The environment a block runs in: this interpreter's ``bin`` first on ``PATH``, ``HOME`` the fresh
+    ``home``, one matplotlib cache, and a smoke run (:data:`SMOKE_ENV`) only where ``smoke``."""
+    path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
+    env = dict(
+        os.environ,
+        PYOPENGL_PLATFORM="egl",
+        PYTHONPATH=str(ROOT),
+        PATH=path,
+        HOME=str(home),
+        MPLCONFIGDIR=str(mpl_config),
+    )
+    env.pop(SMOKE_ENV, None)
+    if smoke:
+        env[SMOKE_ENV] = "1"
+    return env
 
 
 def _install_step(step: str) -> tuple[str, frozenset]:
