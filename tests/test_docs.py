@@ -171,13 +171,14 @@ def _browser() -> str | None:
 
 def _command_parts(path: Path, inline: str | None = None):
     """Each command of the file's bash blocks (and of its inline code spans that start with ``inline``):
-    continuation lines joined, comments dropped, split at ``&&`` and ``|``."""
+    continuation lines joined, comments dropped, split at ``&&``, ``|`` and a ``;`` before the next ``python`` or
+    ``handeye`` command (an inline span may hold two commands)."""
     pieces = [re.sub(r"\\\n\s*", " ", block) for block in code_blocks(path, "bash")]
     if inline:
         pieces += [re.sub(r"\s+", " ", span) for span in re.findall(rf"`({re.escape(inline)}[^`]+)`", path.read_text())]
     for piece in pieces:
         for line in piece.splitlines():
-            for part in re.split(r"&&|\|", line.split(" #")[0]):
+            for part in re.split(r"&&|\||;\s+(?=python |handeye )", line.split(" #")[0]):
                 yield part.strip()
 
 
