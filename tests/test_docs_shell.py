@@ -531,7 +531,9 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/markerless.md", 4): Block(
         "handeye compare data/my-cell", "a", "", _after_previous, slow=True, after=3
     ),
-    ("docs/guides/markerless.md", 5): Block("handeye sim generate --preset small", "a", "", _nothing),
+    # a render of the small preset with a sensor, then a bag round trip (39 s unloaded, 138 s in a loaded CI run):
+    # the slow tier's; the default run imports bags in tests/test_import_recording.py
+    ("docs/guides/markerless.md", 5): Block("handeye sim generate --preset small", "a", "", _nothing, slow=True),
     ("docs/guides/markerless.md", 6): Block(
         "handeye markerless data/paper-sim --camera 14 15",
         "a",
@@ -591,7 +593,9 @@ BLOCKS: dict[tuple[str, int], Block] = {
         _PAPER_PRESET + "; then paper-real and two protocol benchmarks",
         _render_shared(_benchmarks),
     ),
-    ("docs/reproduce-paper.md", 2): Block("handeye sim generate --preset small", "a", "", _nothing),
+    # a render of the small preset and two labellings (37 s unloaded, 169 s in a loaded CI run): the slow tier's;
+    # the default run renders and labels the small preset through the same calls (conftest's small_dataset)
+    ("docs/reproduce-paper.md", 2): Block("handeye sim generate --preset small", "a", "", _nothing, slow=True),
 }
 
 
