@@ -705,7 +705,7 @@ REPEATED_FIELD_SDS = 4.0
 
 #: The spheres' scene with a fixed pattern (tests/classic/test_markerless_repeated_error.py): the errors' RMS in
 #: predicted sigmas over M draws within this many of its sd, sqrt(1 / (2 M)) (derived in the test), of 1: 3 leaves
-#: a 0.3 % chance of a false failure for the seeded draws; the frame-clustered sigma alone is short by 1.98 there.
+#: a 0.3 % chance of a false failure for the seeded draws; the frame-clustered sigma alone is short by 2.04 there.
 REPEATED_SCENE_SDS = 3.0
 
 #: A unit vector printed with three decimals (classic.least_squares.require_determined's direction) against the
