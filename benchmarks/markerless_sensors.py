@@ -135,6 +135,13 @@ def smoke_profiles(names: list[str], first: bool) -> list[str]:
     return kept if first else kept[:1]
 
 
+def smoke_bands(names: list[str], first: bool) -> list[str]:
+    """The bands a preset is rendered at: ``names``, but in a smoke run (:mod:`handeye.core.smoke`) the first band
+    only for every preset after the first (the first preset renders every band: each branch of :func:`render_band`,
+    the preset's own distance or a band's, with a board or without), as :func:`smoke_profiles` cuts the profiles."""
+    return names if first or not smoke_test() else names[:1]
+
+
 def placements(ds: Dataset, split: str, at_most: int | None = None) -> list[int]:
     """The split's placements; with ``at_most``, that many spread evenly over them (every region kept)."""
     table = ds.cameras()
@@ -524,8 +531,8 @@ def main():
             + " (fx, fy relative)."
         )
     roots = list(args.data)
-    for preset in args.presets:
-        for band in args.bands:
+    for i, preset in enumerate(args.presets):
+        for band in smoke_bands(args.bands, first=i == 0):
             t0 = time.perf_counter()
             roots.append(render_band(args.work, preset, band, args.seed + 1))
             print(f"{roots[-1]}: ready in {time.perf_counter() - t0:.0f} s", flush=True)
