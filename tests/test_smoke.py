@@ -98,6 +98,33 @@ def test_the_sensor_benchmark_keeps_one_profile_per_principle(monkeypatch):
     assert smoke_profiles(names, first=False) == kept[:1]
 
 
+def test_the_sensor_benchmark_renders_every_band_for_its_first_preset(monkeypatch):
+    """markerless_sensors' smoke run: every band asked for on the first preset (each branch of render_band), the
+    first band on the others; outside a smoke run every band for every preset."""
+    from benchmarks.markerless_sensors import smoke_bands
+
+    names = ["native", "0.7", "1.8"]
+    monkeypatch.delenv(ENV, raising=False)
+    assert smoke_bands(names, first=True) == smoke_bands(names, first=False) == names
+    monkeypatch.setenv(ENV, "1")
+    assert smoke_bands(names, first=True) == names and smoke_bands(names, first=False) == ["native"]
+
+
+def test_the_bag_benchmark_keeps_a_band_with_a_board_and_one_without(monkeypatch):
+    """imported_bag's smoke run: the first band without a board and the first with one (each branch of run_band),
+    in the order asked; outside a smoke run every band."""
+    from benchmarks.imported_bag import BANDS, WITH_BOARD, smoke_bands
+
+    names = list(BANDS)
+    monkeypatch.delenv(ENV, raising=False)
+    assert smoke_bands(names) == names
+    monkeypatch.setenv(ENV, "1")
+    kept = smoke_bands(names)
+    assert {WITH_BOARD[b] for b in kept} == {True, False} and len(kept) == 2 < len(names)
+    assert kept == [b for b in names if b in kept]
+    assert smoke_bands(names[::-1]) == [names[-1], names[0]]  # 1.8 m (a board), then 0.7 m (none)
+
+
 def test_the_ablation_sweeps_two_settings_in_a_smoke_run(monkeypatch, tmp_path):
     """handeye learned ablation's smoke run: the grid's first and last settings; all of them otherwise."""
     import learned.ablation as ablation
