@@ -53,7 +53,8 @@ less data:
   revision, the folder is a git clone of the repository (its committed tree) instead;
 - a running Ray cluster (``ray start --head``, stopped after the blocks) for the blocks that join one;
 - for a block that reads what the block before it on its page wrote (``Block.after``: a guide's label step after
-  its render), that block's output: the two run in order in one folder, in one test (``page#5+6``);
+  its render, its render on a cluster completing the part an earlier step rendered), that block's output: the
+  blocks run in order in one folder, in one test (``page#2+5+6``);
 - for reproduce-paper's two blocks, which start with the same render, that render made once (a smoke run) and
   copied: the command, run again as written, keeps the complete placements (:func:`_render_shared`).
 """
@@ -101,7 +102,7 @@ class Block:
     slow: bool = False
     #: The index of the page's block whose output this one reads, as a reader runs the page: it runs right after
     #: that one, in its folder, in the same test (``page#3+4``), instead of from stand-ins that repeat that
-    #: block's work (:func:`_after_previous`).
+    #: block's work (:func:`_after_previous`; or :func:`_ray_head`, the cluster it joins, and nothing else).
     after: int | None = None
 
 
@@ -472,8 +473,9 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "starts a local Ray cluster and renders the small preset on it",
         _nothing,
     ),
-    # steps 2, 5 and 7 read what steps 1, 4 and 6 wrote (run after them: one test each pair); step 4 labels the
-    # paper-sim stand-in, which only the slow tier builds
+    # steps 2, 5 and 7 read what steps 1, 4 and 6 wrote (run after them: one test each pair), and step 6 completes
+    # the part step 3 rendered (run after it: step 3's 10 placements kept, the other 20 of the smoke cut rendered on
+    # the cluster); step 4 labels the paper-sim stand-in, which only the slow tier builds
     ("docs/guides/beyond-one-machine.md", 1): Block(
         "handeye label data/small --engine ray", "a", "", _after_previous, slow=True, after=0
     ),
@@ -498,6 +500,7 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "b",
         "renders the 1,000 placements of dense-sim on a running Ray cluster: 3.2 core-hours",
         _ray_head,
+        after=2,
     ),
     ("docs/guides/beyond-one-machine.md", 6): Block(
         "handeye label data/dense-sim --engine ray --address auto", "a", "", _after_previous, slow=True, after=5
@@ -730,7 +733,7 @@ def test_a_block_run_after_another_follows_it_on_its_page():
     after it: every block of kinds a and b runs once."""
     for key, b in BLOCKS.items():
         assert b.after is None or (b.after < key[1] and (key[0], b.after) in BLOCKS), key
-        assert b.after is None or b.prepare is _after_previous, key
+        assert b.after is None or b.prepare in (_after_previous, _ray_head), key
     ran = [k for run in runs() for k in run]
     assert sorted(ran) == sorted(k for k, b in BLOCKS.items() if b.kind in "ab")
     assert [("docs/guides/markerless.md", 3), ("docs/guides/markerless.md", 4)] in runs()
