@@ -108,14 +108,15 @@ class CameraPreset:
 
     def smoke(self) -> "CameraPreset":
         """This preset cut to a smoke run's size (:mod:`handeye.core.smoke`): at most 2 train and 1 test
-        placements per region, 6 configurations and 10 calibration views; the same name, robot, regions,
+        placements per region, 6 configurations and 6 calibration views (15 motion pairs: the classic labels
+        still determined, in seconds); the same name, robot, regions,
         distances, image sizes and scenes."""
         return replace(
             self,
             train_per_region=tuple(min(int(n), 2) for n in self.train_per_region),
             test_per_region=tuple(min(int(n), 1) for n in self.test_per_region),
             configurations=min(self.configurations, 6),
-            calibration_views=min(self.calibration_views, 10),
+            calibration_views=min(self.calibration_views, 6),
         )
 
     @property

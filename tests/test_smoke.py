@@ -31,7 +31,9 @@ def test_camera_presets_are_cut_and_keep_their_geometry(monkeypatch):
         cut = get_preset(name)
         assert cut.train_per_region == tuple(min(n, 2) for n in full.train_per_region), name
         assert cut.test_per_region == tuple(min(n, 1) for n in full.test_per_region), name
-        assert cut.configurations == min(full.configurations, 6) and cut.calibration_views <= 10
+        assert cut.configurations == min(full.configurations, 6) and cut.calibration_views == min(
+            full.calibration_views, 6
+        )
         # what the commands and the recipe name stay the preset's
         for field in ("name", "robot", "region_azimuths_deg", "radius_m", "elevation_deg", "image_size", "scenes"):
             assert getattr(cut, field) == getattr(full, field), (name, field)
