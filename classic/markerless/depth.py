@@ -10,6 +10,7 @@ arm. This gives a mask of the arm without a model, a start or a colour cue.
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from handeye.core.errors import ShapeError
 
@@ -195,21 +196,6 @@ def _spatial_second_difference(frames: np.ndarray, med: np.ndarray, valid: np.nd
     return np.concatenate(out, axis=0)
 
 
-def _extreme_3x3(image: np.ndarray, extreme) -> np.ndarray:
-    """Per frame, the minimum (``extreme`` ``np.minimum``) or maximum (``np.maximum``) of each pixel's 3x3
-    neighbourhood within the image: ``scipy.ndimage``'s filter of size (1, 3, 3) (its border reflected, which
-    adds no other value), in four passes of whole-array numpy. ``image``: shape (N, H, W); so is the result."""
-    out = image.copy()
-    for axis in (1, 2):
-        src = out.copy()
-        lo, hi = [slice(None)] * 3, [slice(None)] * 3
-        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-        lo, hi = tuple(lo), tuple(hi)
-        extreme(out[hi], src[lo], out=out[hi])  # the neighbour before
-        extreme(out[lo], src[hi], out=out[lo])  # the neighbour after
-    return out
-
-
 def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> np.ndarray:
     """Pixels at a depth edge whose depth lies between the two surfaces: a sensor's "flying" pixels.
 
@@ -236,8 +222,9 @@ def mixed_pixels(depth_m: np.ndarray, tolerance_m, min_jump_m: float = 0.03) -> 
     """
     depth_m = np.asarray(depth_m, dtype=float)
     valid = depth_m > 0
-    near = _extreme_3x3(np.where(valid, depth_m, np.inf).astype(np.float32), np.minimum)
-    far = _extreme_3x3(np.where(valid, depth_m, 0.0).astype(np.float32), np.maximum)
+    size = (1, 3, 3)
+    near = ndimage.minimum_filter(np.where(valid, depth_m, np.inf).astype(np.float32), size=size)
+    far = ndimage.maximum_filter(np.where(valid, depth_m, 0.0).astype(np.float32), size=size)
     edge = valid & (far - near > min_jump_m)
     if not edge.any():
         return edge
