@@ -136,7 +136,6 @@ class Problem:
 
     def _init_joints(self, surface, opts):
         """Which joints' offsets the fine stage estimates (:func:`classic.markerless.kinematics.joint_status`)."""
-        self._moved = surface.points_base  # the model while no offset moves it (model_points())
         self.joint_estimated, self.joint_status = None, None
         twists = surface.joint_twists_base
         if twists is None or opts.joint_offsets_model != "estimate":
@@ -190,17 +189,16 @@ class Problem:
     def set_joint_offsets(self, delta):
         """Move the model by the joint offsets ``delta`` (radians, all joints) from now on."""
         self.joint_offsets = np.asarray(delta, dtype=float)
-        self._moved = None if self.joint_offsets.any() else self.s.points_base
 
     def model_points(self, idx):
         """The points (base frame) of the model points ``idx``, moved by the current joint offsets (their normals
         not turned: the z-buffer and the projections need none; the fits move the matched ones themselves)."""
         s = self.s
-        if self._moved is None:
-            return moved_surface(
-                s.points_base[idx], None, s.frame[idx], s.part[idx], s.joint_twists_base, self.joint_offsets
-            )[0]
-        return self._moved[idx]
+        if not self.joint_offsets.any():
+            return s.points_base[idx]
+        return moved_surface(
+            s.points_base[idx], None, s.frame[idx], s.part[idx], s.joint_twists_base, self.joint_offsets
+        )[0]
 
     def set_intrinsics(self, theta):
         """Project the model with the intrinsics ``theta`` ``(f_x, f_y, c_x, c_y)`` from now on."""
