@@ -28,6 +28,7 @@ def run_notebook(path: Path) -> dict:
     return namespace
 
 
+@pytest.mark.slow  # 13 s on a quiet 2-core machine: a whole walkthrough, the slow tier (CI)
 def test_simulator_walkthrough(tmp_path, monkeypatch):
     pytest.importorskip("pinocchio")
     pytest.importorskip("pyrender")
@@ -37,6 +38,7 @@ def test_simulator_walkthrough(tmp_path, monkeypatch):
     assert all(s == "ok" for s in ns["cams"]["label_status"])
 
 
+@pytest.mark.slow  # 16 s: renders, labels and trains, the slow tier (CI)
 def test_continual_learning_walkthrough(tmp_path, monkeypatch):
     pytest.importorskip("pinocchio")
     pytest.importorskip("torch")

@@ -79,6 +79,7 @@ def test_a_killed_worker_is_replaced_and_its_task_run_again(local_cluster, tmp_p
     assert out == [0, 10, 20, 30, 40]
 
 
+@pytest.mark.slow  # 19 s, a whole preset on Ray (a killed worker alone: the test above it)
 def test_small_preset_on_ray_with_a_worker_killed_is_byte_identical_to_the_pool(local_cluster, small_dataset, tmp_path):
     from handeye.core.dataset import Dataset
     from handeye.labelling import label_dataset

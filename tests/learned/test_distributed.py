@@ -119,7 +119,8 @@ def _check_kind(kind: str, ref: dict, ranks: list[dict]) -> None:
     "world, batch",
     [
         (2, worker.BATCH),  # batches of 10, 10, 4: slices of 5 and 2
-        (3, 11),  # batches of 11, 11, 2: slices of 4, 4, 3 and 1, 1 and an empty one
+        # batches of 11, 11, 2: slices of 4, 4, 3 and 1, 1 and an empty one; 14 s, the slow tier (CI)
+        pytest.param(3, 11, marks=pytest.mark.slow),
     ],
 )
 def test_one_training_call_on_several_ranks_is_the_one_process_call(tmp_path, world, batch):

@@ -15,6 +15,7 @@ from learned.data import load_frames  # noqa: E402
 from tests.tolerances import FLOAT, FLOAT32_POSITION_MM  # noqa: E402
 
 
+@pytest.mark.slow  # 10 s: the main job end to end (train, report, compare), the slow tier (CI)
 def test_tiny_preset_runs_reports_and_compares(small_dataset, tmp_path, capsys):
     from handeye.cli import main
 
