@@ -196,3 +196,41 @@ def test_the_pages_in_a_browser(site):
         name = page.relative_to(site).as_posix()
         assert not RAW_ROLE.search(dom), f"{name}: a raw role in the rendered page"
         assert not missing_images(page, dom), f"{name}: {missing_images(page, dom)}"
+
+
+#: A markdown table mkdocs left as text: its delimiter row in a paragraph (a table with no blank line above it).
+RAW_TABLE = re.compile(r"<p>[^<]*\|\s*-{3,}\s*\|")
+
+
+def folded_tables(html: str) -> list[tuple[bool, int]]:
+    """Each ``<details>`` block of a page: whether it opens folded, and how many table rows it holds."""
+    blocks = re.findall(r"<details([^>]*)>(.*?)</details>", html, flags=re.S)
+    return [("open" not in attrs, body.count("<tr>")) for attrs, body in blocks]
+
+
+def test_folded_tables_render_as_tables(site):
+    """The markerless benchmark's six per-band tables (``??? note``, ``pymdownx.details``) are folded, each a
+    table of its 14 rows and header inside its block, their headings' anchors kept; no page of the site holds a
+    table left as text."""
+    html = (site / "benchmarks" / "markerless" / "index.html").read_text()
+    assert folded_tables(html) == [(True, 15)] * 6
+    for anchor in ("paper-real-at-099-m", "paper-real-at-068-m", "paper-real-at-178-m", "paper-sim-at-152-m"):
+        assert f'id="{anchor}"' in html
+    raw = [p.relative_to(site).as_posix() for p in pages(site) if RAW_TABLE.search(p.read_text())]
+    assert not raw, f"markdown tables left as text: {raw}"
+
+
+def test_the_table_checks_fail_on_broken_markdown():
+    """A folded table not indented by four spaces renders after an empty block; a table with no blank line
+    above it stays a paragraph of pipes: the checks above see both."""
+    import markdown
+
+    extensions = ["admonition", "pymdownx.details", "tables"]
+    body = "| a | b |\n|---|---|\n| 1 | 2 |\n"
+    indented = "".join("    " + ln + "\n" for ln in body.splitlines())
+    good = markdown.markdown('??? note "t"\n\n' + indented, extensions=extensions)
+    assert folded_tables(good) == [(True, 2)] and not RAW_TABLE.search(good)
+    for indent in ("", "  "):
+        flat = "".join(indent + ln + "\n" for ln in body.splitlines())
+        assert folded_tables(markdown.markdown('??? note "t"\n\n' + flat, extensions=extensions)) == [(True, 0)]
+    assert RAW_TABLE.search(markdown.markdown("Text:\n" + body, extensions=extensions))
