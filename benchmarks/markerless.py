@@ -20,6 +20,8 @@ Run from the repository root, on datasets rendered with the default sensor noise
    sigmas (a wrong basin, where the others lie outside the fixed bound but within the method's
    own precision). Once with the centroid start tried beside the
    given one (the default), once with the given start alone (the coarse stage's own basin).
+   ``--basin-cells 50:5,100:10`` lists the offsets; ``--basin-grid 0,50,100:0,2.5,5`` maps every
+   translation against every rotation.
 
 Prints markdown tables, and writes them to ``--results`` when it names a file (printed only without it).
 """
@@ -168,6 +170,18 @@ def basin(ds, surface, opts, cells, trials, centroid, rng):
     return {cell: (*counts[cell], trials) for cell in cells}
 
 
+def basin_cells(cells: str, grid: str | None = None) -> list[tuple[int, float]]:
+    """The basin's start offsets ``(mm, deg)``: ``cells`` (``"50:5,100:10"``) or, given, every pair of ``grid``.
+
+    ``grid`` is ``"MM_LIST:DEG_LIST"`` (``"0,50:0,2.5"``: four cells, translation the outer loop). Millimetres are
+    whole, degrees may be fractions.
+    """
+    if grid:
+        mm_list, deg_list = grid.split(":")
+        return [(int(mm), float(deg)) for mm in mm_list.split(",") for deg in deg_list.split(",")]
+    return [(int(mm), float(deg)) for mm, deg in (c.split(":") for c in cells.split(","))]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, required=True, help="labelled dataset for accuracy (test cameras)")
@@ -179,6 +193,11 @@ def main(argv=None):
         "--basin-trials-alone", type=int, default=50, help="trials per cell, the given start alone (0: skip)"
     )
     ap.add_argument("--basin-cells", default="50:5,100:10,200:20,300:30", help="start offsets, mm:deg, comma-separated")
+    ap.add_argument(
+        "--basin-grid",
+        metavar="MM_LIST:DEG_LIST",
+        help="a map instead of --basin-cells: every translation with every rotation, e.g. 0,50,100:0,2.5,5",
+    )
     Report.add_out(ap, "--results")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
@@ -273,7 +292,7 @@ def main(argv=None):
         bsurface, bstride = robot_surface_for(bds)
         bsigma = bds.meta.get("recipe", {}).get("noise", {}).get("depth_sigma_m_at_1m", 0.001) or 0.001
         bopts = replace(opts, depth_sigma_m_at_1m=bsigma, zbuffer_stride=bstride)
-        cells = [tuple(int(v) for v in c.split(":")) for c in args.basin_cells.split(",")]
+        cells = basin_cells(args.basin_cells, args.basin_grid)
         for centroid, trials in ((True, args.basin_trials), (False, args.basin_trials_alone)):
             if trials <= 0:
                 continue
@@ -286,7 +305,7 @@ def main(argv=None):
             emit("| start off by | success | wrong answer | of which beyond 3 sigma | refused |")
             emit("|---|---|---|---|---|")
             for (mm, deg), (g, wr, rf, w3, n) in basin(bds, bsurface, bopts, cells, trials, centroid, rng).items():
-                emit(f"| {mm} mm, {deg} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {w3} | {rf} |")
+                emit(f"| {mm} mm, {deg:g} deg | {g}/{n} ({100 * g / n:.0f} %) | {wr} | {w3} | {rf} |")
     if args.results:
         args.results.parent.mkdir(parents=True, exist_ok=True)
         args.results.write_text("\n".join(lines) + "\n")
