@@ -45,6 +45,7 @@ from benchmarks._report import Report  # noqa: E402
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.numbers import parse_float, parse_int  # noqa: E402
 from handeye.core.se3 import make_transform, so3_exp  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 
@@ -170,16 +171,33 @@ def basin(ds, surface, opts, cells, trials, centroid, rng):
     return {cell: (*counts[cell], trials) for cell in cells}
 
 
-def basin_cells(cells: str, grid: str | None = None) -> list[tuple[int, float]]:
-    """The basin's start offsets ``(mm, deg)``: ``cells`` (``"50:5,100:10"``) or, given, every pair of ``grid``.
+def _offset(mm: str, deg: str) -> tuple[int, float]:
+    """One start offset: whole millimetres, degrees (fractions allowed), both >= 0, in the strict number grammar."""
+    what = f"start offset {mm}:{deg}"
+    out = (
+        parse_int(mm.strip(), what, argparse.ArgumentTypeError),
+        parse_float(deg.strip(), what, argparse.ArgumentTypeError),
+    )
+    if min(out) < 0:
+        raise argparse.ArgumentTypeError(f"{what}: offsets are sizes >= 0 (the direction is drawn)")
+    return out
 
-    ``grid`` is ``"MM_LIST:DEG_LIST"`` (``"0,50:0,2.5"``: four cells, translation the outer loop). Millimetres are
-    whole, degrees may be fractions.
-    """
-    if grid:
-        mm_list, deg_list = grid.split(":")
-        return [(int(mm), float(deg)) for mm in mm_list.split(",") for deg in deg_list.split(",")]
-    return [(int(mm), float(deg)) for mm, deg in (c.split(":") for c in cells.split(","))]
+
+def parse_basin_cells(text: str) -> list[tuple[int, float]]:
+    """``"50:5,100:10"`` -> ``[(50, 5.0), (100, 10.0)]``: the basin's start offsets (mm, deg)."""
+    cells = [item.partition(":") for item in text.split(",")]
+    if any(not sep for _, sep, _ in cells):
+        raise argparse.ArgumentTypeError(f"{text!r} is not comma-separated mm:deg pairs")
+    return [_offset(mm, deg) for mm, _, deg in cells]
+
+
+def parse_basin_grid(text: str) -> list[tuple[int, float]]:
+    """``"MM_LIST:DEG_LIST"`` -> every pair, translation the outer loop: ``"0,50:0,2.5"`` -> ``[(0, 0.0), (0, 2.5),
+    (50, 0.0), (50, 2.5)]``."""
+    mm_list, sep, deg_list = text.partition(":")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"{text!r} is not MM_LIST:DEG_LIST")
+    return [_offset(mm, deg) for mm in mm_list.split(",") for deg in deg_list.split(",")]
 
 
 def main(argv=None):
@@ -192,10 +210,16 @@ def main(argv=None):
     ap.add_argument(
         "--basin-trials-alone", type=int, default=50, help="trials per cell, the given start alone (0: skip)"
     )
-    ap.add_argument("--basin-cells", default="50:5,100:10,200:20,300:30", help="start offsets, mm:deg, comma-separated")
+    ap.add_argument(
+        "--basin-cells",
+        type=parse_basin_cells,
+        default="50:5,100:10,200:20,300:30",
+        help="start offsets, mm:deg, comma-separated (degrees may be fractions)",
+    )
     ap.add_argument(
         "--basin-grid",
         metavar="MM_LIST:DEG_LIST",
+        type=parse_basin_grid,
         help="a map instead of --basin-cells: every translation with every rotation, e.g. 0,50,100:0,2.5,5",
     )
     Report.add_out(ap, "--results")
@@ -292,7 +316,7 @@ def main(argv=None):
         bsurface, bstride = robot_surface_for(bds)
         bsigma = bds.meta.get("recipe", {}).get("noise", {}).get("depth_sigma_m_at_1m", 0.001) or 0.001
         bopts = replace(opts, depth_sigma_m_at_1m=bsigma, zbuffer_stride=bstride)
-        cells = basin_cells(args.basin_cells, args.basin_grid)
+        cells = args.basin_grid or args.basin_cells
         for centroid, trials in ((True, args.basin_trials), (False, args.basin_trials_alone)):
             if trials <= 0:
                 continue
