@@ -1,7 +1,7 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
-The files: the README, the getting-started page, the your-own-robot, images, poses, real-cell and
-simulate-and-label guides (``FILES``). Run from the repository root::
+The files: the README, the getting-started page, the your-own-robot, images, poses, real-cell,
+simulate-and-label and markerless guides (``FILES``). Run from the repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
@@ -14,7 +14,10 @@ last printed digit, so an output that drifts fails CI until this script is run a
 
 A page that renders (``SMOKE``) runs its steps in a smoke run (``HANDEYE_SMOKE_TEST=1``: every preset cut to
 seconds, :mod:`handeye.core.smoke`), and says so above its outputs; the run times and rates a command prints
-change per run and are printed as ``…`` (``TIME``).
+change per run and are printed as ``…`` (``TIME``, and a table's column headed ``s``).
+
+A page whose steps read a recording (``INPUTS``: the markerless guide's, a simulated D435 cell written as ROS 2
+bags, :func:`render_cell`) has it built first, and its steps run with ``HOME`` in their folder (``~/ws/src``).
 """
 
 from __future__ import annotations
@@ -43,15 +46,19 @@ FILES = tuple(
         "docs/guides/poses.md",
         "docs/guides/real-cell.md",
         "docs/guides/simulate-label.md",
+        "docs/guides/markerless.md",
     )
 )
 #: The pages whose steps render: run in a smoke run, their outputs a smoke run's.
 SMOKE = tuple(ROOT / f for f in ("docs/guides/simulate-label.md",))
 #: A run time or rate (``38.6 s``, ``7.5 frames/s``), which changes per run: printed as ``… s``.
 TIME = re.compile(r"\b\d+(?:\.\d+)?(?= (?:s|min|frames/s|camera/s)\b)")
-#: A bash block with a ``handeye`` command, then a plain block: the command's output.
+#: A bash block with a ``handeye`` command (continued over lines ending in ``\\``), then a plain block: the
+#: command's output.
 EXAMPLE = re.compile(
-    r"(^```bash\n(?P<command>handeye [^\n]+)\n```\n\n(?:[^\n`][^\n]*\n)*?\n?```\n)(?P<output>.*?)(^```)", re.S | re.M
+    r"(^```bash\n(?P<command>handeye (?:[^\n]*\\\n)*[^\n]+)\n```\n\n(?:[^\n`][^\n]*\n)*?\n?```\n)"
+    r"(?P<output>.*?)(^```)",
+    re.S | re.M,
 )
 
 
@@ -60,16 +67,107 @@ EXAMPLE = re.compile(
 SETUP = re.compile(r'^```bash\n(?P<setup>python -c "[^"]*")\n```\n', re.M)
 
 
+def mask_times(text: str) -> str:
+    """``text`` with its run times and rates (``TIME``) and the cells of a table's column headed ``s`` as ``…``."""
+    lines, timed = TIME.sub("…", text).splitlines(keepends=True), set()
+    for k, line in enumerate(lines):
+        if not line.startswith("|"):
+            timed = set()
+            continue
+        cells = line.rstrip("\n").split("|")
+        if k == 0 or not lines[k - 1].startswith("|"):  # a table's header
+            timed = {i for i, c in enumerate(cells) if c.strip() == "s"}
+        elif not set(line) <= set("|-: \n"):
+            lines[k] = "|".join(" … " if i in timed else c for i, c in enumerate(cells)) + "\n"
+    return "".join(lines)
+
+
 def run(command: str, folder: Path) -> str:
-    """What ``command`` (a ``handeye`` command line) prints, run in-process in ``folder``."""
+    """What ``command`` (a ``handeye`` command line, continued over lines ending in ``\\``) prints, run
+    in-process in ``folder``; ``~`` is the ``HOME`` of the moment, as a shell expands it."""
     from handeye.cli import main
 
+    words = [os.path.expanduser(w) for w in shlex.split(re.sub(r"\\\n\s*", " ", command))]
     out = io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.chdir(folder):
-        status = main(shlex.split(command)[1:])
+        status = main(words[1:])
     if status != 0:
         raise SystemExit(f"{command!r} exited {status}")
-    return TIME.sub("…", out.getvalue())
+    return mask_times(out.getvalue())
+
+
+def render_cell(root: Path) -> list[dict]:
+    """The markerless guide's recording, built into the empty folder ``root``: two placements of a UR5 cell as
+    a D435 reports depth (8 data frames each at 480x480, 8 board views at 480x480, seed 5; ``sim/``), written
+    as ROS 2 bags as a cell records them (``bags/``, :func:`sim.bag_export.write_placement_bags`), and the
+    board file (``board.json``). About 35 s on the loaded 2-core Xeon.
+
+    Returns
+    -------
+    list of dict
+        Per placement, its bags: ``{"data": Path, "calibration": Path}``.
+    """
+    from classic.vision.board import BoardSpec
+    from handeye.core.dataset import Dataset
+    from handeye.core.engine_protocol import EngineOptions
+    from sim.bag_export import write_placement_bags
+    from sim.cameras import CameraPreset
+    from sim.generate import NoiseModel, Recipe, generate
+
+    preset = CameraPreset(
+        "cell", "ur5", ((0.0, 60.0),), (1,), (1,), 8, calibration_views=8, image_size=(480, 480),
+        calibration_image_size=(480, 480),
+    )  # fmt: skip
+    recipe = Recipe(preset, seed=5, noise=NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01), sensor="d435")
+    generate(root / "sim", recipe, options=EngineOptions(workers=2, progress=False))
+    ds = Dataset.open(root / "sim")
+    BoardSpec(**ds.meta["board"]).save(root / "board.json")
+    return [write_placement_bags(ds, c, root / "bags") for c in range(2)]
+
+
+def cell_inputs(built: Path, folder: Path) -> None:
+    """The markerless guide's inputs in its steps' ``folder``, from a :func:`render_cell` build: the bags
+    ``data_0/ cal_0/ data_1/ cal_1/``, ``board.json``, ``guess.json`` (the first placement's truth 2 cm and
+    2 degrees off), ``my_arm.urdf`` (the UR5's) with its meshes under ``home/ws/src`` (``~/ws/src``)."""
+    import json
+    import shutil
+
+    import example_robot_data as erd
+    import numpy as np
+
+    from handeye.core.dataset import Dataset
+    from handeye.core.se3 import make_transform, so3_exp
+
+    for c in range(2):
+        shutil.copytree(built / "bags" / f"cam_{c:04d}_data", folder / f"data_{c}")
+        shutil.copytree(built / "bags" / f"cam_{c:04d}_calibration", folder / f"cal_{c}")
+    shutil.copy(built / "board.json", folder / "board.json")
+    T = make_transform(so3_exp(np.radians([2.0, 0.0, 0.0])), [0.02, 0.0, 0.0]) @ Dataset.open(built / "sim").truth()[0]
+    (folder / "guess.json").write_text(json.dumps({"T_base_cam": T.tolist()}))
+    loader = erd.robots_loader.UR5Loader()
+    shutil.copy(loader.df_path, folder / "my_arm.urdf")
+    share = Path(loader.model_path).resolve().parents[1]  # holds example-robot-data/, the package
+    (folder / "home" / "ws" / "src").mkdir(parents=True)
+    (folder / "home" / "ws" / "src" / "example-robot-data").symlink_to(share / "example-robot-data")
+
+
+#: The pages whose steps read a recording: the builder that makes it once, and what lays it out in the folder.
+INPUTS = {ROOT / "docs/guides/markerless.md": (render_cell, cell_inputs)}
+
+
+@contextlib.contextmanager
+def home(folder: Path | None):
+    """``HOME`` set to ``folder`` within the block where one is given, as it was before after it."""
+    before = os.environ.get("HOME")
+    if folder is not None:
+        os.environ["HOME"] = str(folder)
+    try:
+        yield
+    finally:
+        if folder is not None and before is None:
+            os.environ.pop("HOME")
+        elif folder is not None:
+            os.environ["HOME"] = before
 
 
 @contextlib.contextmanager
@@ -90,17 +188,26 @@ def smoke_run(on: bool):
             os.environ[ENV] = before
 
 
-def outputs(path: Path, folder: Path | None = None) -> list[tuple[re.Match, str]]:
+def outputs(path: Path, folder: Path | None = None, built: Path | None = None) -> list[tuple[re.Match, str]]:
     """Each example of the file with what its command prints today: the file's steps (its ``python -c``
     blocks and its examples) run in their order in one fresh folder holding the repository's ``handeye/``
     (the shipped example files at the paths the documentation prints); what a step writes is there for the
-    next, and goes with the folder (a temporary one, or the empty ``folder`` given, where it stays)."""
+    next, and goes with the folder (a temporary one, or the empty ``folder`` given, where it stays). A page of
+    ``INPUTS`` has its recording laid out there first, from ``built`` (its builder's folder) or built anew, and
+    its steps run with ``HOME`` the folder's ``home/``."""
     text = path.read_text()
     steps = sorted([*SETUP.finditer(text), *EXAMPLE.finditer(text)], key=lambda m: m.start())
     printed = []
     with contextlib.ExitStack() as stack, smoke_run(path.resolve() in SMOKE):
         folder = folder if folder is not None else stack.enter_context(tempfile.TemporaryDirectory())
         (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
+        if path.resolve() in INPUTS:
+            build, lay_out = INPUTS[path.resolve()]
+            if built is None:
+                built = Path(stack.enter_context(tempfile.TemporaryDirectory()))
+                build(built)
+            lay_out(built, Path(folder))
+            stack.enter_context(home(Path(folder) / "home"))
         for m in steps:
             if "setup" in m.groupdict():
                 env = dict(os.environ, PYTHONPATH=str(ROOT))

@@ -86,21 +86,46 @@ def _make_examples():
 @pytest.mark.parametrize(
     "path",
     # a page that renders (a smoke run: about a minute, two on the loaded 2-core Xeon) is the slow tier's
-    [pytest.param(p, marks=[pytest.mark.slow] if p in _make_examples().SMOKE else []) for p in _make_examples().FILES],
+    # and so is the markerless guide's (a D435 cell registered: 60 s of steps, loaded)
+    [
+        pytest.param(p, marks=[pytest.mark.slow] if p in (*_make_examples().SMOKE, *_make_examples().INPUTS) else [])
+        for p in _make_examples().FILES
+    ],
     ids=lambda p: p.name,
 )
-def test_printed_examples_print_what_is_shown(path, tmp_path):
+def test_printed_examples_print_what_is_shown(path, tmp_path, tmp_path_factory):
     """Each printed example of the page (a ``handeye`` command, then its output) prints what is shown, run as
     ``make_examples`` runs it: the page's steps in order in a fresh folder holding the repository's
     ``handeye/``; every file or folder a command names as its output (:data:`OUTPUT_OPTIONS`) is there after.
-    These steps are the bash blocks of kind p of ``tests/test_docs_shell.py``, not run again there."""
+    These steps are the bash blocks of kind p of ``tests/test_docs_shell.py``, not run again there. A page that
+    reads a recording (``INPUTS``: the markerless guide's D435 cell) reads the one build the run shares with
+    ``test_docs_shell``'s blocks (:func:`d435_cell_build`), not a render of its own."""
     mod = _make_examples()
-    printed = mod.outputs(path, tmp_path)
+    built = None
+    if path in mod.INPUTS:
+        for module in ("pyrender", "pinocchio", "rosbags", "example_robot_data"):
+            pytest.importorskip(module)
+        from tests.shared_renders import shared_build
+
+        built, _ = shared_build(tmp_path_factory, "d435-cell", d435_cell_build)
+    printed = mod.outputs(path, tmp_path, built)
     assert printed, f"{path.name}: no printed example"
     for m, output in printed:
         _same_within_last_digit(output, m["output"])
         for out in written_paths(m["command"]):
             assert (tmp_path / out).exists(), f"{path.name}: {m['command']!r} did not write {out}"
+
+
+def d435_cell_build(root: Path) -> list[dict]:
+    """The markerless guide's cell (``docs/make_examples.py``'s ``render_cell``: ``sim/``, ``bags/``,
+    ``board.json``) and its bags imported as ``my-cell/`` (for ``test_docs_shell``'s blocks); its bags per
+    placement. Built once a run (``tests.shared_renders.shared_build``, key ``d435-cell``)."""
+    from handeye.cli import main
+
+    bags = _make_examples().render_cell(root)
+    argv = ["import", "bag", *(str(b["data"]) for b in bags), "--calibration", *(str(b["calibration"]) for b in bags)]
+    assert main([*argv, "--robot", "ur5", "--board", str(root / "board.json"), "--out", str(root / "my-cell")]) == 0
+    return bags
 
 
 def printed_steps() -> set[tuple[str, int]]:
@@ -260,7 +285,7 @@ def test_one_script_regenerates_every_printed_output(tmp_path, monkeypatch):
     """``docs/make_examples.py`` finds the printed outputs (the README's and the getting-started page's) and
     rewrites one that went stale; ``test_printed_examples_print_what_is_shown`` keeps them current."""
     mod = _make_examples()
-    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5, 4, 4, 5, 3]
+    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5, 4, 4, 5, 3, 4]
     stale = tmp_path / "README.md"
     stale.write_text(README.read_text().replace("15 poses, method auto", "14 poses, method auto", 1))
     text, changed = mod.regenerate(stale)
@@ -277,6 +302,10 @@ def test_run_times_are_masked_and_nothing_else():
     line = "rendered 18 camera poses (288 frames, 38.6 s, 7.5 frames/s); label vs truth 0.0029 deg / 0.049 mm (2 s)"
     want = "rendered 18 camera poses (288 frames, … s, … frames/s); label vs truth 0.0029 deg / 0.049 mm (… s)"
     assert mod.TIME.sub("…", line) == want
+    table = "| camera | sigma | s |\n|---|---|---|\n| 0 | 6.141 | 13.2 |\nin 34 s\n| s |\n|---|\n| 2 |\n"
+    assert mod.mask_times(table) == (
+        "| camera | sigma | s |\n|---|---|---|\n| 0 | 6.141 | … |\nin … s\n| s |\n|---|\n| … |\n"
+    )
 
 
 def test_documented_installs_name_extras_the_project_has():
