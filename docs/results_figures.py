@@ -94,6 +94,12 @@ def command_of(path: Path) -> str:
     raise ValueError(f"{path}: no 'command:' line in its first four lines")
 
 
+def run_of(path: Path) -> str:
+    """``"<date> on <machine>"`` from a results file's ``date:`` and ``machine:`` lines (its first four)."""
+    head = dict(line.split(": ", 1) for line in path.read_text(encoding="utf-8").splitlines()[:4] if ": " in line)
+    return f"{head['date']} on {head['machine']}"
+
+
 def _caption(what: str, files: list[tuple[Path, str]]) -> str:
     made = "; ".join(f"`{p.relative_to(ROOT)}`, made by `{cmd}`" for p, cmd in files)
     return f"{what} From {made}; drawn by `{DRAWN_BY}`."
@@ -271,10 +277,80 @@ def markerless_basin(out: Path) -> Figure:
         out / "markerless_basin.png",
         _caption(
             "Markerless basin of convergence: the share of trials that succeed, refuse or answer wrong against how "
-            "far the start is off (translation and rotation together: the results hold these four cells, not a "
-            "two-dimensional map).",
+            "far the start is off (translation and rotation off together, along the diagonal of the map below).",
             [(src, command_of(src)) for src in sources],
         ),
+    )
+
+
+def basin_map_cells(src: Path) -> dict[str, dict[tuple[int, float], dict[str, int]]]:
+    """The basin tables of a map's results file: per start (``"given start alone"`` or ``"centroid start
+    beside"``), per cell ``(mm, deg)``, the counts ``n``, ``good``, ``wrong``, ``far`` (wrong and beyond 3 sigma),
+    ``refused``."""
+    out: dict[str, dict[tuple[int, float], dict[str, int]]] = {}
+    for heading, header, rows in tables(src):
+        if not heading.startswith("Basin"):
+            continue
+        start = "centroid start beside" if "centroid" in heading else "given start alone"
+        cells = out.setdefault(start, {})
+        for r in rows:
+            mm, deg = re.fullmatch(r"(\d+) mm, ([0-9.]+) deg", r[0]).groups()
+            good, n = (int(v) for v in r[1].split()[0].split("/"))
+            cells[(int(mm), float(deg))] = {
+                "n": n,
+                "good": good,
+                "wrong": int(r[header.index("wrong answer")]),
+                "far": int(r[header.index("of which beyond 3 sigma")]),
+                "refused": int(r[header.index("refused")]),
+            }
+    return out
+
+
+def markerless_basin_map(out: Path) -> Figure:
+    """Basin of convergence as a map: start translation against start rotation, the given start alone and with
+    the centroid start beside; colour the share of trials in the right basin, text the counts."""
+    src = RESULTS / "markerless_basin_map_small.md"
+    starts = basin_map_cells(src)
+    order = [s for s in ("given start alone", "centroid start beside") if s in starts]
+    fig, axes = plt.subplots(1, len(order), figsize=(11, 5.0), dpi=100, squeeze=False)
+    fig.subplots_adjust(left=0.07, right=0.9, bottom=0.1, top=0.93, wspace=0.18)
+    for ax, start in zip(axes[0], order):
+        cells = starts[start]
+        mms, degs = sorted({mm for mm, _ in cells}), sorted({deg for _, deg in cells})
+        share = np.full((len(mms), len(degs)), np.nan)
+        for (mm, deg), c in cells.items():
+            i, j = mms.index(mm), degs.index(deg)
+            share[i, j] = 100 * (c["good"] + c["wrong"] - c["far"]) / c["n"]
+            text = [f"{c['good'] + c['wrong'] - c['far']}/{c['n']}", f"{c['good']} in 1 mm"]
+            text += [f"{c['refused']} refused"] * bool(c["refused"]) + [f"{c['far']} WRONG"] * bool(c["far"])
+            ax.text(
+                j,
+                i,
+                "\n".join(text),
+                ha="center",
+                va="center",
+                fontsize=6.5,
+                color="red" if c["far"] else ("white" if share[i, j] < 50 else "black"),
+            )
+        im = ax.imshow(share, origin="lower", cmap="viridis", vmin=0, vmax=100, aspect="auto")
+        ax.set_xticks(range(len(degs)), [f"{d:g}" for d in degs])
+        ax.set_yticks(range(len(mms)), [str(m) for m in mms])
+        ax.set_xlabel("start rotated off by [deg]")
+        ax.set_ylabel("start translated off by [mm]")
+        n = next(iter(cells.values()))["n"]
+        ax.set_title(f"{start} ({n} trials a cell)", fontsize=10)
+    fig.colorbar(im, ax=axes[0].tolist(), fraction=0.03, pad=0.02, label="accepted within 3 sigma of the truth [%]")
+    return _save(
+        fig,
+        out / "markerless_basin_map.png",
+        _caption(
+            "Markerless basin of convergence on the small preset, mapped: start translation against start rotation "
+            "(about a random axis and direction). Colour and first line: the trials accepted within 3 predicted "
+            "sigmas of the truth (the right basin); then those also within 1 mm / 0.1 deg, the refusals, and in red "
+            f"the answers accepted beyond 3 sigma (a wrong basin). Run {run_of(src)}.",
+            [(src, command_of(src))],
+        ),
+        laid_out=True,
     )
 
 
@@ -532,6 +608,7 @@ RESULT_FIGURES = (
     markerless_sensors,
     learned_steps,
     markerless_basin,
+    markerless_basin_map,
     markerless_errors,
 )
 

@@ -166,3 +166,30 @@ def test_the_sensor_figure_reads_the_charuco_lines():
         "paper-sim-0.7": None,
         "paper-sim-1.8": 0.45,
     }
+
+
+def test_the_basin_map_reads_every_cell_of_both_starts():
+    """The map's file holds a full grid per start (the given start alone and with the centroid start beside), every
+    cell's trials counted once: the accepted ones within 1 mm or wrong, plus the refused, make its trials; the
+    wrong answers beyond 3 sigma are among the wrong ones."""
+    starts = rf.basin_map_cells(rf.RESULTS / "markerless_basin_map_small.md")
+    assert sorted(starts) == ["centroid start beside", "given start alone"]
+    for cells in starts.values():
+        mms, degs = {mm for mm, _ in cells}, {deg for _, deg in cells}
+        assert len(mms) > 1 and len(degs) > 1 and len(cells) == len(mms) * len(degs)
+        assert 2.5 in degs
+        for c in cells.values():
+            assert c["good"] + c["wrong"] + c["refused"] == c["n"]
+            assert 0 <= c["far"] <= c["wrong"]
+
+
+def test_the_basin_map_parses_a_fractional_degree(tmp_path):
+    path = tmp_path / "r.md"
+    path.write_text(
+        "command: python x.py\n\n## Basin: d, 6 trials per cell; the given start alone\n\n"
+        "| start off by | success | wrong answer | of which beyond 3 sigma | refused |\n|---|---|---|---|---|\n"
+        "| 25 mm, 2.5 deg | 3/6 (50 %) | 2 | 1 | 1 |\n"
+    )
+    assert rf.basin_map_cells(path) == {
+        "given start alone": {(25, 2.5): {"n": 6, "good": 3, "wrong": 2, "far": 1, "refused": 1}}
+    }
