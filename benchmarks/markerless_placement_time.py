@@ -9,6 +9,12 @@ change meant to be faster only can be checked to give the same one (``--save`` /
     OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 taskset -c 0 python benchmarks/markerless_placement_time.py \\
         --data data/sensor-bands/paper-real-1.2 --placement 0 --repeat 2
 
+``--pixel-effect-px N`` and ``--option key=value`` change the options as :mod:`benchmarks.markerless_errors` does
+(its ``--pixel-effect-px``, ``--option``), to time an option against the defaults on the same placement::
+
+    OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/markerless_placement_time.py \\
+        --data data/sensor-bands/paper-real-1.2 --placement 0 --case 10 --repeat 1 --pixel-effect-px 2
+
 ``--profile out.prof``: a cProfile of the last repeat (read it with ``python -m pstats``).
 """
 
@@ -23,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.markerless_errors import cases, diagnostic_cases  # noqa: E402
+from benchmarks.markerless_errors import cases, diagnostic_cases, parse_option  # noqa: E402
 from benchmarks.markerless_sensors import front_options, observe, placements, told_intrinsics, told_posed  # noqa: E402
 from classic.markerless.register import register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
@@ -44,6 +50,18 @@ def main() -> int:
     ap.add_argument("--case", type=int, default=1, help="markerless_errors.py's case number (1: d435 as is)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensor's draws")
     ap.add_argument("--repeat", type=int, default=2, help="time the registration this many times")
+    ap.add_argument(
+        "--pixel-effect-px",
+        type=int,
+        help="MarkerlessOptions.pixel_effect_px of the run (default: the front's default)",
+    )
+    ap.add_argument(
+        "--option",
+        type=parse_option,
+        action="append",
+        default=[],
+        help="key=value: a further MarkerlessOptions field of the run, as markerless_errors.py's --option; repeatable",
+    )
     ap.add_argument("--profile", type=Path, help="write a cProfile of the last repeat here")
     ap.add_argument("--save", type=Path, help="write the answer (T_base_cam, sigma) here (.npy)")
     ap.add_argument("--compare", type=Path, help="print the answer's largest difference from one --save wrote")
@@ -55,10 +73,14 @@ def main() -> int:
     K = told_intrinsics(ds.meta["intrinsics"]["K"], case.get("intrinsics"))
     depth, q, _ = observe(ds, c, case["sensor"], args.seed, case.get("registration"))
     posed, _ = told_posed(surface, q, ds.truth()[c], case.get("joints"))
-    opts = front_options(case["sensor"], stride)
+    options = dict(args.option)
+    if args.pixel_effect_px is not None:
+        options["pixel_effect_px"] = args.pixel_effect_px
+    opts = front_options(case["sensor"], stride, **options)
     print(
         f"{ds.root.name}, camera {c}, case {args.case} ({case['name']}): {depth.shape[0]} frames "
-        f"{depth.shape[2]}x{depth.shape[1]}, z-buffer stride {stride}"
+        f"{depth.shape[2]}x{depth.shape[1]}, z-buffer stride {stride}, pixel_effect_px {opts.pixel_effect_px}"
+        + "".join(f", {k}={v}" for k, v in args.option)
     )
     for i in range(args.repeat):
         profiler = None
