@@ -23,6 +23,10 @@ Run from the repository root, on datasets rendered with the default sensor noise
    ``--basin-cells 50:5,100:10`` lists the offsets; ``--basin-grid 0,50,100:0,2.5,5`` maps every
    translation against every rotation.
 
+``--option key=value`` sets a :class:`classic.markerless.MarkerlessOptions` field for every run, e.g.
+``--option intrinsics_model=fixed``: the depth camera's matrix taken as exact (a user who calibrated it), where
+the default estimates it with the pose.
+
 Prints markdown tables, and writes them to ``--results`` when it names a file (printed only without it).
 """
 
@@ -42,6 +46,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._machine import machine  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
+from benchmarks.markerless_errors import parse_option  # noqa: E402
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
@@ -222,6 +227,14 @@ def main(argv=None):
         type=parse_basin_grid,
         help="a map instead of --basin-cells: every translation with every rotation, e.g. 0,50,100:0,2.5,5",
     )
+    ap.add_argument(
+        "--option",
+        type=parse_option,
+        action="append",
+        default=[],
+        help="key=value: a MarkerlessOptions field beside the defaults, for every run (intrinsics_model=fixed: "
+        "the camera matrix taken as exact, as for a user who calibrated it); repeatable",
+    )
     Report.add_out(ap, "--results")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
@@ -241,7 +254,7 @@ def main(argv=None):
     ds = Dataset.open(args.data)
     surface, stride = robot_surface_for(ds)
     sigma_1m = ds.meta.get("recipe", {}).get("noise", {}).get("depth_sigma_m_at_1m", 0.001) or 0.001
-    opts = MarkerlessOptions(depth_sigma_m_at_1m=sigma_1m, zbuffer_stride=stride)
+    opts = MarkerlessOptions(depth_sigma_m_at_1m=sigma_1m, zbuffer_stride=stride, **dict(args.option))
     cams_table = ds.cameras()
     cams = [c for c in range(len(ds)) if args.split == "all" or cams_table["split"][c] == args.split]
     w, h = ds.meta["intrinsics"]["width"], ds.meta["intrinsics"]["height"]
@@ -251,6 +264,9 @@ def main(argv=None):
         f"depth noise {sigma_1m * 1e3:g} mm at 1 m, no start given"
     )
     emit()
+    if args.option:
+        emit("Options beside the defaults: " + ", ".join(f"{k}={v}" for k, v in args.option) + ".")
+        emit()
     rows = accuracy(ds, cams, surface, opts)
     truth, labels = ds.truth(), ds.labels()
     lab = np.array([pose_error(labels[c], truth[c]) for c in cams])
