@@ -124,11 +124,14 @@ class MarkerlessOptions:
         Above 0: marginalise a depth error per image cell of this many pixels square, the same in every frame where
         the arm covers the cell (a sensor's fixed pattern, correlated over a few pixels), under a sigma measured
         from the residuals (:mod:`classic.markerless.pixel_effect`). 0 (the default): not modelled. Off by default:
-        it takes out what repeats within a cell, not the pattern's correlation between cells, and the sigma then
-        runs short of the error (the pattern alone, 2 px cells: 2.69 mm at a sigma of 1.29 mm, 2.1 sigma; without
-        it 5.82 mm); it does not always help (paper-sim's fixed-pattern row 0.89 -> 1.29 mm median, paper-real's
-        4.07 -> 3.53); measured with 2 px cells on ten simulated placements only
-        (``benchmarks/results/markerless_errors.md``), never on a real sensor.
+        it does not always help. On the error table's every row (paper-real and paper-sim at 1.2 m, five
+        placements each, 2 px cells) it leaves 0 beyond 3 sigma and the all-together rows improve (2.60 and 1.39
+        mm median against 5.13 and 1.94), but paper-sim's fixed-pattern row worsens 0.89 -> 1.28 mm median (3 px
+        cells: 1.43); it takes out what repeats within a cell, not the pattern's correlation between cells, and
+        the sigma then runs short of the error (the pattern alone, 2 px cells: 2.69 mm at a sigma of 1.29 mm).
+        Its cost: about 1.3-1.5 s more CPU per placement (all together, paper-real: 6.4-6.5 -> 7.8-8.0 s on one
+        core). Measured on simulated placements only (``benchmarks/results/markerless_errors.md``), never on a
+        real sensor.
     repeated_error_px : int
         Above 0: the sigma holds what a depth error repeated at one image position in every frame adds (a fixed
         pattern; an error of the camera matrix or the depth image's registration the fit leaves), its covariance
