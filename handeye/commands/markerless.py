@@ -27,6 +27,7 @@ from pathlib import Path
 
 from handeye.commands import GLOSSARY_WHERE
 from handeye.core.numbers import cli_float, cli_int, parse_float
+from handeye.robot.depth_sensors import FACTORY_ROLL_BOUND_DEG
 
 __all__ = ["add_parser", "run"]
 
@@ -75,7 +76,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
         metavar="DEG",
         help="uncertainty of the depth-to-colour rotation per axis, degrees: depth aligned through a turned "
         "extrinsic is a turned camera's, which no registration can tell apart, so it is added to the rotation "
-        "sigma (default: the sensor profile's; a shift of the depth image is estimated with the principal point)",
+        "sigma (default: the sensor profile's bound for a real unit, at least "
+        f"{FACTORY_ROLL_BOUND_DEG:g} where depth and colour come from separate imagers; a simulated dataset's own "
+        "draw; a shift of the depth image is estimated with the principal point)",
     )
     p.add_argument(
         "--stereo-fb",
@@ -248,7 +251,7 @@ def sensor_of(name: str | None, recipe: dict):
     sensor = replace(sensor_profile(UNNAMED_CAMERA_PRIOR), stereo_baseline_m=0.0)
     print(
         f"no --sensor: the depth-to-colour registration taken as uncertain by {sensor.extrinsic_sigma_m * 1e3:g}"
-        f" mm and {sensor.registration_roll_sigma_deg:g} deg per axis (the {UNNAMED_CAMERA_PRIOR} profile's); "
+        f" mm and {sensor.registration_roll_bound_deg:g} deg per axis (the {UNNAMED_CAMERA_PRIOR} profile's); "
         "name your camera with --sensor"
     )
     return sensor
@@ -269,7 +272,12 @@ def _sensor_terms(args: argparse.Namespace) -> tuple[float, float, float | None]
     recipe = {} if args.sensor is not None else Dataset.open(args.dataset).meta.get("recipe", {})
     sensor = sensor_of(args.sensor, recipe)
     extrinsic_m = sensor.extrinsic_sigma_m if sensor is not None else 0.0
-    extrinsic_deg = sensor.registration_roll_sigma_deg if sensor is not None else 0.0
+    # a camera named, or a real recording's unnamed one: a real unit's bound (naming a camera whose profile draws no
+    # turn must not make the sigma tighter than naming none); a simulated dataset's own sensor: its drawn spread
+    simulated = args.sensor is None and str(recipe.get("generator", "")).startswith("handeye sim")
+    extrinsic_deg = 0.0
+    if sensor is not None:
+        extrinsic_deg = sensor.registration_roll_sigma_deg if simulated else sensor.registration_roll_bound_deg
     if args.registration_sigma is not None:
         if not 0 <= args.registration_sigma < 180:
             raise HandEyeInputError(

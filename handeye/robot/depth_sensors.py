@@ -26,7 +26,15 @@ import numpy as np
 
 from handeye.core.errors import HandEyeInputError
 
-__all__ = ["DepthSensor", "PROFILES", "sensor_profile"]
+__all__ = ["DepthSensor", "PROFILES", "sensor_profile", "FACTORY_ROLL_BOUND_DEG"]
+
+#: The depth-to-colour rotation a real unit's factory extrinsic is taken to be off by, per axis, degrees, where
+#: depth and colour come from separate imagers (``extrinsic_sigma_m > 0``): the ``d435-real-cell`` profile's
+#: spread. The simulator draws no such turn for the other profiles (their rendered depth is registered exactly),
+#: but a camera of that model in a real cell has one: the front bounds it by this much
+#: (:attr:`DepthSensor.registration_roll_bound_deg`), so that naming the camera never makes the rotation's sigma
+#: tighter than naming none (the unnamed camera's prior is ``d435-real-cell``).
+FACTORY_ROLL_BOUND_DEG = 0.2
 
 
 @dataclass(frozen=True)
@@ -143,6 +151,14 @@ class DepthSensor:
         if stereo and self.stereo_baseline_m > 0 and self.native_focal_px > 0:
             return float(self.native_focal_px * self.stereo_baseline_m)
         return None
+
+    @property
+    def registration_roll_bound_deg(self) -> float:
+        """The depth-to-colour rotation's bound per axis for a real unit of this model, degrees: the profile's
+        drawn spread, and at least :data:`FACTORY_ROLL_BOUND_DEG` where depth and colour come from separate
+        imagers (``extrinsic_sigma_m > 0``); 0 for one imager (a Zivid) or an ideal camera."""
+        floor = FACTORY_ROLL_BOUND_DEG if self.extrinsic_sigma_m > 0 else 0.0
+        return float(max(self.registration_roll_sigma_deg, floor))
 
     def sigma_m(self, z_m: np.ndarray) -> np.ndarray:
         """Axial noise sigma at depth ``z_m`` (metres), any shape."""

@@ -127,6 +127,35 @@ def test_a_real_recording_without_a_sensor_gets_a_stated_registration_prior(caps
     assert sensor_of("zivid", {}) == PROFILES["zivid"]
 
 
+def test_naming_a_camera_never_makes_the_rotation_bound_tighter_than_naming_none(tmp_path):
+    """``--sensor d435`` on a real recording bounded the depth-to-colour rotation at 0 (the profile draws no turn in
+    the simulator) where naming no camera bounded it at the unnamed prior's 0.2 deg: a real unit of a model with
+    separate depth and colour imagers gets the factory bound; one imager (zivid) none; a simulated dataset read
+    without ``--sensor`` keeps its own sensor's draw (exact registration)."""
+    from argparse import Namespace
+
+    from handeye.commands.markerless import UNNAMED_CAMERA_PRIOR, _sensor_terms
+    from handeye.core.dataset import Dataset
+    from handeye.robot.depth_sensors import FACTORY_ROLL_BOUND_DEG, PROFILES
+
+    def rotation(sensor, dataset=tmp_path):
+        args = Namespace(
+            sensor=sensor, registration_sigma=None, stereo_fb=None, depth_model="scale-offset", dataset=dataset
+        )
+        return _sensor_terms(args)[1]
+
+    for separate in ("d435", "d455", "l515", "azure-kinect"):
+        assert PROFILES[separate].registration_roll_sigma_deg == 0  # what made the named bound 0
+        assert rotation(separate) == FACTORY_ROLL_BOUND_DEG
+    assert rotation("zivid") == 0.0
+    assert rotation(UNNAMED_CAMERA_PRIOR) == PROFILES[UNNAMED_CAMERA_PRIOR].registration_roll_sigma_deg
+    assert rotation("d435") >= PROFILES[UNNAMED_CAMERA_PRIOR].registration_roll_sigma_deg
+    with pytest.MonkeyPatch.context() as mp:
+        rendered = {"generator": "handeye sim generate", "sensor": PROFILES["d435"].to_dict()}
+        mp.setattr(Dataset, "open", staticmethod(lambda path: Namespace(meta={"recipe": rendered})))
+        assert rotation(None) == 0.0
+
+
 def test_the_run_says_which_part_was_estimated_and_which_bounded(turned):
     from handeye.markerless import MarkerlessRun
 
