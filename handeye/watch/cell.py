@@ -127,7 +127,8 @@ def markerless_recalibration(
     :meth:`handeye.watch.learner.BackgroundLearner.starts`) and the moving pixels' centroids. Unless ``options``
     are given: the camera matrix and the joints taken as exact, as the check takes them, the depth's scale and
     offset estimated (the check then uses them), and the sensor profile's depth noise and depth-to-colour
-    extrinsic bound.
+    extrinsic bounds (the rotation's a real unit's:
+    :attr:`handeye.robot.depth_sensors.DepthSensor.registration_roll_bound_deg`).
     """
     if options is None:
         # the check takes the camera matrix and the joints as given and corrects the depth by the scale and offset
@@ -139,6 +140,7 @@ def markerless_recalibration(
             zbuffer_stride=zbuffer_stride,
             joint_offsets_model="fixed",
             depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
+            depth_extrinsic_sigma_deg=sensor.registration_roll_bound_deg,  # a real unit's, as the front's --sensor
         )
 
     def recalibrate(frames: list[Frame], T_start: np.ndarray, extra_starts: dict | None = None):
