@@ -22,6 +22,7 @@ joint offsets' truth is the camera in the robot's kinematic base frame
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -175,10 +176,13 @@ def main():
         rep.say(f"With a depth error per {args.pixel_effect_px} px image cell marginalised (--pixel-effect-px).\n")
     if args.option:
         rep.say("Options beside the front's defaults: " + ", ".join(f"{k}={v}" for k, v in args.option) + ".\n")
+    cores = len(os.sched_getaffinity(0))
+    load = os.getloadavg()[0]
     rep.say(
         "Each row: one error the method is not told (the last, all together), the front's defaults. Wrong: "
         "accepted more than 3 predicted sigmas from the truth (translation or rotation). Time: wall seconds per "
-        "placement (the registration; one core under taskset)."
+        f"placement (the registration), on {cores} core{'s' if cores > 1 else ''} this process may use, the "
+        f"machine's load {load:.1f} at the start: wall time under load is not one core's time."
     )
     # the bands markerless_sensors.py renders with its default seed (render seed 1): the same datasets
     data = args.data or [render_band(args.work, preset, args.band, 1) for preset in args.presets]
