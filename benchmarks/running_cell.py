@@ -25,6 +25,8 @@ Printed and written (``--out``):
 - what the watcher said during each occlusion and dropout (the share of their frames it called so);
 - the check's cost per frame (wall time of ``feed`` on frames without a recalibration, numpy on one
   thread) and each recalibration's time;
+- with ``--profiles``, a detection-delay table: one bumps stream per sensor profile, ``--profile-minutes`` long at
+  ``--profile-size`` and ``--profile-rate`` (``--streams`` with no name: only these);
 - with ``--plot``, a PNG beside ``--out``: the CUSUM statistic against its threshold over time, with the
   events.
 
@@ -86,7 +88,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--data", type=Path, default=None, help="folder of the rendered streams (reused when there)")
     p.add_argument("--sensor", default="d435")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--rate", type=float, default=5.0, help="frames per second of both streams")
+    p.add_argument("--rate", type=float, default=5.0, help="frames per second of the streams")
     p.add_argument("--minutes", type=float, default=None, help="length of the bumps stream (default the preset's)")
     p.add_argument("--static-minutes", type=float, default=3.0, help="length of the static stream")
     p.add_argument("--size", type=image_size, default=(256, 256), help="image WIDTHxHEIGHT")
@@ -103,6 +105,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     )
     p.add_argument("--profile-minutes", type=float, default=2.5, help="length of the profiles' bumps streams")
     p.add_argument("--profile-size", type=image_size, default=(128, 128), help="the profiles' streams' size")
+    p.add_argument(
+        "--profile-rate", type=float, default=None, help="the profiles' streams' frames per second (default --rate)"
+    )
     p.add_argument("--null-seconds", type=float, default=10.0, help="seconds the watcher learns 'nothing moved'")
     p.add_argument(
         "--relearn-seconds", type=float, default=3.0, help="seconds the bias is relearnt over after a commit"
@@ -110,7 +115,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--recal-frames", type=int, default=20, help="frames a recalibration uses")
     p.add_argument("--false-alarms-per-hour", type=float, default=1.0, help="the watcher's stated bound")
     p.add_argument(
-        "--streams", nargs="+", choices=("bumps", "static"), default=["bumps", "static"], help="which to replay"
+        "--streams",
+        nargs="*",
+        choices=("bumps", "static"),
+        default=["bumps", "static"],
+        help="which to replay (none given: only the --profiles)",
     )
     p.add_argument("--workers", type=int, default=2, help="rendering processes")
     p.add_argument("--plot", action="store_true", help="a PNG of the statistic and the events beside --out")
@@ -133,7 +142,7 @@ def stream_dir(data: Path, preset: str, args, sensor: str | None = None) -> Path
     if preset == "static":
         minutes, size, rate = args.static_minutes, args.static_size or args.size, args.static_rate or args.rate
     if sensor is not None:
-        minutes, size = args.profile_minutes, args.profile_size
+        minutes, size, rate = args.profile_minutes, args.profile_size, args.profile_rate or args.rate
     generate_stream(
         root, preset, args.seed, sensor or args.sensor, minutes, rate, size, workers=args.workers, progress=False
     )
@@ -536,12 +545,16 @@ def report_profiles(rep: Report, runs: list[tuple[str, Replay, dict, object]]) -
         rep.say(f"| {name} | " + " | ".join(cells) + f" | {extra} | {learning:.0f} / {stale:.0f} |")
 
 
-def report_cost(rep: Report, runs: list[Replay]) -> None:
+def report_cost(rep: Report, runs: list[Replay], which: str = "the streams") -> None:
+    """The check's cost per frame and the recalibrations' times over ``runs`` (``which`` names them)."""
+    if not runs:
+        return
     wall, cpu = np.concatenate([r.feed_s for r in runs]).reshape(-1, 2).T * 1e3
     recal = [s for r in runs for s, _ in r.recal]
     rep.say("## Cost")
     rep.say(
-        f"check per frame (feed without a recalibration, numpy on one thread) over {len(cpu)} frames: CPU time "
+        f"check per frame on {which} (feed without a recalibration, numpy on one thread) over {len(cpu)} frames: "
+        "CPU time "
         f"median {np.median(cpu):.1f} ms, 95th percentile {np.percentile(cpu, 95):.1f} ms; wall time median "
         f"{np.median(wall):.1f} ms (the machine's load: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
     )
@@ -576,7 +589,10 @@ def main(argv=None) -> int:
         profiles.append((name, run, doc, ds))
     report_profiles(rep, profiles)
     rep.say()
-    report_cost(rep, [run for run, _, _ in runs.values()])
+    if runs:
+        report_cost(rep, [run for run, _, _ in runs.values()])
+    else:  # only the profiles replayed: their cost
+        report_cost(rep, [run for _, run, _, _ in profiles], "the profiles' streams")
     if args.plot and args.out:
         for name, (run, doc, _) in runs.items():
             png = str(Path(args.out).with_suffix("")) + f"_{name}.png"
