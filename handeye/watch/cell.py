@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from classic.markerless import MarkerlessOptions, register_robot
-from handeye.watch.change import Cusum, NullModel, fit_depth_unit, fit_null
+from handeye.watch.change import Cusum, NullModel, NullScale, fit_depth_unit, fit_null
 from handeye.watch.check import CheckOptions, FrameCheck, check_frame, unit_correction
 from handeye.watch.events import Event
 from handeye.watch.history import History
@@ -252,6 +252,7 @@ class CellWatcher:
         self._note = ""  # said with the first frame watched after the first learning
         self._settling, self._unit_rounds = False, 0  # the depth correction fitted again after the first learning
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
+        self._last_q: np.ndarray | None = None  # the previous frame's joints (a new arm pose for the null's scale)
         self._collected: list[Frame] = []
         self._history_stamp = None if self.history is None else self.history.stamp()
 
@@ -295,10 +296,17 @@ class CellWatcher:
         check = self._check(frame)
         self.last_check = check
         was_stale = self.stale_since is not None
+        q = np.asarray(frame.joints, dtype=float)
+        step = self.options.recal_min_joint_step_rad
+        new_pose = self._last_q is None or bool(np.abs(q - self._last_q).max() >= step)
+        self._last_q = q
         if self.mode == "learning":
-            state, detail = self._learn(check, frame.t)
+            state, detail = self._learn(check, frame)
         elif self.mode in ("watching", "relearning"):
-            state, detail = self.states.classify(check) if self.mode == "watching" else self._relearn(check, frame)
+            if self.mode == "watching":
+                state, detail = self.states.classify(check, new_pose=new_pose)
+            else:
+                state, detail = self._relearn(check, frame, new_pose)
             if state == "moved":
                 self.mode, self.stale_since, self._collected, self._null_checks = "collecting", frame.t, [], []
         else:
@@ -352,11 +360,12 @@ class CellWatcher:
     def _event(self, t: float, state: str, detail: str) -> Event:
         return Event(t, state, self.state, detail, self.stale_since, self.version)
 
-    def _learn(self, check: FrameCheck, t: float) -> tuple[str, str]:
+    def _learn(self, check: FrameCheck, frame: Frame) -> tuple[str, str]:
+        t = frame.t
         unusable = screen(check, self.options.states)
         lost = is_lost(check, self.options.states)
         if unusable is None and not lost:
-            self._null_checks.append(check)
+            self._pool(check, frame)  # its distinct arm poses counted (the scale's, NullScale)
             self._misfits = 0
         elif unusable is None or unusable[0] == "occluded":
             self._misfits += 1
@@ -373,10 +382,12 @@ class CellWatcher:
         self.depth_correction = (k + float(u[0]), c0 + float(u[1]))
         self.null = fit_null(deltas, covariances)
         cusum = Cusum(self.options.frames_per_false_alarm, self.options.rho)
-        self.states = FrameStates(self.null, cusum, self.options.states)
+        scale = NullScale(self.null.samples, len(self._poses))
+        self.states = FrameStates(self.null, cusum, self.options.states, scale)
         self.mode, self._settling = "relearning", True  # the bias anew against the corrected depth, watching on
         self._note = (
-            f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f}, threshold {cusum.h:.2f} "
+            f"null learnt from {n} frames: chi2 scale {self.null.scale:.2f} (used at its upper bound "
+            f"{scale.bound:.2f} from {scale.poses} arm poses, narrowed as frames are watched), threshold {cusum.h:.2f} "
             f"(designed for {self.options.false_alarms_per_hour:g} false alarm per hour at {self.options.rate_hz:g} Hz "
             f"while the frames follow the null learnt: the measured rate is in "
             f"docs/benchmarks/running-cell.md); depth correction now k {self.depth_correction[0]:.5f}, "
@@ -384,9 +395,12 @@ class CellWatcher:
         )
         return "learning", f"null learnt from {n} frames; the bias against the corrected depth next"
 
-    def _relearn(self, check: FrameCheck, frame: Frame) -> tuple[str, str]:
+    def _relearn(self, check: FrameCheck, frame: Frame, new_pose: bool = True) -> tuple[str, str]:
         """The bias of a new calibration (or depth correction) learnt while the change test watches on (its error
-        counted over the pool's distinct arm poses, :meth:`_pool_null`)."""
+        counted over the pool's distinct arm poses, :meth:`_pool_null`). Frames in a row that fit nowhere before
+        it watches are "moved" after ``relearn_frames`` of them, or while the first learning's depth correction
+        settles, after ``null_frames`` (the calibration has just fit that many: it is the first learning's
+        question, over its window; a person passing for 5 s read as a move at 2 Hz)."""
         o, pool = self.options, self._null_checks
         n, unusable = len(pool), screen(check, o.states)
         usable = unusable is None and not is_lost(check, o.states)
@@ -396,11 +410,11 @@ class CellWatcher:
                 self._misfits = 0
             elif unusable is None or unusable[0] == "occluded":
                 self._misfits += 1
-            if self._misfits >= o.relearn_frames:  # the new calibration fits no frame: moved again meanwhile
+            if self._misfits >= (o.null_frames if self._settling else o.relearn_frames):  # moved again meanwhile
                 return "moved", f"the calibration fits none of the last {self._misfits} frames (lost or occluded)"
             return "learning", f"{len(pool)} of {o.relearn_min_frames} frames before watching the new bias again"
-        self.states.null = self._pool_null(self.null.scale)
-        state, detail = self.states.classify(check, drift=False)
+        self.states.null = self._pool_null(self.states.null.scale)  # the scale in use (NullScale's bound)
+        state, detail = self.states.classify(check, drift=False, new_pose=new_pose)
         detail, self._note = self._note + detail, ""
         if usable and state == "ok":
             self._pool(check, frame)
@@ -437,7 +451,7 @@ class CellWatcher:
         else the null refitted, scale and all, on these frames."""
         deltas = np.stack([c.delta for c in pool])
         if not self._settling:
-            self.null, self._null_checks = self._pool_null(self.null.scale), []
+            self.null, self._null_checks = self._pool_null(self.states.null.scale), []
             self.states.null, self.mode = self.null, "watching"
             return f"bias learnt from {len(pool)} frames"
         covariances, gains = np.stack([c.covariance for c in pool]), np.stack([c.unit_gain for c in pool])
@@ -453,11 +467,13 @@ class CellWatcher:
             self.states.rearm()
             return f"depth correction changed by {u[0]:+.5f}, {u[1] * 1e3:+.2f} mm: the bias relearnt against it"
         self.null, self._settling = settled, False
+        self.states.scale = NullScale(settled.samples, len(self._poses))  # the scale anew at the settled unit
         self.states.rearm(self.null)
         self.mode = "watching"
         return (
             f"null refitted from {len(pool)} frames at the settled depth correction (k {self.depth_correction[0]:.5f},"
-            f" c {self.depth_correction[1] * 1e3:+.2f} mm): chi2 scale {self.null.scale:.2f}"
+            f" c {self.depth_correction[1] * 1e3:+.2f} mm): chi2 scale {self.null.scale:.2f}, used at its upper bound "
+            f"{self.states.scale.bound:.2f} from {self.states.scale.poses} arm poses"
         )
 
     def _collect(self, frame: Frame, check: FrameCheck) -> tuple[str, str]:

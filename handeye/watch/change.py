@@ -29,6 +29,17 @@ crosses ``h`` under the null with probability at most ``e^{-h}`` by Wald's inequ
 ``E_0[e^{increment}] <= 1``): ``h = log(frames per false alarm)`` makes the false-alarm
 rate **at most** the one stated, whatever the shape of the alternative. The cap ``h / 2`` means no single
 frame alarms. The rate holds as far as ``x`` follows ``chi2(6)`` after the fit; the tests simulate it.
+
+**The scale at its upper bound.** The guarantee needs ``E_0[e^{\\ell(x)}] <= 1``; with ``x`` divided by a scale
+``c_hat`` while the frames' is ``c``, ``E_0[e^{\\ell}] = (1 + \\rho)^{-3} (1 - \\rho c / (c_hat (1 + \\rho)))^{-3}``,
+at most 1 only for ``c_hat >= c``, and steeply above it: a scale 15 % low (``rho = 1``) gives 1.75 per frame.
+The median of ``N`` frames has a relative standard error of :data:`MEDIAN_SE` ``/ sqrt(N)``, 17 % for the 20
+frames of a 10-s null at 2 Hz (the running-cell benchmark's seed-2 60-minute static stream learnt 2.31 where its
+6378 watched frames give 2.71: 7 false alarms in the hour, 0 at 2.71). :class:`NullScale` therefore goes on
+estimating ``c`` from every frame the change test passes (not those of a run that ended in an alarm), and the
+test divides by its upper confidence bound ``c_hat exp(SCALE_Z MEDIAN_SE / sqrt(n))``, ``n`` the frames' distinct
+arm poses (frames of one pose share its part of the step's error): wide while the null is young, within 3 %
+after a few thousand poses.
 """
 
 from __future__ import annotations
@@ -42,6 +53,7 @@ __all__ = [
     "NullModel",
     "fit_null",
     "fit_depth_unit",
+    "NullScale",
     "Cusum",
     "cusum_threshold",
     "llr",
@@ -60,6 +72,16 @@ REF_ROUNDS = 3
 
 #: Median of the chi-square distribution with 6 degrees of freedom.
 CHI2_6_MEDIAN = float(stats.chi2.median(6))
+#: The relative standard error of the median of ``N`` independent ``chi2(6)`` values is ``MEDIAN_SE / sqrt(N)``:
+#: ``1 / (2 f(m) m)``, ``f`` the density at the median ``m`` (the sample median's asymptotic variance
+#: ``1 / (4 N f(m)^2)``); 0.757, so 17 % for 20 frames.
+MEDIAN_SE = float(1.0 / (2.0 * stats.chi2.pdf(CHI2_6_MEDIAN, 6) * CHI2_6_MEDIAN))
+#: The scale is used at this many of its (log-)standard errors above its estimate (:class:`NullScale`), as the depth
+#: unit's fit takes :data:`UNIT_Z`: a one-sided normal tail of 1e-3, a scale below the frames' once in a thousand.
+SCALE_Z = 3.1
+#: :class:`NullScale` keeps at most this many frames' statistics (its bound is then within 1 % of its estimate
+#: for any pose count above 1e5 / 10); beyond, the scale stays as they give it.
+SCALE_MAX_SAMPLES = 100_000
 
 
 @dataclass(frozen=True)
@@ -77,12 +99,16 @@ class NullModel:
     ref_covariance : array, shape (6, 6), or None
         ``Sigma_ref``: the covariance of ``delta_ref`` in the frames' units (before the scale ``c``); None: that
         of a median of ``frames`` frames of the tested frame's own covariance, ``pi / (2 N) Sigma``.
+    samples : array, shape (frames,), or None
+        The frames' raw statistics whose median over ``CHI2_6_MEDIAN`` is ``scale`` (:func:`fit_null` fitting the
+        scale); None when the scale was given. :class:`NullScale` goes on from them.
     """
 
     delta_ref: np.ndarray
     scale: float
     frames: int
     ref_covariance: np.ndarray | None = None
+    samples: np.ndarray | None = None
 
     def statistic(self, delta: np.ndarray, covariance: np.ndarray) -> float:
         """``x = (delta - delta_ref)^T (Sigma + Sigma_ref)^{-1} (delta - delta_ref) / c``: ``chi2(6)`` when nothing
@@ -135,6 +161,7 @@ def fit_null(deltas: np.ndarray, covariances: np.ndarray, scale: float | None = 
         h = np.einsum("n,nij,ji->n", w, infos, ref_cov) / 6.0
         x = np.einsum("ni,nij,nj->n", d, infos, d) / np.maximum(1.0 - h, 1.0 / len(deltas))
         c = max(float(np.median(x)) / CHI2_6_MEDIAN, 1e-12)
+        return NullModel(ref, float(c), len(deltas), ref_cov, x)
     return NullModel(ref, float(c), len(deltas), ref_cov)
 
 
@@ -179,6 +206,64 @@ def fit_depth_unit(deltas: np.ndarray, covariances: np.ndarray, gains: np.ndarra
     z = V.T @ u
     u = V @ np.where(z**2 * np.maximum(lam, 0) >= UNIT_Z**2, z, 0.0)
     return u, deltas + gains @ u
+
+
+class NullScale:
+    """The statistic's scale ``c`` from every frame the change test passed, and its upper bound (module docstring).
+
+    Each tested frame's raw statistic ``x c`` (``(delta - delta_ref)^T (Sigma + Sigma_ref)^{-1} (delta -
+    delta_ref)``) is held (:meth:`add`) until the CUSUM is back at 0 (:meth:`keep`) or alarms (:meth:`drop`): a
+    move's frames do not widen the null. The estimate is the median of the kept ones over ``CHI2_6_MEDIAN``;
+    :attr:`bound`, ``estimate exp(SCALE_Z MEDIAN_SE / sqrt(n))`` with ``n`` their distinct arm poses, is what the
+    statistic divides by. Recomputed when the kept frames grew by 2 % (a median of up to
+    :data:`SCALE_MAX_SAMPLES` values).
+
+    Parameters
+    ----------
+    samples : array, shape (N,)
+        The first null's frames' raw statistics (:attr:`NullModel.samples`).
+    poses : int
+        Their distinct arm poses (at most ``N``).
+    """
+
+    def __init__(self, samples: np.ndarray, poses: int):
+        self._samples = [float(v) for v in np.asarray(samples, dtype=float).ravel()]
+        if not self._samples:
+            raise ValueError("the scale needs at least one frame's statistic")
+        self.poses = max(1, min(int(poses), len(self._samples)))
+        self._pending: list[tuple[float, bool]] = []
+        self._update()
+
+    @property
+    def frames(self) -> int:
+        """Frames kept."""
+        return len(self._samples)
+
+    def _update(self) -> None:
+        self._computed_at = len(self._samples)
+        self.estimate = max(float(np.median(self._samples)) / CHI2_6_MEDIAN, 1e-12)
+        self.bound = self.estimate * float(np.exp(SCALE_Z * MEDIAN_SE / np.sqrt(self.poses)))
+
+    def add(self, raw: float, new_pose: bool) -> None:
+        """Hold one tested frame's raw statistic; ``new_pose``: its arm pose differs from the previous frame's."""
+        if np.isfinite(raw):
+            self._pending.append((float(raw), bool(new_pose)))
+
+    def drop(self) -> None:
+        """Forget the held frames (their run ended in an alarm, or the test was re-armed)."""
+        self._pending.clear()
+
+    def keep(self) -> bool:
+        """Keep the held frames (the CUSUM is back at 0); True when the bound was recomputed."""
+        room = SCALE_MAX_SAMPLES - len(self._samples)
+        for raw, new_pose in self._pending[: max(room, 0)]:
+            self._samples.append(raw)
+            self.poses += new_pose
+        self._pending.clear()
+        if len(self._samples) >= 1.02 * self._computed_at + 1:
+            self._update()
+            return True
+        return False
 
 
 def cusum_threshold(frames_per_false_alarm: float) -> float:

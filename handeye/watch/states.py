@@ -12,7 +12,9 @@ In order, per frame (:class:`FrameStates.classify`):
    match window of their median residual, the whole surface is off by one offset (a moved camera, or a depth
    unit whose scale or offset is wrong), which no occluder makes (it leaves the pixels beside it matched);
    such a frame goes on to the change test (a lost frame, when the offset is beyond the window);
-4. the frame enters the CUSUM (:mod:`handeye.watch.change`) with ``x = chi2 / c``; a frame whose matched
+4. the frame enters the CUSUM (:mod:`handeye.watch.change`) with ``x = chi2 / c`` (``c`` at the upper bound of a
+   :class:`handeye.watch.change.NullScale`, where one is given, which the frame's ``chi2`` then joins unless its
+   run ends in an alarm); a frame whose matched
    points fall below ``lost_matched_fraction`` (the surface is off by more than the match window) enters
    with the largest increment. An alarm is **moved** when the corrections of the frames since the CUSUM left
    0 with a positive increment agree (their weighted mean's chi2 per degree of freedom is at least
@@ -29,12 +31,12 @@ In order, per frame (:class:`FrameStates.classify`):
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
 
-from handeye.watch.change import Cusum, NullModel, llr
+from handeye.watch.change import Cusum, NullModel, NullScale, llr
 from handeye.watch.check import FrameCheck
 
 __all__ = ["StateOptions", "FrameStates", "screen", "is_lost"]
@@ -92,10 +94,16 @@ class FrameStates:
     null : NullModel
     cusum : Cusum
     options : StateOptions, optional
+    scale : NullScale, optional
+        The null's scale learnt on from the frames tested: ``null`` (and any null given later) is used with its
+        upper bound instead of its own scale.
     """
 
-    def __init__(self, null: NullModel, cusum: Cusum, options: StateOptions | None = None):
-        self.null = null
+    def __init__(
+        self, null: NullModel, cusum: Cusum, options: StateOptions | None = None, scale: NullScale | None = None
+    ):
+        self.scale = scale
+        self.null = null if scale is None else replace(null, scale=scale.bound)
         self.cusum = cusum
         self.options = options or StateOptions()
         # (delta - ref, covariance), or None for a lost frame: the CUSUM run's frames with a positive increment
@@ -107,16 +115,19 @@ class FrameStates:
 
     def rearm(self, null: NullModel | None = None) -> None:
         """After a recalibration: the CUSUM, the run and the EWMA back to 0 (and a new null, if given)."""
+        if self.scale is not None:
+            self.scale.drop()
         if null is not None:
-            self.null = null
+            self.null = null if self.scale is None else replace(null, scale=self.scale.bound)
         self.cusum.reset()
         self._run.clear()
         self._ewma[:] = 0.0
         self._ewma_cov, self._ewma_frames = None, 0
 
-    def classify(self, check: FrameCheck, drift: bool = True) -> tuple[str, str]:
+    def classify(self, check: FrameCheck, drift: bool = True, new_pose: bool = True) -> tuple[str, str]:
         """The frame's state and a short detail (module docstring); ``drift`` False skips step 5 (while the
-        reference is still being learnt)."""
+        reference is still being learnt); ``new_pose``: the arm's pose differs from the previous frame's (counted
+        by the :class:`NullScale`)."""
         o = self.options
         unusable = screen(check, o)
         if unusable is not None:
@@ -126,10 +137,16 @@ class FrameStates:
         if llr(x, self.cusum.rho) > 0:  # the frames that push towards an alarm: their directions are compared
             self._run.append(None if lost else (check.delta - self.null.delta_ref, check.covariance))
         alarm = self.cusum.update(x)
+        if self.scale is not None and not lost:
+            self.scale.add(x * self.null.scale, new_pose)
         if self.cusum.value == 0:
             self._run.clear()
+            if self.scale is not None and self.scale.keep():
+                self.null = replace(self.null, scale=self.scale.bound)
         detail = f"x {x:.1f}, cusum {self.cusum.value:.1f} / {self.cusum.h:.1f}"
         if alarm:
+            if self.scale is not None:
+                self.scale.drop()
             consistent, why = self._consistent()
             if consistent:
                 return "moved", f"{detail}; {why}"
