@@ -75,8 +75,9 @@ class WatchOptions:
     false_alarms_per_hour : float
         The change test's false-alarm rate: an upper bound while the frames' statistic follows the null learnt
         (independent frames, ``chi2(6)`` after the fit; :mod:`handeye.watch.change`); correlated frames, the
-        error of the null learnt (its scale from 20 frames is 17 % off, one sigma) and unmodelled changes raise
-        it: the measured rate is in
+        error of the null learnt and unmodelled changes raise it (the scale's error, 17 % for a median of 20
+        frames, is covered: it is used at its upper bound, :class:`handeye.watch.change.NullScale`): the measured
+        rate is in
         docs/benchmarks/running-cell.md. A depth unit left uncorrected made the frames correlated (the statistic
         follows the arm's pose); the first learning fits it (:func:`handeye.watch.change.fit_depth_unit`).
     null_frames : int
