@@ -57,7 +57,7 @@ def _static_frames(rng, n, scale=SCALE, offset_m=OFFSET_M, plates=False):
         yield Frame(i / RATE_HZ, depth, q.ravel(), i)
 
 
-class _DwellSpheres(Spheres):
+class DwellSpheres(Spheres):
     """:class:`Spheres` posed once per dwell: the joints stay the same for DWELL frames, and so does the model
     (built again each frame it was two fifths of a stream's time; the same arrays, so the counts are unchanged)."""
 
@@ -76,15 +76,20 @@ def _same_calibration(frames, T_start, **kwargs):
     return SimpleNamespace(ok=True, T_base_cam=T_TRUE, covariance=None, sigma={}, refused=None)
 
 
-def _count(tmp_path, n_frames, seed=0, plates=False):
-    options = WatchOptions(
+def null_options() -> WatchOptions:
+    """The watcher's options on these streams: the stated rate one alarm per FRAMES_PER_ALARM frames."""
+    return WatchOptions(
         rate_hz=RATE_HZ,
         false_alarms_per_hour=3600 * RATE_HZ / FRAMES_PER_ALARM,
         null_frames=120,
         recal_frames=4,
         relearn_frames=60,
     )
-    w = CellWatcher(_DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
+
+
+def _count(tmp_path, n_frames, seed=0, plates=False):
+    options = null_options()
+    w = CellWatcher(DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
     alarms, watched = 0, 0
     for f in _static_frames(np.random.default_rng(seed), n_frames, plates=plates):
         alarms += sum(e.state == "moved" for e in w.feed(f))
