@@ -505,7 +505,7 @@ class CellWatcher:
         registration matched, and the two differ by less than the check tells a move from an unmoved arm. Else (a
         unit that changed by more, no unit fitted here yet, or no range given) the registration's is taken.
         Taken as found, the registration's error along the scale-offset combination its few frames leave loose
-        (0.8 % and 9 mm from 20 frames on the running-cell benchmark's 30 Hz d435 stream, 4 of its own sigmas,
+        (0.8 % and 9 mm from 20 frames on the running-cell benchmark's 30 Hz d435 stream, 5 to 6 of its own sigmas,
         where the fitted unit was 0.05 % and 1 mm off) made each frame's step follow the arm's pose
         (:func:`handeye.watch.change.fit_depth_unit`): the bias relearnt from the first poses after the commit
         did not hold for the next ones, and each of that stream's six false alarms came in such a relearning."""

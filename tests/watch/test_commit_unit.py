@@ -4,7 +4,7 @@ match window of it.
 A camera move does not change the sensor's depth unit. The registration estimates the unit with the pose from a
 recalibration's few frames; its scale and offset are nearly one unknown over the arm's depth range, so its error
 along that combination is large (on the running-cell benchmark's 30 Hz d435 stream, 0.8 % and 9 mm from 20
-frames, 4 of its own sigmas, where the watcher's fit from its first learning was 0.05 % and 1 mm off). Taken as
+frames, 5 to 6 of its own sigmas, where the watcher's fit from its first learning was 0.05 % and 1 mm off). Taken as
 found, that error makes each frame's step follow the arm's pose: the bias relearnt after the commit from its first
 poses does not hold for the next ones, and the change test alarms (the stream's six false alarms, each in such a
 relearning). The planted fault (the registration's unit taken, as before): 49 alarms against a bound of 5.
