@@ -32,6 +32,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from unittest import mock
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -142,8 +143,9 @@ def cell_inputs(built: Path, folder: Path) -> None:
         shutil.copytree(built / "bags" / f"cam_{c:04d}_data", folder / f"data_{c}")
         shutil.copytree(built / "bags" / f"cam_{c:04d}_calibration", folder / f"cal_{c}")
     shutil.copy(built / "board.json", folder / "board.json")
-    T = make_transform(so3_exp(np.radians([2.0, 0.0, 0.0])), [0.02, 0.0, 0.0]) @ Dataset.open(built / "sim").truth()[0]
-    (folder / "guess.json").write_text(json.dumps({"T_base_cam": T.tolist()}))
+    T_base_cam_true = Dataset.open(built / "sim").truth()[0]
+    T_base_cam_guess = make_transform(so3_exp(np.radians([2.0, 0.0, 0.0])), [0.02, 0.0, 0.0]) @ T_base_cam_true
+    (folder / "guess.json").write_text(json.dumps({"T_base_cam": T_base_cam_guess.tolist()}))
     loader = erd.robots_loader.UR5Loader()
     shutil.copy(loader.df_path, folder / "my_arm.urdf")
     share = Path(loader.model_path).resolve().parents[1]  # holds example-robot-data/, the package
@@ -155,37 +157,12 @@ def cell_inputs(built: Path, folder: Path) -> None:
 INPUTS = {ROOT / "docs/guides/markerless.md": (render_cell, cell_inputs)}
 
 
-@contextlib.contextmanager
-def home(folder: Path | None):
-    """``HOME`` set to ``folder`` within the block where one is given, as it was before after it."""
-    before = os.environ.get("HOME")
-    if folder is not None:
-        os.environ["HOME"] = str(folder)
-    try:
-        yield
-    finally:
-        if folder is not None and before is None:
-            os.environ.pop("HOME")
-        elif folder is not None:
-            os.environ["HOME"] = before
-
-
-@contextlib.contextmanager
 def smoke_run(on: bool):
     """``HANDEYE_SMOKE_TEST`` set to 1 within the block where ``on`` (for this process and the steps it
-    starts), as it was before after it."""
+    starts), the environment as it was after it."""
     from handeye.core.smoke import ENV
 
-    before = os.environ.get(ENV)
-    if on:
-        os.environ[ENV] = "1"
-    try:
-        yield
-    finally:
-        if on and before is None:
-            os.environ.pop(ENV)
-        elif on:
-            os.environ[ENV] = before
+    return mock.patch.dict(os.environ, {ENV: "1"} if on else {})
 
 
 def outputs(path: Path, folder: Path | None = None, built: Path | None = None) -> list[tuple[re.Match, str]]:
@@ -207,7 +184,7 @@ def outputs(path: Path, folder: Path | None = None, built: Path | None = None) -
                 built = Path(stack.enter_context(tempfile.TemporaryDirectory()))
                 build(built)
             lay_out(built, Path(folder))
-            stack.enter_context(home(Path(folder) / "home"))
+            stack.enter_context(mock.patch.dict(os.environ, {"HOME": str(Path(folder) / "home")}))
         for m in steps:
             if "setup" in m.groupdict():
                 env = dict(os.environ, PYTHONPATH=str(ROOT))

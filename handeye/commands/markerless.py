@@ -237,6 +237,11 @@ def _intrinsics_sigma(args: argparse.Namespace) -> tuple:
 UNNAMED_CAMERA_PRIOR = "d435-real-cell"
 
 
+def rendered(recipe: dict) -> bool:
+    """Whether a dataset's recipe (``meta["recipe"]``) says the simulator rendered it (else a real recording)."""
+    return str(recipe.get("generator", "")).startswith("handeye sim")
+
+
 def sensor_of(name: str | None, recipe: dict):
     """The depth camera whose registration uncertainty enters the sigma: ``--sensor``'s profile, else the one a
     simulated dataset was rendered with (None: exact registration), else, for a real recording, the
@@ -245,7 +250,7 @@ def sensor_of(name: str | None, recipe: dict):
 
     if name is not None:
         return sensor_profile(name)
-    if str(recipe.get("generator", "")).startswith("handeye sim"):
+    if rendered(recipe):
         recorded = recipe.get("sensor")
         return DepthSensor.from_dict(recorded) if isinstance(recorded, dict) else None
     sensor = replace(sensor_profile(UNNAMED_CAMERA_PRIOR), stereo_baseline_m=0.0)
@@ -274,7 +279,7 @@ def _sensor_terms(args: argparse.Namespace) -> tuple[float, float, float | None]
     extrinsic_m = sensor.extrinsic_sigma_m if sensor is not None else 0.0
     # a camera named, or a real recording's unnamed one: a real unit's bound (naming a camera whose profile draws no
     # turn must not make the sigma tighter than naming none); a simulated dataset's own sensor: its drawn spread
-    simulated = args.sensor is None and str(recipe.get("generator", "")).startswith("handeye sim")
+    simulated = args.sensor is None and rendered(recipe)
     extrinsic_deg = 0.0
     if sensor is not None:
         extrinsic_deg = sensor.registration_roll_sigma_deg if simulated else sensor.registration_roll_bound_deg
