@@ -84,15 +84,23 @@ def _most_all_pairs(max_pairs: int) -> int:
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    from classic.calibrate import DEFAULT_METHOD, METHODS
-    from classic.pairs import MAX_PAIRS
-
     p = sub.add_parser(
         "calibrate",
         help="hand-eye calibration from a pose file, or from board detections",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    _add_input_arguments(p)
+    _add_image_arguments(p)
+    _add_solver_arguments(p)
+    _add_format_arguments(p)
+    _add_output_arguments(p)
+    p.set_defaults(run=run, command_parser=p)  # the report retypes the command from it
+    return p
+
+
+def _add_input_arguments(p: argparse.ArgumentParser) -> None:
+    """The pose file, or the detections and robot poses, or the two matrix files, and how to read them."""
     p.add_argument(
         "poses",
         type=Path,
@@ -134,6 +142,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="frame of the file's camera poses: optical (z forward, OpenCV), or ros-body (camera_link, x "
         "forward), converted to optical; default optical, refused when the targets say ros-body",
     )
+
+
+def _add_image_arguments(p: argparse.ArgumentParser) -> None:
+    """With ``--detections``: the refinement on the corners' reprojection error and the intrinsics in it."""
     p.add_argument(
         "--no-reprojection",
         action="store_true",
@@ -152,6 +164,13 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="with --detections: take the intrinsics as exact; the sigma then leaves their error out (only for "
         "intrinsics known far better than the corners determine them)",
     )
+
+
+def _add_solver_arguments(p: argparse.ArgumentParser) -> None:
+    """The setup, the closed form and its motion pairs, the refinement and its noise model, the outliers."""
+    from classic.calibrate import DEFAULT_METHOD, METHODS
+    from classic.pairs import MAX_PAIRS
+
     p.add_argument(
         "--setup",
         required=True,
@@ -193,6 +212,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
         action="store_true",
         help="also estimate a metric scale of the camera translations (monocular SLAM poses)",
     )
+
+
+def _add_format_arguments(p: argparse.ArgumentParser) -> None:
+    """The pose file's units and quaternion order."""
     p.add_argument(
         "--units",
         choices=["m", "mm"],
@@ -204,6 +227,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
         choices=["xyzw", "wxyz"],
         help="order of positional quaternions (JSON lists, CSV .q0-.q3 columns); default xyzw",
     )
+
+
+def _add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """The truth to compare with, the JSON result, the HTML report and the ROS exports."""
     p.add_argument("--truth", type=Path, help="JSON with the true X (and Y) by frame name: prints the error")
     p.add_argument("-o", "--output", type=Path, help="write the result as JSON here ('-' for stdout)")
     p.add_argument(
@@ -216,8 +243,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
     from handeye.ros_exports import add_export_arguments
 
     add_export_arguments(p)
-    p.set_defaults(run=run, command_parser=p)  # the report retypes the command from it
-    return p
 
 
 def _truth_lines(path: Path | None, named: tuple) -> list[str]:
@@ -484,12 +509,21 @@ class _rows_of_named_poses:
 
 
 def _run_poses(args: argparse.Namespace) -> int:
-    import classic
-    from handeye.checked_poses import load_poses
-    from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
-    from handeye.ros_exports import write_exports
+    from handeye.core.setups import normalize_setup
 
     setup = normalize_setup(args.setup)
+    poses, source = _read_poses(args, setup)
+    res, caught = _calibrate_poses(args, poses, setup)
+    out = sys.stderr if args.output is not None and str(args.output) == "-" else sys.stdout
+    print("\n".join(_poses_lines(args, source, setup, poses, res, caught)), file=out)
+    _write_poses_outputs(args, poses, res, caught, out)
+    return 0
+
+
+def _read_poses(args: argparse.Namespace, setup: str):
+    """The pose pairs (the two matrix files', or the pose file's) and how the command line names them."""
+    from handeye.checked_poses import load_poses
+
     if args.camera_poses is not None:
         from handeye.core.matrix_poses import read_matrix_pose_pairs
 
@@ -502,12 +536,15 @@ def _run_poses(args: argparse.Namespace) -> int:
             camera_frame=args.camera_frame,
             camera_units=args.camera_units,
         )
-        source = f"--robot-poses {args.robot_poses} --camera-poses {args.camera_poses}"
-    else:
-        poses = load_poses(
-            args.poses, setup, quat_order=args.quat_order, units=args.units, camera_frame=args.camera_frame
-        )
-        source = str(args.poses)
+        return poses, f"--robot-poses {args.robot_poses} --camera-poses {args.camera_poses}"
+    poses = load_poses(args.poses, setup, quat_order=args.quat_order, units=args.units, camera_frame=args.camera_frame)
+    return poses, str(args.poses)
+
+
+def _calibrate_poses(args: argparse.Namespace, poses, setup: str):
+    """:func:`classic.calibrate` on the poses as the options say, and the warnings it gave (a list)."""
+    import classic
+
     with warnings.catch_warnings(record=True) as caught, _rows_of_named_poses(poses):
         warnings.simplefilter("always")
         res = classic.calibrate(
@@ -522,7 +559,14 @@ def _run_poses(args: argparse.Namespace) -> int:
             noise=noise_model_from_args(args),
             estimate_scale=args.estimate_scale,
         )
-    out = sys.stderr if args.output is not None and str(args.output) == "-" else sys.stdout
+    return res, caught
+
+
+def _poses_lines(args: argparse.Namespace, source: str, setup: str, poses, res, caught: list) -> list[str]:
+    """The printed summary: the command, the answer and its sigma, the fit's diagnostics, truth and exports."""
+    from handeye.core.setups import UNKNOWN_NAMES
+    from handeye.ros_exports import write_exports
+
     x_name, y_name = UNKNOWN_NAMES[setup]
     sig = res.sigma
     lines = [
@@ -538,35 +582,44 @@ def _run_poses(args: argparse.Namespace) -> int:
     if res.diagnostics.get("outliers"):
         lines.append(f"  outlier poses (excluded): {res.diagnostics['outliers']}")
     lines += _suspect_lines(res.diagnostics, _pose_names(poses))
-    lines.append(f"  noise model: {describe_noise(res.diagnostics['noise_model'])}")
-    if not res.diagnostics["noise_model"].get("estimated"):
-        vf = res.diagnostics["refinement"]["variance_factor"]
-        lines.append(
-            f"    residuals / model: variance factor {vf:.2f} (1 when the stated noise fits the data; the "
-            "sigmas above assume the stated noise)"
-        )
-    if "scale" in res.diagnostics:
-        sc = res.diagnostics["scale"]
-        lines.append(f"  camera translation scale: {sc['value']:.6f} +- {sc['sigma']:.6f}")
-    motion = res.diagnostics["motion"]
-    lines.append(
-        f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
-        f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg"
-    )
-    lines += MOTION_MEANS
-    pairs = res.diagnostics.get("pairs", {})
-    if pairs.get("rule") == "bounded":
-        lines.append(
-            f"  motion pairs: {pairs['n_pairs']:,} of {pairs['all_pairs']:,} (bounded: each pose with the poses "
-            f"{len(pairs['strides'])} index strides away; --pairs help)"
-        )
+    lines += _fit_diagnostics_lines(res.diagnostics)
     for w in caught:
         if w.category.__name__ != "SuspectPosesWarning":  # the lines above name those poses
             lines.append(f"  warning: {w.message}")
     lines += _truth_lines(args.truth, ((x_name, res.X), (y_name, res.Y)))
     lines.append(f"  terms: {GLOSSARY_WHERE}")
-    lines += write_exports(args, setup, res.X, poses.frames)
-    print("\n".join(lines), file=out)
+    return lines + write_exports(args, setup, res.X, poses.frames)
+
+
+def _fit_diagnostics_lines(diagnostics: dict) -> list[str]:
+    """The noise model and how the residuals fit it, the scale, the motion and its pairs."""
+    lines = [f"  noise model: {describe_noise(diagnostics['noise_model'])}"]
+    if not diagnostics["noise_model"].get("estimated"):
+        vf = diagnostics["refinement"]["variance_factor"]
+        lines.append(
+            f"    residuals / model: variance factor {vf:.2f} (1 when the stated noise fits the data; the "
+            "sigmas above assume the stated noise)"
+        )
+    if "scale" in diagnostics:
+        sc = diagnostics["scale"]
+        lines.append(f"  camera translation scale: {sc['value']:.6f} +- {sc['sigma']:.6f}")
+    motion = diagnostics["motion"]
+    lines.append(
+        f"  motion: max rotation {motion['max_rotation_deg']:.1f} deg, axis diversity "
+        f"{motion['axis_diversity']:.2f}, angle mismatch {motion['angle_mismatch_deg']:.3f} deg"
+    )
+    lines += MOTION_MEANS
+    pairs = diagnostics.get("pairs", {})
+    if pairs.get("rule") == "bounded":
+        lines.append(
+            f"  motion pairs: {pairs['n_pairs']:,} of {pairs['all_pairs']:,} (bounded: each pose with the poses "
+            f"{len(pairs['strides'])} index strides away; --pairs help)"
+        )
+    return lines
+
+
+def _write_poses_outputs(args: argparse.Namespace, poses, res, caught: list, out) -> None:
+    """``-o``'s JSON (stdout for ``-``) and ``--report``'s page; what was written said on ``out``."""
     if args.output is not None:
         text = json.dumps(res.to_dict(), indent=2)
         if str(args.output) == "-":
@@ -586,4 +639,3 @@ def _run_poses(args: argparse.Namespace) -> int:
             [str(w.message) for w in caught],
         )
         print(f"  report: {page}", file=out)
-    return 0

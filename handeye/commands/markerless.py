@@ -40,6 +40,16 @@ def add_parser(sub) -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    _add_input_arguments(p)
+    _add_depth_arguments(p)
+    _add_estimated_arguments(p)
+    _add_output_arguments(p)
+    p.set_defaults(run=run)
+    return p
+
+
+def _add_input_arguments(p: argparse.ArgumentParser) -> None:
+    """The dataset and its placements, the start, the robot's model."""
     p.add_argument("dataset", type=Path, help="dataset directory")
     p.add_argument("--camera", type=cli_int, nargs="+", help="camera placements (default all)")
     start = p.add_mutually_exclusive_group()
@@ -49,6 +59,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--package-dir", type=Path, action="append", default=[], help="folder for package:// mesh paths (repeatable)"
     )
+
+
+def _add_depth_arguments(p: argparse.ArgumentParser) -> None:
+    """The depth's noise and unit, the sensor and its depth-to-colour registration and matcher."""
     p.add_argument(
         "--depth-noise",
         type=cli_float,
@@ -89,6 +103,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "baseline in metres (a D435 at 848x480: 447 x 0.050 = 22.35); its matcher's pull toward whole "
         "disparities is estimated with the depth (default: the sensor profile's; 0: not modelled)",
     )
+
+
+def _add_estimated_arguments(p: argparse.ArgumentParser) -> None:
+    """What is estimated with the pose: the camera matrix, the joint offsets, the static parts."""
     p.add_argument(
         "--intrinsics",
         choices=("estimate", "fixed"),
@@ -125,6 +143,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="fit the robot's parts that do not move over the recording as well (the base; default: the moving "
         "parts only, since a static part's depth error is the same in every frame and the frames cannot reveal it)",
     )
+
+
+def _add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """The JSON results, the dataset's labels, the progress bar."""
     p.add_argument("-o", "--out", type=Path, help="write the results as JSON")
     p.add_argument(
         "--write-labels",
@@ -133,8 +155,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "'handeye learned run --labels markerless')",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
-    return p
 
 
 def run(args: argparse.Namespace) -> int:
