@@ -133,7 +133,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 def stream_dir(data: Path, preset: str, args, sensor: str | None = None) -> Path:
     """The rendered stream of a preset, rendered now unless ``data/NAME/stream.json`` exists (``NAME`` the
     preset, or ``bumps-SENSOR`` for a profile's stream)."""
-    from sim.stream import generate_stream
+    from sim.stream import StreamOverrides, generate_stream
 
     root = data / (preset if sensor is None else f"{preset}-{sensor}")
     if (root / "stream.json").is_file():
@@ -143,9 +143,8 @@ def stream_dir(data: Path, preset: str, args, sensor: str | None = None) -> Path
         minutes, size, rate = args.static_minutes, args.static_size or args.size, args.static_rate or args.rate
     if sensor is not None:
         minutes, size, rate = args.profile_minutes, args.profile_size, args.profile_rate or args.rate
-    generate_stream(
-        root, preset, args.seed, sensor or args.sensor, minutes, rate, size, workers=args.workers, progress=False
-    )
+    overrides = StreamOverrides(minutes, rate, size)
+    generate_stream(root, preset, args.seed, sensor or args.sensor, overrides, workers=args.workers, progress=False)
     return root
 
 
@@ -171,6 +170,7 @@ def replay(root: Path, args) -> tuple[Replay, dict, object]:
     from handeye.markerless import robot_surface_for
     from handeye.robot.depth_sensors import sensor_profile
     from handeye.watch import CellWatcher, dataset_frames
+    from handeye.watch.wiring import WatchFiles
     from sim.stream import read_stream
 
     ds, doc = Dataset.open(root), read_stream(root)
@@ -188,9 +188,8 @@ def replay(root: Path, args) -> tuple[Replay, dict, object]:
         recal_frames=args.recal_frames,
     )
     history = Path(tempfile.mkdtemp(prefix="running-cell-history-"))
-    watcher = CellWatcher(
-        surface, K, ds.truth()[0], sensor, options, history / "history.jsonl", history / "current.json"
-    )
+    files = WatchFiles(history / "history.jsonl", history / "current.json")
+    watcher = CellWatcher(surface, K, ds.truth()[0], sensor, options, files)
     inner = watcher.recalibrate  # the watcher's own, as handeye watch's, timed
 
     def timed(frames, T_start, **kwargs):

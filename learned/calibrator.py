@@ -31,7 +31,7 @@ import torch
 
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, matrix_from_quat_xyzw
-from learned.continual_step import ReplayRule, continual_step
+from learned.continual_step import NoveltyRule, ReplayRule, continual_step
 from learned.data import FrameSet
 from learned.experiment import average_quaternions
 from learned.model import KINDS, CalibrationNet, ModelConfig
@@ -131,8 +131,7 @@ class ContinualCalibrator:
                 self.rng,
                 rule,
                 self._train_fn(kind, first),
-                None if first else self.threshold[kind],
-                self.sample_fraction,
+                NoveltyRule(None if first else self.threshold[kind], self.sample_fraction),
             )
             entry[kind] = {"novel": bool(out.novel), "sample_error": out.sample_error, "processed": out.processed}
         self.history.append(entry)

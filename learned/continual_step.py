@@ -26,7 +26,7 @@ from learned.model import CalibrationNet
 from learned.replay import ReplayBuffer, random_fraction
 from learned.trainer import errors, placement_error
 
-__all__ = ["ReplayRule", "StepOutcome", "sample_error", "training_set", "continual_step"]
+__all__ = ["ReplayRule", "NoveltyRule", "StepOutcome", "sample_error", "training_set", "continual_step"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +47,28 @@ class ReplayRule:
     c2: int | None = None
     c3: float = 1.0
     share: float = 1.0
+
+
+@dataclass(frozen=True)
+class NoveltyRule:
+    """Whether a step trains (Algorithm 2's novelty test; the default trains always, Algorithm 1).
+
+    Attributes
+    ----------
+    threshold : float or array, optional
+        Novel when any component of the mean sample error exceeds it; ``None``: always train.
+    sample_fraction : float
+        Share of the new frames the error is measured on (``measure="frames"``).
+    measure : {"frames", "placement"}
+        The novelty measure (:func:`sample_error`'s ``novelty``).
+    sampling : {"uniform", "normal"}
+        How the novelty sample is drawn (the buffer draws as it was made to).
+    """
+
+    threshold: float | np.ndarray | None = None
+    sample_fraction: float = 0.1
+    measure: str = "frames"
+    sampling: str = "uniform"
 
 
 @dataclass(frozen=True)
@@ -126,12 +148,9 @@ def continual_step(
     rng: np.random.Generator,
     rule: ReplayRule,
     train_fn: Callable[[FrameSet, np.ndarray], int],
-    threshold=None,
-    sample_fraction: float = 0.1,
-    novelty: str = "frames",
-    sampling: str = "uniform",
+    novelty: NoveltyRule | None = None,
 ) -> StepOutcome:
-    """Algorithm 2's step (Algorithm 1's with ``threshold=None``) on the new frames ``current``.
+    """Algorithm 2's step (Algorithm 1's without a ``novelty`` threshold) on the new frames ``current``.
 
     Parameters
     ----------
@@ -144,23 +163,20 @@ def continual_step(
     rng : numpy.random.Generator
     rule : ReplayRule
     train_fn : callable ``(frames, index) -> samples processed``
-    threshold : float or array, optional
-        Novel when any component of the mean sample error exceeds it; ``None``: always train.
-    sample_fraction : float
-    novelty : {"frames", "placement"}
-        The novelty measure (:func:`sample_error`).
-    sampling : {"uniform", "normal"}
-        How the novelty sample is drawn (the buffer draws as it was made to).
+    novelty : NoveltyRule, optional
+        The threshold, the sample's share, the measure and how the sample is drawn; None: ``NoveltyRule()``,
+        no threshold (always train).
 
     Returns
     -------
     StepOutcome
     """
+    novelty = novelty or NoveltyRule()
     mean, n = None, 0
-    if threshold is not None:
-        mean, n = sample_error(model, frames, current, sample_fraction, rng, novelty, sampling)
+    if novelty.threshold is not None:
+        mean, n = sample_error(model, frames, current, novelty.sample_fraction, rng, novelty.measure, novelty.sampling)
         mean = distributed.from_writer(mean)  # data-parallel: every rank takes rank 0's decision
-        if not np.any(np.asarray(mean) > threshold):
+        if not np.any(np.asarray(mean) > novelty.threshold):
             return StepOutcome(False, mean, n, 0)
     data, index = training_set(frames, current, buffer, rng, rule)
     processed = train_fn(data, index)

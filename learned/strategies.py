@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from learned.continual_step import NOVELTY, ReplayRule, continual_step, sample_error
+from learned.continual_step import NOVELTY, NoveltyRule, ReplayRule, continual_step, sample_error
 from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig, load_weights, make_network
 from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
@@ -287,10 +287,7 @@ class Selection(Reservoir):
                 self.rng,
                 self._rule(share),
                 self._train_fn(step),
-                self.threshold,
-                self.sample_fraction,
-                self.novelty,
-                self.sampling,
+                NoveltyRule(self.threshold, self.sample_fraction, self.novelty, self.sampling),
             )
             self.evaluated += outcome.evaluated
             (novel if outcome.novel else self.skipped).append(int(c))

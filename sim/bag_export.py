@@ -19,6 +19,7 @@ Written with ``rosbags`` (``pip install "handeye[ros]"``), sqlite3 or MCAP stora
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,13 +27,33 @@ import numpy as np
 from handeye.core.optional import require_package
 from handeye.core.se3 import pos_quat_xyzw_from_transform
 
-__all__ = ["EPOCH_NS", "GRIPPER_JOINT", "BagWriter", "write_placement_bags"]
+__all__ = ["EPOCH_NS", "GRIPPER_JOINT", "BagTiming", "BagWriter", "write_placement_bags"]
 
 #: Header stamps on a wall clock (2023-11-14), as a live robot's are.
 EPOCH_NS = 1_700_000_000 * 10**9
 #: A joint the driver publishes and the arm's model does not have (it must be ignored on import).
 GRIPPER_JOINT = "gripper_finger_joint"
 _STORAGES = ("sqlite3", "mcap")
+
+
+@dataclass(frozen=True)
+class BagTiming:
+    """How the recorded cell moves and stamps (:func:`write_placement_bags`).
+
+    Attributes
+    ----------
+    color_delay_s : float
+        The colour stamp after the depth stamp (a sensor whose streams are not hardware-synchronised).
+    move_s, still_s : float
+        The drive between poses and the stillness around each frame.
+    joint_rate_hz : float
+        ``/joint_states`` and ``/tf`` rate.
+    """
+
+    color_delay_s: float = 0.004
+    move_s: float = 1.0
+    still_s: float = 0.5
+    joint_rate_hz: float = 125.0
 
 
 class BagWriter:
@@ -109,8 +130,9 @@ def _camera_info(bag: BagWriter, stamp: int, frame: str, intrinsics: dict):
     )
 
 
-def _robot_messages(bag: BagWriter, robot, q: np.ndarray, t0_ns: int, move_s: float, still_s: float, rate_hz: float):
+def _robot_messages(bag: BagWriter, robot, q: np.ndarray, t0_ns: int, timing: BagTiming):
     """Joint states and tf over the drive through ``q`` (K, nq); returns the frames' stamps (the stills' middles)."""
+    move_s, still_s, rate_hz = timing.move_s, timing.still_s, timing.joint_rate_hz
     names = [str(n) for n in list(robot.model.names)[1:]]
     published = sorted(names + [GRIPPER_JOINT])
     cols = [names.index(n) if n in names else -1 for n in published]
@@ -153,10 +175,7 @@ def write_placement_bags(
     storage: str = "sqlite3",
     depth_encoding: str = "16UC1",
     color_format: str = "raw",
-    color_delay_s: float = 0.004,
-    move_s: float = 1.0,
-    still_s: float = 0.5,
-    joint_rate_hz: float = 125.0,
+    timing: BagTiming | None = None,
 ) -> dict:
     """Write one camera placement's recordings of a simulated dataset as ROS 2 bags.
 
@@ -170,11 +189,8 @@ def write_placement_bags(
     depth_encoding : {"16UC1", "32FC1"}
         Millimetres (rounded, as a driver delivers them) or float metres.
     color_format : {"raw", "jpeg", "png"}
-    color_delay_s : float
-        The colour stamp after the depth stamp.
-    move_s, still_s : float
-        The drive between poses and the stillness around each frame.
-    joint_rate_hz : float
+    timing : BagTiming, optional
+        The drive, the stillness, the joint states' rate and the colour's delay; None: ``BagTiming()``.
 
     Returns
     -------
@@ -198,6 +214,7 @@ def write_placement_bags(
             f"storage {storage!r} (sqlite3, mcap), depth {depth_encoding!r} (16UC1, 32FC1), colour {color_format!r} "
             "(raw, jpeg, png)"
         )
+    timing = timing or BagTiming()
     robot = load_robot_entry(ds.meta["robot"])
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -208,14 +225,14 @@ def write_placement_bags(
             continue
         path = out / f"cam_{camera_id:04d}_{recording}"
         bag = BagWriter(path, storage)
-        stamps = _robot_messages(bag, robot, ds.joints(rows), EPOCH_NS, move_s, still_s, joint_rate_hz)
+        stamps = _robot_messages(bag, robot, ds.joints(rows), EPOCH_NS, timing)
         intr = (
             ds.meta["intrinsics"]
             if recording == "data"
             else ds.meta.get("calibration_intrinsics", ds.meta["intrinsics"])
         )
         frame = "camera_color_optical_frame"
-        color_delay = int(round(color_delay_s * 1e9))
+        color_delay = int(round(timing.color_delay_s * 1e9))
         for k, stamp in enumerate(stamps):
             rgb = ds.rgb(camera_id, rows["rgb"][k])
             c_stamp = int(stamp) + (color_delay if recording == "data" else 0)

@@ -247,7 +247,7 @@ class ShardRenderer:
         from classic.vision.camera import CameraIntrinsics
         from handeye.robot.model import load_robot
         from sim.lab import T_base_lab, camera_scene
-        from sim.render import Renderer
+        from sim.render import Renderer, SceneContents
 
         self._T_base_lab, self._camera_scene = T_base_lab, camera_scene
         self.meta = meta
@@ -267,18 +267,11 @@ class ShardRenderer:
         marker = recipe.get("marker_radius_m")
         self.renderers = {}
         if "data" in meta["recordings"]:
-            self.renderers["data"] = Renderer(
-                self.robot,
-                self.K_data,
-                *self.size_data,
-                marker_radius_m=marker,
-                robot_visible=marker is None,
-                gripper=marker is None,
-            )
+            drawn = SceneContents(marker_radius_m=marker, robot_visible=marker is None, gripper=marker is None)
+            self.renderers["data"] = Renderer(self.robot, self.K_data, *self.size_data, drawn)
         if "calibration" in meta["recordings"]:
-            self.renderers["calibration"] = Renderer(
-                self.robot, self.K_cal, *self.size_cal, gripper=False, board=(self.spec, self.T_ee_target)
-            )
+            drawn = SceneContents(gripper=False, board=(self.spec, self.T_ee_target))
+            self.renderers["calibration"] = Renderer(self.robot, self.K_cal, *self.size_cal, drawn)
 
     def _board_visible(self, depth_m: np.ndarray, T_base_cam: np.ndarray, T_base_target: np.ndarray) -> bool:
         """Whether the rendered depth shows the board (not the arm) at every projected corner."""

@@ -11,6 +11,7 @@ identity unless set: :mod:`sim.lab`).
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from handeye.robot.meshes import load_link_mesh
 from sim.opengl import gl_camera_pose, gl_principal_point
 from sim.scene import board_mesh, environment_meshes, gripper_meshes, marker_mesh
 
-__all__ = ["Renderer", "ZNEAR_M", "ZFAR_M"]
+__all__ = ["Renderer", "SceneContents", "ZNEAR_M", "ZFAR_M"]
 
 #: Clipping planes. The depth buffer's resolution at depth z is about z^2 / (znear 2^bits): a near plane
 #: at 10 cm keeps it well under a millimetre at the cell's distances (nothing is rendered closer).
@@ -59,15 +60,12 @@ def _matte(mesh):
     return mesh
 
 
-class Renderer:
-    """A pyrender scene of one robot, its tool, the lab, and optionally a board or a flange marker.
+@dataclass(frozen=True)
+class SceneContents:
+    """What a :class:`Renderer` draws; by default the lab, the robot and its gripper.
 
-    Parameters
+    Attributes
     ----------
-    robot : handeye.robot.model.Robot
-    K : array, shape (3, 3)
-        OpenCV camera matrix (pixel centres at integers).
-    width, height : int
     environment, gripper : bool
         Draw the lab and the gripper.
     board : (BoardSpec, array (4, 4)), optional
@@ -78,44 +76,54 @@ class Renderer:
         Draw the robot's links.
     """
 
-    def __init__(
-        self,
-        robot,
-        K,
-        width,
-        height,
-        environment=True,
-        gripper=True,
-        board=None,
-        marker_radius_m=None,
-        robot_visible=True,
-    ):
+    environment: bool = True
+    gripper: bool = True
+    board: tuple | None = None
+    marker_radius_m: float | None = None
+    robot_visible: bool = True
+
+
+class Renderer:
+    """A pyrender scene of one robot, its tool, the lab, and optionally a board or a flange marker.
+
+    Parameters
+    ----------
+    robot : handeye.robot.model.Robot
+    K : array, shape (3, 3)
+        OpenCV camera matrix (pixel centres at integers).
+    width, height : int
+    contents : SceneContents, optional
+        What is drawn: the lab, the robot's links, the gripper, a board or a flange marker; None:
+        ``SceneContents()`` (the lab, the robot and its gripper).
+    """
+
+    def __init__(self, robot, K, width, height, contents: SceneContents | None = None):
         os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
         self.pyrender = require_package("pyrender", extra="sim", purpose="rendering")
         pr = self.pyrender
         _single_sample_framebuffers(pr)
         self.robot = robot
+        contents = contents or SceneContents()
         self.scene = pr.Scene(ambient_light=np.array([0.35, 0.35, 0.35]), bg_color=np.array([0.8, 0.85, 0.9, 1.0]))
         self.environment_nodes = []  # posed by T_base_lab, the identity until set_environment_pose
-        if environment:
+        if contents.environment:
             for m in environment_meshes():
                 self.environment_nodes.append(self.scene.add(_matte(pr.Mesh.from_trimesh(m, smooth=False))))
         self.link_nodes = []
-        if robot_visible:
+        if contents.robot_visible:
             for name, path, _ in robot.link_poses(np.zeros(robot.nq)):
                 self.link_nodes.append(self.scene.add(pr.Mesh.from_trimesh(load_link_mesh(path)), name=name))
         self.ee_nodes = []  # (node, T_ee_mesh)
-        if gripper:
+        if contents.gripper:
             for m in gripper_meshes():
                 self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(m, smooth=False)), np.eye(4)))
-        if board is not None:
-            spec, T_ee_target = board
+        if contents.board is not None:
+            spec, T_ee_target = contents.board
             board_node = self.scene.add(_matte(pr.Mesh.from_trimesh(board_mesh(spec, T_ee_target))))
             self.ee_nodes.append((board_node, np.eye(4)))
-        if marker_radius_m is not None:
-            self.ee_nodes.append(
-                (self.scene.add(pr.Mesh.from_trimesh(marker_mesh(marker_radius_m), smooth=False)), np.eye(4))
-            )
+        if contents.marker_radius_m is not None:
+            marker = marker_mesh(contents.marker_radius_m)
+            self.ee_nodes.append((self.scene.add(pr.Mesh.from_trimesh(marker, smooth=False)), np.eye(4)))
         cx, cy = gl_principal_point(K[0, 2], K[1, 2])
         camera = pr.IntrinsicsCamera(fx=K[0, 0], fy=K[1, 1], cx=cx, cy=cy, znear=ZNEAR_M, zfar=ZFAR_M)
         self.camera_node = self.scene.add(camera)

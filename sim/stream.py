@@ -43,10 +43,35 @@ from sim.sensors import draw_systematic, truth_columns
 from sim.stream_events import STREAM_PRESETS, StreamPreset, get_stream_preset
 from sim.stream_timeline import Timeline, build_timeline
 
-__all__ = ["STREAM_PRESETS", "STREAM_FORMAT", "StreamReport", "generate_stream", "stream_meta", "read_stream"]
+__all__ = [
+    "STREAM_PRESETS",
+    "STREAM_FORMAT",
+    "StreamOverrides",
+    "StreamReport",
+    "generate_stream",
+    "stream_meta",
+    "read_stream",
+]
 
 STREAM_FORMAT = "handeye-stream"
 STREAM_VERSION = 1
+
+
+@dataclass(frozen=True)
+class StreamOverrides:
+    """A stream preset's length, rate and image size, changed for one :func:`generate_stream` (None: the preset's).
+
+    Attributes
+    ----------
+    minutes, rate_hz : float, optional
+        Events past the end are left out; repeated ones repeat.
+    image_size : (int, int), optional
+        ``(width, height)``.
+    """
+
+    minutes: float | None = None
+    rate_hz: float | None = None
+    image_size: tuple[int, int] | None = None
 
 
 @dataclass
@@ -209,9 +234,7 @@ def generate_stream(
     preset: str | StreamPreset = "bumps",
     seed: int = 0,
     sensor: str | DepthSensor | None = None,
-    minutes: float | None = None,
-    rate_hz: float | None = None,
-    image_size: tuple[int, int] | None = None,
+    overrides: StreamOverrides | None = None,
     workers: int = 2,
     progress: bool = True,
 ) -> StreamReport:
@@ -226,10 +249,9 @@ def generate_stream(
     seed : int
     sensor : str or DepthSensor, optional
         A depth sensor profile (:data:`handeye.robot.depth_sensors.PROFILES`); None: the preset's.
-    minutes, rate_hz : float, optional
-        Override the preset's length and rate (events past the end are left out; repeated ones repeat).
-    image_size : (int, int), optional
-        ``(width, height)``; None: the preset's.
+    overrides : StreamOverrides, optional
+        The preset's length, rate and image size changed (events past the end are left out; repeated ones
+        repeat); None: the preset's.
     workers : int
         Rendering processes.
     progress : bool
@@ -250,7 +272,9 @@ def generate_stream(
 
     t0 = time.perf_counter()
     preset = get_stream_preset(preset) if isinstance(preset, str) else preset
-    changes = {"minutes": minutes, "rate_hz": rate_hz, "image_size": None if image_size is None else tuple(image_size)}
+    overrides = overrides or StreamOverrides()
+    size = None if overrides.image_size is None else tuple(overrides.image_size)
+    changes = {"minutes": overrides.minutes, "rate_hz": overrides.rate_hz, "image_size": size}
     changes = {k: v for k, v in changes.items() if v is not None}
     if sensor is not None:
         changes["sensor"] = sensor if isinstance(sensor, str) else sensor.name

@@ -28,10 +28,11 @@ class _Built(Exception):
 @pytest.fixture(scope="module")
 def wide_stream(tmp_path_factory):
     pytest.importorskip("pyrender")
-    from sim.stream import generate_stream
+    from sim.stream import StreamOverrides, generate_stream
 
     root = tmp_path_factory.mktemp("wide") / "stream"
-    generate_stream(root, "smoke", seed=0, minutes=MINUTES, image_size=WIDE_SIZE, workers=1, progress=False)
+    overrides = StreamOverrides(minutes=MINUTES, image_size=WIDE_SIZE)
+    generate_stream(root, "smoke", seed=0, overrides=overrides, workers=1, progress=False)
     return root
 
 

@@ -163,8 +163,10 @@ def _model_masks(theta, p_cam, frame, n_frames, shape):
     return ndimage.binary_closing(ndimage.binary_dilation(masks, st), st)
 
 
-def _outline_points(theta, T_base_cam, points, normals, frame, moving, masks, usable, opts):
-    """Indices of the moving samples on the model's outer outline, seen from ``T_base_cam``."""
+def _outline_points(theta, T_base_cam, points, normals, frame, moving, masks, opts):
+    """Indices of the moving samples on the model's outer outline, seen from ``T_base_cam``; ``masks``: the pixels
+    the model covers per frame (those it covers in more than ``opts.max_cover`` of them are not used)."""
+    usable = masks.mean(axis=0) <= opts.max_cover
     idx = np.flatnonzero(moving)
     p = _to_cam(T_base_cam, points[idx])
     n = normals[idx] @ T_base_cam[:3, :3]
@@ -227,8 +229,7 @@ def refine_silhouette(rgb, theta0, T_base_cam0, points, normals, frame, moving, 
     theta, T = np.asarray(theta0, dtype=float).copy(), np.asarray(T_base_cam0, dtype=float).copy()
     for _ in range(opts.rounds):
         masks = _model_masks(theta, _to_cam(T, points), frame, n_frames, (h, w))
-        usable = masks.mean(axis=0) <= opts.max_cover
-        idx = _outline_points(theta, T, points, normals, frame, moving, masks, usable, opts)
+        idx = _outline_points(theta, T, points, normals, frame, moving, masks, opts)
         pts, fr = points[idx], frame[idx]
         _check_frames(fr)
         flat = sdf.reshape(n_frames, -1)

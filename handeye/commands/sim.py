@@ -129,7 +129,7 @@ def run_stream(args: argparse.Namespace) -> int:
     from handeye.core.optional import require_package
 
     require_package("pyrender", extra="sim", purpose="rendering")
-    from sim.stream import generate_stream
+    from sim.stream import StreamOverrides, generate_stream
 
     size = None
     if args.size is not None:
@@ -142,9 +142,7 @@ def run_stream(args: argparse.Namespace) -> int:
         args.preset,
         seed=args.seed,
         sensor=parse_sensor(args.sensor),
-        minutes=args.minutes,
-        rate_hz=args.rate,
-        image_size=size,
+        overrides=StreamOverrides(minutes=args.minutes, rate_hz=args.rate, image_size=size),
         workers=args.workers,
         progress=not args.quiet,
     )

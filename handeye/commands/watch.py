@@ -155,6 +155,7 @@ def _watch_dataset(args: argparse.Namespace) -> int:
     from handeye.robot_model import dataset_robot
     from handeye.watch import CellWatcher, dataset_frames
     from handeye.watch.source import stream_rate
+    from handeye.watch.wiring import WatchFiles, WatchHooks
 
     ds = Dataset.open(args.dataset)
     cameras = ds.complete_shards()
@@ -189,12 +190,9 @@ def _watch_dataset(args: argparse.Namespace) -> int:
         T_start,
         sensor,
         _options(args, rate, stride),
-        args.history,
-        args.current,
+        WatchFiles(args.history, args.current),
         depth_correction=depth_correction,
-        on_commit=hooks,
-        extra_starts=starts,
-        on_stale=() if tf is None else [tf.stale],
+        hooks=WatchHooks(on_commit=hooks, extra_starts=starts, on_stale=() if tf is None else [tf.stale]),
     )
     if tf is not None:
         tf.start(watcher.T_base_cam, watcher.version, watcher.stale_since)
@@ -213,6 +211,7 @@ def _watch_ros(args: argparse.Namespace) -> int:
     from handeye.markerless import read_start
     from handeye.robot.depth_sensors import sensor_profile
     from handeye.watch import CellWatcher
+    from handeye.watch.wiring import WatchFiles, WatchHooks
 
     what = "live ROS 2 topics" if args.ros2 else "a bag"
     if args.truth_start:
@@ -233,11 +232,8 @@ def _watch_ros(args: argparse.Namespace) -> int:
             T_start,
             sensor,
             _options(args, rate, inputs.stride),
-            args.history,
-            args.current,
-            on_commit=hooks,
-            extra_starts=starts,
-            on_stale=() if tf is None else [tf.stale],
+            WatchFiles(args.history, args.current),
+            hooks=WatchHooks(on_commit=hooks, extra_starts=starts, on_stale=() if tf is None else [tf.stale]),
         )
         if tf is not None:
             tf.start(watcher.T_base_cam, watcher.version, watcher.stale_since)

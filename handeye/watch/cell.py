@@ -42,9 +42,7 @@ Events are returned on every change of state (and on learning's end, a recalibra
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -55,8 +53,9 @@ from handeye.watch.events import Event
 from handeye.watch.history import History
 from handeye.watch.source import Frame
 from handeye.watch.states import FrameStates, StateOptions, is_lost, screen
+from handeye.watch.wiring import WatchFiles, WatchHooks
 
-__all__ = ["WatchOptions", "CellWatcher", "markerless_recalibration"]
+__all__ = ["WatchOptions", "WatchFiles", "WatchHooks", "CellWatcher", "markerless_recalibration"]
 
 #: The depth correction has settled when a new fit would move the frames' steps by less than this many of their
 #: sigmas (median over the frames); at most ``UNIT_ROUNDS`` fits (the first learning's and the relearnings').
@@ -171,28 +170,30 @@ class CellWatcher:
     sensor : handeye.robot.depth_sensors.DepthSensor
         Its ``sigma_m`` is the check's noise.
     options : WatchOptions, optional
-    history_path, current_path : str or Path, optional
-        The versions' history and the current calibration's JSON (:class:`handeye.watch.history.History`); a
-        ``current_path`` needs a ``history_path``.
-    recalibrate : callable, optional
-        ``recalibrate(frames, T_start) -> result`` with ``ok``, ``T_base_cam``, ``covariance``, ``sigma`` and
-        ``refused`` (a :class:`classic.markerless.MarkerlessResult`); :func:`markerless_recalibration` by default.
-        Where its ``depth`` has ``scale`` and ``offset_mm`` they replace the depth correction.
+    files : WatchFiles, optional
+        ``history_path``, the versions' history, and ``current_path``, the current calibration's JSON
+        (:class:`handeye.watch.history.History`); a ``current_path`` needs a ``history_path``. None: neither.
     depth_correction : (float, float), optional
         ``(k, c)``: the true depth is ``k z_obs + c`` (:func:`handeye.watch.check.check_frame`), until a
         recalibration estimates it anew. None: the version started from's own (its history record's
         ``depth_correction_k_c_m``), else ``(1, 0)``.
-    on_commit : sequence of callable, optional
-        Each called ``hook(T_base_cam, frames, version)`` after a validated calibration is committed (and
-        published to ``current_path``): :class:`handeye.watch.ros2.TfPublisher`,
+    hooks : WatchHooks, optional
+        What the watcher calls; None: :func:`markerless_recalibration` and nothing else. Its fields:
+
+        ``recalibrate``: ``recalibrate(frames, T_start) -> result`` with ``ok``, ``T_base_cam``, ``covariance``,
+        ``sigma`` and ``refused`` (a :class:`classic.markerless.MarkerlessResult`); :func:`markerless_recalibration`
+        when None. Where its ``depth`` has ``scale`` and ``offset_mm`` they replace the depth correction.
+
+        ``on_commit``: each called ``hook(T_base_cam, frames, version)`` after a validated calibration is committed
+        (and published to ``current_path``): :class:`handeye.watch.ros2.TfPublisher`,
         :class:`handeye.watch.learner.BackgroundLearner` (which returns at once and trains in the background).
-    extra_starts : callable, optional
-        ``extra_starts(frames) -> {name: T_base_cam}``, more starts for a recalibration beside the last
-        calibration (:meth:`handeye.watch.learner.BackgroundLearner.starts`); passed as
+
+        ``extra_starts``: ``extra_starts(frames) -> {name: T_base_cam}``, more starts for a recalibration beside the
+        last calibration (:meth:`handeye.watch.learner.BackgroundLearner.starts`); passed as
         ``recalibrate(frames, T_start, extra_starts=...)`` when it gives any.
-    on_stale : sequence of callable, optional
-        Each called ``hook(stale_since, version)`` when the calibration in use becomes stale (a ``moved``), after
-        ``current_path``'s JSON says so (:meth:`handeye.watch.history.History.mark_stale`):
+
+        ``on_stale``: each called ``hook(stale_since, version)`` when the calibration in use becomes stale (a
+        ``moved``), after ``current_path``'s JSON says so (:meth:`handeye.watch.history.History.mark_stale`):
         :meth:`handeye.watch.ros2.TfPublisher.stale`.
     """
 
@@ -203,18 +204,16 @@ class CellWatcher:
         T_base_cam: np.ndarray | None,
         sensor,
         options: WatchOptions | None = None,
-        history_path: str | Path | None = None,
-        current_path: str | Path | None = None,
-        recalibrate: Callable | None = None,
+        files: WatchFiles | None = None,
         depth_correction: tuple | None = None,
-        on_commit=(),
-        extra_starts: Callable | None = None,
-        on_stale=(),
+        hooks: WatchHooks | None = None,
     ):
         self.surface = robot_surface
         self.K = np.asarray(K, dtype=float)
         self.sensor = sensor
         self.options = options or WatchOptions()
+        files, hooks = files or WatchFiles(), hooks or WatchHooks()
+        history_path, current_path = files.history_path, files.current_path
         if history_path is None and current_path is not None:  # else it would silently never be written
             raise ValueError(f"the current calibration ({current_path}) is published from a history: give history_path")
         self.history = None if history_path is None else History(history_path, current_path)
@@ -237,8 +236,11 @@ class CellWatcher:
         thin = getattr(robot_surface, "thinned", None)
         self._check_surface = thin(factor**2) if factor > 1 and thin is not None else robot_surface
         stride = self.options.check.zbuffer_stride
-        self.recalibrate = recalibrate or markerless_recalibration(robot_surface, self.K, sensor, zbuffer_stride=stride)
-        self.on_commit, self.extra_starts, self.on_stale = tuple(on_commit), extra_starts, tuple(on_stale)
+        self.recalibrate = hooks.recalibrate or markerless_recalibration(
+            robot_surface, self.K, sensor, zbuffer_stride=stride
+        )
+        self.on_commit, self.on_stale = tuple(hooks.on_commit), tuple(hooks.on_stale)
+        self.extra_starts = hooks.extra_starts
         self.mode = "learning"
         self.state = "learning"
         self.stale_since: float | None = None

@@ -11,7 +11,7 @@ pytest.importorskip("pyrender")
 from handeye.core.se3 import invert_transform  # noqa: E402
 from handeye.robot.look_at import look_at  # noqa: E402
 from handeye.robot.model import load_robot  # noqa: E402
-from sim.render import Renderer  # noqa: E402
+from sim.render import Renderer, SceneContents  # noqa: E402
 from tests.sim._geometry import assert_sphere_rendered  # noqa: E402
 from tests.tolerances import DEPTH_M  # noqa: E402
 
@@ -23,7 +23,8 @@ RADIUS = 0.015
 @pytest.fixture(scope="module")
 def setup():
     robot = load_robot("ur5")
-    renderer = Renderer(robot, K, W, H, environment=False, gripper=False, robot_visible=False, marker_radius_m=RADIUS)
+    drawn = SceneContents(environment=False, gripper=False, robot_visible=False, marker_radius_m=RADIUS)
+    renderer = Renderer(robot, K, W, H, drawn)
     yield robot, renderer
     renderer.close()
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, WatchOptions
+from handeye.watch.wiring import WatchFiles, WatchHooks
 from tests.classic.test_markerless import K
 from tests.watch.test_cell import BUMP, MAX_DELAY_FRAMES, RATE_HZ, T_TRUE, Spheres, _stream
 
@@ -41,9 +42,11 @@ class KnownAnswer:
         return SimpleNamespace(ok=True, T_base_cam=T_BUMPED, covariance=None, sigma={}, refused=None)
 
 
-def watcher(tmp_path, recalibrate, **kw) -> CellWatcher:
-    """A watcher of the spheres with a history, recalibrating with ``recalibrate``."""
+def watcher(tmp_path, recalibrate, current_path=None, **hooks) -> CellWatcher:
+    """A watcher of the spheres with a history, recalibrating with ``recalibrate``; ``hooks``: the other
+    :class:`handeye.watch.wiring.WatchHooks` fields."""
     options = WatchOptions(rate_hz=RATE_HZ, null_frames=NULL_FRAMES, recal_frames=RECAL_FRAMES, relearn_frames=30)
+    files = WatchFiles(tmp_path / "h.jsonl", current_path)
     return CellWatcher(
-        Spheres(), K, T_TRUE, sensor_profile("ideal"), options, tmp_path / "h.jsonl", recalibrate=recalibrate, **kw
+        Spheres(), K, T_TRUE, sensor_profile("ideal"), options, files, hooks=WatchHooks(recalibrate, **hooks)
     )

@@ -10,6 +10,7 @@ from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
 from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, Frame, History, WatchOptions
+from handeye.watch.wiring import WatchFiles
 from tests.classic.test_markerless import K, _bias_bounds, _look_at, render_depth, sphere_model
 from tests.tolerances import FLOAT, SIGMA_BOUND
 
@@ -46,9 +47,8 @@ def _stream(rng, n, T_at, occluded=()):
 
 def _watch(tmp_path, **kw):
     options = WatchOptions(rate_hz=RATE_HZ, null_frames=60, recal_frames=12, relearn_frames=30, **kw)
-    return CellWatcher(
-        Spheres(), K, T_TRUE, sensor_profile("ideal"), options, tmp_path / "h.jsonl", tmp_path / "current.json"
-    )
+    files = WatchFiles(tmp_path / "h.jsonl", tmp_path / "current.json")
+    return CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), options, files)
 
 
 def test_a_static_stream_with_an_occluder_never_recalibrates(tmp_path):
@@ -115,7 +115,7 @@ def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path
 def test_a_current_file_without_a_history_is_refused(tmp_path):
     """The current calibration is published from the history: without one it would never be written."""
     with pytest.raises(ValueError, match="give history_path"):
-        CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), current_path=tmp_path / "current.json")
+        CellWatcher(Spheres(), K, T_TRUE, sensor_profile("ideal"), files=WatchFiles(current_path=tmp_path / "c.json"))
 
 
 def test_a_start_from_the_history_takes_its_versions_depth_correction(tmp_path):
@@ -124,9 +124,8 @@ def test_a_start_from_the_history_takes_its_versions_depth_correction(tmp_path):
     A correction given explicitly is kept."""
     h = History(tmp_path / "h.jsonl")
     h.append(T_TRUE, "commit", extra={"depth_correction_k_c_m": [1.01, -0.003]})
-    w = CellWatcher(Spheres(), K, None, sensor_profile("ideal"), history_path=tmp_path / "h.jsonl")
+    w = CellWatcher(Spheres(), K, None, sensor_profile("ideal"), files=WatchFiles(tmp_path / "h.jsonl"))
     assert w.depth_correction == (1.01, -0.003)
-    w = CellWatcher(
-        Spheres(), K, None, sensor_profile("ideal"), history_path=tmp_path / "h.jsonl", depth_correction=(1.0, 0.0)
-    )
+    files = WatchFiles(tmp_path / "h.jsonl")
+    w = CellWatcher(Spheres(), K, None, sensor_profile("ideal"), files=files, depth_correction=(1.0, 0.0))
     assert w.depth_correction == (1.0, 0.0)

@@ -19,6 +19,7 @@ from scipy import stats
 
 from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, Frame
+from handeye.watch.wiring import WatchHooks
 from tests.classic.test_markerless import SIGMA_1M, K, render_depth
 from tests.tolerances import FALSE_ALARM_COUNT_TAIL
 from tests.watch.test_cell import BUMP, RATE_HZ, T_TRUE
@@ -67,7 +68,7 @@ def _registration(scale_err: float, offset_err_mm: float):
 def _run(scale_err, offset_err_mm, n_frames, seed=0):
     options = null_options()
     recalibrate = _registration(scale_err, offset_err_mm)
-    w = CellWatcher(DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=recalibrate)
+    w = CellWatcher(DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, hooks=WatchHooks(recalibrate))
     commits, alarms, watched = 0, 0, 0
     for f in _frames(np.random.default_rng(seed), n_frames):
         events = w.feed(f)

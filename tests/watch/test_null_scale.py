@@ -14,6 +14,7 @@ from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, Frame, WatchOptions
 from handeye.watch.change import MEDIAN_SE, SCALE_Z, NullScale
 from handeye.watch.check import FrameCheck
+from handeye.watch.wiring import WatchHooks
 from tests.classic.test_markerless import K
 from tests.tolerances import FALSE_ALARM_COUNT_TAIL
 from tests.watch.test_cell import T_TRUE
@@ -57,7 +58,7 @@ def _alarms(monkeypatch, seed=0):
     monkeypatch.setattr(cell, "check_frame", lambda depth, *args: checks[int(depth[0, 0])])
     options = WatchOptions(rate_hz=RATE_HZ, null_frames=NULL_FRAMES, relearn_frames=RELEARN_FRAMES, recal_frames=4)
     surface = SimpleNamespace(posed=lambda q, twists=False: None)
-    w = CellWatcher(surface, K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
+    w = CellWatcher(surface, K, T_TRUE, sensor_profile("ideal"), options, hooks=WatchHooks(_same_calibration))
     alarms = watched = 0
     for i in range(n):
         frame = Frame(i / RATE_HZ, np.full((2, 2), float(i)), rng.uniform(-1, 1, size=6), i)

@@ -14,6 +14,7 @@ from handeye.robot.depth_sensors import sensor_profile
 from handeye.watch import CellWatcher, Frame, WatchOptions, change
 from handeye.watch.check import check_frame
 from handeye.watch.states import StateOptions, screen
+from handeye.watch.wiring import WatchHooks
 from tests.classic.test_markerless import SIGMA_1M, H, K, W, render_depth
 from tests.tolerances import FALSE_ALARM_COUNT_TAIL
 from tests.watch.test_cell import RATE_HZ, T_TRUE, Spheres
@@ -89,7 +90,7 @@ def null_options() -> WatchOptions:
 
 def _count(tmp_path, n_frames, seed=0, plates=False):
     options = null_options()
-    w = CellWatcher(DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, recalibrate=_same_calibration)
+    w = CellWatcher(DwellSpheres(), K, T_TRUE, sensor_profile("ideal"), options, hooks=WatchHooks(_same_calibration))
     alarms, watched = 0, 0
     for f in _static_frames(np.random.default_rng(seed), n_frames, plates=plates):
         alarms += sum(e.state == "moved" for e in w.feed(f))
