@@ -61,11 +61,15 @@ class MarkerlessResult:
         (a repeated error counted once), and ``sigma_static``: how far they moved the answer from the moving parts'
         alone, added whole to the sigma, which is otherwise the moving parts' own (``sigma_noise``: their
         covariance's): the static parts may move the answer, not narrow its sigma. ``covariance_noise``: the
-        noise's covariance alone (6 lists of 6), the part of :attr:`covariance` the frames measure.
+        noise's covariance alone (6 lists of 6), the part of :attr:`covariance` the frames measure. ``noise_bias``
+        (with the depth or the intrinsics estimated): how far the answer was moved back for the bias the depth
+        noise itself gives a fit that scales the observed depth (``rotation_deg``, ``translation_mm``, and the
+        ``scale`` and ``offset_mm`` taken off; :meth:`classic.markerless.problem.Problem._noise_debiased`).
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
-        ``offset_sigma_mm``); ``observability``: the same sigmas from the frames' spread alone (given the
+        ``offset_sigma_mm``: the fit's, plus what an error repeated per image pixel adds, as the pose's has it);
+        ``observability``: the same sigmas from the frames' spread alone (given the
         intrinsics), which decide a refusal for too little depth range; ``range_m`` (the matched depths' 10th
         and 90th percentiles), and the
         noise used (``noise_source``, ``noise_mm_at_median_depth``). With ``stereo_fb_px_m``, ``pixel_locking_px``:
@@ -182,6 +186,10 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     if opts.repeated_error_px > 0 and not refused:
         shared = problem.repeated_error(best.T, best.matches)
         repeated, repeated_covariance = [_repeated_term(shared, best.T[:3, :3])], shared["covariance"][:6, :6]
+        if fit.depth_correction is not None:  # the depth's sigma widened as the pose's
+            depth = depth_summary(
+                fit, opts, best.depth_range, problem.noise_source, noise_mm, shared["covariance"][6:8, 6:8]
+            )
     # the whole: the noise's and the repeated error's covariances, each bounded term an isotropic block
     bounded = (sampling, extrinsic, split or no_split, *static)
     whole = covariance + repeated_covariance + sum((_isotropic(term) for term in bounded), np.zeros((6, 6)))
@@ -194,6 +202,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
             "fitted_parts": "all" if problem.fitted_part is None else "moving",
             **({"static_matches": int(problem.static_rows(best.matches[0]).sum())} if problem.static_once else {}),
             **({"sigma_static": static[0]} if static else {}),
+            **({"noise_bias": problem.noise_bias} if problem.noise_bias is not None else {}),
             "sigma_noise": noise,
             "covariance_noise": covariance.tolist(),
             "sigma_sampling": sampling,

@@ -85,8 +85,12 @@ def depth_bins(z: np.ndarray, bins: int) -> np.ndarray | None:
     return np.searchsorted(edges, z)
 
 
-def depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_source: str, noise_mm: float) -> dict:
-    """The depth correction as the sensor's scale and offset, ``d_obs = s d + o``, with their sigmas."""
+def depth_summary(
+    fit, opts: MarkerlessOptions, depth_range: tuple, noise_source: str, noise_mm: float, shared=None
+) -> dict:
+    """The depth correction as the sensor's scale and offset, ``d_obs = s d + o``, with their sigmas: the fit's
+    covariance of ``(k, c)``, plus ``shared`` (shape (2, 2), optional): what an error the frames share adds to it
+    (:mod:`classic.markerless.repeated_error`), as the pose's sigma has it."""
     out = {"model": opts.depth_model, "noise_source": noise_source, "noise_mm_at_median_depth": noise_mm}
     out["range_m"] = [float(depth_range[0]), float(depth_range[1])]
     if fit.depth_correction is None:
@@ -94,7 +98,7 @@ def depth_summary(fit, opts: MarkerlessOptions, depth_range: tuple, noise_source
     k, c = fit.depth_correction[:2]
     # s = 1 / k, o = -c / k; first order through the Jacobian of (s, o) in (k, c)
     G = np.array([[-1 / k**2, 0.0], [c / k**2, -1 / k]])
-    C = G @ fit.depth_covariance[:2, :2] @ G.T
+    C = G @ (fit.depth_covariance[:2, :2] + (0.0 if shared is None else shared)) @ G.T
     frames = fit.depth_covariance if fit.depth_covariance_frames is None else fit.depth_covariance_frames
     F = G @ frames[:2, :2] @ G.T
     out.update(
