@@ -506,11 +506,14 @@ class CellWatcher:
         it at both ends of the registration's matched depths (``range_m``): the check then matches what the
         registration matched, and the two differ by less than the check tells a move from an unmoved arm. Else (a
         unit that changed by more, no unit fitted here yet, or no range given) the registration's is taken.
-        Taken as found, the registration's error along the scale-offset combination its few frames leave loose
-        (0.8 % and 9 mm from 20 frames on the running-cell benchmark's 30 Hz d435 stream, 5 to 6 of its own sigmas,
-        where the fitted unit was 0.05 % and 1 mm off) made each frame's step follow the arm's pose
-        (:func:`handeye.watch.change.fit_depth_unit`): the bias relearnt from the first poses after the commit
-        did not hold for the next ones, and each of that stream's six false alarms came in such a relearning."""
+        Why not the registration's always: its few frames leave loose the combination of scale and offset that
+        moves the arm's depths alike. The registration takes the depth noise's own bias out of it
+        (:meth:`classic.markerless.problem.Problem._noise_debiased`), but not its scatter along that combination:
+        on 20 d435 frames it still lies beyond 3 of its own sigmas in 2 of 16 sets
+        (``benchmarks/results/markerless_depth_unit_sigma.md``). A unit off along it makes each frame's step
+        follow the arm's pose (:func:`handeye.watch.change.fit_depth_unit`): the bias relearnt from the first
+        poses after the commit does not hold for the next ones, and the check reads a move where there is none.
+        The fitted unit comes from more frames over more poses."""
         if "scale" not in depth or "offset_mm" not in depth:
             return ""
         k1, c1 = unit_correction(depth["scale"], depth["offset_mm"] * 1e-3)
