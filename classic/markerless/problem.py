@@ -53,7 +53,7 @@ def _moving_parts(surface: RobotSurfaceFrames) -> np.ndarray:
     return spread[surface.part] > 0.02
 
 
-#: Draws of the added noise (each as +e and -e) over which :meth:`Problem._noise_debiased` averages the bias: one
+#: Draws of the added noise (each as +e and -e) over which :meth:`Problem.noise_debiased` averages the bias: one
 #: draw's own scatter was a quarter of the scale's bias it measured (sphere scenes, 4 mm at 1 m, 8 frames: 0.0011 to
 #: 0.0020 over four draws); three halve that, at six refits of the final matches.
 NOISE_PAIRS = 3
@@ -82,7 +82,6 @@ class Problem:
     def __init__(self, depth_m, K, surface, opts):
         self.K, self.s, self.opts = K, surface, opts
         self.depth_correction = (1.0, 0.0)  # (k, c[, a, b]), estimated by the fine stage
-        self.noise_bias = None  # what the depth noise's own pull moved the last answer by (_noise_debiased)
         # the camera matrix given, which back-projects the depth once (self.P), and the intrinsics estimated,
         # which project the model (self.K)
         self.K_given = K
@@ -281,7 +280,7 @@ class Problem:
         """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
         and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
         residual. ``repeated``: with the covariance an error repeated per pixel adds (``PlaneFit.repeated``).
-        ``prior_widened``: every prior's sigma times this (:meth:`_noise_debiased`)."""
+        ``prior_widened``: every prior's sigma times this (:meth:`noise_debiased`)."""
         m, f, q_obs = matches
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
@@ -394,16 +393,20 @@ class Problem:
         matches = (idx[sel], f[sel], q_obs[sel])
         iterations = 3 if self.opts.depth_model == "fixed" else 5
         fit, expected = self._solve(T, matches, iterations, covariance)
-        if covariance:  # the answer: the depth noise's own pull on it taken out
-            fit, self.noise_bias = self._noise_debiased(fit, matches, iterations)
         self.adopt(fit)
         return fit, expected, matches
 
-    def _noise_debiased(self, fit, matches, iterations):
-        """``fit`` (adopted as the current state, or about to be) with the bias the depth noise itself gives it taken
-        out, where the fit multiplies the observed depth by an unknown (the depth scale, the intrinsics); ``fit``
-        unchanged otherwise (and with the pixel locking, below). Returns it and how far it moved (``rotation_deg``,
-        ``translation_mm``, and the sensor's ``scale`` and ``offset_mm`` taken back), None where unchanged.
+    def noise_debiased(self, fit, matches, iterations=None):
+        """``fit`` (the current state: adopted) with the bias the depth noise itself gives it taken out, where the
+        fit multiplies the observed depth by an unknown (the depth scale, the intrinsics); ``fit`` unchanged
+        otherwise (and with the pixel locking, below). Returns it and how far it moved (``rotation_deg``,
+        ``translation_mm``, and the sensor's ``scale`` and ``offset_mm`` taken back), None where unchanged; the
+        state is left as it was. ``iterations``: the fit's (None: :meth:`fit_matches`'s).
+
+        The answer takes only the depth's part of it (:func:`classic.markerless.result.build_result`): the
+        correction of the pose moved it by about as much as the bias it took out on 50-100 frames and made the
+        accuracy worse (``benchmarks/results/markerless_depth_unit_sigma.md``), while the scale's bias was 2 to 7 of
+        its sigmas on 20-60 frames.
 
         The fit scales the observed points, ``k q_obs + c r``, so the depth's noise is in the regressor of ``k``
         as well as in the residual: least squares shrinks ``k`` by the noise's variance over the spread that
@@ -423,6 +426,8 @@ class Problem:
         """
         if (self.opts.depth_model == "fixed" and not self.estimate_intrinsics) or self.opts.stereo_fb_px_m:
             return fit, None
+        if iterations is None:
+            iterations = 3 if self.opts.depth_model == "fixed" else 5
         m, f, q_obs = matches
         rng = np.random.default_rng([self.opts.seed, 41])
         e = rng.normal(size=(NOISE_PAIRS, len(q_obs))) * self.sigma_z(q_obs[:, 2]) / q_obs[:, 2]  # relative
@@ -524,6 +529,5 @@ class Problem:
         moving = ~self.static_rows(m)
         alone = (m[moving], f[moving], q_obs[moving])
         fit, _ = self._solve(T, alone, iterations=5)
-        fit = self._noise_debiased(fit, alone, 5)[0]  # as the answer's: the pull is the static parts' alone
         rot_deg, trans_mm = pose_error(fit.T_base_cam, T)
         return {"rotation_deg": float(rot_deg), "translation_mm": float(trans_mm)}, fit.covariance

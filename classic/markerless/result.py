@@ -4,7 +4,7 @@ start's fit: its residuals, the acceptance test, the intrinsics' and joint offse
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -62,9 +62,10 @@ class MarkerlessResult:
         alone, added whole to the sigma, which is otherwise the moving parts' own (``sigma_noise``: their
         covariance's): the static parts may move the answer, not narrow its sigma. ``covariance_noise``: the
         noise's covariance alone (6 lists of 6), the part of :attr:`covariance` the frames measure. ``noise_bias``
-        (with the depth or the intrinsics estimated): how far the answer was moved back for the bias the depth
-        noise itself gives a fit that scales the observed depth (``rotation_deg``, ``translation_mm``, and the
-        ``scale`` and ``offset_mm`` taken off; :meth:`classic.markerless.problem.Problem._noise_debiased`).
+        (with the depth or the intrinsics estimated): the bias the depth noise itself gives a fit that scales the
+        observed depth (:meth:`classic.markerless.problem.Problem.noise_debiased`): the ``scale`` and ``offset_mm``
+        taken off the depth unit reported, and the ``rotation_deg`` and ``translation_mm`` it would move the pose
+        by, not taken off (on 50-100 frames that made the pose worse).
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
@@ -167,7 +168,10 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         "rotation_deg": registration["rotation"]["rss_deg"],
         "translation_mm": registration["translation"]["rss_mm"],
     }
-    depth = depth_summary(fit, opts, best.depth_range, problem.noise_source, noise_mm)
+    # the depth unit with the depth noise's own bias taken out (the pose, intrinsics and joints are the fit's)
+    debiased, noise_bias = problem.noise_debiased(fit, best.matches)
+    depth_fit = replace(fit, depth_correction=debiased.depth_correction)
+    depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm)
     refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
     # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
     split = None
@@ -188,7 +192,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         repeated, repeated_covariance = [_repeated_term(shared, best.T[:3, :3])], shared["covariance"][:6, :6]
         if fit.depth_correction is not None:  # the depth's sigma widened as the pose's
             depth = depth_summary(
-                fit, opts, best.depth_range, problem.noise_source, noise_mm, shared["covariance"][6:8, 6:8]
+                depth_fit, opts, best.depth_range, problem.noise_source, noise_mm, shared["covariance"][6:8, 6:8]
             )
     # the whole: the noise's and the repeated error's covariances, each bounded term an isotropic block
     bounded = (sampling, extrinsic, split or no_split, *static)
@@ -202,7 +206,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
             "fitted_parts": "all" if problem.fitted_part is None else "moving",
             **({"static_matches": int(problem.static_rows(best.matches[0]).sum())} if problem.static_once else {}),
             **({"sigma_static": static[0]} if static else {}),
-            **({"noise_bias": problem.noise_bias} if problem.noise_bias is not None else {}),
+            **({"noise_bias": noise_bias} if noise_bias is not None else {}),
             "sigma_noise": noise,
             "covariance_noise": covariance.tolist(),
             "sigma_sampling": sampling,
