@@ -14,6 +14,7 @@ from tests.tiers import (  # noqa: F401  (the tiers' hooks: --full, the slow tes
     pytest_configure,
     pytest_terminal_summary,
     pytest_testnodedown,
+    pytest_xdist_auto_num_workers,
     pytest_xdist_make_scheduler,
 )
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -28,10 +29,18 @@ def run_notebook(path: Path) -> dict:
     return namespace
 
 
+def _with_the_small_render(small_dataset, folder: Path) -> None:
+    """The notebooks render ``Recipe("small", seed=0)`` on 2 workers and label it, as conftest's ``small_dataset``
+    does: that render, copied where the notebook renders, is kept by its ``generate`` (a resumed render keeps the
+    complete placements of the same recipe), so a run renders the small preset once, not once per notebook."""
+    shutil.copytree(small_dataset[0], folder / "small")
+
+
 @pytest.mark.slow  # 13 s on a quiet 2-core machine: a whole walkthrough, the slow tier (CI)
-def test_simulator_walkthrough(tmp_path, monkeypatch):
+def test_simulator_walkthrough(tmp_path, monkeypatch, small_dataset):
     pytest.importorskip("pinocchio")
     pytest.importorskip("pyrender")
+    _with_the_small_render(small_dataset, tmp_path)
     monkeypatch.setenv("HANDEYE_NOTEBOOK_DATA", str(tmp_path))
     ns = run_notebook(NOTEBOOKS / "01_simulator.ipynb")
     assert (tmp_path / "small" / "cam2.png").is_file()
@@ -39,9 +48,10 @@ def test_simulator_walkthrough(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow  # 16 s: renders, labels and trains, the slow tier (CI)
-def test_continual_learning_walkthrough(tmp_path, monkeypatch):
+def test_continual_learning_walkthrough(tmp_path, monkeypatch, small_dataset):
     pytest.importorskip("pinocchio")
     pytest.importorskip("torch")
+    _with_the_small_render(small_dataset, tmp_path)
     monkeypatch.setenv("HANDEYE_NOTEBOOK_DATA", str(tmp_path))
     ns = run_notebook(NOTEBOOKS / "02_continual_learning.ipynb")
     assert (tmp_path / "cell.pt").is_file() and (tmp_path / "run" / "report.md").is_file()

@@ -90,6 +90,16 @@ def work_unit(nodeid: str) -> str:
     return nodeid if path in PER_TEST_FILES else path
 
 
+#: Workers per core beyond one: the tests wait on processes they start (renders on two workers, a Ray cluster's
+#: start and stop, a killed worker's timeout), and a third worker on two cores fills those waits.
+EXTRA_WORKERS = 1
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto``: one worker per core and :data:`EXTRA_WORKERS` more (``--maxprocesses`` caps it)."""
+    return (os.cpu_count() or 1) + EXTRA_WORKERS
+
+
 def pytest_xdist_make_scheduler(config: pytest.Config, log):
     """pytest-xdist's scope scheduler with :func:`work_unit` as the scope (``--dist loadscope``)."""
     if config.getvalue("dist") != "loadscope":
