@@ -1,4 +1,4 @@
-"""The documentation's bash blocks (``docs/**/*.md``), every one executed as written.
+"""The documentation's bash blocks (``docs/**/*.md``), every one executed as written or parsed.
 
 Every ```bash block of the documentation is classified in :data:`BLOCKS` (a block added without a
 classification fails ``test_every_docs_bash_block_is_classified``):
@@ -14,6 +14,10 @@ classification fails ``test_every_docs_bash_block_is_classified``):
     preset, or is a benchmark): executed the same way, as written, in a smoke run
     (``HANDEYE_SMOKE_TEST=1``, :mod:`handeye.core.smoke`: every preset and benchmark size cut to seconds,
     the same commands, code paths and files).
+Parsed, not run (``Block.parsed``, a block of kind a or b whose code other tests of CI's run already run, which
+names them): each command parsed by its own argument parser and stopped there (:func:`_parse_check`), so that a
+renamed command or option fails here as it would for a reader; chosen where running it repeated minutes of CI's
+run (a render, a bag round trip, two labellings) that those tests make.
 ``c``
     A fresh virtual environment (``docs/getting-started.md``'s core install and its tests line, which the
     README prints too): the tests line is ``.ci/run``'s own, whose fresh install CI makes;
@@ -104,6 +108,9 @@ class Block:
     #: that one, in its folder, in the same test (``page#3+4``), instead of from stand-ins that repeat that
     #: block's work (:func:`_after_previous`; or :func:`_ray_head`, the cluster it joins, and nothing else).
     after: int | None = None
+    #: A block of kind b whose commands are parsed, not run (:func:`_parse_check`): the tests that run the same
+    #: code in CI's run, which a smoke run of the block would repeat.
+    parsed: str = ""
 
 
 # --------------------------------------------------------------------------- stand-ins, built once a session
@@ -485,9 +492,14 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/markerless.md", 2): Block("handeye label data/my-cell", "p"),
     ("docs/guides/markerless.md", 3): Block("handeye markerless data/my-cell --start", "p"),
     ("docs/guides/markerless.md", 4): Block("handeye compare data/my-cell", "p"),
-    # a render of the small preset with a sensor, then a bag round trip (39 s unloaded, 138 s in a loaded CI run):
-    # the slow tier's; the default run imports bags in tests/test_import_recording.py
-    ("docs/guides/markerless.md", 5): Block("handeye sim generate --preset small", "a", "", _nothing, slow=True),
+    ("docs/guides/markerless.md", 5): Block(
+        "handeye sim generate --preset small",
+        "a",
+        "",
+        _nothing,
+        parsed="a render with the D435 profile, its bags written and imported: the guide's printed example "
+        "(tests/test_docs.py, docs/make_examples.py's render_cell), tests/test_import_recording.py",
+    ),
     ("docs/guides/markerless.md", 6): Block(
         "handeye markerless data/paper-sim --camera 14 15",
         "a",
@@ -507,6 +519,8 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "renders paper-real with the D435 profile (2,400 data frames: minutes), then two markerless passes over "
         "24 placements",
         _nothing,
+        parsed="a D435 render labelled and registered with --sensor d435: the guide's printed example "
+        "(tests/test_docs.py); --depth-model fixed: tests/classic/test_markerless_depth.py",
     ),
     ("docs/guides/poses.md", 0): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
     ("docs/guides/poses.md", 1): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
@@ -547,9 +561,14 @@ BLOCKS: dict[tuple[str, int], Block] = {
         _PAPER_PRESET + "; then paper-real and two protocol benchmarks",
         _render_shared(_benchmarks),
     ),
-    # a render of the small preset and two labellings (37 s unloaded, 169 s in a loaded CI run): the slow tier's;
-    # the default run renders and labels the small preset through the same calls (conftest's small_dataset)
-    ("docs/reproduce-paper.md", 2): Block("handeye sim generate --preset small", "a", "", _nothing, slow=True),
+    ("docs/reproduce-paper.md", 2): Block(
+        "handeye sim generate --preset small",
+        "a",
+        "",
+        _nothing,
+        parsed="the small preset rendered and labelled by Park and by Tsai with repeats: conftest's small_dataset, "
+        "tests/test_paper_labels.py, guides/beyond-one-machine.md#0+1",
+    ),
 }
 
 
@@ -650,7 +669,8 @@ def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -
 
 def _marks(keys: list[tuple[str, int]]) -> list:
     """A smoke run (b), or a block marked slow, is the slow tier's (a block on Ray holds the Ray lock)."""
-    return [pytest.mark.slow] if any(BLOCKS[k].kind == "b" or BLOCKS[k].slow for k in keys) else []
+    slow = any((BLOCKS[k].kind == "b" and not BLOCKS[k].parsed) or BLOCKS[k].slow for k in keys)
+    return [pytest.mark.slow] if slow else []
 
 
 def runs() -> list[list[tuple[str, int]]]:
@@ -698,14 +718,19 @@ def test_docs_bash_block_runs(keys, blocks, tmp_path, request, mpl_config):
     folder, home = tmp_path / "cwd", tmp_path / "home"
     folder.mkdir()
     home.mkdir()
-    if any("--engine ray" in b for b in blocks):  # a local cluster, or the one the setup starts: one at a time
+    ran = [b for k, b in zip(keys, blocks) if not BLOCKS[k].parsed]
+    if any("--engine ray" in b for b in ran):  # a local cluster, or the one the setup starts: one at a time
         hold_ray_lock(request)
     for key, block in zip(keys, blocks):
         _run_block(key, block, folder, home, request, mpl_config)
 
 
 def _run_block(key, block, folder: Path, home: Path, request, mpl_config) -> None:
-    """One block of :func:`test_docs_bash_block_runs`: its stand-ins, then the block as written, and its checks."""
+    """One block of :func:`test_docs_bash_block_runs`: its stand-ins, then the block as written, and its checks;
+    a block whose code other tests run (``Block.parsed``): its commands parsed (:func:`_parse_check`)."""
+    if BLOCKS[key].parsed:
+        _parse_check(block, folder, _block_env(home, mpl_config, smoke=True))
+        return
     BLOCKS[key].prepare(folder, home, block, request)
     text, dropped = executed_text(block)
     env = _block_env(home, mpl_config, smoke=BLOCKS[key].kind == "b")
@@ -723,6 +748,62 @@ def _run_block(key, block, folder: Path, home: Path, request, mpl_config) -> Non
             _extras_installed(line)
         else:
             _launch_file_is_what_ros2_launch_runs(folder, home, line)
+
+
+#: Each command's argument parser run on its words, then stopped (:class:`_Parsed`): ``handeye`` through
+#: :func:`handeye.cli.main`, ``python benchmarks/X.py`` through the script run as ``__main__``.
+_PARSE_CHECK = r"""
+import argparse, json, runpy, sys
+
+
+class _Parsed(BaseException):
+    pass
+
+
+_parse_args = argparse.ArgumentParser.parse_args
+
+
+def _parse_then_stop(self, args=None, namespace=None):
+    _parse_args(self, args, namespace)
+    raise _Parsed
+
+
+argparse.ArgumentParser.parse_args = _parse_then_stop
+for words in json.loads(sys.argv[1]):
+    try:
+        if words[0] == "handeye":
+            from handeye.cli import main
+
+            main(words[1:])
+        else:
+            sys.argv = words[1:]
+            runpy.run_path(words[1], run_name="__main__")
+    except _Parsed:
+        continue
+    sys.exit(f"{' '.join(words)}: went past its argument parser (not parsed with argparse's parse_args)")
+"""
+
+
+def _parse_check(block: str, folder: Path, env: dict) -> None:
+    """Every command of ``block`` (``handeye ...`` or ``python benchmarks/X.py ...``, split at ``&&``) parsed by
+    its own argument parser and stopped there: a renamed subcommand or option, a value outside its choices, fails;
+    nothing runs (so a value the command checks only when it runs, a preset's name, is not checked). The
+    benchmarks' scripts are the repository's (``benchmarks/`` linked into ``folder``)."""
+    words = [shlex.split(part) for line in _commands(block) for part in line.split("&&")]
+    assert all(w[0] == "handeye" or w[:2] == ["python", w[1]] and w[1].startswith("benchmarks/") for w in words), words
+    if not (folder / "benchmarks").exists():
+        (folder / "benchmarks").symlink_to(ROOT / "benchmarks")
+    import json
+
+    run = subprocess.run(
+        [sys.executable, "-c", _PARSE_CHECK, json.dumps(words)],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, f"a command did not parse (exit {run.returncode}):\n{run.stderr[-3000:]}"
 
 
 def _block_env(home: Path, mpl_config: Path, smoke: bool) -> dict:
@@ -785,3 +866,22 @@ def test_the_install_blocks_agree_with_ci():
         else:
             assert step in ci or step == "handeye demo", f"{step!r} is not a step of CI's"
     assert _steps(demo)[-1] == "handeye demo", f"the demo block ends with {_steps(demo)[-1]!r}"
+
+
+@pytest.mark.parametrize(
+    "block",
+    [
+        "handeye sim generate --preset small --out data/small --no-such-option\n",
+        "handeye sim generate --preset small --engine no-such-engine --out data/small\n",
+        "handeye label data/small && handeye no-such-command data/small\n",
+        "python benchmarks/imported_bag.py --no-such-option\n",
+    ],
+)
+def test_the_parse_check_fails_on_what_no_longer_parses(block, tmp_path, mpl_config):
+    """A parsed block (``Block.parsed``) fails on an option, a choice or a command its parser does not know, in
+    either kind of command: the check can fail."""
+    (tmp_path / "home").mkdir()
+    env = _block_env(tmp_path / "home", mpl_config, smoke=True)
+    _parse_check("handeye sim generate --preset small --out data/small\n", tmp_path, env)  # parses
+    with pytest.raises(AssertionError, match="did not parse"):
+        _parse_check(block, tmp_path, env)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -274,3 +275,18 @@ def test_distortion_is_removed_from_the_data_frames():
     assert np.hypot(xs.mean() - centre[0], ys.mean() - centre[1]) < 0.5
     ys, xs = np.nonzero(frames[0]["rgb"][..., 0] > 127)  # bilinear: its edge differs by a pixel, not its centre
     assert np.hypot(xs.mean() - centre[0], ys.mean() - centre[1]) < 0.5
+
+
+def test_the_sim_bag_command_writes_the_placements_bags_and_the_board(recorded, tmp_path, capsys):
+    """``handeye sim bag`` (the markerless guide's step, parsed there: tests/test_docs_shell.py): the bags of the
+    placement named, as :func:`sim.bag_export.write_placement_bags` writes them with the same settings, and the
+    board file."""
+    root, _, bags = recorded
+    argv = ["sim", "bag", str(root / "sim"), "--camera", "0", "--out", str(tmp_path / "bags")]
+    assert main([*argv, "--board-out", str(tmp_path / "board.json")]) == 0
+    for kind, path in bags[0].items():
+        ours = tmp_path / "bags" / Path(path).relative_to(root / "bags")
+        files = sorted(p.relative_to(path) for p in Path(path).rglob("*"))
+        assert sorted(p.relative_to(ours) for p in ours.rglob("*")) == files, kind
+    assert (tmp_path / "board.json").read_text() == (root / "board.json").read_text()
+    assert "written: " in capsys.readouterr().out
