@@ -57,6 +57,8 @@ def _moving_parts(surface: RobotSurfaceFrames) -> np.ndarray:
 #: draw's own scatter was a quarter of the scale's bias it measured (sphere scenes, 4 mm at 1 m, 8 frames: 0.0011 to
 #: 0.0020 over four draws); three halve that, at six refits of the final matches.
 NOISE_PAIRS = 3
+#: Gauss-Newton iterations of each such refit: it starts at the answer, a noise's pull away from its own optimum.
+REFIT_ITERATIONS = 2
 
 #: Depth noise taken when it can be neither measured nor was given: 1 mm at 1 m, growing with depth squared.
 FALLBACK_SIGMA_M_AT_1M = 0.001
@@ -444,7 +446,7 @@ class Problem:
             widen = float(np.sqrt(1 + np.sum(w * (gain * draw) ** 2) / max(variance, 1e-30)))
             for sign in (1.0, -1.0):
                 noisier = (m, f, q_obs * (1 + sign * draw)[:, None])
-                refits.append(self._solve(T, noisier, iterations, covariance=False, prior_widened=widen)[0])
+                refits.append(self._solve(T, noisier, REFIT_ITERATIONS, covariance=False, prior_widened=widen)[0])
         self.depth_correction, (theta, delta) = kept[0], kept[1:]
         self.set_intrinsics(theta)
         self.set_joint_offsets(delta)
