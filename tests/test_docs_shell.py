@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
+import json
 import os
 import re
 import shlex
@@ -790,11 +791,9 @@ def _parse_check(block: str, folder: Path, env: dict) -> None:
     nothing runs (so a value the command checks only when it runs, a preset's name, is not checked). The
     benchmarks' scripts are the repository's (``benchmarks/`` linked into ``folder``)."""
     words = [shlex.split(part) for line in _commands(block) for part in line.split("&&")]
-    assert all(w[0] == "handeye" or w[:2] == ["python", w[1]] and w[1].startswith("benchmarks/") for w in words), words
+    assert all(w[0] == "handeye" or (w[0] == "python" and w[1].startswith("benchmarks/")) for w in words), words
     if not (folder / "benchmarks").exists():
         (folder / "benchmarks").symlink_to(ROOT / "benchmarks")
-    import json
-
     run = subprocess.run(
         [sys.executable, "-c", _PARSE_CHECK, json.dumps(words)],
         cwd=folder,

@@ -5,7 +5,6 @@ the point-to-plane fit of its matches. The stages that drive it are :mod:`classi
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -53,7 +52,7 @@ def _moving_parts(surface: RobotSurfaceFrames) -> np.ndarray:
     return spread[surface.part] > 0.02
 
 
-#: Draws of the added noise (each as +e and -e) over which :meth:`Problem.noise_debiased` averages the bias: one
+#: Draws of the added noise (each as +e and -e) over which :meth:`Problem.depth_debiased` averages the bias: one
 #: draw's own scatter was a quarter of the scale's bias it measured (sphere scenes, 4 mm at 1 m, 8 frames: 0.0011 to
 #: 0.0020 over four draws); three halve that, at six refits of the final matches.
 NOISE_PAIRS = 3
@@ -282,7 +281,7 @@ class Problem:
         """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
         and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
         residual. ``repeated``: with the covariance an error repeated per pixel adds (``PlaneFit.repeated``).
-        ``prior_widened``: every prior's sigma times this (:meth:`noise_debiased`)."""
+        ``prior_widened``: every prior's sigma times this (:meth:`depth_debiased`)."""
         m, f, q_obs = matches
         expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
@@ -398,45 +397,42 @@ class Problem:
         self.adopt(fit)
         return fit, expected, matches
 
-    def noise_debiased(self, fit, matches, iterations=None):
-        """``fit`` (the current state: adopted) with the bias the depth noise itself gives it taken out, where the
-        fit multiplies the observed depth by an unknown (the depth scale, the intrinsics); ``fit`` unchanged
-        otherwise (and with the pixel locking, below). Returns it and how far it moved (``rotation_deg``,
-        ``translation_mm``, and the sensor's ``scale`` and ``offset_mm`` taken back), None where unchanged; the
-        state is left as it was. ``iterations``: the fit's (None: :meth:`fit_matches`'s).
+    def depth_debiased(self, fit, matches):
+        """The depth correction ``(k, c, ...)`` of ``fit`` (the current state: adopted) with the bias the depth
+        noise itself gives it taken out, and how far that moved the sensor's ``scale`` and ``offset_mm`` (with
+        ``rotation_deg`` and ``translation_mm``: how far the same extrapolation would move the pose, not applied);
+        ``(None, None)`` where the depth is taken as exact or a stereo matcher's pixel locking is estimated (below).
+        The state is left as it was.
 
-        The answer takes only the depth's part of it (:func:`classic.markerless.result.build_result`): the
-        correction of the pose moved it by about as much as the bias it took out on 50-100 frames and made the
-        accuracy worse (``benchmarks/results/markerless_depth_unit_sigma.md``), while the scale's bias was 2 to 7 of
-        its sigmas on 20-60 frames.
+        Only the depth unit reported takes it (:func:`classic.markerless.result.build_result`): applied to the pose
+        as well, it moved the pose by about as much as the bias it took out on 50-100 frames and made the accuracy
+        worse (``benchmarks/results/markerless_depth_unit_sigma.md``), while the scale's bias was 2 to 7 of its
+        sigmas on 20-60 frames.
 
         The fit scales the observed points, ``k q_obs + c r``, so the depth's noise is in the regressor of ``k``
         as well as in the residual: least squares shrinks ``k`` by the noise's variance over the spread that
         tells the scale from the offset (errors in variables), which only the arm's range of depths and its size
         in the image do; 20 frames leave that spread a few centimetres and ``k`` a few tenths of a per cent low,
-        the offset the other way, at the depths' middle (a white noise of 3.6 mm at 1 m alone: the scale 0.14 to
-        0.6 % high, 2.5 to 7 of its sigmas). The bias is first order in the noise's variance, the noise's own
-        pull on the answer first order in the noise: the matches solved again from the answer with a noise of the
-        same sigma added along their rays (:meth:`sigma_z`), once ``+e`` and once ``-e`` (its first-order pull
-        cancels in the pair), move it by the bias once more, and the answer is taken that far back
-        (simulation-extrapolation to no noise), over :data:`NOISE_PAIRS` draws of ``e``. The priors keep in the
-        refits the weight they had in the answer (their sigmas widened as the residuals' variance grows): the
-        noise's bias is taken out, not the priors' pull. Not with a stereo matcher's pixel locking estimated
-        (``stereo_fb_px_m``): its pattern is periodic in the depth as observed, which the added noise smears, and
-        the extrapolation would take the smearing for the noise's bias (a locking of 0.15 px came out 6 of its
-        sigmas high on the sphere scenes).
+        the offset the other way, at the depths' middle. The bias is first order in the noise's variance, the
+        noise's own pull on the answer first order in the noise: the matches solved again from the answer
+        (:data:`REFIT_ITERATIONS`) with a noise of the same sigma added along their rays (:meth:`sigma_z`), once
+        ``+e`` and once ``-e`` (its first-order pull cancels in the pair), move it by the bias once more, and the
+        answer is taken that far back (simulation-extrapolation to no noise), over :data:`NOISE_PAIRS` draws of
+        ``e``. The priors keep in the refits the weight they had in the answer (their sigmas widened as the
+        residuals' variance grows): the noise's bias is taken out, not the priors' pull. Not with a stereo
+        matcher's pixel locking estimated (``stereo_fb_px_m``): its pattern is periodic in the depth as observed,
+        which the added noise smears, and the extrapolation would take the smearing for the noise's bias (a locking
+        of 0.15 px came out 6 of its sigmas high on the sphere scenes).
         """
-        if (self.opts.depth_model == "fixed" and not self.estimate_intrinsics) or self.opts.stereo_fb_px_m:
-            return fit, None
-        if iterations is None:
-            iterations = 3 if self.opts.depth_model == "fixed" else 5
+        if fit.depth_correction is None or self.opts.stereo_fb_px_m:
+            return None, None
         m, f, q_obs = matches
         rng = np.random.default_rng([self.opts.seed, 41])
         e = rng.normal(size=(NOISE_PAIRS, len(q_obs))) * self.sigma_z(q_obs[:, 2]) / q_obs[:, 2]  # relative
         T = fit.T_base_cam
         # the residuals' variance the added noise gives (the priors' information is taken in its units)
-        k = 1.0 if fit.depth_correction is None else fit.depth_correction[0]
-        gain = k * q_obs[:, 2] * np.einsum("ij,ij->i", self.s.normals_base[m], q_obs @ T[:3, :3].T / q_obs[:, 2:3])
+        k0, c0 = fit.depth_correction[:2]
+        gain = k0 * q_obs[:, 2] * np.einsum("ij,ij->i", self.s.normals_base[m], q_obs @ T[:3, :3].T / q_obs[:, 2:3])
         w, r = fit.weights, fit.residuals_m
         variance = float(np.sum(w * r**2))
         kept = (self.depth_correction, self.theta, self.joint_offsets)
@@ -450,6 +446,10 @@ class Problem:
         self.depth_correction, (theta, delta) = kept[0], kept[1:]
         self.set_intrinsics(theta)
         self.set_joint_offsets(delta)
+        # twice the answer less the noisier ones' mean
+        depth = tuple(
+            float(v) for v in 2 * np.asarray(fit.depth_correction) - np.mean([g.depth_correction for g in refits], 0)
+        )
         xi = np.mean(
             [
                 np.r_[so3_log(T[:3, :3].T @ g.T_base_cam[:3, :3]), T[:3, :3].T @ (g.T_base_cam[:3, 3] - T[:3, 3])]
@@ -457,25 +457,15 @@ class Problem:
             ],
             axis=0,
         )
-
-        def back(name):  # twice the answer less the noisier ones' mean
-            value = getattr(fit, name)
-            return None if value is None else 2 * np.asarray(value) - np.mean([getattr(g, name) for g in refits], 0)
-
-        depth = back("depth_correction")
-        out = replace(
-            fit,
-            T_base_cam=apply_right(T, -xi),
-            depth_correction=None if depth is None else tuple(float(v) for v in depth),
-            intrinsics=back("intrinsics"),
-            joint_offsets=back("joint_offsets"),
-        )
-        rot_deg, trans_mm = pose_error(out.T_base_cam, T)
-        moved = {"rotation_deg": float(rot_deg), "translation_mm": float(trans_mm)}
-        if depth is not None:
-            (k0, c0), (k1, c1) = fit.depth_correction[:2], depth[:2]
-            moved.update({"scale": float(1 / k0 - 1 / k1), "offset_mm": float((c1 / k1 - c0 / k0) * 1e3)})
-        return out, moved
+        rot_deg, trans_mm = pose_error(apply_right(T, -xi), T)
+        k1, c1 = depth[:2]
+        moved = {
+            "scale": float(1 / k0 - 1 / k1),
+            "offset_mm": float((c1 / k1 - c0 / k0) * 1e3),
+            "rotation_deg": float(rot_deg),
+            "translation_mm": float(trans_mm),
+        }
+        return depth, moved
 
     def restart(self):
         """No depth correction, the intrinsics given and no joint offsets: the state a start begins from."""

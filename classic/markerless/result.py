@@ -62,8 +62,8 @@ class MarkerlessResult:
         alone, added whole to the sigma, which is otherwise the moving parts' own (``sigma_noise``: their
         covariance's): the static parts may move the answer, not narrow its sigma. ``covariance_noise``: the
         noise's covariance alone (6 lists of 6), the part of :attr:`covariance` the frames measure. ``noise_bias``
-        (with the depth or the intrinsics estimated): the bias the depth noise itself gives a fit that scales the
-        observed depth (:meth:`classic.markerless.problem.Problem.noise_debiased`): the ``scale`` and ``offset_mm``
+        (with the depth scale and offset estimated): the bias the depth noise itself gives a fit that scales the
+        observed depth (:meth:`classic.markerless.problem.Problem.depth_debiased`): the ``scale`` and ``offset_mm``
         taken off the depth unit reported, and the ``rotation_deg`` and ``translation_mm`` it would move the pose
         by, not taken off (on 50-100 frames that made the pose worse).
     depth : dict
@@ -169,8 +169,8 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         "translation_mm": registration["translation"]["rss_mm"],
     }
     # the depth unit with the depth noise's own bias taken out (the pose, intrinsics and joints are the fit's)
-    debiased, noise_bias = problem.noise_debiased(fit, best.matches)
-    depth_fit = replace(fit, depth_correction=debiased.depth_correction)
+    debiased, noise_bias = problem.depth_debiased(fit, best.matches)
+    depth_fit = fit if debiased is None else replace(fit, depth_correction=debiased)
     depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm)
     refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
     # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)

@@ -508,7 +508,7 @@ class CellWatcher:
         unit that changed by more, no unit fitted here yet, or no range given) the registration's is taken.
         Why not the registration's always: its few frames leave loose the combination of scale and offset that
         moves the arm's depths alike. The registration takes the depth noise's own bias out of it
-        (:meth:`classic.markerless.problem.Problem.noise_debiased`), but not its scatter along that combination:
+        (:meth:`classic.markerless.problem.Problem.depth_debiased`), but not its scatter along that combination:
         on 20 d435 frames it still lies beyond 3 of its own sigmas in 2 of 16 sets
         (``benchmarks/results/markerless_depth_unit_sigma.md``). A unit off along it makes each frame's step
         follow the arm's pose (:func:`handeye.watch.change.fit_depth_unit`): the bias relearnt from the first

@@ -5,7 +5,7 @@ residual (errors in variables): least squares shrinks ``k``, the scale ``1 / k``
 by the noise's variance over the depth spread that tells them apart. On the running-cell benchmark's 20-frame
 recalibrations that was 5 to 6 of the scale's own sigmas; here, on an analytic sphere scene with a D435's noise, the
 old fit's scale was 0.3 to 4.4 of its sigmas high in each of 8 draws (mean 2.5e-3 against a sigma of 1.4e-3); with
-the noise's bias taken out of the depth unit reported (:meth:`classic.markerless.problem.Problem.noise_debiased`)
+the noise's bias taken out of the depth unit reported (:meth:`classic.markerless.problem.Problem.depth_debiased`)
 -2.1 to +2.3, mean 0.5e-3.
 """
 
