@@ -248,31 +248,6 @@ def pose_residual_jacobian(A, B, X, Y, R_P=None, r_rot=None):
     return J
 
 
-def _jacobian(A, B, X, Y, s_r=1.0, s_t=1.0):
-    """Jacobian of the residuals scaled by ``(s_r, s_t)`` (the camera-only model), shape (6N, 12)."""
-    J = pose_residual_jacobian(A, B, X, Y)
-    J[:, :3] /= s_r
-    J[:, 3:] /= s_t
-    return J.reshape(-1, 12)
-
-
-def _normalised(A, B, X, Y, s_r, s_t):
-    r_rot, r_trans = pose_residuals(A, B, X, Y)
-    return np.concatenate([r_rot / s_r, r_trans / s_t], axis=1)  # (N, 6)
-
-
-def _jacobian_numeric(A, B, X, Y, s_r, s_t, h=1e-7):
-    """Central-difference Jacobian, the reference the analytic one is tested against."""
-    cols = []
-    for k in range(12):
-        e = np.zeros(12)
-        e[k] = h
-        rp = _normalised(A, B, *_update(X, Y, e), s_r, s_t)
-        rm = _normalised(A, B, *_update(X, Y, -e), s_r, s_t)
-        cols.append((rp - rm).reshape(-1) / (2 * h))
-    return np.stack(cols, axis=1)  # (6N, 12)
-
-
 class _Problem:
     """The residuals and Jacobian of one pass, about a base point ``at = (X, Y, s, dt)`` with fixed ``W_i``."""
 

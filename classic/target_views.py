@@ -76,11 +76,6 @@ class ViewLimits:
         if not 0.0 <= self.max_roll_deg <= 180.0:
             raise HandEyeInputError(f"max_roll_deg must lie in [0, 180] degrees, got {self.max_roll_deg}")
 
-    @property
-    def mean_distance_m(self) -> float:
-        """Middle of the depth range: the lever arm at which X's rotation error is felt (:mod:`classic.planning`)."""
-        return 0.5 * (self.min_distance_m + self.max_distance_m)
-
 
 def facing_rotation(p_cam: np.ndarray) -> np.ndarray:
     """Rotation of a target at ``p_cam`` that faces the camera: its z along the line of sight, x along the image's x.

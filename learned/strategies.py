@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from learned.continual_step import NOVELTY, NoveltyRule, ReplayRule, continual_step, sample_error
+from learned.continual_step import NOVELTY, NoveltyRule, ReplayRule, continual_step
 from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig, load_weights, make_network
 from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
@@ -65,7 +65,6 @@ __all__ = [
     "make_strategy",
     "random_fraction",
     "per_camera_sample",
-    "sample_error",
 ]
 
 
@@ -261,17 +260,6 @@ class Selection(Reservoir):
         if self.config.kind == "keypoints":
             return np.array([self.threshold_mm, self.threshold_deg])
         return self.threshold_mm if self.config.kind == "translation" else self.threshold_deg
-
-    def is_novel(self, frames: FrameSet, camera: int):
-        """Mean error of the current network on a random sample of the pose's frames, against the threshold.
-
-        The keypoint model's pose is novel when either its translation or its rotation error is above its
-        threshold.
-        """
-        index = self._frames_of(frames, [camera])
-        mean, n = sample_error(self.model, frames, index, self.sample_fraction, self.rng, self.novelty, self.sampling)
-        self.evaluated += n
-        return bool(np.any(np.asarray(mean) > self.threshold)), mean
 
     def step(self, step, cameras, frames, last):
         if step == 0:

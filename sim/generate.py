@@ -90,10 +90,6 @@ class NoiseModel:
             if not np.isfinite(value) or value < 0:
                 raise HandEyeInputError(f"noise {name} must be a finite value >= 0, got {value}")
 
-    @property
-    def is_zero(self) -> bool:
-        return not any(asdict(self).values())
-
 
 #: The default noise options: an 8-bit camera's noise, a 1 mm-at-1 m depth sensor, 0.01 deg encoders.
 DEFAULT_NOISE = NoiseModel(pixel_sigma=2.0, depth_sigma_m_at_1m=0.001, joint_sigma_deg=0.01)

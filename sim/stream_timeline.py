@@ -98,10 +98,6 @@ class Timeline:
     def __len__(self) -> int:
         return len(self.q)
 
-    def time_s(self, frame) -> np.ndarray:
-        """Time of frame(s), seconds from the first."""
-        return np.asarray(frame) / self.rate_hz
-
 
 def _starts(t_s: float, every_s: float | None, end_s: float) -> list[float]:
     """Start times of a possibly repeated event before ``end_s``."""

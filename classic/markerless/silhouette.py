@@ -137,10 +137,6 @@ def signed_distance(mask: np.ndarray) -> np.ndarray:
     return np.where(mask, -inside, outside)
 
 
-def _bilinear(img: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return ndimage.map_coordinates(img, [v, u], order=1, mode="nearest")
-
-
 def _project(theta, p_cam):
     z = p_cam[:, 2]
     return theta[0] * p_cam[:, 0] / z + theta[2], theta[1] * p_cam[:, 1] / z + theta[3]
