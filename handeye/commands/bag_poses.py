@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.numbers import cli_float
 
 __all__ = ["add_parser", "run"]
@@ -29,11 +30,8 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "bag-poses",
-        help="pose file from a ROS 2 bag: tf chain and marker poses paired by time",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    p = command_parser(
+        sub, "bag-poses", "pose file from a ROS 2 bag: tf chain and marker poses paired by time", __doc__
     )
     p.add_argument("bag", type=Path, help="rosbag2 directory (sqlite3 or MCAP storage)")
     p.add_argument("--base", required=True, help="tf base frame, e.g. base_link")

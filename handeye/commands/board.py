@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.numbers import cli_float
 
 __all__ = ["add_parser", "run"]
@@ -37,12 +38,7 @@ INCH_M = 0.0254
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "board",
-        help="write a printable ChArUco board (PNG) and its spec (JSON)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "board", "write a printable ChArUco board (PNG) and its spec (JSON)", __doc__)
     p.add_argument(
         "--kind",
         default="charuco",

@@ -22,17 +22,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
+
 __all__ = ["add_parser", "run", "compare_table"]
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "compare",
-        help="learned vs classic label vs truth, per test camera pose",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "compare", "learned vs classic label vs truth, per test camera pose", __doc__)
     p.add_argument("dataset", type=Path)
     p.add_argument(
         "--model",

@@ -24,17 +24,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "demo",
-        help="small dataset -> labels -> continual training -> comparison",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "demo", "small dataset -> labels -> continual training -> comparison", __doc__)
     p.add_argument("--data", type=Path, default=Path("data/demo"))
     p.add_argument("--out", type=Path, default=Path("runs/demo"))
     p.add_argument("--sim-preset", default="demo")

@@ -22,17 +22,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "detect",
-        help="detect the board in a folder of images and estimate poses",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "detect", "detect the board in a folder of images and estimate poses", __doc__)
     p.add_argument("images", type=Path, help="folder of PNG/JPEG images")
     p.add_argument("--board", type=Path, required=True, help="board spec written by 'handeye board'")
     p.add_argument(

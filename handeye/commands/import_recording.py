@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.numbers import cli_float, cli_int
 
 __all__ = ["add_parser", "run"]
@@ -66,19 +67,11 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command group."""
-    p = sub.add_parser(
-        "import",
-        help="a real recording (ROS 2 bags or folders of RGB-D frames and joints) to a dataset",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    p = command_parser(
+        sub, "import", "a real recording (ROS 2 bags or folders of RGB-D frames and joints) to a dataset", __doc__
     )
     kinds = p.add_subparsers(dest="import_kind", required=True, metavar="KIND")
-    b = kinds.add_parser(
-        "bag",
-        help="ROS 2 bags (sqlite3 or MCAP), one per camera placement",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    b = command_parser(kinds, "bag", "ROS 2 bags (sqlite3 or MCAP), one per camera placement", __doc__)
     b.add_argument("bags", type=Path, nargs="+", help="rosbag2 directories, one per camera placement")
     b.add_argument(
         "--calibration", type=Path, nargs="+", default=[], help="bags of the board on the flange, one per placement"
@@ -100,12 +93,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     _common(b)
     b.set_defaults(run=run)
-    f = kinds.add_parser(
-        "folder",
-        help="folders of RGB-D frames and joints, one per camera placement",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    f = command_parser(kinds, "folder", "folders of RGB-D frames and joints, one per camera placement", __doc__)
     f.add_argument(
         "folders", type=Path, nargs="+", help="placement folders (intrinsics.yaml, joints.csv, rgb/, depth/)"
     )

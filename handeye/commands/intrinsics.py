@@ -18,17 +18,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "intrinsics",
-        help="calibrate camera intrinsics from board images",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "intrinsics", "calibrate camera intrinsics from board images", __doc__)
     p.add_argument("images", type=Path, help="folder of PNG/JPEG images")
     p.add_argument("--board", type=Path, required=True, help="board spec written by 'handeye board'")
     p.add_argument(

@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.engines import add_engine_arguments
 from handeye.core.numbers import cli_int
 
@@ -32,12 +33,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "label",
-        help="label a dataset: classic calibration per camera pose",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "label", "label a dataset: classic calibration per camera pose", __doc__)
     p.add_argument("dataset", type=Path, help="dataset directory")
     add_engine_arguments(p, "labelling")
     p.add_argument("--method", default="park", help="closed form of the pose-based solve (default park)")

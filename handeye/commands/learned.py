@@ -38,6 +38,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.numbers import cli_float, cli_int
 
 __all__ = ["add_parser", "run_run", "run_report", "run_ablation", "run_thresholds"]
@@ -45,12 +46,7 @@ __all__ = ["add_parser", "run_run", "run_report", "run_ablation", "run_threshold
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command group."""
-    p = sub.add_parser(
-        "learned",
-        help="train and report the learned continual calibration",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "learned", "train and report the learned continual calibration", __doc__)
     lsub = p.add_subparsers(dest="learned_command", required=True, metavar="LEARNED_COMMAND")
     r = lsub.add_parser("run", help="run the continual-learning protocol on a labelled dataset")
     _add_protocol_args(r)

@@ -25,7 +25,7 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from handeye.commands import GLOSSARY_WHERE
+from handeye.commands import GLOSSARY_WHERE, command_parser
 from handeye.core.numbers import cli_float, cli_int, parse_float
 from handeye.robot.depth_sensors import FACTORY_ROLL_BOUND_DEG
 
@@ -34,12 +34,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "markerless",
-        help="camera pose from the robot's surface in depth (no board)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "markerless", "camera pose from the robot's surface in depth (no board)", __doc__)
     _add_input_arguments(p)
     _add_depth_arguments(p)
     _add_estimated_arguments(p)

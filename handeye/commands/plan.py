@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye.commands import command_parser
 from handeye.core.numbers import cli_float, cli_int
 from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments
@@ -40,12 +41,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "plan",
-        help="the next robot poses that shrink the predicted sigma of X most",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "plan", "the next robot poses that shrink the predicted sigma of X most", __doc__)
     p.add_argument("poses", type=Path, nargs="?", help="pose file of the poses recorded so far (CSV or JSON)")
     p.add_argument(
         "--setup",

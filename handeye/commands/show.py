@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.numbers import cli_int
 
 __all__ = ["add_parser", "run"]
@@ -23,12 +24,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "show",
-        help="contact sheet of a camera pose: views, detections, label vs truth",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "show", "contact sheet of a camera pose: views, detections, label vs truth", __doc__)
     p.add_argument("dataset", type=Path, help="dataset directory")
     p.add_argument("--camera", type=cli_int, required=True, help="camera id")
     p.add_argument("-o", "--output", type=Path, default=None, help="PNG path (default cam<N>.png)")

@@ -41,6 +41,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.core.engines import add_engine_arguments
 from handeye.core.numbers import cli_float, cli_int
 
@@ -49,19 +50,9 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command group."""
-    p = sub.add_parser(
-        "sim",
-        help="the simulator: render datasets of a UR robot seen by many camera poses",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "sim", "the simulator: render datasets of a UR robot seen by many camera poses", __doc__)
     simsub = p.add_subparsers(dest="sim_command", required=True, metavar="SIM_COMMAND")
-    g = simsub.add_parser(
-        "generate",
-        help="render a dataset (resumable)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    g = command_parser(simsub, "generate", "render a dataset (resumable)", __doc__)
     g.add_argument(
         "--preset", default="small", help="small (default), demo, paper-sim, paper-real or dense-sim (1,000 poses)"
     )
@@ -89,11 +80,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     g.add_argument("--recordings", default="calibration,data", help="calibration,data (default) or one of them")
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(run=run)
-    b = simsub.add_parser(
-        "bag",
-        help="write a dataset's placements as ROS 2 bags, as a real cell records them",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    b = command_parser(
+        simsub, "bag", "write a dataset's placements as ROS 2 bags, as a real cell records them", __doc__
     )
     b.add_argument("dataset", type=Path)
     b.add_argument("--out", type=Path, required=True, help="folder for the bags")
@@ -103,11 +91,11 @@ def add_parser(sub) -> argparse.ArgumentParser:
     b.add_argument("--color", choices=("raw", "jpeg", "png"), default="raw", help="Image or CompressedImage")
     b.add_argument("--board-out", type=Path, help="also write the dataset's board spec here (for --board)")
     b.set_defaults(run=run_bag)
-    s = simsub.add_parser(
+    s = command_parser(
+        simsub,
         "stream",
-        help="render a running cell: the arm working for minutes, the camera bumped, occluded, drifting",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "render a running cell: the arm working for minutes, the camera bumped, occluded, drifting",
+        __doc__,
     )
     s.add_argument("--preset", default="bumps", help="bumps (default), static or smoke (sim.stream_events)")
     s.add_argument("--out", type=Path, required=True, help="a new dataset folder")

@@ -36,6 +36,7 @@ import argparse
 import time
 from pathlib import Path
 
+from handeye.commands import command_parser
 from handeye.commands.watch_sources import add_source_arguments
 from handeye.core.numbers import cli_float, cli_int
 
@@ -44,11 +45,11 @@ __all__ = ["add_parser", "run", "watch_options"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
+    p = command_parser(
+        sub,
         "watch",
-        help="watch a cell's calibration on a recording: detect a moved camera, recalibrate, keep versions",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "watch a cell's calibration on a recording: detect a moved camera, recalibrate, keep versions",
+        __doc__,
     )
     p.add_argument(
         "dataset", nargs="?", help="dataset directory or ROS 2 bag (a stream), or 'rollback' followed by a VERSION"
