@@ -26,10 +26,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["CIRCLE_KINDS", "circle_centres", "detect_circle_grid", "render_circle_grid"]
+__all__ = ["circle_centres", "detect_circle_grid", "render_circle_grid"]
 
-#: Board kinds of circle grids.
-CIRCLE_KINDS = ("circles", "asymmetric_circles")
 #: The detected centres' order is accepted when a homography from the board maps them within this many
 #: pixels RMS (a wrong order puts centres a whole spacing, tens of pixels, off).
 MAX_ORDER_RMS_PX = 2.0

@@ -365,6 +365,19 @@ def _check_controller_reach(path: Path, name: str, T: np.ndarray) -> None:
         )
 
 
+def _quat_order(path: Path, quat_order: str | None) -> str:
+    """``quat_order``, else a JSON file's own ``quaternion_order``, else ``"xyzw"``."""
+    if path.suffix.lower() == ".json" and quat_order is None:
+        try:
+            quat_order = _read_json(path).get("quaternion_order")
+        except (PoseFileError, AttributeError):  # read_pose_file's own parse names what is wrong
+            quat_order = None
+    order = quat_order or "xyzw"
+    if order not in QUAT_ORDERS:
+        raise PoseFileError(f"{path}: quaternion_order {order!r} not understood; use one of {QUAT_ORDERS}")
+    return order
+
+
 def read_pose_file(
     path: str | Path,
     quat_order: str | None = None,
@@ -424,14 +437,7 @@ def read_pose_file(
         return _in_optical_frame(read_easy_handeye_samples(path, setup=setup, units=units), camera_frame)
     if quat_order is not None and quat_order not in QUAT_ORDERS:
         raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
-    if path.suffix.lower() == ".json" and quat_order is None:
-        try:
-            quat_order = _read_json(path).get("quaternion_order")
-        except (PoseFileError, AttributeError):  # read_pose_file's own parse names what is wrong
-            quat_order = None
-    order = quat_order or "xyzw"
-    if order not in QUAT_ORDERS:
-        raise PoseFileError(f"{path}: quaternion_order {order!r} not understood; use one of {QUAT_ORDERS}")
+    order = _quat_order(path, quat_order)
     other = QUAT_ORDERS[1 - QUAT_ORDERS.index(order)]
     poses, rows, _ = _parse(path, {n: (other if n in swap_order_of else order) for n in POSE_NAMES}, units)
     return _in_optical_frame(PoseSet(poses["T_base_ee"], poses["T_cam_target"], str(path), rows), camera_frame)
@@ -489,14 +495,7 @@ def read_robot_poses(path: str | Path, quat_order: str | None = None, units: str
     """
     path = Path(path)
     _check_file(path)
-    if path.suffix.lower() == ".json" and quat_order is None:  # the file's own order, as read_pose_file reads it
-        try:
-            quat_order = _read_json(path).get("quaternion_order")
-        except (PoseFileError, AttributeError):  # read_pose_file's own parse names what is wrong
-            quat_order = None
-    order = quat_order or "xyzw"
-    if order not in QUAT_ORDERS:
-        raise PoseFileError(f"{path}: quaternion order {order!r} not understood; use one of {QUAT_ORDERS}")
+    order = _quat_order(path, quat_order)
     names = ("T_base_ee",)
     out, rows, _ = _parse(path, {n: order for n in names}, units, names)
     return RobotPoses(out["T_base_ee"], out.get("image"), str(path), rows)
