@@ -28,8 +28,6 @@ def andreff(A: np.ndarray, B: np.ndarray, translation: str = "resolve") -> np.nd
     ``CALIB_HAND_EYE_ANDREFF``) absorbs the rotation's error before projection and is several times
     worse than solving the translation again once the rotation is fixed,
     ``(R_A - I) t_X = R_X t_B - t_A`` (least squares): that is the default.
-    Built on rotation matrices, so no quaternion sign enters: motions near a half turn need no
-    care (checked up to 180 degrees, tests/classic/test_half_turn.py).
 
     Parameters
     ----------

@@ -34,9 +34,7 @@ def daniilidis(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
     Differs from OpenCV's ``CALIB_HAND_EYE_DANIILIDIS`` in one respect: ``a`` and
     ``b`` of each motion are taken with the same sign, as the derivation requires (equal
-    scalar parts): both with ``w >= 0`` below 150 degrees, and beyond, where noise sets the
-    sign of ``w ~ 0`` on each side independently, ``b + eps b'`` aligned to ``a``'s sign
-    through a sign-free first estimate (:mod:`classic._linear`). OpenCV takes the signs
+    scalar parts; near a half turn: :mod:`classic.registry`). OpenCV takes the signs
     its matrix-to-quaternion conversion happens to return, which for motions beyond 120
     degrees can pair opposite signs and break the solve. On motions below 120 degrees both
     agree.

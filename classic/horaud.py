@@ -27,9 +27,7 @@ def horaud(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
     the eigenvector of the smallest eigenvalue (``L``, ``W``: left and right
     quaternion-multiplication matrices); ``a_k``, ``b_k`` are the
-    motions' quaternions, of the same sign: both with non-negative scalar part below 150
-    degrees, and beyond, where noise sets the sign of ``w ~ 0``, ``b_k``'s sign aligned to
-    ``a_k``'s through a sign-free first estimate (:mod:`classic._linear`). Then
+    motions' quaternions, of the same sign (near a half turn: :mod:`classic.registry`). Then
     ``(R_A - I) t_X = R_X t_B - t_A``. Same algebra as OpenCV's
     ``CALIB_HAND_EYE_HORAUD`` (agreement to 1e-3 of the noise on motions below 120 degrees,
     tests/classic/test_opencv_agreement.py).

@@ -26,8 +26,6 @@ def li(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     then both rotations are projected on SO(3) and the translations are those
     of the joint solve, as in OpenCV's ``CALIB_ROBOT_WORLD_HAND_EYE_LI``.
     Frame mapping for both setups: see :func:`classic.shah`.
-    Built on rotation matrices, so no quaternion sign enters: motions near a half turn need no
-    care (checked up to 180 degrees, tests/classic/test_half_turn.py).
 
     Parameters and return: those of every AX=YB solver (:mod:`classic.registry`): poses ``A``, ``B`` of shape
     ``(N, 4, 4)``, ``X, Y`` of shape ``(4, 4)``.

@@ -18,6 +18,12 @@ AX=YB (``kind="AX=YB"``): ``A_i X = Y B_i`` on absolute poses. The plain solver 
 ``X``, ``Y`` is the camera and which the target: :func:`classic.shah`. Its registered ``solve(A, B)`` is the
 same solve on inputs already validated (no checks: for callers that solve many subsets).
 
+Motions near a half turn: the closed forms on quaternions (Tsai, Horaud, Daniilidis) need a motion's robot and
+camera quaternions with the same sign. Below 150 degrees (:data:`classic.motions.NEAR_HALF_TURN_DEG`) both are
+taken with ``w >= 0``; beyond, where noise sets the sign of ``w ~ 0`` on each side independently, the camera
+side's is aligned to a sign-free first estimate (:mod:`classic._linear`). Those on rotation matrices (Andreff,
+Shah, Li) need no such care. Every solver is checked up to 180 degrees (tests/classic/test_half_turn.py).
+
 Listed in the order of their ``rank`` (the CLI's ``--method`` choices, :data:`classic.calibrate.METHODS`).
 """
 

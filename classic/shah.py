@@ -22,8 +22,6 @@ def shah(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     projected on SO(3); then ``R_A t_X - t_Y = R_Y t_B - t_A`` in least
     squares. Same algebra as OpenCV's ``CALIB_ROBOT_WORLD_HAND_EYE_SHAH``.
-    Built on rotation matrices, so no quaternion sign enters: motions near a half turn need no
-    care (checked up to 180 degrees, tests/classic/test_half_turn.py).
 
     For hand-eye data (see :mod:`handeye.core.setups`): eye-to-hand
     ``A = T_base_ee``, ``B = T_cam_target`` give ``X = T_ee_target``,

@@ -31,9 +31,7 @@ def tsai(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     ``(R_A - I) t_X = R_X t_B - t_A``.
 
     The equation holds only when ``q_A`` and ``q_B`` of a motion carry the same sign
-    (``q_A = q_X q_B q_X^-1``). Below 150 degrees both are taken with ``w >= 0``; beyond,
-    where noise sets the sign of ``w ~ 0`` on each side independently, ``q_B``'s sign is aligned
-    to a sign-free first estimate (:mod:`classic._linear`). OpenCV's ``CALIB_HAND_EYE_TSAI``
+    (``q_A = q_X q_B q_X^-1``; near a half turn: :mod:`classic.registry`). OpenCV's ``CALIB_HAND_EYE_TSAI``
     solves the same equation but differs twice: it leaves out the motions with small rotations
     (so it is not the least-squares minimiser over all of them; the two agree to 0.05 of the
     noise on motions below 120 degrees, tests/classic/test_opencv_agreement.py), and beyond 120
