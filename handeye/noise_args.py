@@ -77,20 +77,8 @@ def describe_noise(d: dict) -> str:
         )
         return f"camera only, estimated from the residuals ({d['camera_rotation_deg'][0]:.4f} deg, {trans})"
     parts = [d["name"]]
-    if "camera_rotation_deg" in d:
-        parts.append(
-            "camera "
-            + ", ".join(f"{v:.4g}" for v in d["camera_rotation_deg"])
-            + " deg / "
-            + ", ".join(f"{v:.4g}" for v in d["camera_translation_mm"])
-            + " mm"
-        )
-    if "robot_rotation_deg" in d:
-        parts.append(
-            "robot "
-            + ", ".join(f"{v:.4g}" for v in d["robot_rotation_deg"])
-            + " deg / "
-            + ", ".join(f"{v:.4g}" for v in d["robot_translation_mm"])
-            + " mm"
-        )
+    for side in ("camera", "robot"):
+        if f"{side}_rotation_deg" in d:
+            deg, mm = (", ".join(f"{v:.4g}" for v in d[f"{side}_{k}"]) for k in ("rotation_deg", "translation_mm"))
+            parts.append(f"{side} {deg} deg / {mm} mm")
     return "; ".join(parts)
