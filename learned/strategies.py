@@ -52,7 +52,7 @@ import numpy as np
 from learned.continual_step import NOVELTY, NoveltyRule, ReplayRule, continual_step
 from learned.data import FrameSet
 from learned.model import CalibrationNet, ModelConfig, load_weights, make_network
-from learned.replay import ReplayBuffer, per_camera_sample, random_fraction
+from learned.replay import ReplayBuffer
 from learned.trainer import TrainConfig, default_device, train
 
 __all__ = [
@@ -63,8 +63,6 @@ __all__ = [
     "Selection",
     "STRATEGIES",
     "make_strategy",
-    "random_fraction",
-    "per_camera_sample",
 ]
 
 
