@@ -32,7 +32,8 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._report import Report  # noqa: E402
 
-#: name -> ((poses, setup) of make_problem, its noise and outlier arguments, calibrate's arguments)
+#: name -> ((poses, setup) of make_problem, its noise and outlier arguments, calibrate's arguments: those it does not
+#: take flat go into a ``CalibrateOptions`` in a tree that has one)
 CASES = {
     "eye-to-hand, 15 poses": ((15, "eye_to_hand"), {"camera_noise": (0.1, 0.5)}, {}),
     "eye-in-hand, 20 poses": ((20, "eye_in_hand"), {"camera_noise": (0.1, 0.5)}, {}),
@@ -52,12 +53,19 @@ CASES = {
 }
 
 WORKER = r"""
-import json, pickle, sys, time, warnings
+import inspect, json, pickle, sys, time, warnings
 import numpy as np
 sys.path.insert(0, sys.argv[1])
 from classic.calibrate import calibrate
 from handeye.core.synthetic import make_problem
 cases = pickle.loads(bytes.fromhex(sys.argv[2]))
+flat = inspect.signature(calibrate).parameters
+if "options" in flat:  # a tree with CalibrateOptions takes the rest in it
+    from classic.calibrate import CalibrateOptions
+    for name, (shape, gen, kwargs) in cases.items():
+        rest = {k: v for k, v in kwargs.items() if k not in flat}
+        kwargs = {k: v for k, v in kwargs.items() if k in flat}
+        cases[name] = (shape, gen, {**kwargs, "options": CalibrateOptions(**rest)})
 repeats = int(sys.argv[3])
 out, best = {}, np.inf
 warnings.simplefilter("ignore")

@@ -228,7 +228,7 @@ def coverage_scale(trials: int, seed: int) -> dict:
         s = rng.uniform(0.3, 3.0)
         B = p.T_cam_target.copy()
         B[:, :3, 3] /= s
-        res = classic.calibrate(p.T_base_ee, B, SETUP, estimate_scale=True)
+        res = classic.calibrate(p.T_base_ee, B, SETUP, options=classic.CalibrateOptions(estimate_scale=True))
         est = res.diagnostics["scale"]
         z.append((est["value"] - s) / est["sigma"])
         err.append(abs(est["value"] / s - 1))

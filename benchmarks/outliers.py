@@ -75,7 +75,8 @@ def outcome(A, B, setup: str, index: int) -> str:
     keep = np.arange(len(A)) != index
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        clean = classic.calibrate(A[keep], B[keep], setup=setup, check=False)  # the reference: just the fit
+        unchecked = classic.CalibrateOptions(check=False)
+        clean = classic.calibrate(A[keep], B[keep], setup=setup, options=unchecked)  # the reference: just the fit
         try:
             res = classic.calibrate(A, B, setup=setup)
         except ContaminatedPosesError as err:

@@ -83,7 +83,10 @@ def hand_eye(spec, intr, seed: int) -> tuple[float, float] | None:
         return None
     try:
         cal = classic.calibrate(
-            p.T_base_ee[ok], np.stack([v.T_cam_target for v in poses if v.ok]), setup=SETUP, loss="cauchy"
+            p.T_base_ee[ok],
+            np.stack([v.T_cam_target for v in poses if v.ok]),
+            setup=SETUP,
+            options=classic.CalibrateOptions(loss="cauchy"),
         )
     except ValueError:
         return None

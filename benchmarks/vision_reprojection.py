@@ -83,7 +83,7 @@ def trial(n_views, noise_px, spec, intr, rng):
     noise = classic.NoiseModel(camera_covariance=covs, name="PnP covariances", scale_to_residuals=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", WeakMotionWarning)
-        res = classic.calibrate(robot, poses, setup=SETUP, noise=noise, loss="cauchy")
+        res = classic.calibrate(robot, poses, setup=SETUP, noise=noise, options=classic.CalibrateOptions(loss="cauchy"))
     A = robot_side_poses(robot, SETUP)
     out = {
         METHODS[0]: res.X,

@@ -17,8 +17,9 @@ Front
     setup and returns a :class:`CalibrationResult` with the estimate by frame
     name, residuals, covariance and diagnostics. The refinement is maximum
     likelihood under a :class:`NoiseModel` (camera and robot noise, anisotropic,
-    joint noise through :func:`joint_noise_covariance`); ``estimate_scale=True``
-    adds a metric scale of the camera translations. :func:`calibrate_stream`
+    joint noise through :func:`joint_noise_covariance`); the settings few calls
+    change are a :class:`CalibrateOptions` (``estimate_scale=True`` adds a metric
+    scale of the camera translations). :func:`calibrate_stream`
     takes a robot pose stream and camera poses at other times and also
     estimates the time offset between them.
 
@@ -33,7 +34,16 @@ Example
 """
 
 from classic.andreff import andreff
-from classic.calibrate import AXXB_METHODS, AXYB_METHODS, DEFAULT_METHOD, METHODS, calibrate, initial_estimate, solve
+from classic.calibrate import (
+    AXXB_METHODS,
+    AXYB_METHODS,
+    DEFAULT_METHOD,
+    METHODS,
+    CalibrateOptions,
+    calibrate,
+    initial_estimate,
+    solve,
+)
 from classic.daniilidis import daniilidis
 from classic.diagnostics import MotionDiagnostics, check_consistency, diagnose_motion
 from classic.horaud import horaud
@@ -59,6 +69,7 @@ __all__ = [
     "shah",
     "li",
     "calibrate",
+    "CalibrateOptions",
     "calibrate_stream",
     "solve",
     "NoiseModel",

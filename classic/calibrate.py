@@ -72,7 +72,16 @@ from handeye.core.validation import (
     check_units_metres,
 )
 
-__all__ = ["AXXB_METHODS", "AXYB_METHODS", "METHODS", "DEFAULT_METHOD", "calibrate", "initial_estimate", "solve"]
+__all__ = [
+    "AXXB_METHODS",
+    "AXYB_METHODS",
+    "METHODS",
+    "DEFAULT_METHOD",
+    "CalibrateOptions",
+    "calibrate",
+    "initial_estimate",
+    "solve",
+]
 
 #: AX=XB methods as (statistics of a chunk of motions, solve from the summed statistics), from
 #: :mod:`classic.registry`.
@@ -205,19 +214,44 @@ def _subset_model(model, keep):
     return None if model is None else model.subset(keep)
 
 
+@dataclass(frozen=True, kw_only=True)
+class CalibrateOptions:
+    """The settings of :func:`calibrate` that few calls change (the defaults are its own).
+
+    Attributes
+    ----------
+    pairs : {"all", "consecutive"}
+        Motion pairs for the AX=XB methods.
+    refine : bool
+        Refine (default). Without it the closed form is returned and the covariance is evaluated at it.
+    loss : {"linear", "huber", "cauchy"}, optional
+        Loss of the refinement; default ``linear``, or ``cauchy`` when robust.
+    check : bool
+        Run the consistency, motion and contamination checks (default). Turn off only for data you have checked
+        otherwise.
+    rng : numpy.random.Generator, optional
+        For the robust sampling; default seeded, so results are reproducible.
+    estimate_scale : bool
+        Also estimate a metric scale ``s`` of the camera translations (monocular SLAM), ``t_cam_target <- s
+        t_cam_target``, from :func:`classic.starts.scaled_start`; ``s`` and its sigma are in ``diagnostics["scale"]``.
+    """
+
+    pairs: str = "all"
+    refine: bool = True
+    loss: str | None = None
+    check: bool = True
+    rng: np.random.Generator | None = None
+    estimate_scale: bool = False
+
+
 def calibrate(
     T_base_ee: np.ndarray,
     T_cam_target: np.ndarray,
     setup: str = "eye_to_hand",
     method: str = DEFAULT_METHOD,
-    pairs: str = "all",
-    refine: bool = True,
     robust: bool = False,
-    loss: str | None = None,
     noise: tuple[float, float] | NoiseModel | None = None,
-    check: bool = True,
-    rng: np.random.Generator | None = None,
-    estimate_scale: bool = False,
+    options: CalibrateOptions | None = None,
 ) -> CalibrationResult:
     """Hand-eye calibration from paired robot and target poses.
 
@@ -242,30 +276,19 @@ def calibrate(
     method : str
         Closed form: ``auto`` (default: the better of ``park`` and ``shah``), ``tsai``, ``park``, ``horaud``,
         ``andreff``, ``daniilidis`` (AX=XB on motion pairs) or ``shah``, ``li`` (AX=YB on poses).
-    pairs : {"all", "consecutive"}
-        Motion pairs for the AX=XB methods.
-    refine : bool
-        Refine (default). Without it the closed form is returned and the covariance is evaluated at it.
     robust : bool
         Leave out the poses the outlier test names (a clean set loses one with probability at most 0.1 % whatever
-        its size) and return least squares on the rest. Without it (and with a linear ``loss``), a set whose named
-        poses move the answer by more than 2 sigma is refused (:class:`ContaminatedPosesError`, naming them) when
-        one of them is gross, and fitted without them otherwise.
-    loss : {"linear", "huber", "cauchy"}, optional
-        Loss of the refinement; default ``linear``, or ``cauchy`` when robust.
+        its size) and return least squares on the rest. Without it (and with a linear ``options.loss``), a set
+        whose named poses move the answer by more than 2 sigma is refused (:class:`ContaminatedPosesError`,
+        naming them) when one of them is gross, and fitted without them otherwise.
     noise : (float, float) or NoiseModel, optional
         Per-axis camera noise ``(rad, m)``, or a :class:`classic.noise_model.NoiseModel` with camera and robot
         noise (anisotropic, per pose, joint noise through the robot's Jacobian); default: camera-only, the scales
         estimated from the residuals (rotation; translation, split across and along the line of sight when the
         residuals say they differ).
-    check : bool
-        Run the consistency, motion and contamination checks (default). Turn off only for data you have checked
-        otherwise.
-    rng : numpy.random.Generator, optional
-        For the robust sampling; default seeded, so results are reproducible.
-    estimate_scale : bool
-        Also estimate a metric scale ``s`` of the camera translations (monocular SLAM), ``t_cam_target <- s
-        t_cam_target``, from :func:`classic.starts.scaled_start`; ``s`` and its sigma are in ``diagnostics["scale"]``.
+    options : CalibrateOptions, optional
+        The motion pairs, the refinement on or off, its loss, the checks, the robust sampling's generator and a
+        metric scale of the camera translations; None: :class:`CalibrateOptions`' defaults.
 
     Returns
     -------
@@ -290,8 +313,10 @@ def calibrate(
     >>> bool(abs(res.T_base_cam - p.X_true).max() < 1e-9)
     True
     """
-    setup, loss = _checked_arguments(setup, method, pairs, loss, robust)
-    how = _How(method, loss, as_noise_model(noise), refine, robust, check, rng, estimate_scale)
+    options = options or CalibrateOptions()
+    pairs, refine, check, estimate_scale = options.pairs, options.refine, options.check, options.estimate_scale
+    setup, loss = _checked_arguments(setup, method, pairs, options.loss, robust)
+    how = _How(method, loss, as_noise_model(noise), refine, robust, check, options.rng, estimate_scale)
     poses = _Poses.validated(T_base_ee, T_cam_target, setup, pairs)
     diagnostics: dict = {}
     poses, held = _checked_poses(poses, how, diagnostics)

@@ -180,7 +180,13 @@ def calibrate_from_views(
     # for what it holds; without it the pose-based fit is the result, and least squares refuses outliers
     loss = "cauchy" if (reprojection or robust) else "linear"
     res = classic.calibrate(
-        T_base_ee[accepted], T_cam_target, setup=setup, method=method, robust=robust, noise=noise, loss=loss
+        T_base_ee[accepted],
+        T_cam_target,
+        setup=setup,
+        method=method,
+        robust=robust,
+        noise=noise,
+        options=classic.CalibrateOptions(loss=loss),
     )
     images = [views.views[k].image for k in accepted]
     rep = None

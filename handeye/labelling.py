@@ -91,10 +91,12 @@ def paper_label(T_base_ee: np.ndarray, T_cam_target: np.ndarray, method: str, re
     rng = np.random.default_rng(seed)
     n = len(T_base_ee)
     k = max(3, int(round(PAPER_REPEAT_SHARE * n)))
-    Xs = []
+    Xs, no_refinement = [], classic.CalibrateOptions(refine=False)
     for _ in range(repeats):
         pick = np.sort(rng.choice(n, min(k, n), replace=False))
-        res = classic.calibrate(T_base_ee[pick], T_cam_target[pick], setup="eye_to_hand", method=method, refine=False)
+        res = classic.calibrate(
+            T_base_ee[pick], T_cam_target[pick], setup="eye_to_hand", method=method, options=no_refinement
+        )
         Xs.append(res.X)
     Xs = np.array(Xs)
     X = make_transform(project_to_so3(Xs[:, :3, :3].mean(axis=0)), Xs[:, :3, 3].mean(axis=0))  # chordal mean

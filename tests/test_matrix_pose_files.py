@@ -57,7 +57,9 @@ def test_camodocal_pairs_read_to_the_truth_and_calibrate(tmp_path, problem):
     np.testing.assert_allclose(poses.T_base_ee, problem.T_base_ee, atol=EXACT)
     np.testing.assert_allclose(poses.T_cam_target, problem.T_cam_target, atol=EXACT)
     assert poses.rows[0] == 4  # %YAML:1.0, ---, frameCount, then T1_0
-    res = classic.calibrate(poses.T_base_ee, poses.T_cam_target, setup="eye_to_hand", refine=False)
+    res = classic.calibrate(
+        poses.T_base_ee, poses.T_cam_target, setup="eye_to_hand", options=classic.CalibrateOptions(refine=False)
+    )
     np.testing.assert_allclose(res.X, problem.X_true, atol=EXACT)
     np.testing.assert_allclose(res.Y, problem.Y_true, atol=EXACT)
 

@@ -30,9 +30,11 @@ def test_the_label_is_the_mean_of_the_repeats():
     rng = np.random.default_rng(3)
     k = int(round(PAPER_REPEAT_SHARE * 15))
     Xs = []
+    no_refinement = classic.CalibrateOptions(refine=False)
     for _ in range(5):
         pick = np.sort(rng.choice(15, k, replace=False))
-        Xs.append(classic.calibrate(p.T_base_ee[pick], p.T_cam_target[pick], "eye_to_hand", "tsai", refine=False).X)
+        res = classic.calibrate(p.T_base_ee[pick], p.T_cam_target[pick], "eye_to_hand", "tsai", options=no_refinement)
+        Xs.append(res.X)
     Xs = np.array(Xs)
     assert np.allclose(X[:3, 3], Xs[:, :3, 3].mean(axis=0), rtol=ABSOLUTE_ONLY, atol=FLOAT)
     assert np.allclose(X[:3, :3], project_to_so3(Xs[:, :3, :3].mean(axis=0)), rtol=ABSOLUTE_ONLY, atol=FLOAT)

@@ -269,13 +269,14 @@ def test_metre_translations_pass_the_units_check(problem):
 
 
 @pytest.mark.parametrize(
-    "kw",
-    [{"setup": "eye_on_hand"}, {"method": "magic"}, {"pairs": "some"}, {"loss": "l7"}],
+    "kw, option",
+    [({"setup": "eye_on_hand"}, {}), ({"method": "magic"}, {}), ({}, {"pairs": "some"}), ({}, {"loss": "l7"})],
     ids=["setup", "method", "pairs", "loss"],
 )
-def test_unknown_option_is_refused(problem, kw):
-    args = {"setup": problem.setup, **kw}
-    with pytest.raises(HandEyeInputError, match=re.escape(repr(next(iter(kw.values()))))):
+def test_unknown_option_is_refused(problem, kw, option):
+    args = {"setup": problem.setup, **kw, "options": classic.CalibrateOptions(**option)}
+    bad = next(iter({**kw, **option}.values()))
+    with pytest.raises(HandEyeInputError, match=re.escape(repr(bad))):
         classic.calibrate(problem.T_base_ee, problem.T_cam_target, **args)
 
 

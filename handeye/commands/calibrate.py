@@ -552,12 +552,11 @@ def _calibrate_poses(args: argparse.Namespace, poses, setup: str):
             poses.T_cam_target,
             setup=setup,
             method=args.method,
-            pairs=args.pairs,
-            refine=not args.no_refine,
             robust=args.robust,
-            loss=args.loss,
             noise=noise_model_from_args(args),
-            estimate_scale=args.estimate_scale,
+            options=classic.CalibrateOptions(
+                pairs=args.pairs, refine=not args.no_refine, loss=args.loss, estimate_scale=args.estimate_scale
+            ),
         )
     return res, caught
 

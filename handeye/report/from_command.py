@@ -92,11 +92,10 @@ def report_poses(
             T_cam_target[keep],
             setup=setup,
             method=args.method,
-            pairs=args.pairs,
-            refine=not args.no_refine,
-            loss=loss,
             noise=(None if noise is None else noise.subset(keep)),
-            estimate_scale=args.estimate_scale,
+            options=classic.CalibrateOptions(
+                pairs=args.pairs, refine=not args.no_refine, loss=loss, estimate_scale=args.estimate_scale
+            ),
         )
 
     cov = None if noise is None or noise.camera_covariance is None else np.asarray(noise.camera_covariance)
@@ -155,7 +154,7 @@ def report_images(args: argparse.Namespace, views, T_base_ee: np.ndarray, calibr
             setup=setup,
             method=args.method,
             noise=noise.subset(keep),
-            loss=loss,
+            options=classic.CalibrateOptions(loss=loss),
         )
 
     data = ReportData(

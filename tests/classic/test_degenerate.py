@@ -56,7 +56,7 @@ def _from_target_rotations(rotvecs, setup, rng):
 def test_rotation_about_one_axis_is_refused(setup, pairs):
     p = make_problem(10, setup, np.random.default_rng(0), motion="one_axis")
     with pytest.raises(DegenerateMotionError) as exc:
-        classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, pairs=pairs)
+        classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, options=classic.CalibrateOptions(pairs=pairs))
     msg = str(exc.value)
     assert "one axis" in msg
     assert "second axis" in msg  # says what motion is missing
@@ -101,7 +101,9 @@ def test_check_off_does_not_refuse_but_still_reports():
     p = make_problem(10, "eye_to_hand", np.random.default_rng(0), motion="one_axis")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", WeakMotionWarning)
-        res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_to_hand", check=False)
+        res = classic.calibrate(
+            p.T_base_ee, p.T_cam_target, setup="eye_to_hand", options=classic.CalibrateOptions(check=False)
+        )
     assert res.diagnostics["motion"]["axis_diversity"] < GRAM_FLOOR
 
 
@@ -167,7 +169,7 @@ def test_good_motion_does_not_warn(setup):
 def test_motion_diagnostics_fields(setup, pairs):
     n = 12
     p = make_problem(n, setup, np.random.default_rng(2))
-    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, pairs=pairs)
+    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, options=classic.CalibrateOptions(pairs=pairs))
     motion = res.diagnostics["motion"]
     assert MOTION_KEYS <= set(motion)
     assert motion["n_poses"] == n

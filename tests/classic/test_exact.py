@@ -89,7 +89,8 @@ def test_axxb_solver_handles_large_motions(solver):
 @pytest.mark.parametrize("method", list(classic.METHODS))
 def test_calibrate_recovers_truth(method, setup, refine):
     p = _problem(setup, "random", 5, n=12)
-    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, method=method, refine=refine)
+    options = classic.CalibrateOptions(refine=refine)
+    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, method=method, options=options)
     _assert_pose_equal(res.X, p.X_true)
     _assert_pose_equal(res.Y, p.Y_true)
     assert res.setup == setup
@@ -112,7 +113,7 @@ def test_calibrate_recovers_truth(method, setup, refine):
 @pytest.mark.parametrize("setup", SETUPS)
 def test_calibrate_structured_motion_and_pairings(setup, pairs):
     p = _problem(setup, "structured", 1, n=16)
-    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, pairs=pairs)
+    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, options=classic.CalibrateOptions(pairs=pairs))
     _assert_pose_equal(res.X, p.X_true)
     _assert_pose_equal(res.Y, p.Y_true)
 

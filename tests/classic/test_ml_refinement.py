@@ -36,6 +36,7 @@ from tests.tolerances import (
 )
 
 SETUPS = ["eye_to_hand", "eye_in_hand"]
+SCALED = classic.CalibrateOptions(estimate_scale=True)
 #: Camera 0.1 deg / 1 mm, robot 0.05 deg / 0.5 mm per axis: the robot's rotation noise through the
 #: target's lever arm is of the camera noise's order, so a model that leaves it out is visibly wrong.
 MODEL = NoiseModel(0.1 * DEG, 1.0 * MM, 0.05 * DEG, 0.5 * MM)
@@ -71,7 +72,7 @@ def test_scale_one_and_a_known_scale_recovered_exactly(setup):
     for s in (1.0, 2.5, 0.4):
         B = p.T_cam_target.copy()
         B[:, :3, 3] /= s  # the camera reports translations s times too small
-        res = classic.calibrate(p.T_base_ee, B, setup=setup, estimate_scale=True)
+        res = classic.calibrate(p.T_base_ee, B, setup=setup, options=SCALED)
         assert res.diagnostics["scale"]["value"] == pytest.approx(s, rel=EXACT)
         np.testing.assert_allclose(res.X, p.X_true, atol=EXACT)
 
@@ -331,7 +332,7 @@ def test_scale_sigma_covers_the_truth():
         s = rng.uniform(0.3, 3.0)
         B = p.T_cam_target.copy()
         B[:, :3, 3] /= s
-        d = classic.calibrate(p.T_base_ee, B, estimate_scale=True).diagnostics["scale"]
+        d = classic.calibrate(p.T_base_ee, B, options=SCALED).diagnostics["scale"]
         z.append((d["value"] - s) / d["sigma"])
     coverage = np.mean(np.abs(z) <= 1.0)
     assert COVERAGE_RANGE[0] <= coverage <= COVERAGE_RANGE[1], coverage

@@ -170,10 +170,11 @@ def test_axyb_matches_opencv(method, setup, seed):
 @pytest.mark.parametrize("setup", SETUPS)
 @pytest.mark.parametrize("method", ["park", "shah"])
 def test_calibrate_closed_form_is_the_opencv_estimate(method, setup):
-    # the front with refine=False returns the plain closed form: the same
+    # the front without refinement returns the plain closed form: the same
     # camera pose as OpenCV, whatever the setup
     p = _problem(setup, 0)
-    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, method=method, refine=False)
+    options = classic.CalibrateOptions(refine=False)
+    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, method=method, options=options)
     if method == "park":
         X_cv = _opencv_hand_eye(p, AXXB_FLAGS["park"])
     else:

@@ -32,13 +32,14 @@ NOISE = dict(camera_noise=(0.1, 1.0), robot_noise=(0.01, 0.2))
 CASES = [("robot_translation", s) for s in (0.05, 0.3, 1.0, 1.8)]
 CASES += [("camera_translation", s) for s in (0.05, 0.3, 1.0, 1.8)]
 CASES += [("camera_rotation", 20.0), ("board_flip", 0.0)]
+UNCHECKED = classic.CalibrateOptions(check=False)
 
 
 def _outcome(A, B, setup, index):
     keep = np.arange(len(A)) != index
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        clean = classic.calibrate(A[keep], B[keep], setup=setup, check=False)  # the reference: just the fit
+        clean = classic.calibrate(A[keep], B[keep], setup=setup, options=UNCHECKED)  # the reference: just the fit
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -90,7 +91,7 @@ def test_a_named_pose_that_barely_moves_the_answer_is_returned_with_a_warning():
     assert res.diagnostics["outlier_test"]["shift_sigma"] <= ACCEPT_SHIFT_SIGMA
     # returned with the pose, its sigma widened (covariance + d d^T) to reach the fit without it: within 1 sigma
     keep = np.arange(40) != 17
-    clean = classic.calibrate(p.T_base_ee[keep], B[keep], check=False)
+    clean = classic.calibrate(p.T_base_ee[keep], B[keep], options=UNCHECKED)
     assert res.diagnostics["outlier_test"]["sigma_widened_by"] > 1.0
     assert x_shift_sigma(clean.X, res.X, res.covariance[:6, :6]) < 1.0
     assert x_shift_sigma(clean.Y, res.Y, res.covariance[6:, 6:]) < 1.0

@@ -62,7 +62,8 @@ def test_refinement_never_raises_the_cost(method, setup, seed):
 
 def test_refinement_off_keeps_the_closed_form():
     p = _noisy("eye_to_hand", 0)
-    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_to_hand", refine=False)
+    options = classic.CalibrateOptions(refine=False)
+    res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_to_hand", options=options)
     ref = res.diagnostics["refinement"]
     assert ref["iterations"] == 0
     assert ref["cost_final"] == pytest.approx(ref["cost_initial"], rel=COST_RTOL)
@@ -80,7 +81,8 @@ def refine_trials(request):
         for k in range(REFINE_TRIALS):
             p = _noisy(setup, 100 + k, camera_noise=STAT_CAMERA_NOISE)
             for j, refine in enumerate((False, True)):
-                res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, method=method, refine=refine)
+                options = classic.CalibrateOptions(refine=refine)
+                res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup=setup, method=method, options=options)
                 errs[k, j] = rotation_error_deg(res.X, p.X_true), translation_error_mm(res.X, p.X_true)
         out[method] = errs
     return out

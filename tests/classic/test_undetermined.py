@@ -111,5 +111,7 @@ def test_calibrate_with_the_checks_off_reports_an_infinite_sigma():
     p = make_problem(10, "eye_to_hand", np.random.default_rng(0), motion="one_axis")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", WeakMotionWarning)
-        res = classic.calibrate(p.T_base_ee, p.T_cam_target, setup="eye_to_hand", check=False)
+        res = classic.calibrate(
+            p.T_base_ee, p.T_cam_target, setup="eye_to_hand", options=classic.CalibrateOptions(check=False)
+        )
     assert np.isinf(res.sigma["X_translation_mm"])
