@@ -51,13 +51,13 @@ from classic.li import li
 from classic.noise_model import NoiseModel, joint_noise_covariance
 from classic.pairs import motion_pairs, pair_indices
 from classic.park import park
-from classic.planning import PosePlan, plan_poses
+from classic.planning import PlanOptions, PosePlan, plan_poses
 from classic.ransac import lmeds_inliers
 from classic.refine import RefineOptions, cramer_rao_bound, refine_xy
 from classic.result import CalibrationResult, PoseResiduals
 from classic.robot_stream import RobotStream
 from classic.shah import shah
-from classic.time_offset import calibrate_stream
+from classic.time_offset import StreamOptions, calibrate_stream
 from classic.tsai import tsai
 
 __all__ = [
@@ -71,6 +71,7 @@ __all__ = [
     "calibrate",
     "CalibrateOptions",
     "calibrate_stream",
+    "StreamOptions",
     "solve",
     "NoiseModel",
     "joint_noise_covariance",
@@ -82,6 +83,7 @@ __all__ = [
     "RefineOptions",
     "cramer_rao_bound",
     "plan_poses",
+    "PlanOptions",
     "PosePlan",
     "lmeds_inliers",
     "diagnose_motion",

@@ -59,6 +59,7 @@ __all__ = [
     "DEFAULT_MIN_GAIN",
     "PRIOR_SIGMA_ROT_RAD",
     "PRIOR_SIGMA_TRANS_M",
+    "PlanOptions",
     "PosePlan",
     "pose_information",
     "workspace_weight",
@@ -318,6 +319,27 @@ def _exchange(design: _Design, chosen: list, available: np.ndarray, max_sweeps: 
     return chosen
 
 
+@dataclass(frozen=True, kw_only=True)
+class PlanOptions:
+    """When :func:`plan_poses` stops, where X's error counts and whether the exchange pass runs.
+
+    Attributes
+    ----------
+    min_gain : float
+        Stop when the best next pose shrinks the workspace sigma by less than this fraction (0 plans all
+        ``n`` unless the candidates run out).
+    workspace_cam : array, shape (P, 3), optional
+        Points in the camera frame where X's error counts (:func:`workspace_weight`); default the
+        candidates' target positions.
+    exchange : bool
+        Run the exchange pass (default).
+    """
+
+    min_gain: float = DEFAULT_MIN_GAIN
+    workspace_cam: np.ndarray | None = None
+    exchange: bool = True
+
+
 def plan_poses(
     A_recorded: np.ndarray,
     A_candidates: np.ndarray,
@@ -326,9 +348,7 @@ def plan_poses(
     noise,
     setup: str = "eye_to_hand",
     n: int = 8,
-    min_gain: float = DEFAULT_MIN_GAIN,
-    workspace_cam: np.ndarray | None = None,
-    exchange: bool = True,
+    options: PlanOptions | None = None,
 ) -> PosePlan:
     """Choose up to ``n`` candidate poses that shrink the predicted workspace sigma of X most.
 
@@ -352,19 +372,16 @@ def plan_poses(
     setup : {"eye_to_hand", "eye_in_hand"}
     n : int
         Most poses to add.
-    min_gain : float
-        Stop when the best next pose shrinks the workspace sigma by less than this fraction (0 plans all
-        ``n`` unless the candidates run out).
-    workspace_cam : array, shape (P, 3), optional
-        Points in the camera frame where X's error counts (:func:`workspace_weight`); default the
-        candidates' target positions.
-    exchange : bool
-        Run the exchange pass (default).
+    options : PlanOptions, optional
+        The smallest gain worth a pose, the workspace's points and the exchange pass; None:
+        :class:`PlanOptions`' defaults (stop below a 5 % gain).
 
     Returns
     -------
     PosePlan
     """
+    options = options or PlanOptions()
+    min_gain, workspace_cam = options.min_gain, options.workspace_cam
     setup = normalize_setup(setup)
     if n < 0:
         raise HandEyeInputError(f"number of poses to plan must be >= 0, got {n}")
@@ -384,7 +401,7 @@ def plan_poses(
     if len(G_rec) == 0 and len(views):
         first = int(np.argmin(np.linalg.norm(views - workspace_cam.mean(axis=0), axis=1)))
     chosen, gains, reason = _greedy(design, available, n, min_gain, first)
-    if exchange and chosen:
+    if options.exchange and chosen:
         chosen = _exchange(design, chosen, available)
         pool = np.zeros(len(A_candidates), dtype=bool)
         pool[chosen] = True

@@ -9,6 +9,8 @@ which reports its sigma.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from classic.calibrate import initial_estimate
@@ -22,12 +24,33 @@ from handeye.core.errors import DegenerateMotionError, HandEyeInputError, TooFew
 from handeye.core.setups import normalize_setup, robot_side_poses
 from handeye.core.validation import MIN_POSES, check_transforms, check_units_metres
 
-__all__ = ["calibrate_stream", "MAX_GRID_POINTS", "GRID_POSES"]
+__all__ = ["StreamOptions", "calibrate_stream", "MAX_GRID_POINTS", "GRID_POSES"]
 
 #: The offset grid is capped at this many points (the step grows with the range).
 MAX_GRID_POINTS = 801
 #: Camera poses the grid search uses (evenly spread); the refinement uses all.
 GRID_POSES = 30
+
+
+@dataclass(frozen=True, kw_only=True)
+class StreamOptions:
+    """The settings of :func:`calibrate_stream` that few calls change (the defaults are its own).
+
+    Attributes
+    ----------
+    method : str
+        Closed form of the grid search and start.
+    noise : None, (float, float) or classic.noise_model.NoiseModel
+        As in :func:`classic.calibrate`.
+    loss : {"linear", "huber", "cauchy"}
+    check : bool
+        Refuse a fit that outlier poses pulled off (linear loss).
+    """
+
+    method: str = "park"
+    noise: object = None
+    loss: str = "linear"
+    check: bool = True
 
 
 def calibrate_stream(
@@ -37,10 +60,7 @@ def calibrate_stream(
     T_cam_target: np.ndarray,
     setup: str = "eye_to_hand",
     max_offset_s: float = 0.5,
-    method: str = "park",
-    noise=None,
-    loss: str = "linear",
-    check: bool = True,
+    options: StreamOptions | None = None,
 ) -> CalibrationResult:
     """Calibrate from a robot pose stream and camera poses at other times, with their time offset.
 
@@ -57,13 +77,9 @@ def calibrate_stream(
     max_offset_s : float
         The offset is searched in ``[-max_offset_s, max_offset_s]`` (robot time = camera time + offset);
         camera poses whose shifted time could leave the robot recording are left out.
-    method : str
-        Closed form of the grid search and start.
-    noise : None, (float, float) or classic.noise_model.NoiseModel
-        As in :func:`classic.calibrate`.
-    loss : {"linear", "huber", "cauchy"}
-    check : bool
-        Refuse a fit that outlier poses pulled off (linear loss).
+    options : StreamOptions, optional
+        The closed form, the noise model, the loss and the contamination check; None: :class:`StreamOptions`'
+        defaults.
 
     Returns
     -------
@@ -76,6 +92,8 @@ def calibrate_stream(
     HandEyeInputError
         Bad times or shapes; :class:`TooFewPosesError` when too few camera poses fall inside.
     """
+    options = options or StreamOptions()
+    method, noise, loss, check = options.method, options.noise, options.loss, options.check
     setup = normalize_setup(setup)
     if loss not in LOSSES:
         raise HandEyeInputError(f"unknown loss {loss!r}: use one of {LOSSES}")

@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from classic.noise_model import NoiseModel
-from classic.planning import DEFAULT_MIN_GAIN, PosePlan, plan_poses
+from classic.planning import DEFAULT_MIN_GAIN, PlanOptions, PosePlan, plan_poses
 from classic.target_views import ViewLimits, flange_poses, sample_views, views_of
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import invert_transform, make_transform, project_to_so3
@@ -480,7 +480,7 @@ def plan_next_poses(
         noise,
         setup,
         n=n,
-        min_gain=min_gain,
+        options=PlanOptions(min_gain=min_gain),
     )
     idx = plan.chosen
     q = None if candidates.q is None else candidates.q[idx]

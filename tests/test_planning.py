@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from classic.noise_model import NoiseModel
-from classic.planning import STOP_EXHAUSTED, STOP_SMALL_GAIN, plan_poses, pose_information, predicted_sigmas
+from classic.planning import (
+    STOP_EXHAUSTED,
+    STOP_SMALL_GAIN,
+    PlanOptions,
+    plan_poses,
+    pose_information,
+    predicted_sigmas,
+)
 from classic.refine import cramer_rao_bound
 from classic.target_views import ViewLimits, flange_poses, sample_views, target_in_view, views_of
 from handeye.cli import main
@@ -20,6 +27,7 @@ NOISE = NoiseModel(
     camera_rot_rad=np.radians(0.1), camera_trans_m=1e-3, robot_rot_rad=np.radians(0.01), robot_trans_m=0.2e-3
 )
 NONE = np.zeros((0, 4, 4))
+ALL_N = PlanOptions(min_gain=0.0)  # plan all n poses: no gain is too small
 
 
 def _cell(rng, setup="eye_to_hand", n_views=300):
@@ -47,7 +55,7 @@ def test_information_is_the_cramer_rao_bound(rng):
 def test_greedy_never_increases_the_predicted_sigma(rng, setup):
     """Every added pose adds information: rotation, translation and workspace sigma never grow."""
     p, A = _cell(rng, setup)
-    plan = plan_poses(A[:4], A[4:], p.X_true, p.Y_true, NOISE, setup, n=10, min_gain=0.0)
+    plan = plan_poses(A[:4], A[4:], p.X_true, p.Y_true, NOISE, setup, n=10, options=ALL_N)
     assert len(plan.chosen) == 10
     for s in (plan.sigma_rotation_deg, plan.sigma_translation_mm, plan.sigma_workspace_mm):
         assert np.all(np.isfinite(s))
@@ -62,7 +70,7 @@ def test_greedy_never_increases_the_predicted_sigma(rng, setup):
 def test_planned_beats_random_on_its_criterion(rng):
     """Eight planned poses predict a smaller workspace sigma than eight random ones of the same candidates."""
     p, A = _cell(rng)
-    plan = plan_poses(NONE, A, p.X_true, p.Y_true, NOISE, n=8, min_gain=0.0)
+    plan = plan_poses(NONE, A, p.X_true, p.Y_true, NOISE, n=8, options=ALL_N)
     M_points = views_of(A, p.X_true, p.Y_true, "eye_to_hand")[:, :3, 3]
     from classic.planning import workspace_weight
 
@@ -88,7 +96,7 @@ def test_adds_the_pose_that_rotates_about_another_axis(rng):
     candidates = np.array(same_axis + other_axis)
     A_rec = flange_poses(recorded, p.X_true, p.Y_true, "eye_to_hand")
     A_cand = flange_poses(candidates, p.X_true, p.Y_true, "eye_to_hand")
-    plan = plan_poses(A_rec, A_cand, p.X_true, p.Y_true, NOISE, n=1, min_gain=0.0)
+    plan = plan_poses(A_rec, A_cand, p.X_true, p.Y_true, NOISE, n=1, options=ALL_N)
     assert not np.isfinite(plan.sigma_workspace_mm[0])  # one axis: X is not determined
     assert plan.chosen.tolist() == [len(same_axis)]
     assert np.isfinite(plan.sigma_workspace_mm[1])
@@ -97,7 +105,7 @@ def test_adds_the_pose_that_rotates_about_another_axis(rng):
 def test_no_poses_yet_starts_with_rotations_about_distinct_axes(rng):
     """From nothing, three planned poses determine X: their two motions turn about axes far apart."""
     p, A = _cell(rng)
-    plan = plan_poses(NONE, A, p.X_true, p.Y_true, NOISE, n=3, min_gain=0.0)
+    plan = plan_poses(NONE, A, p.X_true, p.Y_true, NOISE, n=3, options=ALL_N)
     assert np.isfinite(plan.sigma_workspace_mm[3]) and not np.isfinite(plan.sigma_workspace_mm[2])
     T = A[plan.chosen]
     axes = so3_log(np.linalg.inv(T[0])[None, :3, :3] @ T[1:, :3, :3])
@@ -170,7 +178,7 @@ def test_stop_advice_when_more_poses_no_longer_help(rng):
 def test_stop_advice_when_the_candidates_run_out(rng):
     """Two candidates for five requested poses: both are planned and the advice says the candidates are exhausted."""
     p, A = _cell(rng)
-    plan = plan_poses(A[:4], A[4:6], p.X_true, p.Y_true, NOISE, n=5, min_gain=0.0)
+    plan = plan_poses(A[:4], A[4:6], p.X_true, p.Y_true, NOISE, n=5, options=ALL_N)
     assert plan.stop_reason == STOP_EXHAUSTED and sorted(plan.chosen.tolist()) == [0, 1]
     assert "exhausted" in plan.advice
 
