@@ -8,6 +8,7 @@ Pinocchio's ``tool0`` frame (the flange), ``ref`` a point on the tool at
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -295,11 +296,20 @@ def load_robot(name: str, T_ee_ref: np.ndarray | None = None) -> Robot:
     """
     if name not in ROBOTS:
         raise HandEyeInputError(f"unknown robot {name!r}: use one of {', '.join(ROBOTS)}")
+    model, visual_model = _description(name)
+    # each Robot its own copies (and data): one caller's robot never sees another's
+    return _robot(name, model.copy(), visual_model.copy(), "tool0", T_ee_ref)
+
+
+@lru_cache(maxsize=None)
+def _description(name: str):
+    """The robot's kinematic and visual models as ``example-robot-data`` describes them, parsed once a process
+    (the URDF's parse takes 0.7 s, and a run loads the same arm again and again: a benchmark 8 times)."""
     require_package("pinocchio", extra="robot", purpose="the robot model")
     erd = require_package("example_robot_data", extra="robot", purpose="the UR robot description")
     # the loader classes, not erd.load(name): example-robot-data-loaders 5.0 maps "ur3" to the UR5 loader
     wrapper = getattr(erd.robots_loader, _LOADERS[name])().robot
-    return _robot(name, wrapper.model, wrapper.visual_model, "tool0", T_ee_ref)
+    return wrapper.model, wrapper.visual_model
 
 
 def _robot(name: str, model, visual_model, ee_frame: str, T_ee_ref: np.ndarray | None) -> Robot:
