@@ -656,12 +656,6 @@ DEVICE_PREDICTION_ATOL = 1e-3
 #: integral of a sine over the part of a period left over, a / pi, shared by L periods.
 SGBM_LOCKING_MAX_PX = 0.25
 
-#: The outline of a pixel mask, as classic.markerless.silhouette.signed_distance finds it: its zero lies half-way
-#: between the last pixel centre in and the first out, so within 0.5 px of the true outline along a row or column
-#: and within half a diagonal, sqrt(2) / 2 px, in any direction. A sphere's outline radius r px is then off by at
-#: most that much, and a focal length fitted to it by at most OUTLINE_PX_BOUND / r relative (a grid's worst case;
-#: noise-free otherwise).
-OUTLINE_PX_BOUND = float(np.sqrt(2.0) / 2.0)
 
 #: Tail probability at which a count of false alarms is called inconsistent with the stated rate's mean (a
 #: Poisson upper quantile; the CUSUM's bound is a mean rate, and rare alarms are Poisson at most): one run in
