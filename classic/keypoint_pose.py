@@ -31,7 +31,7 @@ from handeye.core.keypoint_fit import cauchy_weights, likelihood_fit, whitened_r
 from handeye.core.rigid import rigid_residuals, rigid_transform, robust_rigid_transform
 from handeye.core.se3 import hat
 
-__all__ = ["KeypointPoseResult", "solve_keypoint_pose"]
+__all__ = ["KeypointPoseOptions", "KeypointPoseResult", "solve_keypoint_pose"]
 
 
 @dataclass
@@ -62,17 +62,52 @@ class KeypointPoseResult:
         return self.refused is None
 
 
+@dataclass(frozen=True, kw_only=True)
+class KeypointPoseOptions:
+    """The consensus of :func:`solve_keypoint_pose` and its refusal, checked on construction.
+
+    Attributes
+    ----------
+    inlier_m : float
+        RANSAC's consensus distance, metres.
+    min_inlier_fraction : float
+        Refused when fewer of the valid points agree (in [0, 1]).
+    iterations : int
+        RANSAC samples.
+    rng : numpy.random.Generator, optional
+        Default ``default_rng(0)`` (deterministic).
+
+    Raises
+    ------
+    HandEyeInputError
+        ``inlier_m`` not a positive number, ``min_inlier_fraction`` not in [0, 1] (a NaN would never refuse),
+        ``iterations`` below 1.
+    """
+
+    inlier_m: float = 0.03
+    min_inlier_fraction: float = 0.5
+    iterations: int = 200
+    rng: np.random.Generator | None = None
+
+    def __post_init__(self) -> None:
+        """Refuse settings under which the consensus or its refusal cannot work (NaN compares False: never refused)."""
+        inlier_m, min_inlier_fraction, iterations = self.inlier_m, self.min_inlier_fraction, self.iterations
+        if not (np.isfinite(inlier_m) and inlier_m > 0):
+            raise HandEyeInputError(f"inlier_m must be a positive number of metres, got {inlier_m!r}")
+        if not (0.0 <= min_inlier_fraction <= 1.0):
+            raise HandEyeInputError(f"min_inlier_fraction must be in [0, 1], got {min_inlier_fraction!r}")
+        if int(iterations) != iterations or iterations < 1:
+            raise HandEyeInputError(f"iterations must be a whole number >= 1, got {iterations!r}")
+
+
 def solve_keypoint_pose(
     p_cam: np.ndarray,
     p_base: np.ndarray,
     frame: np.ndarray | None = None,
-    inlier_m: float = 0.03,
-    min_inlier_fraction: float = 0.5,
-    iterations: int = 200,
-    rng: np.random.Generator | None = None,
     meas: np.ndarray | None = None,
     intrinsics_norm: np.ndarray | None = None,
     sigma: np.ndarray | None = None,
+    options: KeypointPoseOptions | None = None,
 ) -> KeypointPoseResult:
     """Robust ``T_base_cam`` from matched camera-frame and base-frame points.
 
@@ -82,13 +117,6 @@ def solve_keypoint_pose(
         Metres. Rows with NaN are ignored.
     frame : array of int, shape (M,), optional
         Frame of each point (the covariance's clusters); one cluster per point when omitted.
-    inlier_m : float
-        RANSAC's consensus distance.
-    min_inlier_fraction : float
-    iterations : int
-        RANSAC samples.
-    rng : numpy.random.Generator, optional
-        Default ``default_rng(0)`` (deterministic).
     meas : array, shape (M, 3), optional
         What ``p_cam`` was back-projected from: normalised image position and depth ``(x_n, y_n, z_m)``
         (:mod:`handeye.core.keypoint_fit`). With ``intrinsics_norm`` and ``sigma``, the pose is the
@@ -97,23 +125,21 @@ def solve_keypoint_pose(
         ``(fx, fy, cx, cy)`` normalised, per point.
     sigma : array, shape (M, 3), optional
         Sigma of each measured component. ``meas``, ``intrinsics_norm`` and ``sigma`` come together.
+    options : KeypointPoseOptions, optional
+        RANSAC's consensus distance, samples and generator, and the share of agreeing points below which the
+        answer is refused; None: :class:`KeypointPoseOptions`' defaults (3 cm, 200 samples, half).
 
     Returns
     -------
     KeypointPoseResult
-
-    Raises
-    ------
-    HandEyeInputError
-        ``inlier_m`` not a positive number, ``min_inlier_fraction`` not in [0, 1] (a NaN would never refuse),
-        ``iterations`` below 1.
     """
-    _check_settings(inlier_m, min_inlier_fraction, iterations)
+    options = options or KeypointPoseOptions()
+    inlier_m, min_inlier_fraction, iterations = options.inlier_m, options.min_inlier_fraction, options.iterations
     p_cam, p_base = _checked_points(p_cam, p_base)
     m = len(p_cam)
     measured = _checked_measurements(m, meas, intrinsics_norm, sigma)
     frame = np.arange(m) if frame is None else np.asarray(frame)
-    rng = np.random.default_rng(0) if rng is None else rng
+    rng = np.random.default_rng(0) if options.rng is None else options.rng
     valid = np.isfinite(p_cam).all(1) & np.isfinite(p_base).all(1)
     idx = np.flatnonzero(valid)
     if len(idx) < 6:
@@ -204,16 +230,6 @@ def _rigid_covariance(T, p_cam, r3, w, sel, frame) -> np.ndarray:
     R = T[:3, :3]
     J = np.concatenate([-R @ hat(p_cam[sel]), np.broadcast_to(R, (len(sel), 3, 3))], axis=2).reshape(-1, 6)
     return clustered_covariance(J, r3[sel].reshape(-1), np.repeat(w[sel], 3), np.repeat(frame[sel], 3))
-
-
-def _check_settings(inlier_m: float, min_inlier_fraction: float, iterations: int) -> None:
-    """Refuse settings under which the consensus or its refusal cannot work (NaN compares False: never refused)."""
-    if not (np.isfinite(inlier_m) and inlier_m > 0):
-        raise HandEyeInputError(f"inlier_m must be a positive number of metres, got {inlier_m!r}")
-    if not (0.0 <= min_inlier_fraction <= 1.0):
-        raise HandEyeInputError(f"min_inlier_fraction must be in [0, 1], got {min_inlier_fraction!r}")
-    if int(iterations) != iterations or iterations < 1:
-        raise HandEyeInputError(f"iterations must be a whole number >= 1, got {iterations!r}")
 
 
 def _too_few_agree(inl, valid, inlier_m: float, min_inlier_fraction: float) -> str | None:

@@ -8,10 +8,14 @@ imports both lazily, as the front does.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from handeye.core.errors import LengthMismatchError, PoseFileError
+
+if TYPE_CHECKING:  # imported where used, as the front does
+    from classic.vision.reprojection import ReprojectionOptions
 
 __all__ = [
     "ImageCalibration",
@@ -136,9 +140,7 @@ def calibrate_from_views(
     method: str = "park",
     robust: bool = False,
     reprojection: bool = True,
-    refine_intrinsics: bool = False,
-    robot_noise: str = "estimate",
-    intrinsics_prior: bool = False,
+    refinement: ReprojectionOptions | None = None,
 ) -> ImageCalibration:
     """Calibrate from detected views: pose-based solve, then the corner-reprojection refinement.
 
@@ -154,23 +156,23 @@ def calibrate_from_views(
         Robust pose-based solve (outlier views excluded from the refinement too).
     reprojection : bool
         Run the reprojection refinement.
-    refine_intrinsics : bool
-        Refine the intrinsics too.
-    robot_noise : {"estimate", "none"}
-        The refinement's model of the robot's pose error
-        (:func:`classic.vision.reprojection.refine_reprojection`): estimated from the residuals and
-        carried into the sigma, or none (every corner independent, the robot exact).
-    intrinsics_prior : bool
-        Refine the intrinsics with their one-sigma as a prior (``ReprojectionOptions.intrinsics_prior``), so
-        that the sigma counts their error; ``handeye calibrate --detections`` does by default.
+    refinement : classic.vision.reprojection.ReprojectionOptions, optional
+        Its settings (:func:`classic.vision.reprojection.refine_reprojection`): the intrinsics refined, freely or
+        under their one-sigma as a prior so that the sigma counts their error (``handeye calibrate
+        --detections`` does by default), the loss, and the model of the robot's pose error (estimated from the
+        residuals and carried into the sigma by default). Its ``setup`` is replaced by ``setup``. None:
+        ``ReprojectionOptions()``'s defaults (the intrinsics taken as exact).
 
     Returns
     -------
     ImageCalibration
     """
+    from dataclasses import replace
+
     import classic
     from classic.vision.reprojection import ReprojectionOptions, refine_reprojection
 
+    refinement = replace(refinement or ReprojectionOptions(), setup=setup)
     accepted = [k for k, v in enumerate(views.views) if v.pose.ok]
     rejected = {v.image: v.pose.reason for v in views.views if not v.pose.ok}
     T_cam_target = np.array([views.views[k].pose.T_cam_target for k in accepted]).reshape(-1, 4, 4)
@@ -200,12 +202,7 @@ def calibrate_from_views(
             views.intrinsics,
             res.X,
             res.Y,
-            ReprojectionOptions(
-                setup=setup,
-                refine_intrinsics=refine_intrinsics,
-                intrinsics_prior=intrinsics_prior,
-                robot_noise=robot_noise,
-            ),
+            refinement,
         )
         images = [views.views[k].image for k in keep]
     return ImageCalibration(res, rep, images, rejected)
@@ -289,7 +286,8 @@ def halves_check(
         For the random splits; default ``np.random.default_rng(0)``.
     refine_intrinsics : bool
     robot_noise : {"estimate", "none"}
-        As :func:`calibrate_from_views` takes it ("none" shows what the corners-only sigma claims).
+        The refinement's model of the robot's pose error (``ReprojectionOptions.robot_noise``; "none" shows what the
+        corners-only sigma claims).
 
     Returns
     -------
@@ -302,6 +300,7 @@ def halves_check(
     """
     from dataclasses import replace
 
+    from classic.vision.reprojection import ReprojectionOptions
     from handeye.core.errors import HandEyeInputError
     from handeye.core.metrics import pose_error
 
@@ -310,18 +309,14 @@ def halves_check(
     if len(accepted) < 6:
         raise HandEyeInputError(f"the halves check needs at least 6 views with a pose, got {len(accepted)}")
     rows = {name: [] for name in ("dr", "dt", "pr", "pt")}
-    halves = []
+    halves, refinement = [], ReprojectionOptions(refine_intrinsics=refine_intrinsics, robot_noise=robot_noise)
     for split in range(n_splits):
         order = np.array(accepted) if split == 0 else rng.permutation(accepted)
         parts = (sorted(order[0::2].tolist()), sorted(order[1::2].tolist()))
         fits = []
         for part in parts:
             sub = replace(views, views=[views.views[k] for k in part])
-            fits.append(
-                calibrate_from_views(
-                    sub, T_base_ee[part], setup, method, refine_intrinsics=refine_intrinsics, robot_noise=robot_noise
-                )
-            )
+            fits.append(calibrate_from_views(sub, T_base_ee[part], setup, method, refinement=refinement))
         (a, b), s = fits, [f.reprojection.sigma for f in fits]
         rot, trans = pose_error(a.X, b.X)
         rows["dr"].append(float(rot))

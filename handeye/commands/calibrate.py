@@ -362,6 +362,7 @@ def _intrinsics_line(args: argparse.Namespace, intrinsics, refined: bool) -> str
 
 
 def _run_detections(args: argparse.Namespace) -> int:
+    from classic.vision.reprojection import ReprojectionOptions
     from classic.vision.views import Views
     from handeye.core.posefile import read_robot_poses
     from handeye.core.setups import UNKNOWN_NAMES, normalize_setup
@@ -383,8 +384,10 @@ def _run_detections(args: argparse.Namespace) -> int:
             method=args.method,
             robust=args.robust,
             reprojection=not args.no_reprojection,
-            refine_intrinsics=args.refine_intrinsics,
-            intrinsics_prior=not (args.refine_intrinsics or args.fixed_intrinsics),
+            refinement=ReprojectionOptions(
+                refine_intrinsics=args.refine_intrinsics,
+                intrinsics_prior=not (args.refine_intrinsics or args.fixed_intrinsics),
+            ),
         )
     x_name, y_name = UNKNOWN_NAMES[setup]
     res = out.pose_based

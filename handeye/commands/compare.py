@@ -85,7 +85,7 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
     """
     import numpy as np
 
-    from classic.keypoint_pose import solve_keypoint_pose
+    from classic.keypoint_pose import KeypointPoseOptions, solve_keypoint_pose
     from handeye.core.metrics import pose_error
     from handeye.core.se3 import transform_from_pos_quat_xyzw
     from handeye.core.tables import markdown_table
@@ -112,8 +112,8 @@ def keypoint_solve_table(model, frames, cameras: list[int]) -> str:
             p_cam,
             frames.keypoints_base[idx].reshape(-1, 3),
             np.repeat(np.arange(len(idx)), k),
-            inlier_m=CONSENSUS_M,
             **measured,
+            options=KeypointPoseOptions(inlier_m=CONSENSUS_M),
         )
         if not res.ok:
             rows.append([c, f"refused: {res.refused}", "-", "-"])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from classic.keypoint_pose import solve_keypoint_pose
+from classic.keypoint_pose import KeypointPoseOptions, solve_keypoint_pose
 from handeye.core.errors import HandEyeInputError
 from handeye.core.se3 import make_transform, so3_exp
 from tests.tolerances import EXACT, SIGMA_BOUND
@@ -94,8 +94,9 @@ def test_measurement_weights_beat_the_3d_fit_and_their_sigma_matches_the_error(r
         noisy = meas + rng.normal(size=meas.shape) * sig
         p_noisy = _back(noisy)
         sigma = np.tile(sig, (len(meas), 1))
-        res = solve_keypoint_pose(p_noisy, p_base, frame, inlier_m=0.1, meas=noisy, intrinsics_norm=intr, sigma=sigma)
-        res_3d = solve_keypoint_pose(p_noisy, p_base, frame, inlier_m=0.1)
+        wide = KeypointPoseOptions(inlier_m=0.1)
+        res = solve_keypoint_pose(p_noisy, p_base, frame, meas=noisy, intrinsics_norm=intr, sigma=sigma, options=wide)
+        res_3d = solve_keypoint_pose(p_noisy, p_base, frame, options=wide)
         assert res.ok and res_3d.ok
         errs.append(np.linalg.norm(res.T_base_cam[:3, 3] - T[:3, 3]) * 1e3)
         errs_3d.append(np.linalg.norm(res_3d.T_base_cam[:3, 3] - T[:3, 3]) * 1e3)
@@ -131,6 +132,5 @@ def test_measurements_come_complete_and_shaped_or_are_refused(rng):
 )
 def test_settings_that_would_never_refuse_are_refused(setting):
     # min_inlier_fraction = NaN compared False with every fraction: a pose from no agreement at all came back unchecked
-    p = np.random.default_rng(0).normal(size=(10, 3))
-    with pytest.raises(HandEyeInputError, match=next(iter(setting))):
-        solve_keypoint_pose(p, p, **setting)
+    with pytest.raises(HandEyeInputError, match=next(iter(setting))):  # refused when made, before any solve
+        KeypointPoseOptions(**setting)
