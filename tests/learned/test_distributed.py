@@ -181,6 +181,8 @@ def _comparable(out: Path) -> dict:
     }
 
 
+@pytest.mark.slow  # the tiny preset in three processes (one, then two ranks): 35 s of the default run; the
+# one-training-call test beside it runs on several ranks in the default run
 def test_tiny_preset_on_two_processes_matches_one_and_only_rank_0_writes(small_dataset, tmp_path):
     args = ["learned", "run", "--data", str(small_dataset[0]), "--preset", "tiny", "--quiet", "--threads", "1"]
     one, two = tmp_path / "one", tmp_path / "two"

@@ -73,6 +73,7 @@ def _kill_when(command, env, out, ready):
     assert (out / CHECKPOINT_NAME).is_file() and not (out / "results.json").exists()
 
 
+@pytest.mark.slow  # three tiny-preset runs in subprocesses, two killed: 38 s of the default run; CI's run has it
 def test_a_killed_run_resumes_to_the_uninterrupted_results(small_dataset, tmp_path):
     root = small_dataset[0]
     env = dict(os.environ, OMP_NUM_THREADS="1")
