@@ -36,7 +36,7 @@ from benchmarks._report import Report  # noqa: E402
 from handeye.core.engine_protocol import EngineOptions  # noqa: E402
 from handeye.core.ray_pool import busy_worker_pids  # noqa: E402
 from handeye.core.tables import markdown_table  # noqa: E402
-from handeye.labelling import label_dataset  # noqa: E402
+from handeye.labelling import LabelRunOptions, label_dataset  # noqa: E402
 from sim.cameras import get_preset  # noqa: E402
 from sim.generate import DEFAULT_NOISE, Recipe, generate  # noqa: E402
 
@@ -59,7 +59,7 @@ def run_once(engine: str, root: Path, preset: str, workers: int) -> tuple[float,
     options = EngineOptions(workers=workers, progress=False)
     generate(root, Recipe(preset, 0, DEFAULT_NOISE), options=options, engine=engine)
     t1 = time.perf_counter()
-    label_dataset(root, workers=workers, progress=False, plot=False, engine=engine)
+    label_dataset(root, workers=workers, progress=False, plot=False, options=LabelRunOptions(engine=engine))
     return t1 - t0, time.perf_counter() - t1
 
 

@@ -40,6 +40,7 @@ __all__ = [
     "PAPER_REPEAT_SHARE",
     "paper_label",
     "label_camera",
+    "LabelRunOptions",
     "label_dataset",
     "label_summary",
     "label_table_markdown",
@@ -222,16 +223,35 @@ def _describe(args) -> str:
     return f"label camera {camera_id} of {root}"
 
 
+@dataclass(frozen=True, kw_only=True)
+class LabelRunOptions:
+    """Where :func:`label_dataset` runs and how long it waits for the dataset.
+
+    Attributes
+    ----------
+    engine : {"pool", "ray"}
+        Where the camera poses are labelled, one task each (:func:`handeye.core.engines.run_tasks`).
+    address : str, optional
+        A running Ray cluster; None starts a local one. Every node must see the dataset at the same path.
+    lock_wait_s : float
+        How long to wait for another writer of the dataset (``handeye markerless --write-labels``) before
+        refusing (:func:`handeye.core.dataset.dataset_lock`); the labels are computed first, then
+        ``cameras.csv`` is read, updated and written under the lock.
+    """
+
+    engine: str = "pool"
+    address: str | None = None
+    lock_wait_s: float = LABEL_LOCK_WAIT_S
+
+
 def label_dataset(
     root: str | Path,
     workers: int | None = None,
     method: str = "park",
     progress: bool = True,
     plot: bool = True,
-    engine: str = "pool",
-    address: str | None = None,
     repeats: int = 0,
-    lock_wait_s: float = LABEL_LOCK_WAIT_S,
+    options: LabelRunOptions | None = None,
 ) -> LabelReport:
     """Label every camera pose of a dataset and write the labels, a report and a plot.
 
@@ -240,23 +260,18 @@ def label_dataset(
     root : str or Path
     workers : int, optional
         Processes (1: in this process), or Ray tasks in flight; None: 2, or every CPU of the cluster at
-        ``address``.
+        ``options.address``.
     method : str
     progress : bool
         A progress bar on stderr.
     plot : bool
         Write ``label_errors.png`` (needs matplotlib).
-    engine : {"pool", "ray"}
-        Where the camera poses are labelled, one task each (:func:`handeye.core.engines.run_tasks`).
-    address : str, optional
-        A running Ray cluster; None starts a local one. Every node must see ``root`` at the same path.
     repeats : int
         0: this project's label; at least 1: the seed paper's, ``method``'s closed form repeated and averaged
         (:func:`paper_label`; ``method="tsai", repeats=5`` is the paper's).
-    lock_wait_s : float
-        How long to wait for another writer of the dataset (``handeye markerless --write-labels``) before
-        refusing (:func:`handeye.core.dataset.dataset_lock`); the labels are computed first, then
-        ``cameras.csv`` is read, updated and written under the lock.
+    options : LabelRunOptions, optional
+        The engine (this machine's processes or a Ray cluster), the cluster's address and the wait for another
+        writer of the dataset; None: :class:`LabelRunOptions`' defaults.
 
     Returns
     -------
@@ -268,6 +283,8 @@ def label_dataset(
         An invalid or incomplete dataset (checked before any work).
     """
     t0 = time.perf_counter()
+    options = options or LabelRunOptions()
+    engine, address = options.engine, options.address
     check_engine(engine, address, workers)
     ds = Dataset.open(root)
     outputs = [ds.cameras_path, ds.root / "labels.md"] + ([ds.root / "label_errors.png"] if plot else [])
@@ -298,7 +315,7 @@ def label_dataset(
         labels[col] = labels[col].astype(int)
     # cameras.csv read again under the lock and written before it is released: another writer's columns
     # (markerless labels written while this labelled) are kept, never lost
-    with dataset_lock(ds.root, "handeye label", wait_s=lock_wait_s):
+    with dataset_lock(ds.root, "handeye label", wait_s=options.lock_wait_s):
         table = _merge_labels(Dataset.open(ds.root), ds, labels)
         write_table(ds.cameras_path, table, camera_table_columns(table))
         write_text_atomic(ds.root / "labels.md", label_table_markdown(table) + "\n")

@@ -31,6 +31,7 @@ from handeye.core.tables import markdown_table
 
 __all__ = [
     "MarkerlessRun",
+    "RobotURDF",
     "markerless_dataset",
     "calibrate_camera",
     "robot_surface_for",
@@ -323,13 +324,28 @@ def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:
     return out
 
 
+@dataclass(frozen=True)
+class RobotURDF:
+    """Another robot than the dataset's own (``meta["robot"]``): a URDF with meshes.
+
+    Attributes
+    ----------
+    path : str or Path
+        The URDF file.
+    package_dirs : sequence of str or Path
+        Folders its ``package://`` mesh paths resolve in.
+    """
+
+    path: str | Path
+    package_dirs: tuple = ()
+
+
 def markerless_dataset(
     root: str | Path,
     cameras: list[int] | None = None,
     model_dir: str | Path | None = None,
     T_base_cam_start: np.ndarray | None = None,
-    urdf: str | Path | None = None,
-    package_dirs=(),
+    urdf: RobotURDF | None = None,
     options: MarkerlessOptions | None = None,
     progress: bool = False,
     frames=None,
@@ -346,8 +362,8 @@ def markerless_dataset(
         A learned model (``translation.pt``, ``orientation.pt``): its prediction is the first start.
     T_base_cam_start : array, shape (4, 4), optional
         A start of the user's (a tape-measure guess).
-    urdf, package_dirs : optional
-        Another robot than the dataset's UR.
+    urdf : RobotURDF, optional
+        Another robot than the dataset's UR: its URDF and mesh folders.
     options : MarkerlessOptions, optional
     progress : bool
     frames : index, optional
@@ -362,7 +378,7 @@ def markerless_dataset(
     for c in cameras:
         if not 0 <= c < len(ds):
             raise DatasetError(f"{ds.root}: no camera {c} (the dataset has 0..{len(ds) - 1})")
-    surface, stride = robot_surface_for(ds, urdf, package_dirs)
+    surface, stride = robot_surface_for(ds, *((urdf.path, urdf.package_dirs) if urdf else ()))
     opts = options or MarkerlessOptions()
     if opts.zbuffer_stride != stride:
         from dataclasses import replace

@@ -130,7 +130,8 @@ def test_label_waits_for_markerless_holding_the_lock_and_keeps_its_columns(small
         return out
 
     monkeypatch.setattr(labelling, "run_tasks", tasks_then_hold)
-    labelling.label_dataset(small_copy, workers=1, progress=False, plot=False, lock_wait_s=WAIT_S)
+    options = labelling.LabelRunOptions(lock_wait_s=WAIT_S)
+    labelling.label_dataset(small_copy, workers=1, progress=False, plot=False, options=options)
     holders[0].join()
     _check_both_label_sets(small_copy, [1], T)
     assert "handeye label: waiting for handeye markerless --write-labels (test holder)" in capsys.readouterr().err

@@ -82,7 +82,7 @@ def test_a_killed_worker_is_replaced_and_its_task_run_again(local_cluster, tmp_p
 @pytest.mark.slow  # 19 s, a whole preset on Ray (a killed worker alone: the test above it)
 def test_small_preset_on_ray_with_a_worker_killed_is_byte_identical_to_the_pool(local_cluster, small_dataset, tmp_path):
     from handeye.core.dataset import Dataset
-    from handeye.labelling import label_dataset
+    from handeye.labelling import LabelRunOptions, label_dataset
     from sim.generate import Recipe, generate
 
     pool_root = small_dataset[0]
@@ -102,7 +102,7 @@ def test_small_preset_on_ray_with_a_worker_killed_is_byte_identical_to_the_pool(
     assert filecmp.cmp(pool_root / "meta.json", root / "meta.json", shallow=False)
     for c in range(len(Dataset.open(root))):
         Dataset.open(root).frames(c)  # every shard passes the manifest check
-    label_dataset(root, workers=2, progress=False, plot=False, engine="ray")
+    label_dataset(root, workers=2, progress=False, plot=False, options=LabelRunOptions(engine="ray"))
     assert filecmp.cmp(pool_root / "cameras.csv", root / "cameras.csv", shallow=False)
 
 

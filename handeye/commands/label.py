@@ -55,16 +55,15 @@ def run(args: argparse.Namespace) -> int:
     from handeye.core.optional import require_package
 
     require_package("cv2", extra="vision", purpose="board detection")
-    from handeye.labelling import label_dataset
+    from handeye.labelling import LabelRunOptions, label_dataset
 
     report = label_dataset(
         args.dataset,
         workers=args.workers,
         method=args.method,
         progress=not args.quiet,
-        engine=args.engine,
-        address=args.address,
         repeats=args.repeats,
+        options=LabelRunOptions(engine=args.engine, address=args.address),
     )
     if args.repeats:
         print(f"the seed paper's labels: {args.method}'s closed form, {args.repeats} repeats averaged, no sigma")

@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     require_package("pinocchio", extra="robot", purpose="the robot model")
     from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import write_json_atomic
-    from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
+    from handeye.markerless import RobotURDF, markerless_dataset, read_start, write_markerless_labels
 
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
@@ -177,8 +177,7 @@ def run(args: argparse.Namespace) -> int:
         args.camera,
         model_dir=args.model,
         T_base_cam_start=start,
-        urdf=args.urdf,
-        package_dirs=args.package_dir,
+        urdf=RobotURDF(args.urdf, tuple(args.package_dir)) if args.urdf else None,
         options=MarkerlessOptions(
             depth_sigma_m_at_1m=args.depth_noise,
             depth_model=args.depth_model,

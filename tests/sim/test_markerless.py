@@ -73,11 +73,11 @@ def test_start_file_and_its_errors(small_dataset, tmp_path):
 
 def test_bad_robot_and_dataset_inputs_are_named(small_copy, tmp_path):
     from handeye.core.errors import HandEyeInputError, ShapeError
-    from handeye.markerless import markerless_dataset
+    from handeye.markerless import RobotURDF, markerless_dataset
     from handeye.robot.model import load_robot_urdf
 
     with pytest.raises(HandEyeInputError, match="no such URDF"):
-        markerless_dataset(small_copy, cameras=[0], urdf=tmp_path / "missing.urdf")
+        markerless_dataset(small_copy, cameras=[0], urdf=RobotURDF(tmp_path / "missing.urdf"))
     urdf = tmp_path / "arm.urdf"
     urdf.write_text(
         '<robot name="arm"><link name="base"><visual><geometry><mesh filename="/nope/base.stl"/>'
