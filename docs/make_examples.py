@@ -1,7 +1,7 @@
 """Regenerate the example outputs the README and the documentation print, from the commands printed above them.
 
 The files: the README, the getting-started page, the your-own-robot, images, poses, real-cell,
-simulate-and-label and markerless guides (``FILES``). Run from the repository root::
+simulate-and-label, learned and markerless guides (``FILES``). Run from the repository root::
 
     python docs/make_examples.py            # rewrite every example output in place
     python docs/make_examples.py --check    # exit 1, naming the file, where a printed output is not today's
@@ -10,14 +10,21 @@ simulate-and-label and markerless guides (``FILES``). Run from the repository ro
 An example is a ``bash`` block whose ``handeye`` command is followed by a plain fenced block: that block is the
 command's output. The outputs are deterministic (seeded data, shipped example files); the tests
 (``tests/test_docs.py::test_printed_examples_print_what_is_shown``) compare them with a fresh run within the
-last printed digit, so an output that drifts fails CI until this script is run again.
+last printed digit, so an output that drifts fails CI until this script is run again. An output of more than
+``LONG`` lines is shown as its first ``HEAD`` and last ``TAIL`` lines around a line counting the rest
+(:func:`trim`): the learned report's tables.
 
 A page that renders (``SMOKE``) runs its steps in a smoke run (``HANDEYE_SMOKE_TEST=1``: every preset cut to
 seconds, :mod:`handeye.core.smoke`), and says so above its outputs; the run times and rates a command prints
-change per run and are printed as ``…`` (``TIME``, and a table's column headed ``s``).
+change per run and are printed as ``…`` (``TIME``, and a table's column headed ``s``). A page whose steps train
+networks (``TRAINS``: the learned guide's) runs them on one torch thread: the figures a training prints move
+with the thread count and the CPU's kernels (in their third significant digit), so the tests compare them
+within a relative bound (``tests/tolerances.py``'s ``SMOKE_TRAINED_RTOL``) instead of the last digit.
 
-A page whose steps read a recording (``INPUTS``: the markerless guide's, a simulated D435 cell written as ROS 2
-bags, :func:`render_cell`) has it built first, and its steps run with ``HOME`` in their folder (``~/ws/src``).
+A page whose steps read what others made (``INPUTS``: the markerless guide's recording, a simulated D435 cell
+written as ROS 2 bags, :func:`render_cell`; the learned guide's ``data/paper-sim``, the simulate-and-label
+guide's steps run, :func:`rendered_and_labelled`) has it built first; the markerless guide's steps run with
+``HOME`` in their folder (``~/ws/src``).
 """
 
 from __future__ import annotations
@@ -47,11 +54,17 @@ FILES = tuple(
         "docs/guides/poses.md",
         "docs/guides/real-cell.md",
         "docs/guides/simulate-label.md",
+        "docs/guides/learned.md",
         "docs/guides/markerless.md",
     )
 )
-#: The pages whose steps render: run in a smoke run, their outputs a smoke run's.
-SMOKE = tuple(ROOT / f for f in ("docs/guides/simulate-label.md",))
+SIMULATE_LABEL, LEARNED = ROOT / "docs/guides/simulate-label.md", ROOT / "docs/guides/learned.md"
+#: The pages whose steps render or train: run in a smoke run, their outputs a smoke run's.
+SMOKE = (SIMULATE_LABEL, LEARNED)
+#: The pages whose steps train networks: run on one torch thread (:func:`torch_threads`).
+TRAINS = (LEARNED,)
+#: An output of more than ``LONG`` lines is shown as its first ``HEAD`` and last ``TAIL`` lines (:func:`trim`).
+LONG, HEAD, TAIL = 30, 10, 1
 #: A run time or rate (``38.6 s``, ``7.5 frames/s``), which changes per run: printed as ``… s``.
 TIME = re.compile(r"\b\d+(?:\.\d+)?(?= (?:s|min|frames/s|camera/s)\b)")
 #: A bash block with a ``handeye`` command (continued over lines ending in ``\\``), then a plain block: the
@@ -83,9 +96,19 @@ def mask_times(text: str) -> str:
     return "".join(lines)
 
 
+def trim(text: str) -> str:
+    """``text``, or where it has more than ``LONG`` lines its first ``HEAD`` and last ``TAIL`` lines around one
+    line that counts the others (``… 152 more lines …``)."""
+    lines = text.splitlines(keepends=True)
+    if len(lines) <= LONG:
+        return text
+    return "".join([*lines[:HEAD], f"… {len(lines) - HEAD - TAIL} more lines …\n", *lines[-TAIL:]])
+
+
 def run(command: str, folder: Path) -> str:
     """What ``command`` (a ``handeye`` command line, continued over lines ending in ``\\``) prints, run
-    in-process in ``folder``; ``~`` is the ``HOME`` of the moment, as a shell expands it."""
+    in-process in ``folder``, its times masked and a long output trimmed; ``~`` is the ``HOME`` of the moment, as
+    a shell expands it."""
     from handeye.cli import main
 
     words = [os.path.expanduser(w) for w in shlex.split(re.sub(r"\\\n\s*", " ", command))]
@@ -94,7 +117,7 @@ def run(command: str, folder: Path) -> str:
         status = main(words[1:])
     if status != 0:
         raise SystemExit(f"{command!r} exited {status}")
-    return mask_times(out.getvalue())
+    return trim(mask_times(out.getvalue()))
 
 
 def render_cell(root: Path) -> list[dict]:
@@ -153,8 +176,32 @@ def cell_inputs(built: Path, folder: Path) -> None:
     (folder / "home" / "ws" / "src" / "example-robot-data").symlink_to(share / "example-robot-data")
 
 
-#: The pages whose steps read a recording: the builder that makes it once, and what lays it out in the folder.
-INPUTS = {ROOT / "docs/guides/markerless.md": (render_cell, cell_inputs)}
+def rendered_and_labelled(root: Path) -> list[str]:
+    """The simulate-and-label guide's steps run in the empty folder ``root`` (a smoke run: ``data/paper-sim``, 18
+    placements rendered and labelled, and ``cam14.png``), the learned guide's inputs. About 80 s on the loaded
+    2-core EPYC.
+
+    Returns
+    -------
+    list of str
+        What each of the guide's examples prints, in order.
+    """
+    return [output for _, output in outputs(SIMULATE_LABEL, root)]
+
+
+def paper_sim_inputs(built: Path, folder: Path) -> None:
+    """The learned guide's input in its steps' ``folder``: ``data/paper-sim`` of a :func:`rendered_and_labelled`
+    build, copied (its steps write beside it, and the build stays as it was)."""
+    import shutil
+
+    shutil.copytree(built / "data" / "paper-sim", folder / "data" / "paper-sim")
+
+
+#: The pages whose steps read what others made: the builder that makes it once, and what lays it out in the folder.
+INPUTS = {
+    ROOT / "docs/guides/markerless.md": (render_cell, cell_inputs),
+    LEARNED: (rendered_and_labelled, paper_sim_inputs),
+}
 
 
 def smoke_run(on: bool):
@@ -165,17 +212,34 @@ def smoke_run(on: bool):
     return mock.patch.dict(os.environ, {ENV: "1"} if on else {})
 
 
+@contextlib.contextmanager
+def torch_threads(one: bool):
+    """torch's CPU threads set to one within the block where ``one``, as they were after it."""
+    if not one:
+        yield
+        return
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
 def outputs(path: Path, folder: Path | None = None, built: Path | None = None) -> list[tuple[re.Match, str]]:
     """Each example of the file with what its command prints today: the file's steps (its ``python -c``
     blocks and its examples) run in their order in one fresh folder holding the repository's ``handeye/``
     (the shipped example files at the paths the documentation prints); what a step writes is there for the
     next, and goes with the folder (a temporary one, or the empty ``folder`` given, where it stays). A page of
-    ``INPUTS`` has its recording laid out there first, from ``built`` (its builder's folder) or built anew, and
-    its steps run with ``HOME`` the folder's ``home/``."""
+    ``INPUTS`` has its inputs laid out there first, from ``built`` (its builder's folder) or built anew, and
+    its steps run with ``HOME`` the folder's ``home/`` where the lay-out made one; a page of ``TRAINS`` on one
+    torch thread."""
     text = path.read_text()
     steps = sorted([*SETUP.finditer(text), *EXAMPLE.finditer(text)], key=lambda m: m.start())
     printed = []
-    with contextlib.ExitStack() as stack, smoke_run(path.resolve() in SMOKE):
+    with contextlib.ExitStack() as stack, smoke_run(path.resolve() in SMOKE), torch_threads(path.resolve() in TRAINS):
         folder = folder if folder is not None else stack.enter_context(tempfile.TemporaryDirectory())
         (Path(folder) / "handeye").symlink_to(ROOT / "handeye")
         if path.resolve() in INPUTS:
@@ -184,7 +248,8 @@ def outputs(path: Path, folder: Path | None = None, built: Path | None = None) -
                 built = Path(stack.enter_context(tempfile.TemporaryDirectory()))
                 build(built)
             lay_out(built, Path(folder))
-            stack.enter_context(mock.patch.dict(os.environ, {"HOME": str(Path(folder) / "home")}))
+            if (Path(folder) / "home").is_dir():
+                stack.enter_context(mock.patch.dict(os.environ, {"HOME": str(Path(folder) / "home")}))
         for m in steps:
             if "setup" in m.groupdict():
                 env = dict(os.environ, PYTHONPATH=str(ROOT))

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.tolerances import SMOKE_TRAINED_RTOL
+
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs"
@@ -62,15 +64,17 @@ def test_relative_links_resolve(path):
         assert (path.parent / target).exists(), f"{path.name} links to {target}, which does not exist"
 
 
-def _same_within_last_digit(printed: str, shown: str) -> None:
-    """Equal text, and every number within two units of its last printed digit (BLAS may differ there)."""
+def _same_within_last_digit(printed: str, shown: str, rtol: float = 0.0) -> None:
+    """Equal text, and every number within two units of its last printed digit (BLAS may differ there), or
+    within ``rtol`` of it where that is wider."""
     got, want = printed.strip().splitlines(), shown.strip().splitlines()
     assert len(got) == len(want), f"{len(got)} lines printed, {len(want)} shown"
     for g, w in zip(got, want):
         assert NUMBER.sub("#", g) == NUMBER.sub("#", w), f"printed {g!r}, shown {w!r}"
         for a, b in zip(NUMBER.findall(g), NUMBER.findall(w)):
             decimals = len(b.split(".")[1]) if "." in b else 0
-            assert abs(float(a) - float(b)) <= 2 * 10.0**-decimals, f"printed {g!r}, shown {w!r}"
+            bound = max(2 * 10.0**-decimals, rtol * abs(float(b)))
+            assert abs(float(a) - float(b)) <= bound, f"printed {g!r}, shown {w!r}"
 
 
 def _make_examples():
@@ -85,8 +89,8 @@ def _make_examples():
 
 @pytest.mark.parametrize(
     "path",
-    # a page that renders (a smoke run: about a minute, two on the loaded 2-core Xeon) is the slow tier's
-    # and so is the markerless guide's (a D435 cell registered: 60 s of steps, loaded)
+    # a page that renders or trains (a smoke run: about a minute, two on the loaded 2-core Xeon) is the slow
+    # tier's, and so is the markerless guide's (a D435 cell registered: 60 s of steps, loaded)
     [
         pytest.param(p, marks=[pytest.mark.slow] if p in (*_make_examples().SMOKE, *_make_examples().INPUTS) else [])
         for p in _make_examples().FILES
@@ -98,22 +102,54 @@ def test_printed_examples_print_what_is_shown(path, tmp_path, tmp_path_factory):
     ``make_examples`` runs it: the page's steps in order in a fresh folder holding the repository's
     ``handeye/``; every file or folder a command names as its output (:data:`OUTPUT_OPTIONS`) is there after.
     These steps are the bash blocks of kind p of ``tests/test_docs_shell.py``, not run again there. A page that
-    reads a recording (``INPUTS``: the markerless guide's D435 cell) reads the one build the run shares with
-    ``test_docs_shell``'s blocks (:func:`d435_cell_build`), not a render of its own."""
-    mod = _make_examples()
-    built = None
-    if path in mod.INPUTS:
-        for module in ("pyrender", "pinocchio", "rosbags", "example_robot_data"):
-            pytest.importorskip(module)
-        from tests.shared_renders import shared_build
+    reads what others made (``INPUTS``) reads the one build the run shares: the markerless guide's D435 cell with
+    ``test_docs_shell``'s blocks (:func:`d435_cell_build`), the learned guide's ``data/paper-sim`` with the
+    simulate-and-label guide's own test (its steps run once, :func:`_simulate_label_run`). A page that trains
+    (``TRAINS``) has its figures compared within ``SMOKE_TRAINED_RTOL``."""
+    from tests.shared_renders import shared_build
 
-        built, _ = shared_build(tmp_path_factory, "d435-cell", d435_cell_build)
-    printed = mod.outputs(path, tmp_path, built)
+    mod = _make_examples()
+    folder, built = tmp_path, None
+    if path in mod.INPUTS:
+        key, build, modules = _shared_inputs(mod)[path]
+        for module in modules:
+            pytest.importorskip(module)
+        built, _ = shared_build(tmp_path_factory, key, build)
+    if path == mod.SIMULATE_LABEL:
+        folder, shown = _simulate_label_run(tmp_path_factory, mod)
+        examples = list(mod.EXAMPLE.finditer(path.read_text()))
+        assert len(shown) == len(examples), f"{path.name}: {len(shown)} outputs for {len(examples)} examples"
+        printed = list(zip(examples, shown))
+    else:
+        printed = mod.outputs(path, tmp_path, built)
     assert printed, f"{path.name}: no printed example"
+    rtol = SMOKE_TRAINED_RTOL if path in mod.TRAINS else 0.0
     for m, output in printed:
-        _same_within_last_digit(output, m["output"])
+        _same_within_last_digit(output, m["output"], rtol)
         for out in written_paths(m["command"]):
-            assert (tmp_path / out).exists(), f"{path.name}: {m['command']!r} did not write {out}"
+            assert (folder / out).exists(), f"{path.name}: {m['command']!r} did not write {out}"
+
+
+def _simulate_label_run(tmp_path_factory, mod) -> tuple[Path, list[str]]:
+    """The simulate-and-label guide's steps run once a test run (a smoke run's render and labels, 80 s on the
+    loaded 2-core EPYC), shared by its test and the learned guide's (``make_examples.rendered_and_labelled``):
+    the folder they ran in and what each example printed."""
+    from tests.shared_renders import shared_build
+
+    return shared_build(tmp_path_factory, "simulate-label-steps", mod.rendered_and_labelled)
+
+
+def _shared_inputs(mod) -> dict:
+    """Per page of ``make_examples.INPUTS``: the key of the build the run shares, its builder and the modules it
+    needs."""
+    return {
+        mod.ROOT / "docs/guides/markerless.md": (
+            "d435-cell",
+            d435_cell_build,
+            ("pyrender", "pinocchio", "rosbags", "example_robot_data"),
+        ),
+        mod.LEARNED: ("simulate-label-steps", mod.rendered_and_labelled, ("pyrender", "pinocchio", "torch")),
+    }
 
 
 def d435_cell_build(root: Path) -> list[dict]:
@@ -285,7 +321,7 @@ def test_one_script_regenerates_every_printed_output(tmp_path, monkeypatch):
     """``docs/make_examples.py`` finds the printed outputs (the README's and the getting-started page's) and
     rewrites one that went stale; ``test_printed_examples_print_what_is_shown`` keeps them current."""
     mod = _make_examples()
-    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5, 4, 4, 5, 3, 4]
+    assert [len(mod.EXAMPLE.findall(p.read_text())) for p in mod.FILES] == [1, 2, 5, 4, 4, 5, 3, 3, 4]
     stale = tmp_path / "README.md"
     stale.write_text(README.read_text().replace("15 poses, method auto", "14 poses, method auto", 1))
     text, changed = mod.regenerate(stale)
@@ -306,6 +342,34 @@ def test_run_times_are_masked_and_nothing_else():
     assert mod.mask_times(table) == (
         "| camera | sigma | s |\n|---|---|---|\n| 0 | 6.141 | … |\nin … s\n| s |\n|---|\n| … |\n"
     )
+
+
+def test_a_long_output_is_shown_by_its_head_and_tail():
+    """An output of more than ``LONG`` lines (the learned report's tables) is shown as its first ``HEAD`` and last
+    ``TAIL`` lines around a line that counts the rest; a shorter one whole."""
+    mod = _make_examples()
+    lines = [f"line {k}" for k in range(mod.LONG + 5)]
+    hidden = len(lines) - mod.HEAD - mod.TAIL
+    want = [*lines[: mod.HEAD], f"… {hidden} more lines …", *lines[-mod.TAIL :]]
+    assert mod.trim("\n".join(lines) + "\n").splitlines() == want
+    short = "\n".join(lines[: mod.LONG]) + "\n"
+    assert mod.trim(short) == short
+
+
+def test_a_page_that_trains_runs_on_one_torch_thread():
+    """The learned guide's steps run on one torch thread (its figures move with the thread count), and the
+    threads are as they were after them."""
+    torch = pytest.importorskip("torch")
+    mod = _make_examples()
+    before = torch.get_num_threads()
+    torch.set_num_threads(3)
+    try:
+        with mod.torch_threads(True):
+            assert torch.get_num_threads() == 1
+        assert torch.get_num_threads() == 3
+    finally:
+        torch.set_num_threads(before)
+    assert mod.LEARNED in mod.TRAINS
 
 
 def test_documented_installs_name_extras_the_project_has():
