@@ -102,7 +102,7 @@ def run_protocol(frames_path: Path, out: Path, args, report: Report, deadline: f
     """The paper preset's protocol on the frames file, one strategy at a time while the time holds."""
     import torch
 
-    from learned.experiment import run_experiment
+    from learned.experiment import ExperimentOptions, run_experiment
     from learned.frames_file import read_frames
     from learned.presets import get_preset
 
@@ -123,7 +123,8 @@ def run_protocol(frames_path: Path, out: Path, args, report: Report, deadline: f
             report.say(f"- {strategy}: not run ({left:.0f} s left, the last strategy took {last:.0f} s)")
             continue
         t0 = time.perf_counter()
-        results = run_experiment(frames, preset, [strategy], out=out / strategy, seed=args.seed, progress=False)
+        options = ExperimentOptions(seed=args.seed)
+        results = run_experiment(frames, preset, [strategy], out=out / strategy, progress=False, options=options)
         last = time.perf_counter() - t0
         processed = sum(r["processed"] for r in results["runs"])
         report.say(

@@ -66,7 +66,7 @@ def _train(
     later_epochs: int | None = None,
 ) -> tuple[str, float]:
     from handeye.learned_frames import load_keypoint_frames
-    from learned.experiment import run_experiment
+    from learned.experiment import ExperimentOptions, run_experiment
     from learned.presets import get_preset
 
     _use_link_fractions(fractions)  # in the worker process too
@@ -89,9 +89,8 @@ def _train(
     )
     frames = load_keypoint_frames(data, preset.keypoint_image_size, "classic", progress=False)
     t0 = time.perf_counter()
-    run_experiment(
-        frames, preset, [strategy], out, "classic", seed, progress=False, threads=threads, family="keypoints"
-    )
+    options = ExperimentOptions(labels="classic", seed=seed, family="keypoints")
+    run_experiment(frames, preset, [strategy], out, progress=False, threads=threads, options=options)
     return spec, time.perf_counter() - t0
 
 

@@ -78,7 +78,7 @@ def labels_line(root: Path) -> str:
 
 def run_mode(frames, preset, mode: str, where: str | None, out: Path, args) -> tuple[dict, float]:
     """One protocol run in ``mode``; its results and wall time (0 when read back from an earlier run)."""
-    from learned.experiment import run_experiment
+    from learned.experiment import ExperimentOptions, run_experiment
     from learned.results import load_results
 
     p = preset.with_protocol(mode)
@@ -89,7 +89,8 @@ def run_mode(frames, preset, mode: str, where: str | None, out: Path, args) -> t
     if (out / "results.json").exists():
         return load_results(out), 0.0
     t0 = time.perf_counter()
-    results = run_experiment(frames, p, out=out, seed=args.seed, progress=not args.quiet, threads=args.threads)
+    options = ExperimentOptions(seed=args.seed)
+    results = run_experiment(frames, p, out=out, progress=not args.quiet, threads=args.threads, options=options)
     return results, time.perf_counter() - t0
 
 

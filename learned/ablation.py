@@ -82,14 +82,15 @@ def _label(c1, c2, c3) -> str:
     return f"c1={c1}, c2={'all' if c2 is None else c2}, c3={c3 * 100:g}%"
 
 
-def _sweep(frames, preset, settings: list, out: Path, strategies, **run) -> list[dict]:
-    from learned.experiment import run_experiment
+def _sweep(frames, preset, settings: list, out: Path, strategies, progress=True, threads=None, **run) -> list[dict]:
+    from learned.experiment import ExperimentOptions, run_experiment
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    options = ExperimentOptions(**run)
     for name, _, changes in settings:
         if not (out / name / "results.json").exists():  # a finished setting is read back, not trained again
-            run_experiment(frames, replace(preset, **changes), strategies, out / name, **run)
+            run_experiment(frames, replace(preset, **changes), strategies, out / name, progress, threads, options)
     done = [{"name": name, "label": label, **changes} for name, label, changes in settings]
     (out / "sweep.json").write_text(json.dumps({"settings": done}, indent=1))
     return done
@@ -98,8 +99,8 @@ def _sweep(frames, preset, settings: list, out: Path, strategies, **run) -> list
 def run_ablation(frames, preset, out, grid=DEFAULT_GRID, **run) -> list[dict]:
     """The reservoir at every ``(c1, c2, c3)`` of ``grid``, one run folder each under ``out``.
 
-    ``frames``: a loaded :class:`learned.data.FrameSet`; ``run``: passed to ``run_experiment`` (seed,
-    family, threads, progress, labels).
+    ``frames``: a loaded :class:`learned.data.FrameSet`; ``run``: ``run_experiment``'s ``progress`` and
+    ``threads``, and the fields of its :class:`learned.experiment.ExperimentOptions` (seed, family, labels, resume).
     """
     if smoke_test() and len(grid) > 2:  # a smoke run: the grid's first and last settings (the same sweep and report)
         grid = [grid[0], grid[-1]]

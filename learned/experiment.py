@@ -37,6 +37,7 @@ __all__ = [
     "PRESETS",
     "get_preset",
     "FAMILIES",
+    "ExperimentOptions",
     "run_experiment",
     "camera_predictions",
     "keypoint_camera_predictions",
@@ -312,17 +313,39 @@ def _replicated_state(strat) -> bytes:
     return b"\0".join(parts)
 
 
+@dataclass(frozen=True, kw_only=True)
+class ExperimentOptions:
+    """What :func:`run_experiment` trains on and with, its seed, and whether it resumes.
+
+    Attributes
+    ----------
+    labels : {"classic", "truth"}
+        Training targets.
+    seed : int
+        Repeat r uses ``default_rng([seed, r, strategy index, network index])``.
+    family : {"regression", "keypoints"}
+        The paper's two networks (translation, orientation), or the equivariant keypoint model
+        (:mod:`learned.keypoints`; the frames must carry ``keypoints_base``). The keypoint model is one
+        network whose poses give both the translation and the orientation rows of every table.
+    resume : bool
+        Resume from ``<out>/checkpoint.pt`` when there is one (one of another run is refused);
+        ``False`` discards it and starts over.
+    """
+
+    labels: str = "classic"
+    seed: int = 0
+    family: str = "regression"
+    resume: bool = True
+
+
 def run_experiment(
     data: str | Path | FrameSet,
     preset: str | Preset = "cpu",
     strategies=("batch", "naive", "reservoir", "selection"),
     out: str | Path | None = None,
-    labels: str = "classic",
-    seed: int = 0,
     progress: bool = True,
     threads: int | None = None,
-    family: str = "regression",
-    resume: bool = True,
+    options: ExperimentOptions | None = None,
 ) -> dict:
     """Run the protocol; write ``results.json`` and the last repeat's networks under ``out``.
 
@@ -337,20 +360,13 @@ def run_experiment(
     preset : str or Preset
     strategies : iterable of str
     out : path, optional
-    labels : {"classic", "truth"}
-        Training targets.
-    seed : int
-        Repeat r uses ``default_rng([seed, r, strategy index, network index])``.
     progress : bool
     threads : int, optional
         torch CPU threads.
-    family : {"regression", "keypoints"}
-        The paper's two networks (translation, orientation), or the equivariant keypoint model
-        (:mod:`learned.keypoints`; the frames must carry ``keypoints_base``). The keypoint model is one
-        network whose poses give both the translation and the orientation rows of every table.
-    resume : bool
-        Resume from ``<out>/checkpoint.pt`` when there is one (one of another run is refused);
-        ``False`` discards it and starts over.
+    options : ExperimentOptions, optional
+        The training targets (classic labels or the truth), the seed, the model family (the paper's
+        regression networks or the keypoint model) and whether a checkpoint is resumed; None:
+        :class:`ExperimentOptions`' defaults.
 
     Under ``torchrun`` (:mod:`learned.distributed`) every rank runs the whole protocol with the
     same seeds, training data-parallel (:func:`learned.trainer.train`) and evaluating on its own; the
@@ -364,6 +380,8 @@ def run_experiment(
     dict
         The results (as written to ``results.json``).
     """
+    options = options or ExperimentOptions()
+    labels, seed, family, resume = options.labels, options.seed, options.family, options.resume
     preset, strategies = _checked_arguments(preset, strategies, family)
     progress = progress and distributed.is_writer()
     if threads:

@@ -196,7 +196,7 @@ def _prepare(args: argparse.Namespace, writer: bool):
 
 def _run(args: argparse.Namespace, writer: bool) -> int:
     """The protocol and its findings; ``writer``: this process prints (rank 0, or the only one)."""
-    from learned.experiment import run_experiment
+    from learned.experiment import ExperimentOptions, run_experiment
     from learned.paper_tables import paper_findings
     from learned.report import findings
 
@@ -206,12 +206,9 @@ def _run(args: argparse.Namespace, writer: bool) -> int:
         preset,
         [s.strip() for s in args.strategies.split(",")],
         args.out,
-        args.labels,
-        args.seed,
         progress=not args.quiet,
         threads=args.threads,
-        family=args.family,
-        resume=not args.fresh,
+        options=ExperimentOptions(labels=args.labels, seed=args.seed, family=args.family, resume=not args.fresh),
     )
     if writer:
         print("the paper's findings, judged as the paper judges them:")

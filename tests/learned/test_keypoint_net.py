@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from handeye.core.errors import HandEyeInputError
-from learned.experiment import run_experiment
+from learned.experiment import ExperimentOptions, run_experiment
 from learned.keypoints import KeypointNet
 from learned.model import ModelConfig
 from learned.presets import get_preset
@@ -37,7 +37,7 @@ def test_the_protocol_refuses_frames_of_another_size_than_the_keypoint_model_tak
     preset = replace(get_preset("tiny"), keypoint_image_size=(64, 64))
     assert preset.frame_size("keypoints") == (64, 64) and preset.frame_size("regression") == (32, 32)
     with pytest.raises(HandEyeInputError, match=r"needs \(64, 64\) for keypoints"):
-        run_experiment(frames, preset, ["batch"], family="keypoints")
+        run_experiment(frames, preset, ["batch"], options=ExperimentOptions(family="keypoints"))
 
 
 def test_a_bfloat16_trunk_predicts_in_float32_what_the_float32_trunk_does():
