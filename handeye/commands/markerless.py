@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     require_package("pinocchio", extra="robot", purpose="the robot model")
     from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import write_json_atomic
-    from handeye.markerless import RobotURDF, markerless_dataset, read_start, write_markerless_labels
+    from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
 
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
@@ -177,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
         args.camera,
         model_dir=args.model,
         T_base_cam_start=start,
-        urdf=RobotURDF(args.urdf, tuple(args.package_dir)) if args.urdf else None,
+        urdf=_robot_urdf(args),
         options=MarkerlessOptions(
             depth_sigma_m_at_1m=args.depth_noise,
             depth_model=args.depth_model,
@@ -203,6 +203,13 @@ def run(args: argparse.Namespace) -> int:
     if args.write_labels:
         print(f"written: {write_markerless_labels(args.dataset, out)} (markerless label columns)")
     return 0 if all(r.ok for r in out.results.values()) else 1
+
+
+def _robot_urdf(args: argparse.Namespace):
+    """``--urdf`` and ``--package-dir`` as a :class:`handeye.markerless.RobotURDF`; None without ``--urdf``."""
+    from handeye.markerless import RobotURDF
+
+    return RobotURDF(args.urdf, tuple(args.package_dir)) if args.urdf else None
 
 
 def _joint_offset_options(args: argparse.Namespace) -> dict:
