@@ -77,8 +77,8 @@ __all__ = [
     "AXYB_METHODS",
     "METHODS",
     "DEFAULT_METHOD",
-    "CalibrateOptions",
     "calibrate",
+    "CalibrateOptions",
     "initial_estimate",
     "solve",
 ]
