@@ -726,3 +726,17 @@ WATCH_STATISTIC_TAIL = 1e-4
 #: the bound is 1.6x chi2(6)'s quantile: 52.7 for 10 frames; measured at most 16.6 there, and a camera moved by
 #: 1 mm / 0.1 deg gives 443 and more at 848x480.
 WATCH_STATISTIC_SCALE_SDS = 3.1
+
+#: The recorded joints' error learnt by the watcher (handeye.watch.change.fit_joint_variance), its sigma against
+#: the truth, relative: Huber's profile likelihood from 300 synthetic frames whose joints' part is as large as the
+#: pixels' is off by 0.1 % on average and scatters by 4.7 % (100 draws, at most 12 %); learnt from the 120 frames
+#: (40 arm poses) of tests/watch/test_joint_noise.py's precise stream, by -5.5 % and 6.4 % (30 seeds, 0.86 to
+#: 1.15 of the truth: the joints' and the pixels' models are approximations there). 0.3 is that bias and 3.8 of
+#: those standard errors (a one-sided normal tail of 1e-4); a watcher that takes the joints as exact learns 0.
+JOINT_VARIANCE_REL = 0.3
+
+#: The check's step moved by the joints against its derivative (handeye.watch.check.FrameCheck.joint_gain),
+#: relative: the finite difference holds the association's discreteness (pixels chosen again, silhouette points
+#: matched or not), 3 to 12 % over 8 poses of tests/watch/test_joint_noise.py's arm at 0.05 deg; a gain in the
+#: wrong frame (R for R^T) is 33 to 440 % off.
+JOINT_GAIN_REL = 0.25

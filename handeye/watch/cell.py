@@ -17,7 +17,11 @@ then
   ``relearn_min_frames`` usable frames (blind until then: "learning") each frame is tested against the mean
   of those before it, weighted by their information (its error counted in, as from as many frames as they hold
   distinct arm poses, :meth:`handeye.watch.change.NullModel.statistic`), until ``relearn_frames`` fix the bias.
-- the end of the first learning also estimates the depth unit's correction (:func:`handeye.watch.change.
+- the end of the first learning also estimates the recorded joints' error (:func:`handeye.watch.change.
+  fit_joint_variance`, where the surface carries its joint twists: one error of each frame's whole step, which
+  the pixels' covariance does not hold; with a precise sensor most of the step's scatter, its share following
+  the arm's pose), counted in every frame's covariance from then on (:func:`handeye.watch.check.with_joint_noise`),
+  and the depth unit's correction (:func:`handeye.watch.change.
   fit_depth_unit`: a wrong scale or offset makes the statistic depend on the arm's pose, correlated from frame
   to frame, and the stated rate fails), applies it, and relearns the bias against it as after a commit. A
   starting calibration that fits none of ``null_frames`` frames in a row (lost, or a consistent offset) is
@@ -47,8 +51,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from classic.markerless import MarkerlessOptions, register_robot
-from handeye.watch.change import Cusum, NullModel, NullScale, fit_depth_unit, fit_null
-from handeye.watch.check import CheckOptions, FrameCheck, check_frame, unit_correction
+from handeye.watch.change import Cusum, NullModel, NullScale, fit_depth_unit, fit_joint_variance, fit_null
+from handeye.watch.check import CheckOptions, FrameCheck, check_frame, unit_correction, with_joint_noise
 from handeye.watch.events import Event
 from handeye.watch.history import History
 from handeye.watch.source import Frame
@@ -256,6 +260,7 @@ class CellWatcher:
         self._settling, self._unit_rounds = False, 0  # the depth correction fitted again after the first learning
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._last_q: np.ndarray | None = None  # the previous frame's joints (a new arm pose for the null's scale)
+        self.joint_variance = 0.0  # the recorded joints' error (per joint, the null's units): the first learning's
         self._collected: list[Frame] = []
         self._history_stamp = None if self.history is None else self.history.stamp()
 
@@ -273,8 +278,9 @@ class CellWatcher:
         )
 
     def _check(self, frame: Frame) -> FrameCheck:
-        posed = self._check_surface.posed(np.asarray(frame.joints, dtype=float)[None], twists=False)
-        return check_frame(
+        """The frame's check, the joints' error in its covariance once the first learning has learnt it."""
+        posed = self._check_surface.posed(np.asarray(frame.joints, dtype=float)[None], twists=True)
+        check = check_frame(
             frame.depth_m,
             self.K,
             posed,
@@ -283,6 +289,7 @@ class CellWatcher:
             self.options.check,
             self.depth_correction,
         )
+        return with_joint_noise(check, self.joint_variance)
 
     def feed(self, frame: Frame) -> list[Event]:
         """Check one frame; the events it causes (often none).
@@ -379,8 +386,14 @@ class CellWatcher:
         if n < need:
             return "learning", f"{n} of {need} frames for the null"
         checks, self._null_checks = self._null_checks, []
-        deltas, covariances = np.stack([c.delta for c in checks]), np.stack([c.covariance for c in checks])
-        u, deltas = fit_depth_unit(deltas, covariances, np.stack([c.unit_gain for c in checks]))
+        deltas, unit_gains = np.stack([c.delta for c in checks]), np.stack([c.unit_gain for c in checks])
+        if self.joint_variance == 0 and all(c.joint_gain is not None for c in checks):
+            covariances = np.stack([c.covariance for c in checks])
+            joint_gains = np.stack([c.joint_gain for c in checks])
+            self.joint_variance = fit_joint_variance(deltas, covariances, joint_gains, unit_gains)
+            checks = [with_joint_noise(c, self.joint_variance) for c in checks]
+        covariances = np.stack([c.covariance for c in checks])
+        u, deltas = fit_depth_unit(deltas, covariances, unit_gains)
         k, c0 = self.depth_correction
         self.depth_correction = (k + float(u[0]), c0 + float(u[1]))
         self.null = fit_null(deltas, covariances)
@@ -393,10 +406,15 @@ class CellWatcher:
             f"{scale.bound:.2f} from {scale.poses} arm poses, narrowed as frames are watched), threshold {cusum.h:.2f} "
             f"(designed for {self.options.false_alarms_per_hour:g} false alarm per hour at {self.options.rate_hz:g} Hz "
             f"while the frames follow the null learnt: the measured rate is in "
-            f"docs/benchmarks/running-cell.md); depth correction now k {self.depth_correction[0]:.5f}, "
+            f"docs/benchmarks/running-cell.md); the joints' error {self._joint_sigma_deg():.4f} deg (in each frame's "
+            f"covariance); depth correction now k {self.depth_correction[0]:.5f}, "
             f"c {self.depth_correction[1] * 1e3:+.2f} mm (changed by {u[0]:+.5f}, {u[1] * 1e3:+.2f} mm); "
         )
         return "learning", f"null learnt from {n} frames; the bias against the corrected depth next"
+
+    def _joint_sigma_deg(self) -> float:
+        """The recorded joints' error learnt, degrees per joint: ``sqrt(joint_variance c)``, ``c`` the null's scale."""
+        return float(np.degrees(np.sqrt(self.joint_variance * self.null.scale)))
 
     def _relearn(self, check: FrameCheck, frame: Frame, new_pose: bool = True) -> tuple[str, str]:
         """The bias of a new calibration (or depth correction) learnt while the change test watches on (its error

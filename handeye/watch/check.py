@@ -24,11 +24,16 @@ error moves the point along its pixel's ray), in quadrature with ``model_sigma_m
 sensor's noise is correlated over a few pixels, the model's sampling error is shared by neighbours), so
 the statistic ``chi2 = delta^T Sigma^{-1} delta`` is scaled by a factor estimated from the first seconds of
 the stream (:mod:`handeye.watch.change`).
+
+The surface is posed at the recorded joints, taken as exact; where it carries its joint twists the check also gives
+``d delta / d q`` (:attr:`FrameCheck.joint_gain`), with which :func:`with_joint_noise` adds the joints' error to the
+step's covariance: one error of the whole frame, which no number of pixels averages away, and with a precise sensor
+most of the step's scatter.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -39,7 +44,7 @@ from classic.markerless.depth import pixel_rays
 from classic.markerless.visibility import project, zbuffer_grid
 from handeye.core.errors import ShapeError
 
-__all__ = ["CheckOptions", "FrameCheck", "check_frame", "camera_rays", "unit_correction"]
+__all__ = ["CheckOptions", "FrameCheck", "check_frame", "camera_rays", "unit_correction", "with_joint_noise"]
 
 
 @dataclass(frozen=True)
@@ -113,7 +118,8 @@ class FrameCheck:
         The correction ``(omega, v)`` (rad, m, camera frame) that one Gauss-Newton step finds:
         ``T_base_cam exp(delta)`` fits the frame better; None with fewer than ``min_matched`` matches.
     covariance : array, shape (6, 6), or None
-        Of ``delta``, pixels counted as independent (not inflated).
+        Of ``delta``, pixels counted as independent (not inflated); with the joints' error in it where
+        :func:`with_joint_noise` added it.
     chi2 : float
         ``delta^T covariance^{-1} delta`` (NaN without a step).
     n_visible, n_matched, n_occluders, n_behind, n_dropout : int
@@ -128,6 +134,11 @@ class FrameCheck:
     unit_gain : array, shape (6, 2), or None
         ``d delta / d (k, c)``: how the step moves when the depth correction ``(k, c)`` changes (to first order:
         ``delta(k + dk, c + dc) = delta(k, c) + unit_gain @ (dk, dc)``); None without a step.
+    joint_gain : array, shape (6, nq), or None
+        ``d delta / d q``: how the step moves when the joints the surface was posed at are off by ``dq`` (radians),
+        from the surface's joint twists (``joint_twists_base``); None without a step or without twists. An error
+        of the recorded joints moves the whole posed surface, so it is one error of the frame's step, however many
+        pixels: :func:`with_joint_noise` adds its covariance.
     """
 
     delta: np.ndarray | None
@@ -141,6 +152,7 @@ class FrameCheck:
     rms_m: float
     n_at_offset: int = 0
     unit_gain: np.ndarray | None = None
+    joint_gain: np.ndarray | None = None
 
     def fraction(self, count: int) -> float:
         """``count`` over the visible model points with depth (0 when none)."""
@@ -258,7 +270,62 @@ def check_frame(
     nr = np.einsum("ij,ij->i", n, ray) / s
     unit = np.stack([nr * z_raw[matched], nr], axis=1)
     gain = -covariance @ ((A * w[:, None]).T @ unit)
-    return FrameCheck(delta, covariance, chi2, rms_m=float(np.sqrt(np.mean(r**2))), unit_gain=gain, **counts)
+    joint_gain = _joint_gain(surface, idx[matched], m, n, R, s, A * w[:, None], covariance)
+    return FrameCheck(
+        delta,
+        covariance,
+        chi2,
+        rms_m=float(np.sqrt(np.mean(r**2))),
+        unit_gain=gain,
+        joint_gain=joint_gain,
+        **counts,
+    )
+
+
+def _joint_gain(surface, rows, m_cam, n_cam, R, s, AW, covariance) -> np.ndarray | None:
+    """``d delta / d q`` (6, nq) of the matched model points ``rows`` (camera frame ``m_cam``, ``n_cam``; sigmas ``s``;
+    ``AW`` the whitened, weighted Jacobian), or None when the surface carries no joint twists: a joint error ``dq``
+    moves a point of part ``k`` by ``(omega x p + v) dq`` (base frame), so its residual ``n . (q - m)`` by
+    ``-n . R^T (omega x p + v) dq`` (the normal's turn is of second order: ``q - m`` is small)."""
+    twists = getattr(surface, "joint_twists_base", None)
+    if twists is None:
+        return None
+    frame = np.asarray(surface.frame)[rows]
+    tw = np.asarray(twists)[frame, np.asarray(surface.part)[rows]]  # (M, nq, 6): (omega, v), base frame
+    p_base = np.asarray(surface.points_base, dtype=float)[rows]
+    dm_cam = (np.cross(tw[:, :, :3], p_base[:, None, :]) + tw[:, :, 3:]) @ R  # R^T dm, row-wise: (M, nq, 3)
+    dr = -np.einsum("mj,mqj->mq", n_cam, dm_cam) / s[:, None]
+    return -covariance @ (AW.T @ dr)
+
+
+def with_joint_noise(check: FrameCheck, variance: float) -> FrameCheck:
+    """The check with the joints' error in its covariance: ``Sigma + variance G G^T``, ``G`` its
+    :attr:`FrameCheck.joint_gain` (``chi2`` recomputed with it).
+
+    The check takes the recorded joints as exact; their error (encoder noise, the joint state's time against the
+    depth image's while the arm moves) moves the whole posed surface, an error of the frame's step that no number
+    of pixels averages away. With a precise sensor it is most of the step's scatter, and its share changes with the
+    arm's pose (the levers of the joints to the links in view): counted as pixel noise, the statistic of some poses
+    runs several times the one scale learnt (the running-cell benchmark's ``zivid`` stream, docs/benchmarks/
+    running-cell.md). ``variance`` is per joint, in the units of ``covariance`` (the null's scale multiplies it
+    too): :func:`handeye.watch.change.fit_joint_variance` learns it.
+
+    Parameters
+    ----------
+    check : FrameCheck
+    variance : float
+        Radians squared, per joint, over the null's scale; 0: the check as it is.
+
+    Returns
+    -------
+    FrameCheck
+    """
+    if variance == 0 or check.delta is None or check.joint_gain is None:
+        return check
+    G = check.joint_gain
+    covariance = check.covariance + variance * (G @ G.T)
+    chi2 = float(check.delta @ np.linalg.solve(covariance, check.delta))
+    return replace(check, covariance=covariance, chi2=chi2)
 
 
 def _visible(p_cam: np.ndarray, n_cam: np.ndarray, K: np.ndarray, height: int, width: int, stride: int) -> np.ndarray:
