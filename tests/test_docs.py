@@ -90,9 +90,15 @@ def _make_examples():
 @pytest.mark.parametrize(
     "path",
     # a page that renders or trains (a smoke run: about a minute, two on the loaded 2-core Xeon) is the slow
-    # tier's, and so is the markerless guide's (a D435 cell registered: 60 s of steps, loaded)
+    # tier's, and so is the markerless guide's (a D435 cell registered: 60 s of steps, loaded) and the real-cell
+    # guide's (bags written and imported, a ROS workspace: 16 s)
     [
-        pytest.param(p, marks=[pytest.mark.slow] if p in (*_make_examples().SMOKE, *_make_examples().INPUTS) else [])
+        pytest.param(
+            p,
+            marks=[pytest.mark.slow]
+            if p in (*_make_examples().SMOKE, *_make_examples().INPUTS, DOCS / "guides" / "real-cell.md")
+            else [],
+        )
         for p in _make_examples().FILES
     ],
     ids=lambda p: p.name,

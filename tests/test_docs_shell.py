@@ -479,7 +479,10 @@ BLOCKS: dict[tuple[str, int], Block] = {
         _paper_sim,
     ),
     ("docs/guides/markerless.md", 0): Block("handeye import bag data_0/ data_1/", "p"),
-    ("docs/guides/markerless.md", 1): Block("handeye import folder placement_0/", "a", "", _markerless_guide_3),
+    # the D435 cell's render (29 s of the default run): the slow tier's, as the guide's printed steps that read it
+    ("docs/guides/markerless.md", 1): Block(
+        "handeye import folder placement_0/", "a", "", _markerless_guide_3, slow=True
+    ),
     ("docs/guides/markerless.md", 2): Block("handeye label data/my-cell", "p"),
     ("docs/guides/markerless.md", 3): Block("handeye markerless data/my-cell --start", "p"),
     ("docs/guides/markerless.md", 4): Block("handeye compare data/my-cell", "p"),
