@@ -740,3 +740,14 @@ JOINT_VARIANCE_REL = 0.3
 #: matched or not), 3 to 12 % over 8 poses of tests/watch/test_joint_noise.py's arm at 0.05 deg; a gain in the
 #: wrong frame (R for R^T) is 33 to 440 % off.
 JOINT_GAIN_REL = 0.25
+
+#: The split check's depth-unit excess (tests/classic/test_markerless_depth_unit_split.py): over N draws, the full
+#: answer's squared errors over the mean squared sigma is chi-square with N degrees of freedom for an honest Gaussian
+#: sigma; held within its quantiles at this tail (one run in a thousand fails a correct sigma, on either side) ...
+DEPTH_UNIT_CHI2_TAIL = 1e-3
+#: ... with the upper one widened by the mean squared sigma's own error: each draw's excess is measured from G groups
+#: (G - 1 degrees of freedom: the variance of its estimate is 2 / (G - 1) of its square), so the mean over N draws
+#: has a relative standard error of sqrt(2 / ((G - 1) N)), 4.1 % for G = 4, N = 400; the bound divides by 1 less
+#: this many of them (a one-sided normal tail of 1e-4). The clipping at 0 only widens the sigma. Without a shared
+#: error, the mean clipped excess over the draws is held within as many of its standard errors of its expectation.
+DEPTH_UNIT_SIGMA_SES = 3.7

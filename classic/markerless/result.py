@@ -69,7 +69,9 @@ class MarkerlessResult:
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
-        ``offset_sigma_mm``: the fit's, plus what an error repeated per image pixel adds, as the pose's has it);
+        ``offset_sigma_mm``: the fit's, plus what an error repeated per image pixel adds and the split check's
+        groups' scatter beyond their noise (``diagnostics["sigma_consistency"]["depth_variance"]``), as the pose's
+        has them);
         ``observability``: the same sigmas from the frames' spread alone (given the
         intrinsics), which decide a refusal for too little depth range; ``range_m`` (the matched depths' 10th
         and 90th percentiles), and the
@@ -186,14 +188,15 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         static = [pull]
     noise = pose_sigma(covariance, best.T[:3, :3])
     # an error repeated at one image position in every frame: the covariance between frames the clustering omits
-    repeated, repeated_covariance = [], np.zeros((6, 6))
+    repeated, repeated_covariance, unit_shared = [], np.zeros((6, 6)), None
     if opts.repeated_error_px > 0 and not refused:
         shared = problem.repeated_error(best.T, best.matches)
         repeated, repeated_covariance = [_repeated_term(shared, best.T[:3, :3])], shared["covariance"][:6, :6]
-        if fit.depth_correction is not None:  # the depth's sigma widened as the pose's
-            depth = depth_summary(
-                depth_fit, opts, best.depth_range, problem.noise_source, noise_mm, shared["covariance"][6:8, 6:8]
-            )
+        unit_shared = shared["covariance"][6:8, 6:8]
+    if split and "depth_variance" in split:  # the groups' scatter in the depth unit, as in the pose
+        unit_shared = (0.0 if unit_shared is None else unit_shared) + np.diag(split["depth_variance"])
+    if fit.depth_correction is not None and unit_shared is not None:  # the depth's sigma widened as the pose's
+        depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm, unit_shared)
     # the whole: the noise's and the repeated error's covariances, each bounded term an isotropic block
     bounded = (sampling, extrinsic, split or no_split, *static)
     whole = covariance + repeated_covariance + sum((_isotropic(term) for term in bounded), np.zeros((6, 6)))

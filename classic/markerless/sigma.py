@@ -90,7 +90,8 @@ def depth_summary(
 ) -> dict:
     """The depth correction as the sensor's scale and offset, ``d_obs = s d + o``, with their sigmas: the fit's
     covariance of ``(k, c)``, plus ``shared`` (shape (2, 2), optional): what an error the frames share adds to it
-    (:mod:`classic.markerless.repeated_error`), as the pose's sigma has it."""
+    (:mod:`classic.markerless.repeated_error`, the split check's groups: :mod:`classic.markerless.consistency`), as
+    the pose's sigma has it."""
     out = {"model": opts.depth_model, "noise_source": noise_source, "noise_mm_at_median_depth": noise_mm}
     out["range_m"] = [float(depth_range[0]), float(depth_range[1])]
     if fit.depth_correction is None:
