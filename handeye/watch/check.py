@@ -237,15 +237,7 @@ def check_frame(
     occluder = have & (dz < -window)
     behind = have & (dz > window)
     matched = have & ~occluder & ~behind
-    offset = np.median(dz[have]) if have.any() else 0.0
-    counts = dict(
-        n_visible=len(idx),
-        n_matched=int(matched.sum()),
-        n_occluders=int(occluder.sum()),
-        n_behind=int(behind.sum()),
-        n_dropout=int((~have).sum()),
-        n_at_offset=int((have & (np.abs(dz - offset) <= window)).sum()),
-    )
+    counts = _counts(len(idx), have, occluder, behind, matched, dz, window)
     if counts["n_matched"] < o.min_matched:
         rms = float(np.sqrt(np.mean(dz[matched] ** 2))) if matched.any() else float("nan")
         return FrameCheck(None, None, float("nan"), rms_m=rms, **counts)
@@ -279,6 +271,20 @@ def check_frame(
         unit_gain=gain,
         joint_gain=joint_gain,
         **counts,
+    )
+
+
+def _counts(n_visible: int, have, occluder, behind, matched, dz, window) -> dict:
+    """The frame's model points by what the depth shows at them (:class:`FrameCheck`'s counts); ``n_at_offset``:
+    those within the match window of the residuals' median (one offset: a move or a wrong unit, not an occluder)."""
+    offset = np.median(dz[have]) if have.any() else 0.0
+    return dict(
+        n_visible=n_visible,
+        n_matched=int(matched.sum()),
+        n_occluders=int(occluder.sum()),
+        n_behind=int(behind.sum()),
+        n_dropout=int((~have).sum()),
+        n_at_offset=int((have & (np.abs(dz - offset) <= window)).sum()),
     )
 
 
