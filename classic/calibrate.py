@@ -249,6 +249,7 @@ def calibrate(
     T_cam_target: np.ndarray,
     setup: str = "eye_to_hand",
     method: str = DEFAULT_METHOD,
+    *,
     robust: bool = False,
     noise: tuple[float, float] | NoiseModel | None = None,
     options: CalibrateOptions | None = None,
