@@ -435,8 +435,6 @@ def read_pose_file(
         from handeye.core.easy_handeye import read_easy_handeye_samples
 
         return _in_optical_frame(read_easy_handeye_samples(path, setup=setup, units=units), camera_frame)
-    if quat_order is not None and quat_order not in QUAT_ORDERS:
-        raise PoseFileError(f"quaternion order {quat_order!r} not understood; use one of {QUAT_ORDERS}")
     order = _quat_order(path, quat_order)
     other = QUAT_ORDERS[1 - QUAT_ORDERS.index(order)]
     poses, rows, _ = _parse(path, {n: (other if n in swap_order_of else order) for n in POSE_NAMES}, units)

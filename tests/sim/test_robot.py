@@ -135,3 +135,16 @@ def test_pose_jacobians_are_the_flange_pose_derivatives(robot):
             w = (so3_log(T[:3, :3].T @ Tp[:3, :3]) - so3_log(T[:3, :3].T @ Tm[:3, :3])) / (2 * h)
             n = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
             np.testing.assert_allclose(J[k, :, j], np.concatenate([w, n]), atol=JACOBIAN_RTOL)
+
+
+def test_each_loaded_robot_has_its_own_models():
+    """The URDF is parsed once a process (``load_robot``'s cache); a robot changed by one caller leaves the next
+    load as the description has it."""
+    first = load_robot("ur5")
+    q = np.array([0.3, -1.1, 0.9, 0.2, -0.4, 0.6])
+    T_before = first.fk(q)
+    first.model.jointPlacements[1].translation = first.model.jointPlacements[1].translation + 0.1
+    assert not np.allclose(first.fk(q), T_before)  # the change took
+    second = load_robot("ur5")
+    assert second.model is not first.model and second.visual_model is not first.visual_model
+    np.testing.assert_array_equal(second.fk(q), T_before)
