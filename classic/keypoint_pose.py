@@ -104,6 +104,7 @@ def solve_keypoint_pose(
     p_cam: np.ndarray,
     p_base: np.ndarray,
     frame: np.ndarray | None = None,
+    *,
     meas: np.ndarray | None = None,
     intrinsics_norm: np.ndarray | None = None,
     sigma: np.ndarray | None = None,
@@ -132,6 +133,12 @@ def solve_keypoint_pose(
     Returns
     -------
     KeypointPoseResult
+
+    Raises
+    ------
+    ShapeError
+        Points not both ``(M, 3)``; ``meas``, ``intrinsics_norm`` and ``sigma`` not all given or of other shapes.
+        (Bad settings are refused where :class:`KeypointPoseOptions` is made.)
     """
     options = options or KeypointPoseOptions()
     inlier_m, min_inlier_fraction, iterations = options.inlier_m, options.min_inlier_fraction, options.iterations

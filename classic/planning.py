@@ -348,6 +348,7 @@ def plan_poses(
     noise,
     setup: str = "eye_to_hand",
     n: int = 8,
+    *,
     options: PlanOptions | None = None,
 ) -> PosePlan:
     """Choose up to ``n`` candidate poses that shrink the predicted workspace sigma of X most.

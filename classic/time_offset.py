@@ -60,6 +60,7 @@ def calibrate_stream(
     T_cam_target: np.ndarray,
     setup: str = "eye_to_hand",
     max_offset_s: float = 0.5,
+    *,
     options: StreamOptions | None = None,
 ) -> CalibrationResult:
     """Calibrate from a robot pose stream and camera poses at other times, with their time offset.

@@ -140,6 +140,7 @@ def calibrate_from_views(
     method: str = "park",
     robust: bool = False,
     reprojection: bool = True,
+    *,
     refinement: ReprojectionOptions | None = None,
 ) -> ImageCalibration:
     """Calibrate from detected views: pose-based solve, then the corner-reprojection refinement.

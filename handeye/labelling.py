@@ -250,6 +250,7 @@ def label_dataset(
     method: str = "park",
     progress: bool = True,
     plot: bool = True,
+    *,
     repeats: int = 0,
     options: LabelRunOptions | None = None,
 ) -> LabelReport:

@@ -345,6 +345,7 @@ def markerless_dataset(
     cameras: list[int] | None = None,
     model_dir: str | Path | None = None,
     T_base_cam_start: np.ndarray | None = None,
+    *,
     urdf: RobotURDF | None = None,
     options: MarkerlessOptions | None = None,
     progress: bool = False,

@@ -90,7 +90,15 @@ def _sweep(frames, preset, settings: list, out: Path, strategies, progress=True,
     options = ExperimentOptions(**run)
     for name, _, changes in settings:
         if not (out / name / "results.json").exists():  # a finished setting is read back, not trained again
-            run_experiment(frames, replace(preset, **changes), strategies, out / name, progress, threads, options)
+            run_experiment(
+                frames,
+                replace(preset, **changes),
+                strategies,
+                out / name,
+                progress=progress,
+                threads=threads,
+                options=options,
+            )
     done = [{"name": name, "label": label, **changes} for name, label, changes in settings]
     (out / "sweep.json").write_text(json.dumps({"settings": done}, indent=1))
     return done

@@ -343,6 +343,7 @@ def run_experiment(
     preset: str | Preset = "cpu",
     strategies=("batch", "naive", "reservoir", "selection"),
     out: str | Path | None = None,
+    *,
     progress: bool = True,
     threads: int | None = None,
     options: ExperimentOptions | None = None,

@@ -70,7 +70,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye.commands import GLOSSARY_WHERE
+from handeye.commands import GLOSSARY_WHERE, command_parser
 from handeye.core.safe_write import write_text_atomic
 from handeye.noise_args import add_noise_arguments, describe_noise, noise_model_from_args
 
@@ -84,12 +84,7 @@ def _most_all_pairs(max_pairs: int) -> int:
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
-    p = sub.add_parser(
-        "calibrate",
-        help="hand-eye calibration from a pose file, or from board detections",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = command_parser(sub, "calibrate", "hand-eye calibration from a pose file, or from board detections", __doc__)
     _add_input_arguments(p)
     _add_image_arguments(p)
     _add_solver_arguments(p)
