@@ -734,6 +734,12 @@ WATCH_STATISTIC_SCALE_SDS = 3.1
 #: 1.15 of the truth: the joints' and the pixels' models are approximations there). 0.3 is that bias and 3.8 of
 #: those standard errors (a one-sided normal tail of 1e-4); a watcher that takes the joints as exact learns 0.
 JOINT_VARIANCE_REL = 0.3
+#: The same fit on frames with no joints' part (the truth 0), as a sigma in the units of a joints' part as large as
+#: the pixels' (``sqrt(found / a)``, a = 1): over 120 draws of tests/watch/test_joint_noise.py's synthetic frames
+#: it is 0 in 56 % and a half-normal's positive side otherwise, its sigma in variance 1.3e-3 (sqrt(2 E[found^2])),
+#: the largest 5.3e-3 (0.073 as a sigma). 0.1 (1e-2 in variance: 7.9 of those sigmas, twice the largest draw) is
+#: crossed by a fit that takes a tenth of the pixels' part for the joints'.
+JOINT_VARIANCE_NULL_SIGMA = 0.1
 
 #: The check's step moved by the joints against its derivative (handeye.watch.check.FrameCheck.joint_gain),
 #: relative: the finite difference holds the association's discreteness (pixels chosen again, silhouette points

@@ -162,7 +162,8 @@ class CellWatcher:
     Parameters
     ----------
     robot_surface : handeye.robot.surface.RobotSurface
-        Anything with ``posed(q (N, nq), twists=False)`` giving points and normals in the base frame. The check
+        Anything with ``posed(q (N, nq), twists=True)`` giving points and normals in the base frame (and,
+        where it gives ``joint_twists_base``, the joints' error is learnt). The check
         poses it thinned (``thinned(factor ** 2)``, where it has that method) for a focal length ``factor`` times
         the check's reference (:meth:`handeye.watch.check.CheckOptions.factor_for`): an 848x480 depth image
         over 87 degrees checks as many points as 256x256 over 60 at the same cost; the recalibration takes it
@@ -260,7 +261,9 @@ class CellWatcher:
         self._settling, self._unit_rounds = False, 0  # the depth correction fitted again after the first learning
         self._misfits = 0  # frames in a row the calibration fits nowhere (lost, or occluded), while learning
         self._last_q: np.ndarray | None = None  # the previous frame's joints (a new arm pose for the null's scale)
-        self.joint_variance = 0.0  # the recorded joints' error (per joint, the null's units): the first learning's
+        # the recorded joints' error (per joint, the null's units): learnt once, at the end of the first learning
+        # (0 until then, or where the surface carries no joint twists)
+        self.joint_variance, self._joints_learnt = 0.0, False
         self._collected: list[Frame] = []
         self._history_stamp = None if self.history is None else self.history.stamp()
 
@@ -387,7 +390,8 @@ class CellWatcher:
             return "learning", f"{n} of {need} frames for the null"
         checks, self._null_checks = self._null_checks, []
         deltas, unit_gains = np.stack([c.delta for c in checks]), np.stack([c.unit_gain for c in checks])
-        if self.joint_variance == 0 and all(c.joint_gain is not None for c in checks):
+        if not self._joints_learnt and all(c.joint_gain is not None for c in checks):
+            self._joints_learnt = True  # a fit of 0 (a noisy sensor hides the joints' part) is learnt too
             covariances = np.stack([c.covariance for c in checks])
             joint_gains = np.stack([c.joint_gain for c in checks])
             self.joint_variance = fit_joint_variance(deltas, covariances, joint_gains, unit_gains)

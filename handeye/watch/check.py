@@ -41,6 +41,7 @@ import numpy as np
 from classic.least_squares import loss_weights
 from classic.markerless import visible_points
 from classic.markerless.depth import pixel_rays
+from classic.markerless.kinematics import offset_columns
 from classic.markerless.visibility import project, zbuffer_grid
 from handeye.core.errors import ShapeError
 
@@ -250,8 +251,9 @@ def check_frame(
     A = np.hstack([np.cross(q, n), n]) / s[:, None]
     b = r / s
     w = loss_weights(b, "cauchy", o.robust_sigmas)
-    H = (A * w[:, None]).T @ A
-    g = (A * w[:, None]).T @ b
+    AW = A * w[:, None]
+    H = AW.T @ A
+    g = AW.T @ b
     try:
         covariance = np.linalg.inv(H)
     except np.linalg.LinAlgError:
@@ -261,8 +263,8 @@ def check_frame(
     # r moves by (n . ray)(z_raw dk + dc) when (k, c) does; the step by -(J^T W J)^-1 J^T W of that
     nr = np.einsum("ij,ij->i", n, ray) / s
     unit = np.stack([nr * z_raw[matched], nr], axis=1)
-    gain = -covariance @ ((A * w[:, None]).T @ unit)
-    joint_gain = _joint_gain(surface, idx[matched], m, n, R, s, A * w[:, None], covariance)
+    gain = -covariance @ (AW.T @ unit)
+    joint_gain = _joint_gain(surface, idx[matched], s, AW, covariance)
     return FrameCheck(
         delta,
         covariance,
@@ -288,19 +290,20 @@ def _counts(n_visible: int, have, occluder, behind, matched, dz, window) -> dict
     )
 
 
-def _joint_gain(surface, rows, m_cam, n_cam, R, s, AW, covariance) -> np.ndarray | None:
-    """``d delta / d q`` (6, nq) of the matched model points ``rows`` (camera frame ``m_cam``, ``n_cam``; sigmas ``s``;
-    ``AW`` the whitened, weighted Jacobian), or None when the surface carries no joint twists: a joint error ``dq``
-    moves a point of part ``k`` by ``(omega x p + v) dq`` (base frame), so its residual ``n . (q - m)`` by
-    ``-n . R^T (omega x p + v) dq`` (the normal's turn is of second order: ``q - m`` is small)."""
+def _joint_gain(surface, rows, s, AW, covariance) -> np.ndarray | None:
+    """``d delta / d q`` (6, nq) of the matched model points ``rows`` (sigmas ``s``; ``AW`` the whitened, weighted
+    Jacobian), or None when the surface carries no joint twists: a joint error ``dq`` moves a point ``m`` of part
+    ``k`` by ``(omega x m + v) dq`` (base frame), so its residual ``n . (q - m)`` by ``-n . (omega x m + v) dq``
+    (:func:`classic.markerless.kinematics.offset_columns`; the normal's turn is of second order: ``q - m`` is
+    small), the same in any frame."""
     twists = getattr(surface, "joint_twists_base", None)
     if twists is None:
         return None
     frame = np.asarray(surface.frame)[rows]
     tw = np.asarray(twists)[frame, np.asarray(surface.part)[rows]]  # (M, nq, 6): (omega, v), base frame
-    p_base = np.asarray(surface.points_base, dtype=float)[rows]
-    dm_cam = (np.cross(tw[:, :, :3], p_base[:, None, :]) + tw[:, :, 3:]) @ R  # R^T dm, row-wise: (M, nq, 3)
-    dr = -np.einsum("mj,mqj->mq", n_cam, dm_cam) / s[:, None]
+    normals = np.asarray(surface.normals_base, dtype=float)[rows]
+    points = np.asarray(surface.points_base, dtype=float)[rows]
+    dr = offset_columns(normals, points, tw) / s[:, None]
     return -covariance @ (AW.T @ dr)
 
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
-import pytest
 from scipy import stats
 
 from classic.markerless import RobotSurfaceFrames
@@ -22,7 +21,7 @@ from handeye.watch import CellWatcher, Frame, WatchOptions, change
 from handeye.watch.check import check_frame
 from handeye.watch.wiring import WatchHooks
 from tests.classic.test_markerless import K, render_depth, sphere_model
-from tests.tolerances import FALSE_ALARM_COUNT_TAIL, JOINT_GAIN_REL, JOINT_VARIANCE_REL
+from tests.tolerances import FALSE_ALARM_COUNT_TAIL, JOINT_GAIN_REL, JOINT_VARIANCE_NULL_SIGMA, JOINT_VARIANCE_REL
 from tests.watch.test_cell import RATE_HZ, T_TRUE
 
 #: A precise sensor: 0.1 mm at 1 m growing with depth squared (a Zivid-class unit's 0.24 mm, within a factor 3;
@@ -130,12 +129,11 @@ def test_a_precise_sensor_with_joint_noise_keeps_the_stated_rate():
     assert abs(sigma_rad / JOINT_SIGMA_RAD - 1) < JOINT_VARIANCE_REL, np.degrees(sigma_rad)
 
 
-@pytest.mark.slow
 def test_without_the_joints_error_the_same_stream_exceeds_the_bound(monkeypatch):
     """The planted fault: the joints taken as exact (the watcher before the joints' error was learnt). The pose of
     each dwell sets the joints' share of the step, so the one scale learnt is too small for some poses, for a
-    whole dwell: 13 alarms against the bound of 7 the test above holds (seeds 1 to 3: 16 to 21). CI's run (4 s of
-    a core)."""
+    whole dwell: 13 alarms against the bound of 7 the test above holds (seeds 1 to 3: 16 to 21). 3 s, in the default
+    run beside the test it shows can fail."""
     monkeypatch.setattr("handeye.watch.cell.fit_joint_variance", lambda *args: 0.0)
     alarms, watched, _ = _count()
     assert not _within_the_bound(alarms, watched), (alarms, watched)
@@ -157,8 +155,8 @@ def test_the_joint_gain_is_the_steps_derivative():
 
 def test_fit_joint_variance_recovers_a_known_variance():
     """300 frames drawn from ``c (Sigma_i + a G_i G_i^T)``, the joints' part as large as the pixels' and varying
-    10x with the pose: ``a`` found within JOINT_VARIANCE_REL (in sigma), and near 0 where the frames have no
-    joints' part."""
+    10x with the pose: ``a`` found within JOINT_VARIANCE_REL (in sigma), and within JOINT_VARIANCE_NULL_SIGMA of 0
+    where the frames have no joints' part."""
     rng = np.random.default_rng(2)
     n, c, a = 300, 2.5, 1.0
     A = rng.normal(size=(n, 6, 6)) * 1e-3
@@ -169,4 +167,4 @@ def test_fit_joint_variance_recovers_a_known_variance():
     found = change.fit_joint_variance(deltas, cov, G)
     assert abs(np.sqrt(found / a) - 1) < JOINT_VARIANCE_REL, found
     alone = np.einsum("nij,nj->ni", np.linalg.cholesky(c * cov), rng.normal(size=(n, 6)))
-    assert np.sqrt(change.fit_joint_variance(alone, cov, G) / a) < JOINT_VARIANCE_REL
+    assert np.sqrt(change.fit_joint_variance(alone, cov, G) / a) < JOINT_VARIANCE_NULL_SIGMA
