@@ -90,7 +90,7 @@ def frame_splits(frame: np.ndarray, q_cam: np.ndarray, n_frames: int) -> dict[st
 
 
 def split_excess(
-    solve: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    solve: Callable[[np.ndarray], tuple],
     frame: np.ndarray,
     splits: dict[str, np.ndarray],
 ) -> dict:
