@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -32,8 +33,26 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._report import Report  # noqa: E402
-from benchmarks.markerless_sensors import placements, render_band, run_profile, versions, with_errors  # noqa: E402
+from benchmarks.markerless_sensors import (  # noqa: E402
+    front_options,
+    observe,
+    placements,
+    render_band,
+    run_profile,
+    told_intrinsics,
+    told_posed,
+    versions,
+    with_errors,
+)
+from classic.markerless import register_robot  # noqa: E402
+from classic.markerless.shared_intrinsics import (  # noqa: E402
+    MIN_OTHERS,
+    estimate_and_sigma,
+    pooled_prior,
+    second_pass_options,
+)
 from handeye.core.dataset import Dataset  # noqa: E402
+from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 
@@ -132,6 +151,59 @@ def run_case(ds, surface, stride, cams, case: dict, seed: int, options=None) -> 
     return rows["self-calibrated"]
 
 
+def _outcome(res, T_true, seconds) -> tuple:
+    """A registration as :func:`row` reads it: status, errors, sigmas, seconds."""
+    if not res.ok:
+        return ("refused", np.nan, np.nan, np.nan, np.nan, seconds)
+    rot, mm = pose_error(res.T_base_cam, T_true)
+    return ("ok", rot, mm, res.sigma["rotation_deg"], res.sigma["translation_mm"], seconds)
+
+
+def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False) -> tuple:
+    """The case twice on the same frames: each placement alone (the front's first pass), then again with the
+    intrinsics the other placements estimated as its prior (``handeye markerless``'s default with 4 or more
+    placements: :func:`handeye.markerless_shared.share_intrinsics`'s steps, on the benchmark's sensor frames).
+
+    ``one_unit``: every placement's sensor errors are the first placement's draw (one camera moved between
+    placements, as in a cell; else each placement draws its own unit, as the table's other rows do).
+    Returns the two lists of :func:`row`'s tuples (the second's seconds both passes'), and a line per placement
+    of what was pooled.
+    """
+    K = told_intrinsics(ds.meta["intrinsics"]["K"], case.get("intrinsics"))
+    T_true = ds.truth()
+    opts = front_options(case["sensor"], stride, **(options or {}))
+    unit = cams[0] if one_unit else None
+    frames, first, alone = {}, {}, []
+    for c in cams:
+        depth, q, _ = observe(ds, c, case["sensor"], seed, case.get("registration"), unit)
+        posed, T_c = told_posed(surface, q, T_true[c], case.get("joints"))
+        frames[c] = (depth, posed, T_c)
+        t0 = time.process_time()
+        first[c] = register_robot(depth, K, posed, options=opts)
+        alone.append(_outcome(first[c], T_c, time.process_time() - t0))
+        print(f"  camera {c}, alone: {alone[-1]}", file=sys.stderr, flush=True)
+    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in first.items() if r.ok}
+    estimates = {c: e for c, e in estimates.items() if e is not None}
+    shared, notes = [], []
+    for c, one in zip(cams, alone):
+        prior = pooled_prior(
+            [e for o, e in estimates.items() if o != c], estimates.get(c), K, opts.intrinsics_prior_sigma
+        )
+        notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)} {prior.reason}".rstrip())
+        if len(estimates) <= MIN_OTHERS or not prior.any_pooled:
+            shared.append(one)
+            continue
+        depth, posed, T_c = frames[c]
+        starts = {"first pass": first[c].T_base_cam} if first[c].ok else None
+        t0 = time.process_time()
+        res = register_robot(
+            depth, prior.K, posed, starts=starts, options=second_pass_options(opts, prior, first[c].ok)
+        )
+        shared.append(_outcome(res, T_c, one[5] + time.process_time() - t0))
+        print(f"  camera {c}, shared: {shared[-1]}", file=sys.stderr, flush=True)
+    return alone, shared, notes
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, nargs="+", help="datasets rendered without depth noise (default: --presets)")
@@ -166,6 +238,18 @@ def main():
         help="key=value: a further MarkerlessOptions field of the run (intrinsics_model=fixed, static_parts=true, "
         "...); repeatable",
     )
+    ap.add_argument(
+        "--shared-intrinsics",
+        action="store_true",
+        help="each case twice: each placement alone, then with the other placements' intrinsics as its prior "
+        "(handeye markerless's default with 4 or more placements); the s column CPU seconds of one thread",
+    )
+    ap.add_argument(
+        "--one-unit",
+        action="store_true",
+        help="with --shared-intrinsics: one sensor unit for all placements (the first placement's draw: a camera "
+        "moved between placements), else each placement draws its own",
+    )
     Report.add_out(ap)
     args = ap.parse_args()
     Report.cut(args, max_placements=1)
@@ -174,6 +258,13 @@ def main():
     options = {"pixel_effect_px": args.pixel_effect_px, **dict(args.option)}
     if args.pixel_effect_px:
         rep.say(f"With a depth error per {args.pixel_effect_px} px image cell marginalised (--pixel-effect-px).\n")
+    if args.shared_intrinsics:
+        rep.say(
+            "Each case twice on the same frames: each placement alone, then each again with the intrinsics the "
+            "other placements estimated as its prior (--shared-intrinsics"
+            + (", one sensor unit for all placements: --one-unit" if args.one_unit else ", a unit per placement")
+            + "); s: CPU seconds of one thread, both passes in the shared rows.\n"
+        )
     if args.option:
         rep.say("Options beside the front's defaults: " + ", ".join(f"{k}={v}" for k, v in args.option) + ".\n")
     cores = len(os.sched_getaffinity(0))
@@ -195,8 +286,17 @@ def main():
         rep.say(f"\n## {ds.root.name}: {len(cams)} test placements\n")
         rep.say("| error the method is not told | accepted | median mm / deg | worst mm / deg | beyond 3 sigma | s |")
         rep.say("|---|---|---|---|---|---|")
+        pooled_lines = []
         for case in chosen:
-            rep.say(row(case["name"], run_case(ds, surface, stride, cams, case, args.seed, options)))
+            if not args.shared_intrinsics:
+                rep.say(row(case["name"], run_case(ds, surface, stride, cams, case, args.seed, options)))
+                continue
+            alone, shared, notes = run_case_shared(ds, surface, stride, cams, case, args.seed, options, args.one_unit)
+            rep.say(row(case["name"] + ", alone", alone))
+            rep.say(row(case["name"] + ", intrinsics shared", shared))
+            pooled_lines.append(f"- {case['name']}: pooled fx fy cx cy per placement, " + "; ".join(notes))
+        for line in pooled_lines:
+            rep.say(line)
     return rep.write(args.out)
 
 

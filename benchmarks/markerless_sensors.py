@@ -151,15 +151,16 @@ def placements(ds: Dataset, split: str, at_most: int | None = None) -> list[int]
     return cams
 
 
-def observe(ds: Dataset, c: int, sensor, seed: int, registration: dict | None = None):
+def observe(ds: Dataset, c: int, sensor, seed: int, registration: dict | None = None, unit: int | None = None):
     """The placement's depth frames as ``sensor`` reports them, its joints, and the unit's truth.
 
     ``registration`` (:func:`parse_registration_error`): the depth image's misregistration, instead of the
-    profile's draw.
+    profile's draw. ``unit``: the sensor's systematic errors (scale, offset, misregistration, fixed pattern) are
+    those drawn for this placement number instead of ``c``'s, so that several placements share one unit.
     """
     t = ds.select(c, "data")
     K = np.array(ds.meta["intrinsics"]["K"])
-    truth = draw_systematic(sensor, seed, c)
+    truth = draw_systematic(sensor, seed, c if unit is None else unit)
     if registration:
         truth = replace(
             truth,

@@ -54,6 +54,10 @@ class MarkerlessRun:
     label_errors : dict of int -> (float, float)
         The classic label against the truth, same cameras, for comparison.
     starts : dict of int -> dict of str -> array (4, 4)
+    intrinsics_priors : dict of int -> dict
+        Where the camera's intrinsics were shared by its placements (:func:`share_intrinsics`): per camera, the
+        prior its second pass took from the others
+        (:meth:`classic.markerless.shared_intrinsics.SharedIntrinsicsPrior.to_dict`).
     """
 
     results: dict = field(default_factory=dict)
@@ -61,6 +65,15 @@ class MarkerlessRun:
     errors: dict = field(default_factory=dict)
     label_errors: dict = field(default_factory=dict)
     starts: dict = field(default_factory=dict)
+    intrinsics_priors: dict = field(default_factory=dict)
+
+    def record(self, c: int, res: MarkerlessResult, seconds: float, starts: dict, truth: np.ndarray) -> None:
+        """Keep camera ``c``'s result, its wall time and starts, and its error against ``truth`` (4, 4; NaN where
+        unknown) when accepted."""
+        self.results[c], self.seconds[c], self.starts[c] = res, seconds, starts
+        self.errors.pop(c, None)
+        if res.ok and np.all(np.isfinite(truth)):
+            self.errors[c] = tuple(float(x) for x in pose_error(res.T_base_cam, truth))
 
     def to_dict(self) -> dict:
         """JSON-serialisable: per camera, the result, its error against the truth and the label's."""
@@ -72,6 +85,8 @@ class MarkerlessRun:
                 d["error_vs_truth"] = {"deg": self.errors[c][0], "mm": self.errors[c][1]}
             if c in self.label_errors:
                 d["label_error_vs_truth"] = {"deg": self.label_errors[c][0], "mm": self.label_errors[c][1]}
+            if c in self.intrinsics_priors:
+                d["intrinsics_prior"] = self.intrinsics_priors[c]
             out[str(c)] = d
         return {"cameras": out}
 
@@ -250,6 +265,7 @@ def calibrate_camera(
     starts: dict | None = None,
     options: MarkerlessOptions | None = None,
     frames: slice | np.ndarray | None = None,
+    K: np.ndarray | None = None,
 ) -> MarkerlessResult:
     """Markerless ``T_base_cam`` of one camera placement from its data recording.
 
@@ -262,6 +278,8 @@ def calibrate_camera(
     options : MarkerlessOptions, optional
     frames : index into the data frames, optional
         A subset (for example the first 10).
+    K : array, shape (3, 3), optional
+        The camera matrix the intrinsics' prior is centred on; the dataset's (``meta.json``) by default.
 
     Raises
     ------
@@ -279,7 +297,7 @@ def calibrate_camera(
             "robot's surface is posed from them: import the joint states too"
         )
     depth = np.stack([ds.depth_m(camera_id, r) for r in rel])
-    K = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    K = np.array(ds.meta["intrinsics"]["K"] if K is None else K, dtype=float)
     w, h = int(ds.meta["intrinsics"]["width"]), int(ds.meta["intrinsics"]["height"])
     if depth.shape[1:] != (h, w):
         raise ShapeError(
@@ -402,11 +420,7 @@ def markerless_dataset(
             starts["user"] = np.asarray(T_base_cam_start, dtype=float)
         t0 = time.perf_counter()
         res = calibrate_camera(ds, c, surface, starts, opts, frames)
-        run.seconds[c] = time.perf_counter() - t0
-        run.results[c] = res
-        run.starts[c] = starts
-        if res.ok and np.all(np.isfinite(truth[c])):
-            run.errors[c] = tuple(float(x) for x in pose_error(res.T_base_cam, truth[c]))
+        run.record(c, res, time.perf_counter() - t0, starts, truth[c])
         if labels is not None and np.all(np.isfinite(labels[c])) and np.all(np.isfinite(truth[c])):
             run.label_errors[c] = tuple(float(x) for x in pose_error(labels[c], truth[c]))
     return run

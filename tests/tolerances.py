@@ -757,3 +757,10 @@ DEPTH_UNIT_CHI2_TAIL = 1e-3
 #: this many of them (a one-sided normal tail of 1e-4). The clipping at 0 only widens the sigma. Without a shared
 #: error, the mean clipped excess over the draws is held within as many of its standard errors of its expectation.
 DEPTH_UNIT_SIGMA_SES = 3.7
+
+#: The shared intrinsics' pooled prior (tests/classic/test_markerless_shared_intrinsics.py): over N draws of 7
+#: consistent placements, the pool's squared error over its squared sigma, averaged over the draws and the four
+#: parameters, is chi-square(1)'s mean 1 without the Birge widening, with a standard error of sqrt(2 / (4 N)); the
+#: widening only lowers it, to E[1 / max(X / k, 1)] for X chi-square with k = 6 degrees of freedom. Held between
+#: that expectation and 1, each widened by this many standard errors (a one-sided normal tail of 3e-5).
+SHARED_INTRINSICS_SES = 4.0

@@ -117,6 +117,13 @@ def _add_estimated_arguments(p: argparse.ArgumentParser) -> None:
         "(default: the --sensor profile's, else a factory calibration's 0.007,0.007,3,3)",
     )
     p.add_argument(
+        "--no-shared-intrinsics",
+        action="store_true",
+        help="register each placement on its own; by default, with 4 or more placements, each is registered again "
+        "with the intrinsics the others estimated as its prior (one camera, moved: its lens did not change; a "
+        "parameter a placement disagrees with is not pooled for it)",
+    )
+    p.add_argument(
         "--joint-offsets",
         choices=("estimate", "fixed"),
         default="estimate",
@@ -160,6 +167,7 @@ def run(args: argparse.Namespace) -> int:
     from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import write_json_atomic
     from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
+    from handeye.markerless_shared import share_intrinsics, shared_note
 
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
@@ -172,30 +180,34 @@ def run(args: argparse.Namespace) -> int:
         check_output_path(Dataset.open(args.dataset).cameras_path)
     start = read_start(args.start) if args.start else None
     extrinsic_m, extrinsic_deg, stereo_fb = _sensor_terms(args)
+    options = MarkerlessOptions(
+        depth_sigma_m_at_1m=args.depth_noise,
+        depth_model=args.depth_model,
+        depth_extrinsic_sigma_m=extrinsic_m,
+        depth_extrinsic_sigma_deg=extrinsic_deg,
+        stereo_fb_px_m=stereo_fb,
+        static_parts=args.static_parts,
+        intrinsics_model=args.intrinsics,
+        intrinsics_prior_sigma=_intrinsics_sigma(args),
+        **_joint_offset_options(args),
+    )
+    urdf = _robot_urdf(args)
     out = markerless_dataset(
         args.dataset,
         args.camera,
         model_dir=args.model,
         T_base_cam_start=start,
-        urdf=_robot_urdf(args),
-        options=MarkerlessOptions(
-            depth_sigma_m_at_1m=args.depth_noise,
-            depth_model=args.depth_model,
-            depth_extrinsic_sigma_m=extrinsic_m,
-            depth_extrinsic_sigma_deg=extrinsic_deg,
-            stereo_fb_px_m=stereo_fb,
-            static_parts=args.static_parts,
-            intrinsics_model=args.intrinsics,
-            intrinsics_prior_sigma=_intrinsics_sigma(args),
-            **_joint_offset_options(args),
-        ),
+        urdf=urdf,
+        options=options,
         progress=not args.quiet,
     )
+    if not args.no_shared_intrinsics:
+        out = share_intrinsics(args.dataset, out, urdf=urdf, options=options, progress=not args.quiet)
     print(out.table())
     print(out.summary())
-    note = out.registration_note()
-    if note:
-        print(note)
+    for note in (out.registration_note(), shared_note(out)):
+        if note:
+            print(note)
     print(f"terms (sigma, matched, depth scale and offset): {GLOSSARY_WHERE}")
     if args.out:
         write_json_atomic(args.out, out.to_dict())

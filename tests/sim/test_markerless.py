@@ -189,3 +189,31 @@ def test_static_parts_are_left_out_unless_asked_for(small_dataset, tmp_path):
         assert main(["markerless", str(small_dataset[0]), "--camera", "1", "-o", str(out), "--quiet", *extra]) == 0
         fitted[name] = json.loads(out.read_text())["cameras"]["1"]["diagnostics"]["fitted_parts"]
     assert fitted == {"default": "moving", "static": "all"}
+
+
+def test_placements_share_the_camera_matrix(small_copy):
+    """Told a focal length 0.7 % off (a factory matrix), the placements' pooled estimate is nearer the rendered
+    one than the given, each second pass starts from its first answer, and every answer stays within its sigma."""
+    from handeye.core.dataset import Dataset
+    from handeye.markerless import markerless_dataset
+    from handeye.markerless_shared import share_intrinsics, shared_note
+
+    meta_path = small_copy / "meta.json"
+    meta = json.loads(meta_path.read_text())
+    K_true = np.array(meta["intrinsics"]["K"], dtype=float)
+    meta["intrinsics"]["K"][0][0] *= 1.007
+    meta["intrinsics"]["K"][1][1] *= 1.007
+    meta_path.write_text(json.dumps(meta))
+    first = markerless_dataset(small_copy)
+    shared = share_intrinsics(small_copy, first)
+    assert len(shared.results) == len(Dataset.open(small_copy)) and "pooled: fx" in shared_note(shared)
+    for c, res in shared.results.items():
+        assert res.ok, res.refused
+        prior = shared.intrinsics_priors[c]
+        if prior["fx"]["pooled"]:
+            assert res.start == "first pass" and res.intrinsics["prior"] == "shared"
+            # the pooled focal length nearer the rendered one than the matrix told (0.7 % = 0.78 px off)
+            assert abs(prior["fx"]["mean"] - K_true[0, 0]) < 0.5 * abs(meta["intrinsics"]["K"][0][0] - K_true[0, 0])
+        rot_deg, trans_mm = shared.errors[c]
+        assert trans_mm <= SIGMA_BOUND * res.sigma["translation_mm"] + SAMPLING_BIAS_MM
+        assert rot_deg <= SIGMA_BOUND * res.sigma["rotation_deg"] + SAMPLING_BIAS_DEG

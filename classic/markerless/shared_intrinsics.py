@@ -1,0 +1,248 @@
+"""One camera's intrinsics shared by its placements: the others' estimates pooled into one placement's prior.
+
+A camera's matrix does not change when the camera is moved, but one placement's depth frames pin its focal
+length poorly: a focal length off by a fraction of a percent, the distance along the optical axis and the depth
+offset move the arm's points alike, so the estimate's error (0.2 % at 1.2 m) becomes millimetres along the axis.
+Several placements of the same camera each estimate ``(f_x, f_y, c_x, c_y)`` from different geometry; their
+information-weighted mean is a prior no single placement has. This module builds that prior for one placement
+from the *other* placements' estimates (leave one out, so the placement's own frames are not counted twice):
+
+- per parameter, the inverse-variance weighted mean of the others and its sigma, widened by the Birge ratio
+  (the root of the scatter's chi-square per degree of freedom) where the estimates disagree beyond their
+  sigmas (a unit whose depth-to-colour shift moved between placements, a fixed pattern pulling each one
+  differently);
+- a parameter is pooled only where the placement's own estimate agrees with the pool within ``conflict_sigmas``
+  combined sigmas; where it does not, that parameter keeps the camera matrix given and its stated prior, and the
+  prior says so (a camera re-registered, or a different unit, is not averaged in);
+- with fewer than ``min_others`` other placements nothing is pooled.
+
+The registration then runs again with the pooled matrix as the prior's mean and the pooled sigmas as its
+sigmas (:func:`second_pass_options`): an ordinary prior, so the pose's covariance carries what is left of the
+intrinsics' uncertainty. Measured in ``docs/benchmarks/markerless.md`` ('Intrinsics shared by the placements').
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from classic.markerless.intrinsics import NAMES, camera_matrix, intrinsics_vector
+from classic.markerless.options import MarkerlessOptions
+
+__all__ = [
+    "SharedIntrinsicsPrior",
+    "pooled_prior",
+    "second_pass_options",
+    "estimate_and_sigma",
+    "against_given",
+    "MIN_OTHERS",
+]
+
+#: Other placements' estimates a pool needs: the scatter's chi-square then has at least 2 degrees of freedom.
+MIN_OTHERS = 3
+
+#: Coarse windows of a second pass started from the first's answer: it is within millimetres already.
+SECOND_PASS_WINDOWS_M = (0.02, 0.01)
+
+
+@dataclass(frozen=True)
+class SharedIntrinsicsPrior:
+    """The prior one placement takes from the others.
+
+    Attributes
+    ----------
+    K : array, shape (3, 3)
+        The prior's mean: the pooled parameters, the given camera matrix's elsewhere.
+    prior_sigma : tuple of 4 float
+        ``(f_x, f_y)`` relative, ``(c_x, c_y)`` pixels, as :attr:`MarkerlessOptions.intrinsics_prior_sigma`.
+    pooled : tuple of 4 bool
+        Per parameter of :data:`classic.markerless.intrinsics.NAMES`, whether it was pooled.
+    others : int
+        How many other placements' estimates entered.
+    birge : tuple of 4 float
+        The others' scatter over their sigmas (root chi-square per degree of freedom; 1 where consistent).
+    reason : str
+        Why a parameter was not pooled, empty when all were.
+    """
+
+    K: np.ndarray
+    prior_sigma: tuple
+    pooled: tuple
+    others: int
+    birge: tuple
+    reason: str = ""
+
+    @property
+    def any_pooled(self) -> bool:
+        return any(self.pooled)
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable: the prior's mean and sigma per parameter, what was pooled, from how many."""
+        theta = intrinsics_vector(self.K)
+        scale = np.array([theta[0], theta[1], 1.0, 1.0])
+        return {
+            "others": self.others,
+            "reason": self.reason,
+            **{
+                name: {
+                    "pooled": bool(self.pooled[i]),
+                    "mean": float(theta[i]),
+                    "sigma": float(self.prior_sigma[i] * scale[i]),
+                    "birge": float(self.birge[i]),
+                }
+                for i, name in enumerate(NAMES)
+            },
+        }
+
+
+def estimate_and_sigma(intrinsics: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(theta, sigma)``, shape (4,) each in pixels, of a result's intrinsics summary; None when not estimated.
+
+    Parameters
+    ----------
+    intrinsics : dict
+        :attr:`MarkerlessResult.intrinsics` (``model`` ``"estimated"`` with per-parameter ``estimate`` and
+        ``sigma``).
+    """
+    if not intrinsics or intrinsics.get("model") != "estimated":
+        return None
+    theta = np.array([intrinsics[n]["estimate"] for n in NAMES], dtype=float)
+    sigma = np.array([intrinsics[n]["sigma"] for n in NAMES], dtype=float)
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(sigma)) and np.all(sigma > 0)):
+        return None
+    return theta, sigma
+
+
+def pooled_prior(
+    others: list[tuple[np.ndarray, np.ndarray]],
+    own: tuple[np.ndarray, np.ndarray] | None,
+    K_given: np.ndarray,
+    given_sigma: tuple,
+    *,
+    conflict_sigmas: float = 3.0,
+    min_others: int = MIN_OTHERS,
+) -> SharedIntrinsicsPrior:
+    """The prior of one placement's intrinsics from the other placements' estimates of the same camera.
+
+    Parameters
+    ----------
+    others : list of (array (4,), array (4,))
+        The other placements' ``(theta, sigma)`` (:func:`estimate_and_sigma`), pixels.
+    own : (array (4,), array (4,)) or None
+        This placement's own first estimate; None when it had none (refused), then every parameter of an
+        adequate pool is taken.
+    K_given : array, shape (3, 3)
+        The camera matrix given.
+    given_sigma : tuple of 4 float
+        Its stated prior (:attr:`MarkerlessOptions.intrinsics_prior_sigma`: focal lengths relative, principal
+        point pixels).
+    conflict_sigmas : float
+        A parameter whose own estimate lies further than this many combined sigmas from the pool is not pooled.
+    min_others : int
+        Fewer other placements than this: nothing pooled.
+
+    Returns
+    -------
+    SharedIntrinsicsPrior
+    """
+    given = intrinsics_vector(np.asarray(K_given, dtype=float))
+    given_px = np.asarray(given_sigma, dtype=float) * np.array([given[0], given[1], 1.0, 1.0])
+    if len(others) < min_others:
+        return SharedIntrinsicsPrior(
+            K=camera_matrix(given),
+            prior_sigma=tuple(float(s) for s in given_sigma),
+            pooled=(False,) * 4,
+            others=len(others),
+            birge=(np.nan,) * 4,
+            reason=f"{len(others)} other placements estimated the intrinsics (at least {min_others} needed)",
+        )
+    theta = np.array([t for t, _ in others])
+    weight = 1.0 / np.array([s for _, s in others]) ** 2
+    mean = (theta * weight).sum(axis=0) / weight.sum(axis=0)
+    chi2 = ((theta - mean) ** 2 * weight).sum(axis=0) / (len(others) - 1)
+    birge = np.sqrt(np.maximum(chi2, 1.0))
+    sigma = birge / np.sqrt(weight.sum(axis=0))
+    use = sigma < given_px  # a pool no tighter than the given prior adds nothing
+    if own is not None:
+        use &= np.abs(own[0] - mean) <= conflict_sigmas * np.hypot(own[1], sigma)
+    reason = ", ".join(
+        f"{name} ({'disagrees with this placement' if sigma[i] < given_px[i] else 'pool not tighter than given'})"
+        for i, name in enumerate(NAMES)
+        if not use[i]
+    )
+    mean_px = np.where(use, mean, given)
+    sigma_px = np.where(use, sigma, given_px)
+    return SharedIntrinsicsPrior(
+        K=camera_matrix(mean_px),
+        prior_sigma=(
+            float(sigma_px[0] / mean_px[0]),
+            float(sigma_px[1] / mean_px[1]),
+            float(sigma_px[2]),
+            float(sigma_px[3]),
+        ),
+        pooled=tuple(bool(u) for u in use),
+        others=len(others),
+        birge=tuple(float(b) for b in birge),
+        reason=f"not pooled: {reason}" if reason else "",
+    )
+
+
+def second_pass_options(
+    options: MarkerlessOptions, prior: SharedIntrinsicsPrior, started_near: bool
+) -> MarkerlessOptions:
+    """The registration's options for its second pass under ``prior``.
+
+    Parameters
+    ----------
+    options : MarkerlessOptions
+        The first pass's.
+    prior : SharedIntrinsicsPrior
+    started_near : bool
+        The second pass starts from the first's accepted answer: only the finest coarse windows
+        (:data:`SECOND_PASS_WINDOWS_M`) are searched.
+    """
+    out = replace(options, intrinsics_prior_sigma=prior.prior_sigma)
+    if started_near:
+        out = replace(out, coarse_windows_m=SECOND_PASS_WINDOWS_M)
+    return out
+
+
+def against_given(intrinsics: dict, K_given: np.ndarray, given_sigma: tuple, determined_share: float) -> dict:
+    """A second pass's intrinsics summary told against the camera matrix given, not the pooled prior.
+
+    The registration reports each parameter's ``change`` from its prior's mean and ``ratio`` (what the frames
+    leave of the sigma) against its prior's sigma; under a pooled prior both would count from the pool. Here
+    they count from ``K_given`` and ``given_sigma`` again, so that ``determined`` keeps its meaning (the frames
+    alone pinned the parameter below ``determined_share`` of the stated uncertainty); the pooled prior is kept
+    as ``prior_mean`` and ``prior_sigma``, and ``prior`` is ``"shared"``.
+
+    Parameters
+    ----------
+    intrinsics : dict
+        :attr:`MarkerlessResult.intrinsics` of the second pass (``model`` ``"estimated"``).
+    K_given : array, shape (3, 3)
+    given_sigma : tuple of 4 float
+        Focal lengths relative, principal point pixels.
+    determined_share : float
+        :attr:`MarkerlessOptions.intrinsics_determined_share`.
+
+    Returns
+    -------
+    dict
+        A new summary; ``intrinsics`` itself unchanged (returned as is when not estimated).
+    """
+    if not intrinsics or intrinsics.get("model") != "estimated":
+        return intrinsics
+    given = intrinsics_vector(np.asarray(K_given, dtype=float))
+    given_px = np.asarray(given_sigma, dtype=float) * np.array([given[0], given[1], 1.0, 1.0])
+    out = {"model": "estimated", "prior": "shared", "given": [float(x) for x in given]}
+    for i, name in enumerate(NAMES):
+        entry = dict(intrinsics[name])
+        frames_sigma = entry["ratio"] * entry["prior_sigma"]
+        entry["prior_mean"] = entry["estimate"] - entry["change"]
+        entry["change"] = entry["estimate"] - float(given[i])
+        entry["ratio"] = float(frames_sigma / given_px[i])
+        entry["determined"] = bool(entry["ratio"] < determined_share)
+        out[name] = entry
+    return out

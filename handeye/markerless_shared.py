@@ -1,0 +1,123 @@
+"""A dataset's placements share one camera: each registered again with the others' intrinsics as its prior.
+
+A dataset has one camera matrix for all its placements (``meta.json``); the camera was moved, its lens was not.
+:func:`share_intrinsics` takes a first markerless run (:func:`handeye.markerless.markerless_dataset`), pools the
+other placements' intrinsics estimates into each placement's prior
+(:func:`classic.markerless.shared_intrinsics.pooled_prior`: leave one out, widened where they disagree, a
+parameter that disagrees with the placement's own estimate not pooled) and registers the placement again from its
+first answer. ``handeye markerless`` does this by default with four or more placements.
+
+Example
+-------
+>>> from handeye.markerless import markerless_dataset          # doctest: +SKIP
+>>> from handeye.markerless_shared import share_intrinsics      # doctest: +SKIP
+>>> run = share_intrinsics("data/small", markerless_dataset("data/small"))  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from classic.markerless import MarkerlessOptions
+from classic.markerless.intrinsics import NAMES
+from classic.markerless.shared_intrinsics import (
+    MIN_OTHERS,
+    against_given,
+    estimate_and_sigma,
+    pooled_prior,
+    second_pass_options,
+)
+from handeye.core.dataset import Dataset
+from handeye.markerless import MarkerlessRun, RobotURDF, calibrate_camera, robot_surface_for
+
+__all__ = ["share_intrinsics", "shared_note"]
+
+
+def share_intrinsics(
+    root: str | Path,
+    run: MarkerlessRun,
+    *,
+    urdf: RobotURDF | None = None,
+    options: MarkerlessOptions | None = None,
+    progress: bool = False,
+    frames=None,
+) -> MarkerlessRun:
+    """Each placement of ``run`` registered again under the intrinsics prior the other placements give it.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset ``run`` was made from.
+    run : MarkerlessRun
+        The first pass (:func:`handeye.markerless.markerless_dataset`, with the same ``urdf``, ``options`` and
+        ``frames``).
+    urdf : RobotURDF, optional
+    options : MarkerlessOptions, optional
+        The first pass's. With ``intrinsics_model="fixed"``, or fewer than ``MIN_OTHERS + 1`` placements that
+        estimated the intrinsics (:data:`classic.markerless.shared_intrinsics.MIN_OTHERS`), nothing is shared and
+        ``run`` is returned.
+    progress : bool
+    frames : index, optional
+
+    Returns
+    -------
+    MarkerlessRun
+        A new run: per camera the second pass's result where a parameter was pooled (its wall time the two
+        passes' sum), else the first's; ``intrinsics_priors`` says per camera what its prior was.
+    """
+    opts = options or MarkerlessOptions()
+    if opts.intrinsics_model != "estimate":
+        return run
+    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in run.results.items() if r.ok}
+    estimates = {c: e for c, e in estimates.items() if e is not None}
+    if len(estimates) <= MIN_OTHERS:
+        return run
+    ds = Dataset.open(root)
+    surface, stride = robot_surface_for(ds, *((urdf.path, urdf.package_dirs) if urdf else ()))
+    opts = replace(opts, zbuffer_stride=stride)
+    K_given = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    truth = ds.truth()
+    out = MarkerlessRun(label_errors=dict(run.label_errors))
+    cameras = list(run.results)
+    if progress:
+        from tqdm import tqdm
+
+        cameras = tqdm(cameras, desc=f"shared intrinsics {ds.root.name}", unit="camera")
+    for c in cameras:
+        first = run.results[c]
+        others = [e for o, e in estimates.items() if o != c]
+        prior = pooled_prior(others, estimates.get(c), K_given, opts.intrinsics_prior_sigma)
+        out.intrinsics_priors[c] = prior.to_dict()
+        if not prior.any_pooled:
+            out.record(c, first, run.seconds[c], run.starts[c], truth[c])
+            continue
+        starts = {"first pass": first.T_base_cam, **run.starts[c]} if first.ok else dict(run.starts[c])
+        t0 = time.perf_counter()
+        res = calibrate_camera(ds, c, surface, starts, second_pass_options(opts, prior, first.ok), frames, K=prior.K)
+        res.intrinsics = against_given(
+            res.intrinsics, K_given, opts.intrinsics_prior_sigma, opts.intrinsics_determined_share
+        )
+        out.record(c, res, run.seconds[c] + time.perf_counter() - t0, starts, truth[c])
+    return out
+
+
+def shared_note(run: MarkerlessRun) -> str | None:
+    """One line: how many placements took a pooled prior, and of which parameters; None when none was tried (too
+    few placements, or the intrinsics taken as exact)."""
+    if not run.intrinsics_priors:
+        return None
+    priors = run.intrinsics_priors.values()
+    counts = {name: sum(p[name]["pooled"] for p in priors) for name in NAMES}
+    n = len(run.intrinsics_priors)
+    if not any(counts.values()):
+        reason = next(iter(priors))["reason"]
+        return f"intrinsics not shared by the placements: {reason}"
+    per = ", ".join(f"{name} {k}/{n}" for name, k in counts.items())
+    return (
+        f"intrinsics shared by the placements: each registered again with the others' estimates as its prior "
+        f"(pooled: {per}; a parameter the placement's own estimate disagrees with keeps the given prior)"
+    )

@@ -1,0 +1,105 @@
+"""One camera's intrinsics pooled over its placements: the leave-one-out prior, its widening and its refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+from classic.markerless.intrinsics import camera_matrix, intrinsics_vector
+from classic.markerless.shared_intrinsics import MIN_OTHERS, against_given, pooled_prior, second_pass_options
+from tests.tolerances import FLOAT, SHARED_INTRINSICS_SES
+
+THETA = np.array([222.0, 221.0, 128.0, 127.0])  # the camera's true fx, fy, cx, cy, pixels
+GIVEN = camera_matrix(THETA * np.array([1.007, 1.007, 1.0, 1.0]) + np.array([0, 0, 3.0, 0]))  # a factory matrix
+GIVEN_SIGMA = (0.007, 0.007, 3.0, 3.0)
+
+
+def draws(rng, n, scale=1.0):
+    """``n`` placements' estimates of THETA, each with its own sigma (0.2-0.8 px), scattered ``scale`` times it."""
+    sigma = rng.uniform(0.2, 0.8, size=(n, 4))
+    return [(THETA + scale * s * rng.normal(size=4), s) for s in sigma]
+
+
+def test_pool_recovers_the_camera_within_its_sigma():
+    rng = np.random.default_rng(0)
+    n_draws, k = 400, 6
+    z2 = []
+    for _ in range(n_draws):
+        est = draws(rng, k + 1)
+        prior = pooled_prior(est, None, GIVEN, GIVEN_SIGMA)  # no own estimate: no conflict check
+        assert all(prior.pooled) and prior.others == k + 1 and prior.reason == ""
+        mean = intrinsics_vector(prior.K)
+        sigma = np.array(prior.prior_sigma) * np.array([mean[0], mean[1], 1.0, 1.0])
+        z2.append(((mean - THETA) / sigma) ** 2)
+    # the Birge widening's expected effect with k degrees of freedom: E[1 / max(X / k, 1)], X chi-square(k)
+    widened, _ = integrate.quad(lambda x: stats.chi2.pdf(x, k) / max(x / k, 1.0), 0, np.inf)
+    se = np.sqrt(2.0 / (4 * n_draws))
+    assert widened - SHARED_INTRINSICS_SES * se <= np.mean(z2) <= 1.0 + SHARED_INTRINSICS_SES * se
+
+
+def test_scatter_beyond_the_sigmas_widens_the_prior():
+    rng = np.random.default_rng(1)
+    consistent = pooled_prior(draws(rng, 8), None, GIVEN, GIVEN_SIGMA)
+    rng = np.random.default_rng(1)
+    scattered = pooled_prior(draws(rng, 8, scale=5.0), None, GIVEN, GIVEN_SIGMA)
+    # five times the scatter: a Birge ratio near 5 and a sigma near 5 times (the draws' chi-square varies)
+    assert np.all(np.array(scattered.birge) > 2.5)
+    assert np.all(np.array(scattered.prior_sigma) > 2.5 * np.array(consistent.prior_sigma))
+
+
+def test_a_parameter_the_placement_disagrees_with_keeps_the_given_prior():
+    rng = np.random.default_rng(2)
+    est = draws(rng, 7)
+    own_theta, own_sigma = est[0]
+    own = (own_theta + np.array([0.0, 0.0, 10.0, 0.0]), own_sigma)  # cx shifted 10 px: a re-registered unit
+    prior = pooled_prior(est[1:], own, GIVEN, GIVEN_SIGMA)
+    assert prior.pooled == (True, True, False, True)
+    assert "cx (disagrees with this placement)" in prior.reason
+    assert prior.K[0, 2] == GIVEN[0, 2] and prior.prior_sigma[2] == GIVEN_SIGMA[2]
+    assert abs(prior.K[0, 0] - THETA[0]) < 3 * prior.prior_sigma[0] * prior.K[0, 0]
+
+
+def test_too_few_placements_or_a_pool_no_tighter_share_nothing():
+    rng = np.random.default_rng(3)
+    few = pooled_prior(draws(rng, MIN_OTHERS - 1), None, GIVEN, GIVEN_SIGMA)
+    assert not few.any_pooled and f"at least {MIN_OTHERS} needed" in few.reason
+    np.testing.assert_array_equal(few.K, GIVEN)
+    loose = [(THETA + 0.1, np.array([5.0, 5.0, 9.0, 9.0]))] * 4  # each looser than the factory's 1.5 px and 3 px
+    prior = pooled_prior(loose, None, GIVEN, GIVEN_SIGMA)
+    assert not prior.any_pooled and "pool not tighter than given" in prior.reason
+
+
+def test_second_pass_reports_against_the_given_matrix():
+    from classic.markerless import MarkerlessOptions
+
+    rng = np.random.default_rng(4)
+    prior = pooled_prior(draws(rng, 6), None, GIVEN, GIVEN_SIGMA)
+    opts = second_pass_options(MarkerlessOptions(), prior, started_near=True)
+    assert opts.intrinsics_prior_sigma == prior.prior_sigma and max(opts.coarse_windows_m) <= 0.02
+    far = second_pass_options(MarkerlessOptions(), prior, started_near=False)
+    assert far.coarse_windows_m == MarkerlessOptions().coarse_windows_m
+    pooled = intrinsics_vector(prior.K)
+    estimate = pooled + 0.05
+    sigma_px = np.array(prior.prior_sigma) * np.array([pooled[0], pooled[1], 1, 1])
+    frames = np.array([0.3, 0.3, 0.2, 2.5])  # what the frames alone leave, pixels
+    summary = {"model": "estimated", "given": pooled.tolist()}
+    for i, name in enumerate(("fx", "fy", "cx", "cy")):
+        summary[name] = {
+            "estimate": estimate[i],
+            "change": estimate[i] - pooled[i],
+            "sigma": 0.1,
+            "prior_sigma": sigma_px[i],
+            "ratio": frames[i] / sigma_px[i],
+            "determined": False,
+        }
+    told = against_given(summary, GIVEN, GIVEN_SIGMA, 0.5)
+    given = intrinsics_vector(GIVEN)
+    given_px = np.array(GIVEN_SIGMA) * np.array([given[0], given[1], 1, 1])
+    assert told["prior"] == "shared" and told["given"] == pytest.approx(given.tolist())
+    for i, name in enumerate(("fx", "fy", "cx", "cy")):
+        assert told[name]["change"] == pytest.approx(estimate[i] - given[i], abs=FLOAT)
+        assert told[name]["prior_mean"] == pytest.approx(pooled[i], abs=FLOAT)
+        assert told[name]["ratio"] == pytest.approx(frames[i] / given_px[i])
+        assert told[name]["determined"] == (frames[i] / given_px[i] < 0.5)
+    assert [told[n]["determined"] for n in ("fx", "fy", "cx", "cy")] == [True, True, True, False]
