@@ -367,7 +367,7 @@ def _error_rows(src: Path, preset: str) -> list[dict]:
     runs = [
         rows
         for command, found in sections(src)
-        if command and not re.search(r"--(cases|option|pixel-effect-px|seed)\b", command)
+        if command and not re.search(r"--(cases|option|pixel-effect-px|seed|shared-intrinsics)\b", command)
         for heading, header, rows in found
         if heading.startswith(f"{preset}-1.2:") and header[0] == "error the method is not told"
     ]

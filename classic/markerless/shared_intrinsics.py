@@ -44,6 +44,8 @@ MIN_OTHERS = 3
 
 #: Coarse windows of a second pass started from the first's answer: it is within millimetres already.
 SECOND_PASS_WINDOWS_M = (0.02, 0.01)
+#: Fine iterations of that second pass (the first's 20 start from centimetres off).
+SECOND_PASS_FINE_ITERATIONS = 10
 
 
 @dataclass(frozen=True)
@@ -200,11 +202,16 @@ def second_pass_options(
     prior : SharedIntrinsicsPrior
     started_near : bool
         The second pass starts from the first's accepted answer: only the finest coarse windows
-        (:data:`SECOND_PASS_WINDOWS_M`) are searched.
+        (:data:`SECOND_PASS_WINDOWS_M`) are searched, and the fine stage iterates at most
+        :data:`SECOND_PASS_FINE_ITERATIONS` times.
     """
     out = replace(options, intrinsics_prior_sigma=prior.prior_sigma)
     if started_near:
-        out = replace(out, coarse_windows_m=SECOND_PASS_WINDOWS_M)
+        out = replace(
+            out,
+            coarse_windows_m=SECOND_PASS_WINDOWS_M,
+            fine_iterations=min(options.fine_iterations, SECOND_PASS_FINE_ITERATIONS),
+        )
     return out
 
 
