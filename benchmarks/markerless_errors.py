@@ -271,9 +271,15 @@ def main():
     load = os.getloadavg()[0]
     rep.say(
         "Each row: one error the method is not told (the last, all together), the front's defaults. Wrong: "
-        "accepted more than 3 predicted sigmas from the truth (translation or rotation). Time: wall seconds per "
-        f"placement (the registration), on {cores} core{'s' if cores > 1 else ''} this process may use, the "
-        f"machine's load {load:.1f} at the start: wall time under load is not one core's time."
+        "accepted more than 3 predicted sigmas from the truth (translation or rotation). "
+        + (
+            "Time: CPU seconds of one thread per placement (time.process_time; the machine's load does not "
+            f"inflate it; load {load:.1f} at the start)."
+            if args.shared_intrinsics
+            else f"Time: wall seconds per placement (the registration), on {cores} core{'s' if cores > 1 else ''} "
+            f"this process may use, the machine's load {load:.1f} at the start: wall time under load is not one "
+            "core's time."
+        )
     )
     # the bands markerless_sensors.py renders with its default seed (render seed 1): the same datasets
     data = args.data or [render_band(args.work, preset, args.band, 1) for preset in args.presets]
