@@ -174,9 +174,14 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_hybrid:
         require_package("pinocchio", extra="robot", purpose="the robot model of the hybrid column")
         from handeye.markerless import markerless_dataset
+        from handeye.markerless_shared import share_intrinsics, shared_note
 
-        hybrid = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model)
+        # as handeye markerless does: with 4+ placements, each again with the others' intrinsics as its prior
+        hybrid = share_intrinsics(args.dataset, markerless_dataset(args.dataset, pc["camera"], model_dir=args.model))
     print(compare_table(pc, hybrid))
+    note = shared_note(hybrid) if hybrid is not None else None
+    if note:
+        print(note)
     for key in ("learned_vs_label", "learned_vs_truth", "label_vs_truth"):
         print(
             f"median {key.replace('_', ' ')}: {np.median(pc[key + '_mm']):.2f} mm, "
