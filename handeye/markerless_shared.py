@@ -26,6 +26,7 @@ from classic.markerless import MarkerlessOptions
 from classic.markerless.intrinsics import NAMES
 from classic.markerless.shared_intrinsics import (
     MIN_OTHERS,
+    SHARED_PIXEL_EFFECT_PX,
     against_given,
     estimate_and_sigma,
     pooled_prior,
@@ -34,7 +35,17 @@ from classic.markerless.shared_intrinsics import (
 from handeye.core.dataset import Dataset
 from handeye.markerless import MarkerlessRun, RobotURDF, calibrate_camera, robot_surface_for
 
-__all__ = ["share_intrinsics", "shared_note"]
+__all__ = ["share_intrinsics", "shared_note", "shared_options"]
+
+
+def shared_options(options: MarkerlessOptions, placements: int) -> MarkerlessOptions:
+    """The options of both passes where ``placements`` will share their intrinsics: a depth error per 2 px image
+    cell marginalised (:data:`classic.markerless.shared_intrinsics.SHARED_PIXEL_EFFECT_PX`) unless the options set
+    one; ``options`` as they are with fewer than ``MIN_OTHERS + 1`` placements or the intrinsics taken as exact.
+    """
+    if placements <= MIN_OTHERS or options.intrinsics_model != "estimate" or options.pixel_effect_px:
+        return options
+    return replace(options, pixel_effect_px=SHARED_PIXEL_EFFECT_PX)
 
 
 def share_intrinsics(

@@ -131,7 +131,8 @@ class MarkerlessOptions:
         the sigma then runs short of the error (the pattern alone, 2 px cells: 2.69 mm at a sigma of 1.29 mm).
         Its cost: about 1.3-1.5 s more CPU per placement (all together, paper-real: 6.4-6.5 -> 7.8-8.0 s on one
         core). Measured on simulated placements only (``benchmarks/results/markerless_errors.md``), never on a
-        real sensor.
+        real sensor. The front (``handeye markerless``) sets it to 2 where four or more placements share their
+        intrinsics (:data:`classic.markerless.shared_intrinsics.SHARED_PIXEL_EFFECT_PX`).
     repeated_error_px : int
         Above 0: the sigma holds what a depth error repeated at one image position in every frame adds (a fixed
         pattern; an error of the camera matrix or the depth image's registration the fit leaves), its covariance

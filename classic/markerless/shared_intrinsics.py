@@ -37,6 +37,7 @@ __all__ = [
     "estimate_and_sigma",
     "against_given",
     "MIN_OTHERS",
+    "SHARED_PIXEL_EFFECT_PX",
 ]
 
 #: Other placements' estimates a pool needs: the scatter's chi-square then has at least 2 degrees of freedom.
@@ -46,6 +47,12 @@ MIN_OTHERS = 3
 SECOND_PASS_WINDOWS_M = (0.02, 0.01)
 #: Fine iterations of that second pass (the first's 20 start from centimetres off).
 SECOND_PASS_FINE_ITERATIONS = 10
+#: The per-cell depth error (:attr:`MarkerlessOptions.pixel_effect_px`) the front marginalises, in both passes,
+#: where the placements share their intrinsics. Alone it is off (it worsened one row of the error table); with the
+#: intrinsics shared every row stays within 0.13 mm of sharing without it or improves (all together 2.45 -> 1.18 mm
+#: median on paper-real, 1.26 -> 0.74 on paper-sim), 0 beyond 3 sigma, at most 9.6 s of CPU per placement
+#: (``docs/benchmarks/markerless.md``, 'Intrinsics shared by the placements').
+SHARED_PIXEL_EFFECT_PX = 2
 
 
 @dataclass(frozen=True)

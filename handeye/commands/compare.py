@@ -173,11 +173,14 @@ def run(args: argparse.Namespace) -> int:
     hybrid = None
     if not args.no_hybrid:
         require_package("pinocchio", extra="robot", purpose="the robot model of the hybrid column")
+        from classic.markerless import MarkerlessOptions
         from handeye.markerless import markerless_dataset
-        from handeye.markerless_shared import share_intrinsics, shared_note
+        from handeye.markerless_shared import share_intrinsics, shared_note, shared_options
 
         # as handeye markerless does: with 4+ placements, each again with the others' intrinsics as its prior
-        hybrid = share_intrinsics(args.dataset, markerless_dataset(args.dataset, pc["camera"], model_dir=args.model))
+        opts = shared_options(MarkerlessOptions(), len(pc["camera"]))
+        first = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model, options=opts)
+        hybrid = share_intrinsics(args.dataset, first, options=opts)
     print(compare_table(pc, hybrid))
     note = shared_note(hybrid) if hybrid is not None else None
     if note:

@@ -121,7 +121,8 @@ def _add_estimated_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="register each placement on its own; by default, with 4 or more placements, each is registered again "
         "with the intrinsics the others estimated as its prior (one camera, moved: its lens did not change; a "
-        "parameter a placement disagrees with is not pooled for it)",
+        "parameter a placement disagrees with is not pooled for it), both passes marginalising a depth error per "
+        "2 px image cell (a fixed pattern)",
     )
     p.add_argument(
         "--joint-offsets",
@@ -167,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
     from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import write_json_atomic
     from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
-    from handeye.markerless_shared import share_intrinsics, shared_note
+    from handeye.markerless_shared import share_intrinsics, shared_note, shared_options
 
     if args.model is not None:
         require_package("torch", extra="learned", purpose="the learned start")
@@ -192,6 +193,9 @@ def run(args: argparse.Namespace) -> int:
         **_joint_offset_options(args),
     )
     urdf = _robot_urdf(args)
+    if not args.no_shared_intrinsics:
+        n = len(args.camera) if args.camera else len(Dataset.open(args.dataset))
+        options = shared_options(options, n)
     out = markerless_dataset(
         args.dataset,
         args.camera,

@@ -103,3 +103,19 @@ def test_second_pass_reports_against_the_given_matrix():
         assert told[name]["ratio"] == pytest.approx(frames[i] / given_px[i])
         assert told[name]["determined"] == (frames[i] / given_px[i] < 0.5)
     assert [told[n]["determined"] for n in ("fx", "fy", "cx", "cy")] == [True, True, True, False]
+
+
+def test_the_front_marginalises_a_per_cell_depth_error_only_where_it_shares():
+    from dataclasses import replace
+
+    from classic.markerless import MarkerlessOptions
+    from classic.markerless.shared_intrinsics import SHARED_PIXEL_EFFECT_PX
+    from handeye.markerless_shared import shared_options
+
+    opts = MarkerlessOptions()
+    assert shared_options(opts, MIN_OTHERS + 1).pixel_effect_px == SHARED_PIXEL_EFFECT_PX
+    assert shared_options(opts, MIN_OTHERS) is opts  # too few to share: as given
+    fixed = replace(opts, intrinsics_model="fixed")
+    assert shared_options(fixed, 10) is fixed  # nothing to share
+    chosen = replace(opts, pixel_effect_px=3)
+    assert shared_options(chosen, 10) is chosen  # the user's cell size kept

@@ -193,10 +193,12 @@ def test_static_parts_are_left_out_unless_asked_for(small_dataset, tmp_path):
 
 def test_placements_share_the_camera_matrix(small_copy):
     """Told a focal length 0.7 % off (a factory matrix), the placements' pooled estimate is nearer the rendered
-    one than the given, each second pass starts from its first answer, and every answer stays within its sigma."""
+    one than the given, each second pass starts from its first answer, and every answer stays within its sigma
+    (the front's options: a per-cell depth error marginalised in both passes)."""
+    from classic.markerless import MarkerlessOptions
     from handeye.core.dataset import Dataset
     from handeye.markerless import markerless_dataset
-    from handeye.markerless_shared import share_intrinsics, shared_note
+    from handeye.markerless_shared import share_intrinsics, shared_note, shared_options
 
     meta_path = small_copy / "meta.json"
     meta = json.loads(meta_path.read_text())
@@ -204,8 +206,10 @@ def test_placements_share_the_camera_matrix(small_copy):
     meta["intrinsics"]["K"][0][0] *= 1.007
     meta["intrinsics"]["K"][1][1] *= 1.007
     meta_path.write_text(json.dumps(meta))
-    first = markerless_dataset(small_copy)
-    shared = share_intrinsics(small_copy, first)
+    opts = shared_options(MarkerlessOptions(), len(Dataset.open(small_copy)))  # as handeye markerless sets them
+    assert opts.pixel_effect_px > 0
+    first = markerless_dataset(small_copy, options=opts)
+    shared = share_intrinsics(small_copy, first, options=opts)
     assert len(shared.results) == len(Dataset.open(small_copy)) and "pooled: fx" in shared_note(shared)
     for c, res in shared.results.items():
         assert res.ok, res.refused
