@@ -81,10 +81,7 @@ def share_intrinsics(
         passes' sum), else the first's; ``intrinsics_priors`` says per camera what its prior was.
     """
     opts = options or MarkerlessOptions()
-    if opts.intrinsics_model != "estimate":
-        return run
-    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in run.results.items() if r.ok}
-    estimates = {c: e for c, e in estimates.items() if e is not None}
+    estimates = _estimates(run) if opts.intrinsics_model == "estimate" else {}
     if len(estimates) <= MIN_OTHERS:
         return run
     ds = Dataset.open(root)
@@ -99,16 +96,15 @@ def share_intrinsics(
 
         cameras = tqdm(cameras, desc=f"shared intrinsics {ds.root.name}", unit="camera")
     for c in cameras:
-        first = run.results[c]
-        others = [e for o, e in estimates.items() if o != c]
-        prior = pooled_prior(others, estimates.get(c), K_given, opts.intrinsics_prior_sigma)
+        prior = pooled_prior(
+            [e for o, e in estimates.items() if o != c], estimates.get(c), K_given, opts.intrinsics_prior_sigma
+        )
         out.intrinsics_priors[c] = prior.to_dict()
         if not prior.any_pooled:
-            out.record(c, first, run.seconds[c], run.starts[c], truth[c])
+            out.record(c, run.results[c], run.seconds[c], run.starts[c], truth[c])
             continue
-        starts = {"first pass": first.T_base_cam, **run.starts[c]} if first.ok else dict(run.starts[c])
         t0 = time.perf_counter()
-        res = calibrate_camera(ds, c, surface, starts, second_pass_options(opts, prior, first.ok), frames, K=prior.K)
+        res, starts = _second_pass(ds, c, surface, run, opts, prior, frames)
         res.intrinsics = against_given(
             res.intrinsics, K_given, opts.intrinsics_prior_sigma, opts.intrinsics_determined_share
         )
@@ -116,9 +112,24 @@ def share_intrinsics(
     return out
 
 
-def shared_note(run: MarkerlessRun) -> str | None:
+def _estimates(run: MarkerlessRun) -> dict:
+    """Per accepted camera of ``run`` with its intrinsics estimated: ``(theta, sigma)`` (pixels)."""
+    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in run.results.items() if r.ok}
+    return {c: e for c, e in estimates.items() if e is not None}
+
+
+def _second_pass(ds, c: int, surface, run: MarkerlessRun, opts, prior, frames):
+    """Camera ``c`` registered under ``prior``, from its first answer when it had one; the result and its starts."""
+    first = run.results[c]
+    starts = {"first pass": first.T_base_cam, **run.starts[c]} if first.ok else dict(run.starts[c])
+    res = calibrate_camera(ds, c, surface, starts, second_pass_options(opts, prior, first.ok), frames, K=prior.K)
+    return res, starts
+
+
+def shared_note(run: MarkerlessRun, pixel_effect_px: int = 0) -> str | None:
     """One line: how many placements took a pooled prior, and of which parameters; None when none was tried (too
-    few placements, or the intrinsics taken as exact)."""
+    few placements, or the intrinsics taken as exact). ``pixel_effect_px``: the runs' per-cell depth error
+    (:func:`shared_options`), named when above 0."""
     if not run.intrinsics_priors:
         return None
     priors = run.intrinsics_priors.values()
@@ -131,4 +142,5 @@ def shared_note(run: MarkerlessRun) -> str | None:
     return (
         f"intrinsics shared by the placements: each registered again with the others' estimates as its prior "
         f"(pooled: {per}; a parameter the placement's own estimate disagrees with keeps the given prior)"
+        + (f"; a depth error per {pixel_effect_px} px image cell marginalised in both passes" * bool(pixel_effect_px))
     )

@@ -158,20 +158,9 @@ def pooled_prior(
     given = intrinsics_vector(np.asarray(K_given, dtype=float))
     given_px = np.asarray(given_sigma, dtype=float) * np.array([given[0], given[1], 1.0, 1.0])
     if len(others) < min_others:
-        return SharedIntrinsicsPrior(
-            K=camera_matrix(given),
-            prior_sigma=tuple(float(s) for s in given_sigma),
-            pooled=(False,) * 4,
-            others=len(others),
-            birge=(np.nan,) * 4,
-            reason=f"{len(others)} other placements estimated the intrinsics (at least {min_others} needed)",
-        )
-    theta = np.array([t for t, _ in others])
-    weight = 1.0 / np.array([s for _, s in others]) ** 2
-    mean = (theta * weight).sum(axis=0) / weight.sum(axis=0)
-    chi2 = ((theta - mean) ** 2 * weight).sum(axis=0) / (len(others) - 1)
-    birge = np.sqrt(np.maximum(chi2, 1.0))
-    sigma = birge / np.sqrt(weight.sum(axis=0))
+        reason = f"{len(others)} other placements estimated the intrinsics (at least {min_others} needed)"
+        return _prior(given, given_px, np.zeros(4, bool), len(others), np.full(4, np.nan), reason)
+    mean, sigma, birge = _weighted_pool(others)
     use = sigma < given_px  # a pool no tighter than the given prior adds nothing
     if own is not None:
         use &= np.abs(own[0] - mean) <= conflict_sigmas * np.hypot(own[1], sigma)
@@ -180,8 +169,24 @@ def pooled_prior(
         for i, name in enumerate(NAMES)
         if not use[i]
     )
-    mean_px = np.where(use, mean, given)
-    sigma_px = np.where(use, sigma, given_px)
+    reason = f"not pooled: {reason}" if reason else ""
+    return _prior(np.where(use, mean, given), np.where(use, sigma, given_px), use, len(others), birge, reason)
+
+
+def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The inverse-variance mean of ``others``' estimates, its sigma widened by the Birge ratio, and the ratio;
+    shape (4,) each, pixels."""
+    theta = np.array([t for t, _ in others])
+    weight = 1.0 / np.array([s for _, s in others]) ** 2
+    mean = (theta * weight).sum(axis=0) / weight.sum(axis=0)
+    chi2 = ((theta - mean) ** 2 * weight).sum(axis=0) / (len(others) - 1)
+    birge = np.sqrt(np.maximum(chi2, 1.0))
+    return mean, birge / np.sqrt(weight.sum(axis=0)), birge
+
+
+def _prior(mean_px, sigma_px, use, others: int, birge, reason: str) -> SharedIntrinsicsPrior:
+    """A :class:`SharedIntrinsicsPrior` of the per-parameter mean and sigma in pixels (the focal lengths' sigma
+    made relative to the mean)."""
     return SharedIntrinsicsPrior(
         K=camera_matrix(mean_px),
         prior_sigma=(
@@ -191,9 +196,9 @@ def pooled_prior(
             float(sigma_px[3]),
         ),
         pooled=tuple(bool(u) for u in use),
-        others=len(others),
+        others=others,
         birge=tuple(float(b) for b in birge),
-        reason=f"not pooled: {reason}" if reason else "",
+        reason=reason,
     )
 
 

@@ -170,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
         frames = load_frames(args.dataset, t_model.config.image_size, "classic", progress=False)
         cams = frames.cameras(None if args.split == "all" else args.split)
         pc = camera_predictions(t_model, q_model, frames, [int(c) for c in cams])
-    hybrid = None
+    hybrid, note = None, None
     if not args.no_hybrid:
         require_package("pinocchio", extra="robot", purpose="the robot model of the hybrid column")
         from classic.markerless import MarkerlessOptions
@@ -181,8 +181,8 @@ def run(args: argparse.Namespace) -> int:
         opts = shared_options(MarkerlessOptions(), len(pc["camera"]))
         first = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model, options=opts)
         hybrid = share_intrinsics(args.dataset, first, options=opts)
+        note = shared_note(hybrid, opts.pixel_effect_px)
     print(compare_table(pc, hybrid))
-    note = shared_note(hybrid) if hybrid is not None else None
     if note:
         print(note)
     for key in ("learned_vs_label", "learned_vs_truth", "label_vs_truth"):

@@ -209,7 +209,7 @@ def run(args: argparse.Namespace) -> int:
         out = share_intrinsics(args.dataset, out, urdf=urdf, options=options, progress=not args.quiet)
     print(out.table())
     print(out.summary())
-    for note in (out.registration_note(), shared_note(out)):
+    for note in (out.registration_note(), shared_note(out, options.pixel_effect_px)):
         if note:
             print(note)
     print(f"terms (sigma, matched, depth scale and offset): {GLOSSARY_WHERE}")

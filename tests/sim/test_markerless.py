@@ -210,7 +210,9 @@ def test_placements_share_the_camera_matrix(small_copy):
     assert opts.pixel_effect_px > 0
     first = markerless_dataset(small_copy, options=opts)
     shared = share_intrinsics(small_copy, first, options=opts)
-    assert len(shared.results) == len(Dataset.open(small_copy)) and "pooled: fx" in shared_note(shared)
+    note = shared_note(shared, opts.pixel_effect_px)
+    assert len(shared.results) == len(Dataset.open(small_copy)) and "pooled: fx" in note
+    assert f"per {opts.pixel_effect_px} px image cell" in note
     for c, res in shared.results.items():
         assert res.ok, res.refused
         prior = shared.intrinsics_priors[c]
