@@ -387,6 +387,24 @@ def _error_rows(src: Path, preset: str) -> list[dict]:
     ]
 
 
+def _shared_rows(src: Path, preset: str) -> dict[str, dict]:
+    """The front's default from four placements per row of ``markerless_errors.md``: the rows ``, intrinsics
+    shared`` of its runs with ``--shared-intrinsics --pixel-effect-px 2`` (a unit per placement), by row name."""
+    out = {}
+    for command, found in sections(src):
+        if not re.search(r"--shared-intrinsics\b", command) or "--pixel-effect-px 2" not in command:
+            continue
+        if "--one-unit" in command:
+            continue
+        for heading, header, rows in found:
+            if heading.startswith(f"{preset}-1.2:") and header[0] == "error the method is not told":
+                for r in rows:
+                    if r[0].endswith(", intrinsics shared"):
+                        name = r[0].removesuffix(", intrinsics shared")
+                        out[name] = {"median": _pair(r[2])[0], "worst": _pair(r[3])[0], "beyond": int(r[4])}
+    return out
+
+
 def _sigma_rows(src: Path) -> dict[str, dict]:
     """Today's sigma per resolution and row: ``markerless_resolution.md``'s 'before -> after' table, seed 0.
 
@@ -416,6 +434,9 @@ def markerless_errors(out: Path) -> Figure:
     panels = []
     for preset in ("paper-real", "paper-sim"):
         rows = _error_rows(src, preset)
+        shared = _shared_rows(src, preset)
+        for r in rows:
+            r["shared"] = shared.get(r["row"])
         if preset == "paper-real":
             for r in rows:
                 key = next((k for k in sig if k.startswith("256x256, ") and r["row"].startswith(k[9:])), None)
@@ -450,6 +471,9 @@ def markerless_errors(out: Path) -> Figure:
             ax.plot([r["median"], r["worst"]], [k, k], "-", color="0.6", lw=1, zorder=1)
             ax.plot(r["median"], k, "o", color="tab:blue", zorder=2)
             ax.plot(r["worst"], k, "s", mfc="none", color="tab:red", zorder=2)
+            if r.get("shared"):
+                ax.plot([r["shared"]["median"], r["shared"]["worst"]], [k + 0.25] * 2, "-", color="tab:purple", lw=1)
+                ax.plot(r["shared"]["median"], k + 0.25, "D", color="tab:purple", ms=4, zorder=2)
             refused = r["placements"] - r["accepted"]
             ax.text(
                 23.7,
@@ -471,22 +495,30 @@ def markerless_errors(out: Path) -> Figure:
     handles = [
         plt.Line2D([], [], marker="o", ls="", color="tab:blue", label="median over the placements"),
         plt.Line2D([], [], marker="s", ls="", mfc="none", color="tab:red", label="worst"),
+        plt.Line2D(
+            [], [], marker="D", ms=4, color="tab:purple", label="intrinsics shared, 2 px cells: median to worst"
+        ),
         plt.Line2D([], [], color="tab:green", lw=2, label="median sigma (where the file records it)"),
         matplotlib.patches.Patch(color="tab:green", alpha=0.18, label="0 to 3 sigma (> 3σ: accepted beyond it)"),
         plt.Line2D([], [], color="tab:blue", ls="--", label="target: median 1 mm"),
         plt.Line2D([], [], color="tab:red", ls=":", label="target: worst 3 mm"),
     ]
-    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=6, height=0.07)
+    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=4, height=0.09)
     commands = "; ".join(c for c, _ in sections(src) if c and not re.search(r"--(cases|option|pixel-effect-px)", c))
+    shared_commands = "; ".join(
+        c for c, _ in sections(src) if "--shared-intrinsics --pixel-effect-px 2" in c and "--one-unit" not in c
+    )
     return _save(
         fig,
         out / "markerless_errors.png",
         _caption(
             "A real cell's errors, simulated: the `d435` profile (all together: `d435-real-cell`) at 1.2 m, "
             "256x256 (right: `paper-real` at 848x480, the sensors' first draw), five test placements per row, the "
-            "front's defaults; the sigma, recorded for three rows only, is the median of the per-placement sigmas "
+            "front's defaults for a placement alone; in purple the front's default from four placements (each "
+            "registered again with the others' intrinsics as its prior, a depth error per 2 px cell marginalised); "
+            "the sigma, recorded for three rows only, is the median of the per-placement sigmas "
             "in the resolution file's table of the repeated-error term (after: today's default).",
-            [(src, commands), (res, command_of_section(res, "paper-real-1.2-848:"))],
+            [(src, commands), (src, shared_commands), (res, command_of_section(res, "paper-real-1.2-848:"))],
         ),
         laid_out=True,
     )
