@@ -45,12 +45,7 @@ from benchmarks.markerless_sensors import (  # noqa: E402
     with_errors,
 )
 from classic.markerless import register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import (  # noqa: E402
-    MIN_OTHERS,
-    estimate_and_sigma,
-    pooled_prior,
-    second_pass_options,
-)
+from classic.markerless.shared_intrinsics import leave_one_out_priors, second_pass_options  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
@@ -182,15 +177,16 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
         first[c] = register_robot(depth, K, posed, options=opts)
         alone.append(_outcome(first[c], T_c, time.process_time() - t0))
         print(f"  camera {c}, alone: {alone[-1]}", file=sys.stderr, flush=True)
-    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in first.items() if r.ok}
-    estimates = {c: e for c, e in estimates.items() if e is not None}
+    priors = leave_one_out_priors(first, K, opts.intrinsics_prior_sigma)
     shared, notes = [], []
     for c, one in zip(cams, alone):
-        prior = pooled_prior(
-            [e for o, e in estimates.items() if o != c], estimates.get(c), K, opts.intrinsics_prior_sigma
-        )
+        prior = priors.get(c)
+        if prior is None:
+            shared.append(one)
+            notes.append(f"{c}: too few placements estimated the intrinsics")
+            continue
         notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)} {prior.reason}".rstrip())
-        if len(estimates) <= MIN_OTHERS or not prior.any_pooled:
+        if not prior.any_pooled:
             shared.append(one)
             continue
         depth, posed, T_c = frames[c]

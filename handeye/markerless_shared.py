@@ -28,8 +28,7 @@ from classic.markerless.shared_intrinsics import (
     MIN_OTHERS,
     SHARED_PIXEL_EFFECT_PX,
     against_given,
-    estimate_and_sigma,
-    pooled_prior,
+    leave_one_out_priors,
     second_pass_options,
 )
 from handeye.core.dataset import Dataset
@@ -81,13 +80,15 @@ def share_intrinsics(
         passes' sum), else the first's; ``intrinsics_priors`` says per camera what its prior was.
     """
     opts = options or MarkerlessOptions()
-    estimates = _estimates(run) if opts.intrinsics_model == "estimate" else {}
-    if len(estimates) <= MIN_OTHERS:
+    if opts.intrinsics_model != "estimate":
         return run
     ds = Dataset.open(root)
+    K_given = np.array(ds.meta["intrinsics"]["K"], dtype=float)
+    priors = leave_one_out_priors(run.results, K_given, opts.intrinsics_prior_sigma)
+    if not priors:
+        return run
     surface, stride = robot_surface_for(ds, *((urdf.path, urdf.package_dirs) if urdf else ()))
     opts = replace(opts, zbuffer_stride=stride)
-    K_given = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     truth = ds.truth()
     out = MarkerlessRun(label_errors=dict(run.label_errors))
     cameras = list(run.results)
@@ -96,9 +97,7 @@ def share_intrinsics(
 
         cameras = tqdm(cameras, desc=f"shared intrinsics {ds.root.name}", unit="camera")
     for c in cameras:
-        prior = pooled_prior(
-            [e for o, e in estimates.items() if o != c], estimates.get(c), K_given, opts.intrinsics_prior_sigma
-        )
+        prior = priors[c]
         out.intrinsics_priors[c] = prior.to_dict()
         if not prior.any_pooled:
             out.record(c, run.results[c], run.seconds[c], run.starts[c], truth[c])
@@ -110,12 +109,6 @@ def share_intrinsics(
         )
         out.record(c, res, run.seconds[c] + time.perf_counter() - t0, starts, truth[c])
     return out
-
-
-def _estimates(run: MarkerlessRun) -> dict:
-    """Per accepted camera of ``run`` with its intrinsics estimated: ``(theta, sigma)`` (pixels)."""
-    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in run.results.items() if r.ok}
-    return {c: e for c, e in estimates.items() if e is not None}
 
 
 def _second_pass(ds, c: int, surface, run: MarkerlessRun, opts, prior, frames):

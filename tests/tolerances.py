@@ -764,3 +764,10 @@ DEPTH_UNIT_SIGMA_SES = 3.7
 #: widening only lowers it, to E[1 / max(X / k, 1)] for X chi-square with k = 6 degrees of freedom. Held between
 #: that expectation and 1, each widened by this many standard errors (a one-sided normal tail of 3e-5).
 SHARED_INTRINSICS_SES = 4.0
+
+#: The pooled focal length's error, as a share of the error of the camera matrix told (0.7 % = 0.78 px at the
+#: small preset's f = 111 px), tests/sim/test_markerless.py: each placement's estimate keeps its given prior's
+#: pull (the prior's share of the posterior, ratio^2, at most 0.12 there; doubled by fy's correlation, told off
+#: alike: 0.24), which the pool averages without removing, plus 3 of the pool's sigmas (about 0.11 px: 0.42 of the
+#: error told): 0.66. A pool that took nothing from the frames (the given matrix) is at 1.
+SHARED_POOL_ERROR_SHARE = 0.7

@@ -36,6 +36,8 @@ __all__ = [
     "second_pass_options",
     "estimate_and_sigma",
     "against_given",
+    "intrinsics_estimates",
+    "leave_one_out_priors",
     "MIN_OTHERS",
     "SHARED_PIXEL_EFFECT_PX",
 ]
@@ -98,7 +100,7 @@ class SharedIntrinsicsPrior:
                     "pooled": bool(self.pooled[i]),
                     "mean": float(theta[i]),
                     "sigma": float(self.prior_sigma[i] * scale[i]),
-                    "birge": float(self.birge[i]),
+                    "birge": float(self.birge[i]) if np.isfinite(self.birge[i]) else None,
                 }
                 for i, name in enumerate(NAMES)
             },
@@ -121,6 +123,25 @@ def estimate_and_sigma(intrinsics: dict) -> tuple[np.ndarray, np.ndarray] | None
     if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(sigma)) and np.all(sigma > 0)):
         return None
     return theta, sigma
+
+
+def intrinsics_estimates(results: dict) -> dict:
+    """Per accepted placement of ``results`` (placement -> :class:`MarkerlessResult`) that estimated the
+    intrinsics: ``(theta, sigma)`` (:func:`estimate_and_sigma`)."""
+    estimates = {c: estimate_and_sigma(r.intrinsics) for c, r in results.items() if r.ok}
+    return {c: e for c, e in estimates.items() if e is not None}
+
+
+def leave_one_out_priors(results: dict, K_given: np.ndarray, given_sigma: tuple) -> dict:
+    """Per placement of ``results`` (placement -> first-pass :class:`MarkerlessResult`), the prior the others'
+    estimates give it (:func:`pooled_prior`); empty with ``MIN_OTHERS`` or fewer estimates (nothing to share)."""
+    estimates = intrinsics_estimates(results)
+    if len(estimates) <= MIN_OTHERS:
+        return {}
+    return {
+        c: pooled_prior([e for o, e in estimates.items() if o != c], estimates.get(c), K_given, given_sigma)
+        for c in results
+    }
 
 
 def pooled_prior(

@@ -119,3 +119,29 @@ def test_the_front_marginalises_a_per_cell_depth_error_only_where_it_shares():
     assert shared_options(fixed, 10) is fixed  # nothing to share
     chosen = replace(opts, pixel_effect_px=3)
     assert shared_options(chosen, 10) is chosen  # the user's cell size kept
+
+
+def test_leave_one_out_needs_enough_placements_and_writes_json():
+    import json
+    from types import SimpleNamespace
+
+    from classic.markerless.shared_intrinsics import leave_one_out_priors
+
+    rng = np.random.default_rng(5)
+
+    def result(theta, sigma, ok=True):
+        summary = {
+            "model": "estimated",
+            **{n: {"estimate": t, "sigma": s} for n, t, s in zip(("fx", "fy", "cx", "cy"), theta, sigma)},
+        }
+        return SimpleNamespace(ok=ok, intrinsics=summary)
+
+    few = {c: result(*e) for c, e in enumerate(draws(rng, MIN_OTHERS))}
+    few[MIN_OTHERS] = result(THETA, np.ones(4), ok=False)  # a refusal adds no estimate
+    assert leave_one_out_priors(few, GIVEN, GIVEN_SIGMA) == {}
+    enough = {c: result(*e) for c, e in enumerate(draws(rng, MIN_OTHERS + 1))}
+    priors = leave_one_out_priors(enough, GIVEN, GIVEN_SIGMA)
+    assert sorted(priors) == sorted(enough) and all(p.others == MIN_OTHERS for p in priors.values())
+    json.dumps(priors[0].to_dict(), allow_nan=False)
+    nothing = pooled_prior([], None, GIVEN, GIVEN_SIGMA).to_dict()  # NaN Birge ratios: null in JSON
+    assert json.loads(json.dumps(nothing, allow_nan=False))["fx"]["birge"] is None
