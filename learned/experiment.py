@@ -369,17 +369,19 @@ def run_experiment(
         regression networks or the keypoint model) and whether a checkpoint is resumed; None:
         :class:`ExperimentOptions`' defaults.
 
+    Returns
+    -------
+    dict
+        The results (as written to ``results.json``).
+
+    Notes
+    -----
     Under ``torchrun`` (:mod:`learned.distributed`) every rank runs the whole protocol with the
     same seeds, training data-parallel (:func:`learned.trainer.train`) and evaluating on its own; the
     generators, replay buffers and weights are checked to be the same on every rank after every
     time step, and only rank 0 writes (checkpoints, networks, ``results.json``). A checkpoint
     resumes with any number of processes; the exact equality of a resumed run with an uninterrupted
     one holds for the same number of processes (others agree to float32 rounding).
-
-    Returns
-    -------
-    dict
-        The results (as written to ``results.json``).
     """
     options = options or ExperimentOptions()
     labels, seed, family, resume = options.labels, options.seed, options.family, options.resume
