@@ -45,7 +45,7 @@ from benchmarks.markerless_sensors import (  # noqa: E402
     with_errors,
 )
 from classic.markerless import register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import leave_one_out_priors, second_pass_options  # noqa: E402
+from classic.markerless.shared_intrinsics import second_passes  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
@@ -86,14 +86,42 @@ def cases() -> list[dict]:
 TABLE_CASES = 10
 
 
+#: A registration told every systematic error it could estimate as exact (the depth unit, the camera matrix, the
+#: joint zeros; no stereo pixel locking modelled): what is left of the error is the frames' own noise and what
+#: depth cannot see (the depth camera's offset from the colour camera whose pose is the answer).
+TOLD_EXACT = {
+    "depth_model": "fixed",
+    "stereo_fb_px_m": None,
+    "intrinsics_model": "fixed",
+    "joint_offsets_model": "fixed",
+}
+
+
 def diagnostic_cases() -> list[dict]:
-    """Cases 11 and 12, run only when named: the fixed pattern with no other noise or error (the d435's noise
-    near 0, no scale or offset error), correlated over the d435's matching window as in the table, and white."""
+    """Cases 11-14, run only when named.
+
+    11, 12: the fixed pattern with no other noise or error (the d435's noise near 0, no scale or offset error),
+    correlated over the d435's matching window as in the table, and white. 13, 14: the floor of the table's
+    errors: the d435 without a scale or offset error, the registration told the depth unit, the camera matrix and
+    the joints as exact (:data:`TOLD_EXACT`); 13 with the profile's depth-to-colour extrinsic error (0.5 mm per
+    axis, which depth cannot see and every other row has too), 14 without it (the frames' noise alone).
+    """
     quiet = {"noise_quadratic_per_m": 1e-6, "scale_sigma": 0.0, "offset_sigma_m": 0.0}
     d435 = PROFILES["d435"]
+    exact_unit = replace(d435, scale_sigma=0.0, offset_sigma_m=0.0)
     return [
         {"name": "fixed pattern 3.6 mm at 1 m alone", "sensor": replace(with_errors(d435, 3.6), **quiet)},
         {"name": "fixed pattern 3.6 mm at 1 m alone, white", "sensor": replace(with_errors(d435, 3.6, 0.0), **quiet)},
+        {
+            "name": "floor: all told exact but the depth-to-colour extrinsic",
+            "sensor": exact_unit,
+            "options": TOLD_EXACT,
+        },
+        {
+            "name": "floor: all told exact, no depth-to-colour extrinsic",
+            "sensor": replace(exact_unit, extrinsic_sigma_m=0.0),
+            "options": TOLD_EXACT,
+        },
     ]
 
 
@@ -129,7 +157,8 @@ def row(name: str, rows: list) -> str:
 
 def run_case(ds, surface, stride, cams, case: dict, seed: int, options=None) -> list:
     """One error source of :func:`cases` on the placements ``cams``: :func:`run_profile`'s rows for the front's
-    defaults (its ``"self-calibrated"`` mode), told the case's intrinsics, registration and joint errors."""
+    defaults (its ``"self-calibrated"`` mode), told the case's intrinsics, registration and joint errors, with the
+    case's ``options`` over ``options``."""
     rows = run_profile(
         ds,
         surface,
@@ -141,7 +170,7 @@ def run_case(ds, surface, stride, cams, case: dict, seed: int, options=None) -> 
         modes=("self-calibrated",),
         registration=case.get("registration"),
         joint_offsets=case.get("joints"),
-        options=options,
+        options={**(options or {}), **case.get("options", {})},
     )
     return rows["self-calibrated"]
 
@@ -154,48 +183,52 @@ def _outcome(res, T_true, seconds) -> tuple:
     return ("ok", rot, mm, res.sigma["rotation_deg"], res.sigma["translation_mm"], seconds)
 
 
-def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False) -> tuple:
+def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False, pool=()) -> tuple:
     """The case twice on the same frames: each placement alone (the front's first pass), then again with the
     intrinsics the other placements estimated as its prior (``handeye markerless``'s default with 4 or more
     placements: :func:`handeye.markerless_shared.share_intrinsics`'s steps, on the benchmark's sensor frames).
 
     ``one_unit``: every placement's sensor errors are the first placement's draw (one camera moved between
-    placements, as in a cell; else each placement draws its own unit, as the table's other rows do).
-    Returns the two lists of :func:`row`'s tuples (the second's seconds both passes'), and a line per placement
-    of what was pooled.
+    placements, as in a cell; else each placement draws its own unit, as the table's other rows do). ``pool``:
+    further placements of the same camera whose first pass joins the others' estimates (as every placement of a
+    dataset does in ``handeye markerless``), their own errors not counted.
+    Returns the two lists of :func:`row`'s tuples for ``cams`` (the second's seconds both passes'), and a line
+    per placement of what was pooled.
     """
     K = told_intrinsics(ds.meta["intrinsics"]["K"], case.get("intrinsics"))
     T_true = ds.truth()
-    opts = front_options(case["sensor"], stride, **(options or {}))
+    opts = front_options(case["sensor"], stride, **{**(options or {}), **case.get("options", {})})
     unit = cams[0] if one_unit else None
     frames, first, alone = {}, {}, []
-    for c in cams:
+    for c in [*cams, *(p for p in pool if p not in cams)]:
         depth, q, _ = observe(ds, c, case["sensor"], seed, case.get("registration"), unit)
         posed, T_c = told_posed(surface, q, T_true[c], case.get("joints"))
-        frames[c] = (depth, posed, T_c)
         t0 = time.process_time()
         first[c] = register_robot(depth, K, posed, options=opts)
-        alone.append(_outcome(first[c], T_c, time.process_time() - t0))
-        print(f"  camera {c}, alone: {alone[-1]}", file=sys.stderr, flush=True)
-    priors = leave_one_out_priors(first, K, opts.intrinsics_prior_sigma)
-    shared, notes = [], []
-    for c, one in zip(cams, alone):
-        prior = priors.get(c)
-        if prior is None:
-            shared.append(one)
-            notes.append(f"{c}: too few placements estimated the intrinsics")
-            continue
-        notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)} {prior.reason}".rstrip())
-        if not prior.any_pooled:
-            shared.append(one)
-            continue
-        depth, posed, T_c = frames[c]
-        starts = {"first pass": first[c].T_base_cam} if first[c].ok else None
+        outcome = _outcome(first[c], T_c, time.process_time() - t0)
+        print(f"  camera {c}, alone{'' if c in cams else ' (pool only)'}: {outcome}", file=sys.stderr, flush=True)
+        if c in cams:
+            frames[c] = (depth, posed, T_c)
+            alone.append(outcome)
+    seconds = {}
+
+    def register(c, K_prior, starts, second_opts):
+        depth, posed, _ = frames[c]
         t0 = time.process_time()
-        res = register_robot(
-            depth, prior.K, posed, starts=starts, options=second_pass_options(opts, prior, first[c].ok)
-        )
-        shared.append(_outcome(res, T_c, one[5] + time.process_time() - t0))
+        res = register_robot(depth, K_prior, posed, starts=starts, options=second_opts)
+        seconds[c] = time.process_time() - t0
+        return res
+
+    shared, notes = [], []
+    for (c, (prior, res)), one in zip(second_passes(first, K, opts, register, only=cams).items(), alone):
+        if prior is None:
+            notes.append(f"{c}: too few placements estimated the intrinsics")
+        else:
+            notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)} {prior.reason}".rstrip())
+        if res is None:
+            shared.append(one)
+            continue
+        shared.append(_outcome(res, frames[c][2], one[5] + seconds[c]))
         print(f"  camera {c}, shared: {shared[-1]}", file=sys.stderr, flush=True)
     return alone, shared, notes
 
@@ -216,7 +249,8 @@ def main():
     ap.add_argument(
         "--cases",
         help=f"comma-separated case numbers (1-based) to run, default the table's 1-{TABLE_CASES}; "
-        "11 and 12: the fixed pattern alone, correlated and white",
+        "11 and 12: the fixed pattern alone, correlated and white; 13 and 14: the floor, all told exact, with and "
+        "without the depth-to-colour extrinsic error",
     )
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
     ap.add_argument(
@@ -246,8 +280,17 @@ def main():
         help="with --shared-intrinsics: one sensor unit for all placements (the first placement's draw: a camera "
         "moved between placements), else each placement draws its own",
     )
+    ap.add_argument(
+        "--pool-train",
+        action="store_true",
+        help="with --shared-intrinsics: the datasets' train placements join the pool (their first pass only, their "
+        "errors not counted), as every placement of a dataset does in handeye markerless; without --data the "
+        "presets are rendered with their train placements too",
+    )
     Report.add_out(ap)
     args = ap.parse_args()
+    if (args.one_unit or args.pool_train) and not args.shared_intrinsics:
+        ap.error("--one-unit and --pool-train need --shared-intrinsics")
     Report.cut(args, max_placements=1)
     title = "Markerless calibration against a real cell's errors"
     rep = Report(title, "benchmarks/markerless_errors.py", None, versions())
@@ -260,6 +303,11 @@ def main():
             "other placements estimated as its prior (--shared-intrinsics"
             + (", one sensor unit for all placements: --one-unit" if args.one_unit else ", a unit per placement")
             + "); s: CPU seconds of one thread, both passes in the shared rows.\n"
+        )
+    if args.pool_train:
+        rep.say(
+            "The pool: every placement of the dataset (--pool-train), the train placements' first pass joining "
+            "the estimates; the rows count the test placements only.\n"
         )
     if args.option:
         rep.say("Options beside the front's defaults: " + ", ".join(f"{k}={v}" for k, v in args.option) + ".\n")
@@ -278,14 +326,16 @@ def main():
         )
     )
     # the bands markerless_sensors.py renders with its default seed (render seed 1): the same datasets
-    data = args.data or [render_band(args.work, preset, args.band, 1) for preset in args.presets]
+    data = args.data or [render_band(args.work, preset, args.band, 1, args.pool_train) for preset in args.presets]
     chosen = cases() + diagnostic_cases()
     chosen = [chosen[int(i) - 1] for i in args.cases.split(",")] if args.cases else chosen[:TABLE_CASES]
     for root in data:
         ds = Dataset.open(root)
         surface, stride = robot_surface_for(ds)
         cams = placements(ds, "test", args.max_placements)
-        rep.say(f"\n## {ds.root.name}: {len(cams)} test placements\n")
+        pool = placements(ds, "train") if args.pool_train else []
+        more = f", {len(pool)} more in the pool" if pool else ""
+        rep.say(f"\n## {ds.root.name}: {len(cams)} test placements{more}\n")
         rep.say("| error the method is not told | accepted | median mm / deg | worst mm / deg | beyond 3 sigma | s |")
         rep.say("|---|---|---|---|---|---|")
         pooled_lines = []
@@ -293,7 +343,9 @@ def main():
             if not args.shared_intrinsics:
                 rep.say(row(case["name"], run_case(ds, surface, stride, cams, case, args.seed, options)))
                 continue
-            alone, shared, notes = run_case_shared(ds, surface, stride, cams, case, args.seed, options, args.one_unit)
+            alone, shared, notes = run_case_shared(
+                ds, surface, stride, cams, case, args.seed, options, args.one_unit, pool
+            )
             rep.say(row(case["name"] + ", alone", alone))
             rep.say(row(case["name"] + ", intrinsics shared", shared))
             pooled_lines.append(f"- {case['name']}: pooled fx fy cx cy per placement, " + "; ".join(notes))

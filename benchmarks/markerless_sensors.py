@@ -94,8 +94,9 @@ BANDS = {"native": None, **BANDS_M}
 WITH_BOARD = {"native": True, **BANDS_WITH_BOARD}
 
 
-def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:
-    """The preset's test placements at ``band``, rendered with exact depth and labelled (where a board fits).
+def render_band(work: Path, preset_name: str, band: str, seed: int, train: bool = False) -> Path:
+    """The preset's test placements at ``band``, rendered with exact depth and labelled (where a board fits); with
+    ``train`` its train placements too (into ``<preset>-<band>-with-train``).
 
     Resumes: a dataset already rendered in ``work`` is kept.
     """
@@ -106,14 +107,15 @@ def render_band(work: Path, preset_name: str, band: str, seed: int) -> Path:
 
     preset = get_preset(preset_name)
     k = len(preset.region_azimuths_deg)
-    preset = replace(preset, name=f"{preset_name}-{band}", train_per_region=(0,) * k)
+    name = f"{preset_name}-{band}" + ("-with-train" if train else "")
+    preset = replace(preset, name=name) if train else replace(preset, name=name, train_per_region=(0,) * k)
     if smoke_test():  # a smoke run measures one placement (Report.cut): it renders that one, board and label too
         preset = replace(
             preset, region_azimuths_deg=preset.region_azimuths_deg[:1], train_per_region=(0,), test_per_region=(1,)
         )
     if BANDS[band] is not None:
         preset = replace(preset, radius_m=BANDS[band])
-    root = work / f"{preset_name}-{band}"
+    root = work / name
     recordings = ("calibration", "data") if WITH_BOARD[band] else ("data",)
     noise = NoiseModel(pixel_sigma=2.0, joint_sigma_deg=0.01)
     generate(root, Recipe(preset, seed, noise, recordings), options=EngineOptions(progress=False))
@@ -274,14 +276,14 @@ def told_posed(surface, q: np.ndarray, T_base_cam: np.ndarray, joint_offsets_deg
 def front_options(sensor, stride: int, **options) -> MarkerlessOptions:
     """The front's self-calibrated registration for ``sensor``'s profile: its depth-to-colour spreads (the
     registration's offset and roll) and stereo baseline stated, the z-buffer at ``stride``, ``options`` further
-    :class:`MarkerlessOptions` fields."""
-    return MarkerlessOptions(
-        zbuffer_stride=stride,
-        depth_extrinsic_sigma_m=sensor.extrinsic_sigma_m,
-        depth_extrinsic_sigma_deg=sensor.registration_roll_sigma_deg,  # the profile's depth-to-colour roll spread
-        stereo_fb_px_m=sensor.stereo_fb_px_m,
-        **options,
-    )
+    :class:`MarkerlessOptions` fields (a field of the profile's among them replaces the profile's)."""
+    profile = {
+        "zbuffer_stride": stride,
+        "depth_extrinsic_sigma_m": sensor.extrinsic_sigma_m,
+        "depth_extrinsic_sigma_deg": sensor.registration_roll_sigma_deg,  # the profile's depth-to-colour roll spread
+        "stereo_fb_px_m": sensor.stereo_fb_px_m,
+    }
+    return MarkerlessOptions(**{**profile, **options})
 
 
 def parse_joint_offsets(text: str) -> np.ndarray:

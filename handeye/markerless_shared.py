@@ -28,8 +28,8 @@ from classic.markerless.shared_intrinsics import (
     MIN_OTHERS,
     SHARED_PIXEL_EFFECT_PX,
     against_given,
-    leave_one_out_priors,
-    second_pass_options,
+    intrinsics_estimates,
+    second_passes,
 )
 from handeye.core.dataset import Dataset
 from handeye.markerless import MarkerlessRun, RobotURDF, calibrate_camera, robot_surface_for
@@ -80,43 +80,38 @@ def share_intrinsics(
         passes' sum), else the first's; ``intrinsics_priors`` says per camera what its prior was.
     """
     opts = options or MarkerlessOptions()
-    if opts.intrinsics_model != "estimate":
+    if opts.intrinsics_model != "estimate" or len(intrinsics_estimates(run.results)) <= MIN_OTHERS:
         return run
     ds = Dataset.open(root)
     K_given = np.array(ds.meta["intrinsics"]["K"], dtype=float)
-    priors = leave_one_out_priors(run.results, K_given, opts.intrinsics_prior_sigma)
-    if not priors:
-        return run
     surface, stride = robot_surface_for(ds, *((urdf.path, urdf.package_dirs) if urdf else ()))
     opts = replace(opts, zbuffer_stride=stride)
     truth = ds.truth()
-    out = MarkerlessRun(label_errors=dict(run.label_errors))
     cameras = list(run.results)
     if progress:
         from tqdm import tqdm
 
         cameras = tqdm(cameras, desc=f"shared intrinsics {ds.root.name}", unit="camera")
-    for c in cameras:
-        prior = priors[c]
+    seconds, tried = {}, {}
+
+    def register(c, K, starts, second_opts):
+        tried[c] = {**(starts or {}), **run.starts[c]}
+        t0 = time.perf_counter()
+        res = calibrate_camera(ds, c, surface, tried[c], second_opts, frames, K=K)
+        seconds[c] = time.perf_counter() - t0
+        return res
+
+    out = MarkerlessRun(label_errors=dict(run.label_errors))
+    for c, (prior, res) in second_passes(run.results, K_given, opts, register, only=cameras).items():
         out.intrinsics_priors[c] = prior.to_dict()
-        if not prior.any_pooled:
+        if res is None:
             out.record(c, run.results[c], run.seconds[c], run.starts[c], truth[c])
             continue
-        t0 = time.perf_counter()
-        res, starts = _second_pass(ds, c, surface, run, opts, prior, frames)
         res.intrinsics = against_given(
             res.intrinsics, K_given, opts.intrinsics_prior_sigma, opts.intrinsics_determined_share
         )
-        out.record(c, res, run.seconds[c] + time.perf_counter() - t0, starts, truth[c])
+        out.record(c, res, run.seconds[c] + seconds[c], tried[c], truth[c])
     return out
-
-
-def _second_pass(ds, c: int, surface, run: MarkerlessRun, opts, prior, frames):
-    """Camera ``c`` registered under ``prior``, from its first answer when it had one; the result and its starts."""
-    first = run.results[c]
-    starts = {"first pass": first.T_base_cam, **run.starts[c]} if first.ok else dict(run.starts[c])
-    res = calibrate_camera(ds, c, surface, starts, second_pass_options(opts, prior, first.ok), frames, K=prior.K)
-    return res, starts
 
 
 def shared_note(run: MarkerlessRun, pixel_effect_px: int = 0) -> str | None:

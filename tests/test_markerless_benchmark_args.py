@@ -30,3 +30,26 @@ def test_key_numbers_default_to_zero_and_read_what_is_given():
 def test_a_bad_value_is_the_options_error(parse, text):
     with pytest.raises(argparse.ArgumentTypeError):
         parse(text)
+
+
+def test_options_given_replace_the_profiles_own():
+    from benchmarks.markerless_sensors import front_options
+    from handeye.robot.depth_sensors import PROFILES
+
+    d435 = PROFILES["d435"]
+    assert front_options(d435, 1).stereo_fb_px_m == d435.stereo_fb_px_m
+    told = front_options(d435, 1, stereo_fb_px_m=None, depth_model="fixed")
+    assert told.stereo_fb_px_m is None and told.depth_model == "fixed"
+
+
+def test_the_floor_cases_are_told_every_estimated_error_exact():
+    from benchmarks.markerless_errors import TOLD_EXACT, diagnostic_cases
+
+    floors = [c for c in diagnostic_cases() if c["name"].startswith("floor")]
+    assert len(floors) == 2
+    for case in floors:
+        assert case["options"] == TOLD_EXACT
+        assert case["sensor"].scale_sigma == 0 and case["sensor"].offset_sigma_m == 0
+        assert "intrinsics" not in case and "joints" not in case and "registration" not in case
+    with_extrinsic, without = floors
+    assert with_extrinsic["sensor"].extrinsic_sigma_m > 0 and without["sensor"].extrinsic_sigma_m == 0

@@ -38,6 +38,7 @@ __all__ = [
     "against_given",
     "intrinsics_estimates",
     "leave_one_out_priors",
+    "second_passes",
     "MIN_OTHERS",
     "SHARED_PIXEL_EFFECT_PX",
 ]
@@ -142,6 +143,45 @@ def leave_one_out_priors(results: dict, K_given: np.ndarray, given_sigma: tuple)
         c: pooled_prior([e for o, e in estimates.items() if o != c], estimates.get(c), K_given, given_sigma)
         for c in results
     }
+
+
+def second_passes(first: dict, K_given: np.ndarray, options: MarkerlessOptions, register, only=None) -> dict:
+    """Placements of one camera registered again, each under the prior the other placements' estimates give it.
+
+    Parameters
+    ----------
+    first : dict
+        Placement -> its first pass (:class:`classic.markerless.result.MarkerlessResult`): every placement of the
+        camera, all of them pooled.
+    K_given : array, shape (3, 3)
+        The camera matrix the first passes were given.
+    options : MarkerlessOptions
+        The first passes' options.
+    register : callable
+        ``register(c, K, starts, options)`` -> :class:`MarkerlessResult`: placement ``c`` registered with the camera
+        matrix ``K`` (the pooled prior's mean) from ``starts`` (``{"first pass": T_base_cam}``, or None where the
+        first pass was refused) under ``options`` (:func:`second_pass_options`).
+    only : iterable, optional
+        The placements registered again (all of ``first`` by default; an iterable such as a progress bar is read
+        once); the others still pool.
+
+    Returns
+    -------
+    dict
+        Placement -> ``(prior, result)``: the :class:`SharedIntrinsicsPrior` (None with too few placements), and the
+        second pass's result, None where nothing was pooled (the first pass stands).
+    """
+    priors = leave_one_out_priors(first, K_given, options.intrinsics_prior_sigma)
+    out = {}
+    for c in first if only is None else only:
+        prior = priors.get(c)
+        if prior is None or not prior.any_pooled:
+            out[c] = (prior, None)
+            continue
+        started_near = first[c].ok
+        starts = {"first pass": first[c].T_base_cam} if started_near else None
+        out[c] = (prior, register(c, prior.K, starts, second_pass_options(options, prior, started_near)))
+    return out
 
 
 def pooled_prior(

@@ -145,3 +145,45 @@ def test_leave_one_out_needs_enough_placements_and_writes_json():
     json.dumps(priors[0].to_dict(), allow_nan=False)
     nothing = pooled_prior([], None, GIVEN, GIVEN_SIGMA).to_dict()  # NaN Birge ratios: null in JSON
     assert json.loads(json.dumps(nothing, allow_nan=False))["fx"]["birge"] is None
+
+
+def test_second_passes_register_again_only_what_pooled_from_the_first_answer():
+    from types import SimpleNamespace
+
+    from classic.markerless import MarkerlessOptions
+    from classic.markerless.shared_intrinsics import SECOND_PASS_FINE_ITERATIONS, second_passes
+
+    rng = np.random.default_rng(6)
+
+    def result(theta, sigma, ok=True):
+        summary = {
+            "model": "estimated",
+            **{n: {"estimate": t, "sigma": s} for n, t, s in zip(("fx", "fy", "cx", "cy"), theta, sigma)},
+        }
+        return SimpleNamespace(ok=ok, intrinsics=summary, T_base_cam=np.eye(4) * (2 if ok else 3))
+
+    first = {c: result(*e) for c, e in enumerate(draws(rng, MIN_OTHERS + 2))}
+    first[MIN_OTHERS + 2] = result(THETA, np.ones(4), ok=False)  # refused: pools nothing, is registered again
+    calls = {}
+
+    def register(c, K, starts, options):
+        calls[c] = (K, starts, options)
+        return f"second {c}"
+
+    opts = MarkerlessOptions()
+    out = second_passes(first, GIVEN, opts, register, only=iter([0, MIN_OTHERS + 2]))
+    assert list(out) == [0, MIN_OTHERS + 2] and sorted(calls) == [0, MIN_OTHERS + 2]
+    K0, starts0, opts0 = calls[0]
+    prior0 = out[0][0]
+    assert out[0][1] == "second 0" and np.array_equal(K0, prior0.K)
+    assert starts0["first pass"] is first[0].T_base_cam
+    assert opts0.fine_iterations == min(opts.fine_iterations, SECOND_PASS_FINE_ITERATIONS)
+    assert opts0.intrinsics_prior_sigma == prior0.prior_sigma
+    _, starts_refused, opts_refused = calls[MIN_OTHERS + 2]
+    assert starts_refused is None and opts_refused.fine_iterations == opts.fine_iterations
+    few = {c: first[c] for c in range(MIN_OTHERS)}  # too few: every prior None, nothing registered
+    calls.clear()
+    assert all(p is None and r is None for p, r in second_passes(few, GIVEN, opts, register).values())
+    wide = {c: result(THETA, np.full(4, 100.0)) for c in range(MIN_OTHERS + 1)}  # a pool no tighter than given
+    assert all(not p.any_pooled and r is None for p, r in second_passes(wide, GIVEN, opts, register).values())
+    assert not calls
