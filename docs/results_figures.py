@@ -389,12 +389,13 @@ def _error_rows(src: Path, preset: str) -> list[dict]:
 
 def _shared_rows(src: Path, preset: str) -> dict[str, dict]:
     """The front's default from four placements per row of ``markerless_errors.md``: the rows ``, intrinsics
-    shared`` of its runs with ``--shared-intrinsics --pixel-effect-px 2`` (a unit per placement), by row name."""
+    shared`` of its runs with ``--shared-intrinsics --pixel-effect-px 2`` (a unit per placement, five placements
+    pooled), by row name."""
     out = {}
     for command, found in sections(src):
         if not re.search(r"--shared-intrinsics\b", command) or "--pixel-effect-px 2" not in command:
             continue
-        if "--one-unit" in command:
+        if re.search(r"--(one-unit|pool-train|max-placements 24)\b", command):  # one unit, or a larger pool
             continue
         for heading, header, rows in found:
             if heading.startswith(f"{preset}-1.2:") and header[0] == "error the method is not told":
@@ -403,6 +404,28 @@ def _shared_rows(src: Path, preset: str) -> dict[str, dict]:
                         name = r[0].removesuffix(", intrinsics shared")
                         out[name] = {"median": _pair(r[2])[0], "worst": _pair(r[3])[0], "beyond": int(r[4])}
     return out
+
+
+def _whole_pool_rows(src: Path, preset: str) -> tuple[dict[str, dict], str]:
+    """The front's default with every placement of the dataset pooled, per row of ``markerless_errors.md``: the
+    rows ``, intrinsics shared`` of its ``--shared-intrinsics --pixel-effect-px 2`` runs of all ``paper-sim``'s
+    24 test placements (``--max-placements 24``) or with the train placements in the pool (``--pool-train``), by
+    row name; and the pool's size as the report's heading says it."""
+    out, size = {}, ""
+    for command, found in sections(src):
+        whole = "--pool-train" in command or "--max-placements 24" in command
+        if not whole or "--shared-intrinsics" not in command or "--pixel-effect-px 2" not in command:
+            continue
+        for heading, header, rows in found:
+            m = re.match(rf"{preset}-1\.2(?:-with-train)?: (\d+) test placements(?:, (\d+) more in the pool)?", heading)
+            if not m or header[0] != "error the method is not told":
+                continue
+            size = f"{m[1]} + {m[2]}" if m[2] else m[1]
+            for r in rows:
+                if r[0].endswith(", intrinsics shared"):
+                    name = r[0].removesuffix(", intrinsics shared")
+                    out[name] = {"median": _pair(r[2])[0], "worst": _pair(r[3])[0], "beyond": int(r[4])}
+    return out, size
 
 
 def _sigma_rows(src: Path) -> dict[str, dict]:
@@ -431,12 +454,14 @@ def markerless_errors(out: Path) -> Figure:
     """A real cell's errors, one row each: median and worst error, the median sigma and its 3-sigma band."""
     src, res = RESULTS / "markerless_errors.md", RESULTS / "markerless_resolution.md"
     sig = _sigma_rows(src=res)
-    panels = []
+    panels, pools = [], {}
     for preset in ("paper-real", "paper-sim"):
         rows = _error_rows(src, preset)
         shared = _shared_rows(src, preset)
+        whole, pools[preset] = _whole_pool_rows(src, preset)
         for r in rows:
             r["shared"] = shared.get(r["row"])
+            r["whole"] = whole.get(r["row"])
         if preset == "paper-real":
             for r in rows:
                 key = next((k for k in sig if k.startswith("256x256, ") and r["row"].startswith(k[9:])), None)
@@ -474,6 +499,9 @@ def markerless_errors(out: Path) -> Figure:
             if r.get("shared"):
                 ax.plot([r["shared"]["median"], r["shared"]["worst"]], [k + 0.25] * 2, "-", color="tab:purple", lw=1)
                 ax.plot(r["shared"]["median"], k + 0.25, "D", color="tab:purple", ms=4, zorder=2)
+            if r.get("whole"):
+                ax.plot([r["whole"]["median"], r["whole"]["worst"]], [k - 0.25] * 2, "-", color="tab:orange", lw=1)
+                ax.plot(r["whole"]["median"], k - 0.25, "v", color="tab:orange", ms=5, zorder=2)
             refused = r["placements"] - r["accepted"]
             ax.text(
                 23.7,
@@ -498,6 +526,9 @@ def markerless_errors(out: Path) -> Figure:
         plt.Line2D(
             [], [], marker="D", ms=4, color="tab:purple", label="intrinsics shared, 2 px cells: median to worst"
         ),
+        plt.Line2D(
+            [], [], marker="v", ms=5, color="tab:orange", label="the same, every placement pooled: median to worst"
+        ),
         plt.Line2D([], [], color="tab:green", lw=2, label="median sigma (where the file records it)"),
         matplotlib.patches.Patch(color="tab:green", alpha=0.18, label="0 to 3 sigma (> 3σ: accepted beyond it)"),
         plt.Line2D([], [], color="tab:blue", ls="--", label="target: median 1 mm"),
@@ -506,7 +537,15 @@ def markerless_errors(out: Path) -> Figure:
     _legend_below(fig, handles, [h.get_label() for h in handles], ncol=4, height=0.09)
     commands = "; ".join(c for c, _ in sections(src) if c and not re.search(r"--(cases|option|pixel-effect-px)", c))
     shared_commands = "; ".join(
-        c for c, _ in sections(src) if "--shared-intrinsics --pixel-effect-px 2" in c and "--one-unit" not in c
+        c
+        for c, _ in sections(src)
+        if "--shared-intrinsics --pixel-effect-px 2" in c
+        and not re.search(r"--(one-unit|pool-train|max-placements 24)\b", c)
+    )
+    whole_commands = "; ".join(
+        c
+        for c, _ in sections(src)
+        if "--shared-intrinsics --pixel-effect-px 2" in c and re.search(r"--(pool-train|max-placements 24)\b", c)
     )
     return _save(
         fig,
@@ -515,10 +554,18 @@ def markerless_errors(out: Path) -> Figure:
             "A real cell's errors, simulated: the `d435` profile (all together: `d435-real-cell`) at 1.2 m, "
             "256x256 (right: `paper-real` at 848x480, the sensors' first draw), five test placements per row, the "
             "front's defaults for a placement alone; in purple the front's default from four placements (each "
-            "registered again with the others' intrinsics as its prior, a depth error per 2 px cell marginalised); "
+            "registered again with the others' intrinsics as its prior, a depth error per 2 px cell marginalised), "
+            "in orange the same with every placement of the dataset in the pool, as `handeye markerless` pools a "
+            f"dataset's placements (`paper-real`: {pools['paper-real']} placements, the train ones' first pass "
+            f"pooled only; `paper-sim`: all {pools['paper-sim']} test placements); "
             "the sigma, recorded for three rows only, is the median of the per-placement sigmas "
             "in the resolution file's table of the repeated-error term (after: today's default).",
-            [(src, commands), (src, shared_commands), (res, command_of_section(res, "paper-real-1.2-848:"))],
+            [
+                (src, commands),
+                (src, shared_commands),
+                (src, whole_commands),
+                (res, command_of_section(res, "paper-real-1.2-848:")),
+            ],
         ),
         laid_out=True,
     )
