@@ -122,6 +122,20 @@ class MarkerlessResult:
             raise RefusedError(f"markerless registration refused: {self.refused}")
         return self.T_base_cam
 
+    def widened(self, term: dict, name: str) -> MarkerlessResult:
+        """This result with a bounded ``term`` (``rotation_deg``, ``translation_mm``) added to its sigma, in
+        quadrature, as an isotropic block of :attr:`covariance` (as the bounded terms of :func:`build_result` are),
+        and recorded as ``diagnostics[name]``; a refusal is returned as it is."""
+        if not self.ok:
+            return self
+        covariance = self.covariance + _isotropic(term)
+        return replace(
+            self,
+            covariance=covariance,
+            sigma=pose_sigma(covariance, self.T_base_cam[:3, :3]),
+            diagnostics={**self.diagnostics, name: dict(term)},
+        )
+
     def to_dict(self) -> dict:
         """JSON-serialisable summary."""
         from handeye.core.se3 import pos_quat_xyzw_from_transform

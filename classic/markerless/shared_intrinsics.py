@@ -39,6 +39,7 @@ __all__ = [
     "intrinsics_estimates",
     "leave_one_out_priors",
     "second_passes",
+    "no_narrower",
     "MIN_OTHERS",
     "SHARED_PIXEL_EFFECT_PX",
 ]
@@ -180,8 +181,37 @@ def second_passes(first: dict, K_given: np.ndarray, options: MarkerlessOptions, 
             continue
         started_near = first[c].ok
         starts = {"first pass": first[c].T_base_cam} if started_near else None
-        out[c] = (prior, register(c, prior.K, starts, second_pass_options(options, prior, started_near)))
+        second = register(c, prior.K, starts, second_pass_options(options, prior, started_near))
+        out[c] = (prior, no_narrower(second, first[c]))
     return out
+
+
+def no_narrower(second, first):
+    """A placement's second pass with its sigma no narrower than its first pass's: the pooled prior may move the
+    answer, it does not narrow its sigma.
+
+    Pooling averages the placements' estimates, not an error they share: an estimate every placement of the camera
+    makes alike (the arm's grazing edges, a depth unit the frames pull the same way) stays whole in the pool, and a
+    sigma narrowed by the pool runs short of it. On ``paper-real``'s noisy test placements (white depth noise, the
+    camera matrix given exactly) all five first passes' depth scales came out high (three by 3.4-4.3 of their
+    sigmas) and four of five focal lengths; pooled, the five answers shared a 0.19-0.26 mm error along the optical axis at sigmas of 0.075-0.14 mm,
+    one beyond 3 sigma (``docs/benchmarks/markerless.md``, 'Intrinsics shared by the placements').
+
+    Parameters
+    ----------
+    second, first : MarkerlessResult
+        The placement's second pass and first pass.
+
+    Returns
+    -------
+    MarkerlessResult
+        ``second``, where accepted and narrower than an accepted ``first`` in rotation or translation, widened by
+        what it lacks in quadrature (``diagnostics["sigma_shared_floor"]``), so that its sigma is the first's.
+    """
+    if not (second.ok and first.ok):
+        return second
+    lack = {k: float(np.sqrt(max(first.sigma[k] ** 2 - second.sigma[k] ** 2, 0.0))) for k in first.sigma}
+    return second.widened(lack, "sigma_shared_floor") if any(lack.values()) else second
 
 
 def pooled_prior(
