@@ -141,6 +141,12 @@ class MarkerlessOptions:
         default: at a D435's 848x480 a real cell's errors together were accepted beyond 3 sigma in 3 of 10
         registrations without it (12.03 mm at a sigma of 3.79), 0 of 10 with it (4.95); at 256x256 the clean
         d435's sigma moved by under 0.5 % (``benchmarks/results/markerless_resolution.md``).
+    max_incidence_deg : float or None
+        Matches whose model normal is farther than this from the pixel's ray are left out (the arm's grazing
+        edges, where the projective match pairs a pixel's ray with a sample far along a steep surface); None, the
+        default, keeps them. An option to measure, not yet a default: on ``paper-real``'s noisy test placements
+        70 deg shrank the error the placements share along the optical axis
+        (``benchmarks/results/markerless_incidence.md``).
     seed : int
     """
 
@@ -175,6 +181,7 @@ class MarkerlessOptions:
     static_parts: bool = False
     pixel_effect_px: int = 0
     repeated_error_px: int = 16
+    max_incidence_deg: float | None = None
     seed: int = 0
 
     def __post_init__(self):
@@ -218,7 +225,7 @@ class MarkerlessOptions:
             )
 
     def _check_sigmas(self):
-        """The depth-to-colour extrinsic's sigmas and the depth noise given: finite, at least 0."""
+        """The depth-to-colour extrinsic's sigmas and the depth noise given: finite, at least 0; the incidence bound."""
         for key in ("depth_extrinsic_sigma_m", "depth_extrinsic_sigma_deg"):
             value = getattr(self, key)
             if not (np.isfinite(value) and value >= 0):
@@ -230,6 +237,9 @@ class MarkerlessOptions:
         sigma = self.depth_sigma_m_at_1m
         if sigma is not None and not (np.isfinite(sigma) and sigma >= 0):
             raise HandEyeInputError(f"depth_sigma_m_at_1m must be None or a finite value >= 0, got {sigma}")
+        angle = self.max_incidence_deg
+        if angle is not None and not (np.isfinite(angle) and 0 < angle < 90):
+            raise HandEyeInputError(f"max_incidence_deg must be None or between 0 and 90 degrees, got {angle}")
 
     def _check_joint_offsets_model(self):
         """The joint offsets model and its prior sigmas."""

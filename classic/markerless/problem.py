@@ -282,7 +282,15 @@ class Problem:
         q = self.corrected(q_obs)
         has_depth = np.isfinite(q[:, 2]) & (q_obs[:, 2] > 0)
         close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
+        if self.opts.max_incidence_deg is not None:
+            close &= self._facing(T, idx, p_cam)
         return idx, f, q_obs, q, has_depth, close
+
+    def _facing(self, T, idx, p_cam):
+        """Whether each model point's normal is within ``max_incidence_deg`` of its ray (camera frame ``p_cam``)."""
+        n_cam = self.s.normals_base[idx] @ T[:3, :3]  # R^T n, row-wise
+        cos = np.abs(np.einsum("ij,ij->i", n_cam, p_cam)) / np.linalg.norm(p_cam, axis=1)
+        return cos > np.cos(np.radians(self.opts.max_incidence_deg))
 
     def _solve(self, T, matches, iterations, covariance=True, repeated=False, prior_widened=1.0):
         """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``

@@ -194,8 +194,8 @@ def no_narrower(second, first):
     makes alike (the arm's grazing edges, a depth unit the frames pull the same way) stays whole in the pool, and a
     sigma narrowed by the pool runs short of it. On ``paper-real``'s noisy test placements (white depth noise, the
     camera matrix given exactly) all five first passes' depth scales came out high (three by 3.4-4.3 of their
-    sigmas) and four of five focal lengths; pooled, the five answers shared a 0.19-0.26 mm error along the optical axis at sigmas of 0.075-0.14 mm,
-    one beyond 3 sigma (``docs/benchmarks/markerless.md``, 'Intrinsics shared by the placements').
+    sigmas) and four of five focal lengths; pooled, the five answers shared a 0.19-0.26 mm error along the optical
+    axis at sigmas of 0.075-0.14 mm, one beyond 3 sigma (``docs/benchmarks/markerless.md``, 'Accuracy').
 
     Parameters
     ----------

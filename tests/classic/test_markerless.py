@@ -14,7 +14,7 @@ import pytest
 from classic.clustered_covariance import pose_sigma
 from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, register_robot
 from classic.markerless.depth import pixel_rays
-from handeye.core.errors import NonFiniteError, ShapeError
+from handeye.core.errors import HandEyeInputError, NonFiniteError, ShapeError
 from handeye.core.metrics import pose_error
 from handeye.core.se3 import make_transform, so3_exp
 from tests.tolerances import FLOAT, SIGMA_BOUND
@@ -216,3 +216,25 @@ def test_covariance_groups_by_frame():
     fit_plain = solve_point_to_plane(p, MatchedModel(m, n), np.eye(4), options)
     # the per-frame offsets average over only 10 frames: the grouped variance is far larger
     assert np.trace(fit_grouped.covariance[3:, 3:]) > 20 * np.trace(fit_plain.covariance[3:, 3:])
+
+
+def test_grazing_matches_left_out_on_request_and_the_answer_kept(scene):
+    """``max_incidence_deg`` leaves out the spheres' rims. Seen from afar, the pixels whose ray meets a sphere within
+    ``a`` of its normal are ``sin^2 a`` of its disc: a quarter at 30 deg, three quarters at 60 deg; the outermost
+    ring is lost to the depth edges already, so fewer go than that, but more the tighter the bound, and at 30 deg
+    at least half (of the three quarters cut, less than half of the disc can have been lost to the edges: the
+    ring beyond 60 deg is an eighth of the radius). The answer stays within its sigma."""
+    depth, surface, T_true = scene
+
+    def matched(angle):
+        opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M, max_incidence_deg=angle)
+        res = register_robot(depth, K, surface, options=opts)
+        assert res.ok, res.refused
+        assert within_sigma(res, T_true, depth)
+        return res.diagnostics["matched_points"]
+
+    every, sixty, thirty = matched(None), matched(60.0), matched(30.0)
+    assert thirty < sixty < every and thirty < 0.5 * every
+    for bad in (0.0, 90.0, float("nan")):
+        with pytest.raises(HandEyeInputError):
+            MarkerlessOptions(max_incidence_deg=bad)
