@@ -144,8 +144,8 @@ class MarkerlessOptions:
     max_incidence_deg : float or None
         Matches whose model normal is farther than this from the pixel's ray are left out (the arm's grazing
         edges, where the projective match pairs a pixel's ray with a sample far along a steep surface); None, the
-        default, keeps them. An option to measure, not yet a default: on ``paper-real``'s noisy test placements
-        70 deg shrank the error the placements share along the optical axis
+        default, keeps them. Measured, not a default: on the white-noise datasets 70 deg shrank the error the
+        placements share along the optical axis; on the D435 real-cell table it helped and harmed alike
         (``benchmarks/results/markerless_incidence.md``).
     seed : int
     """
