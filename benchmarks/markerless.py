@@ -96,7 +96,7 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
             return res
 
         for c, (_, res) in second_passes(results, K, opts, register).items():
-            results[c] = res or results[c]
+            results[c] = results[c] if res is None else res  # None: nothing pooled, the first pass stands
     return [_accuracy_row(results[c], truth[c], seconds[c]) for c in cams]
 
 

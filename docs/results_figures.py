@@ -387,35 +387,26 @@ def _error_rows(src: Path, preset: str) -> list[dict]:
     ]
 
 
-def _shared_rows(src: Path, preset: str) -> dict[str, dict]:
-    """The front's default from four placements per row of ``markerless_errors.md``: the rows ``, intrinsics
-    shared`` of its runs with ``--shared-intrinsics --pixel-effect-px 2`` (a unit per placement, five placements
-    pooled), by row name."""
-    out = {}
-    for command, found in sections(src):
-        if not re.search(r"--shared-intrinsics\b", command) or "--pixel-effect-px 2" not in command:
-            continue
-        if re.search(r"--(one-unit|pool-train|max-placements 24)\b", command):  # one unit, or a larger pool
-            continue
-        for heading, header, rows in found:
-            if heading.startswith(f"{preset}-1.2:") and header[0] == "error the method is not told":
-                for r in rows:
-                    if r[0].endswith(", intrinsics shared"):
-                        name = r[0].removesuffix(", intrinsics shared")
-                        out[name] = {"median": _pair(r[2])[0], "worst": _pair(r[3])[0], "beyond": int(r[4])}
-    return out
+def _pool_of(command: str) -> str | None:
+    """Which pool a ``markerless_errors.md`` run at the front's default from four placements
+    (``--shared-intrinsics --pixel-effect-px 2``, a unit per placement) measured: ``"five"``, the tables' five
+    test placements; ``"whole"``, every placement of the dataset (``--pool-train``, or more test placements than
+    five: ``--max-placements 24``, all of ``paper-sim``'s); None for any other run (one unit, another option)."""
+    if "--shared-intrinsics --pixel-effect-px 2" not in command or "--one-unit" in command:
+        return None
+    wider = re.search(r"--max-placements (\d+)", command)
+    return "whole" if "--pool-train" in command or (wider and int(wider[1]) > 5) else "five"
 
 
-def _whole_pool_rows(src: Path, preset: str) -> tuple[dict[str, dict], str]:
-    """The front's default with every placement of the dataset pooled, per row of ``markerless_errors.md``: the
-    rows ``, intrinsics shared`` of its ``--shared-intrinsics --pixel-effect-px 2`` runs of all ``paper-sim``'s
-    24 test placements (``--max-placements 24``) or with the train placements in the pool (``--pool-train``), by
-    row name; and the pool's size as the report's heading says it."""
-    out, size = {}, ""
+def _pooled_rows(src: Path, preset: str, pool: str) -> tuple[dict[str, dict], str, list[str]]:
+    """The front's default per row of ``markerless_errors.md`` from its runs of ``pool`` (:func:`_pool_of`): the
+    rows ``, intrinsics shared``, by row name; the pool's size as the reports' heading says it (``"5 + 19"``:
+    test placements and the further ones pooled); and the runs' commands."""
+    out, size, commands = {}, "", []
     for command, found in sections(src):
-        whole = "--pool-train" in command or "--max-placements 24" in command
-        if not whole or "--shared-intrinsics" not in command or "--pixel-effect-px 2" not in command:
+        if _pool_of(command) != pool:
             continue
+        commands.append(command)
         for heading, header, rows in found:
             m = re.match(rf"{preset}-1\.2(?:-with-train)?: (\d+) test placements(?:, (\d+) more in the pool)?", heading)
             if not m or header[0] != "error the method is not told":
@@ -425,7 +416,7 @@ def _whole_pool_rows(src: Path, preset: str) -> tuple[dict[str, dict], str]:
                 if r[0].endswith(", intrinsics shared"):
                     name = r[0].removesuffix(", intrinsics shared")
                     out[name] = {"median": _pair(r[2])[0], "worst": _pair(r[3])[0], "beyond": int(r[4])}
-    return out, size
+    return out, size, commands
 
 
 def _sigma_rows(src: Path) -> dict[str, dict]:
@@ -457,8 +448,8 @@ def markerless_errors(out: Path) -> Figure:
     panels, pools = [], {}
     for preset in ("paper-real", "paper-sim"):
         rows = _error_rows(src, preset)
-        shared = _shared_rows(src, preset)
-        whole, pools[preset] = _whole_pool_rows(src, preset)
+        shared, _, shared_commands = _pooled_rows(src, preset, "five")
+        whole, pools[preset], whole_commands = _pooled_rows(src, preset, "whole")
         for r in rows:
             r["shared"] = shared.get(r["row"])
             r["whole"] = whole.get(r["row"])
@@ -536,17 +527,6 @@ def markerless_errors(out: Path) -> Figure:
     ]
     _legend_below(fig, handles, [h.get_label() for h in handles], ncol=4, height=0.09)
     commands = "; ".join(c for c, _ in sections(src) if c and not re.search(r"--(cases|option|pixel-effect-px)", c))
-    shared_commands = "; ".join(
-        c
-        for c, _ in sections(src)
-        if "--shared-intrinsics --pixel-effect-px 2" in c
-        and not re.search(r"--(one-unit|pool-train|max-placements 24)\b", c)
-    )
-    whole_commands = "; ".join(
-        c
-        for c, _ in sections(src)
-        if "--shared-intrinsics --pixel-effect-px 2" in c and re.search(r"--(pool-train|max-placements 24)\b", c)
-    )
     return _save(
         fig,
         out / "markerless_errors.png",
@@ -562,8 +542,8 @@ def markerless_errors(out: Path) -> Figure:
             "in the resolution file's table of the repeated-error term (after: today's default).",
             [
                 (src, commands),
-                (src, shared_commands),
-                (src, whole_commands),
+                (src, "; ".join(shared_commands)),
+                (src, "; ".join(whole_commands)),
                 (res, command_of_section(res, "paper-real-1.2-848:")),
             ],
         ),
