@@ -15,6 +15,11 @@ change meant to be faster only can be checked to give the same one (``--save`` /
     OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/markerless_placement_time.py \\
         --data data/sensor-bands/paper-real-1.2 --placement 0 --case 10 --repeat 1 --pixel-effect-px 2
 
+``--second-pass``: the shared-intrinsics second pass timed instead (the first pass run and its CPU seconds printed
+first), started from the first's answer under a prior a third of the given sigmas wide, as
+:func:`classic.markerless.shared_intrinsics.second_passes` runs it; the two together are a placement's time in
+``handeye markerless``'s default with four or more placements.
+
 ``--profile out.prof``: a cProfile of the last repeat (read it with ``python -m pstats``).
 """
 
@@ -32,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.markerless_errors import cases, diagnostic_cases, parse_option  # noqa: E402
 from benchmarks.markerless_sensors import front_options, observe, placements, told_intrinsics, told_posed  # noqa: E402
 from classic.markerless.register import register_robot  # noqa: E402
+from classic.markerless.shared_intrinsics import SharedIntrinsicsPrior, second_pass_options  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 
@@ -41,6 +47,21 @@ def answer(res) -> np.ndarray:
     if not res.ok:
         return np.full(18, np.nan)
     return np.concatenate([res.T_base_cam.ravel(), [res.sigma["rotation_deg"], res.sigma["translation_mm"]]])
+
+
+def second_pass(first, K, opts):
+    """The starts and options of a second pass after ``first`` under a prior a third of the given sigmas wide."""
+    if not first.ok:
+        raise SystemExit(f"the first pass was refused ({first.refused}): no second pass to time")
+    prior = SharedIntrinsicsPrior(
+        K=K,
+        prior_sigma=tuple(np.asarray(opts.intrinsics_prior_sigma, dtype=float) / 3),
+        pooled=(True,) * 4,
+        others=4,
+        birge=(1.0,) * 4,
+        reason="",
+    )
+    return {"first pass": first.T_base_cam}, second_pass_options(opts, prior, started_near=True)
 
 
 def main() -> int:
@@ -62,6 +83,12 @@ def main() -> int:
         default=[],
         help="key=value: a further MarkerlessOptions field of the run, as markerless_errors.py's --option; repeatable",
     )
+    ap.add_argument(
+        "--second-pass",
+        action="store_true",
+        help="time the shared-intrinsics second pass instead: started from a first pass's answer, under a prior "
+        "whose sigmas are a third of the given ones (as five pooled placements give)",
+    )
     ap.add_argument("--profile", type=Path, help="write a cProfile of the last repeat here")
     ap.add_argument("--save", type=Path, help="write the answer (T_base_cam, sigma) here (.npy)")
     ap.add_argument("--compare", type=Path, help="print the answer's largest difference from one --save wrote")
@@ -82,6 +109,12 @@ def main() -> int:
         f"{depth.shape[2]}x{depth.shape[1]}, z-buffer stride {stride}, pixel_effect_px {opts.pixel_effect_px}"
         + "".join(f", {k}={v}" for k, v in args.option)
     )
+    starts = None
+    if args.second_pass:
+        cpu = time.process_time()
+        first = register_robot(depth, K, posed, options=opts)
+        print(f"first pass: {time.process_time() - cpu:.2f} s CPU, {first.refused or 'accepted'}", flush=True)
+        starts, opts = second_pass(first, K, opts)
     for i in range(args.repeat):
         profiler = None
         if args.profile and i == args.repeat - 1:
@@ -90,7 +123,7 @@ def main() -> int:
             profiler = cProfile.Profile(time.process_time)  # CPU seconds: load does not inflate them
             profiler.enable()
         wall, cpu = time.perf_counter(), time.process_time()
-        res = register_robot(depth, K, posed, options=opts)
+        res = register_robot(depth, K, posed, starts=starts, options=opts)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         if profiler is not None:
             profiler.disable()
