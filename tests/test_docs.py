@@ -55,6 +55,16 @@ def test_readme_is_short():
     assert n <= README_MAX_LINES, f"README.md has {n} lines; move the rest into docs/"
 
 
+def test_benchmark_pages_name_no_issue():
+    """A benchmark page says what a figure is measured against, not which ticket asked for it: an issue number
+    means nothing to a reader of the documentation (the CHANGELOG and the commits keep that history)."""
+    named = {
+        p.name: re.findall(r".{0,30}\bissues? #?\d+.{0,30}", p.read_text(encoding="utf-8"), flags=re.IGNORECASE)
+        for p in (ROOT / "docs" / "benchmarks").glob("*.md")
+    }
+    assert not {name: hits for name, hits in named.items() if hits}
+
+
 @pytest.mark.parametrize("path", [README, ROOT / "CHANGELOG.md"], ids=lambda p: p.name)
 def test_relative_links_resolve(path):
     """mkdocs checks the site's links (``mkdocs build --strict`` in the test command); this checks the README's."""
