@@ -106,3 +106,49 @@ def test_the_basin_figure_plots_each_outcomes_share(drawn):
             cells = _cells(src, f"{off} mm, {off // 10} deg", after)
             total = _numbers(cells[1])[1]
             assert y[list(x).index(off)] == 100 * int(_numbers(cells[column])[0]) / int(total)
+
+
+def test_the_real_recordings_figure_reads_each_methods_hold_out_halves_and_refusals():
+    """The figure's points are the file's cells of the method's row: the hold-out median (deg, mm), the halves'
+    ratios (none for a bare closed form), the refusals; each row of the four recordings in a group."""
+    sources = [RESULTS / "real_recordings.md", RESULTS / "real_recordings_rwhe.md"]
+    recordings = rf.real_recordings(sources)
+    assert [r["name"] for r in recordings] == ["camodocal_artag", "ethz_robot_arm", "kuka_1", "kuka_2"]
+    assert [(r["poses"], r["refusals"], len(r["methods"])) for r in recordings] == [
+        (42, 0, 23),
+        (98, 0, 23),
+        (30, 0, 24),
+        (28, 0, 24),
+    ]
+    for rec, src, method in (
+        (recordings[0], sources[0], "handeye default (auto+lm)"),
+        (recordings[0], sources[0], "handeye li (closed form)"),
+        (recordings[3], sources[1], "handeye image path (auto, reprojection)"),
+    ):
+        cells = _cells(src, method, f"## {rec['name']}:")
+        m = next(m for m in rec["methods"] if m["method"] == method)
+        assert m["holdout"] == tuple(_numbers(cells[5]))
+        halves = _numbers(cells[6]) or [float("nan")] * 2
+        np.testing.assert_array_equal(m["halves"], halves)
+        assert (m["refused"], m["holdout_refused"]) == (False, 0)
+    groups = {m["group"] for r in recordings for m in r["methods"]}
+    assert groups == {g for g, _, _ in rf.REAL_GROUPS}
+    with pytest.raises(ValueError, match="no group"):
+        rf.real_group("someone else's method")
+
+
+def test_the_vision_figure_plots_the_translation_column_and_the_robot_rows(drawn):
+    repro, robot = RESULTS / "vision_reprojection.md", RESULTS / "vision_robot_noise.md"
+    seen = drawn(rf.vision_errors)
+    x, y = seen["lines"][(0, "handeye reprojection refinement")]  # the 30-view rows
+    assert list(x) == [0.1, 0.3, 1.0]
+    lines = repro.read_text(encoding="utf-8").splitlines()
+    rows = [next(ln for ln in lines if ln.startswith(f"| {n} | 30 (")).split("|") for n in ("0.1", "0.3", "1.0")]
+    assert list(y) == [_numbers(r[-3])[1] for r in rows]  # the last cell 'most accurate', before it the refinement
+    assert seen["axes"][0][1] == "median translation error of X [mm]"
+    # the middle panel: one line per model, setup and component; the robot's error sorted, exact robot first
+    middle = [y for (i, _), (x, y) in seen["lines"].items() if i == 1 and len(x) == 3]
+    assert len(middle) == 16
+    levels = ("0.0 deg, 0.0 mm", "0.05 deg, 0.5 mm", "0.2 deg, 2.0 mm")
+    none_x_rot = [_numbers(_cells(robot, f"eye-to-hand | {lv} | none")[4])[0] for lv in levels]
+    assert any(list(y) == none_x_rot for y in middle)
