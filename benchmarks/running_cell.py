@@ -112,8 +112,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument(
         "--relearn-seconds", type=float, default=3.0, help="seconds the bias is relearnt over after a commit"
     )
-    p.add_argument("--recal-frames", type=int, default=20, help="frames a recalibration uses")
-    p.add_argument("--false-alarms-per-hour", type=float, default=1.0, help="the watcher's stated bound")
+    p.add_argument("--recal-frames", type=int, default=30, help="frames a recalibration uses (the watcher's default)")
+    p.add_argument("--false-alarms-per-hour", type=float, default=0.1, help="the watcher's stated bound (its default)")
     p.add_argument(
         "--streams",
         nargs="*",

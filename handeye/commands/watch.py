@@ -67,8 +67,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--false-alarms-per-hour",
         type=cli_float,
-        default=1.0,
-        help="the change test's bound under its null (default 1)",
+        default=0.1,
+        help="the change test's bound under its null (default 0.1)",
     )
     p.add_argument("--null-seconds", type=cli_float, default=10.0, help="'nothing moved' learnt from (default 10)")
     p.add_argument("--relearn-seconds", type=cli_float, default=3.0, help="after a recalibration (default 3)")

@@ -76,7 +76,9 @@ class WatchOptions:
     rate_hz : float
         The stream's frame rate (turns the false-alarm rate into frames).
     false_alarms_per_hour : float
-        The change test's false-alarm rate: an upper bound while the frames' statistic follows the null learnt
+        The change test's false-alarm rate (0.1 by default: one in ten hours, so that an hour passes without one;
+        at 1 per hour the CUSUM's threshold is 2.3 lower, which a 2 mm bump crosses one or two frames sooner):
+        an upper bound while the frames' statistic follows the null learnt
         (independent frames, ``chi2(6)`` after the fit; :mod:`handeye.watch.change`); correlated frames, the
         error of the null learnt and unmodelled changes raise it (the scale's error, 17 % for a median of 20
         frames, is covered: it is used at its upper bound, :class:`handeye.watch.change.NullScale`): the measured
@@ -99,7 +101,7 @@ class WatchOptions:
     """
 
     rate_hz: float = 30.0
-    false_alarms_per_hour: float = 1.0
+    false_alarms_per_hour: float = 0.1
     null_frames: int = 300
     relearn_frames: int = 90
     relearn_min_frames: int = 6

@@ -52,8 +52,8 @@ def _watch(tmp_path, **kw):
 
 
 def test_a_static_stream_with_an_occluder_never_recalibrates(tmp_path):
-    """180 watched frames at one false alarm per hour at 30 Hz: the bound's expected count is 0.002, so any
-    alarm fails (P = 0.002 under a correct bound); the box over the arm for 10 frames is "occluded"."""
+    """180 watched frames at the default 0.1 false alarm per hour at 30 Hz: the bound's expected count is 0.0002,
+    so any alarm fails (P = 0.0002 under a correct bound); the box over the arm for 10 frames is "occluded"."""
     rng = np.random.default_rng(0)
     w = _watch(tmp_path)
     events = [e for f in _stream(rng, 240, lambda i: T_TRUE, occluded=range(150, 160)) for e in w.feed(f)]
