@@ -532,6 +532,16 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/real-cell.md", 7): Block("handeye bag-poses recording/", "a", "", _real_cell_3),
     ("docs/guides/real-cell.md", 8): Block("handeye calibrate handeye/data/example_eye_to_hand.csv", "p"),
     ("docs/guides/real-cell.md", 9): Block("handeye plan", "p"),
+    ("docs/guides/real-cell.md", 10): Block(
+        "handeye sim stream --preset bumps",
+        "b",
+        "renders three minutes of a running cell (900 frames), then replays it through the watcher; the last line "
+        "needs rclpy and live topics",
+        _nothing,
+        parsed="the smoke stream rendered and watched end to end, a bump detected and committed: "
+        "tests/watch/test_cli_watch.py; a rollback from the command line: the same file; live ROS 2 topics: "
+        "tests/watch/test_ros2.py",
+    ),
     ("docs/guides/your-robot.md", 0): Block("handeye board --squares 7x5", "p"),
     ("docs/guides/your-robot.md", 1): Block("handeye plan --setup eye-in-hand", "p"),
     # steps 4 to 6: the shipped eye-in-hand example calibrated, then with a report, then exported

@@ -95,7 +95,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         simsub,
         "stream",
         "render a running cell: the arm working for minutes, the camera bumped, occluded, drifting",
-        __doc__,
+        STREAM_DOC,
     )
     s.add_argument("--preset", default="bumps", help="bumps (default), static or smoke (sim.stream_events)")
     s.add_argument("--out", type=Path, required=True, help="a new dataset folder")
@@ -108,6 +108,27 @@ def add_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     s.set_defaults(run=run_stream)
     return p
+
+
+#: ``handeye sim stream``'s description (the module's docstring is ``sim generate``'s and ``sim bag``'s).
+STREAM_DOC = """``handeye sim stream``: render a running cell, the stream ``handeye watch`` replays.
+
+Example
+-------
+::
+
+    handeye sim stream --preset bumps --out data/stream --sensor d435
+    handeye watch data/stream --truth-start --history cell.jsonl --current cell.json
+
+The arm works before a fixed camera for minutes while things happen at known times (``sim.stream_events``):
+``bumps`` (3 minutes at 5 Hz, 256x256: a bump of 0.5 mm / 0.05 deg, 2 mm / 0.2 deg, 5, 20 and 50 mm every 25 s
+from 17 s, then a re-mount of 200 mm / 20 deg; a box and a person in front of the arm, the lights dimmed, two
+depth dropouts, a slow drift of 0.1 mm per minute), ``static`` (no move: people and boxes passing, the lights
+dimmed, dropouts, repeating for as long as ``--minutes``; the false-alarm measurement) and ``smoke`` (30 s at
+2 Hz, 96x96, one of each, for tests). The camera's true pose is in the dataset's ``cameras.csv`` (one shard per
+segment between two camera changes), the frames' times and the events with their times and sizes in its
+``stream.json`` (``sim.stream``).
+"""
 
 
 def run_stream(args: argparse.Namespace) -> int:
