@@ -158,6 +158,54 @@ def _parsed(page: Path) -> list[str]:
     return parser.sources
 
 
+def undecodable_images(page: Path) -> list[str]:
+    """The ``<img>`` files of a built page that are no image: Pillow cannot read them, or they have no pixels."""
+    from PIL import Image
+
+    bad = []
+    for src in _parsed(page):
+        path = page.parent / unquote(urlsplit(src).path)
+        if not path.is_file():
+            continue  # missing_images says so
+        try:
+            with Image.open(path) as image:
+                image.load()
+                if image.width == 0 or image.height == 0:
+                    bad.append(f"{src} (no pixels)")
+        except Exception as err:  # any decoder error: the page shows a broken picture
+            bad.append(f"{src} ({type(err).__name__})")
+    return bad
+
+
+def markdown_images(page: Path) -> int:
+    """How many images (``![...](...)``) a documentation page's Markdown shows."""
+    return len(re.findall(r"!\[[^\]]*\]\([^)]+\)", page.read_text(encoding="utf-8")))
+
+
+def test_every_figure_decodes_and_every_page_shows_its_figures(site):
+    """Each page's figures are pictures (Pillow reads every ``<img>`` file, with pixels), and each page shows as
+    many of them as its Markdown names (a figure Markdown left as text, or dropped, is missed here)."""
+    bad = {p.relative_to(site).as_posix(): undecodable_images(p) for p in pages(site)}
+    assert not {k: v for k, v in bad.items() if v}
+    docs = ROOT / "docs"
+    shown = {}
+    for md in docs.rglob("*.md"):
+        rel = md.relative_to(docs).with_suffix("")
+        built = site / (rel.parent if rel.name == "index" else rel) / "index.html"
+        if built.is_file() and markdown_images(md):
+            shown[rel.as_posix()] = (markdown_images(md), len(_parsed(built)))
+    assert shown, "no page with figures found"
+    assert not {k: v for k, v in shown.items() if v[1] < v[0]}, "pages showing fewer figures than they name"
+
+
+def test_the_decode_check_finds_a_broken_figure(site, tmp_path):
+    """A page whose figure is not a picture (a text file named .png) is found: the check can fail."""
+    (tmp_path / "broken.png").write_text("not a picture")
+    page = tmp_path / "index.html"
+    page.write_text('<img src="broken.png">')
+    assert undecodable_images(page) == ["broken.png (UnidentifiedImageError)"]
+
+
 def test_the_image_check_finds_a_missing_figure(site, tmp_path):
     page = site / "index.html"
     assert missing_images(page, page.read_text() + '<img src="img/no-such-figure.png">') == ["img/no-such-figure.png"]
