@@ -152,3 +152,22 @@ def test_the_vision_figure_plots_the_translation_column_and_the_robot_rows(drawn
     levels = ("0.0 deg, 0.0 mm", "0.05 deg, 0.5 mm", "0.2 deg, 2.0 mm")
     none_x_rot = [_numbers(_cells(robot, f"eye-to-hand | {lv} | none")[4])[0] for lv in levels]
     assert any(list(y) == none_x_rot for y in middle)
+
+
+def test_the_planning_figure_plots_each_column_of_the_table(drawn):
+    """Each panel's lines are the table's cells of that column and component (rotation, translation, workspace, in
+    that order), and the dashed lines the random columns' 15-pose cells."""
+    src = RESULTS / "plan_poses.md"
+    header = _cells(src, "poses")
+    seen = drawn(rf.plan_poses)
+    for j, unit in enumerate(("deg", "mm", "mm")):
+        assert seen["axes"][j][1] == f"RMS error of X over the cells [{unit}]"
+        for column in ("planned predicted", "random predicted", "planned actual", "random actual"):
+            x, y = seen["lines"][(j, column)]
+            assert list(x) == [6, 8, 10, 15]
+            k = header.index(column)
+            assert list(y) == [_numbers(_cells(src, str(n))[k])[j] for n in (6, 8, 10, 15)]
+            if column.startswith("random"):
+                _, y = seen["lines"][(j, f"{column}, 15 poses")]
+                assert set(y) == {_numbers(_cells(src, "15")[k])[j]}
+    assert [t for t, _ in seen["axes"]] == ["rotation [deg]", "translation [mm]", "workspace error [mm]"]
