@@ -10,7 +10,9 @@ then
   diversity (each differs from all collected by at least ``recal_min_joint_step_rad`` in some joint) are
   collected; with ``recal_frames`` of them, ``recalibrate(frames, T_start)`` is called (by default the
   markerless registration from the last calibration, :func:`markerless_recalibration`). Its answer is taken
-  only when the registration accepted it (its sigma and split check passed, ``result.ok``): then it is
+  only when the registration accepted it (its sigma and split check passed, ``result.ok``) and the frames'
+  first and second halves, registered alone, agree within their sigmas (:mod:`handeye.watch.halves`: a second
+  move while they were collected; refused, the later half kept to start the next collection): then it is
   committed to the history and published; then **relearning**: the null's bias anew against the new
   calibration (its own error, within its sigma, is "nothing moved" from now on), its scale kept (a camera
   move does not change the sensor's noise), the change test re-armed and **watching through it**: after
@@ -54,6 +56,7 @@ from classic.markerless import MarkerlessOptions, register_robot
 from handeye.watch.change import Cusum, NullModel, NullScale, fit_depth_unit, fit_joint_variance, fit_null
 from handeye.watch.check import CheckOptions, FrameCheck, check_frame, unit_correction, with_joint_noise
 from handeye.watch.events import Event
+from handeye.watch.halves import halves_disagree
 from handeye.watch.history import History
 from handeye.watch.source import Frame
 from handeye.watch.states import FrameStates, StateOptions, is_lost, screen
@@ -520,6 +523,13 @@ class CellWatcher:
         if not getattr(result, "ok", False):
             reason = getattr(result, "refused", None) or "no answer"
             return "refused", f"recalibration from {len(frames)} frames refused: {reason}; collecting again"
+        two_poses = halves_disagree(self.recalibrate, frames, result)
+        if two_poses is not None:  # the camera as it is now: the later half's frames start the next collection
+            self._collected = frames[len(frames) // 2 :]
+            return "refused", (
+                f"recalibration from {len(frames)} frames refused: {two_poses}; collecting again from the latest "
+                f"{len(self._collected)}"
+            )
         return self._commit(frame, frames, result)
 
     def _committed_unit(self, depth: dict) -> str:

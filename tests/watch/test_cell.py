@@ -112,6 +112,34 @@ def test_a_bumped_camera_is_detected_and_re_registered_within_its_sigma(tmp_path
     assert len(moved) == 1 and len(recal) == 1
 
 
+def test_a_second_bump_while_collecting_is_refused_then_the_new_pose_committed(tmp_path):
+    """A bump at frame 120, and a second one of 0.2 deg / 3 mm at frame 128, while the frames of the first one's
+    recalibration are collected (12 of them from about frame 122): one registration of frames of two camera poses
+    lands between them and is accepted, but its halves disagree, so it is refused; the calibration committed after
+    it is the second pose's, within its sigma. (A second bump as large as the first leaves the whole registration
+    outside its basin: refused by the registration itself.)"""
+    rng = np.random.default_rng(1)
+    T_first = T_TRUE @ BUMP
+    T_second = T_first @ make_transform(so3_exp(np.radians(0.2) * np.array([0.6, 0, 0.8])), [0.0, 0.003, 0.0])
+    first_at, second_at = 120, 128
+    w = _watch(tmp_path)
+    events, depths = [], []
+    for f in _stream(rng, 300, lambda i: T_TRUE if i < first_at else T_first if i < second_at else T_second):
+        depths.append(f.depth_m)
+        events += w.feed(f)
+    refused = [e for e in events if e.state == "refused"]
+    assert refused and "moved while the frames were collected" in refused[0].detail, [e.line() for e in events]
+    recal = [e for e in events if e.state == "recalibrated"]
+    assert recal and recal[0].t > refused[0].t, [e.line() for e in events]
+    v = History(tmp_path / "h.jsonl").get(recal[0].version)
+    assert all(i >= second_at for i in v.frames), v.frames
+    rot_deg, trans_mm = pose_error(v.T_base_cam, T_second)
+    bias_mm, bias_deg = _bias_bounds(np.stack(depths))
+    s = v.extra["sigma_summary"]
+    assert trans_mm <= SIGMA_BOUND * s["translation_mm"] + bias_mm
+    assert rot_deg <= SIGMA_BOUND * s["rotation_deg"] + bias_deg
+
+
 def test_a_current_file_without_a_history_is_refused(tmp_path):
     """The current calibration is published from the history: without one it would never be written."""
     with pytest.raises(ValueError, match="give history_path"):
