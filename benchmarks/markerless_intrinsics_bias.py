@@ -32,19 +32,10 @@ from benchmarks.markerless_errors import cases  # noqa: E402
 from benchmarks.markerless_sensors import front_options, observe, placements, told_intrinsics, told_posed  # noqa: E402
 from classic.markerless import register_robot  # noqa: E402
 from classic.markerless.intrinsics import NAMES, intrinsics_vector  # noqa: E402
-from classic.markerless.shared_intrinsics import estimate_and_sigma  # noqa: E402
+from classic.markerless.shared_intrinsics import estimate_and_sigma, inverse_variance_mean  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
-
-
-def weighted_mean(errors: np.ndarray, sigmas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per column of ``errors`` (n, p) with ``sigmas`` (n, p): the inverse-variance weighted mean, its sigma and the
-    Birge ratio (root of the scatter's chi-square over n - 1)."""
-    w = 1.0 / sigmas**2
-    mean = (errors * w).sum(0) / w.sum(0)
-    birge = np.sqrt(((errors - mean) ** 2 * w).sum(0) / max(len(errors) - 1, 1))
-    return mean, 1.0 / np.sqrt(w.sum(0)), birge
 
 
 def main() -> int:
@@ -95,7 +86,7 @@ def main() -> int:
     if len(errors) < 2:
         report.say("too few placements estimated the intrinsics")
         return 1
-    mean, sigma, birge = weighted_mean(np.array(errors), np.array(sigmas))
+    mean, sigma, birge = inverse_variance_mean(errors, sigmas)
     report.say()
     report.say(f"| {len(errors)} placements | " + " | ".join(NAMES) + " |")
     report.say("|---|" + "---|" * len(NAMES))

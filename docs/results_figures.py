@@ -441,9 +441,9 @@ def _sigma_rows(src: Path) -> dict[str, dict]:
     return out
 
 
-def markerless_errors(out: Path) -> Figure:
-    """A real cell's errors, one row each: median and worst error, the median sigma and its 3-sigma band."""
-    src, res = RESULTS / "markerless_errors.md", RESULTS / "markerless_resolution.md"
+def _errors_panels(src: Path, res: Path) -> tuple[list, list, dict, list, list]:
+    """:func:`markerless_errors`'s three panels ``(title, rows)`` read from its two files, the rows' labels, the
+    pools' sizes per preset, and the commands of the five-placement and whole-dataset pooled runs."""
     sig = _sigma_rows(src=res)
     panels, pools = [], {}
     for preset in ("paper-real", "paper-sim"):
@@ -474,6 +474,13 @@ def markerless_errors(out: Path) -> Figure:
         acc, n = (int(v) for v in accepted[row].split("/"))
         wide.append({"row": row, "accepted": acc, **sig[key], "placements": n})
     panels.append(("paper-real, 848x480 (f 447 px)", wide))
+    return panels, labels, pools, shared_commands, whole_commands
+
+
+def markerless_errors(out: Path) -> Figure:
+    """A real cell's errors, one row each: median and worst error, the median sigma and its 3-sigma band."""
+    src, res = RESULTS / "markerless_errors.md", RESULTS / "markerless_resolution.md"
+    panels, labels, pools, shared_commands, whole_commands = _errors_panels(src, res)
     fig, axes = plt.subplots(1, 3, figsize=(14, 5.2), dpi=100, sharey=True, sharex=True)
     y = np.arange(len(labels))
     for ax, (title, rows) in zip(axes, panels):

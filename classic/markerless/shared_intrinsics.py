@@ -40,6 +40,7 @@ __all__ = [
     "leave_one_out_priors",
     "second_passes",
     "no_narrower",
+    "inverse_variance_mean",
     "MIN_OTHERS",
     "SHARED_PIXEL_EFFECT_PX",
 ]
@@ -264,15 +265,32 @@ def pooled_prior(
     return _prior(np.where(use, mean, given), np.where(use, sigma, given_px), use, len(others), birge, reason)
 
 
+def inverse_variance_mean(values, sigmas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per column, the inverse-variance weighted mean of independent estimates, its sigma and their Birge ratio.
+
+    Parameters
+    ----------
+    values, sigmas : array, shape (n, p)
+        ``n >= 2`` estimates of ``p`` parameters and their sigmas (> 0).
+
+    Returns
+    -------
+    mean, sigma, birge : array, shape (p,)
+        The mean, its sigma from the estimates' sigmas alone, and the root of the scatter's chi-square per degree
+        of freedom (``n - 1``): 1 where the estimates agree as their sigmas say, above where they scatter more.
+    """
+    values, weight = np.asarray(values, dtype=float), 1.0 / np.asarray(sigmas, dtype=float) ** 2
+    mean = (values * weight).sum(axis=0) / weight.sum(axis=0)
+    birge = np.sqrt(((values - mean) ** 2 * weight).sum(axis=0) / (len(values) - 1))
+    return mean, 1.0 / np.sqrt(weight.sum(axis=0)), birge
+
+
 def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The inverse-variance mean of ``others``' estimates, its sigma widened by the Birge ratio, and the ratio;
-    shape (4,) each, pixels."""
-    theta = np.array([t for t, _ in others])
-    weight = 1.0 / np.array([s for _, s in others]) ** 2
-    mean = (theta * weight).sum(axis=0) / weight.sum(axis=0)
-    chi2 = ((theta - mean) ** 2 * weight).sum(axis=0) / (len(others) - 1)
-    birge = np.sqrt(np.maximum(chi2, 1.0))
-    return mean, birge / np.sqrt(weight.sum(axis=0)), birge
+    """The inverse-variance mean of ``others``' estimates, its sigma widened by the Birge ratio (at least 1), and
+    that ratio; shape (4,) each, pixels."""
+    mean, sigma, birge = inverse_variance_mean([t for t, _ in others], [s for _, s in others])
+    birge = np.maximum(birge, 1.0)
+    return mean, birge * sigma, birge
 
 
 def _prior(mean_px, sigma_px, use, others: int, birge, reason: str) -> SharedIntrinsicsPrior:

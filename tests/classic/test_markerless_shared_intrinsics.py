@@ -209,3 +209,14 @@ def test_the_pool_moves_the_answer_but_does_not_narrow_its_sigma():
     assert no_narrower(wide, first) is wide  # wider already: as it is
     refused = result(1e-4, 1e-4, refused="did not converge")
     assert no_narrower(refused, first) is refused and no_narrower(narrow, refused) is narrow
+
+
+def test_the_inverse_variance_mean_of_known_estimates():
+    """Two estimates 1 and 3 of sigmas 1 and 1: mean 2, sigma 1/sqrt 2, Birge ratio sqrt(2) (each one sigma from
+    the mean: chi-square 2 on 1 degree of freedom); a second column weighted 4:1 towards its first estimate."""
+    from classic.markerless.shared_intrinsics import inverse_variance_mean
+
+    mean, sigma, birge = inverse_variance_mean([[1.0, 0.0], [3.0, 5.0]], [[1.0, 1.0], [1.0, 2.0]])
+    np.testing.assert_allclose(mean, [2.0, 1.0])
+    np.testing.assert_allclose(sigma, [np.sqrt(0.5), np.sqrt(0.8)])
+    np.testing.assert_allclose(birge, [np.sqrt(2.0), np.sqrt((1.0 + 16.0 / 4.0) / 1.0)])
