@@ -54,7 +54,7 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.optional import require_package
 from handeye.core.pool import NamedTask
 
-__all__ = ["RayEngine", "ray_worker_ready_keys", "busy_worker_pids"]
+__all__ = ["RayEngine", "busy_worker_pids"]
 
 #: Seconds between a worker's checks that the driver of a local cluster is still alive.
 DRIVER_POLL_S = 0.2
@@ -64,11 +64,6 @@ _WATCHED: tuple | None = None
 #: The key (initializer and its arguments) each initializer last ran with in this (worker) process: a Ray
 #: worker runs many tasks, of one call or, on a standing cluster, of several calls with other arguments.
 _READY: dict = {}
-
-
-def ray_worker_ready_keys() -> frozenset:
-    """The initialiser keys this process holds (for tests: a worker initialises once, not per task)."""
-    return frozenset(_READY.values())
 
 
 def busy_worker_pids() -> list[int]:
