@@ -429,6 +429,10 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "b",
         "starts a local Ray cluster and renders the small preset on it",
         _nothing,
+        parsed="the small preset rendered on a local Ray cluster with a worker killed, its shards byte-identical to "
+        "the process pool's: tests/test_ray_engine.py; a local cluster started by the engine and stopped with its "
+        "driver: tests/test_processes.py; the command line's --engine ray: step 6's render (a third cluster here "
+        "repeated two to three minutes of CI's run)",
     ),
     # step 5 reads what step 4 wrote (run after it, one test), and step 6 completes the part step 3 rendered (run
     # after it: step 3's 10 placements kept, the other 20 of the smoke cut rendered on the cluster); steps 2 and 7
@@ -803,8 +807,13 @@ def _parse_check(block: str, folder: Path, env: dict) -> None:
     """Every command of ``block`` (``handeye ...`` or ``python benchmarks/X.py ...``, split at ``&&``) parsed by
     its own argument parser and stopped there: a renamed subcommand or option, a value outside its choices, fails;
     nothing runs (so a value the command checks only when it runs, a preset's name, is not checked). The
-    benchmarks' scripts are the repository's (``benchmarks/`` linked into ``folder``)."""
-    words = [shlex.split(part) for line in _commands(block) for part in line.split("&&")]
+    benchmarks' scripts are the repository's (``benchmarks/`` linked into ``folder``); a ``pip install`` line is
+    checked as a run block's is (:func:`_extras_installed`)."""
+    lines = _commands(block)
+    for line in lines:
+        if line.startswith("pip install"):
+            _extras_installed(line)
+    words = [shlex.split(part) for line in lines if not line.startswith("pip install") for part in line.split("&&")]
     assert all(w[0] == "handeye" or (w[0] == "python" and w[1].startswith("benchmarks/")) for w in words), words
     if not (folder / "benchmarks").exists():
         (folder / "benchmarks").symlink_to(ROOT / "benchmarks")
