@@ -461,6 +461,9 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "trains the paper learned preset with torchrun: hours on CPUs",
         _after_previous,
         after=3,
+        parsed="torchrun --nproc-per-node 2 -m handeye learned run on the tiny preset, its results against one "
+        "process's and only rank 0 writing: tests/learned/test_distributed.py (the smoke run here repeated it, "
+        "40-60 s of CI's run)",
     ),
     ("docs/guides/beyond-one-machine.md", 5): Block(
         "handeye sim generate --preset dense-sim --out data/dense-sim --engine ray --address auto",
@@ -789,6 +792,13 @@ def _parse_then_stop(self, args=None, namespace=None):
 
 argparse.ArgumentParser.parse_args = _parse_then_stop
 for words in json.loads(sys.argv[1]):
+    if words[0] == "torchrun":  # torchrun's own options, then the module's: -m handeye ...
+        from torch.distributed.run import get_args_parser
+
+        try:
+            get_args_parser().parse_args(words[1:])
+        except _Parsed:
+            words = words[words.index("-m") + 1 :]
     try:
         if words[0] == "handeye":
             from handeye.cli import main
@@ -803,8 +813,16 @@ for words in json.loads(sys.argv[1]):
 """
 
 
+def _parsable(words: list[str]) -> bool:
+    """``handeye ...``, ``torchrun ... -m handeye ...`` or ``python benchmarks/X.py ...``."""
+    if words[0] == "torchrun":
+        return "-m" in words and words[words.index("-m") + 1 :][:1] == ["handeye"]
+    return words[0] == "handeye" or (words[0] == "python" and words[1].startswith("benchmarks/"))
+
+
 def _parse_check(block: str, folder: Path, env: dict) -> None:
-    """Every command of ``block`` (``handeye ...`` or ``python benchmarks/X.py ...``, split at ``&&``) parsed by
+    """Every command of ``block`` (``handeye ...``, ``torchrun ... -m handeye ...`` or ``python benchmarks/X.py
+    ...``, split at ``&&``) parsed by
     its own argument parser and stopped there: a renamed subcommand or option, a value outside its choices, fails;
     nothing runs (so a value the command checks only when it runs, a preset's name, is not checked). The
     benchmarks' scripts are the repository's (``benchmarks/`` linked into ``folder``); a ``pip install`` line is
@@ -814,7 +832,7 @@ def _parse_check(block: str, folder: Path, env: dict) -> None:
         if line.startswith("pip install"):
             _extras_installed(line)
     words = [shlex.split(part) for line in lines if not line.startswith("pip install") for part in line.split("&&")]
-    assert all(w[0] == "handeye" or (w[0] == "python" and w[1].startswith("benchmarks/")) for w in words), words
+    assert all(_parsable(w) for w in words), words
     if not (folder / "benchmarks").exists():
         (folder / "benchmarks").symlink_to(ROOT / "benchmarks")
     run = subprocess.run(
