@@ -32,9 +32,7 @@ run (a render, a bag round trip, two labellings) that those tests make.
 
 The commands are the documentation's, unchanged. Two kinds of line are left out of the executed text and
 checked instead: ``pip install -e ".[extras]"`` or ``pip install torch==2.13.0 ...`` (every requirement of
-those extras, or the one named, is installed in this environment) and ``ros2 launch FILE`` (no ROS here:
-the launch file the block's earlier command exported exists, is Python defining
-``generate_launch_description`` and reads back as the exported transform).
+those extras, or the one named, is installed in this environment).
 
 The stand-ins are smaller than what the documentation describes, so that the commands run as written on
 less data:
@@ -87,10 +85,9 @@ from tests.test_docs import DOCS, README, ROOT, code_blocks, d435_cell_build, pr
 from tests.test_docs import command_lines as _commands
 from tests.test_docs import written_paths as _outputs
 from tests.tiers import hold_ray_lock
-from tests.tolerances import FLOAT
 
-#: Left out of the executed text (checked instead): no network, no ROS installation here.
-DROPPED = ("pip install", "ros2 launch")
+#: Left out of the executed text (checked instead): no network here.
+DROPPED = ("pip install",)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -279,21 +276,6 @@ def _markerless_guide_3(folder, home, block, request):
             Image.fromarray(ds.rgb(c, rgb)).save(placement / "calibration" / "rgb" / f"b{k:03d}.png")
         (placement / "calibration" / "joints.csv").write_text("\n".join(lines) + "\n")
     _copy(board, folder / "board.json")
-
-
-def _real_cell_1(folder, home, block, request):
-    """my_eob_calib.samples: an easy_handeye2 eye-on-base sample list with the block's frame names; the
-    easy_handeye2 calibrations folder under ~/.ros2 (easy_handeye2 creates it)."""
-    _have("yaml")
-    from handeye.core.easy_handeye import write_easy_handeye_samples
-    from handeye.core.synthetic import make_problem
-    from tests.test_cli_ros import FRAMES
-
-    p = make_problem(10, "eye_to_hand", np.random.default_rng(21))
-    write_easy_handeye_samples(
-        folder / "my_eob_calib.samples", p.T_base_ee, p.T_cam_target, "eye_to_hand", frames=FRAMES
-    )
-    (home / ".ros2" / "easy_handeye2" / "calibrations").mkdir(parents=True)
 
 
 def _real_cell_3(folder, home, block, request):
@@ -544,7 +526,7 @@ BLOCKS: dict[tuple[str, int], Block] = {
     ("docs/guides/real-cell.md", 1): Block("handeye calibrate kuka_poses.csv", "p"),
     ("docs/guides/real-cell.md", 2): Block("python -c", "p"),
     ("docs/guides/real-cell.md", 3): Block("handeye calibrate my_eob_calib.samples", "p"),
-    ("docs/guides/real-cell.md", 4): Block("handeye calibrate my_eob_calib.samples", "a", "", _real_cell_1),
+    ("docs/guides/real-cell.md", 4): Block("handeye calibrate my_eob_calib.samples", "p"),
     ("docs/guides/real-cell.md", 5): Block("python -c", "p"),
     ("docs/guides/real-cell.md", 6): Block("handeye detect images/", "p"),
     ("docs/guides/real-cell.md", 7): Block("handeye bag-poses recording/", "a", "", _real_cell_3),
@@ -607,7 +589,7 @@ def docs_bash_blocks() -> dict[tuple[str, int], str]:
 
 
 def executed_text(block: str) -> tuple[str, list[str]]:
-    """The block without its ``pip install`` and ``ros2 launch`` lines, and those lines."""
+    """The block without its ``pip install`` lines, and those lines."""
     kept, dropped = [], []
     for line in block.splitlines():
         (dropped if line.startswith(DROPPED) else kept).append(line)
@@ -669,24 +651,6 @@ def _extras_installed(line: str) -> None:
         except importlib.metadata.PackageNotFoundError:
             pytest.fail(f"{line!r}: {req.name} is not installed")
         assert req.specifier.contains(version, prereleases=True), f"{req.name} {version} not {req.specifier}"
-
-
-def _launch_file_is_what_ros2_launch_runs(folder: Path, home: Path, line: str) -> None:
-    """The file ``ros2 launch FILE`` would start: exported, Python with generate_launch_description, reading
-    back as the transform exported beside it."""
-    import ast
-
-    from handeye.core.easy_handeye import read_easy_handeye_calibration
-    from handeye.core.ros_launch import read_static_tf_launch
-
-    path = folder / shlex.split(line)[2]
-    assert path.is_file(), f"{line!r}: {path.name} was not exported"
-    tree = ast.parse(path.read_text())
-    assert "generate_launch_description" in {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
-    T, parent, child = read_static_tf_launch(path)
-    calib = read_easy_handeye_calibration(next((home / ".ros2").rglob("*.calib")))
-    np.testing.assert_allclose(T, calib.T_parent_cam, atol=FLOAT)
-    assert (parent, child) == (calib.parent_frame, calib.child_frame)
 
 
 def _marks(keys: list[tuple[str, int]]) -> list:
@@ -766,10 +730,7 @@ def _run_block(key, block, folder: Path, home: Path, request, mpl_config) -> Non
         target = home / out[2:] if out.startswith("~/") else folder / out
         assert target.exists(), f"{key}: {out} was not written"
     for line in dropped:
-        if line.startswith("pip install"):
-            _extras_installed(line)
-        else:
-            _launch_file_is_what_ros2_launch_runs(folder, home, line)
+        _extras_installed(line)
 
 
 #: Each command's argument parser run on its words, then stopped (:class:`_Parsed`): ``handeye`` through
