@@ -1,5 +1,5 @@
 """Render the documentation's pictures: a simulated cell (``docs/img/cell.png``), its frames
-(``docs/img/frames.png``) and the benchmark pages' figures drawn from the results files (``docs/results_figures.py``).
+(``docs/img/frames.png``) and the benchmark pages' figures drawn from the results files (``docs/figures/``).
 
 Run from the repository root (needs ``pip install -e ".[sim]"``; about a minute on two cores)::
 
@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from results_figures import draw_all  # noqa: E402
+from figures import draw_all  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "img"
 CAMERA = 0

@@ -28,7 +28,16 @@ def _module(name: str):
     return module
 
 
-rf = _module("results_figures")
+def _package(name: str):
+    """The package ``docs/<name>/`` imported (its modules import one another relatively)."""
+    sys.path.insert(0, str(DOCS))
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.path.remove(str(DOCS))
+
+
+rf = _package("figures")
 
 #: A Markdown image ``![alt](path)`` or an HTML ``<img src="path">`` of a page.
 IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)|<img [^>]*src=\"([^\"]+)\"")
@@ -45,9 +54,9 @@ def test_tables_reads_a_known_table(tmp_path):
     path.write_text(
         "command: python x.py\n\n## Cell, one\n\nnote\n\n| a | b |\n|---|---|\n| 1 / 2 | - |\n| x | y |\n\n"
     )
-    assert rf.tables(path) == [("Cell, one", ["a", "b"], [["1 / 2", "-"], ["x", "y"]])]
-    assert rf.command_of(path) == "python x.py"
-    assert rf._pair("0.1223 / 1.715") == (0.1223, 1.715)
+    assert rf.common.tables(path) == [("Cell, one", ["a", "b"], [["1 / 2", "-"], ["x", "y"]])]
+    assert rf.common.command_of(path) == "python x.py"
+    assert rf.common._pair("0.1223 / 1.715") == (0.1223, 1.715)
 
 
 def test_make_figures_redraws_every_figure_from_the_shipped_results(tmp_path):
@@ -64,7 +73,7 @@ def test_make_figures_redraws_every_figure_from_the_shipped_results(tmp_path):
         assert Image.open(shipped).size == Image.open(fig.path).size, f"{shipped}: not this script's (rerun it)"
         for name in re.findall(r"`(benchmarks/results/[^`]+\.md)`", fig.caption):
             assert (ROOT / name).is_file(), name
-        assert "made by `" in fig.caption and rf.DRAWN_BY in fig.caption
+        assert "made by `" in fig.caption and rf.common.DRAWN_BY in fig.caption
         shown = [p for p, text in pages.items() if f"](../img/{fig.path.name})\n\n*{fig.caption}*" in text]
         assert shown, f"{fig.path.name}: no benchmark page shows it with its caption"
 
@@ -115,11 +124,11 @@ def test_sections_split_a_file_into_its_reports(tmp_path):
         "# A reading by hand\n\n| a |\n|---|\n| 1 |\n\n---\n\n# Run\ncommand: python b.py --cases 2\n\n## c\n\n"
         "| b |\n|---|\n| 2 |\n"
     )
-    assert rf.sections(path) == [
+    assert rf.common.sections(path) == [
         ("", [("A reading by hand", ["a"], [["1"]])]),
         ("python b.py --cases 2", [("c", ["b"], [["2"]])]),
     ]
-    assert rf.command_of_section(path, "c") == "python b.py --cases 2"
+    assert rf.common.command_of_section(path, "c") == "python b.py --cases 2"
 
 
 def test_the_real_cell_figure_reads_the_rows_the_page_quotes():
@@ -127,10 +136,10 @@ def test_the_real_cell_figure_reads_the_rows_the_page_quotes():
     the front's defaults, not the later runs with options put together in the same file; its sigmas are the
     resolution file's after-column medians, quoted in its text (2.28, 4.46 and 3.75 mm)."""
     page = DOCS / "benchmarks" / "markerless.md"
-    (_, header, quoted), *_ = [t for t in rf.tables(page) if t[0] == "A real cell's errors"]
+    (_, header, quoted), *_ = [t for t in rf.common.tables(page) if t[0] == "A real cell's errors"]
     assert header[1] == "`paper-real`: accepted" and header[6] == "`paper-sim`: accepted"
     for preset, first in (("paper-real", 1), ("paper-sim", 6)):
-        rows = rf._error_rows(rf.RESULTS / "markerless_errors.md", preset)
+        rows = rf.real_cell._error_rows(rf.common.RESULTS / "markerless_errors.md", preset)
         assert len(rows) == 10
         for r, q in zip(rows, quoted):
             assert f"{r['accepted']}/{r['placements']}" == q[first]
@@ -139,7 +148,7 @@ def test_the_real_cell_figure_reads_the_rows_the_page_quotes():
                 float(q[first + 2]),
                 int(q[first + 3]),
             )
-    sigma = rf._sigma_rows(rf.RESULTS / "markerless_resolution.md")
+    sigma = rf.real_cell._sigma_rows(rf.common.RESULTS / "markerless_resolution.md")
     assert [
         round(sigma[k]["sigma"], 2)
         for k in ("256x256, none (d435 as is)", "256x256, fixed pattern 3.6 mm", "256x256, all together")
@@ -148,17 +157,17 @@ def test_the_real_cell_figure_reads_the_rows_the_page_quotes():
 
 
 def test_the_real_cell_figure_refuses_two_runs_at_the_defaults(tmp_path):
-    src = (rf.RESULTS / "markerless_errors.md").read_text(encoding="utf-8")
+    src = (rf.common.RESULTS / "markerless_errors.md").read_text(encoding="utf-8")
     first = src.split("\n---\n")[1]
     path = tmp_path / "markerless_errors.md"
     path.write_text(src + "\n---\n" + first, encoding="utf-8")
     with pytest.raises(ValueError, match="2 runs of paper-real"):
-        rf._error_rows(path, "paper-real")
+        rf.real_cell._error_rows(path, "paper-real")
 
 
 def test_the_sensor_figure_reads_the_charuco_lines():
-    text = (rf.RESULTS / "markerless_sensors.md").read_text(encoding="utf-8")
-    assert rf.charuco_medians(text) == {
+    text = (rf.common.RESULTS / "markerless_sensors.md").read_text(encoding="utf-8")
+    assert rf.markerless.charuco_medians(text) == {
         "paper-real-native": 0.19,
         "paper-real-0.7": None,
         "paper-real-1.8": 0.81,
@@ -172,7 +181,7 @@ def test_the_basin_map_reads_every_cell_of_both_starts():
     """The map's file holds a full grid per start (the given start alone and with the centroid start beside), every
     cell's trials counted once: the accepted ones within 1 mm or wrong, plus the refused, make its trials; the
     wrong answers beyond 3 sigma are among the wrong ones."""
-    starts = rf.basin_map_cells(rf.RESULTS / "markerless_basin_map_small.md")
+    starts = rf.basin.basin_map_cells(rf.common.RESULTS / "markerless_basin_map_small.md")
     assert sorted(starts) == ["centroid start beside", "given start alone"]
     for cells in starts.values():
         mms, degs = {mm for mm, _ in cells}, {deg for _, deg in cells}
@@ -190,6 +199,6 @@ def test_the_basin_map_parses_a_fractional_degree(tmp_path):
         "| start off by | success | wrong answer | of which beyond 3 sigma | refused |\n|---|---|---|---|---|\n"
         "| 25 mm, 2.5 deg | 3/6 (50 %) | 2 | 1 | 1 |\n"
     )
-    assert rf.basin_map_cells(path) == {
+    assert rf.basin.basin_map_cells(path) == {
         "given start alone": {(25, 2.5): {"n": 6, "good": 3, "wrong": 2, "far": 1, "refused": 1}}
     }

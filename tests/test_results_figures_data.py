@@ -6,6 +6,7 @@ column (the rotation's bound on the translation's axis) passed it."""
 from __future__ import annotations
 
 import re
+import sys
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ pytest.importorskip("matplotlib")
 
 from tests.test_make_figures import rf  # noqa: E402
 
-RESULTS = rf.RESULTS
+RESULTS = rf.common.RESULTS
 
 
 def _cells(path, row_start: str, after: str = "") -> list[str]:
@@ -35,7 +36,7 @@ def drawn(monkeypatch, tmp_path):
 
     def draw(function):
         seen = {}
-        save = rf._save
+        save = rf.common._save
 
         def keep(fig, path, caption, **kw):
             seen["lines"] = {
@@ -46,7 +47,9 @@ def drawn(monkeypatch, tmp_path):
             seen["axes"] = [(ax.get_title(), ax.get_ylabel()) for ax in fig.axes]
             return save(fig, path, caption, **kw)
 
-        monkeypatch.setattr(rf, "_save", keep)
+        for module in (rf.common, sys.modules[function.__module__]):  # _legend_and_save's and its own, if any
+            if hasattr(module, "_save"):
+                monkeypatch.setattr(module, "_save", keep)
         function(tmp_path)
         return seen
 
@@ -112,7 +115,7 @@ def test_the_real_recordings_figure_reads_each_methods_hold_out_halves_and_refus
     """The figure's points are the file's cells of the method's row: the hold-out median (deg, mm), the halves'
     ratios (none for a bare closed form), the refusals; each row of the four recordings in a group."""
     sources = [RESULTS / "real_recordings.md", RESULTS / "real_recordings_rwhe.md"]
-    recordings = rf.real_recordings(sources)
+    recordings = rf.real.real_recordings(sources)
     assert [r["name"] for r in recordings] == ["camodocal_artag", "ethz_robot_arm", "kuka_1", "kuka_2"]
     assert [(r["poses"], r["refusals"], len(r["methods"])) for r in recordings] == [
         (42, 0, 23),
@@ -132,9 +135,9 @@ def test_the_real_recordings_figure_reads_each_methods_hold_out_halves_and_refus
         np.testing.assert_array_equal(m["halves"], halves)
         assert (m["refused"], m["holdout_refused"]) == (False, 0)
     groups = {m["group"] for r in recordings for m in r["methods"]}
-    assert groups == {g for g, _, _ in rf.REAL_GROUPS}
+    assert groups == {g for g, _, _ in rf.real.REAL_GROUPS}
     with pytest.raises(ValueError, match="no group"):
-        rf.real_group("someone else's method")
+        rf.real.real_group("someone else's method")
 
 
 def test_the_vision_figure_plots_the_translation_column_and_the_robot_rows(drawn):
