@@ -13,6 +13,8 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
+from matplotlib.container import BarContainer  # noqa: E402
+
 from tests.test_make_figures import rf  # noqa: E402
 
 RESULTS = rf.common.RESULTS
@@ -30,9 +32,18 @@ def _numbers(cell: str) -> list[float]:
     return [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", cell)]
 
 
+def _half_lengths(errorbar) -> np.ndarray | None:
+    """Half the length of each error bar of a bar plot's ``errorbar`` (None where it has none)."""
+    if errorbar is None:
+        return None
+    return np.array([(top - bottom) / 2 for (_, bottom), (_, top) in errorbar.lines[2][0].get_segments()])
+
+
 @pytest.fixture
 def drawn(monkeypatch, tmp_path):
-    """``drawn(figure_function)``: its lines by (axes index, label) -> (x, y), and the axes' titles and y labels."""
+    """``drawn(figure_function)``: its lines by (axes index, label) -> (x, y), its bars by (axes index, label) ->
+    ``rects`` (x, y, width, height per bar) and ``errors`` (each bar's error bar, half its length), and the axes'
+    titles and y labels."""
 
     def draw(function):
         seen = {}
@@ -43,6 +54,15 @@ def drawn(monkeypatch, tmp_path):
                 (i, ln.get_label()): (np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float))
                 for i, ax in enumerate(fig.axes)
                 for ln in ax.get_lines()
+            }
+            seen["bars"] = {
+                (i, c.get_label()): {
+                    "rects": np.array([[r.get_x(), r.get_y(), r.get_width(), r.get_height()] for r in c]),
+                    "errors": _half_lengths(c.errorbar),
+                }
+                for i, ax in enumerate(fig.axes)
+                for c in ax.containers
+                if isinstance(c, BarContainer)
             }
             seen["axes"] = [(ax.get_title(), ax.get_ylabel()) for ax in fig.axes]
             return save(fig, path, caption, **kw)
@@ -174,3 +194,65 @@ def test_the_planning_figure_plots_each_column_of_the_table(drawn):
                 _, y = seen["lines"][(j, f"{column}, 15 poses")]
                 assert set(y) == {_numbers(_cells(src, "15")[k])[j]}
     assert [t for t, _ in seen["axes"]] == ["rotation [deg]", "translation [mm]", "workspace error [mm]"]
+
+
+def test_the_simulation_figure_plots_each_noise_rows_median_and_worst(drawn):
+    """Per panel (rotation deg, translation mm) the dots are the median column and the squares the worst, one per
+    noise row of the labels table, in the file's order."""
+    src = RESULTS / "sim_generation_paper-sim.md"
+    header = _cells(src, "noise (pixel grey levels, joint deg)")
+    rows = ("none", "pixel 2", "joints 0.01 deg", "default: pixel 2, depth 1 mm at 1 m, joints 0.01 deg", "2x default")
+    seen = drawn(rf.simulation_labels)
+    for j, (what, unit) in enumerate((("rotation", "deg"), ("translation", "mm"))):
+        assert seen["axes"][j][0] == f"{what} [{unit}]"
+        for label, stat in (("median over the camera poses", "median"), ("worst camera pose", "worst")):
+            column = f"{stat} {unit}"
+            x, y = seen["lines"][(j, label)]
+            assert list(y) == list(range(len(rows)))
+            assert list(x) == [float(_cells(src, row)[header.index(column)]) for row in rows]
+
+
+def test_the_cluster_figure_plots_the_throughput_and_the_time_per_run(drawn):
+    """Left and middle, the Throughput table's pool and ray cells; right, per preset and configuration, the mean of
+    each time column as the bar and its std as the error bar."""
+    engines, training = RESULTS / "cluster_engines.md", RESULTS / "distributed_training.md"
+    seen = drawn(rf.cluster_throughput)
+    header = _cells(engines, "engine")
+    for i, column in enumerate(("shards/min", "camera poses/min")):
+        rects = seen["bars"][(i, column)]["rects"]
+        assert list(rects[:, 3]) == [float(_cells(engines, e)[header.index(column)]) for e in ("pool", "ray")]
+    ratios = re.search(r"generation ([0-9.]+), labelling ([0-9.]+)", engines.read_text(encoding="utf-8")).groups()
+    assert [seen["axes"][i][0].split()[-1] for i in (0, 1)] == list(ratios)
+    header = _cells(training, "configuration")
+    for k, preset in enumerate(("tiny", "demo")):
+        for config in ("1 proc x 1 thread", "1 proc x 2 threads", "2 proc x 1 thread"):
+            cells = _cells(training, config, f"## Preset {preset}: time per run")
+            for column in ("wall (whole command)", "protocol (training and evaluation)"):
+                bars = seen["bars"][(2, f"{config}, {column}")]
+                mean, std = _numbers(cells[header.index(column)])
+                assert bars["rects"][k, 3] == mean
+                np.testing.assert_allclose(bars["errors"][k], std)
+
+
+def test_the_reliability_figure_stacks_each_commands_outcomes(drawn):
+    """One bar per command row of the first table (not its all row), its outcomes stacked in the legend's order to
+    the runs tried; each outcome labelled with the all row's count, and the title that row's totals."""
+    src = RESULTS / "reliability.md"
+    lines = src.read_text(encoding="utf-8").splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("| command | tried |"))
+    end = next(i for i, ln in enumerate(lines) if ln.startswith("| **all** |"))
+    header, total = _cells(src, "command"), _cells(src, "**all**")
+    rows = [[c.strip() for c in ln.strip("|").split("|")] for ln in lines[start + 2 : end]]
+    seen = drawn(rf.reliability_outcomes)
+    left = np.zeros(len(rows))
+    failures = ("unclear", "silent", "destroyed/lost", "traceback", "timeout/other")
+    for name in ("clear", "ok", *failures):
+        rects = seen["bars"][(0, f"{name}: {total[header.index(name)]} in all")]["rects"]
+        assert list(rects[:, 2]) == [int(r[header.index(name)]) for r in rows]
+        assert list(rects[:, 0]) == list(left)
+        left += rects[:, 2]
+    assert list(left) == [int(r[header.index("tried")]) for r in rows]
+    tried, clear, ok = (total[header.index(c)] for c in ("tried", "clear", "ok"))
+    failed = sum(int(total[header.index(c)]) for c in failures)
+    each = ", ".join(f"{total[header.index(c)]} {c}" for c in failures)
+    assert seen["axes"][0][0] == f"{tried} fault runs: {clear} clear, {ok} ok, {failed} failed ({each})"

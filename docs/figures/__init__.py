@@ -17,12 +17,15 @@ matplotlib.use("Agg")  # before any module of the package imports pyplot
 from . import common  # noqa: E402
 from .basin import markerless_basin, markerless_basin_map  # noqa: E402
 from .classic import classic_bound  # noqa: E402
+from .cluster import cluster_throughput  # noqa: E402
 from .common import Figure  # noqa: E402
 from .learned import learned_steps  # noqa: E402
 from .markerless import markerless_distance, markerless_sensors  # noqa: E402
 from .planning import plan_poses  # noqa: E402
 from .real import real_recordings_figure  # noqa: E402
 from .real_cell import markerless_errors  # noqa: E402
+from .reliability import reliability_outcomes  # noqa: E402
+from .simulation import simulation_labels  # noqa: E402
 from .vision import vision_errors  # noqa: E402
 
 #: Every figure drawn from the results files, in the order the pages show them.
@@ -37,6 +40,9 @@ RESULT_FIGURES = (
     real_recordings_figure,
     vision_errors,
     plan_poses,
+    simulation_labels,
+    cluster_throughput,
+    reliability_outcomes,
 )
 
 
