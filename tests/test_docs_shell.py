@@ -78,6 +78,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from handeye.core.ray_pool import LOCAL_WORKER_NICENESS
 from handeye.core.smoke import ENV as SMOKE_ENV
 from handeye.core.smoke import NOTICE as SMOKE_NOTICE
 from tests.shared_renders import shared_build
@@ -365,7 +366,9 @@ def _ray_head(folder, home, block, request):
     start = [ray, "start", "--head", "--num-cpus", "2", "--object-store-memory", str(256 * 2**20)]
     start += ["--include-dashboard", "false", "--disable-usage-stats"]
     request.addfinalizer(lambda: subprocess.run([ray, "stop", "--force"], capture_output=True, timeout=120))
-    subprocess.run(start, check=True, capture_output=True, timeout=300, env=dict(os.environ, HOME=str(home)))
+    env = dict(os.environ, HOME=str(home))
+    env.setdefault(*LOCAL_WORKER_NICENESS)  # the workers at the tests' priority, as RayEngine's own cluster's
+    subprocess.run(start, check=True, capture_output=True, timeout=300, env=env)
 
 
 _EYE_IN_HAND = "handeye calibrate handeye/data/example_eye_in_hand.csv"

@@ -17,7 +17,7 @@ ray = pytest.importorskip(
 
 from benchmarks.cluster_engines import differing_files, kill_when_half_written  # noqa: E402
 from handeye.core.engine_protocol import EngineOptions  # noqa: E402
-from handeye.core.ray_pool import RayEngine  # noqa: E402
+from handeye.core.ray_pool import LOCAL_WORKER_NICENESS, RayEngine  # noqa: E402
 from tests.tiers import hold_ray_lock  # noqa: E402
 
 
@@ -29,6 +29,7 @@ def run_ray(fn, tasks, workers, **options):
 def local_cluster(request):
     """One local 2-CPU Ray cluster for the module (RayEngine uses an initialised Ray as is)."""
     hold_ray_lock(request)
+    os.environ.setdefault(*LOCAL_WORKER_NICENESS)  # as RayEngine starts its own
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=256 * 2**20)
     yield
     ray.shutdown()
