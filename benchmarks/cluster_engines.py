@@ -34,7 +34,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from benchmarks._report import Report  # noqa: E402
 from handeye.core.engine_protocol import EngineOptions  # noqa: E402
-from handeye.core.ray_pool import busy_worker_pids  # noqa: E402
+from handeye.core.ray_pool import LOCAL_WORKER_NICENESS, busy_worker_pids  # noqa: E402
 from handeye.core.tables import markdown_table  # noqa: E402
 from handeye.labelling import LabelRunOptions, label_dataset  # noqa: E402
 from sim.cameras import get_preset  # noqa: E402
@@ -95,6 +95,7 @@ def main(argv=None) -> int:
         f"each; {args.workers} workers; default noise"
     )
     work = Path(tempfile.mkdtemp(prefix="handeye-engines-"))
+    os.environ.setdefault(*LOCAL_WORKER_NICENESS)  # as RayEngine starts a local cluster
     t = time.perf_counter()
     ray.init(num_cpus=args.workers, include_dashboard=False, log_to_driver=False, object_store_memory=256 * 2**20)
     start_s = time.perf_counter() - t

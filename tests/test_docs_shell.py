@@ -574,7 +574,7 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "",
         _nothing,
         parsed="the small preset rendered and labelled by Park and by Tsai with repeats: conftest's small_dataset, "
-        "tests/test_paper_labels.py, guides/beyond-one-machine.md#0 (rendered on Ray)",
+        "tests/test_paper_labels.py, tests/test_ray_engine.py (rendered on Ray)",
     ),
 }
 
