@@ -480,6 +480,9 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "b",
         "trains the keypoint family with the cpu learned preset: more than 7 minutes even on the small preset",
         _paper_sim,
+        parsed="the keypoint family trained, reported and compared (hybrid and classic columns) from the command "
+        "line on the tiny preset: tests/learned/test_end_to_end.py (the smoke run here repeated it, 35 s of CI's "
+        "run)",
     ),
     ("docs/guides/markerless.md", 0): Block("handeye import bag data_0/ data_1/", "p"),
     # the D435 cell's render (29 s of the default run): the slow tier's, as the guide's printed steps that read it

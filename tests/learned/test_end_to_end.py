@@ -89,7 +89,7 @@ def test_mismatched_image_sizes_are_refused(small_copy):
         load_frames(small_copy, (32, 32), "classic", progress=False)
 
 
-def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(small_dataset, tmp_path):
+def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(small_dataset, tmp_path, capsys):
     from handeye.cli import main
     from learned.experiment import load_model
 
@@ -108,6 +108,11 @@ def test_the_keypoint_model_trains_in_the_precision_the_command_line_asks_for(sm
     assert mine[0]["worst_deg"] == pytest.approx(np.max(pc["learned_vs_truth_deg"]), rel=FLOAT)
     assert main(["learned", "report", str(out)]) == 0
     assert "Every repeat's model" in (out / "report.md").read_text()
+    # compare with the keypoint model (docs/guides/learned.md's keypoint block, parsed there): hybrid and classic too
+    capsys.readouterr()
+    assert main(["compare", str(root), "--model", str(out / "batch")]) == 0
+    text = capsys.readouterr().out
+    assert "learned vs classic" in text and "hybrid vs truth" in text and text.count("| S") == 2
     # the regression networks: their encoders in the precision asked for (the keypoint setting untouched)
     assert main([*args, "--trunk-dtype", "bfloat16", "--out", str(tmp_path / "reg"), "--threads", "1"]) == 0
     preset = json.loads((tmp_path / "reg" / "results.json").read_text())["preset"]
