@@ -368,7 +368,8 @@ def _ray_head(folder, home, block, request):
     request.addfinalizer(lambda: subprocess.run([ray, "stop", "--force"], capture_output=True, timeout=120))
     env = dict(os.environ, HOME=str(home))
     env.setdefault(*LOCAL_WORKER_NICENESS)  # the workers at the tests' priority, as RayEngine's own cluster's
-    subprocess.run(start, check=True, capture_output=True, timeout=300, env=env)
+    run = subprocess.run(start, capture_output=True, text=True, timeout=300, env=env)
+    assert run.returncode == 0, f"ray start --head failed:\n{run.stdout[-1500:]}\n{run.stderr[-1500:]}"
 
 
 _EYE_IN_HAND = "handeye calibrate handeye/data/example_eye_in_hand.csv"

@@ -137,6 +137,19 @@ def test_ray_workers_of_a_local_cluster_die_with_the_driver(tmp_path, request):
     assert _kill_and_time_orphans(driver, workers, deadline_s=5 * DRIVER_POLL_S) == []
 
 
+def test_a_local_ray_cluster_leaves_the_environment_as_it_was(request):
+    """RayEngine's own local cluster, started and ended by one call: the process's environment as before it
+    (``ray.init`` leaves ``RAY_AUTH_MODE=token`` there, and a ``ray start`` the process ran later was refused)."""
+    pytest.importorskip("ray", reason="the Ray engine needs the optional 'cluster' extra")
+    from handeye.core.engine_protocol import EngineOptions
+    from handeye.core.ray_pool import RayEngine
+
+    hold_ray_lock(request)
+    before = dict(os.environ)
+    assert sorted(RayEngine().run(abs, [-2, -1], EngineOptions(workers=1, progress=False))) == [1, 2]
+    assert dict(os.environ) == before
+
+
 def _kill_self_on_one(x):
     if x == 1:
         os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer ends a process

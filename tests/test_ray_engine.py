@@ -27,12 +27,18 @@ def run_ray(fn, tasks, workers, **options):
 
 @pytest.fixture(scope="module")
 def local_cluster(request):
-    """One local 2-CPU Ray cluster for the module (RayEngine uses an initialised Ray as is)."""
+    """One local 2-CPU Ray cluster for the module (RayEngine uses an initialised Ray as is); the environment as it
+    was after it: ``ray.init`` leaves ``RAY_AUTH_MODE=token`` in this process's environment, and a later test's
+    ``ray start --head`` (the docs' blocks, under ``pytest -n 0``) inherited it and was refused for want of a
+    token."""
     hold_ray_lock(request)
+    before = dict(os.environ)
     os.environ.setdefault(*LOCAL_WORKER_NICENESS)  # as RayEngine starts its own
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=256 * 2**20)
     yield
     ray.shutdown()
+    os.environ.clear()
+    os.environ.update(before)
 
 
 def _square_and_inits(x):

@@ -192,6 +192,7 @@ class RayEngine:
             return
         ray = require_package("ray", extra="cluster", purpose="the Ray engine")
         workers = options.workers or (DEFAULT_WORKERS if self.address is None else None)
+        environ = dict(os.environ)  # ray.init leaves RAY_AUTH_MODE and PYTHONBREAKPOINT in it
         started = _start(ray, self.address, workers)
         bar = None
         pending: list = []
@@ -227,8 +228,10 @@ class RayEngine:
                 ray.cancel(ref, force=True)
             if bar is not None:
                 bar.close()
-            if started:
+            if started:  # the cluster this call started, ended, and the process's environment as it was
                 ray.shutdown()
+                os.environ.clear()
+                os.environ.update(environ)
 
 
 def _next_done(ray, pending: list, ordered: bool):
