@@ -56,7 +56,7 @@ def test_tables_reads_a_known_table(tmp_path):
     )
     assert rf.common.tables(path) == [("Cell, one", ["a", "b"], [["1 / 2", "-"], ["x", "y"]])]
     assert rf.common.command_of(path) == "python x.py"
-    assert rf.common._pair("0.1223 / 1.715") == (0.1223, 1.715)
+    assert rf.common.pair("0.1223 / 1.715") == (0.1223, 1.715)
 
 
 def test_make_figures_redraws_every_figure_from_the_shipped_results(tmp_path):

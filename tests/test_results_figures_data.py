@@ -6,7 +6,6 @@ column (the rotation's bound on the translation's axis) passed it."""
 from __future__ import annotations
 
 import re
-import sys
 
 import numpy as np
 import pytest
@@ -47,7 +46,7 @@ def drawn(monkeypatch, tmp_path):
 
     def draw(function):
         seen = {}
-        save = rf.common._save
+        save = rf.common.save
 
         def keep(fig, path, caption, **kw):
             seen["lines"] = {
@@ -67,9 +66,7 @@ def drawn(monkeypatch, tmp_path):
             seen["axes"] = [(ax.get_title(), ax.get_ylabel()) for ax in fig.axes]
             return save(fig, path, caption, **kw)
 
-        for module in (rf.common, sys.modules[function.__module__]):  # _legend_and_save's and its own, if any
-            if hasattr(module, "_save"):
-                monkeypatch.setattr(module, "_save", keep)
+        monkeypatch.setattr(rf.common, "save", keep)  # every figure saves through common.save
         function(tmp_path)
         return seen
 

@@ -8,7 +8,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _caption, _save, command_of, run_of, tables
+from . import common
+from .common import RESULTS, Figure, caption, command_of, run_of, tables
 
 
 def markerless_basin(out: Path) -> Figure:
@@ -34,10 +35,10 @@ def markerless_basin(out: Path) -> Figure:
         ax.set_ylim(-5, 105)
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=7)
-    return _save(
+    return common.save(
         fig,
         out / "markerless_basin.png",
-        _caption(
+        caption(
             "Markerless basin of convergence: the share of trials that succeed, refuse or answer wrong against how "
             "far the start is off (translation and rotation off together, along the diagonal of the map below).",
             [(src, command_of(src)) for src in sources],
@@ -102,10 +103,10 @@ def markerless_basin_map(out: Path) -> Figure:
         n = next(iter(cells.values()))["n"]
         ax.set_title(f"{start} ({n} trials a cell)", fontsize=10)
     fig.colorbar(im, ax=axes[0].tolist(), fraction=0.03, pad=0.02, label="accepted within 3 sigma of the truth [%]")
-    return _save(
+    return common.save(
         fig,
         out / "markerless_basin_map.png",
-        _caption(
+        caption(
             "Markerless basin of convergence on the small preset, mapped: start translation against start rotation "
             "(about a random axis and direction). Colour and first line: the trials accepted within 3 predicted "
             "sigmas of the truth (the right basin); then those also within 1 mm / 0.1 deg, the refusals, and in red "

@@ -8,7 +8,8 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker
 import numpy as np
 
-from .common import RESULTS, Figure, _caption, _legend_below, _pair, _save, command_of, tables
+from . import common
+from .common import RESULTS, Figure, caption, command_of, legend_below, pair, tables
 
 
 def classic_bound(out: Path) -> Figure:
@@ -18,7 +19,7 @@ def classic_bound(out: Path) -> Figure:
     models: dict[str, dict] = {}
     for r in rows:
         model, n = r[0].rsplit(" ", 1)
-        bound, ml, default = _pair(r[1]), _pair(r[2]), _pair(r[3])
+        bound, ml, default = pair(r[1]), pair(r[2]), pair(r[3])
         models.setdefault(model, {})[int(n)] = (bound, ml, default)
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), dpi=100)
     for colour, (model, cells) in zip(plt.cm.tab10.colors, models.items()):
@@ -36,11 +37,11 @@ def classic_bound(out: Path) -> Figure:
         ax.set_xlabel("number of poses")
         ax.set_title(f"{what}: default (dots) on the bound (lines)", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-    _legend_below(fig, *axes[0].get_legend_handles_labels(), ncol=4, height=0.12)
-    return _save(
+    legend_below(fig, *axes[0].get_legend_handles_labels(), ncol=4, height=0.12)
+    return common.save(
         fig,
         out / "classic_bound.png",
-        _caption(
+        caption(
             "RMS error of `T_base_cam` of `calibrate`'s default (robust in the outlier cells) against the number "
             "of poses, over 500 trials per cell (the file's RMS / bound ratio times the bound), beside the Cramér–Rao "
             "bound of each noise model.",

@@ -10,7 +10,7 @@ import matplotlib.patches
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _legend_and_save, tables
+from .common import RESULTS, Figure, legend_and_save, tables
 
 #: The throughput columns of ``cluster_engines.md`` the figure draws, one panel each: (column, what it counts).
 THROUGHPUT = (("shards/min", "generation"), ("camera poses/min", "labelling"))
@@ -101,4 +101,4 @@ def cluster_throughput(out: Path) -> Figure:
         "protocol, training and evaluation (dark); above each, the file's speed-up of the protocol over 1 process "
         "on 1 thread."
     )
-    return _legend_and_save(fig, handles, (4, 0.16), out / "cluster_throughput.png", what, [engines, training])
+    return legend_and_save(fig, handles, (4, 0.16), out / "cluster_throughput.png", what, [engines, training])

@@ -1,6 +1,6 @@
 """What every benchmark figure shares: the results files' tables read (:func:`tables`, :func:`sections`), the
-:class:`Figure` drawn and its caption (:func:`_caption`: the results file and the command that made it), the legend
-under the panels and the PNG written whole (:func:`_save`).
+:class:`Figure` drawn and its caption (:func:`caption`: the results file and the command that made it), the legend
+under the panels and the PNG written whole (:func:`save`).
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def _cells(line: str) -> list[str]:
     return [c.strip() for c in line.strip().strip("|").split("|")]
 
 
-def _pair(cell: str) -> tuple[float, float]:
+def pair(cell: str) -> tuple[float, float]:
     """``"0.1223 / 1.715"`` -> (0.1223, 1.715); ``"-"`` -> (nan, nan)."""
     parts = cell.split("/")
     if len(parts) != 2 or "-" == cell.strip():
@@ -90,7 +90,7 @@ def run_of(path: Path) -> str:
     return f"{head['date']} on {head['machine']}"
 
 
-def _caption(what: str, files: list[tuple[Path, str]]) -> str:
+def caption(what: str, files: list[tuple[Path, str]]) -> str:
     made = "; ".join(f"`{p.relative_to(ROOT)}`, made by `{cmd}`" for p, cmd in files)
     return f"{what} From {made}; drawn by `{DRAWN_BY}`."
 
@@ -103,27 +103,29 @@ def command_of_section(path: Path, heading: str) -> str:
     raise ValueError(f"{path}: no report with a table under {heading!r}")
 
 
-def _legend_and_save(
+def legend_and_save(
     fig, handles: list, layout: tuple[int, float], path: Path, what: str, sources: list[Path]
 ) -> Figure:
     """The legend of ``handles`` under the panels (``layout``: its columns and height), then the figure saved with
     its caption: ``what`` it shows, and each results file of ``sources`` with the command its first lines name."""
     ncol, height = layout
-    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=ncol, height=height)
-    return _save(fig, path, _caption(what, [(src, command_of(src)) for src in sources]), laid_out=True)
+    legend_below(fig, handles, [h.get_label() for h in handles], ncol=ncol, height=height)
+    return save(fig, path, caption(what, [(src, command_of(src)) for src in sources]), laid_out=True)
 
 
-def _legend_below(fig, handles: list, labels: list[str], *, ncol: int, height: float) -> None:
+def legend_below(fig, handles: list, labels: list[str], *, ncol: int, height: float) -> None:
     """One legend for the whole figure under its panels, which are laid out above ``height`` (figure fraction)."""
     fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=8)
     fig.tight_layout(rect=(0, height, 1, 1))
 
 
-def _save(fig, path: Path, caption: str, *, laid_out: bool = False) -> Figure:
+def save(fig, path: Path, text: str, *, laid_out: bool = False) -> Figure:
+    """``fig`` laid out (unless ``laid_out``) and written whole to ``path``, closed; the :class:`Figure` with
+    its caption ``text``. The figure modules call it as ``common.save``: a test patches it in one place."""
     if not laid_out:
         fig.tight_layout()
     from handeye.core.safe_write import write_figure_atomic
 
     write_figure_atomic(fig, path, metadata={"Software": None})  # whole or not at all; a FIFO or device refused
     plt.close(fig)
-    return Figure(path, caption)
+    return Figure(path, text)

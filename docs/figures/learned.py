@@ -8,7 +8,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _caption, _save, command_of, tables
+from . import common
+from .common import RESULTS, Figure, caption, command_of, tables
 
 
 def learned_steps(out: Path) -> Figure:
@@ -50,10 +51,10 @@ def learned_steps(out: Path) -> Figure:
     axes[2].grid(True, which="both", alpha=0.3)
     axes[2].legend(fontsize=7, ncol=2)
     proto = RESULTS / "paper_protocol_paper-real.md"
-    return _save(
+    return common.save(
         fig,
         out / "learned_steps.png",
-        _caption(
+        caption(
             "Learned continual calibration: mean test error over the subsets after each time step, per strategy "
             "(left, middle); right, the naive strategy per subset against the paper's figures (stars: its text "
             "gives only the final step's; its other cells are not in the results files).",

@@ -10,7 +10,8 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker
 import numpy as np
 
-from .common import RESULTS, Figure, _caption, _legend_below, _pair, _save, command_of, tables
+from . import common
+from .common import RESULTS, Figure, caption, command_of, legend_below, pair, tables
 
 #: The depth sensor profiles, in the order the figures draw them.
 SENSORS = ("ideal", "d435", "d455", "l515", "azure-kinect", "zivid", "d435-sgbm")
@@ -26,7 +27,7 @@ def markerless_distance(out: Path) -> Figure:
             continue
         for r in rows:
             sensor, mode = r[0].split(", ", 1)
-            med, z = _pair(r[2])[0], _pair(r[4])[0]
+            med, z = pair(r[2])[0], pair(r[4])[0]
             data.setdefault((m[1], sensor, mode), []).append((float(m[2]), med, z))
     presets = sorted({k[0] for k in data})
     fig, axes = plt.subplots(len(presets), 2, figsize=(10, 3.6 * len(presets)), dpi=100, squeeze=False)
@@ -51,10 +52,10 @@ def markerless_distance(out: Path) -> Figure:
             ax.set_xlabel("camera distance from the workspace centre [m]")
             ax.grid(True, alpha=0.3)
     axes[0][1].legend(fontsize=7, ncol=2)
-    return _save(
+    return common.save(
         fig,
         out / "markerless_distance.png",
-        _caption(
+        caption(
             "Markerless calibration per depth sensor profile against the camera's distance (median over the test "
             "placements); right, the RMS over the placements of error / predicted sigma: 1 when the sigma is right, "
             "the grey band up to 3 sigma. Depth taken as exact (crosses) leaves it.",
@@ -96,12 +97,12 @@ def markerless_sensors(out: Path) -> Figure:
                     if r is None:
                         continue
                     accepted = r[1]
-                    med, worst = _pair(r[2])[0], _pair(r[3])[0]
+                    med, worst = pair(r[2])[0], pair(r[3])[0]
                     if np.isfinite(med):
                         ax.plot([med, worst], [k + dy] * 2, "-", color=colour, lw=1, alpha=0.5)
                         ax.plot(med, k + dy, mark, color=colour)
                         ax.plot(worst, k + dy, "|", color=colour, ms=9, mew=2)
-                        z, wrong = _pair(r[4])[0], int(r[5])
+                        z, wrong = pair(r[4])[0], int(r[5])
                         note = f"{accepted}, z {z:.1f}" + (f", {wrong} wrong" if wrong else "")
                     else:
                         note = f"{accepted}: all refused"
@@ -133,11 +134,11 @@ def markerless_sensors(out: Path) -> Figure:
         plt.Line2D([], [], color="0.4", ls="-.", label="ChArUco label's median (none at 0.7 m)"),
         plt.Line2D([], [], color="0.6", ls="--", label="1 mm"),
     ]
-    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=5, height=0.05)
-    return _save(
+    legend_below(fig, handles, [h.get_label() for h in handles], ncol=5, height=0.05)
+    return common.save(
         fig,
         out / "markerless_sensors.png",
-        _caption(
+        caption(
             "The six tables below as one figure, simulated: per dataset and camera distance, each depth sensor "
             "profile's median (dot, cross) and worst (bar) translation error over the test placements, 256x256; "
             "beside it accepted of all, z (the RMS of error over predicted sigma, 1 when the sigma is right) and "

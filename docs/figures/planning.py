@@ -6,7 +6,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from .common import RESULTS, Figure, _legend_and_save, tables
+from .common import RESULTS, Figure, legend_and_save, tables
 
 #: The columns of ``plan_poses.md``'s table as the figure draws them: (column, colour, line style, marker).
 PLAN_SERIES = (
@@ -58,4 +58,4 @@ def plan_poses(out: Path) -> Figure:
         "planner predicts it (its sigma, solid) and as `calibrate()` made it (actual, dotted); dashed, the random "
         "poses' 15-pose value, which the planned poses reach with at most 8 (the target)."
     )
-    return _legend_and_save(fig, handles, (6, 0.09), out / "plan_poses.png", what, [src])
+    return legend_and_save(fig, handles, (6, 0.09), out / "plan_poses.png", what, [src])

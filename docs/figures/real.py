@@ -8,7 +8,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _legend_and_save, _pair, tables
+from .common import RESULTS, Figure, legend_and_save, pair, tables
 
 #: The methods of ``real_recordings.md``'s tables, grouped as the figure draws them: (group, colour, marker).
 REAL_GROUPS = (
@@ -63,7 +63,7 @@ def real_recordings(paths: list[Path]) -> list[dict]:
                     {
                         "method": r[0],
                         "group": real_group(r[0]),
-                        "holdout": _pair(r[hold]),
+                        "holdout": pair(r[hold]),
                         "halves": tuple(ratio),
                         "refused": every != "no",
                         "holdout_refused": int(split),
@@ -140,4 +140,4 @@ def real_recordings_figure(out: Path) -> Figure:
         "difference over their combined sigma (1 when the sigma is right, above 1 when it is overconfident); "
         f"{refusals} refusals in these runs."
     )
-    return _legend_and_save(fig, handles, (5, 0.13), out / "real_recordings.png", what, sources)
+    return legend_and_save(fig, handles, (5, 0.13), out / "real_recordings.png", what, sources)

@@ -10,7 +10,8 @@ import matplotlib.patches
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _caption, _legend_below, _pair, _save, command_of_section, sections, tables
+from . import common
+from .common import RESULTS, Figure, caption, command_of_section, legend_below, pair, sections, tables
 
 
 def _placements(cell: str) -> tuple[np.ndarray, np.ndarray]:
@@ -37,8 +38,8 @@ def _error_rows(src: Path, preset: str) -> list[dict]:
             "row": r[0],
             "accepted": int(r[1].split("/")[0]),
             "placements": int(r[1].split("/")[1]),
-            "median": _pair(r[2])[0],
-            "worst": _pair(r[3])[0],
+            "median": pair(r[2])[0],
+            "worst": pair(r[3])[0],
             "beyond": int(r[4]),
             "sigma": float("nan"),
         }
@@ -74,7 +75,7 @@ def _pooled_rows(src: Path, preset: str, pool: str) -> tuple[dict[str, dict], st
             for r in rows:
                 if r[0].endswith(", intrinsics shared"):
                     name = r[0].removesuffix(", intrinsics shared")
-                    out[name] = {"median": _pair(r[2])[0], "worst": _pair(r[3])[0], "beyond": int(r[4])}
+                    out[name] = {"median": pair(r[2])[0], "worst": pair(r[3])[0], "beyond": int(r[4])}
     return out, size, commands
 
 
@@ -191,12 +192,12 @@ def markerless_errors(out: Path) -> Figure:
         plt.Line2D([], [], color="tab:blue", ls="--", label="target: median 1 mm"),
         plt.Line2D([], [], color="tab:red", ls=":", label="target: worst 3 mm"),
     ]
-    _legend_below(fig, handles, [h.get_label() for h in handles], ncol=4, height=0.09)
+    legend_below(fig, handles, [h.get_label() for h in handles], ncol=4, height=0.09)
     commands = "; ".join(c for c, _ in sections(src) if c and not re.search(r"--(cases|option|pixel-effect-px)", c))
-    return _save(
+    return common.save(
         fig,
         out / "markerless_errors.png",
-        _caption(
+        caption(
             "A real cell's errors, simulated: the `d435` profile (all together: `d435-real-cell`) at 1.2 m, "
             "256x256 (right: `paper-real` at 848x480, the sensors' first draw), five test placements per row, the "
             "front's defaults for a placement alone; in purple the front's default from four placements (each "

@@ -7,7 +7,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _legend_and_save, tables
+from .common import RESULTS, Figure, legend_and_save, tables
 
 #: The outcome columns of ``reliability.md``'s first table, stacked in this order: (column, colour). The first two
 #: are right; the others are failures, in warm (warning) colours.
@@ -72,4 +72,4 @@ def reliability_outcomes(out: Path) -> Figure:
         f"colours, the failures: unclear, silent, destroyed or lost, traceback, timeout or other. {failed} of the "
         f"{total['tried']} runs failed ({total['clear']} clear, {total['ok']} ok, as the table's all row sums them)."
     )
-    return _legend_and_save(fig, handles, (4, 0.08), out / "reliability_outcomes.png", what, [src])
+    return legend_and_save(fig, handles, (4, 0.08), out / "reliability_outcomes.png", what, [src])

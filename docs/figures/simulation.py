@@ -9,7 +9,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .common import RESULTS, Figure, _caption, _legend_below, _save, tables
+from . import common
+from .common import RESULTS, Figure, caption, legend_below, tables
 
 #: The columns of the labels table the figure draws, per panel: (panel title, unit, median column, worst column).
 LABEL_PANELS = (
@@ -63,10 +64,10 @@ def simulation_labels(out: Path) -> Figure:
     axes[0].set_yticks(y, labels, fontsize=8)
     axes[0].set_ylim(len(rows) - 0.5, -0.5)
     axes[0].set_ylabel("noise (pixel grey levels, joint deg)")
-    _legend_below(fig, *axes[0].get_legend_handles_labels(), ncol=2, height=0.08)
+    legend_below(fig, *axes[0].get_legend_handles_labels(), ncol=2, height=0.08)
     what = (
         "Labels against the truth, simulated (`paper-sim`): per noise setting, the median over the camera poses "
         "(dot) and the worst camera pose (square) of the label's error against the simulator's truth, in rotation "
         "and translation (log scale); the noisy rows are the calibration recordings rendered again with that noise."
     )
-    return _save(fig, out / "simulation_labels.png", _caption(what, [(src, title_command(src))]), laid_out=True)
+    return common.save(fig, out / "simulation_labels.png", caption(what, [(src, title_command(src))]), laid_out=True)

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker
 import numpy as np
 
-from .common import RESULTS, Figure, _legend_and_save, _pair, tables
+from .common import RESULTS, Figure, legend_and_save, pair, tables
 
 
 def _numbers_of(text: str) -> list[float]:
@@ -27,7 +27,7 @@ def vision_errors(out: Path) -> Figure:
     colours = ("tab:cyan", "tab:orange", "tab:green", "tab:olive", "tab:purple", "tab:brown")
     for j, (colour, mark, method) in enumerate(zip(colours, "os^vxD", methods), start=2):
         for views, ls in (("15", "--"), ("30", "-")):
-            cells = [(float(r[0]), _pair(r[j])[1]) for r in rows if r[1].split()[0] == views]
+            cells = [(float(r[0]), pair(r[j])[1]) for r in rows if r[1].split()[0] == views]
             noise, mm = np.array(cells).T
             label = method if views == "30" else None
             axes[0].plot(noise, mm, ls, marker=mark, color=colour, ms=5, mfc="none", label=label)
@@ -81,4 +81,4 @@ def vision_errors(out: Path) -> Figure:
         "over 100 trials of error / reported sigma and the share of trials whose truth lies within 3 sigma, per "
         "component of `X` and `Y`, with the robot's error estimated (the default) and left out."
     )
-    return _legend_and_save(fig, handles, (4, 0.2), out / "vision_errors.png", what, [repro, robot])
+    return legend_and_save(fig, handles, (4, 0.2), out / "vision_errors.png", what, [repro, robot])
