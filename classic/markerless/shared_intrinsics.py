@@ -280,6 +280,8 @@ def inverse_variance_mean(values, sigmas) -> tuple[np.ndarray, np.ndarray, np.nd
         of freedom (``n - 1``): 1 where the estimates agree as their sigmas say, above where they scatter more.
     """
     values, weight = np.asarray(values, dtype=float), 1.0 / np.asarray(sigmas, dtype=float) ** 2
+    if len(values) < 2:  # the scatter has n - 1 degrees of freedom
+        raise ValueError(f"the Birge ratio needs at least 2 estimates, got {len(values)}")
     mean = (values * weight).sum(axis=0) / weight.sum(axis=0)
     birge = np.sqrt(((values - mean) ** 2 * weight).sum(axis=0) / (len(values) - 1))
     return mean, 1.0 / np.sqrt(weight.sum(axis=0)), birge

@@ -220,3 +220,5 @@ def test_the_inverse_variance_mean_of_known_estimates():
     np.testing.assert_allclose(mean, [2.0, 1.0])
     np.testing.assert_allclose(sigma, [np.sqrt(0.5), np.sqrt(0.8)])
     np.testing.assert_allclose(birge, [np.sqrt(2.0), np.sqrt((1.0 + 16.0 / 4.0) / 1.0)])
+    with pytest.raises(ValueError, match="at least 2 estimates"):
+        inverse_variance_mean([[1.0, 0.0]], [[1.0, 1.0]])
