@@ -420,10 +420,10 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "driver: tests/test_processes.py; the command line's --engine ray: step 6's render (a third cluster here "
         "repeated two to three minutes of CI's run)",
     ),
-    # step 5 reads what step 4 wrote (run after it, one test), and step 6 completes the part step 3 rendered (run
-    # after it: step 3's 10 placements kept, the other 20 of the smoke cut rendered on the cluster); steps 2 and 7
-    # (labelling on Ray) are parsed, tests/test_ray_engine.py labels on a cluster; step 4 labels the paper-sim
-    # stand-in, which only the slow tier builds
+    # step 6 completes the part step 3 rendered (run after it: step 3's 10 placements kept, the other 20 of the
+    # smoke cut rendered on the cluster); step 4 labels the paper-sim stand-in, which only the slow tier builds, and
+    # step 5 (torchrun, parsed) reads what it wrote; steps 1, 2 and 7 (rendering and labelling on Ray) are parsed:
+    # tests/test_ray_engine.py renders and labels on a cluster
     ("docs/guides/beyond-one-machine.md", 1): Block(
         "handeye label data/small --engine ray",
         "a",
