@@ -9,8 +9,8 @@ intrinsics, joint offsets, diagnostics) as JSON text; and the time of the worklo
 The workload is the analytic scenes of the tests (ray-cast spheres over a floor, ``tests/classic/``), through
 the registration's paths: the depth noise measured or given, the depth and intrinsics fixed, a stereo matcher's
 bias, a coarser z-buffer with image tiles and static parts, a given start without the split check, a start
-outside the basin (refused), joint offsets with moving and with static parts, two starts, curvatures, and no
-robot in view (refused)::
+outside the basin (refused), joint offsets with moving and with static parts, two starts, curvatures, a depth error
+per 2 px image cell marginalised, and no robot in view (refused)::
 
     python benchmarks/markerless_identity.py --against HEAD --out benchmarks/results/markerless_identity.md
 """
@@ -63,6 +63,7 @@ cases = {  # name: (depth, surface, starts, options, centroid start)
     "joint offsets, static parts": (arm_depth, arm, None, O(depth_sigma_m_at_1m=S, static_parts=True), True),
     "two starts": (arm_depth, arm, {"good": T_kin, "far": far}, O(depth_sigma_m_at_1m=S), False),
     "curvatures": (d1, curved, None, O(depth_sigma_m_at_1m=S), True),
+    "a depth error per 2 px cell": (depth, surface, None, O(pixel_effect_px=2), True),
     "no robot in view": (np.ones_like(depth), surface, None, O(), True),
 }
 out = {}

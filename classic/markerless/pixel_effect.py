@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["pixel_gain", "pixel_variance_components", "schur_reduction", "reduced_rows"]
+__all__ = ["compact_pixels", "pixel_gain", "pixel_variance_components", "schur_reduction", "reduced_rows"]
 
 
 def pixel_gain(n_cam: np.ndarray, q_obs: np.ndarray) -> np.ndarray:
@@ -39,6 +39,24 @@ def pixel_gain(n_cam: np.ndarray, q_obs: np.ndarray) -> np.ndarray:
     """
     z = q_obs[:, 2]
     return np.einsum("ij,ij->i", n_cam, q_obs) * z  # (n . q / z) z^2
+
+
+def compact_pixels(pixel: np.ndarray) -> np.ndarray:
+    """Pixel ids numbered 0..n-1 in their sorted order (``np.unique``'s inverse); ids already so numbered are
+    returned as they are, without the sort (a fit compacts its matches' pixels once, not at every iteration).
+
+    Parameters
+    ----------
+    pixel : array of int, shape (N,)
+
+    Returns
+    -------
+    array of int, shape (N,)
+    """
+    pixel = np.asarray(pixel)
+    if len(pixel) and pixel.min() >= 0 and np.bincount(pixel).all():
+        return pixel
+    return np.unique(pixel, return_inverse=True)[1]
 
 
 def _per_pixel(pixel: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
@@ -80,7 +98,7 @@ def pixel_variance_components(
     variance : float
         ``v``, the within-pixel variance, m^2 (the weighted mean square of all residuals where no pixel counts).
     """
-    _, pix = np.unique(pixel, return_inverse=True)
+    pix = compact_pixels(pixel)
     n = int(pix.max()) + 1 if len(pix) else 0
     count = np.bincount(pix, w > 0.5, minlength=n)
     wgg = _per_pixel(pix, w * g * g, n)
@@ -125,7 +143,7 @@ def schur_reduction(
         Per pixel ``(b_p, c_p) / a_p``: the effect's estimate moves by ``-coef[:, :P] xi`` for a step ``xi``
         (:func:`reduced_rows`).
     """
-    _, pix = np.unique(pixel, return_inverse=True)
+    pix = compact_pixels(pixel)
     n = int(pix.max()) + 1
     a = _per_pixel(pix, w * g * g, n) + variance / sigma_p**2
     b = _per_pixel(pix, (w * g)[:, None] * J, n)

@@ -57,7 +57,13 @@ from classic.least_squares import loss_weights
 from classic.markerless.curvature import second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns, turned_directions
-from classic.markerless.pixel_effect import pixel_gain, pixel_variance_components, reduced_rows, schur_reduction
+from classic.markerless.pixel_effect import (
+    compact_pixels,
+    pixel_gain,
+    pixel_variance_components,
+    reduced_rows,
+    schur_reduction,
+)
 from classic.markerless.repeated_error import repeated_error_covariance
 from classic.markerless.rows import cross_rows
 from handeye.core.se3 import make_transform, so3_exp
@@ -453,7 +459,7 @@ def solve_point_to_plane(
     PlaneFit
     """
     x = _Unknowns(options, model.joint_twists)
-    pixel = pixel if options.pixel_effect else None
+    pixel = compact_pixels(pixel) if options.pixel_effect and pixel is not None else None
     T, steps, step_norm = _gauss_newton(p_cam, model, np.array(T_base_cam, dtype=float), x, options, pixel)
     # the Jacobian at the answer only where the covariance or the pixel effect needs it: the residuals otherwise
     r, J = _linearise(p_cam, model, T, x, jacobian=options.covariance or pixel is not None)

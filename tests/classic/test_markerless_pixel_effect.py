@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from classic.markerless.pixel_effect import pixel_variance_components, reduced_rows, schur_reduction
+from classic.markerless.pixel_effect import compact_pixels, pixel_variance_components, reduced_rows, schur_reduction
 from tests.tolerances import PIXEL_EFFECT_SCHUR_RTOL, PIXEL_EFFECT_SIGMA_SDS
 
 
@@ -63,3 +63,13 @@ def test_sigma_recovered_and_zero_without_effect():
     r0 = rng.normal(0.0, noise, len(pixel))
     spread0 = np.sqrt(2.0) * (noise**2 / mean_gg) / np.sqrt(n_pixels)
     assert pixel_variance_components(r0, w, g, pixel)[0] ** 2 < PIXEL_EFFECT_SIGMA_SDS * spread0
+
+
+def test_compact_pixels_is_uniques_inverse():
+    """Any ids are numbered as np.unique numbers them; ids already numbered 0..n-1 come back as they are."""
+    rng = np.random.default_rng(4)
+    ids = rng.choice([7, 300, 12, 5000], size=50)
+    assert np.array_equal(compact_pixels(ids), np.unique(ids, return_inverse=True)[1])
+    compact = rng.permutation(np.repeat(np.arange(10), 3))
+    assert compact_pixels(compact) is compact
+    assert np.array_equal(compact_pixels(np.array([0, 2, 2])), [0, 1, 1])  # 1 missing: numbered again
