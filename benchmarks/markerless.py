@@ -91,7 +91,8 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
         def register(c, K_prior, starts, second_opts):
             depth, q = frames[c]
             t0 = time.perf_counter()
-            res = register_robot(depth, K_prior, surface.posed(q), starts=starts, options=second_opts)
+            posed, analysis = surface.posed(q), results[c].depth_analysis
+            res = register_robot(depth, K_prior, posed, starts=starts, options=second_opts, depth_analysis=analysis)
             seconds[c] += time.perf_counter() - t0
             return res
 

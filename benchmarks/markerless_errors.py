@@ -215,7 +215,8 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
     def register(c, K_prior, starts, second_opts):
         depth, posed, _ = frames[c]
         t0 = time.process_time()
-        res = register_robot(depth, K_prior, posed, starts=starts, options=second_opts)
+        analysis = first[c].depth_analysis
+        res = register_robot(depth, K_prior, posed, starts=starts, options=second_opts, depth_analysis=analysis)
         seconds[c] = time.process_time() - t0
         return res
 

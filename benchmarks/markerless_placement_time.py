@@ -109,12 +109,13 @@ def main() -> int:
         f"{depth.shape[2]}x{depth.shape[1]}, z-buffer stride {stride}, pixel_effect_px {opts.pixel_effect_px}"
         + "".join(f", {k}={v}" for k, v in args.option)
     )
-    starts = None
+    starts, analysis = None, None
     if args.second_pass:
         cpu = time.process_time()
         first = register_robot(depth, K, posed, options=opts)
         print(f"first pass: {time.process_time() - cpu:.2f} s CPU, {first.refused or 'accepted'}", flush=True)
         starts, opts = second_pass(first, K, opts)
+        analysis = first.depth_analysis
     for i in range(args.repeat):
         profiler = None
         if args.profile and i == args.repeat - 1:
@@ -123,7 +124,7 @@ def main() -> int:
             profiler = cProfile.Profile(time.process_time)  # CPU seconds: load does not inflate them
             profiler.enable()
         wall, cpu = time.perf_counter(), time.process_time()
-        res = register_robot(depth, K, posed, starts=starts, options=opts)
+        res = register_robot(depth, K, posed, starts=starts, options=opts, depth_analysis=analysis)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         if profiler is not None:
             profiler.disable()

@@ -266,6 +266,7 @@ def calibrate_camera(
     options: MarkerlessOptions | None = None,
     frames: slice | np.ndarray | None = None,
     K: np.ndarray | None = None,
+    depth_analysis=None,
 ) -> MarkerlessResult:
     """Markerless ``T_base_cam`` of one camera placement from its data recording.
 
@@ -280,6 +281,8 @@ def calibrate_camera(
         A subset (for example the first 10).
     K : array, shape (3, 3), optional
         The camera matrix the intrinsics' prior is centred on; the dataset's (``meta.json``) by default.
+    depth_analysis : classic.markerless.depth_analysis.DepthAnalysis, optional
+        An earlier registration's of the same frames (``register_robot``'s).
 
     Raises
     ------
@@ -304,7 +307,7 @@ def calibrate_camera(
             f"{ds.shard_dir(camera_id) / rel[0]}: depth is {depth.shape[2]}x{depth.shape[1]}, the "
             f"intrinsics in meta.json are for {w}x{h}"
         )
-    return register_robot(depth, K, surface.posed(q), starts=starts, options=options)
+    return register_robot(depth, K, surface.posed(q), starts=starts, options=options, depth_analysis=depth_analysis)
 
 
 def learned_starts(ds_root: Path, model_dir: Path, cameras: list[int]) -> dict:

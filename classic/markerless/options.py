@@ -89,7 +89,12 @@ class MarkerlessOptions:
         footprint it bounds the model's sampling bias, a term of the reported sigma.
     coarse_windows_m : tuple of float
         Match windows of the coarse stage, widest first.
+    fine_gates_m : tuple of float
+        Match gates of the fine stage's first associations, widest first; after them the gate is 4 robust
+        sigmas of the residual (at least 4 mm). A registration started at an accepted answer needs only the
+        last (:func:`classic.markerless.shared_intrinsics.second_pass_options`).
     fine_iterations : int
+        Associations of the fine stage at most; it stops earlier once past ``fine_gates_m`` and converged.
     max_points : int
         Moving pixels used by the coarse stage (a random subset beyond this).
     max_model_points : int
@@ -171,6 +176,7 @@ class MarkerlessOptions:
     model_floor_m: float = 0.0015
     model_radius_m: float = 0.04
     coarse_windows_m: tuple = (0.3, 0.2, 0.12, 0.08, 0.05, 0.03, 0.02, 0.01)
+    fine_gates_m: tuple = (0.05, 0.03, 0.02, 0.01)
     fine_iterations: int = 20
     max_points: int = 20000
     max_model_points: int = 300000

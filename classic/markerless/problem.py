@@ -8,11 +8,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from classic.markerless.consistency import frame_splits, split_excess
-from classic.markerless.depth import backproject, depth_noise_curve, mixed_pixels, moving_mask, static_depth
+from classic.markerless.depth import backproject
+from classic.markerless.depth_analysis import FALLBACK_SIGMA_M_AT_1M, DepthAnalysis, analyse_depth, depth_key
 from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
 from classic.markerless.kinematics import joint_status, moved_surface
 from classic.markerless.point_to_plane import (
@@ -66,9 +66,6 @@ REFIT_ITERATIONS = 2
 GROUP_NOISE_PAIRS = 1
 GROUP_REFIT_ITERATIONS = 1
 
-#: Depth noise taken when it can be neither measured nor was given: 1 mm at 1 m, growing with depth squared.
-FALLBACK_SIGMA_M_AT_1M = 0.001
-
 
 class Outcome(NamedTuple):
     """The fine stage's outcome from one start (:mod:`classic.markerless.register`); ``fit`` None: too few points
@@ -87,7 +84,9 @@ class Outcome(NamedTuple):
 class Problem:
     """Everything the stages share for one camera placement."""
 
-    def __init__(self, depth_m, K, surface, opts):
+    def __init__(self, depth_m, K, surface, opts, analysis: DepthAnalysis | None = None):
+        """``analysis``: the frames' own findings from an earlier registration of them (:func:`analyse_depth`),
+        used where it holds for these frames and options (:func:`depth_key`), else found again."""
         self.K, self.s, self.opts = K, surface, opts
         self.depth_correction = (1.0, 0.0)  # (k, c[, a, b]), estimated by the fine stage
         # the camera matrix given, which back-projects the depth once (self.P), and the intrinsics estimated,
@@ -98,26 +97,16 @@ class Problem:
         self.estimate_intrinsics = opts.intrinsics_model == "estimate"
         relative = np.array([self.theta_given[0], self.theta_given[1], 1.0, 1.0])
         self.intrinsics_prior_sigma = np.asarray(opts.intrinsics_prior_sigma, dtype=float) * relative
-        if opts.depth_sigma_m_at_1m is not None:
-            self.noise_z, self.noise_sigma, self.noise_source = None, None, "given"
-        else:
-            self.noise_z, self.noise_sigma = depth_noise_curve(depth_m)
-            self.noise_source = "measured on the static background" if len(self.noise_z) else "fallback 1 mm at 1 m"
-        # pixels that straddle a depth edge report a depth between its two surfaces: treated as missing
-        sigma = self.sigma_z(np.where(depth_m > 0, depth_m, 1.0))  # per pixel, taken at 1 m where missing
-        mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * sigma))
+        if analysis is None or analysis.key != depth_key(depth_m, opts.depth_sigma_m_at_1m):
+            analysis = analyse_depth(depth_m, opts.depth_sigma_m_at_1m)
+        self.analysis = analysis  # the noise, the mixed pixels (treated as missing) and the moving ones
+        self.noise_source = analysis.noise_source
+        mixed = analysis.mixed
         self.n_mixed = int(mixed.sum())
         depth_m = np.where(mixed, 0.0, depth_m)
-        sigma = np.where(mixed, self.sigma_z(1.0), sigma)  # the mixed ones now missing
         self.n, self.h, self.w = depth_m.shape
         self.P = backproject(depth_m, K)  # (N, H, W, 3), NaN without depth, as the sensor reports it
-        static = static_depth(depth_m)
-        # moved there: nearer than the static depth by 2 cm or six depth-noise sigmas, whichever is larger
-        moving = moving_mask(depth_m, static, np.maximum(0.02, 6 * sigma))
-        # the arm moves as a body, many pixels wide; what moves in a line a pixel or two wide is the sensor's
-        # (flying pixels along static edges, holes that come and go): an opening keeps bodies only
-        self.moving = ndimage.binary_opening(moving, structure=np.ones((1, 3, 3), bool))
-        f, r, c = np.nonzero(self.moving)
+        f, r, c = np.nonzero(analysis.moving)
         self.n_moving = len(f)
         rng = np.random.default_rng(opts.seed)
         if len(f) > opts.max_points:
@@ -141,13 +130,7 @@ class Problem:
 
     def sigma_z(self, z):
         """Depth noise sigma at depth ``z`` (metres): given, or measured, or the fallback."""
-        if self.opts.depth_sigma_m_at_1m is not None:
-            return self.opts.depth_sigma_m_at_1m * np.asarray(z) ** 2
-        if self.noise_z is None or len(self.noise_z) == 0:
-            return FALLBACK_SIGMA_M_AT_1M * np.asarray(z) ** 2
-        if len(self.noise_z) == 1:
-            return np.full(np.shape(z), self.noise_sigma[0])
-        return np.interp(z, self.noise_z, self.noise_sigma)
+        return self.analysis.sigma_z(z, self.opts.depth_sigma_m_at_1m)
 
     def _init_joints(self, surface, opts):
         """Which joints' offsets the fine stage estimates (:func:`classic.markerless.kinematics.joint_status`)."""

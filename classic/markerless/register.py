@@ -57,8 +57,11 @@ never returned as a calibration. What it achieves: ``docs/benchmarks/markerless.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
+from classic.markerless.depth_analysis import DepthAnalysis
 from classic.markerless.options import MarkerlessOptions
 from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, solve_point_to_plane
 from classic.markerless.problem import FALLBACK_SIGMA_M_AT_1M, Outcome, Problem
@@ -102,6 +105,7 @@ def register_robot(
     starts: dict | None = None,
     options: MarkerlessOptions | None = None,
     centroid_start: bool = True,
+    depth_analysis: DepthAnalysis | None = None,
 ) -> MarkerlessResult:
     """Register the posed robot surface to the depth of all frames: ``T_base_cam`` or a refusal.
 
@@ -118,11 +122,16 @@ def register_robot(
     options : MarkerlessOptions, optional
     centroid_start : bool
         Also try the start from the moving pixels' centroids (no prior needed).
+    depth_analysis : DepthAnalysis, optional
+        An earlier registration's of the same frames (:attr:`MarkerlessResult.depth_analysis`): the noise, the
+        mixed and the moving pixels are taken from it instead of found again; ignored unless it holds for these
+        frames and ``options.depth_sigma_m_at_1m`` (:func:`classic.markerless.depth_analysis.depth_key`).
 
     Returns
     -------
     MarkerlessResult
-        Accepted, or refused with the reason; each start's outcome in ``diagnostics["starts"]``.
+        Accepted, or refused with the reason; each start's outcome in ``diagnostics["starts"]``, the frames' own
+        findings in ``depth_analysis``.
 
     Raises
     ------
@@ -134,8 +143,13 @@ def register_robot(
     starts = dict(starts or {})
     for name, T in starts.items():
         check_transforms(T, f"start {name!r}")
-    problem = Problem(depth_m, K, surface, opts)
-    n = problem.n
+    problem = Problem(depth_m, K, surface, opts, depth_analysis)
+    return replace(_registered(problem, starts, centroid_start), depth_analysis=problem.analysis)
+
+
+def _registered(problem: Problem, starts: dict, centroid_start: bool) -> MarkerlessResult:
+    """:func:`register_robot`'s stages on its problem: the starts, the best one's fit, the result."""
+    opts, n = problem.opts, problem.n
     diag = {"frames": n, "moving_pixels": int(problem.n_moving), "mixed_pixels": problem.n_mixed, "starts": {}}
     if problem.n_moving < opts.min_moving_pixels:
         return refused_result(
@@ -247,7 +261,7 @@ def _fine(problem: Problem, T, name):
     matched fraction (visible model points with depth within 1 cm) is taken from it.
     """
     opts = problem.opts
-    gates = [0.05, 0.03, 0.02, 0.01]
+    gates = opts.fine_gates_m
     fit, step, scale, visible_idx = None, np.inf, None, None
     for it in range(opts.fine_iterations):
         gate = gates[it] if it < len(gates) else max(4 * scale, 0.004)

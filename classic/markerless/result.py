@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from classic.clustered_covariance import pose_sigma
+from classic.markerless.depth_analysis import DepthAnalysis
 from classic.markerless.intrinsics import intrinsics_summary
 from classic.markerless.kinematics import joint_offsets_summary
 from classic.markerless.options import MarkerlessOptions
@@ -97,6 +98,9 @@ class MarkerlessResult:
         rigidly, so its offset is part of the pose, which is then the camera in the robot's kinematic base frame;
         ``"not seen"``), ``estimate_deg``, ``sigma_deg``, ``prior_sigma_deg``, ``ratio`` (what the frames leave
         of the sigma over the prior's) and ``determined``; ``note`` on the absorbed ones.
+    depth_analysis : DepthAnalysis or None
+        What the depth frames alone showed (noise, mixed and moving pixels), for a registration of the same frames
+        under another camera matrix (``register_robot(depth_analysis=...)``); not in :meth:`to_dict`.
     """
 
     T_base_cam: np.ndarray | None
@@ -111,6 +115,7 @@ class MarkerlessResult:
     intrinsics: dict = field(default_factory=dict)
     registration: dict = field(default_factory=dict)
     joint_offsets: dict = field(default_factory=dict)
+    depth_analysis: DepthAnalysis | None = field(default=None, repr=False, compare=False)
 
     @property
     def ok(self) -> bool:

@@ -50,6 +50,8 @@ MIN_OTHERS = 3
 
 #: Coarse windows of a second pass started from the first's answer: it is within millimetres already.
 SECOND_PASS_WINDOWS_M = (0.02, 0.01)
+#: Fine gates of that second pass: its matches are those of a converged answer, the wide gates only slow it.
+SECOND_PASS_GATES_M = (0.01,)
 #: Fine iterations of that second pass (the first's 20 start from centimetres off).
 SECOND_PASS_FINE_ITERATIONS = 10
 #: The per-cell depth error (:attr:`MarkerlessOptions.pixel_effect_px`) the front marginalises, in both passes,
@@ -333,6 +335,7 @@ def second_pass_options(
         out = replace(
             out,
             coarse_windows_m=SECOND_PASS_WINDOWS_M,
+            fine_gates_m=SECOND_PASS_GATES_M,
             fine_iterations=min(options.fine_iterations, SECOND_PASS_FINE_ITERATIONS),
         )
     return out
