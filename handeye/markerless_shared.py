@@ -106,12 +106,13 @@ def share_intrinsics(
     for c, (prior, res) in second_passes(run.results, K_given, opts, register, only=cameras).items():
         out.intrinsics_priors[c] = prior.to_dict()
         if res is None:
-            out.record(c, run.results[c], run.seconds[c], run.starts[c], truth[c])
+            # the frames' findings (a few MB a placement at 848x480) are no longer needed: not kept in the run
+            out.record(c, replace(run.results[c], depth_analysis=None), run.seconds[c], run.starts[c], truth[c])
             continue
         res.intrinsics = against_given(
             res.intrinsics, K_given, opts.intrinsics_prior_sigma, opts.intrinsics_determined_share
         )
-        out.record(c, res, run.seconds[c] + seconds[c], tried[c], truth[c])
+        out.record(c, replace(res, depth_analysis=None), run.seconds[c] + seconds[c], tried[c], truth[c])
     return out
 
 
