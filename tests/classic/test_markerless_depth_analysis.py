@@ -41,3 +41,18 @@ def test_an_analysis_of_other_frames_is_not_taken():
     fresh = register_robot(other, K, surface)
     assert with_wrong.ok and _same(with_wrong, fresh)
     assert with_wrong.depth_analysis.key != first.depth_analysis.key
+
+
+def test_the_3x3_range_is_scipys_filter_value_for_value():
+    """The mixed pixels' neighbourhood minimum and maximum (classic.markerless.depth._over_3x3) are
+    scipy.ndimage's minimum_filter and maximum_filter of size (1, 3, 3), borders and single rows included."""
+    from scipy import ndimage
+
+    from classic.markerless.depth import _over_3x3
+
+    rng = np.random.default_rng(5)
+    for shape in [(3, 5, 7), (2, 1, 4), (1, 3, 1), (2, 40, 30)]:
+        a = rng.normal(size=shape).astype(np.float32)
+        a[a > 1.5] = np.inf
+        assert np.array_equal(_over_3x3(np.minimum, a), ndimage.minimum_filter(a, size=(1, 3, 3)))
+        assert np.array_equal(_over_3x3(np.maximum, a), ndimage.maximum_filter(a, size=(1, 3, 3)))
