@@ -506,15 +506,24 @@ BLOCKS: dict[tuple[str, int], Block] = {
         "a",
         "",
         _markerless_guide_0,
-        slow=True,  # 63 s
+        slow=True,  # 62 s on a quiet 2-core machine (76 s with block 7's two commands)
     ),
     ("docs/guides/markerless.md", 7): Block(
+        "handeye markerless data/paper-sim --write-labels",
+        "a",
+        "",
+        _nothing,
+        parsed="markerless labels written: the next block's first command (CI's run), "
+        "tests/test_import_recording.py; the comparison with its hybrid column: the learned guide's printed "
+        "example (tests/test_docs.py)",
+    ),
+    ("docs/guides/markerless.md", 8): Block(
         "handeye markerless data/paper-sim-noisy",
         "b",
         "trains twice with the cpu learned preset: 1 min 30 s each for the reservoir strategy even on 8 frames",
         _paper_sim,
     ),
-    ("docs/guides/markerless.md", 8): Block(
+    ("docs/guides/markerless.md", 9): Block(
         "handeye sim generate --preset paper-real",
         "b",
         "renders paper-real with the D435 profile (2,400 data frames: minutes), then two markerless passes over "
