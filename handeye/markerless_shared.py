@@ -97,8 +97,8 @@ def share_intrinsics(
     def register(c, K, starts, second_opts):
         tried[c] = {**(starts or {}), **run.starts[c]}
         t0 = time.perf_counter()
-        first = run.results[c].depth_analysis  # the frames' noise, mixed and moving pixels: found once
-        res = calibrate_camera(ds, c, surface, tried[c], second_opts, frames, K=K, depth_analysis=first)
+        analysis = run.results[c].depth_analysis  # the frames' noise, mixed and moving pixels: found once
+        res = calibrate_camera(ds, c, surface, tried[c], second_opts, frames, K=K, depth_analysis=analysis)
         seconds[c] = time.perf_counter() - t0
         return res
 

@@ -18,14 +18,15 @@ from scipy import ndimage
 
 from classic.markerless.depth import depth_noise_curve, mixed_pixels, moving_mask, static_depth
 
-__all__ = ["DepthAnalysis", "analyse_depth", "depth_key", "FALLBACK_SIGMA_M_AT_1M"]
+__all__ = ["DepthAnalysis", "analyse_depth", "depth_key", "noise_sigma_z", "FALLBACK_SIGMA_M_AT_1M"]
 
 #: Depth noise taken when it can be neither measured nor was given: 1 mm at 1 m, growing with depth squared.
 FALLBACK_SIGMA_M_AT_1M = 0.001
 
 
 def depth_key(depth_m: np.ndarray, depth_sigma_m_at_1m: float | None) -> tuple:
-    """What a :class:`DepthAnalysis` holds for: the frames' shape, a CRC-32 of their bytes, the noise given.
+    """What a :class:`DepthAnalysis` holds for: the frames' shape, a CRC-32 of their bytes, the noise given (a guard
+    against handing one placement's analysis to another's frames, not a cryptographic check).
 
     Parameters
     ----------
@@ -80,15 +81,20 @@ class DepthAnalysis:
         return self._unpacked(self.moving_bits)
 
     def sigma_z(self, z, given: float | None):
-        """Depth noise sigma at depth ``z`` (metres): ``given`` (m at 1 m, times z^2), else measured, else the
-        fallback."""
-        if given is not None:
-            return given * np.asarray(z) ** 2
-        if self.noise_z is None or len(self.noise_z) == 0:
-            return FALLBACK_SIGMA_M_AT_1M * np.asarray(z) ** 2
-        if len(self.noise_z) == 1:
-            return np.full(np.shape(z), self.noise_sigma[0])
-        return np.interp(z, self.noise_z, self.noise_sigma)
+        """Depth noise sigma at depth ``z`` (metres): :func:`noise_sigma_z` with this analysis's curve."""
+        return noise_sigma_z(z, given, self.noise_z, self.noise_sigma)
+
+
+def noise_sigma_z(z, given: float | None, noise_z: np.ndarray | None, noise_sigma: np.ndarray | None):
+    """Depth noise sigma at depth ``z`` (metres): ``given`` (m at 1 m, times z^2), else the measured curve
+    (``noise_sigma`` at ``noise_z``, interpolated), else :data:`FALLBACK_SIGMA_M_AT_1M` times z^2."""
+    if given is not None:
+        return given * np.asarray(z) ** 2
+    if noise_z is None or len(noise_z) == 0:
+        return FALLBACK_SIGMA_M_AT_1M * np.asarray(z) ** 2
+    if len(noise_z) == 1:
+        return np.full(np.shape(z), noise_sigma[0])
+    return np.interp(z, noise_z, noise_sigma)
 
 
 def analyse_depth(depth_m: np.ndarray, depth_sigma_m_at_1m: float | None) -> DepthAnalysis:
@@ -116,11 +122,12 @@ def analyse_depth(depth_m: np.ndarray, depth_sigma_m_at_1m: float | None) -> Dep
     else:
         noise_z, noise_sigma = depth_noise_curve(depth_m)
         source = "measured on the static background" if len(noise_z) else "fallback 1 mm at 1 m"
-    partial = DepthAnalysis(depth_key(depth_m, depth_sigma_m_at_1m), noise_z, noise_sigma, source, None, None)
-    sigma = partial.sigma_z(np.where(depth_m > 0, depth_m, 1.0), depth_sigma_m_at_1m)  # taken at 1 m where missing
+    key = depth_key(depth_m, depth_sigma_m_at_1m)  # of the frames as given, before the mixed pixels are dropped
+    curve = (depth_sigma_m_at_1m, noise_z, noise_sigma)
+    sigma = noise_sigma_z(np.where(depth_m > 0, depth_m, 1.0), *curve)  # taken at 1 m where missing
     mixed = mixed_pixels(depth_m, np.maximum(0.005, 4 * sigma))
     depth_m = np.where(mixed, 0.0, depth_m)
-    sigma = np.where(mixed, partial.sigma_z(1.0, depth_sigma_m_at_1m), sigma)  # the mixed ones now missing
+    sigma = np.where(mixed, noise_sigma_z(1.0, *curve), sigma)  # the mixed ones now missing
     moving = moving_mask(depth_m, static_depth(depth_m), np.maximum(0.02, 6 * sigma))
     moving = ndimage.binary_opening(moving, structure=np.ones((1, 3, 3), bool))
-    return DepthAnalysis(partial.key, noise_z, noise_sigma, source, np.packbits(mixed), np.packbits(moving))
+    return DepthAnalysis(key, noise_z, noise_sigma, source, np.packbits(mixed), np.packbits(moving))

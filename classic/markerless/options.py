@@ -231,7 +231,13 @@ class MarkerlessOptions:
             )
 
     def _check_sigmas(self):
-        """The depth-to-colour extrinsic's sigmas and the depth noise given: finite, at least 0; the incidence bound."""
+        """The depth-to-colour extrinsic's sigmas and the depth noise given: finite, at least 0; the incidence bound;
+        the fine stage's gates."""
+        gates = np.asarray(self.fine_gates_m, dtype=float)
+        if not (gates.ndim == 1 and len(gates) and np.all(np.isfinite(gates)) and np.all(gates > 0)):
+            raise HandEyeInputError(
+                f"fine_gates_m must be one or more positive distances (m), got {self.fine_gates_m!r}"
+            )
         for key in ("depth_extrinsic_sigma_m", "depth_extrinsic_sigma_deg"):
             value = getattr(self, key)
             if not (np.isfinite(value) and value >= 0):

@@ -54,7 +54,8 @@ def compact_pixels(pixel: np.ndarray) -> np.ndarray:
     array of int, shape (N,)
     """
     pixel = np.asarray(pixel)
-    if len(pixel) and pixel.min() >= 0 and np.bincount(pixel).all():
+    # compact ids are at most N - 1: that bound first, so that large ids never size the count
+    if len(pixel) and pixel.min() >= 0 and pixel.max() < len(pixel) and np.bincount(pixel).all():
         return pixel
     return np.unique(pixel, return_inverse=True)[1]
 

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 
 from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject
-from classic.markerless.depth_analysis import FALLBACK_SIGMA_M_AT_1M, DepthAnalysis, analyse_depth, depth_key
+from classic.markerless.depth_analysis import DepthAnalysis, analyse_depth, depth_key
 from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
 from classic.markerless.kinematics import joint_status, moved_surface
 from classic.markerless.point_to_plane import (
@@ -30,7 +30,7 @@ from handeye.core.errors import HandEyeInputError
 from handeye.core.metrics import pose_error
 from handeye.core.se3 import invert_transform, so3_log
 
-__all__ = ["Problem", "Outcome", "FALLBACK_SIGMA_M_AT_1M"]
+__all__ = ["Problem", "Outcome"]
 
 
 _FRAME_KEY_M = 1000.0  # frames kept apart in the KD-tree by this offset on a 4th coordinate

@@ -61,10 +61,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from classic.markerless.depth_analysis import DepthAnalysis
+from classic.markerless.depth_analysis import FALLBACK_SIGMA_M_AT_1M, DepthAnalysis
 from classic.markerless.options import MarkerlessOptions
 from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, solve_point_to_plane
-from classic.markerless.problem import FALLBACK_SIGMA_M_AT_1M, Outcome, Problem
+from classic.markerless.problem import Outcome, Problem
 from classic.markerless.result import MarkerlessResult, RefusedError, build_result, refused_result
 from classic.markerless.surface_frames import RobotSurfaceFrames
 from handeye.core.errors import NonFiniteError, ShapeError

@@ -327,8 +327,8 @@ def second_pass_options(
     prior : SharedIntrinsicsPrior
     started_near : bool
         The second pass starts from the first's accepted answer: only the finest coarse windows
-        (:data:`SECOND_PASS_WINDOWS_M`) are searched, and the fine stage iterates at most
-        :data:`SECOND_PASS_FINE_ITERATIONS` times.
+        (:data:`SECOND_PASS_WINDOWS_M`) are searched, and the fine stage starts at the finest gate
+        (:data:`SECOND_PASS_GATES_M`) and iterates at most :data:`SECOND_PASS_FINE_ITERATIONS` times.
     """
     out = replace(options, intrinsics_prior_sigma=prior.prior_sigma)
     if started_near:

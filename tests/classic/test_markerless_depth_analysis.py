@@ -29,6 +29,8 @@ def test_second_registration_reuses_the_first_analysis_bit_for_bit():
     reused = register_robot(depth, K2, surface, starts=starts, depth_analysis=first.depth_analysis)
     fresh = register_robot(depth, K2, surface, starts=starts)
     assert reused.ok and _same(reused, fresh)
+    assert reused.depth_analysis is first.depth_analysis  # taken, not found again
+    assert fresh.depth_analysis is not first.depth_analysis
 
 
 def test_an_analysis_of_other_frames_is_not_taken():
@@ -56,3 +58,16 @@ def test_the_3x3_range_is_scipys_filter_value_for_value():
         a[a > 1.5] = np.inf
         assert np.array_equal(_over_3x3(np.minimum, a), ndimage.minimum_filter(a, size=(1, 3, 3)))
         assert np.array_equal(_over_3x3(np.maximum, a), ndimage.maximum_filter(a, size=(1, 3, 3)))
+
+
+def test_the_fine_gates_are_positive_distances():
+    """A second pass's gates (one, the finest) pass; none, or a zero, negative or NaN gate, is refused by name."""
+    import pytest
+
+    from classic.markerless import MarkerlessOptions
+    from handeye.core.errors import HandEyeInputError
+
+    assert MarkerlessOptions(fine_gates_m=(0.01,)).fine_gates_m == (0.01,)
+    for bad in ((), (0.02, 0.0), (-0.01,), (float("nan"),)):
+        with pytest.raises(HandEyeInputError, match="fine_gates_m"):
+            MarkerlessOptions(fine_gates_m=bad)
