@@ -9,9 +9,9 @@ Run from the repository root::
 Measured over the packages (``handeye/``, ``classic/``, ``sim/``, ``learned/``); the tolerances over ``tests/``.
 A commit is read with ``git archive`` into a temporary folder, never checked out. What each row counts:
 
-- *lines*: non-blank lines of Python;
-- *functions over 100 lines*: from ``def`` to the function's last line, docstring included (nested functions
-  count on their own);
+- *lines*: non-blank lines of Python, in all and per package;
+- *functions over 60 and over 100 lines*: from ``def`` to the function's last line, docstring included (nested
+  functions count on their own);
 - *functions with 8+ parameters*: positional, keyword-only and ``*args`` / ``**kwargs`` each count one;
   ``self`` and ``cls`` do not;
 - *complexity over 10*: radon's cyclomatic complexity (McCabe) of each function and method, as
@@ -22,8 +22,11 @@ A commit is read with ``git archive`` into a temporary folder, never checked out
 - *literal tolerances in tests*: ``atol=``, ``rtol=``, ``abs=``, ``rel=`` given a number written in the test
   (not a name from ``tests/tolerances.py``), outside ``tests/tolerances.py``.
 
-Repeated blocks are the workplace's ``duplicates`` tool's to count, and the test suite's wall time is CI's:
-both are quoted in the CHANGELOG beside these.
+- *pairs of repeated blocks*: the pairs of places in the packages (the four together, nothing else) that share
+  six or more lines, the same or of the same shape, as the workplace's ``duplicates`` tool counts them (its
+  first line); "not measured" where the tool is not on the ``PATH``.
+
+The test suite's wall time is CI's: quoted in the CHANGELOG beside these.
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ from __future__ import annotations
 import argparse
 import ast
 import os
+import re
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -47,6 +52,7 @@ PACKAGES = ("handeye", "classic", "sim", "learned")
 PROJECT = (*PACKAGES, "benchmarks")
 TOLERANCE_KEYWORDS = ("atol", "rtol", "abs", "rel")
 LONG_LINES = 100
+FAIRLY_LONG_LINES = 60
 MANY_PARAMETERS = 8
 COMPLEX = 10
 
@@ -193,20 +199,41 @@ def complexities(source: str) -> list[tuple[str, int]] | None:
     return [(name, c) for name, c in out if not name.startswith("<")]
 
 
+def repeated_pairs(root: Path) -> int | str:
+    """Pairs of places in the packages under ``root`` sharing six or more lines (the ``duplicates`` tool's
+    count, over a copy of the four packages' Python files alone); "not measured" without the tool."""
+    tool = shutil.which("duplicates")
+    if tool is None:
+        return "not measured"
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in _files(root, PACKAGES):
+            target = Path(tmp) / path.relative_to(root)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, target)
+        out = subprocess.run([tool, "--repo", tmp, "--most", "1", "--seconds", "120"], capture_output=True, text=True)
+    first = out.stdout.splitlines()[0] if out.stdout else ""
+    found = re.match(r"(\d+) pairs", first)
+    return int(found.group(1)) if found else 0 if first.startswith("no duplicates") else f"unread: {first!r}"
+
+
 def measure(root: Path) -> dict:
     """The measures of a tree (see the module's docstring); ``longest`` lists the ten longest functions."""
     files = _files(root, PACKAGES)
     modules = {_module(root, p) for p in files}
-    lines = long = many = complex_ = 0
+    lines = long = fairly_long = many = complex_ = 0
+    per_package = dict.fromkeys(PACKAGES, 0)
     private, longest, radon_missing = [], [], False
     for path in files:
         source = path.read_text(encoding="utf-8")
         tree = ast.parse(source, filename=str(path))
         module = _module(root, path)
-        lines += sum(1 for line in source.splitlines() if line.strip())
+        here = sum(1 for line in source.splitlines() if line.strip())
+        lines += here
+        per_package[module.split(".")[0]] += here
         for fn in _functions(tree):
             length = fn.end_lineno - fn.lineno + 1
             long += length > LONG_LINES
+            fairly_long += length > FAIRLY_LONG_LINES
             many += parameter_count(fn) >= MANY_PARAMETERS
             longest.append((length, f"{module}.{fn.name}"))
         private += [f"{module} imports {name}" for _, name in private_imports(root, path, modules)]
@@ -219,9 +246,12 @@ def measure(root: Path) -> dict:
     tolerances = sum(literal_tolerances(ast.parse(p.read_text(encoding="utf-8"))) for p in tests)
     return {
         "lines of Python in the packages": lines,
+        **{f"lines in {package}/": n for package, n in per_package.items()},
+        f"functions over {FAIRLY_LONG_LINES} lines": fairly_long,
         f"functions over {LONG_LINES} lines": long,
         f"functions with {MANY_PARAMETERS}+ parameters": many,
         f"complexity over {COMPLEX} (radon)": "radon not installed" if radon_missing else complex_,
+        "pairs of repeated blocks (6+ lines)": repeated_pairs(root),
         "private imports across modules": len(private),
         "literal tolerances in tests": tolerances,
         "longest": sorted(longest, reverse=True)[:10],

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import textwrap
 
 from benchmarks.code_measures import measure
@@ -13,7 +14,8 @@ def _write(root, rel, text):
     path.write_text(textwrap.dedent(text))
 
 
-def test_each_measure_counts_a_planted_case(tmp_path):
+def test_each_measure_counts_a_planted_case(tmp_path, monkeypatch):
+    monkeypatch.setattr("shutil.which", lambda name: None)  # the duplicates tool: the workplace's, not CI's
     body = "\n".join(f"    x{i} = {i}" for i in range(101))
     _write(tmp_path, "handeye/__init__.py", "")
     _write(tmp_path, "handeye/a.py", f"def long_one():\n{body}\n\n\ndef _hidden():\n    return 1\n")
@@ -67,9 +69,27 @@ def test_each_measure_counts_a_planted_case(tmp_path):
     _write(tmp_path, "tests/tolerances.py", "FLOAT = 1e-12\nnp_allclose_kwargs = dict(atol=1e-3)\n")
     m = measure(tmp_path)
     assert m["functions over 100 lines"] == 1
+    assert m["functions over 60 lines"] == 1  # long_one's 102; the rest are short
+    assert m["lines in handeye/"] == 104  # def + 101 body lines + _hidden's two; blank lines do not count
+    packages = ("handeye", "classic", "sim", "learned")
+    assert m["lines of Python in the packages"] == sum(m[f"lines in {p}/"] for p in packages)
+    assert m["pairs of repeated blocks (6+ lines)"] == "not measured"
     assert m["functions with 8+ parameters"] == 1  # many: a..g, *args, h, **kw = 10; few: 7
     assert m["private imports across modules"] == 1  # _hidden; the package lending branchy does not count
     assert m["private"] == ["classic.b imports handeye.a._hidden"]
     assert m["literal tolerances in tests"] == 2  # atol=1e-9 and abs=-0.5; names and tolerances.py do not count
     assert m["complexity over 10 (radon)"] == 1  # branchy: 1 + for + 4 ifs + while + 1 if + 4 boolean operators
     assert m["longest"][0][1] == "handeye.a.long_one"
+
+
+def test_repeated_pairs_reads_the_duplicates_tools_count(tmp_path, monkeypatch):
+    from benchmarks.code_measures import repeated_pairs
+
+    tool = tmp_path / "bin" / "duplicates"
+    _write(tmp_path, "bin/duplicates", "#!/bin/sh\necho '7 pairs of places (2 files read), each sharing ...'\n")
+    tool.chmod(0o755)
+    _write(tmp_path, "handeye/a.py", "x = 1\n")
+    monkeypatch.setenv("PATH", f"{tool.parent}:{os.environ['PATH']}")
+    assert repeated_pairs(tmp_path) == 7
+    _write(tmp_path, "bin/duplicates", "#!/bin/sh\necho 'no duplicates (2 files read)'\n")
+    assert repeated_pairs(tmp_path) == 0
