@@ -167,6 +167,26 @@ def _read_csv(path: Path, names: tuple[str, ...] = POSE_NAMES) -> tuple[dict, li
 
 def _read_csv_uncached(path: Path, names: tuple[str, ...]) -> tuple[dict, list[int], dict]:
     text = _read_text(path)
+    lines = _content_lines(text, path)
+    header_line, header = lines[0][0], [h.strip() for h in next(csv.reader([lines[0][1]]))]
+    col = {h: k for k, h in enumerate(header)}
+    rows = [ln for ln, _ in lines[1:]]
+    table = _csv_table(lines[1:], path)
+    raw, kinds = ({"image": _image_column(table, col["image"])} if "image" in col else {}), {}
+    for name in names:  # one pose's header, then its values, then the next pose's
+        kinds[name] = _rotation_kind(name, col, header, f"{path}, header (line {header_line})")
+        cols = [f"{name}.{c}" for c in "xyz"] + _rotation_columns(name)[kinds[name]]
+        raw[name] = _pose_values(table, rows, header, [(col[c], c) for c in cols], path)
+    return raw, rows, kinds
+
+
+def _image_column(table: list[list[str]], k: int) -> list[str]:
+    """The image names of column ``k``, ``""`` where a row is too short."""
+    return [row[k].strip() if len(row) > k else "" for row in table]
+
+
+def _content_lines(text: str, path: Path) -> list[tuple[int, str]]:
+    """The (line number, line) pairs that are neither blank nor ``#`` comments, checked; at least the header."""
     lines = [
         (i + 1, line)
         for i, line in enumerate(io.StringIO(text, newline=""))
@@ -175,60 +195,76 @@ def _read_csv_uncached(path: Path, names: tuple[str, ...]) -> tuple[dict, list[i
     if not lines:
         raise PoseFileError(f"{path}: no header and no rows")
     check_csv_text(lines, str(path), PoseFileError)
-    header_line, header = lines[0][0], [h.strip() for h in next(csv.reader([lines[0][1]]))]
-    col = {h: k for k, h in enumerate(header)}
-    raw, kinds = {}, {}
-    rows = [ln for ln, _ in lines[1:]]
+    return lines
+
+
+def _csv_table(lines: list[tuple[int, str]], path: Path) -> list[list[str]]:
+    """The fields of each data line."""
     try:
-        table = list(csv.reader([text for _, text in lines[1:]]))
+        return list(csv.reader([text for _, text in lines]))
     except csv.Error as exc:  # a field over the csv module's size limit
         raise PoseFileError(f"{path}: not a CSV pose file ({exc})") from None
-    if "image" in col:
-        raw["image"] = [row[col["image"]].strip() if len(row) > col["image"] else "" for row in table]
-    for name in names:
-        xyz = [f"{name}.{c}" for c in "xyz"]
-        options = {
-            "quat_named": [f"{name}.q{c}" for c in "xyzw"],
-            "quat_positional": [f"{name}.q{k}" for k in range(4)],
-            "rotvec": [f"{name}.r{c}" for c in "xyz"],
-            "kuka_abc": [f"{name}.{c}" for c in "abc"],
-            "fanuc_wpr": [f"{name}.{c}" for c in "wpr"],
-            "abb_quat": [f"{name}.q{k}" for k in range(1, 5)],
-        }
-        missing = [c for c in xyz if c not in col]
-        found = [k for k, cols in options.items() if all(c in col for c in cols)]
-        if missing or not found:
-            raise PoseFileError(
-                f"{path}, header (line {header_line}): columns for {name} not found; need {', '.join(xyz)} and "
-                f"one of: {' | '.join(', '.join(cols) for cols in options.values())}. Header is: "
-                f"{shorten(', '.join(header), 120)}"
-            )
-        if len(found) > 1:
-            raise PoseFileError(
-                f"{path}, header (line {header_line}): columns for {name} give {len(found)} rotations ("
-                f"{' and '.join(', '.join(options[k]) for k in found)}); keep the columns of one"
-            )
-        kind = found[0]
-        cols = xyz + options[kind]
-        values = _fast_values(table, [col[c] for c in cols], len(header))
-        if values is not None:  # every cell a finite number of the grammar, every translation within bounds
-            raw[name], kinds[name] = values, kind
-            continue
-        values = np.empty((len(table), len(cols)))  # one by one, to name the first bad cell
-        for r, (line_no, row) in enumerate(zip(rows, table)):
-            if len(row) != len(header):
-                raise PoseFileError(f"{path}, line {line_no}: {len(row)} fields, header has {len(header)}")
-            for c, cname in enumerate(cols):
-                cell = row[col[cname]].strip(CSV_CELL_SPACES)
-                values[r, c] = parse_float(cell, f"{path}, line {line_no}, column {cname}", PoseFileError)
-                if c < 3 and abs(values[r, c]) > ABSURD_TRANSLATION_M * 1e3:
-                    raise PoseFileError(
-                        f"{path}, line {line_no}, column {cname}: {shorten(row[col[cname]].strip())} is absurd for a "
-                        f"translation (over {ABSURD_TRANSLATION_M:g} m in metres or in millimetres)"
-                    )
-        raw[name] = values
-        kinds[name] = kind
-    return raw, rows, kinds
+
+
+def _rotation_columns(name: str) -> dict[str, list[str]]:
+    """The columns of each rotation form pose ``name`` may be given in, by form."""
+    return {
+        "quat_named": [f"{name}.q{c}" for c in "xyzw"],
+        "quat_positional": [f"{name}.q{k}" for k in range(4)],
+        "rotvec": [f"{name}.r{c}" for c in "xyz"],
+        "kuka_abc": [f"{name}.{c}" for c in "abc"],
+        "fanuc_wpr": [f"{name}.{c}" for c in "wpr"],
+        "abb_quat": [f"{name}.q{k}" for k in range(1, 5)],
+    }
+
+
+def _rotation_kind(name: str, col: dict, header: list[str], where: str) -> str:
+    """The one rotation form of pose ``name`` in the header, refusing none (or no x, y, z) and several."""
+    xyz = [f"{name}.{c}" for c in "xyz"]
+    options = _rotation_columns(name)
+    found = [k for k, cols in options.items() if all(c in col for c in cols)]
+    if any(c not in col for c in xyz) or not found:
+        raise _columns_not_found(name, xyz, options, header, where)
+    if len(found) > 1:
+        raise PoseFileError(
+            f"{where}: columns for {name} give {len(found)} rotations ("
+            f"{' and '.join(', '.join(options[k]) for k in found)}); keep the columns of one"
+        )
+    return found[0]
+
+
+def _columns_not_found(name: str, xyz: list[str], options: dict, header: list[str], where: str) -> PoseFileError:
+    """The error for a header without pose ``name``'s translation or any of its rotation forms."""
+    return PoseFileError(
+        f"{where}: columns for {name} not found; need {', '.join(xyz)} and "
+        f"one of: {' | '.join(', '.join(cols) for cols in options.values())}. Header is: "
+        f"{shorten(', '.join(header), 120)}"
+    )
+
+
+def _pose_values(table: list, rows: list[int], header: list[str], columns: list[tuple[int, str]], path: Path):
+    """The ``(N, len(columns))`` values of the ``(index, name)`` columns: all at once, else cell by cell."""
+    values = _fast_values(table, [k for k, _ in columns], len(header))
+    if values is not None:  # every cell a finite number of the grammar, every translation within bounds
+        return values
+    values = np.empty((len(table), len(columns)))  # one by one, to name the first bad cell
+    for r, (line_no, row) in enumerate(zip(rows, table)):
+        if len(row) != len(header):
+            raise PoseFileError(f"{path}, line {line_no}: {len(row)} fields, header has {len(header)}")
+        for c, (k, cname) in enumerate(columns):
+            values[r, c] = _cell_value(row[k], f"{path}, line {line_no}, column {cname}", translation=c < 3)
+    return values
+
+
+def _cell_value(cell: str, where: str, translation: bool) -> float:
+    """One cell's number, refusing a translation beyond :data:`ABSURD_TRANSLATION_M` in millimetres."""
+    value = parse_float(cell.strip(CSV_CELL_SPACES), where, PoseFileError)
+    if translation and abs(value) > ABSURD_TRANSLATION_M * 1e3:
+        raise PoseFileError(
+            f"{where}: {shorten(cell.strip())} is absurd for a "
+            f"translation (over {ABSURD_TRANSLATION_M:g} m in metres or in millimetres)"
+        )
+    return value
 
 
 def _fast_values(table: list, indices: list[int], n_header: int) -> np.ndarray | None:
@@ -318,38 +354,50 @@ def _pose_from_json(entry, quat_order: str, scale: float, where: str) -> np.ndar
 def _parse(path: Path, quat_orders: dict, units: str | None, names: tuple[str, ...] = POSE_NAMES):
     """Transforms of the pose names with the given quaternion order per name (and ``image`` if given)."""
     if path.suffix.lower() == ".json":
-        doc = _read_json(path)
-        if not isinstance(doc, dict) or not isinstance(doc.get("poses"), list):
-            raise PoseFileError(f"{path}: expected an object with a 'poses' list")
-        unit = units or doc.get("units", "m")
-        if unit not in UNIT_SCALE:
-            raise PoseFileError(f"{path}: units {unit!r} not understood; use 'm' or 'mm'")
-        out = {}
-        if all(isinstance(pose, dict) and "image" in pose for pose in doc["poses"]):
-            out["image"] = [str(pose["image"]) for pose in doc["poses"]]
-        for name in names:
-            Ts = []
-            for k, pose in enumerate(doc["poses"]):
-                if not isinstance(pose, dict) or name not in pose:
-                    raise PoseFileError(f"{path}, poses[{k}]: missing {name}")
-                where = f"{path}, poses[{k}].{name}"
-                Ts.append(_pose_from_json(pose[name], quat_orders[name], UNIT_SCALE[unit], where))
-            out[name] = np.array(Ts).reshape(-1, 4, 4)
-        return out, list(range(len(doc["poses"]))), {n: "json" for n in names}
+        return _parse_json(path, quat_orders, units, names)
+    return _parse_csv(path, quat_orders, units, names)
+
+
+def _parse_json(path: Path, quat_orders: dict, units: str | None, names: tuple[str, ...]):
+    """:func:`_parse` of a JSON pose file: its ``poses`` list, in its own ``units`` unless ``units`` is given."""
+    doc = _read_json(path)
+    if not isinstance(doc, dict) or not isinstance(doc.get("poses"), list):
+        raise PoseFileError(f"{path}: expected an object with a 'poses' list")
+    unit = units or doc.get("units", "m")
+    if unit not in UNIT_SCALE:
+        raise PoseFileError(f"{path}: units {unit!r} not understood; use 'm' or 'mm'")
+    poses = doc["poses"]
+    out = {"image": [str(pose["image"]) for pose in poses]} if all(_has(pose, "image") for pose in poses) else {}
+    for name in names:
+        out[name] = _json_transforms(path, poses, name, quat_orders[name], UNIT_SCALE[unit])
+    return out, list(range(len(poses))), {n: "json" for n in names}
+
+
+def _has(pose, key: str) -> bool:
+    """Whether a JSON pose entry is an object holding ``key``."""
+    return isinstance(pose, dict) and key in pose
+
+
+def _json_transforms(path: Path, poses: list, name: str, quat_order: str, scale: float) -> np.ndarray:
+    """The ``(N, 4, 4)`` transforms of pose ``name`` in every entry of a JSON ``poses`` list."""
+    Ts = []
+    for k, pose in enumerate(poses):
+        if not _has(pose, name):
+            raise PoseFileError(f"{path}, poses[{k}]: missing {name}")
+        Ts.append(_pose_from_json(pose[name], quat_order, scale, f"{path}, poses[{k}].{name}"))
+    return np.array(Ts).reshape(-1, 4, 4)
+
+
+def _parse_csv(path: Path, quat_orders: dict, units: str | None, names: tuple[str, ...]):
+    """:func:`_parse` of a CSV pose file, refusing a controller's millimetre columns written in metres."""
     raw, rows, kinds = _read_csv(path, names)
     if units is not None and units not in UNIT_SCALE:
         raise PoseFileError(f"units {units!r} not understood; use 'm' or 'mm'")
     out = {"image": raw["image"]} if "image" in raw else {}
     for name in names:
         unit = units or ROBOT_CONTROLLER_UNITS.get(kinds[name], "m")
-        out[name] = _to_transforms(
-            raw[name],
-            kinds[name],
-            quat_orders[name],
-            UNIT_SCALE[unit],
-            lambda ln, n=name: f"{path}, line {ln}, {n}",
-            rows,
-        )
+        where = lambda ln, n=name: f"{path}, line {ln}, {n}"  # noqa: E731
+        out[name] = _to_transforms(raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit], where, rows)
         if units is None and unit == "mm":
             _check_controller_reach(path, name, out[name])
     return out, rows, kinds
