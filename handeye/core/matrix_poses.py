@@ -73,14 +73,26 @@ def _matrices(path: Path) -> tuple[list[np.ndarray], list[int]]:
     data = [(n, v) for n, v in lines if v]
     if not data:
         raise PoseFileError(f"{path}: no numbers; expected 4x4 pose matrices (16 numbers a line, or 4 lines of 4)")
-    count = None
-    first_line, first = data[0]
+    count, (first_line, first) = None, data[0]
     if len(first) == 1:
-        if first[0] != int(first[0]) or first[0] < 0:
-            raise PoseFileError(f"{path}, line {first_line}: {first[0]:g} is not a count of matrices")
-        count = int(first[0])
-        data = data[1:]
-        lines = [(n, v) for n, v in lines if n > first_line]
+        count = _matrix_count(path, first_line, first[0])
+        data, lines = data[1:], [(n, v) for n, v in lines if n > first_line]
+    width = _line_width(path, data)
+    Ms, starts = _one_line_matrices(data, width) if width in (16, 12) else _four_line_matrices(path, lines)
+    if count is not None and count != len(Ms):
+        raise PoseFileError(f"{path}, line {first_line}: the file says {count} matrices but holds {len(Ms)}")
+    return Ms, starts
+
+
+def _matrix_count(path: Path, line: int, value: float) -> int:
+    """The count of matrices a first line holding one number gives."""
+    if value != int(value) or value < 0:
+        raise PoseFileError(f"{path}, line {line}: {value:g} is not a count of matrices")
+    return int(value)
+
+
+def _line_width(path: Path, data: list[tuple[int, list[float]]]) -> int:
+    """The one count of numbers every line holds: 16, 12 or 4."""
     widths = {len(v) for _, v in data}
     if len(widths) > 1 or not widths <= {16, 12, 4}:
         odd = next((n, v) for n, v in data if len(v) != len(data[0][1]) or len(v) not in (16, 12, 4))
@@ -88,33 +100,37 @@ def _matrices(path: Path) -> tuple[list[np.ndarray], list[int]]:
             f"{path}, line {odd[0]}: {len(odd[1])} numbers; a pose matrix file has 16 (or 12) numbers on every "
             f"line, or 4 on every line (4 lines a matrix), and line {data[0][0]} has {len(data[0][1])}"
         )
-    width = widths.pop()
-    Ms, starts = [], []
-    if width in (16, 12):
-        for n, v in data:
-            Ms.append(np.array(v + ([0.0, 0.0, 0.0, 1.0] if width == 12 else [])).reshape(4, 4))
-            starts.append(n)
-    else:
-        blocks, block = [], []
-        for n, v in lines:  # blank lines separate blocks; without them, every 4 lines are one
-            if v:
-                block.append((n, v))
-            if block and (not v or len(block) == 4):
-                blocks.append(block)
-                block = []
-        if block:
+    return widths.pop()
+
+
+def _one_line_matrices(data: list[tuple[int, list[float]]], width: int) -> tuple[list[np.ndarray], list[int]]:
+    """Matrices of 16 numbers a line, or 12 (the top 3 x 4), and their lines."""
+    last_row = [0.0, 0.0, 0.0, 1.0] if width == 12 else []
+    return [np.array(v + last_row).reshape(4, 4) for _, v in data], [n for n, _ in data]
+
+
+def _four_line_matrices(path: Path, lines: list[tuple[int, list[float]]]) -> tuple[list[np.ndarray], list[int]]:
+    """Matrices of 4 lines of 4 numbers, and the line each starts on."""
+    blocks = _blocks(lines)
+    for block in blocks:
+        if len(block) != 4:
+            raise PoseFileError(
+                f"{path}, line {block[0][0]}: a matrix of {len(block)} line(s) of 4 numbers; each pose matrix "
+                "is 4 lines"
+            )
+    return [np.array([v for _, v in block]) for block in blocks], [block[0][0] for block in blocks]
+
+
+def _blocks(lines: list[tuple[int, list[float]]]) -> list[list[tuple[int, list[float]]]]:
+    """The lines with numbers, in blocks: blank lines separate blocks; without them, every 4 lines are one."""
+    blocks, block = [], []
+    for n, v in lines:
+        if v:
+            block.append((n, v))
+        if block and (not v or len(block) == 4):
             blocks.append(block)
-        for block in blocks:
-            if len(block) != 4:
-                raise PoseFileError(
-                    f"{path}, line {block[0][0]}: a matrix of {len(block)} line(s) of 4 numbers; each pose matrix "
-                    "is 4 lines"
-                )
-            Ms.append(np.array([v for _, v in block]))
-            starts.append(block[0][0])
-    if count is not None and count != len(Ms):
-        raise PoseFileError(f"{path}, line {first_line}: the file says {count} matrices but holds {len(Ms)}")
-    return Ms, starts
+            block = []
+    return blocks + [block] if block else blocks
 
 
 def read_pose_matrices(
