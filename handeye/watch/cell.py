@@ -222,29 +222,13 @@ class CellWatcher:
         self.K = np.asarray(K, dtype=float)
         self.sensor = sensor
         self.options = options or WatchOptions()
-        files, hooks = files or WatchFiles(), hooks or WatchHooks()
-        history_path, current_path = files.history_path, files.current_path
-        if history_path is None and current_path is not None:  # else it would silently never be written
-            raise ValueError(f"the current calibration ({current_path}) is published from a history: give history_path")
-        self.history = None if history_path is None else History(history_path, current_path)
-        self.version = None
+        hooks = hooks or WatchHooks()
+        self.history = _history(files or WatchFiles())
         latest = None if self.history is None else self.history.latest()
-        if T_base_cam is None:
-            if latest is None:
-                raise ValueError("no calibration to start from: give T_base_cam or a history with a version")
-            T_base_cam = latest.T_base_cam
-            self.version = latest.version
-        elif self.history is not None:
-            same = latest is not None and np.allclose(latest.T_base_cam, T_base_cam, atol=1e-12)
-            self.version = latest.version if same else self.history.append(T_base_cam, "start", stream_t=0.0).version
+        T_base_cam, self.version = self._start_version(T_base_cam, latest)
         self.T_base_cam = np.array(T_base_cam, dtype=float)
-        if depth_correction is None:  # the version in use's own, as a rollback's (_follow_history)
-            started = latest if latest is not None and latest.version == self.version else None
-            depth_correction = (1.0, 0.0) if started is None else _recorded_correction(started)
-        self.depth_correction = tuple(float(v) for v in depth_correction)
-        factor = self.options.check.factor_for(self.K)
-        thin = getattr(robot_surface, "thinned", None)
-        self._check_surface = thin(factor**2) if factor > 1 and thin is not None else robot_surface
+        self.depth_correction = _start_correction(depth_correction, latest, self.version)
+        self._check_surface = _thinned(robot_surface, self.options.check.factor_for(self.K))
         stride = self.options.check.zbuffer_stride
         self.recalibrate = hooks.recalibrate or markerless_recalibration(
             robot_surface, self.K, sensor, zbuffer_stride=stride
@@ -271,6 +255,19 @@ class CellWatcher:
         self.joint_variance, self._joints_learnt = 0.0, False
         self._collected: list[Frame] = []
         self._history_stamp = None if self.history is None else self.history.stamp()
+
+    def _start_version(self, T_base_cam: np.ndarray | None, latest) -> tuple[np.ndarray, int | None]:
+        """The calibration started from and its version: the history's latest, or ``T_base_cam`` (appended to the
+        history unless it is the latest)."""
+        if T_base_cam is None:
+            if latest is None:
+                raise ValueError("no calibration to start from: give T_base_cam or a history with a version")
+            return latest.T_base_cam, latest.version
+        if self.history is None:
+            return T_base_cam, None
+        if latest is not None and np.allclose(latest.T_base_cam, T_base_cam, atol=1e-12):
+            return T_base_cam, latest.version
+        return T_base_cam, self.history.append(T_base_cam, "start", stream_t=0.0).version
 
     def _start_from_record(self) -> None:
         """A stale start (module docstring) when the current JSON says the version in use is stale, else the current
@@ -594,6 +591,30 @@ class CellWatcher:
         for hook in self.on_commit:
             hook(self.T_base_cam, frames, self.version)
         return "recalibrated", detail
+
+
+def _history(files: WatchFiles) -> History | None:
+    """The versions' history of ``files``; None without a ``history_path``."""
+    if files.history_path is None and files.current_path is not None:  # else it would silently never be written
+        raise ValueError(
+            f"the current calibration ({files.current_path}) is published from a history: give history_path"
+        )
+    return None if files.history_path is None else History(files.history_path, files.current_path)
+
+
+def _start_correction(depth_correction: tuple | None, latest, version: int | None) -> tuple:
+    """The depth correction ``(k, c)`` started with: the one given, else the version in use's own (as a rollback's,
+    ``_follow_history``), else ``(1, 0)``."""
+    if depth_correction is None:
+        started = latest if latest is not None and latest.version == version else None
+        depth_correction = (1.0, 0.0) if started is None else _recorded_correction(started)
+    return tuple(float(v) for v in depth_correction)
+
+
+def _thinned(robot_surface, factor: float):
+    """The surface the check poses: thinned by ``factor ** 2`` where it can be and ``factor > 1``."""
+    thin = getattr(robot_surface, "thinned", None)
+    return thin(factor**2) if factor > 1 and thin is not None else robot_surface
 
 
 def _recorded_correction(version, default: tuple = (1.0, 0.0)) -> tuple:
