@@ -300,12 +300,7 @@ def read_table(path: str | Path, required: list[str]) -> dict:
     """
     path = Path(path)
     _require_file(path, "table missing", "the table must be a regular CSV file")
-    try:
-        text = path.read_bytes().decode("utf-8-sig")  # a byte-order mark (spreadsheets write one) dropped
-        check_csv_text(enumerate(text.split("\n"), start=1), str(path), DatasetError)
-        rows = list(csv.reader(io.StringIO(text, newline="")))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # csv.Error: a field over the size limit
-        raise DatasetError(f"{path}: cannot read the table ({shorten(str(exc), 120)})") from None
+    rows = _csv_rows(path)
     if not rows:
         raise DatasetError(f"{path}: empty table (no header)")
     header, body = rows[0], rows[1:]
@@ -315,26 +310,42 @@ def read_table(path: str | Path, required: list[str]) -> dict:
             f"{path}: missing column(s) {shorten(', '.join(missing), 80)} "
             f"(header: {shorten(','.join(header[:12]), 80)})"
         )
+    columns = _parsed_columns(header, body, path)
+    return {c: _column_array(c, values, c in required, path) for c, values in columns.items()}
+
+
+def _csv_rows(path: Path) -> list[list[str]]:
+    """The fields of every row of a CSV file (UTF-8, a byte-order mark dropped), checked as text."""
+    try:
+        text = path.read_bytes().decode("utf-8-sig")  # a byte-order mark (spreadsheets write one) dropped
+        check_csv_text(enumerate(text.split("\n"), start=1), str(path), DatasetError)
+        return list(csv.reader(io.StringIO(text, newline="")))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # csv.Error: a field over the size limit
+        raise DatasetError(f"{path}: cannot read the table ({shorten(str(exc), 120)})") from None
+
+
+def _parsed_columns(header: list[str], body: list[list[str]], path: Path) -> dict[str, list]:
+    """Each column's cells parsed (:func:`_parse`), refusing a row of another length than the header."""
     columns = {c: [] for c in header}
     for r, values in enumerate(body, start=2):
         if len(values) != len(header):
             raise DatasetError(f"{path}: row {r} has {len(values)} values for {len(header)} columns")
         for c, v in zip(header, values):
             columns[c].append(_parse(v, c, path, r))
-    out = {}
-    for c, values in columns.items():
-        if c in _STR_COLUMNS:
-            out[c] = np.array(values, dtype=object)
-        elif c in _INT_COLUMNS:
-            if any(v is None for v in values):
-                if c in required:
-                    raise DatasetError(f"{path}: column {c} has an empty cell")
-                out[c] = np.array([-1 if v is None else v for v in values], dtype=int)
-            else:
-                out[c] = np.array(values, dtype=int)
-        else:
-            out[c] = np.array(values, dtype=float)
-    return out
+    return columns
+
+
+def _column_array(column: str, values: list, required: bool, path: Path) -> np.ndarray:
+    """One column's array: text, int (an empty cell -1, refused in a required column) or float."""
+    if column in _STR_COLUMNS:
+        return np.array(values, dtype=object)
+    if column not in _INT_COLUMNS:
+        return np.array(values, dtype=float)
+    if any(v is None for v in values):
+        if required:
+            raise DatasetError(f"{path}: column {column} has an empty cell")
+        return np.array([-1 if v is None else v for v in values], dtype=int)
+    return np.array(values, dtype=int)
 
 
 def _format(value) -> str:
@@ -504,35 +515,59 @@ def write_manifest(shard_dir: Path, camera_id: int, n_frames: dict) -> None:
 def shard_is_complete(shard_dir: Path) -> tuple[bool, str]:
     """Whether a shard is complete, and if not why (for messages and for resuming)."""
     manifest = shard_dir / "manifest.json"
+    doc, why = _read_manifest(shard_dir, manifest)
+    why = why or _manifest_problem(doc, manifest) or _listed_files_problem(shard_dir, manifest, doc["files"])
+    return not why, why
+
+
+def _read_manifest(shard_dir: Path, manifest: Path) -> tuple[object, str]:
+    """A shard's parsed manifest and ``""``, or ``None`` and why it cannot be read."""
     if not shard_dir.is_dir():
-        return False, f"{shard_dir}: shard missing"
+        return None, f"{shard_dir}: shard missing"
     if not manifest.is_file():
-        return False, f"{manifest}: missing (shard half-written)"
+        return None, f"{manifest}: missing (shard half-written)"
     try:
-        doc = json.loads(manifest.read_text(encoding="utf-8"))
+        return json.loads(manifest.read_text(encoding="utf-8")), ""
     except (ValueError, OSError, RecursionError) as exc:  # ValueError: JSON, UTF-8, an integer of 5,000 digits
-        return False, f"{manifest}: unreadable ({' '.join(str(exc).split())[:120]})"
+        return None, f"{manifest}: unreadable ({' '.join(str(exc).split())[:120]})"
+
+
+def _is_count(n) -> bool:
+    """Whether ``n`` is an int (not a bool) of at least 0."""
+    return isinstance(n, int) and not isinstance(n, bool) and n >= 0
+
+
+def _manifest_problem(doc, manifest: Path) -> str:
+    """Why a parsed manifest is not an object with ``files`` and ``frames`` (``""`` when it is)."""
     files = doc.get("files") if isinstance(doc, dict) else None
     if not isinstance(files, dict):
         what = "no 'files'" if not isinstance(doc, dict) or "files" not in doc else f"'files' a {type(files).__name__}"
-        return False, f"{manifest}: not a shard manifest ({what}; an object with files: {{path: bytes}} is needed)"
+        return f"{manifest}: not a shard manifest ({what}; an object with files: {{path: bytes}} is needed)"
     frames = doc.get("frames", {})
-    if not isinstance(frames, dict) or not all(
-        isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in frames.values()
-    ):
-        return False, f"{manifest}: 'frames' is {str(frames)[:40]!r}, not an object of frame counts (damaged manifest)"
-    for rel, size in files.items():
-        if isinstance(size, bool) or not isinstance(size, int) or size < 0:
-            return False, f"{manifest}: the size of {rel[:80]!r} is {str(size)[:40]!r}, not a number of bytes"
-        if Path(rel).is_absolute() or ".." in Path(rel).parts or not rel:
-            return False, f"{manifest}: lists {rel[:80]!r}, not a path inside the shard"
-        p = shard_dir / rel
-        if not p.is_file():
-            what = "listed in the manifest but missing" if not p.exists() else f"{file_kind(p)}, not a file"
-            return False, f"{p}: {what}"
-        if p.stat().st_size != size:
-            return False, f"{p}: {p.stat().st_size} bytes, the manifest says {size} (truncated or rewritten)"
-    return True, ""
+    if not isinstance(frames, dict) or not all(_is_count(n) for n in frames.values()):
+        return f"{manifest}: 'frames' is {str(frames)[:40]!r}, not an object of frame counts (damaged manifest)"
+    return ""
+
+
+def _listed_files_problem(shard_dir: Path, manifest: Path, files: dict) -> str:
+    """Why the first of the manifest's ``{path: bytes}`` entries does not match its file (``""``: all do)."""
+    problems = (_listed_file_problem(shard_dir, manifest, rel, size) for rel, size in files.items())
+    return next(filter(None, problems), "")
+
+
+def _listed_file_problem(shard_dir: Path, manifest: Path, rel: str, size) -> str:
+    """Why one manifest entry is not a file inside the shard of that size (``""`` when it is)."""
+    if not _is_count(size):
+        return f"{manifest}: the size of {rel[:80]!r} is {str(size)[:40]!r}, not a number of bytes"
+    if Path(rel).is_absolute() or ".." in Path(rel).parts or not rel:
+        return f"{manifest}: lists {rel[:80]!r}, not a path inside the shard"
+    p = shard_dir / rel
+    if not p.is_file():
+        what = "listed in the manifest but missing" if not p.exists() else f"{file_kind(p)}, not a file"
+        return f"{p}: {what}"
+    if p.stat().st_size != size:
+        return f"{p}: {p.stat().st_size} bytes, the manifest says {size} (truncated or rewritten)"
+    return ""
 
 
 # ------------------------------------------------------------------ the dataset
