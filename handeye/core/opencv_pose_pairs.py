@@ -35,6 +35,7 @@ its example file is in that frame (the marker at x = +0.76 m). Such files are re
 from __future__ import annotations
 
 import re
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -91,38 +92,11 @@ def read_opencv_pose_pairs(
     path = Path(path)
     check_camera_frame_name(camera_frame)
     doc = load_opencv_yaml(path, PoseFileError)
-
-    def where(key) -> str:
-        line = line_of(doc, key)
-        return f"{path}, line {line}, {key}" if line else f"{path}, {key}"
-
-    count = doc.get("frameCount")
+    where = partial(_where, path, doc)
     pair_keys = [k for k in doc if isinstance(k, str) and _PAIR_KEY.match(k)]
-    if count is None:
-        if not pair_keys:
-            raise PoseFileError(
-                f"{path}: no frameCount and no T1_0/T2_0 keys: not camodocal's TransformPairsInput.yml "
-                "(pairs of 4x4 matrices T1_i = T_base_ee, T2_i = T_cam_target)"
-            )
-        count = 1 + max(int(_PAIR_KEY.match(k).group(1)) for k in pair_keys)
-    elif not isinstance(count, int) or isinstance(count, bool) or not 0 <= count <= MAX_FRAME_COUNT:
-        raise PoseFileError(f"{where('frameCount')}: {count!r} is not a count of pose pairs")
-    Ts = {0: [], 1: []}
-    for i in range(count):
-        for side, pattern in enumerate(PAIR_KEYS):
-            key = pattern.format(i)
-            if key not in doc:
-                raise PoseFileError(
-                    f"{where('frameCount')}: frameCount is {count} but {key} is missing "
-                    f"(pair {i} of T1_i = T_base_ee, T2_i = T_cam_target)"
-                )
-            value = doc[key]
-            if not isinstance(value, np.ndarray):
-                raise PoseFileError(f"{where(key)}: not an !!opencv-matrix (got {type(value).__name__})")
-            Ts[side].append(checked_pose_matrix(value, where(key)))
-    extra = sorted(k for k in pair_keys if int(_PAIR_KEY.match(k).group(1)) >= count)
-    if extra:
-        raise PoseFileError(f"{where(extra[0])}: frameCount is {count} but the file holds {extra[0]} too")
+    count = _frame_count(path, doc, pair_keys)
+    Ts = _pair_matrices(doc, count, where)
+    _refuse_extra_pairs(pair_keys, count, where)
     T_base_ee = scaled_to_metres(np.array(Ts[0]), units, [where(f"T1_{i}") for i in range(count)], "T_base_ee")
     T_cam_target = scaled_to_metres(np.array(Ts[1]), units, [where(f"T2_{i}") for i in range(count)], "T_cam_target")
     if camera_frame is None:
@@ -130,3 +104,58 @@ def read_opencv_pose_pairs(
         camera_frame = "optical"
     rows = [line_of(doc, f"T1_{i}") for i in range(count)]
     return PoseSet(T_base_ee, to_optical(T_cam_target, camera_frame), str(path), rows)
+
+
+def _where(path: Path, doc: dict, key: str) -> str:
+    """The file, the key's line where it is known, and the key, for messages."""
+    line = line_of(doc, key)
+    return f"{path}, line {line}, {key}" if line else f"{path}, {key}"
+
+
+def _pair_index(key: str) -> int:
+    """The ``i`` of a key ``T1_i`` or ``T2_i``."""
+    return int(_PAIR_KEY.match(key).group(1))
+
+
+def _frame_count(path: Path, doc: dict, pair_keys: list[str]) -> int:
+    """The number of pairs: ``frameCount``, checked, else one more than the highest pair key's ``i``."""
+    count = doc.get("frameCount")
+    if count is None:
+        if not pair_keys:
+            raise PoseFileError(
+                f"{path}: no frameCount and no T1_0/T2_0 keys: not camodocal's TransformPairsInput.yml "
+                "(pairs of 4x4 matrices T1_i = T_base_ee, T2_i = T_cam_target)"
+            )
+        return 1 + max(_pair_index(k) for k in pair_keys)
+    if not isinstance(count, int) or isinstance(count, bool) or not 0 <= count <= MAX_FRAME_COUNT:
+        raise PoseFileError(f"{_where(path, doc, 'frameCount')}: {count!r} is not a count of pose pairs")
+    return count
+
+
+def _pair_matrices(doc: dict, count: int, where) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The checked ``T1_i`` and ``T2_i`` ``(4, 4)`` of every pair, read pair by pair."""
+    Ts = ([], [])
+    for i in range(count):
+        for side, pattern in enumerate(PAIR_KEYS):
+            Ts[side].append(_pair_matrix(doc, pattern.format(i), count, i, where))
+    return Ts
+
+
+def _pair_matrix(doc: dict, key: str, count: int, i: int, where) -> np.ndarray:
+    """One pair key's matrix, refusing it missing or not an ``!!opencv-matrix``."""
+    if key not in doc:
+        raise PoseFileError(
+            f"{where('frameCount')}: frameCount is {count} but {key} is missing "
+            f"(pair {i} of T1_i = T_base_ee, T2_i = T_cam_target)"
+        )
+    value = doc[key]
+    if not isinstance(value, np.ndarray):
+        raise PoseFileError(f"{where(key)}: not an !!opencv-matrix (got {type(value).__name__})")
+    return checked_pose_matrix(value, where(key))
+
+
+def _refuse_extra_pairs(pair_keys: list[str], count: int, where) -> None:
+    """Refuse a pair key beyond ``frameCount``, naming the first."""
+    extra = sorted(k for k in pair_keys if _pair_index(k) >= count)
+    if extra:
+        raise PoseFileError(f"{where(extra[0])}: frameCount is {count} but the file holds {extra[0]} too")
