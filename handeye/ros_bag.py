@@ -31,6 +31,7 @@ from __future__ import annotations
 import struct
 from contextlib import contextmanager
 from dataclasses import dataclass
+from itertools import chain
 from pathlib import Path
 from typing import NoReturn
 
@@ -280,7 +281,7 @@ def check_mcap(path) -> None:
                 walked.records(mm, summary, size - 37, None)
     except OSError as exc:
         raise BagError(f"{path}: the MCAP file cannot be read ({_reason(exc)})") from None
-    _check_mcap_summary(path, walked.chunks, walked.index, walked.schemas, walked.channels, walked.counts, walked.stats)
+    _check_mcap_summary(walked)
 
 
 _U16, _U64 = struct.Struct("<H"), struct.Struct("<Q")
@@ -373,45 +374,56 @@ class _McapWalk:
         self.records(raw, 0, len(raw), k, packed=True)
 
 
-def _check_mcap_summary(path: Path, chunks: dict, index: list, schemas: set, channels: dict, counts: dict, stats: dict):
-    """The records :func:`check_mcap` walked, checked against each other and against the summary.
-
-    ``chunks``: offset -> record length of the chunks found; ``index``: the summary's (offset, length) chunk
-    indexes; ``schemas``: the declared schema ids (0 included); ``channels``: channel id -> [(schema id, where)];
-    ``counts``: channel id -> [messages, where of the first]; ``stats``: the summary's statistics (empty: none).
+def _check_mcap_summary(walked: _McapWalk) -> None:
+    """The records :func:`check_mcap` walked (:class:`_McapWalk`), checked against each other and against the
+    summary: the first problem of the chunk indexes, the channels, the messages' channels, the statistics.
 
     Raises
     ------
     BagError
     """
+    problems = chain(
+        _index_problems(walked.chunks, walked.index),
+        _channel_problems(walked.schemas, walked.channels),
+        (
+            f"the message record at {at} names channel {cid}, which the file does not declare"
+            for cid, (_, at) in sorted(walked.counts.items())
+            if cid not in walked.channels
+        ),
+        _statistics_problems(walked.counts, walked.stats),
+    )
+    first = next(problems, None)
+    if first is not None:
+        _refuse_mcap(walked.path, first)
 
+
+def _index_problems(chunks: dict, index: list):
+    """The summary's chunk indexes ``(offset, length)`` that name no chunk the walk found."""
     for offset, length in index:
         if chunks.get(offset) != length:
-            _refuse_mcap(
-                path, f"the summary indexes a chunk of {length} bytes at byte {offset}, which the file does not hold"
-            )
+            yield f"the summary indexes a chunk of {length} bytes at byte {offset}, which the file does not hold"
+
+
+def _channel_problems(schemas: set, channels: dict):
+    """Channels naming an undeclared schema, or declared with several."""
     for cid, declared in sorted(channels.items()):
         for sid, at in declared:
             if sid not in schemas:
-                _refuse_mcap(
-                    path, f"the channel record at {at} (channel {cid}) names schema {sid}, which the file lacks"
-                )
+                yield f"the channel record at {at} (channel {cid}) names schema {sid}, which the file lacks"
         if len({sid for sid, _ in declared}) > 1:
-            _refuse_mcap(path, f"channel {cid} is declared with schemas {sorted({sid for sid, _ in declared})}")
-    for cid, (count, at) in sorted(counts.items()):
-        if cid not in channels:
-            _refuse_mcap(path, f"the message record at {at} names channel {cid}, which the file does not declare")
-    if stats:
-        for cid in sorted(set(counts) | set(stats["per"])):
-            found, listed = counts.get(cid, [0])[0], stats["per"].get(cid, 0)
-            if found != listed:
-                _refuse_mcap(
-                    path, f"{found} messages of channel {cid} in the file, the summary's statistics list {listed}"
-                )
-        if stats["total"] != sum(c for c, _ in counts.values()):
-            _refuse_mcap(
-                path, f"{sum(c for c, _ in counts.values())} messages in the file, the summary lists {stats['total']}"
-            )
+            yield f"channel {cid} is declared with schemas {sorted({sid for sid, _ in declared})}"
+
+
+def _statistics_problems(counts: dict, stats: dict):
+    """Message counts, per channel and in all, other than the summary's statistics (none without statistics)."""
+    if not stats:
+        return
+    for cid in sorted(set(counts) | set(stats["per"])):
+        found, listed = counts.get(cid, [0])[0], stats["per"].get(cid, 0)
+        if found != listed:
+            yield f"{found} messages of channel {cid} in the file, the summary's statistics list {listed}"
+    if stats["total"] != sum(c for c, _ in counts.values()):
+        yield f"{sum(c for c, _ in counts.values())} messages in the file, the summary lists {stats['total']}"
 
 
 def topic_connections(reader, bag, topic: str, types: tuple, required: bool = True) -> list:
