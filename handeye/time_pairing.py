@@ -102,17 +102,33 @@ def pair_by_time(
     HandEyeInputError
         Bad times, shapes, tolerance or method.
     """
-    from classic.robot_stream import RobotStream
-
     where = f"{source}: " if source else ""
     t_r = np.asarray(robot_times_s, dtype=float).reshape(-1)
     t_c = np.asarray(camera_times_s, dtype=float).reshape(-1)
     A = np.asarray(T_base_ee, dtype=float)
     B = np.asarray(T_cam_target, dtype=float)
+    _check_options(tolerance_s, method)
+    _check_samples(t_r, A, t_c, B, where)
+    gap, index, interpolated = _gaps(t_r, t_c, method)
+    keep = gap <= tolerance_s
+    keep_idx, drop_idx = np.flatnonzero(keep), np.flatnonzero(~keep)
+    if not len(keep_idx):
+        raise _no_pairs(t_r, t_c, tolerance_s, method, where)
+    T = _robot_poses(t_r, A, t_c[keep_idx], index[keep_idx], interpolated[keep_idx])
+    return PairedPoses(T, B[keep_idx], t_c[keep_idx], keep_idx, drop_idx, gap[keep_idx], float(tolerance_s), method)
+
+
+def _check_options(tolerance_s: float, method: str) -> None:
+    """Refuse an unknown method, a tolerance not finite or below 0."""
     if method not in METHODS:
         raise HandEyeInputError(f"unknown pairing method {method!r}: use one of {METHODS}")
     if not (np.isfinite(tolerance_s) and tolerance_s >= 0):
         raise HandEyeInputError(f"the time tolerance must be finite and >= 0 s, got {tolerance_s!r}")
+
+
+def _check_samples(t_r: np.ndarray, A: np.ndarray, t_c: np.ndarray, B: np.ndarray, where: str) -> None:
+    """Refuse poses of another count than their times, robot times not finite and strictly increasing (or none),
+    camera times not finite."""
     if A.shape != (len(t_r), 4, 4) or B.shape != (len(t_c), 4, 4):
         raise HandEyeInputError(
             f"{where}{len(t_r)} robot times need poses of shape ({len(t_r)}, 4, 4), got "
@@ -122,38 +138,51 @@ def pair_by_time(
         raise HandEyeInputError(
             f"{where}robot times must be finite and strictly increasing (at least one), camera times finite"
         )
-    k = np.searchsorted(t_r, t_c)  # t_r[k - 1] < t_c <= t_r[k]
-    hi = np.minimum(k, len(t_r) - 1)
-    lo = np.maximum(k - 1, 0)
+
+
+def _bracket(t_r: np.ndarray, t_c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each camera time, ``k`` with ``t_r[k - 1] < t_c <= t_r[k]`` and the robot samples before and after it
+    (``lo``, ``hi``: clipped to the robot samples), each shape (N,)."""
+    k = np.searchsorted(t_r, t_c)
+    return k, np.maximum(k - 1, 0), np.minimum(k, len(t_r) - 1)
+
+
+def _gaps(t_r: np.ndarray, t_c: np.ndarray, method: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each camera time's gap ``(N,)`` to the farthest robot sample used for it (inf: none), the robot sample
+    taken as it is (``(N,)`` indices: the nearest, or the one stamped at the time) and where the pose is
+    interpolated instead (``(N,)`` bool)."""
+    k, lo, hi = _bracket(t_r, t_c)
     exact = t_r[hi] == t_c
     gap_before, gap_after = t_c - t_r[lo], t_r[hi] - t_c
-    inside = (k > 0) & (k < len(t_r))
     if method == "nearest":
         gap_before = np.where(k > 0, gap_before, np.inf)
         gap_after = np.where(k < len(t_r), gap_after, np.inf)
-        nearest = np.where(gap_before < gap_after, lo, hi)
         gap = np.minimum(gap_before, gap_after)
         gap[exact] = 0.0
-        keep = gap <= tolerance_s
-    else:
-        gap = np.where(exact, 0.0, np.where(inside, np.maximum(gap_before, gap_after), np.inf))
-        keep = gap <= tolerance_s
-    keep_idx, drop_idx = np.flatnonzero(keep), np.flatnonzero(~keep)
-    if not len(keep_idx):
-        closest = np.min(np.minimum(np.abs(t_c - t_r[lo]), np.abs(t_r[hi] - t_c))) if len(t_c) else np.nan
-        raise NoPairsError(
-            f"{where}none of {len(t_c)} camera samples has a robot pose within {tolerance_s} s "
-            f"({method}); the closest robot sample is {closest:.6f} s away; robot samples span "
-            f"[{t_r[0]:.6f}, {t_r[-1]:.6f}] s, camera samples "
-            + (f"[{t_c.min():.6f}, {t_c.max():.6f}] s" if len(t_c) else "none")
-            + "; raise the tolerance, or estimate a clock offset with classic.calibrate_stream"
-        )
-    T = np.empty((len(keep_idx), 4, 4))
-    if method == "nearest":
-        T[:] = A[nearest[keep_idx]]
-    else:
-        ex = exact[keep_idx]
-        T[ex] = A[hi[keep_idx[ex]]]
-        if not ex.all():
-            T[~ex] = RobotStream(t_r, A).at(t_c[keep_idx[~ex]])[0]
-    return PairedPoses(T, B[keep_idx], t_c[keep_idx], keep_idx, drop_idx, gap[keep_idx], float(tolerance_s), method)
+        return gap, np.where(gap_before < gap_after, lo, hi), np.zeros(len(t_c), dtype=bool)
+    inside = (k > 0) & (k < len(t_r))
+    return np.where(exact, 0.0, np.where(inside, np.maximum(gap_before, gap_after), np.inf)), hi, ~exact
+
+
+def _no_pairs(t_r: np.ndarray, t_c: np.ndarray, tolerance_s: float, method: str, where: str) -> NoPairsError:
+    """The error of no camera sample paired: the closest gap and both time spans."""
+    _, lo, hi = _bracket(t_r, t_c)
+    closest = np.min(np.minimum(np.abs(t_c - t_r[lo]), np.abs(t_r[hi] - t_c))) if len(t_c) else np.nan
+    return NoPairsError(
+        f"{where}none of {len(t_c)} camera samples has a robot pose within {tolerance_s} s "
+        f"({method}); the closest robot sample is {closest:.6f} s away; robot samples span "
+        f"[{t_r[0]:.6f}, {t_r[-1]:.6f}] s, camera samples "
+        + (f"[{t_c.min():.6f}, {t_c.max():.6f}] s" if len(t_c) else "none")
+        + "; raise the tolerance, or estimate a clock offset with classic.calibrate_stream"
+    )
+
+
+def _robot_poses(t_r: np.ndarray, A: np.ndarray, t_kept: np.ndarray, index: np.ndarray, interpolated: np.ndarray):
+    """The robot poses ``(K, 4, 4)`` at the kept camera times: ``A[index]``, or interpolated where marked."""
+    from classic.robot_stream import RobotStream
+
+    T = np.empty((len(t_kept), 4, 4))
+    T[~interpolated] = A[index[~interpolated]]
+    if interpolated.any():
+        T[interpolated] = RobotStream(t_r, A).at(t_kept[interpolated])[0]
+    return T
