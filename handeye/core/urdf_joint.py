@@ -115,32 +115,44 @@ def read_urdf_joint(path: str | Path, joint_name: str | None = None) -> tuple[np
         link, an origin that is not three numbers.
     """
     path = Path(path)
+    text, root = _parse_xml(path)
+    joint = _the_joint(path, root, joint_name)
+    line = _line_of(text, "joint", joint.get("name"))
+    parent, child = _joint_link(path, joint, "parent", line), _joint_link(path, joint, "child", line)
+    origin = joint.find("origin")
+    if origin is None:  # URDF: no origin is the identity
+        return np.eye(4), parent, child
+    origin_line = _line_of(text, "origin", None) if root.tag == "joint" else line
+    xyz = _triple(path, origin, "xyz", origin_line)
+    rpy = _triple(path, origin, "rpy", origin_line)
+    return make_transform(matrix_from_urdf_rpy(rpy), xyz), parent, child
+
+
+def _parse_xml(path: Path) -> tuple[str, ET.Element]:
+    """The file's text and its parsed XML root."""
     if not path.is_file():
         raise PoseFileError(f"{path}: no such file")
     text = path.read_text(encoding="utf-8")
     try:
-        root = ET.fromstring(text)
+        return text, ET.fromstring(text)
     except ET.ParseError as exc:
         raise PoseFileError(f"{path}, line {exc.position[0]}: not valid XML ({exc})") from None
+
+
+def _the_joint(path: Path, root: ET.Element, joint_name: str | None) -> ET.Element:
+    """The file's one joint, or its one joint named ``joint_name``."""
     joints = [root] if root.tag == "joint" else root.findall(".//joint")
-    if joint_name is not None:
-        joints = [j for j in joints if j.get("name") == joint_name]
-    if len(joints) != 1:
-        names = ", ".join(str(j.get("name")) for j in ([root] if root.tag == "joint" else root.findall(".//joint")))
+    chosen = joints if joint_name is None else [j for j in joints if j.get("name") == joint_name]
+    if len(chosen) != 1:
+        names = ", ".join(str(j.get("name")) for j in joints)
         which = f"named {joint_name!r}" if joint_name else "in all"
-        raise PoseFileError(f"{path}: {len(joints)} joints {which} (joints: {names or 'none'}); name the joint")
-    joint = joints[0]
-    line = _line_of(text, "joint", joint.get("name"))
-    links = {}
-    for role in ("parent", "child"):
-        element = joint.find(role)
-        if element is None or not element.get("link"):
-            raise PoseFileError(f'{path}, line {line}: joint {joint.get("name")!r} has no <{role} link="..."/>')
-        links[role] = element.get("link")
-    origin = joint.find("origin")
-    if origin is None:  # URDF: no origin is the identity
-        return np.eye(4), links["parent"], links["child"]
-    origin_line = _line_of(text, "origin", None) if root.tag == "joint" else line
-    xyz = _triple(path, origin, "xyz", origin_line)
-    rpy = _triple(path, origin, "rpy", origin_line)
-    return make_transform(matrix_from_urdf_rpy(rpy), xyz), links["parent"], links["child"]
+        raise PoseFileError(f"{path}: {len(chosen)} joints {which} (joints: {names or 'none'}); name the joint")
+    return chosen[0]
+
+
+def _joint_link(path: Path, joint: ET.Element, role: str, line: int) -> str:
+    """The link the joint's ``<parent>`` or ``<child>`` (``role``) names."""
+    element = joint.find(role)
+    if element is None or not element.get("link"):
+        raise PoseFileError(f'{path}, line {line}: joint {joint.get("name")!r} has no <{role} link="..."/>')
+    return element.get("link")
