@@ -70,6 +70,9 @@ NONFINITE_WORDS = frozenset(
 )
 
 
+_NONFINITE_REASON = "NaN and infinity are not accepted; an unknown value is left empty where the format allows"
+
+
 class NumberError(HandEyeInputError):
     """A value that is not a number in the grammar of :mod:`handeye.core.numbers` (the default error)."""
 
@@ -94,21 +97,23 @@ def number_problem(text: str, integer: bool = False) -> str | None:
         return f"more than the {MAX_NUMBER_CHARS} characters a number is written with"
     if (_INT if integer else _FLOAT).fullmatch(text):
         return None
-    if text == "":
-        return "an empty value"
-    if text != text.strip():
-        return "spaces around it"
-    if text.lower() in NONFINITE_WORDS:
-        return "NaN and infinity are not accepted; an unknown value is left empty where the format allows"
-    if integer and _FLOAT.fullmatch(text):
-        return "it has a fraction or an exponent"
-    if "_" in text:
-        return "'_' digit separators are not read"
-    if any(ch.isdigit() and not "0" <= ch <= "9" for ch in text):
-        return "digits other than ASCII 0-9"
-    if text.lower().lstrip("+-").startswith(("0x", "0o", "0b")):
-        return "hexadecimal, octal and binary are not read"
-    return "write it as 12 or -3" if integer else "write it as 1.5, -2, or 3e-4"
+    return _grammar_problem(text, integer)
+
+
+def _grammar_problem(text: str, integer: bool) -> str:
+    """Why a text outside the grammar is not a number: the first reason that applies, else the form to write."""
+    lower = text.lower()
+    reasons = (  # (whether it applies, the reason)
+        (text == "", "an empty value"),
+        (text != text.strip(), "spaces around it"),
+        (lower in NONFINITE_WORDS, _NONFINITE_REASON),
+        (integer and _FLOAT.fullmatch(text), "it has a fraction or an exponent"),
+        ("_" in text, "'_' digit separators are not read"),
+        (any(ch.isdigit() and not "0" <= ch <= "9" for ch in text), "digits other than ASCII 0-9"),
+        (lower.lstrip("+-").startswith(("0x", "0o", "0b")), "hexadecimal, octal and binary are not read"),
+    )
+    form = "write it as 12 or -3" if integer else "write it as 1.5, -2, or 3e-4"
+    return next((reason for applies, reason in reasons if applies), form)
 
 
 def is_number_text(text: str) -> bool:
