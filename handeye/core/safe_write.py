@@ -33,6 +33,20 @@ __all__ = [
 ]
 
 
+#: What an output path that is not a regular file is, for the refusal: the first test of its mode that holds.
+_MODE_KINDS = {stat.S_ISDIR: "a directory", stat.S_ISFIFO: "a FIFO", stat.S_ISCHR: "a device", stat.S_ISBLK: "a device"}
+
+
+def _link_target(path: Path) -> Path:
+    """The path a symbolic link points to (``path`` itself when it is not a link), refusing a dangling link."""
+    if not path.is_symlink():
+        return path
+    try:
+        return path.resolve(strict=True)
+    except (OSError, RuntimeError):
+        raise OutputFileError(f"{path}: a symbolic link to nothing that exists; remove it or name another file")
+
+
 def check_output_path(path: str | Path) -> Path:
     """The regular file a write to ``path`` replaces: symbolic links followed, anything else refused.
 
@@ -51,12 +65,7 @@ def check_output_path(path: str | Path) -> Path:
         A directory, device, FIFO or socket, a dangling or looping link, or a folder that does not exist.
     """
     path = Path(path)
-    target = path
-    if path.is_symlink():
-        try:
-            target = path.resolve(strict=True)
-        except (OSError, RuntimeError):
-            raise OutputFileError(f"{path}: a symbolic link to nothing that exists; remove it or name another file")
+    target = _link_target(path)
     try:
         mode = target.stat().st_mode
     except FileNotFoundError:
@@ -64,15 +73,7 @@ def check_output_path(path: str | Path) -> Path:
     except OSError as exc:
         raise OutputFileError(f"{path}: cannot write here ({exc.strerror or exc})") from None
     if mode is not None and not stat.S_ISREG(mode):
-        kind = (
-            "a directory"
-            if stat.S_ISDIR(mode)
-            else "a FIFO"
-            if stat.S_ISFIFO(mode)
-            else "a device"
-            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-            else "not a regular file"
-        )
+        kind = next((name for test, name in _MODE_KINDS.items() if test(mode)), "not a regular file")
         raise OutputFileError(f"{path}: {kind}, not a file to write; name a file")
     if not target.parent.is_dir():
         raise OutputFileError(f"{path}: the folder {target.parent} does not exist; create it or name another file")
