@@ -99,35 +99,42 @@ def _open(path: Path, text: str):
     """A FileStorage of the text; a header ``%YAML:1.0`` is added to a camera_info file (line numbers kept)."""
     cv2 = _cv2()
     opencv = text.lstrip().startswith("%YAML")
-    body = text
-    if not opencv:
-        # rostopic echo brackets the message with '---' lines: drop them (a blank line keeps the numbering),
-        # and stop at the next message; OpenCV reads one document
-        kept, content = [], False
-        for line in text.splitlines(keepends=True):
-            if line.strip() in ("---", "..."):
-                if content:
-                    break
-                line = "\n"
-            content = content or bool(line.strip() and not line.lstrip().startswith("#"))
-            kept.append(line)
-        body = "%YAML:1.0\n" + "".join(kept)
+    body = text if opencv else "%YAML:1.0\n" + _first_document(text)
     try:
         fs = cv2.FileStorage(body, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
     except (cv2.error, SystemError) as exc:
-        cause = str(exc.__cause__ or exc)
-        found = re.search(r"\((\d+)\): ([^\n]*)", cause)
-        if found is None:
-            raise IntrinsicsError(f"{path}: not a YAML file OpenCV can read ({cause.strip()})") from None
-        line = int(found.group(1)) - (0 if opencv else 1)
-        problem = found.group(2).strip("' ")
-        raise IntrinsicsError(
-            f"{path}, line {line}: not a YAML file OpenCV can read ({problem}; "
-            f"OpenCV's YAML needs sequences indented or in brackets)"
-        ) from None
+        raise _unreadable(path, exc, 0 if opencv else 1) from None
     if not fs.isOpened():
         raise IntrinsicsError(f"{path}: OpenCV cannot open it as YAML")
     return fs, opencv
+
+
+def _first_document(text: str) -> str:
+    """rostopic echo brackets the message with '---' lines: they are dropped (a blank line keeps the numbering),
+    and the text stops at the next message; OpenCV reads one document."""
+    kept, content = [], False
+    for line in text.splitlines(keepends=True):
+        if line.strip() in ("---", "..."):
+            if content:
+                break
+            line = "\n"
+        content = content or bool(line.strip() and not line.lstrip().startswith("#"))
+        kept.append(line)
+    return "".join(kept)
+
+
+def _unreadable(path: Path, exc: Exception, added_lines: int) -> IntrinsicsError:
+    """The error of a text OpenCV's YAML reader refused, at the file's line where OpenCV names one."""
+    cause = str(exc.__cause__ or exc)
+    found = re.search(r"\((\d+)\): ([^\n]*)", cause)
+    if found is None:
+        return IntrinsicsError(f"{path}: not a YAML file OpenCV can read ({cause.strip()})")
+    line = int(found.group(1)) - added_lines
+    problem = found.group(2).strip("' ")
+    return IntrinsicsError(
+        f"{path}, line {line}: not a YAML file OpenCV can read ({problem}; "
+        f"OpenCV's YAML needs sequences indented or in brackets)"
+    )
 
 
 def _numbers(node) -> np.ndarray | None:
@@ -139,13 +146,18 @@ def _numbers(node) -> np.ndarray | None:
     if node.isMap() and not node.getNode("data").empty():
         node = node.getNode("data")
     if node.isSeq():
-        values = [node.at(k) for k in range(node.size())]
-        if not all(v.isReal() or v.isInt() for v in values):
-            raise ValueError("not all numbers")
-        return np.array([v.real() for v in values], dtype=float)
+        return _sequence_numbers(node)
     if node.isReal() or node.isInt():
         return np.array([node.real()])
     raise ValueError("not a list of numbers")
+
+
+def _sequence_numbers(node) -> np.ndarray:
+    """The numbers of a sequence node, refusing any item that is not one."""
+    values = [node.at(k) for k in range(node.size())]
+    if not all(v.isReal() or v.isInt() for v in values):
+        raise ValueError("not all numbers")
+    return np.array([v.real() for v in values], dtype=float)
 
 
 def _get(path: Path, text: str, fs, keys: tuple[str, ...], what: str, required: bool = True):
@@ -167,18 +179,27 @@ def _get(path: Path, text: str, fs, keys: tuple[str, ...], what: str, required: 
 
 
 def _size(path: Path, text: str, fs) -> tuple[int, int]:
-    for wkey, hkey in (("image_width", "image_height"), ("width", "height")):
-        w, h = fs.getNode(wkey), fs.getNode(hkey)
-        if not w.empty() and not h.empty():
-            if not (w.isInt() and h.isInt() and w.real() >= 0 and h.real() >= 0):
-                raise _error(path, text, wkey, f"{wkey}/{hkey} must be whole numbers of pixels")
-            return int(w.real()), int(h.real())
+    """The image size: ``image_width``/``image_height``, ``width``/``height`` or ``image_size``; ``(0, 0)``: none."""
+    size = _width_height(path, text, fs)
+    if size is not None:
+        return size
     key, values = _get(path, text, fs, ("image_size", "imageSize"), "image size", required=False)
     if key is None:
         return 0, 0
     if values.shape != (2,) or np.any(values < 0) or np.any(values != np.round(values)):
         raise _error(path, text, key, f"{key} must be [width, height] in whole pixels, got {values.tolist()}")
     return int(values[0]), int(values[1])
+
+
+def _width_height(path: Path, text: str, fs) -> tuple[int, int] | None:
+    """The first pair of width and height keys the file holds, checked; None: neither pair."""
+    for wkey, hkey in (("image_width", "image_height"), ("width", "height")):
+        w, h = fs.getNode(wkey), fs.getNode(hkey)
+        if not w.empty() and not h.empty():
+            if not (w.isInt() and h.isInt() and w.real() >= 0 and h.real() >= 0):
+                raise _error(path, text, wkey, f"{wkey}/{hkey} must be whole numbers of pixels")
+            return int(w.real()), int(h.real())
+    return None
 
 
 def load_intrinsics_yaml(path: str | Path, build):
@@ -204,41 +225,14 @@ def load_intrinsics_yaml(path: str | Path, build):
         matrix of the wrong size, a distortion model other than OpenCV's.
     """
     path = Path(path)
-    if not path.is_file():
-        raise IntrinsicsError(f"{path}: no such intrinsics file")
-    if path.stat().st_size > _MAX_BYTES:
-        raise IntrinsicsError(f"{path}: {path.stat().st_size:,} bytes, too large for an intrinsics file")
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise IntrinsicsError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    text = _read_text(path)
     _check_number_forms(path, text)
     fs, _ = _open(path, text)
     try:
         k_key, K = _get(path, text, fs, _K_KEYS, "camera matrix")
         if K.size != 9:
             raise _error(path, text, k_key, f"{k_key} holds {K.size} numbers; a camera matrix has 9")
-        d_key, dist = _get(path, text, fs, _D_KEYS, "distortion", required=False)
-        model_node = fs.getNode("distortion_model")
-        model = model_node.string() if not model_node.empty() else ""
-        if dist is None or dist.size == 0:
-            dist = np.zeros(5)
-        if model and model not in ROS_DISTORTION_MODELS:
-            raise _error(
-                path,
-                text,
-                "distortion_model",
-                f"distortion_model {model!r} is not OpenCV's pinhole model "
-                f"({' or '.join(ROS_DISTORTION_MODELS)}); handeye needs one of those",
-            )
-        if model and dist.size not in ROS_DISTORTION_MODELS[model]:
-            raise _error(
-                path,
-                text,
-                d_key,
-                f"{model} takes {' or '.join(map(str, ROS_DISTORTION_MODELS[model]))} "
-                f"coefficients, {d_key} holds {dist.size}",
-            )
+        dist = _distortion(path, text, fs)
         width, height = _size(path, text, fs)
         s_key, std = _get(path, text, fs, (_STD_KEY,), "one-sigma of the intrinsics", required=False)
         if std is not None and std.size != len(_STD_NAMES):
@@ -250,6 +244,35 @@ def load_intrinsics_yaml(path: str | Path, build):
             raise _error(path, text, k_key, str(exc)) from None
     finally:
         fs.release()
+
+
+def _read_text(path: Path) -> str:
+    """The file's text (UTF-8, a byte-order mark dropped), refusing a missing, too large or undecodable file."""
+    if not path.is_file():
+        raise IntrinsicsError(f"{path}: no such intrinsics file")
+    if path.stat().st_size > _MAX_BYTES:
+        raise IntrinsicsError(f"{path}: {path.stat().st_size:,} bytes, too large for an intrinsics file")
+    try:
+        return path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise IntrinsicsError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+
+
+def _distortion(path: Path, text: str, fs) -> np.ndarray:
+    """The distortion coefficients (five zeros when none), checked against a ``distortion_model`` if given."""
+    d_key, dist = _get(path, text, fs, _D_KEYS, "distortion", required=False)
+    model_node = fs.getNode("distortion_model")
+    model = model_node.string() if not model_node.empty() else ""
+    if dist is None or dist.size == 0:
+        dist = np.zeros(5)
+    if model and model not in ROS_DISTORTION_MODELS:
+        pinhole = " or ".join(ROS_DISTORTION_MODELS)
+        message = f"distortion_model {model!r} is not OpenCV's pinhole model ({pinhole}); handeye needs one of those"
+        raise _error(path, text, "distortion_model", message)
+    if model and dist.size not in ROS_DISTORTION_MODELS[model]:
+        counts = " or ".join(map(str, ROS_DISTORTION_MODELS[model]))
+        raise _error(path, text, d_key, f"{model} takes {counts} coefficients, {d_key} holds {dist.size}")
+    return dist
 
 
 def _flow(values) -> str:
