@@ -267,6 +267,8 @@ def test_inverse_files_and_millimetres(tmp_path, problem):
         ("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 nan\n", "line 2: 'nan' is not a finite"),
         ("1 0 0 0 0 1 0 0 0 0 2 0 0 0 0 1\n", "line 1: the rotation block is not a rotation"),
         ("", "no numbers"),
+        ("0\n", "line 1: the file says 0 matrices and holds none after it"),
+        ("# robot poses\n3\n\n", "line 2: the file says 3 matrices and holds none after it"),
     ],
 )
 def test_matrix_file_errors_name_line_and_cause(tmp_path, text, message):

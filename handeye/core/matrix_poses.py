@@ -77,6 +77,11 @@ def _matrices(path: Path) -> tuple[list[np.ndarray], list[int]]:
     if len(first) == 1:
         count = _matrix_count(path, first_line, first[0])
         data, lines = data[1:], [(n, v) for n, v in lines if n > first_line]
+    if not data:
+        raise PoseFileError(
+            f"{path}, line {first_line}: the file says {count} matrices and holds none after it; expected 4x4 "
+            "pose matrices (16 numbers a line, or 4 lines of 4) after the count"
+        )
     width = _line_width(path, data)
     Ms, starts = _one_line_matrices(data, width) if width in (16, 12) else _four_line_matrices(path, lines)
     if count is not None and count != len(Ms):
