@@ -222,7 +222,8 @@ def load_intrinsics_yaml(path: str | Path, build):
     ------
     IntrinsicsError
         Naming the file and the line: not readable YAML, no camera matrix, a
-        matrix of the wrong size, a distortion model other than OpenCV's.
+        matrix of the wrong size, a distortion model other than OpenCV's, distortion coefficients (or no
+        distortion key) of a count the model does not take.
     """
     path = Path(path)
     text = _read_text(path)
@@ -263,16 +264,25 @@ def _distortion(path: Path, text: str, fs) -> np.ndarray:
     d_key, dist = _get(path, text, fs, _D_KEYS, "distortion", required=False)
     model_node = fs.getNode("distortion_model")
     model = model_node.string() if not model_node.empty() else ""
-    if dist is None or dist.size == 0:
+    held = 0 if dist is None else dist.size
+    if held == 0:
         dist = np.zeros(5)
     if model and model not in ROS_DISTORTION_MODELS:
         pinhole = " or ".join(ROS_DISTORTION_MODELS)
         message = f"distortion_model {model!r} is not OpenCV's pinhole model ({pinhole}); handeye needs one of those"
         raise _error(path, text, "distortion_model", message)
     if model and dist.size not in ROS_DISTORTION_MODELS[model]:
-        counts = " or ".join(map(str, ROS_DISTORTION_MODELS[model]))
-        raise _error(path, text, d_key, f"{model} takes {counts} coefficients, {d_key} holds {dist.size}")
+        raise _error(path, text, d_key or "distortion_model", _count_message(model, d_key, held))
     return dist
+
+
+def _count_message(model: str, d_key: str | None, held: int) -> str:
+    """Why the distortion does not fit ``model``: the count it takes, and the key's count or its absence."""
+    counts = " or ".join(map(str, ROS_DISTORTION_MODELS[model]))
+    if d_key is None:
+        others = ", ".join(key for key in _D_KEYS if key != "D")
+        return f"distortion_model {model} takes {counts} coefficients, but the file has no D key (nor {others})"
+    return f"{model} takes {counts} coefficients, {d_key} holds {held}"
 
 
 def _flow(values) -> str:

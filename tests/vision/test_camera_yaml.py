@@ -14,6 +14,10 @@ from classic.vision.camera_yaml import write_camera_info_yaml, write_opencv_yaml
 from tests.tolerances import FLOAT, RELATIVE_ONLY  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1] / "data"
+_PLUMB_BOB_FIVE = (
+    "distortion_model: plumb_bob\ndistortion_coefficients:\n  rows: 1\n  cols: 5\n"
+    "  data: [0.125, -0.25, 0.001, -0.002, 0.0625]\n"
+)
 
 
 def test_camera_info_file():
@@ -108,6 +112,18 @@ def test_four_coefficients_are_written_as_plumb_bob(tmp_path):
             r"line 4: K is not a camera matrix",
         ),
         ("opencv_intrinsics.yml", "rows: 3", "rows: 4", r"line 7: camera_matrix .* data does not hold rows x cols"),
+        (
+            "camera_info.yaml",
+            _PLUMB_BOB_FIVE,
+            "distortion_model: rational_polynomial\n",
+            r"line 8: distortion_model rational_polynomial takes 8 coefficients, but the file has no D key",
+        ),
+        (
+            "camera_info.yaml",
+            _PLUMB_BOB_FIVE,
+            "distortion_model: rational_polynomial\nD: []\n",
+            r"line 9: rational_polynomial takes 8 coefficients, D holds 0$",
+        ),
     ],
 )
 def test_malformed_files_name_file_and_line(tmp_path, source, old, new, message):
