@@ -38,6 +38,24 @@ from handeye.noise_args import add_noise_arguments
 
 __all__ = ["add_parser", "run"]
 
+#: The three-number arguments, points in metres: the flag and its help.
+_POINT_ARGUMENTS = (
+    (
+        "--camera-guess",
+        "eye-to-hand: the camera's position in the base frame (m); eye-in-hand: in the flange frame "
+        "(default 0 0.08 0.04, looking along the flange's z)",
+    ),
+    (
+        "--look-at",
+        "eye-to-hand: the point the camera guess looks at (default 0.35 m from the base towards the camera, 0.3 m up)",
+    ),
+    (
+        "--target-guess",
+        "eye-in-hand: the board's centre in the base frame, face up (m); eye-to-hand: in the flange "
+        "frame (default 0 0 0.01, facing out)",
+    ),
+)
+
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register the command."""
@@ -55,30 +73,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
         choices=["none", "ur5", "ur3"],
         help="robot model for reachability and joint targets (needs handeye[robot]); none: any flange pose",
     )
-    p.add_argument(
-        "--camera-guess",
-        nargs=3,
-        type=cli_float,
-        metavar=("X", "Y", "Z"),
-        help="eye-to-hand: the camera's position in the base frame (m); eye-in-hand: in the flange frame "
-        "(default 0 0.08 0.04, looking along the flange's z)",
-    )
-    p.add_argument(
-        "--look-at",
-        nargs=3,
-        type=cli_float,
-        metavar=("X", "Y", "Z"),
-        help="eye-to-hand: the point the camera guess looks at (default 0.35 m from the base towards the "
-        "camera, 0.3 m up)",
-    )
-    p.add_argument(
-        "--target-guess",
-        nargs=3,
-        type=cli_float,
-        metavar=("X", "Y", "Z"),
-        help="eye-in-hand: the board's centre in the base frame, face up (m); eye-to-hand: in the flange "
-        "frame (default 0 0 0.01, facing out)",
-    )
+    for flag, text in _POINT_ARGUMENTS:
+        p.add_argument(flag, nargs=3, type=cli_float, metavar=("X", "Y", "Z"), help=text)
     p.add_argument("--n", type=cli_int, default=8, help="most poses to plan (default 8)")
     p.add_argument(
         "--min-gain",
