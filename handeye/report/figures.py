@@ -23,6 +23,12 @@ def _bars(ax, labels, values, outlier, ylabel):
     return x
 
 
+def _warning_line(ax, draw, level: float, label: str) -> None:
+    """A warning level as a dashed line, ``draw`` being ``ax.axvline`` or ``ax.axhline``, and the legend naming it."""
+    draw(level, color=COLORS["outlier"], ls="--", lw=1, label=label)
+    ax.legend(loc="upper right", fontsize=8, frameon=True, framealpha=0.92, edgecolor="none")
+
+
 def residuals_figure(
     path: str | Path,
     rotation_deg: np.ndarray,
@@ -144,14 +150,8 @@ def motion_figure(path: str | Path, A: np.ndarray, motion: dict, pairs: str = "a
     ax0 = fig.add_subplot(1, 3, 1)
     counts, _, _ = ax0.hist(angle, bins=min(24, max(6, len(angle) // 4)), color=COLORS["inlier"], edgecolor="white")
     ax0.set_ylim(0, 1.25 * float(np.max(counts, initial=1)))  # room for the legend
-    ax0.axvline(
-        THRESHOLDS["max_rotation_warn_deg"],
-        color=COLORS["outlier"],
-        ls="--",
-        lw=1,
-        label=f"warning level ({THRESHOLDS['max_rotation_warn_deg']:g} deg)",
-    )
-    ax0.legend(loc="upper right", fontsize=8, frameon=True, framealpha=0.92, edgecolor="none")
+    level = THRESHOLDS["max_rotation_warn_deg"]
+    _warning_line(ax0, ax0.axvline, level, f"warning level ({level:g} deg)")
     ax0.set_xlabel("rotation between two poses [deg]")
     ax0.set_ylabel("motion pairs")
     ax0.set_title(f"rotation angles (max {motion['max_rotation_deg']:.1f} deg)", fontsize=10)
@@ -172,14 +172,8 @@ def motion_figure(path: str | Path, A: np.ndarray, motion: dict, pairs: str = "a
     s = np.asarray(motion["axis_singular_values"], dtype=float)
     ratio = s / s[0] if s[0] > 0 else s
     ax2.bar(["s1", "s2", "s3"], ratio, color=[COLORS["inlier"], COLORS["accent"], COLORS["muted"]], width=0.6)
-    ax2.axhline(
-        THRESHOLDS["axis_diversity_warn"],
-        color=COLORS["outlier"],
-        ls="--",
-        lw=1,
-        label=f"s2/s1 warning level ({THRESHOLDS['axis_diversity_warn']:g})",
-    )
-    ax2.legend(loc="upper right", fontsize=8, frameon=True, framealpha=0.92, edgecolor="none")
+    level = THRESHOLDS["axis_diversity_warn"]
+    _warning_line(ax2, ax2.axhline, level, f"s2/s1 warning level ({level:g})")
     ax2.set_ylim(0, 1.08)
     ax2.set_ylabel("singular value / s1")
     ax2.set_title(f"axis diversity s2/s1 = {motion['axis_diversity']:.2f}", fontsize=10)
