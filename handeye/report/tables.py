@@ -68,29 +68,23 @@ def pose_rows(named: list[tuple[str, np.ndarray]], sigma: dict) -> list[list[str
     return rows
 
 
+def _per_axis(d: dict, side: str) -> str:
+    """A side's (``"camera"`` or ``"robot"``) per-axis sigmas of a noise model's dict, in words."""
+    rotation, translation = _join(d[f"{side}_rotation_deg"], ".4g"), _join(d[f"{side}_translation_mm"], ".4g")
+    return f"{side} per axis {rotation} deg / {translation} mm"
+
+
 def noise_text(d: dict) -> str:
     """The noise model of ``diagnostics["noise_model"]`` in words."""
     parts = [d.get("name", "?")]
     if "camera" in d:
         parts.append(f"camera: {d['camera']}")
     elif "camera_rotation_deg" in d:
-        parts.append(
-            "camera per axis "
-            + _join(d["camera_rotation_deg"], ".4g")
-            + " deg / "
-            + _join(d["camera_translation_mm"], ".4g")
-            + " mm"
-        )
+        parts.append(_per_axis(d, "camera"))
     if "robot" in d:
         parts.append(f"robot: {d['robot']}")
     elif any(d.get("robot_rotation_deg", [0])) or any(d.get("robot_translation_mm", [0])):
-        parts.append(
-            "robot per axis "
-            + _join(d["robot_rotation_deg"], ".4g")
-            + " deg / "
-            + _join(d["robot_translation_mm"], ".4g")
-            + " mm"
-        )
+        parts.append(_per_axis(d, "robot"))
     if d.get("estimated"):
         parts.append("scales estimated from the residuals")
     if "variance_factor_applied" in d:
