@@ -75,13 +75,8 @@ def _matrices(path: Path) -> tuple[list[np.ndarray], list[int]]:
         raise PoseFileError(f"{path}: no numbers; expected 4x4 pose matrices (16 numbers a line, or 4 lines of 4)")
     count, (first_line, first) = None, data[0]
     if len(first) == 1:
-        count = _matrix_count(path, first_line, first[0])
+        count = _matrix_count(path, first_line, first[0], len(data) - 1)
         data, lines = data[1:], [(n, v) for n, v in lines if n > first_line]
-    if not data:
-        raise PoseFileError(
-            f"{path}, line {first_line}: the file says {count} matrices and holds none after it; expected 4x4 "
-            "pose matrices (16 numbers a line, or 4 lines of 4) after the count"
-        )
     width = _line_width(path, data)
     Ms, starts = _one_line_matrices(data, width) if width in (16, 12) else _four_line_matrices(path, lines)
     if count is not None and count != len(Ms):
@@ -89,10 +84,15 @@ def _matrices(path: Path) -> tuple[list[np.ndarray], list[int]]:
     return Ms, starts
 
 
-def _matrix_count(path: Path, line: int, value: float) -> int:
-    """The count of matrices a first line holding one number gives."""
+def _matrix_count(path: Path, line: int, value: float, lines_after: int) -> int:
+    """The count of matrices a first line holding one number gives, refusing one with no numbers after it."""
     if value != int(value) or value < 0:
         raise PoseFileError(f"{path}, line {line}: {value:g} is not a count of matrices")
+    if not lines_after:
+        raise PoseFileError(
+            f"{path}, line {line}: the file says {int(value)} matrices and holds none after it; expected 4x4 "
+            "pose matrices (16 numbers a line, or 4 lines of 4) after the count"
+        )
     return int(value)
 
 
