@@ -10,8 +10,8 @@ evenly spaced frames, registers each as the watcher does (started from the truth
 calibration), and compares the reported scale, offset and pose with the simulator's truth (``cameras.csv``) in units
 of the reported sigmas. Printed per frame count: the sets registered and refused, how many of the accepted ones
 are more than 3 sigmas off in the scale, the offset, either of them, and the pose (rotation or translation, against
-the RMS sigma the result reports), the RMS and largest of those ratios, the median scale error, and the median
-sigmas of the scale and the offset.
+the RMS sigma the result reports), the RMS and largest of those ratios, the median noise bias the registration
+took out (``diagnostics["noise_bias"]``, where it reports one), and the median sigmas of the scale and the offset.
 
 Example::
 
@@ -136,6 +136,7 @@ def register_sets(root: Path, counts: list[int], sets: int) -> list[dict]:
                         "scale_sigma": d["scale_sigma"],
                         "offset_sigma_mm": d["offset_sigma_mm"],
                         "offset_error_mm": d["offset_mm"] - offset_mm_true,
+                        "bias_scale": (res.diagnostics.get("noise_bias") or {}).get("scale", np.nan),
                     }
                 )
             rows.append(row)
@@ -146,9 +147,9 @@ def table(rows: list[dict], counts: list[int]) -> list[str]:
     """The per-frame-count summary (module docstring)."""
     lines = [
         "| frames | sets | refused | scale > 3 sigma | offset > 3 sigma | either | pose > 3 sigma | RMS / max "
-        "scale z | RMS / max offset z | median scale error | median scale / offset "
+        "scale z | RMS / max offset z | median scale error | median noise bias taken out | median scale / offset "
         "sigma | s per set |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for count in counts:
         mine = [r for r in rows if r["frames"] == count]
@@ -163,6 +164,8 @@ def table(rows: list[dict], counts: list[int]) -> list[str]:
         def rms_max(v):
             return f"{np.sqrt(np.mean(v**2)):.1f} / {np.max(np.abs(v)):.1f}" if len(v) else "-"
 
+        bias = np.array([r["bias_scale"] for r in ok])
+        bias_text = f"{np.median(bias) * 100:+.3f} %" if np.isfinite(bias).any() else "none"
         median_scale = f"{np.median([r['scale_error'] for r in ok]) * 100:+.3f} %" if ok else "-"
         sigmas = (
             f"{np.median([r['scale_sigma'] for r in ok]) * 100:.3f} % / "
@@ -172,7 +175,7 @@ def table(rows: list[dict], counts: list[int]) -> list[str]:
         )
         lines.append(
             f"| {count} | {len(mine)} | {len(mine) - len(ok)} | {beyond['scale_z']} | {beyond['offset_z']} | "
-            f"{either} | {pose} | {rms_max(z['scale_z'])} | {rms_max(z['offset_z'])} | {median_scale} | "
+            f"{either} | {pose} | {rms_max(z['scale_z'])} | {rms_max(z['offset_z'])} | {median_scale} | {bias_text} | "
             f"{sigmas} | {np.median([r['seconds'] for r in mine]):.1f} |"
         )
     return lines

@@ -538,9 +538,9 @@ class CellWatcher:
         registration matched, and the two differ by less than the check tells a move from an unmoved arm. Else (a
         unit that changed by more, no unit fitted here yet, or no range given) the registration's is taken.
         Why not the registration's always: its few frames leave loose the combination of scale and offset that
-        moves the arm's depths alike. The depth noise does not bias it (the fit's Jacobian holds the
-        model's depths, :func:`classic.markerless.point_to_plane.solve_point_to_plane`), but its scatter along that
-        combination remains: on 20 d435 frames it lay beyond 3 of its own sigmas in 2 of 16 sets
+        moves the arm's depths alike. The registration takes the depth noise's own bias out of it
+        (:meth:`classic.markerless.problem.Problem.depth_debiased`), but not its scatter along that combination:
+        on 20 d435 frames it still lies beyond 3 of its own sigmas in 2 of 16 sets
         (``benchmarks/results/markerless_depth_unit_sigma.md``). A unit off along it makes each frame's step
         follow the arm's pose (:func:`handeye.watch.change.fit_depth_unit`): the bias relearnt from the first
         poses after the commit does not hold for the next ones, and the check reads a move where there is none.

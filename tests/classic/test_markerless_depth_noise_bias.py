@@ -4,10 +4,9 @@ The fit scales the observed points, ``k q_obs + c r``, so the noise is in the re
 residual (errors in variables): least squares shrinks ``k``, the scale ``1 / k`` comes out high and the offset low,
 by the noise's variance over the depth spread that tells them apart. On the running-cell benchmark's 20-frame
 recalibrations that was 5 to 6 of the scale's own sigmas; here, on an analytic sphere scene with a D435's noise, the
-old fit's scale was 0.3 to 4.4 of its sigmas high in each of 8 draws (mean 2.5e-3 against a sigma of 1.4e-3). With
-the Jacobian's columns at the model's depths (:func:`classic.markerless.point_to_plane.solve_point_to_plane`)
--1.1 to +2.0, mean 0.6e-3 against a sigma of 1.9e-3, 0.9 of the mean's (a simulation-extrapolation of the noise's
-bias, which this replaced, gave -2.1 to +2.3, mean 0.5e-3).
+old fit's scale was 0.3 to 4.4 of its sigmas high in each of 8 draws (mean 2.5e-3 against a sigma of 1.4e-3); with
+the noise's bias taken out of the depth unit reported (:meth:`classic.markerless.problem.Problem.depth_debiased`)
+-2.1 to +2.3, mean 0.5e-3.
 """
 
 from __future__ import annotations
