@@ -40,10 +40,6 @@ With ``MatchedModel.joint_twists`` the robot's joint zero offsets ``delta`` are 
 Gaussian prior about 0 (:mod:`classic.markerless.kinematics`): the model points move by ``omega_j x m + v_j``
 per radian of joint ``j`` (first order), and their columns of the Jacobian are ``-(n . (omega_j x m + v_j))``.
 
-The columns that hold the observed point (the rotation's, the depth scale's, the intrinsics') are taken at the
-model's point on the pixel's ray, not at the noisy observed one: the observed depth as a regressor would bias the
-focal length and the camera's distance (errors in variables; :func:`_at_model_depth`).
-
 The covariance is the sandwich (cluster-robust) estimate with one cluster per
 frame: neighbouring pixels of one frame share the model's discretisation and
 the sensor's systematic error, so counting them as independent would make
@@ -242,12 +238,6 @@ class PlaneFitOptions:
     repeated_radius_px: int = 0
 
 
-#: How far (in residual scales) the Jacobian's point may move along its ray to the matched plane.
-MODEL_DEPTH_CLIP_SCALES = 3.0
-#: The smallest ``|n . ray|`` a move along the ray is divided by (a plane seen nearly edge-on).
-MIN_RAY_COSINE = 0.1
-
-
 def apply_right(T: np.ndarray, xi: np.ndarray) -> np.ndarray:
     """``T @ [exp(omega) | v]``: the right perturbation of the parametrisation above, ``xi = (omega, v)``."""
     return T @ make_transform(so3_exp(xi[:3]), xi[3:])
@@ -313,12 +303,9 @@ def _locked_points_and_jacobian(q_obs, depth, stereo_fb_px_m):
     return q_obs * (z / z_obs)[:, None], jacobian
 
 
-def _linearise(
-    q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns, jacobian: bool = True, at_model=True
-):
+def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknowns, jacobian: bool = True):
     """The residuals ``r`` (N,) at the current unknowns and their Jacobian (N, ``x.n_par``), pose columns first
-    (None without ``jacobian``); ``at_model``: its columns that hold the observed point taken at the model's point
-    on the pixel's ray (:func:`_at_model_depth`), else the residuals' derivative."""
+    (None without ``jacobian``)."""
     R, t = T[:3, :3], T[:3, 3]
     m_base, n_base, d_base = model.points_base, model.normals_base, model.direction_base
     if x.delta is not None:  # the model moved by the joint offsets delta, its tangents turned with it
@@ -356,32 +343,7 @@ def _linearise(
         J[:, x.intrinsics_cols] = p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
     if x.delta is not None:
         J[:, x.joint_cols] = offset_columns(grad, m_base, x.twists)
-    if at_model:
-        _at_model_depth(J, r, n_cam, p_cam, x)
     return r, J
-
-
-def _at_model_depth(J, r, n_cam, p_cam, x) -> None:
-    """The Jacobian's columns that hold the observed point taken at the model's point on the pixel's ray instead
-    (in place): the rotation's, the intrinsics' and the depth scale's.
-
-    The observed depth is noisy, and in the Jacobian it is a regressor with errors (errors in variables): the
-    step's equations ``J^T W r = 0`` then hold ``sigma_z^2`` terms whose mean is not 0, and least squares shrinks
-    what the depth multiplies, measured as the focal length about 0.15 % low and the camera that much too far along
-    its axis (1-2 mm at 1.2 m). Taken at the point where the pixel's ray meets the matched model plane, the
-    columns hold no noise and those equations have mean 0 at the truth. That point is the observed one moved
-    ``dz = -r / (n . ray)`` along the ray (its corrected depth), at most :data:`MODEL_DEPTH_CLIP_SCALES` residual
-    scales (an outlier's or a grazing plane's move is cut short); the columns are linear in the point's depth, so
-    each row's scales by ``1 + dz / z``, and the scale's ``n . ray z_raw`` moves by ``n . ray dz / k``."""
-    n_ray = np.einsum("ij,ij->i", n_cam, p_cam) / p_cam[:, 2]
-    safe = np.where(np.abs(n_ray) < MIN_RAY_COSINE, np.copysign(MIN_RAY_COSINE, n_ray), n_ray)
-    dz = np.clip(-r / safe, -x.model_depth_clip_m, x.model_depth_clip_m)
-    s = (1.0 + dz / p_cam[:, 2])[:, None]
-    J[:, :3] *= s
-    if x.theta is not None:
-        J[:, x.intrinsics_cols] *= s
-    if x.depth is not None:
-        J[:, 6] += n_ray * dz / x.depth[0]
 
 
 class _Unknowns:
@@ -412,8 +374,6 @@ class _Unknowns:
         self.intrinsics_cols = slice(6 + n_depth, 6 + n_depth + n_intr)
         self.joint_cols = slice(6 + n_depth + n_intr, self.n_par)
         self.precision, self.mean = self._prior(options)
-        #: how far the Jacobian's point may move along its ray to the model's surface (:func:`_at_model_depth`)
-        self.model_depth_clip_m = MODEL_DEPTH_CLIP_SCALES * o.scale_m
         self.has_prior = bool(self.precision.any())
 
     def _prior(self, options: PlaneFitOptions) -> tuple[np.ndarray, np.ndarray]:

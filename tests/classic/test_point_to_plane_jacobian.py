@@ -25,7 +25,7 @@ def test_jacobian_matches_central_differences(locking):
 
     def linearise(T, depth):  # the residuals and Jacobian at the pose T and the depth correction depth
         unknowns = _Unknowns(PlaneFitOptions(scale_m=1.0, depth_start=depth, stereo_fb_px_m=fb), None)
-        return _linearise(q_obs, MatchedModel(m_base, n_base), T, unknowns, at_model=False)
+        return _linearise(q_obs, MatchedModel(m_base, n_base), T, unknowns)
 
     r0, J = linearise(T, depth)
     assert J.shape == (n, 6 + len(depth))
