@@ -38,6 +38,8 @@ NEAR_PI_ANGLE = 1e-9
 #: sums are taken in a different order, each rounding at float64's 2.2e-16 relative, over some 1e4 operations
 #: on entries of about 500 px, so about 1e-9 px apart at most (1.2e-11 px measured, on an entry that is 0);
 #: an absolute bound of 1e-8 px, ten times that, still fails on a fit of different views (tenths of a pixel).
+#: Only with OpenCV on one thread: on several, the order of the sums changes with the threads' timing, and once
+#: it moved the Levenberg-Marquardt path by 2.8e-7 px (a CI run under load, 2026-12-07).
 REFIT_SAME_VIEWS_PX = 1e-8
 
 #: The same formula reached by two code paths (a scalar path and the batched one, a product written out
