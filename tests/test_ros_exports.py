@@ -80,6 +80,13 @@ def test_urdf_joint_found_by_name_in_a_whole_robot(tmp_path):
     np.testing.assert_allclose(read_urdf_joint(path, "other")[0], np.eye(4))  # no origin: identity (URDF)
 
 
+def test_urdf_that_is_not_text_is_refused(tmp_path):
+    path = tmp_path / "cell.urdf"
+    path.write_bytes(b'<?xml version="1.0"?>\n<robot name="\xff\xfe"/>\n')  # not UTF-8
+    with pytest.raises(PoseFileError, match=r"cell.urdf: not UTF-8 text \(byte 35\)"):
+        read_urdf_joint(path)
+
+
 @pytest.mark.parametrize(
     "old, new, message",
     [

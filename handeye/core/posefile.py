@@ -57,6 +57,7 @@ import csv
 import io
 import json
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -174,8 +175,7 @@ def _read_csv_uncached(path: Path, names: tuple[str, ...]) -> tuple[dict, list[i
     table = _csv_table(lines[1:], path)
     raw, kinds = ({"image": _image_column(table, col["image"])} if "image" in col else {}), {}
     for name in names:  # one pose's header, then its values, then the next pose's
-        kinds[name] = _rotation_kind(name, col, header, f"{path}, header (line {header_line})")
-        cols = [f"{name}.{c}" for c in "xyz"] + _rotation_columns(name)[kinds[name]]
+        kinds[name], cols = _pose_columns(name, col, header, f"{path}, header (line {header_line})")
         raw[name] = _pose_values(table, rows, header, [(col[c], c) for c in cols], path)
     return raw, rows, kinds
 
@@ -218,8 +218,9 @@ def _rotation_columns(name: str) -> dict[str, list[str]]:
     }
 
 
-def _rotation_kind(name: str, col: dict, header: list[str], where: str) -> str:
-    """The one rotation form of pose ``name`` in the header, refusing none (or no x, y, z) and several."""
+def _pose_columns(name: str, col: dict, header: list[str], where: str) -> tuple[str, list[str]]:
+    """The one rotation form of pose ``name`` in the header and the pose's columns (x, y, z, then the rotation's),
+    refusing none (or no x, y, z) and several."""
     xyz = [f"{name}.{c}" for c in "xyz"]
     options = _rotation_columns(name)
     found = [k for k, cols in options.items() if all(c in col for c in cols)]
@@ -230,7 +231,7 @@ def _rotation_kind(name: str, col: dict, header: list[str], where: str) -> str:
             f"{where}: columns for {name} give {len(found)} rotations ("
             f"{' and '.join(', '.join(options[k]) for k in found)}); keep the columns of one"
         )
-    return found[0]
+    return found[0], xyz + options[found[0]]
 
 
 def _columns_not_found(name: str, xyz: list[str], options: dict, header: list[str], where: str) -> PoseFileError:
@@ -388,6 +389,11 @@ def _json_transforms(path: Path, poses: list, name: str, quat_order: str, scale:
     return np.array(Ts).reshape(-1, 4, 4)
 
 
+def _line_place(path: Path, name: str, line: int) -> str:
+    """Where a pose's value is, for messages: the file, the line and the pose's name."""
+    return f"{path}, line {line}, {name}"
+
+
 def _parse_csv(path: Path, quat_orders: dict, units: str | None, names: tuple[str, ...]):
     """:func:`_parse` of a CSV pose file, refusing a controller's millimetre columns written in metres."""
     raw, rows, kinds = _read_csv(path, names)
@@ -396,7 +402,7 @@ def _parse_csv(path: Path, quat_orders: dict, units: str | None, names: tuple[st
     out = {"image": raw["image"]} if "image" in raw else {}
     for name in names:
         unit = units or ROBOT_CONTROLLER_UNITS.get(kinds[name], "m")
-        where = lambda ln, n=name: f"{path}, line {ln}, {n}"  # noqa: E731
+        where = partial(_line_place, path, name)
         out[name] = _to_transforms(raw[name], kinds[name], quat_orders[name], UNIT_SCALE[unit], where, rows)
         if units is None and unit == "mm":
             _check_controller_reach(path, name, out[name])

@@ -132,7 +132,10 @@ def _parse_xml(path: Path) -> tuple[str, ET.Element]:
     """The file's text and its parsed XML root."""
     if not path.is_file():
         raise PoseFileError(f"{path}: no such file")
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise PoseFileError(f"{path}: not UTF-8 text (byte {exc.start}); a URDF is XML text") from None
     try:
         return text, ET.fromstring(text)
     except ET.ParseError as exc:
