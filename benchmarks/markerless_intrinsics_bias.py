@@ -13,7 +13,10 @@ away::
 
 ``--sensor ideal --noise-at-1m 0.00358``: the simulator's ideal sensor (no scale, offset, holes, flying pixels or
 correlated noise) with a white depth noise of that many metres at 1 m, growing with depth squared: which of the
-sensor's errors the bias comes from.
+sensor's errors the bias comes from. ``--option key=value`` (repeatable): a further ``MarkerlessOptions`` field
+(``max_incidence_deg=65``, ``depth_model=fixed``, ...), to see which part of the fit a bias comes from. The last
+line is the depth unit's mean error against the sensor's drawn scale and offset (as reported: its own noise bias
+taken out).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._report import Report  # noqa: E402
-from benchmarks.markerless_errors import cases  # noqa: E402
+from benchmarks.markerless_errors import cases, parse_option  # noqa: E402
 from benchmarks.markerless_sensors import front_options, observe, placements, told_intrinsics, told_posed  # noqa: E402
 from classic.markerless import register_robot  # noqa: E402
 from classic.markerless.intrinsics import NAMES, intrinsics_vector  # noqa: E402
@@ -46,6 +49,13 @@ def main() -> int:
     ap.add_argument("--sensor", choices=sorted(PROFILES), help="this profile instead of the case's")
     ap.add_argument("--noise-at-1m", type=float, help="the profile's depth noise at 1 m (m, quadratic in depth)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
+    ap.add_argument(
+        "--option",
+        type=parse_option,
+        action="append",
+        default=[],
+        help="key=value: a further MarkerlessOptions field (max_incidence_deg=60, depth_model=fixed, ...); repeatable",
+    )
     Report.add_out(ap)
     args = ap.parse_args()
     case = cases()[args.case - 1]
@@ -56,16 +66,16 @@ def main() -> int:
     surface, stride = robot_surface_for(ds)
     K_true = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     K = told_intrinsics(K_true, case.get("intrinsics"))
-    opts = front_options(sensor, stride, pixel_effect_px=2)
+    opts = front_options(sensor, stride, **{"pixel_effect_px": 2, **dict(args.option)})
     versions = f"numpy {np.__version__}"
     report = Report(
         "Markerless: the intrinsics' bias over placements", "benchmarks/markerless_intrinsics_bias.py", None, versions
     )
     report.say(
         f"{ds.root.name}, case {args.case} ({case['name']}), sensor {sensor.name}, noise at 1 m "
-        f"{sensor.noise_quadratic_per_m * 1e3:.2f} mm"
+        f"{sensor.noise_quadratic_per_m * 1e3:.2f} mm" + "".join(f", {k}={v}" for k, v in args.option)
     )
-    errors, sigmas, offsets = [], [], []
+    errors, sigmas, offsets, units = [], [], [], []
     T_true = ds.truth()
     for c in placements(ds, "all")[:: args.every]:
         depth, q, unit = observe(ds, c, sensor, args.seed, case.get("registration"))
@@ -79,6 +89,8 @@ def main() -> int:
         errors.append(estimate[0] - truth)
         sigmas.append(estimate[1])
         offsets.append((np.linalg.inv(T_c) @ res.T_base_cam)[:3, 3] * 1e3)
+        if "scale" in res.depth:  # the depth unit's error: scale (%), offset (mm)
+            units.append([(res.depth["scale"] - unit.scale) * 100, res.depth["offset_mm"] - unit.offset_m * 1e3])
         report.say(
             f"placement {c}: error {np.round(errors[-1], 2)} px, sigma {np.round(sigmas[-1], 2)} px, "
             f"camera off {np.round(offsets[-1], 2)} mm (its frame)"
@@ -93,6 +105,12 @@ def main() -> int:
     report.say("| weighted mean error, px | " + " | ".join(f"{m:+.3f} +- {s:.3f}" for m, s in zip(mean, sigma)) + " |")
     report.say("| Birge ratio | " + " | ".join(f"{b:.2f}" for b in birge) + " |")
     report.say(f"mean camera offset in its own frame (x, y, z): {np.round(np.mean(offsets, axis=0), 2)} mm")
+    if len(units) > 1:
+        u = np.array(units)
+        report.say(
+            f"depth unit's mean error: scale {u[:, 0].mean():+.3f} +- {u[:, 0].std(ddof=1) / np.sqrt(len(u)):.3f} %, "
+            f"offset {u[:, 1].mean():+.2f} +- {u[:, 1].std(ddof=1) / np.sqrt(len(u)):.2f} mm"
+        )
     return report.write(args.out)
 
 
