@@ -275,16 +275,13 @@ class Problem:
         cos = np.abs(np.einsum("ij,ij->i", n_cam, p_cam)) / np.linalg.norm(p_cam, axis=1)
         return cos > np.cos(np.radians(self.opts.max_incidence_deg))
 
-    def _solve(self, T, matches, iterations, covariance=True, repeated=False, prior_widened=1.0, noise_times=1.0):
+    def _solve(self, T, matches, iterations, covariance=True, repeated=False, prior_widened=1.0):
         """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
         and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
         residual. ``repeated``: with the covariance an error repeated per pixel adds (``PlaneFit.repeated``).
-        ``prior_widened``: every prior's sigma times this (:meth:`depth_debiased`). ``noise_times``: the depth
-        noise's variance the fit takes out of its equations (``MatchedModel.depth_variance``), times this (2 where
-        :meth:`depth_debiased` has added as much noise again)."""
+        ``prior_widened``: every prior's sigma times this (:meth:`depth_debiased`)."""
         m, f, q_obs = matches
-        sigma_z = self.sigma_z(q_obs[:, 2])
-        expected = float(np.median(np.sqrt(sigma_z**2 + self.opts.model_floor_m**2)))
+        expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
         estimate_depth = self.opts.depth_model == "scale-offset"
         if estimate_depth or self.estimate_intrinsics:
@@ -312,7 +309,6 @@ class Problem:
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
             joint_twists=twists,
-            depth_variance=noise_times * sigma_z**2,
         )
         options = PlaneFitOptions(
             scale_m=expected * 2,
@@ -445,7 +441,7 @@ class Problem:
             widen = float(np.sqrt(1 + np.sum(w * (gain * draw) ** 2) / max(variance, 1e-30)))
             for sign in (1.0, -1.0):
                 noisier = (m, f, q_obs * (1 + sign * draw)[:, None])
-                refits.append(self._solve(T, noisier, iterations, False, prior_widened=widen, noise_times=2.0)[0])
+                refits.append(self._solve(T, noisier, iterations, covariance=False, prior_widened=widen)[0])
         self.depth_correction, (theta, delta) = kept[0], kept[1:]
         self.set_intrinsics(theta)
         self.set_joint_offsets(delta)
