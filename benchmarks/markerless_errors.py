@@ -23,9 +23,10 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +45,11 @@ from benchmarks.markerless_sensors import (  # noqa: E402
     versions,
     with_errors,
 )
-from classic.markerless import register_robot  # noqa: E402
+from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from classic.markerless.shared_intrinsics import second_passes  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
+from handeye.core.numbers import parse_float, parse_int  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 
@@ -125,20 +127,29 @@ def diagnostic_cases() -> list[dict]:
     ]
 
 
+#: An integer as --option reads one.
+INTEGER = re.compile(r"[+-]?\d+")
+#: MarkerlessOptions' fields, the keys --option takes.
+OPTION_FIELDS = tuple(f.name for f in fields(MarkerlessOptions))
+
+
 def parse_option(text: str) -> tuple[str, object]:
-    """``key=value`` of a MarkerlessOptions field: an int, a float, true/false, none, or else the text."""
+    """``key=value`` of a MarkerlessOptions field: an int, a finite float (the project's number grammar),
+    true/false, none, or else the text. A key that is no field is refused here, before anything is rendered or
+    registered, and so is a value that starts as a number and is none (``nan``, ``1_0``)."""
     key, sep, value = (part.strip() for part in text.partition("="))
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"--option: {text!r} is not key=value")
+    if key not in OPTION_FIELDS:
+        known = ", ".join(OPTION_FIELDS)
+        raise argparse.ArgumentTypeError(f"--option: {key!r} is not a MarkerlessOptions field ({known})")
     if value.lower() in ("true", "false"):
         return key, value.lower() == "true"
     if value.lower() == "none":
         return key, None
-    for kind in (int, float):
-        try:
-            return key, kind(value)
-        except ValueError:
-            pass
+    if value[:1] in tuple("+-.0123456789") or value.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+        number = parse_int if INTEGER.fullmatch(value) else parse_float
+        return key, number(value, f"--option {key}", argparse.ArgumentTypeError)
     return key, value
 
 

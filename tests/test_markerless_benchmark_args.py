@@ -53,3 +53,18 @@ def test_the_floor_cases_are_told_every_estimated_error_exact():
         assert "intrinsics" not in case and "joints" not in case and "registration" not in case
     with_extrinsic, without = floors
     assert with_extrinsic["sensor"].extrinsic_sigma_m > 0 and without["sensor"].extrinsic_sigma_m == 0
+
+
+def test_an_option_is_a_field_of_markerless_options_with_a_finite_value():
+    """--option is refused when parsed, not after the datasets are rendered: a key that is no MarkerlessOptions
+    field (a typo) and a value that starts as a number and is none; the documented forms read as their types."""
+    from benchmarks.markerless_errors import parse_option
+
+    assert parse_option("max_incidence_deg=65") == ("max_incidence_deg", 65)
+    assert parse_option("model_floor_m=1.5e-3") == ("model_floor_m", 0.0015)
+    assert parse_option("intrinsics_model=fixed") == ("intrinsics_model", "fixed")
+    assert parse_option("static_parts=true") == ("static_parts", True)
+    assert parse_option("depth_sigma_m_at_1m=none") == ("depth_sigma_m_at_1m", None)
+    for text in ("max_incidence=65", "pixel_effect_px=nan", "pixel_effect_px=1_0", "model_floor_m=-inf", "x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse_option(text)
