@@ -112,26 +112,19 @@ class SharedIntrinsicsPrior:
         }
 
 
-def estimate_and_sigma(intrinsics: dict, debiased: bool = True) -> tuple[np.ndarray, np.ndarray] | None:
+def estimate_and_sigma(intrinsics: dict) -> tuple[np.ndarray, np.ndarray] | None:
     """``(theta, sigma)``, shape (4,) each in pixels, of a result's intrinsics summary; None when not estimated.
 
     Parameters
     ----------
     intrinsics : dict
         :attr:`MarkerlessResult.intrinsics` (``model`` ``"estimated"`` with per-parameter ``estimate`` and
-        ``sigma``, and where the registration took it out, ``noise_debiased``).
-    debiased : bool
-        The estimate with the depth noise's own bias taken out (``noise_debiased``, the one the placements pool)
-        where the result has it; False: the fit's.
+        ``sigma``).
     """
     if not intrinsics or intrinsics.get("model") != "estimated":
         return None
-    entry = intrinsics.get("noise_debiased", {}) if debiased else {}
-    if "estimate" in entry:
-        theta, sigma = np.array(entry["estimate"], dtype=float), np.array(entry["sigma"], dtype=float)
-    else:
-        theta = np.array([intrinsics[n]["estimate"] for n in NAMES], dtype=float)
-        sigma = np.array([intrinsics[n]["sigma"] for n in NAMES], dtype=float)
+    theta = np.array([intrinsics[n]["estimate"] for n in NAMES], dtype=float)
+    sigma = np.array([intrinsics[n]["sigma"] for n in NAMES], dtype=float)
     if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(sigma)) and np.all(sigma > 0)):
         return None
     return theta, sigma
@@ -337,9 +330,7 @@ def second_pass_options(
         (:data:`SECOND_PASS_WINDOWS_M`) are searched, and the fine stage starts at the finest gate
         (:data:`SECOND_PASS_GATES_M`) and iterates at most :data:`SECOND_PASS_FINE_ITERATIONS` times.
     """
-    out = replace(
-        options, intrinsics_prior_sigma=prior.prior_sigma, intrinsics_noise_debiased=False, pose_noise_debiased=True
-    )
+    out = replace(options, intrinsics_prior_sigma=prior.prior_sigma)
     if started_near:
         out = replace(
             out,

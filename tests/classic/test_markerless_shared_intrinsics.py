@@ -105,7 +105,7 @@ def test_second_pass_reports_against_the_given_matrix():
     assert [told[n]["determined"] for n in ("fx", "fy", "cx", "cy")] == [True, True, True, False]
 
 
-def test_the_front_marginalises_a_per_cell_depth_error_and_debiases_only_where_it_shares():
+def test_the_front_marginalises_a_per_cell_depth_error_only_where_it_shares():
     from dataclasses import replace
 
     from classic.markerless import MarkerlessOptions
@@ -113,14 +113,12 @@ def test_the_front_marginalises_a_per_cell_depth_error_and_debiases_only_where_i
     from handeye.markerless_shared import shared_options
 
     opts = MarkerlessOptions()
-    assert not opts.intrinsics_noise_debiased  # alone: the fit's intrinsics, no extra fine stage
-    pooled = shared_options(opts, MIN_OTHERS + 1)
-    assert pooled.pixel_effect_px == SHARED_PIXEL_EFFECT_PX and pooled.intrinsics_noise_debiased
+    assert shared_options(opts, MIN_OTHERS + 1).pixel_effect_px == SHARED_PIXEL_EFFECT_PX
     assert shared_options(opts, MIN_OTHERS) is opts  # too few to share: as given
     fixed = replace(opts, intrinsics_model="fixed")
     assert shared_options(fixed, 10) is fixed  # nothing to share
-    chosen = shared_options(replace(opts, pixel_effect_px=3), 10)
-    assert chosen.pixel_effect_px == 3 and chosen.intrinsics_noise_debiased  # the user's cell size kept
+    chosen = replace(opts, pixel_effect_px=3)
+    assert shared_options(chosen, 10) is chosen  # the user's cell size kept
 
 
 def test_leave_one_out_needs_enough_placements_and_writes_json():
