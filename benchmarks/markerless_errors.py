@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import sys
 import time
 from dataclasses import fields, replace
@@ -49,7 +48,7 @@ from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
 from classic.markerless.shared_intrinsics import second_passes  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
-from handeye.core.numbers import parse_float, parse_int  # noqa: E402
+from handeye.core.numbers import NONFINITE_WORDS, number_problem, parse_float, parse_int  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 
@@ -127,8 +126,6 @@ def diagnostic_cases() -> list[dict]:
     ]
 
 
-#: An integer as --option reads one.
-INTEGER = re.compile(r"[+-]?\d+")
 #: MarkerlessOptions' fields, the keys --option takes.
 OPTION_FIELDS = tuple(f.name for f in fields(MarkerlessOptions))
 
@@ -147,8 +144,8 @@ def parse_option(text: str) -> tuple[str, object]:
         return key, value.lower() == "true"
     if value.lower() == "none":
         return key, None
-    if value[:1] in tuple("+-.0123456789") or value.lower().lstrip("+-") in ("nan", "inf", "infinity"):
-        number = parse_int if INTEGER.fullmatch(value) else parse_float
+    if value[:1] in tuple("+-.0123456789") or value.lower() in NONFINITE_WORDS:
+        number = parse_int if number_problem(value, integer=True) is None else parse_float
         return key, number(value, f"--option {key}", argparse.ArgumentTypeError)
     return key, value
 

@@ -65,6 +65,8 @@ def test_an_option_is_a_field_of_markerless_options_with_a_finite_value():
     assert parse_option("intrinsics_model=fixed") == ("intrinsics_model", "fixed")
     assert parse_option("static_parts=true") == ("static_parts", True)
     assert parse_option("depth_sigma_m_at_1m=none") == ("depth_sigma_m_at_1m", None)
-    for text in ("max_incidence=65", "pixel_effect_px=nan", "pixel_effect_px=1_0", "model_floor_m=-inf", "x"):
+    assert parse_option("pixel_effect_px=+2") == ("pixel_effect_px", 2)
+    bad = ("max_incidence=65", "pixel_effect_px=nan", "pixel_effect_px=1_0", "model_floor_m=-inf", "seed=.nan", "x")
+    for text in bad:
         with pytest.raises(argparse.ArgumentTypeError):
             parse_option(text)
