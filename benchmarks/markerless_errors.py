@@ -205,7 +205,10 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
     """
     K = told_intrinsics(ds.meta["intrinsics"]["K"], case.get("intrinsics"))
     T_true = ds.truth()
-    opts = front_options(case["sensor"], stride, **{**(options or {}), **case.get("options", {})})
+    # the front's first pass where the placements pool (handeye.markerless_shared.shared_options): the intrinsics
+    # given to the pool with the depth noise's own bias taken out
+    told = {"intrinsics_noise_debiased": True, **(options or {}), **case.get("options", {})}
+    opts = front_options(case["sensor"], stride, **told)
     unit = cams[0] if one_unit else None
     frames, first, alone = {}, {}, []
     for c in [*cams, *(p for p in pool if p not in cams)]:

@@ -40,11 +40,15 @@ __all__ = ["share_intrinsics", "shared_note", "shared_options"]
 def shared_options(options: MarkerlessOptions, placements: int) -> MarkerlessOptions:
     """The options of both passes where ``placements`` will share their intrinsics: a depth error per 2 px image
     cell marginalised (:data:`classic.markerless.shared_intrinsics.SHARED_PIXEL_EFFECT_PX`) unless the options set
-    one; ``options`` as they are with fewer than ``MIN_OTHERS + 1`` placements or the intrinsics taken as exact.
+    one, and the intrinsics each first pass gives the pool with the depth noise's own bias taken out
+    (``intrinsics_noise_debiased``; the second pass turns it off again); ``options`` as they are with fewer than
+    ``MIN_OTHERS + 1`` placements or the intrinsics taken as exact.
     """
-    if placements <= MIN_OTHERS or options.intrinsics_model != "estimate" or options.pixel_effect_px:
+    if placements <= MIN_OTHERS or options.intrinsics_model != "estimate":
         return options
-    return replace(options, pixel_effect_px=SHARED_PIXEL_EFFECT_PX)
+    return replace(
+        options, pixel_effect_px=options.pixel_effect_px or SHARED_PIXEL_EFFECT_PX, intrinsics_noise_debiased=True
+    )
 
 
 def share_intrinsics(

@@ -52,6 +52,21 @@ class MarkerlessOptions:
     intrinsics_determined_share : float
         A parameter counts as determined by the frames where they leave its sigma below this share of the
         prior's (reported, not a refusal: an undetermined one stays near the value given, its prior in the sigma).
+    intrinsics_noise_debiased : bool
+        With the intrinsics estimated, also report them with the depth noise's own bias taken out
+        (``intrinsics["noise_debiased"]``, :mod:`classic.markerless.noise_debias`): the estimate the placements
+        pool (:func:`classic.markerless.shared_intrinsics.estimate_and_sigma`); the pose stays the fit's. One more
+        fine stage from the answer, on the frames with as much noise again added: about 1.3 s of CPU per placement
+        of 100 frames at 256x256. False by default; the front turns it on where the placements will pool
+        (:func:`handeye.markerless_shared.shared_options`).
+    pose_noise_debiased : bool
+        Take the depth noise's own bias out of the pose as well (:mod:`classic.markerless.noise_debias`: two more
+        fine stages, the added noise and its negative, about 3 s of CPU per placement of 100 frames). False by
+        default. Alone, with the intrinsics free, the extrapolation's own scatter cost more than the bias it took out
+        (``benchmarks/results/markerless_noise_in_the_fit.md``); in the second pass under the pool's intrinsics it
+        took the camera's bias along its axis out but left the medians mixed: ``paper-real`` 0.86 -> 0.55 mm with no
+        told error and 0.96 -> 0.80 with the depth image 2 px off, ``paper-sim`` 0.59 -> 0.62, and the 10 s per
+        placement exceeded.
     joint_offsets_model : {"estimate", "fixed"}
         ``"estimate"`` (the default) estimates the robot's joint zero offsets with the pose where the surface
         carries its twists per joint (:attr:`RobotSurfaceFrames.joint_twists_base`; without them they are taken as
@@ -165,6 +180,8 @@ class MarkerlessOptions:
     intrinsics_model: str = "estimate"
     intrinsics_prior_sigma: tuple = (0.007, 0.007, 3.0, 3.0)
     intrinsics_determined_share: float = 0.5
+    intrinsics_noise_debiased: bool = False
+    pose_noise_debiased: bool = False
     joint_offsets_model: str = "estimate"
     joint_offset_prior_deg: float | tuple = JOINT_OFFSET_PRIORS_DEG["ur"]
     joint_offset_determined_share: float = 0.5

@@ -49,6 +49,9 @@ bound, and the scatter of groups of frames solved again by depth and by image co
 (:mod:`classic.markerless.consistency`). The depth noise is measured on the static background
 (:func:`classic.markerless.depth.depth_noise_curve`) unless the caller gives it.
 
+The intrinsics are also reported with the depth noise's own bias taken out (``intrinsics["noise_debiased"]``,
+:mod:`classic.markerless.noise_debias`), the estimate the placements pool.
+
 A result is accepted only when most of the visible model is matched, the
 residual is of the depth noise's size, the frames calibrate the depth and the last step has converged;
 otherwise it is refused with the reason (:attr:`MarkerlessResult.refused`),
@@ -62,6 +65,7 @@ from dataclasses import replace
 import numpy as np
 
 from classic.markerless.depth_analysis import FALLBACK_SIGMA_M_AT_1M, DepthAnalysis
+from classic.markerless.noise_debias import noise_debiased
 from classic.markerless.options import MarkerlessOptions
 from classic.markerless.point_to_plane import MatchedModel, PlaneFitOptions, solve_point_to_plane
 from classic.markerless.problem import Outcome, Problem
@@ -168,7 +172,7 @@ def _registered(problem: Problem, starts: dict, centroid_start: bool) -> Markerl
     best = _best_of_starts(problem, starts, diag)
     if isinstance(best, str):
         return refused_result(best, diag)
-    return build_result(problem, best, diag)
+    return noise_debiased(problem, build_result(problem, best, diag), _fine)
 
 
 def _best_of_starts(problem: Problem, starts: dict, diag: dict) -> Outcome | str:
