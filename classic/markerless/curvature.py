@@ -33,7 +33,7 @@ __all__ = ["sample_curvatures", "second_order_residual", "residual_under_noise",
 #: surface by (:func:`residual_under_noise`); a surface seen more nearly edge-on keeps the observed point.
 MIN_RAY_COSINE = 0.2
 #: The farthest that move goes, in the point's depth-noise sigmas (an outlier's move is cut short).
-MOVE_SIGMAS = 3.0
+MOVE_SIGMAS = float(__import__("os").environ.get("A5_MS", "3.0"))
 
 
 def _tangent_basis(n):
@@ -199,13 +199,25 @@ def residual_under_noise(
     sigma = np.sqrt(np.maximum(variance, 0.0))
     seen = np.abs(n_ray) > MIN_RAY_COSINE
     move = np.clip(np.where(seen, plane / np.where(seen, n_ray, 1.0), 0.0), -MOVE_SIGMAS * sigma, MOVE_SIGMAS * sigma)
+    import os
+    if os.environ.get('A5_RHO') and seen.sum() > 10:
+        z2 = (plane[seen] / (sigma[seen] * n_ray[seen])) ** 2
+        rho = max(1.0, float(np.median(z2)) / 0.4549)
+        if os.environ.get('A5_RHO_PRINT'):
+            import sys; print('rho', round(rho, 3), file=sys.stderr)
+        move = np.clip(np.where(seen, plane / np.where(seen, rho * n_ray, 1.0), 0.0), -MOVE_SIGMAS * sigma, MOVE_SIGMAS * sigma)
     if curvatures is None:
         return plane, n_base, move
     e2 = cross_rows(n_base, direction_base)
     k1, k2 = curvatures[:, 0], curvatures[:, 1]
     a, b = np.einsum("ij,ij->i", delta, direction_base), np.einsum("ij,ij->i", delta, e2)
     ta, tb = np.einsum("ij,ij->i", ray_base, direction_base), np.einsum("ij,ij->i", ray_base, e2)
-    r = plane + 0.5 * (k1 * a**2 + k2 * b**2) - 0.5 * variance * (k1 * ta**2 + k2 * tb**2)
+    import os
+    if os.environ.get('A5_NO_MOVE'):
+        move = np.zeros_like(move)
+    r = plane + 0.5 * (k1 * a**2 + k2 * b**2) - (0.0 if os.environ.get('A5_NO_MEAN') else 0.5 * float(os.environ.get('A5_MEANF', '1'))) * variance * (k1 * ta**2 + k2 * tb**2)
     a_s, b_s = a - move * ta, b - move * tb  # the tangential offsets of the moved point
+    if os.environ.get('A5_NO_GRAD'):
+        a_s, b_s = a, b
     grad = n_base + (k1 * a_s)[:, None] * direction_base + (k2 * b_s)[:, None] * e2
     return r, grad, move

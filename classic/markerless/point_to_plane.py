@@ -343,20 +343,20 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
     # the columns that hold the observed point, at the point moved back along its ray (residual_under_noise)
     p_at = p_cam if move is None else p_cam * (1.0 - move / p_cam[:, 2])[:, None]
     J = np.empty((len(r), x.n_par))  # each block written in place
-    cross_rows(p_at, n_cam, out=J[:, :3])
+    cross_rows(p_cam if __import__('os').environ.get('A5_NO_ROT') else p_at, n_cam, out=J[:, :3])
     J[:, 3:6] = n_cam
     if x.depth is not None:
         ray = q_obs / q_obs[:, 2:3]
         n_ray = np.einsum("ij,ij->i", n_cam, ray)[:, None]
         if x.fb is None:
             J[:, 6] = np.einsum("ij,ij->i", n_cam, q_obs)
-            if move is not None:  # d(k q + c ray)/dk = q at the raw depth whose corrected point is the moved one
+            if move is not None and not __import__('os').environ.get('A5_NO_J6'):  # d(k q + c ray)/dk = q at the raw depth whose corrected point is the moved one
                 J[:, 6] -= n_ray[:, 0] * move / x.depth[0]
             J[:, 7:8] = n_ray
         else:
             np.multiply(n_ray, dz, out=J[:, x.depth_cols])
     if x.theta is not None:
-        J[:, x.intrinsics_cols] = p_at[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
+        J[:, x.intrinsics_cols] = (p_cam if __import__('os').environ.get('A5_NO_PAT_K') else p_at)[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
     if x.delta is not None:
         J[:, x.joint_cols] = offset_columns(grad, m_base, x.twists)
     return r, J

@@ -300,7 +300,53 @@ class Problem:
             q_obs = self.rays[pix[:, 0], pix[:, 1]] * np.where(z > 0, z, np.nan)[:, None]
         q = self.corrected(q_obs)
         has_depth = np.isfinite(q[:, 2]) & (q_obs[:, 2] > 0)
-        close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
+        if __import__('os').environ.get('GATE_PLANE'):
+            n_cam = self.s.normals_base[idx] @ T[:3, :3]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                along = np.einsum("ij,ij->i", n_cam, q - p_cam) / np.einsum("ij,ij->i", n_cam, q / q[:, 2:3])
+            close = has_depth & (np.abs(along) < gate_m) & (np.abs(q[:, 2] - p_cam[:, 2]) < 3 * gate_m)
+        else:
+            close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
+        if __import__('os').environ.get('EDGE') and len(idx):
+            J = float(__import__('os').environ['EDGE'])
+            st = self.opts.zbuffer_stride
+            hh, ww = self.h // st + 3, self.w // st + 3
+            grid = np.full((self.n, hh, ww), np.inf)
+            cy, cx = pix[:, 0] // st + 1, pix[:, 1] // st + 1
+            np.minimum.at(grid, (f, cy, cx), p_cam[:, 2])
+            edge = np.zeros(len(idx), bool)
+            sil = np.zeros(len(idx), bool)
+            for dy in (-1, 0, 1):
+                for dx in (-1, 0, 1):
+                    if dy == 0 and dx == 0:
+                        continue
+                    nb = grid[f, cy + dy, cx + dx]
+                    fin = np.isfinite(nb)
+                    edge |= fin & (np.abs(nb - p_cam[:, 2]) > J)
+                    sil |= ~fin
+            close &= ~edge
+            if __import__('os').environ.get('EDGE_SIL'):
+                close &= ~sil
+        if __import__('os').environ.get('CREASE') and len(idx):
+            if getattr(self, '_crease', None) is None:
+                from scipy.spatial import cKDTree as _T
+                self._crease = np.full(len(self.s.points_base), -1, np.int8)
+                self._ctree = _T(np.c_[self.s.points_base, self.s.frame * _FRAME_KEY_M])
+            u = np.unique(idx)
+            u = u[self._crease[u] < 0]
+            if len(u):
+                pts = np.c_[self.s.points_base[u], self.s.frame[u] * _FRAME_KEY_M]
+                nb = self._ctree.query_ball_point(pts, r=float(__import__('os').environ['CREASE']))
+                cos = np.cos(np.radians(35.0))
+                self._crease[u] = [np.min(self.s.normals_base[j] @ self.s.normals_base[i]) < cos for i, j in zip(u, nb)]
+            close &= self._crease[idx] == 0
+        if __import__('os').environ.get('TANG'):
+            n_c = self.s.normals_base[idx] @ T[:3, :3]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ray_c = q_obs / q_obs[:, 2:3]
+                t_star = np.einsum("ij,ij->i", n_c, p_cam) / np.einsum("ij,ij->i", n_c, ray_c)
+                d0 = np.linalg.norm(ray_c * t_star[:, None] - p_cam, axis=1)
+            close &= d0 < float(__import__('os').environ['TANG'])
         if self.opts.max_incidence_deg is not None:
             close &= self._facing(T, idx, p_cam)
         return idx, f, q_obs, q, has_depth, close
@@ -352,7 +398,7 @@ class Problem:
         )
         options = PlaneFitOptions(
             scale_m=expected * 2,
-            loss="cauchy",
+            loss=__import__("os").environ.get("LOSS", "cauchy"),
             iterations=iterations,
             covariance=covariance,
             depth_start=self.depth_correction if estimate_depth else None,
