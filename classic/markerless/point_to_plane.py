@@ -354,6 +354,9 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
                 J[:, 6] -= n_ray[:, 0] * move / x.depth[0]
             J[:, 7:8] = n_ray
         else:
+            if move is not None and __import__('os').environ.get('LOCK_AT'):  # the locking's columns at the moved raw depth
+                q_at = q_obs * (1.0 - move / (x.depth[0] * q_obs[:, 2]))[:, None]
+                dz = _locked_points_and_jacobian(q_at, x.depth, x.fb)[1]
             np.multiply(n_ray, dz, out=J[:, x.depth_cols])
     if x.theta is not None:
         J[:, x.intrinsics_cols] = (p_cam if __import__('os').environ.get('A5_NO_PAT_K') else p_at)[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
