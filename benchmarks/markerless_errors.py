@@ -6,7 +6,9 @@ front's defaults (the depth scale and offset, the intrinsics and the joint offse
 the depth-to-colour rotation bounded by the profile's spread). The last case has them all together, drawn per
 placement from the ``d435-real-cell`` profile. The rows: accepted, median and worst error against the truth,
 how many were accepted beyond 3 predicted sigmas, and the wall time per placement (run it under
-``taskset -c N`` for one core).
+``taskset -c N`` for one core). ``--seed 0 1 2 3`` runs several draws of the sensors: each row over all their
+placements, and each draw's median beside (with the intrinsics shared, one draw's pool is one estimate of the
+camera matrix that moves all its placements alike).
 
     taskset -c 0 python benchmarks/markerless_errors.py --data data/sensor-bands/paper-real-1.2 --max-placements 5 \\
         --out /tmp/err/real.md
@@ -163,6 +165,17 @@ def row(name: str, rows: list) -> str:
     )
 
 
+def per_draw(name: str, draws: dict) -> str:
+    """A line of ``name``'s median translation error per draw of the sensors (seed -> :func:`row`'s tuples), mm;
+    ``-`` where a draw accepted none."""
+
+    def median(rows):
+        mm = [r[2] for r in rows if r[0] == "ok"]
+        return f"{np.median(mm):.2f}" if mm else "-"
+
+    return f"- {name}: " + ", ".join(f"seed {s} {median(rows)}" for s, rows in draws.items())
+
+
 def run_case(ds, surface, stride, cams, case: dict, seed: int, options=None) -> list:
     """One error source of :func:`cases` on the placements ``cams``: :func:`run_profile`'s rows for the front's
     defaults (its ``"self-calibrated"`` mode), told the case's intrinsics, registration and joint errors, with the
@@ -261,7 +274,15 @@ def main():
         "11 and 12: the fixed pattern alone, correlated and white; 13 and 14: the floor, all told exact, with and "
         "without the depth-to-colour extrinsic error",
     )
-    ap.add_argument("--seed", type=int, default=0, help="seed of the sensors' draws")
+    ap.add_argument(
+        "--seed",
+        type=int,
+        nargs="+",
+        default=[0],
+        help="seed of the sensors' draws; several (--seed 0 1 2 3): each row over every draw's placements, and "
+        "a line per case with each draw's median (one draw's pool is one estimate of the camera matrix, shared by "
+        "its placements)",
+    )
     ap.add_argument(
         "--pixel-effect-px",
         type=int,
@@ -347,17 +368,29 @@ def main():
         rep.say(f"\n## {ds.root.name}: {len(cams)} test placements{more}\n")
         rep.say("| error the method is not told | accepted | median mm / deg | worst mm / deg | beyond 3 sigma | s |")
         rep.say("|---|---|---|---|---|---|")
-        pooled_lines = []
+        pooled_lines, draw_lines = [], []
         for case in chosen:
             if not args.shared_intrinsics:
-                rep.say(row(case["name"], run_case(ds, surface, stride, cams, case, args.seed, options)))
+                draws = {s: run_case(ds, surface, stride, cams, case, s, options) for s in args.seed}
+                rep.say(row(case["name"], sum(draws.values(), [])))
+                draw_lines.append(per_draw(case["name"], draws))
                 continue
-            alone, shared, notes = run_case_shared(
-                ds, surface, stride, cams, case, args.seed, options, args.one_unit, pool
+            runs = {
+                s: run_case_shared(ds, surface, stride, cams, case, s, options, args.one_unit, pool) for s in args.seed
+            }
+            rep.say(row(case["name"] + ", alone", sum((r[0] for r in runs.values()), [])))
+            rep.say(row(case["name"] + ", intrinsics shared", sum((r[1] for r in runs.values()), [])))
+            draw_lines.append(per_draw(case["name"] + ", intrinsics shared", {s: r[1] for s, r in runs.items()}))
+            for s, (_, _, notes) in runs.items():
+                draw = f" (seed {s})" if len(args.seed) > 1 else ""
+                pooled_lines.append(f"- {case['name']}{draw}: pooled fx fy cx cy per placement, " + "; ".join(notes))
+        if len(args.seed) > 1:
+            rep.say(
+                f"\nEach draw's median, mm (--seed {' '.join(map(str, args.seed))}; the rows above: every draw's "
+                "placements together):\n"
             )
-            rep.say(row(case["name"] + ", alone", alone))
-            rep.say(row(case["name"] + ", intrinsics shared", shared))
-            pooled_lines.append(f"- {case['name']}: pooled fx fy cx cy per placement, " + "; ".join(notes))
+            for line in draw_lines:
+                rep.say(line)
         for line in pooled_lines:
             rep.say(line)
     return rep.write(args.out)

@@ -70,3 +70,13 @@ def test_an_option_is_a_field_of_markerless_options_with_a_finite_value():
     for text in bad:
         with pytest.raises(argparse.ArgumentTypeError):
             parse_option(text)
+
+
+def test_each_draws_median_is_of_its_own_accepted_placements():
+    """--seed with several draws: the line per case gives each draw's median of its accepted placements alone."""
+    from benchmarks.markerless_errors import per_draw
+
+    ok = lambda mm: ("ok", 0.01, mm, 0.1, 3.0, 1.0)  # noqa: E731
+    refused = ("refused", np.nan, np.nan, np.nan, np.nan, 1.0)
+    draws = {0: [ok(1.0), ok(3.0), refused, ok(0.5)], 3: [refused], 7: [ok(2.25)]}
+    assert per_draw("none", draws) == "- none: seed 0 1.00, seed 3 -, seed 7 2.25"

@@ -8,9 +8,11 @@ information-weighted mean is a prior no single placement has. This module builds
 from the *other* placements' estimates (leave one out, so the placement's own frames are not counted twice):
 
 - per parameter, the inverse-variance weighted mean of the others and its sigma, widened by the Birge ratio
-  (the root of the scatter's chi-square per degree of freedom) where the estimates disagree beyond their
-  sigmas (a unit whose depth-to-colour shift moved between placements, a fixed pattern pulling each one
-  differently);
+  (the root of the scatter's chi-square per degree of freedom) where the estimates disagree a little beyond
+  their sigmas; where they scatter beyond what chance allows (:data:`SPREAD_QUANTILE`: a unit whose
+  depth-to-colour shift moved between placements, a fixed pattern pulling each one differently), the placements'
+  values differ by a spread of their own, and the prior is where one more placement's value may lie: the mean
+  give or take that spread (:func:`_weighted_pool`);
 - a parameter is pooled only where the placement's own estimate agrees with the pool within ``conflict_sigmas``
   combined sigmas; where it does not, that parameter keeps the camera matrix given and its stated prior, and the
   prior says so (a camera re-registered, or a different unit, is not averaged in);
@@ -26,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy import stats
 
 from classic.markerless.intrinsics import NAMES, camera_matrix, intrinsics_vector
 from classic.markerless.options import MarkerlessOptions
@@ -42,11 +45,17 @@ __all__ = [
     "no_narrower",
     "inverse_variance_mean",
     "MIN_OTHERS",
+    "SPREAD_QUANTILE",
     "SHARED_PIXEL_EFFECT_PX",
 ]
 
 #: Other placements' estimates a pool needs: the scatter's chi-square then has at least 2 degrees of freedom.
 MIN_OTHERS = 3
+
+#: The placements' estimates of a parameter differ by a spread of their own (a depth image shifted against the
+#: camera model by each unit's amount) where their scatter's chi-square exceeds this quantile: chance alone puts it
+#: there once in twenty pools of one camera.
+SPREAD_QUANTILE = 0.95
 
 #: Coarse windows of a second pass started from the first's answer: it is within millimetres already.
 SECOND_PASS_WINDOWS_M = (0.02, 0.01)
@@ -290,11 +299,32 @@ def inverse_variance_mean(values, sigmas) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The inverse-variance mean of ``others``' estimates, its sigma widened by the Birge ratio (at least 1), and
-    that ratio; shape (4,) each, pixels."""
-    mean, sigma, birge = inverse_variance_mean([t for t, _ in others], [s for _, s in others])
+    """The prior ``others``' estimates give one more placement: its mean and sigma, and the estimates' Birge
+    ratio; shape (4,) each, pixels.
+
+    Where the estimates agree within their sigmas, the inverse-variance mean and its sigma widened by the Birge ratio
+    (at least 1). Where they scatter beyond what their sigmas allow (the scatter's chi-square ``Q`` above its
+    :data:`SPREAD_QUANTILE` quantile), the placements' values themselves differ by a spread ``tau`` the sigmas do
+    not hold (DerSimonian-Laird: ``tau^2 = (Q - (n - 1)) / (S1 - S2 / S1)``, ``Q`` the
+    scatter's chi-square, ``S1``, ``S2`` the sums of the weights and of their squares): the mean weighs each
+    estimate by ``1 / (sigma^2 + tau^2)``, and the prior for one more placement is that mean give or take
+    ``sqrt(sigma_mean^2 + tau^2)``, where the next placement's own value may lie. Widening the mean's sigma by the
+    Birge ratio instead would claim the placement's value to a fraction of the spread: with a depth image shifted by
+    its own 1 px per unit, it pulled each placement's well-measured principal point towards the others' mean.
+    """
+    values = np.array([t for t, _ in others], dtype=float)
+    sigmas = np.array([s for _, s in others], dtype=float)
+    mean, sigma, birge = inverse_variance_mean(values, sigmas)
+    weight = 1.0 / sigmas**2
+    s1 = weight.sum(axis=0)
+    chi2 = (birge**2) * (len(values) - 1)
+    tau2 = np.maximum((chi2 - (len(values) - 1)) / (s1 - (weight**2).sum(axis=0) / s1), 0.0)
+    spread = chi2 > stats.chi2.ppf(SPREAD_QUANTILE, len(values) - 1)
+    weight = 1.0 / (sigmas**2 + tau2)
     birge = np.maximum(birge, 1.0)
-    return mean, birge * sigma, birge
+    mean = np.where(spread, (values * weight).sum(axis=0) / weight.sum(axis=0), mean)
+    sigma = np.where(spread, np.sqrt(1.0 / weight.sum(axis=0) + tau2), birge * sigma)
+    return mean, sigma, birge
 
 
 def _prior(mean_px, sigma_px, use, others: int, birge, reason: str) -> SharedIntrinsicsPrior:

@@ -7,7 +7,13 @@ import pytest
 from scipy import integrate, stats
 
 from classic.markerless.intrinsics import camera_matrix, intrinsics_vector
-from classic.markerless.shared_intrinsics import MIN_OTHERS, against_given, pooled_prior, second_pass_options
+from classic.markerless.shared_intrinsics import (
+    MIN_OTHERS,
+    SPREAD_QUANTILE,
+    against_given,
+    pooled_prior,
+    second_pass_options,
+)
 from tests.tolerances import FLOAT, SHARED_INTRINSICS_SES
 
 THETA = np.array([222.0, 221.0, 128.0, 127.0])  # the camera's true fx, fy, cx, cy, pixels
@@ -32,8 +38,11 @@ def test_pool_recovers_the_camera_within_its_sigma():
         mean = intrinsics_vector(prior.K)
         sigma = np.array(prior.prior_sigma) * np.array([mean[0], mean[1], 1.0, 1.0])
         z2.append(((mean - THETA) / sigma) ** 2)
-    # the Birge widening's expected effect with k degrees of freedom: E[1 / max(X / k, 1)], X chi-square(k)
-    widened, _ = integrate.quad(lambda x: stats.chi2.pdf(x, k) / max(x / k, 1.0), 0, np.inf)
+    # the Birge widening's expected effect with k degrees of freedom: E[1 / max(X / k, 1)], X chi-square(k), over the
+    # pools whose scatter stays below SPREAD_QUANTILE; the others' prior is wider still (a spread of their own), so
+    # the bound leaves their share of the mean out (z^2 >= 0)
+    top = stats.chi2.ppf(SPREAD_QUANTILE, k)
+    widened, _ = integrate.quad(lambda x: stats.chi2.pdf(x, k) / max(x / k, 1.0), 0, top)
     se = np.sqrt(2.0 / (4 * n_draws))
     assert widened - SHARED_INTRINSICS_SES * se <= np.mean(z2) <= 1.0 + SHARED_INTRINSICS_SES * se
 
@@ -46,6 +55,31 @@ def test_scatter_beyond_the_sigmas_widens_the_prior():
     # five times the scatter: a Birge ratio near 5 and a sigma near 5 times (the draws' chi-square varies)
     assert np.all(np.array(scattered.birge) > 2.5)
     assert np.all(np.array(scattered.prior_sigma) > 2.5 * np.array(consistent.prior_sigma))
+
+
+def test_placements_whose_values_differ_give_the_next_one_the_spread():
+    """A depth image shifted against the camera model by each unit's own amount (1 px per axis) moves each
+    placement's principal point by it; measured to 0.1-0.4 px each, the placements then scatter far beyond their
+    sigmas. The prior for one more placement must hold where its own value may lie: the pool's mean give or take
+    the spread (E[z^2] about 1), not the mean's sigma widened by the Birge ratio (z^2 of tens)."""
+    rng = np.random.default_rng(5)
+    n_draws, k = 400, 23
+    spread = np.array([0.0, 0.0, 1.0, 1.0])  # the focal lengths are the lens's, alike at every placement
+    z2 = []
+    for _ in range(n_draws):
+        sigma = np.hstack([rng.uniform(0.2, 0.8, size=(k, 2)), rng.uniform(0.1, 0.4, size=(k, 2))])
+        est = [(THETA + spread * rng.normal(size=4) + s * rng.normal(size=4), s) for s in sigma]
+        own_value = THETA + spread * rng.normal(size=4)
+        prior = pooled_prior(est, None, GIVEN, GIVEN_SIGMA)
+        mean = intrinsics_vector(prior.K)
+        z2.append(((mean - own_value) / (np.array(prior.prior_sigma) * np.array([mean[0], mean[1], 1.0, 1.0]))) ** 2)
+    z2 = np.mean(z2, axis=0)
+    se = np.sqrt(2.0 / n_draws)
+    # the spread is estimated from k placements: its square's relative sigma is about sqrt(2 / (k - 1)), which
+    # lets E[z^2] run above 1 by up to that much
+    assert np.all(z2[2:] >= 1.0 - SHARED_INTRINSICS_SES * se)
+    assert np.all(z2[2:] <= 1.0 + np.sqrt(2.0 / (k - 1)) + SHARED_INTRINSICS_SES * se)
+    assert np.all(z2[:2] <= 1.0 + SHARED_INTRINSICS_SES * se)  # no spread: the Birge-widened mean's sigma
 
 
 def test_a_parameter_the_placement_disagrees_with_keeps_the_given_prior():
