@@ -87,6 +87,9 @@ class SharedIntrinsicsPrior:
         How many other placements' estimates entered.
     birge : tuple of 4 float
         The others' scatter over their sigmas (root chi-square per degree of freedom; 1 where consistent).
+    spread : tuple of 4 float
+        Pixels: where the others scatter beyond chance, how much their values themselves differ
+        (:func:`_weighted_pool`), which the prior's sigma holds; 0 elsewhere.
     reason : str
         Why a parameter was not pooled, empty when all were.
     """
@@ -97,6 +100,7 @@ class SharedIntrinsicsPrior:
     others: int
     birge: tuple
     reason: str = ""
+    spread: tuple = (0.0, 0.0, 0.0, 0.0)
 
     @property
     def any_pooled(self) -> bool:
@@ -115,6 +119,7 @@ class SharedIntrinsicsPrior:
                     "mean": float(theta[i]),
                     "sigma": float(self.prior_sigma[i] * scale[i]),
                     "birge": float(self.birge[i]) if np.isfinite(self.birge[i]) else None,
+                    "spread": float(self.spread[i]),
                 }
                 for i, name in enumerate(NAMES)
             },
@@ -263,7 +268,7 @@ def pooled_prior(
     if len(others) < min_others:
         reason = f"{len(others)} other placements estimated the intrinsics (at least {min_others} needed)"
         return _prior(given, given_px, np.zeros(4, bool), len(others), np.full(4, np.nan), reason)
-    mean, sigma, birge = _weighted_pool(others)
+    mean, sigma, birge, spread = _weighted_pool(others)
     use = sigma < given_px  # a pool no tighter than the given prior adds nothing
     if own is not None:
         use &= np.abs(own[0] - mean) <= conflict_sigmas * np.hypot(own[1], sigma)
@@ -273,7 +278,8 @@ def pooled_prior(
         if not use[i]
     )
     reason = f"not pooled: {reason}" if reason else ""
-    return _prior(np.where(use, mean, given), np.where(use, sigma, given_px), use, len(others), birge, reason)
+    prior = _prior(np.where(use, mean, given), np.where(use, sigma, given_px), use, len(others), birge, reason)
+    return replace(prior, spread=tuple(float(x) if u else 0.0 for x, u in zip(spread, use)))
 
 
 def inverse_variance_mean(values, sigmas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -298,9 +304,9 @@ def inverse_variance_mean(values, sigmas) -> tuple[np.ndarray, np.ndarray, np.nd
     return mean, 1.0 / np.sqrt(weight.sum(axis=0)), birge
 
 
-def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The prior ``others``' estimates give one more placement: its mean and sigma, and the estimates' Birge
-    ratio; shape (4,) each, pixels.
+def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The prior ``others``' estimates give one more placement: its mean and sigma, the estimates' Birge ratio
+    and the spread of their values (0 where it is not counted); shape (4,) each, pixels.
 
     Where the estimates agree within their sigmas, the inverse-variance mean and its sigma widened by the Birge ratio
     (at least 1). Where they scatter beyond what their sigmas allow (the scatter's chi-square ``Q`` above its
@@ -324,7 +330,7 @@ def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     birge = np.maximum(birge, 1.0)
     mean = np.where(spread, (values * weight).sum(axis=0) / weight.sum(axis=0), mean)
     sigma = np.where(spread, np.sqrt(1.0 / weight.sum(axis=0) + tau2), birge * sigma)
-    return mean, sigma, birge
+    return mean, sigma, birge, np.where(spread, np.sqrt(tau2), 0.0)
 
 
 def _prior(mean_px, sigma_px, use, others: int, birge, reason: str) -> SharedIntrinsicsPrior:

@@ -65,12 +65,13 @@ def test_placements_whose_values_differ_give_the_next_one_the_spread():
     rng = np.random.default_rng(5)
     n_draws, k = 400, 23
     spread = np.array([0.0, 0.0, 1.0, 1.0])  # the focal lengths are the lens's, alike at every placement
-    z2 = []
+    z2, spreads = [], []
     for _ in range(n_draws):
         sigma = np.hstack([rng.uniform(0.2, 0.8, size=(k, 2)), rng.uniform(0.1, 0.4, size=(k, 2))])
         est = [(THETA + spread * rng.normal(size=4) + s * rng.normal(size=4), s) for s in sigma]
         own_value = THETA + spread * rng.normal(size=4)
         prior = pooled_prior(est, None, GIVEN, GIVEN_SIGMA)
+        spreads.append(prior.spread)
         mean = intrinsics_vector(prior.K)
         z2.append(((mean - own_value) / (np.array(prior.prior_sigma) * np.array([mean[0], mean[1], 1.0, 1.0]))) ** 2)
     z2 = np.mean(z2, axis=0)
@@ -80,6 +81,15 @@ def test_placements_whose_values_differ_give_the_next_one_the_spread():
     assert np.all(z2[2:] >= 1.0 - SHARED_INTRINSICS_SES * se)
     assert np.all(z2[2:] <= 1.0 + np.sqrt(2.0 / (k - 1)) + SHARED_INTRINSICS_SES * se)
     assert np.all(z2[:2] <= 1.0 + SHARED_INTRINSICS_SES * se)  # no spread: the Birge-widened mean's sigma
+    # the spread reported: the principal point's about its 1 px (its square within the same relative sigma), the
+    # focal lengths' 0 but in the pools chance puts beyond SPREAD_QUANTILE
+    spreads = np.array(spreads)
+    assert np.all(np.abs(np.mean(spreads[:, 2:] ** 2, axis=0) - 1.0) <= SHARED_INTRINSICS_SES * np.sqrt(2.0 / (k - 1)))
+    chance = 1 - SPREAD_QUANTILE  # a binomial share of n_draws pools
+    assert np.all(
+        np.mean(spreads[:, :2] > 0, axis=0)
+        <= chance + SHARED_INTRINSICS_SES * np.sqrt(chance * SPREAD_QUANTILE / n_draws)
+    )
 
 
 def test_a_parameter_the_placement_disagrees_with_keeps_the_given_prior():
