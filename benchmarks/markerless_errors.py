@@ -246,7 +246,9 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
         if prior is None:
             notes.append(f"{c}: too few placements estimated the intrinsics")
         else:
-            notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)} {prior.reason}".rstrip())
+            spread = ", ".join(f"{n} {v:.2f}" for n, v in zip(("fx", "fy", "cx", "cy"), prior.spread) if v > 0)
+            spread = f" (spread px: {spread})" if spread else ""
+            notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)}{spread} {prior.reason}".rstrip())
         if res is None:
             shared.append(one)
             continue
