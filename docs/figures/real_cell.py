@@ -51,8 +51,9 @@ def _pool_of(command: str) -> str | None:
     """Which pool a ``markerless_errors.md`` run at the front's default from four placements
     (``--shared-intrinsics --pixel-effect-px 2``, a unit per placement) measured: ``"five"``, the tables' five
     test placements; ``"whole"``, every placement of the dataset (``--pool-train``, or more test placements than
-    five: ``--max-placements 24``, all of ``paper-sim``'s); None for any other run (one unit, another option)."""
-    if "--shared-intrinsics --pixel-effect-px 2" not in command or "--one-unit" in command:
+    five: ``--max-placements 24``, all of ``paper-sim``'s); None for any other run (one unit, another option,
+    another draw of the sensors than the default's: ``--seed``)."""
+    if "--shared-intrinsics --pixel-effect-px 2" not in command or re.search(r"--(one-unit|seed)\b", command):
         return None
     wider = re.search(r"--max-placements (\d+)", command)
     return "whole" if "--pool-train" in command or (wider and int(wider[1]) > 5) else "five"
