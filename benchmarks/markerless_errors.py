@@ -393,6 +393,7 @@ def main():
             )
             for line in draw_lines:
                 rep.say(line)
+            rep.say("")
         for line in pooled_lines:
             rep.say(line)
     return rep.write(args.out)

@@ -52,8 +52,11 @@ def _pool_of(command: str) -> str | None:
     (``--shared-intrinsics --pixel-effect-px 2``, a unit per placement) measured: ``"five"``, the tables' five
     test placements; ``"whole"``, every placement of the dataset (``--pool-train``, or more test placements than
     five: ``--max-placements 24``, all of ``paper-sim``'s); None for any other run (one unit, another option,
-    another draw of the sensors than the default's: ``--seed``)."""
-    if "--shared-intrinsics --pixel-effect-px 2" not in command or re.search(r"--(one-unit|seed)\b", command):
+    another draw of the sensors than the default's, ``--seed`` other than 0 alone)."""
+    seeds = re.search(r"--seed((?:\s+\d+)+)", command)
+    if "--shared-intrinsics --pixel-effect-px 2" not in command or "--one-unit" in command:
+        return None
+    if seeds and seeds[1].split() != ["0"]:
         return None
     wider = re.search(r"--max-placements (\d+)", command)
     return "whole" if "--pool-train" in command or (wider and int(wider[1]) > 5) else "five"
