@@ -54,7 +54,7 @@ MIN_OTHERS = 3
 
 #: The placements' estimates of a parameter differ by a spread of their own (a depth image shifted against the
 #: camera model by each unit's amount) where their scatter's chi-square exceeds this quantile: chance alone puts it
-#: there once in twenty pools of one camera.
+#: there once in twenty pools of one camera, per parameter.
 SPREAD_QUANTILE = 0.95
 
 #: Coarse windows of a second pass started from the first's answer: it is within millimetres already.
@@ -278,8 +278,8 @@ def pooled_prior(
         if not use[i]
     )
     reason = f"not pooled: {reason}" if reason else ""
-    prior = _prior(np.where(use, mean, given), np.where(use, sigma, given_px), use, len(others), birge, reason)
-    return replace(prior, spread=tuple(float(x) if u else 0.0 for x, u in zip(spread, use)))
+    pooled = (np.where(use, mean, given), np.where(use, sigma, given_px))
+    return _prior(*pooled, use, len(others), birge, reason, spread=np.where(use, spread, 0.0))
 
 
 def inverse_variance_mean(values, sigmas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -318,12 +318,14 @@ def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     Birge ratio instead would claim the placement's value to a fraction of the spread: with a depth image shifted by
     its own 1 px per unit, it pulled each placement's well-measured principal point towards the others' mean.
     """
+    # written here rather than taken from statsmodels' meta-analysis: classic/ needs only numpy and scipy, and the
+    # estimator is these four lines
     values = np.array([t for t, _ in others], dtype=float)
     sigmas = np.array([s for _, s in others], dtype=float)
     mean, sigma, birge = inverse_variance_mean(values, sigmas)
     weight = 1.0 / sigmas**2
     s1 = weight.sum(axis=0)
-    chi2 = (birge**2) * (len(values) - 1)
+    chi2 = (birge**2) * (len(values) - 1)  # Q: the Birge ratio is sqrt(Q / (n - 1))
     tau2 = np.maximum((chi2 - (len(values) - 1)) / (s1 - (weight**2).sum(axis=0) / s1), 0.0)
     spread = chi2 > stats.chi2.ppf(SPREAD_QUANTILE, len(values) - 1)
     weight = 1.0 / (sigmas**2 + tau2)
@@ -333,9 +335,9 @@ def _weighted_pool(others: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return mean, sigma, birge, np.where(spread, np.sqrt(tau2), 0.0)
 
 
-def _prior(mean_px, sigma_px, use, others: int, birge, reason: str) -> SharedIntrinsicsPrior:
-    """A :class:`SharedIntrinsicsPrior` of the per-parameter mean and sigma in pixels (the focal lengths' sigma
-    made relative to the mean)."""
+def _prior(mean_px, sigma_px, use, others: int, birge, reason: str, spread=(0.0,) * 4) -> SharedIntrinsicsPrior:
+    """A :class:`SharedIntrinsicsPrior` of the per-parameter mean, sigma and spread in pixels (the focal lengths'
+    sigma made relative to the mean)."""
     return SharedIntrinsicsPrior(
         K=camera_matrix(mean_px),
         prior_sigma=(
@@ -348,6 +350,7 @@ def _prior(mean_px, sigma_px, use, others: int, birge, reason: str) -> SharedInt
         others=others,
         birge=tuple(float(b) for b in birge),
         reason=reason,
+        spread=tuple(float(x) for x in spread),
     )
 
 

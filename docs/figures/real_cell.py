@@ -53,9 +53,9 @@ def _pool_of(command: str) -> str | None:
     test placements; ``"whole"``, every placement of the dataset (``--pool-train``, or more test placements than
     five: ``--max-placements 24``, all of ``paper-sim``'s); None for any other run (one unit, another option,
     another draw of the sensors than the default's, ``--seed`` other than 0 alone)."""
-    seeds = re.search(r"--seed((?:\s+\d+)+)", command)
     if "--shared-intrinsics --pixel-effect-px 2" not in command or "--one-unit" in command:
         return None
+    seeds = re.search(r"--seed((?:\s+\d+)+)", command)
     if seeds and seeds[1].split() != ["0"]:
         return None
     wider = re.search(r"--max-placements (\d+)", command)
