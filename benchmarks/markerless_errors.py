@@ -47,7 +47,11 @@ from benchmarks.markerless_sensors import (  # noqa: E402
     with_errors,
 )
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import second_passes  # noqa: E402
+from classic.markerless.shared_intrinsics import (  # noqa: E402
+    FIRST_PASS_PRIOR_TIMES,
+    first_pass_options,
+    second_passes,
+)
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.numbers import NONFINITE_WORDS, number_problem, parse_float, parse_int  # noqa: E402
@@ -58,6 +62,8 @@ from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 JOINT_OFFSETS_DEG = np.array([0.2, -0.3, 0.15, -0.1, 0.25, -0.2])
 #: A factory camera matrix's error: focal lengths relative, principal point in pixels.
 INTRINSICS_ERROR = {"fx": 0.007, "fy": 0.007, "cx": 3.0, "cy": 0.0}
+#: The same camera-matrix error with the other sign: a factory calibration is off either way.
+INTRINSICS_ERROR_OTHER_SIGN = {k: -v for k, v in INTRINSICS_ERROR.items()}
 
 
 def cases() -> list[dict]:
@@ -107,7 +113,9 @@ def diagnostic_cases() -> list[dict]:
     correlated over the d435's matching window as in the table, and white. 13, 14: the floor of the table's
     errors: the d435 without a scale or offset error, the registration told the depth unit, the camera matrix and
     the joints as exact (:data:`TOLD_EXACT`); 13 with the profile's depth-to-colour extrinsic error (0.5 mm per
-    axis, which depth cannot see and every other row has too), 14 without it (the frames' noise alone).
+    axis, which depth cannot see and every other row has too), 14 without it (the frames' noise alone). 15, 16:
+    held out, the table's camera-matrix error with the other sign (:data:`INTRINSICS_ERROR_OTHER_SIGN`), alone and
+    all together: nothing was tuned on them.
     """
     quiet = {"noise_quadratic_per_m": 1e-6, "scale_sigma": 0.0, "offset_sigma_m": 0.0}
     d435 = PROFILES["d435"]
@@ -124,6 +132,13 @@ def diagnostic_cases() -> list[dict]:
             "name": "floor: all told exact, no depth-to-colour extrinsic",
             "sensor": replace(exact_unit, extrinsic_sigma_m=0.0),
             "options": TOLD_EXACT,
+        },
+        {"name": "fx, fy -0.7 %, cx -3 px (held out)", "sensor": d435, "intrinsics": INTRINSICS_ERROR_OTHER_SIGN},
+        {
+            "name": "all together, the camera matrix -0.7 %, cx -3 px (held out)",
+            "sensor": PROFILES["d435-real-cell"],
+            "intrinsics": INTRINSICS_ERROR_OTHER_SIGN,
+            "joints": JOINT_OFFSETS_DEG,
         },
     ]
 
@@ -205,7 +220,8 @@ def _outcome(res, T_true, seconds) -> tuple:
 
 
 def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False, pool=()) -> tuple:
-    """The case twice on the same frames: each placement alone (the front's first pass), then again with the
+    """The case twice on the same frames: each placement alone (the front's first pass, under
+    :func:`classic.markerless.shared_intrinsics.first_pass_options`), then again with the
     intrinsics the other placements estimated as its prior (``handeye markerless``'s default with 4 or more
     placements: :func:`handeye.markerless_shared.share_intrinsics`'s steps, on the benchmark's sensor frames).
 
@@ -225,7 +241,7 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
         depth, q, _ = observe(ds, c, case["sensor"], seed, case.get("registration"), unit)
         posed, T_c = told_posed(surface, q, T_true[c], case.get("joints"))
         t0 = time.process_time()
-        first[c] = register_robot(depth, K, posed, options=opts)
+        first[c] = register_robot(depth, K, posed, options=first_pass_options(opts))
         outcome = _outcome(first[c], T_c, time.process_time() - t0)
         print(f"  camera {c}, alone{'' if c in cams else ' (pool only)'}: {outcome}", file=sys.stderr, flush=True)
         if c in cams:
@@ -274,7 +290,8 @@ def main():
         "--cases",
         help=f"comma-separated case numbers (1-based) to run, default the table's 1-{TABLE_CASES}; "
         "11 and 12: the fixed pattern alone, correlated and white; 13 and 14: the floor, all told exact, with and "
-        "without the depth-to-colour extrinsic error",
+        "without the depth-to-colour extrinsic error; 15 and 16 (held out): the camera matrix off the other way, "
+        "alone and all together",
     )
     ap.add_argument(
         "--seed",
@@ -331,8 +348,9 @@ def main():
         rep.say(f"With a depth error per {args.pixel_effect_px} px image cell marginalised (--pixel-effect-px).\n")
     if args.shared_intrinsics:
         rep.say(
-            "Each case twice on the same frames: each placement alone, then each again with the intrinsics the "
-            "other placements estimated as its prior (--shared-intrinsics"
+            "Each case twice on the same frames: each placement alone (its first pass, under an intrinsics prior "
+            f"{FIRST_PASS_PRIOR_TIMES:g} times the stated one, as a pooled placement's first pass is), then each "
+            "again with the intrinsics the other placements estimated as its prior (--shared-intrinsics"
             + (", one sensor unit for all placements: --one-unit" if args.one_unit else ", a unit per placement")
             + "); s: CPU seconds of one thread, both passes in the shared rows.\n"
         )
