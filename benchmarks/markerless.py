@@ -74,6 +74,7 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
     """
     K = np.array(ds.meta["intrinsics"]["K"])
     truth = ds.truth()
+    shared = shared and len(cams) > MIN_OTHERS  # too few to share: each placement alone, as handeye markerless
     if shared:
         opts = shared_options(opts, len(cams))
     results, seconds, frames = {}, {}, {}
@@ -82,7 +83,7 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
         if perturb is not None:
             depth, q = perturb(depth, q, rng)
         t0 = time.perf_counter()
-        first_opts = first_pass_options(opts) if shared and len(cams) > MIN_OTHERS else opts
+        first_opts = first_pass_options(opts) if shared else opts
         results[c] = register_robot(depth, K, surface.posed(q), options=first_opts)
         seconds[c] = time.perf_counter() - t0
         if shared:

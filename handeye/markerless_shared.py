@@ -71,10 +71,10 @@ def share_intrinsics(
         prior out of each estimate).
     urdf : RobotURDF, optional
     options : MarkerlessOptions, optional
-        As stated. With ``intrinsics_model="fixed"`` nothing is shared and ``run`` is returned; with fewer than
-        ``MIN_OTHERS + 1`` placements that estimated the intrinsics
-        (:data:`classic.markerless.shared_intrinsics.MIN_OTHERS`) nothing is pooled, and each placement is
-        registered again under the stated prior.
+        As stated. With ``intrinsics_model="fixed"``, or ``MIN_OTHERS`` placements or fewer
+        (:data:`classic.markerless.shared_intrinsics.MIN_OTHERS`; their first passes are under the stated prior),
+        nothing is shared and ``run`` is returned; with more placements but too few of them estimating the
+        intrinsics nothing is pooled, and each placement is registered again under the stated prior.
     progress : bool
     frames : index, optional
 
@@ -85,8 +85,8 @@ def share_intrinsics(
         ``intrinsics_priors`` says per camera what its prior was, where there were placements enough to pool.
     """
     opts = options or MarkerlessOptions()
-    if opts.intrinsics_model != "estimate":
-        return run
+    if opts.intrinsics_model != "estimate" or len(run.results) <= MIN_OTHERS:
+        return run  # too few to share: their first passes were under the stated prior (first_pass_options: not)
     ds = Dataset.open(root)
     K_given = np.array(ds.meta["intrinsics"]["K"], dtype=float)
     surface, stride = robot_surface_for(ds, *((urdf.path, urdf.package_dirs) if urdf else ()))

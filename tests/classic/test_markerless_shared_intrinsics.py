@@ -314,3 +314,16 @@ def test_first_passes_are_registered_under_a_wider_prior():
     assert replace(wide, intrinsics_prior_sigma=GIVEN_SIGMA) == opts  # nothing else changed
     fixed = MarkerlessOptions(intrinsics_model="fixed")
     assert first_pass_options(fixed) is fixed  # nothing estimated: nothing to widen
+
+
+def test_too_few_placements_are_returned_as_their_first_passes_are():
+    """With MIN_OTHERS placements or fewer nothing is shared: their first passes were registered under the stated
+    prior (the wider one is for placements that pool), so they are not registered again (the dataset is not even
+    opened)."""
+    from types import SimpleNamespace
+
+    from classic.markerless import MarkerlessOptions
+    from handeye.markerless_shared import share_intrinsics
+
+    run = SimpleNamespace(results={c: object() for c in range(MIN_OTHERS)})
+    assert share_intrinsics("no/such/dataset", run, options=MarkerlessOptions()) is run
