@@ -47,7 +47,7 @@ from benchmarks.markerless_sensors import (  # noqa: E402
     with_errors,
 )
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import second_passes  # noqa: E402
+from classic.markerless.shared_intrinsics import first_pass_options, second_passes  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.numbers import NONFINITE_WORDS, number_problem, parse_float, parse_int  # noqa: E402
@@ -58,6 +58,8 @@ from handeye.robot.depth_sensors import PROFILES  # noqa: E402
 JOINT_OFFSETS_DEG = np.array([0.2, -0.3, 0.15, -0.1, 0.25, -0.2])
 #: A factory camera matrix's error: focal lengths relative, principal point in pixels.
 INTRINSICS_ERROR = {"fx": 0.007, "fy": 0.007, "cx": 3.0, "cy": 0.0}
+#: The same camera-matrix error with the other sign: a factory calibration is off either way.
+INTRINSICS_ERROR_OTHER_SIGN = {k: -v for k, v in INTRINSICS_ERROR.items()}
 
 
 def cases() -> list[dict]:
@@ -107,7 +109,9 @@ def diagnostic_cases() -> list[dict]:
     correlated over the d435's matching window as in the table, and white. 13, 14: the floor of the table's
     errors: the d435 without a scale or offset error, the registration told the depth unit, the camera matrix and
     the joints as exact (:data:`TOLD_EXACT`); 13 with the profile's depth-to-colour extrinsic error (0.5 mm per
-    axis, which depth cannot see and every other row has too), 14 without it (the frames' noise alone).
+    axis, which depth cannot see and every other row has too), 14 without it (the frames' noise alone). 15, 16:
+    held out, the table's camera-matrix error with the other sign (:data:`INTRINSICS_ERROR_OTHER_SIGN`), alone and
+    all together: nothing was tuned on them.
     """
     quiet = {"noise_quadratic_per_m": 1e-6, "scale_sigma": 0.0, "offset_sigma_m": 0.0}
     d435 = PROFILES["d435"]
@@ -124,6 +128,13 @@ def diagnostic_cases() -> list[dict]:
             "name": "floor: all told exact, no depth-to-colour extrinsic",
             "sensor": replace(exact_unit, extrinsic_sigma_m=0.0),
             "options": TOLD_EXACT,
+        },
+        {"name": "fx, fy -0.7 %, cx -3 px (held out)", "sensor": d435, "intrinsics": INTRINSICS_ERROR_OTHER_SIGN},
+        {
+            "name": "all together, the camera matrix -0.7 %, cx -3 px (held out)",
+            "sensor": PROFILES["d435-real-cell"],
+            "intrinsics": INTRINSICS_ERROR_OTHER_SIGN,
+            "joints": JOINT_OFFSETS_DEG,
         },
     ]
 
@@ -225,7 +236,7 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
         depth, q, _ = observe(ds, c, case["sensor"], seed, case.get("registration"), unit)
         posed, T_c = told_posed(surface, q, T_true[c], case.get("joints"))
         t0 = time.process_time()
-        first[c] = register_robot(depth, K, posed, options=opts)
+        first[c] = register_robot(depth, K, posed, options=first_pass_options(opts))
         outcome = _outcome(first[c], T_c, time.process_time() - t0)
         print(f"  camera {c}, alone{'' if c in cams else ' (pool only)'}: {outcome}", file=sys.stderr, flush=True)
         if c in cams:
@@ -274,7 +285,8 @@ def main():
         "--cases",
         help=f"comma-separated case numbers (1-based) to run, default the table's 1-{TABLE_CASES}; "
         "11 and 12: the fixed pattern alone, correlated and white; 13 and 14: the floor, all told exact, with and "
-        "without the depth-to-colour extrinsic error",
+        "without the depth-to-colour extrinsic error; 15 and 16 (held out): the camera matrix off the other way, "
+        "alone and all together",
     )
     ap.add_argument(
         "--seed",

@@ -152,6 +152,11 @@ class MarkerlessOptions:
         default, keeps them. Measured, not a default: on the white-noise datasets 70 deg shrank the error the
         placements share along the optical axis; on the D435 real-cell table it helped and harmed alike
         (``benchmarks/results/markerless_incidence.md``).
+    crease_radius_m : float or None
+        Model samples with a neighbour this near whose normal is over 35 deg from theirs (a link's side meeting its
+        end cap) are left out of every association of the fine stage (:mod:`classic.markerless.gating`): there a
+        pixel's ray can meet the other face within the gate, a row the second-order residual cannot fit. 8 mm by
+        default; None keeps them.
     seed : int
     """
 
@@ -188,6 +193,7 @@ class MarkerlessOptions:
     pixel_effect_px: int = 0
     repeated_error_px: int = 16
     max_incidence_deg: float | None = None
+    crease_radius_m: float | None = 0.008
     seed: int = 0
 
     def __post_init__(self):
@@ -252,6 +258,9 @@ class MarkerlessOptions:
         angle = self.max_incidence_deg
         if angle is not None and not (np.isfinite(angle) and 0 < angle < 90):
             raise HandEyeInputError(f"max_incidence_deg must be None or between 0 and 90 degrees, got {angle}")
+        radius = self.crease_radius_m
+        if radius is not None and not (np.isfinite(radius) and radius > 0):
+            raise HandEyeInputError(f"crease_radius_m must be None or a finite value > 0, got {radius}")
 
     def _check_joint_offsets_model(self):
         """The joint offsets model and its prior sigmas."""

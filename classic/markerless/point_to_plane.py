@@ -54,7 +54,7 @@ import numpy as np
 
 from classic.clustered_covariance import clustered_covariance
 from classic.least_squares import loss_weights
-from classic.markerless.curvature import second_order_residual
+from classic.markerless.curvature import residual_under_noise, second_order_residual
 from classic.markerless.intrinsics import intrinsics_vector, rays_for
 from classic.markerless.kinematics import moved_model, offset_columns, turned_directions
 from classic.markerless.pixel_effect import (
@@ -159,6 +159,11 @@ class MatchedModel:
         Each match's part's twist per joint at its frame
         (:attr:`classic.markerless.RobotSurfaceFrames.joint_twists_base`); given, the zero offsets of these ``J``
         joints are estimated with the pose (the points and normals are then posed at the recorded joints).
+    depth_variance : array, shape (N,), optional
+        The observed point's depth-noise variance at each match (m^2, along the camera's axis); given, the fit
+        takes the noise out of its equations (:func:`classic.markerless.curvature.residual_under_noise`: the
+        residual's mean under the noise, and the gradient and the columns that hold the observed point taken at
+        the point moved along its ray onto the surface).
     """
 
     points_base: np.ndarray
@@ -166,6 +171,7 @@ class MatchedModel:
     curvatures: np.ndarray | None = None
     direction_base: np.ndarray | None = None
     joint_twists: np.ndarray | None = None
+    depth_variance: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -321,26 +327,39 @@ def _linearise(q_obs: np.ndarray, model: MatchedModel, T: np.ndarray, x: _Unknow
     else:
         p_cam, dz = _locked_points_and_jacobian(q_obs, x.depth, x.fb)
     x_base = p_cam @ R.T + t
-    if model.curvatures is None:
+    move = None
+    if model.depth_variance is not None:
+        ray_base = (p_cam / p_cam[:, 2:3]) @ R.T
+        r, grad, move = residual_under_noise(
+            x_base, m_base, n_base, model.curvatures, d_base, ray_base, model.depth_variance
+        )
+    elif model.curvatures is None:
         r, grad = np.einsum("ij,ij->i", n_base, x_base - m_base), n_base
     else:
         r, grad = second_order_residual(x_base, m_base, n_base, model.curvatures, d_base)
     if not jacobian:
         return r, None
     n_cam = grad @ R  # R^T grad, row-wise
+    # the columns that hold the observed point, at the point moved back along its ray (residual_under_noise)
+    p_at = p_cam if move is None else p_cam * (1.0 - move / p_cam[:, 2])[:, None]
     J = np.empty((len(r), x.n_par))  # each block written in place
-    cross_rows(p_cam, n_cam, out=J[:, :3])
+    cross_rows(p_at, n_cam, out=J[:, :3])
     J[:, 3:6] = n_cam
     if x.depth is not None:
         ray = q_obs / q_obs[:, 2:3]
         n_ray = np.einsum("ij,ij->i", n_cam, ray)[:, None]
         if x.fb is None:
             J[:, 6] = np.einsum("ij,ij->i", n_cam, q_obs)
+            if move is not None:  # d(k q + c ray)/dk = q at the raw depth whose corrected point is the moved one
+                J[:, 6] -= n_ray[:, 0] * move / x.depth[0]
             J[:, 7:8] = n_ray
         else:
+            if move is not None:  # the locking's columns too, at the raw depth whose corrected point is the moved one
+                raw_move = move / (x.depth[0] * dz[:, 1])  # dz / dz_obs = k dz / dz_a
+                dz = _locked_points_and_jacobian(q_obs * (1.0 - raw_move / q_obs[:, 2])[:, None], x.depth, x.fb)[1]
             np.multiply(n_ray, dz, out=J[:, x.depth_cols])
     if x.theta is not None:
-        J[:, x.intrinsics_cols] = p_cam[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
+        J[:, x.intrinsics_cols] = p_at[:, 2:3] * (n_cam[:, 0:1] * dray[:, 0] + n_cam[:, 1:2] * dray[:, 1])
     if x.delta is not None:
         J[:, x.joint_cols] = offset_columns(grad, m_base, x.twists)
     return r, J

@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject
 from classic.markerless.depth_analysis import DepthAnalysis, analyse_depth, depth_key
+from classic.markerless.gating import near_a_crease, within_gate
 from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
 from classic.markerless.kinematics import joint_status, moved_surface
 from classic.markerless.point_to_plane import (
@@ -127,6 +128,7 @@ class Problem:
         )
         cs = self.coarse_subset
         self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
+        self._crease, self._crease_tree = None, None  # near_crease's flags, found as the samples are first matched
 
     def sigma_z(self, z):
         """Depth noise sigma at depth ``z`` (metres): given, or measured, or the fallback."""
@@ -264,10 +266,23 @@ class Problem:
         q_obs = self.P[f, pix[:, 0], pix[:, 1]]
         q = self.corrected(q_obs)
         has_depth = np.isfinite(q[:, 2]) & (q_obs[:, 2] > 0)
-        close = has_depth & (np.abs(q[:, 2] - p_cam[:, 2]) < gate_m)
+        close = has_depth & within_gate(q, p_cam, self.s.normals_base[idx] @ T[:3, :3], gate_m)
+        if self.opts.crease_radius_m is not None:
+            close &= ~self.near_crease(idx)
         if self.opts.max_incidence_deg is not None:
             close &= self._facing(T, idx, p_cam)
         return idx, f, q_obs, q, has_depth, close
+
+    def near_crease(self, idx: np.ndarray) -> np.ndarray:
+        """Whether each model sample ``idx`` lies within ``crease_radius_m`` of a crease
+        (:func:`classic.markerless.gating.near_a_crease`, among its own frame's samples), each sample found once."""
+        if self._crease is None:  # -1: not yet found, 0 / 1: found
+            self._crease = np.full(len(self.s.points_base), -1, np.int8)
+            self._crease_tree = cKDTree(np.c_[self.s.points_base, self.s.frame * _FRAME_KEY_M])
+        new = np.unique(idx[self._crease[idx] < 0])
+        if len(new):
+            self._crease[new] = near_a_crease(self._crease_tree, self.s.normals_base, new, self.opts.crease_radius_m)
+        return self._crease[idx] == 1
 
     def _facing(self, T, idx, p_cam):
         """Whether each model point's normal is within ``max_incidence_deg`` of its ray (camera frame ``p_cam``)."""
@@ -275,13 +290,15 @@ class Problem:
         cos = np.abs(np.einsum("ij,ij->i", n_cam, p_cam)) / np.linalg.norm(p_cam, axis=1)
         return cos > np.cos(np.radians(self.opts.max_incidence_deg))
 
-    def _solve(self, T, matches, iterations, covariance=True, repeated=False, prior_widened=1.0):
+    def _solve(self, T, matches, iterations, covariance=True, repeated=False, prior_widened=1.0, noise_times=1.0):
         """Point-to-plane fit of fixed ``matches`` (model points ``m``, frames ``f``, observed ``q_obs``) from ``T``
         and the current depth correction, intrinsics and joint offsets; returns the fit and the median expected
         residual. ``repeated``: with the covariance an error repeated per pixel adds (``PlaneFit.repeated``).
-        ``prior_widened``: every prior's sigma times this (:meth:`depth_debiased`)."""
+        ``prior_widened``: every prior's sigma times this (:meth:`depth_debiased`).
+        ``noise_times``: the depth noise's variance the fit takes out of its equations, times this."""
         m, f, q_obs = matches
-        expected = float(np.median(np.sqrt(self.sigma_z(q_obs[:, 2]) ** 2 + self.opts.model_floor_m**2)))
+        sigma_z = self.sigma_z(q_obs[:, 2])
+        expected = float(np.median(np.sqrt(sigma_z**2 + self.opts.model_floor_m**2)))
         curved = self.s.curvatures is not None
         estimate_depth = self.opts.depth_model == "scale-offset"
         if estimate_depth or self.estimate_intrinsics:
@@ -309,6 +326,7 @@ class Problem:
             curvatures=self.s.curvatures[m] if curved else None,
             direction_base=self.s.direction_base[m] if curved else None,
             joint_twists=twists,
+            depth_variance=noise_times * sigma_z**2,
         )
         options = PlaneFitOptions(
             scale_m=expected * 2,
@@ -441,7 +459,7 @@ class Problem:
             widen = float(np.sqrt(1 + np.sum(w * (gain * draw) ** 2) / max(variance, 1e-30)))
             for sign in (1.0, -1.0):
                 noisier = (m, f, q_obs * (1 + sign * draw)[:, None])
-                refits.append(self._solve(T, noisier, iterations, covariance=False, prior_widened=widen)[0])
+                refits.append(self._solve(T, noisier, iterations, False, prior_widened=widen, noise_times=2.0)[0])
         self.depth_correction, (theta, delta) = kept[0], kept[1:]
         self.set_intrinsics(theta)
         self.set_joint_offsets(delta)

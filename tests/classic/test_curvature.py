@@ -13,7 +13,7 @@ from classic.markerless import MarkerlessOptions, RobotSurfaceFrames, register_r
 from classic.markerless.curvature import sample_curvatures, second_order_residual
 from handeye.core.errors import HandEyeInputError
 from handeye.core.metrics import pose_error
-from tests.classic.test_markerless import F_PX, RADII, SIGMA_1M, K, _bias_bounds, _scene
+from tests.classic.test_markerless import F_PX, RADII, K, _bias_bounds, _scene
 from tests.tolerances import ABSOLUTE_ONLY, FLOAT, POINT_ROUNDING_EPS
 
 
@@ -73,7 +73,10 @@ def test_second_order_residual_on_a_sphere_leaves_exactly_the_fourth_order_term(
 
 def test_a_second_order_fit_removes_the_sampling_bias():
     """Noise-free spheres: the first-order fit is off by up to the sampling bias; with the spheres' curvature
-    estimated from the samples the error falls to the fourth-order term F^4 / (8 r^3) of a pixel footprint F."""
+    estimated from the samples the error falls to the fourth-order term F^4 / (8 r^3) of a pixel footprint F.
+    The depth noise is the frames' own, measured on the static background (the front's default): told a noise
+    the frames do not have, the fit would take that noise's mean out of the residual
+    (:func:`classic.markerless.curvature.residual_under_noise`) and move the answer by as much."""
     depth, s, T_true = _scene(np.random.default_rng(1), noise=False)
     spacing = 0.7 * 0.8 / F_PX
     kappa, direction = np.zeros((len(s.part), 2)), np.zeros((len(s.part), 3))
@@ -83,7 +86,7 @@ def test_a_second_order_fit_removes_the_sampling_bias():
     curved = RobotSurfaceFrames(
         s.points_base, s.normals_base, s.frame, s.part, curvatures=kappa, direction_base=direction
     )
-    opts = MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M)
+    opts = MarkerlessOptions()
     rot_first, trans_first = pose_error(register_robot(depth, K, s, options=opts).require(), T_true)
     rot_second, trans_second = pose_error(register_robot(depth, K, curved, options=opts).require(), T_true)
     footprint = depth[depth > 0].max() / F_PX
