@@ -275,14 +275,37 @@ class Problem:
 
     def near_crease(self, idx: np.ndarray) -> np.ndarray:
         """Whether each model sample ``idx`` lies within ``crease_radius_m`` of a crease
-        (:func:`classic.markerless.gating.near_a_crease`, among its own frame's samples), each sample found once."""
-        if self._crease is None:  # -1: not yet found, 0 / 1: found
-            self._crease = np.full(len(self.s.points_base), -1, np.int8)
+        (:func:`classic.markerless.gating.near_a_crease`, among its own frame's samples).
+
+        Where every frame holds the same samples in the same order (a robot's links posed per frame), the first
+        frame's are tested, all at once, and the flags repeated for every frame: a link's own creases move with it,
+        and where two links meet moves little (on `paper-real` 0.3 % of the samples differ from a test in each
+        frame, at a sixtieth of the time); else each sample in its own frame as it is first matched."""
+        if self._crease is None:
+            self._crease = self._crease_from_first_frame()
+        if self._crease.dtype == bool:
+            return self._crease[idx]
+        if self._crease_tree is None:  # -1: not yet found, 0 / 1: found
             self._crease_tree = cKDTree(np.c_[self.s.points_base, self.s.frame * _FRAME_KEY_M])
         new = np.unique(idx[self._crease[idx] < 0])
         if len(new):
             self._crease[new] = near_a_crease(self._crease_tree, self.s.normals_base, new, self.opts.crease_radius_m)
         return self._crease[idx] == 1
+
+    def _crease_from_first_frame(self) -> np.ndarray:
+        """:meth:`near_crease`'s flags of every sample (bool) where each frame holds the first frame's samples in
+        its order; else int8 -1 (each found as it is first matched)."""
+        s = self.s
+        frames, counts = np.unique(s.frame, return_counts=True)
+        n = int(counts[0])
+        if not (
+            np.all(counts == n)
+            and np.array_equal(s.frame, np.repeat(frames, n))
+            and np.array_equal(s.part, np.tile(s.part[:n], len(frames)))
+        ):
+            return np.full(len(s.points_base), -1, np.int8)
+        first = near_a_crease(cKDTree(s.points_base[:n]), s.normals_base[:n], np.arange(n), self.opts.crease_radius_m)
+        return np.tile(first, len(frames))
 
     def _facing(self, T, idx, p_cam):
         """Whether each model point's normal is within ``max_incidence_deg`` of its ray (camera frame ``p_cam``)."""
