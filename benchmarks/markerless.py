@@ -48,7 +48,7 @@ from benchmarks._machine import machine  # noqa: E402
 from benchmarks._report import Report  # noqa: E402
 from benchmarks.markerless_errors import parse_option  # noqa: E402
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import second_passes  # noqa: E402
+from classic.markerless.shared_intrinsics import MIN_OTHERS, first_pass_options, second_passes  # noqa: E402
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.numbers import parse_float, parse_int  # noqa: E402
@@ -82,7 +82,8 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
         if perturb is not None:
             depth, q = perturb(depth, q, rng)
         t0 = time.perf_counter()
-        results[c] = register_robot(depth, K, surface.posed(q), options=opts)
+        first_opts = first_pass_options(opts) if shared and len(cams) > MIN_OTHERS else opts
+        results[c] = register_robot(depth, K, surface.posed(q), options=first_opts)
         seconds[c] = time.perf_counter() - t0
         if shared:
             frames[c] = (depth, q)
@@ -97,7 +98,7 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
             return res
 
         for c, (_, res) in second_passes(results, K, opts, register).items():
-            results[c] = results[c] if res is None else res  # None: nothing pooled, the first pass stands
+            results[c] = results[c] if res is None else res
     return [_accuracy_row(results[c], truth[c], seconds[c]) for c in cams]
 
 

@@ -47,7 +47,11 @@ from benchmarks.markerless_sensors import (  # noqa: E402
     with_errors,
 )
 from classic.markerless import MarkerlessOptions, register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import first_pass_options, second_passes  # noqa: E402
+from classic.markerless.shared_intrinsics import (  # noqa: E402
+    FIRST_PASS_PRIOR_TIMES,
+    first_pass_options,
+    second_passes,
+)
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.core.metrics import pose_error  # noqa: E402
 from handeye.core.numbers import NONFINITE_WORDS, number_problem, parse_float, parse_int  # noqa: E402
@@ -216,7 +220,8 @@ def _outcome(res, T_true, seconds) -> tuple:
 
 
 def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False, pool=()) -> tuple:
-    """The case twice on the same frames: each placement alone (the front's first pass), then again with the
+    """The case twice on the same frames: each placement alone (the front's first pass, under
+    :func:`classic.markerless.shared_intrinsics.first_pass_options`), then again with the
     intrinsics the other placements estimated as its prior (``handeye markerless``'s default with 4 or more
     placements: :func:`handeye.markerless_shared.share_intrinsics`'s steps, on the benchmark's sensor frames).
 
@@ -343,8 +348,9 @@ def main():
         rep.say(f"With a depth error per {args.pixel_effect_px} px image cell marginalised (--pixel-effect-px).\n")
     if args.shared_intrinsics:
         rep.say(
-            "Each case twice on the same frames: each placement alone, then each again with the intrinsics the "
-            "other placements estimated as its prior (--shared-intrinsics"
+            "Each case twice on the same frames: each placement alone (its first pass, under an intrinsics prior "
+            f"{FIRST_PASS_PRIOR_TIMES:g} times the stated one, as a pooled placement's first pass is), then each "
+            "again with the intrinsics the other placements estimated as its prior (--shared-intrinsics"
             + (", one sensor unit for all placements: --one-unit" if args.one_unit else ", a unit per placement")
             + "); s: CPU seconds of one thread, both passes in the shared rows.\n"
         )

@@ -37,7 +37,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.markerless_errors import cases, diagnostic_cases, parse_option  # noqa: E402
 from benchmarks.markerless_sensors import front_options, observe, placements, told_intrinsics, told_posed  # noqa: E402
 from classic.markerless.register import register_robot  # noqa: E402
-from classic.markerless.shared_intrinsics import SharedIntrinsicsPrior, second_pass_options  # noqa: E402
+from classic.markerless.shared_intrinsics import (  # noqa: E402
+    SharedIntrinsicsPrior,
+    first_pass_options,
+    second_pass_options,
+)
 from handeye.core.dataset import Dataset  # noqa: E402
 from handeye.markerless import robot_surface_for  # noqa: E402
 
@@ -112,7 +116,7 @@ def main() -> int:
     starts, analysis = None, None
     if args.second_pass:
         cpu = time.process_time()
-        first = register_robot(depth, K, posed, options=opts)
+        first = register_robot(depth, K, posed, options=first_pass_options(opts))  # as a pooled placement's
         print(f"first pass: {time.process_time() - cpu:.2f} s CPU, {first.refused or 'accepted'}", flush=True)
         starts, opts = second_pass(first, K, opts)
         analysis = first.depth_analysis

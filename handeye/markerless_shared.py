@@ -9,9 +9,13 @@ first answer. ``handeye markerless`` does this by default with four or more plac
 
 Example
 -------
->>> from handeye.markerless import markerless_dataset          # doctest: +SKIP
->>> from handeye.markerless_shared import share_intrinsics      # doctest: +SKIP
->>> run = share_intrinsics("data/small", markerless_dataset("data/small"))  # doctest: +SKIP
+>>> from classic.markerless import MarkerlessOptions                         # doctest: +SKIP
+>>> from classic.markerless.shared_intrinsics import first_pass_options     # doctest: +SKIP
+>>> from handeye.markerless import markerless_dataset                       # doctest: +SKIP
+>>> from handeye.markerless_shared import share_intrinsics, shared_options  # doctest: +SKIP
+>>> opts = shared_options(MarkerlessOptions(), 24)                          # doctest: +SKIP
+>>> first = markerless_dataset("data/small", options=first_pass_options(opts))  # doctest: +SKIP
+>>> run = share_intrinsics("data/small", first, options=opts)               # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -28,7 +32,6 @@ from classic.markerless.shared_intrinsics import (
     MIN_OTHERS,
     SHARED_PIXEL_EFFECT_PX,
     against_given,
-    intrinsics_estimates,
     second_passes,
 )
 from handeye.core.dataset import Dataset
@@ -63,24 +66,26 @@ def share_intrinsics(
     root : str or Path
         The dataset ``run`` was made from.
     run : MarkerlessRun
-        The first pass (:func:`handeye.markerless.markerless_dataset`, with the same ``urdf``, ``options`` and
-        ``frames``).
+        The first pass (:func:`handeye.markerless.markerless_dataset`, with the same ``urdf`` and ``frames``, and
+        :func:`classic.markerless.shared_intrinsics.first_pass_options` of ``options``: the pool takes that wider
+        prior out of each estimate).
     urdf : RobotURDF, optional
     options : MarkerlessOptions, optional
-        The first pass's. With ``intrinsics_model="fixed"``, or fewer than ``MIN_OTHERS + 1`` placements that
-        estimated the intrinsics (:data:`classic.markerless.shared_intrinsics.MIN_OTHERS`), nothing is shared and
-        ``run`` is returned.
+        As stated. With ``intrinsics_model="fixed"`` nothing is shared and ``run`` is returned; with fewer than
+        ``MIN_OTHERS + 1`` placements that estimated the intrinsics
+        (:data:`classic.markerless.shared_intrinsics.MIN_OTHERS`) nothing is pooled, and each placement is
+        registered again under the stated prior.
     progress : bool
     frames : index, optional
 
     Returns
     -------
     MarkerlessRun
-        A new run: per camera the second pass's result where a parameter was pooled (its wall time the two
-        passes' sum), else the first's; ``intrinsics_priors`` says per camera what its prior was.
+        A new run: per camera the second pass's result (its wall time the two passes' sum);
+        ``intrinsics_priors`` says per camera what its prior was, where there were placements enough to pool.
     """
     opts = options or MarkerlessOptions()
-    if opts.intrinsics_model != "estimate" or len(intrinsics_estimates(run.results)) <= MIN_OTHERS:
+    if opts.intrinsics_model != "estimate":
         return run
     ds = Dataset.open(root)
     K_given = np.array(ds.meta["intrinsics"]["K"], dtype=float)
@@ -104,14 +109,13 @@ def share_intrinsics(
 
     out = MarkerlessRun(label_errors=dict(run.label_errors))
     for c, (prior, res) in second_passes(run.results, K_given, opts, register, only=cameras).items():
-        out.intrinsics_priors[c] = prior.to_dict()
-        if res is None:
-            # the frames' findings (a few MB a placement at 848x480) are no longer needed: not kept in the run
-            out.record(c, replace(run.results[c], depth_analysis=None), run.seconds[c], run.starts[c], truth[c])
-            continue
-        res.intrinsics = against_given(
-            res.intrinsics, K_given, opts.intrinsics_prior_sigma, opts.intrinsics_determined_share
-        )
+        if prior is not None:
+            out.intrinsics_priors[c] = prior.to_dict()
+        if prior is not None and prior.any_pooled:  # else the second pass's prior is the stated one already
+            res.intrinsics = against_given(
+                res.intrinsics, K_given, opts.intrinsics_prior_sigma, opts.intrinsics_determined_share
+            )
+        # the frames' findings (a few MB a placement at 848x480) are no longer needed: not kept in the run
         out.record(c, replace(res, depth_analysis=None), run.seconds[c] + seconds[c], tried[c], truth[c])
     return out
 

@@ -174,12 +174,14 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_hybrid:
         require_package("pinocchio", extra="robot", purpose="the robot model of the hybrid column")
         from classic.markerless import MarkerlessOptions
+        from classic.markerless.shared_intrinsics import MIN_OTHERS, first_pass_options
         from handeye.markerless import markerless_dataset
         from handeye.markerless_shared import share_intrinsics, shared_note, shared_options
 
         # as handeye markerless does: with 4+ placements, each again with the others' intrinsics as its prior
         opts = shared_options(MarkerlessOptions(), len(pc["camera"]))
-        first = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model, options=opts)
+        first_opts = first_pass_options(opts) if len(pc["camera"]) > MIN_OTHERS else opts
+        first = markerless_dataset(args.dataset, pc["camera"], model_dir=args.model, options=first_opts)
         hybrid = share_intrinsics(args.dataset, first, options=opts)
         note = shared_note(hybrid, opts.pixel_effect_px)
     print(compare_table(pc, hybrid))

@@ -166,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
 
     require_package("pinocchio", extra="robot", purpose="the robot model")
     from classic.markerless import MarkerlessOptions
+    from classic.markerless.shared_intrinsics import MIN_OTHERS, first_pass_options
     from handeye.core.dataset import write_json_atomic
     from handeye.markerless import markerless_dataset, read_start, write_markerless_labels
     from handeye.markerless_shared import share_intrinsics, shared_note, shared_options
@@ -193,16 +194,18 @@ def run(args: argparse.Namespace) -> int:
         **_joint_offset_options(args),
     )
     urdf = _robot_urdf(args)
+    first_options = options
     if not args.no_shared_intrinsics:
         n = len(args.camera) if args.camera else len(Dataset.open(args.dataset))
         options = shared_options(options, n)
+        first_options = first_pass_options(options) if n > MIN_OTHERS else options
     out = markerless_dataset(
         args.dataset,
         args.camera,
         model_dir=args.model,
         T_base_cam_start=start,
         urdf=urdf,
-        options=options,
+        options=first_options,
         progress=not args.quiet,
     )
     if not args.no_shared_intrinsics:

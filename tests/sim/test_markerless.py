@@ -196,6 +196,7 @@ def test_placements_share_the_camera_matrix(small_copy):
     one than the given, each second pass starts from its first answer, and every answer stays within its sigma
     (the front's options: a per-cell depth error marginalised in both passes)."""
     from classic.markerless import MarkerlessOptions
+    from classic.markerless.shared_intrinsics import first_pass_options
     from handeye.core.dataset import Dataset
     from handeye.markerless import markerless_dataset
     from handeye.markerless_shared import share_intrinsics, shared_note, shared_options
@@ -208,7 +209,7 @@ def test_placements_share_the_camera_matrix(small_copy):
     meta_path.write_text(json.dumps(meta))
     opts = shared_options(MarkerlessOptions(), len(Dataset.open(small_copy)))  # as handeye markerless sets them
     assert opts.pixel_effect_px > 0
-    first = markerless_dataset(small_copy, options=opts)
+    first = markerless_dataset(small_copy, options=first_pass_options(opts))  # as handeye markerless runs them
     shared = share_intrinsics(small_copy, first, options=opts)
     note = shared_note(shared, opts.pixel_effect_px)
     assert len(shared.results) == len(Dataset.open(small_copy)) and "pooled: fx" in note
