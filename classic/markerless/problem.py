@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject
 from classic.markerless.depth_analysis import DepthAnalysis, analyse_depth, depth_key
-from classic.markerless.gating import near_a_crease, within_gate
+from classic.markerless.gating import crease_flags_from_first_frame, near_a_crease, within_gate
 from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
 from classic.markerless.kinematics import joint_status, moved_surface
 from classic.markerless.point_to_plane import (
@@ -275,14 +275,16 @@ class Problem:
 
     def near_crease(self, idx: np.ndarray) -> np.ndarray:
         """Whether each model sample ``idx`` lies within ``crease_radius_m`` of a crease
-        (:func:`classic.markerless.gating.near_a_crease`, among its own frame's samples).
-
-        Where every frame holds the same samples in the same order (a robot's links posed per frame), the first
-        frame's are tested, all at once, and the flags repeated for every frame: a link's own creases move with it,
-        and where two links meet moves little (on `paper-real` 0.3 % of the samples differ from a test in each
-        frame, at a sixtieth of the time); else each sample in its own frame as it is first matched."""
+        (:func:`classic.markerless.gating.near_a_crease`, among its own frame's samples): found on the first
+        frame's samples and repeated where every frame holds them in its order
+        (:func:`classic.markerless.gating.crease_flags_from_first_frame`), else each sample as it is first
+        matched."""
         if self._crease is None:
-            self._crease = self._crease_from_first_frame()
+            s = self.s
+            flags = crease_flags_from_first_frame(
+                s.points_base, s.normals_base, s.frame, s.part, self.opts.crease_radius_m
+            )
+            self._crease = np.full(len(s.points_base), -1, np.int8) if flags is None else flags
         if self._crease.dtype == bool:
             return self._crease[idx]
         if self._crease_tree is None:  # -1: not yet found, 0 / 1: found
@@ -291,21 +293,6 @@ class Problem:
         if len(new):
             self._crease[new] = near_a_crease(self._crease_tree, self.s.normals_base, new, self.opts.crease_radius_m)
         return self._crease[idx] == 1
-
-    def _crease_from_first_frame(self) -> np.ndarray:
-        """:meth:`near_crease`'s flags of every sample (bool) where each frame holds the first frame's samples in
-        its order; else int8 -1 (each found as it is first matched)."""
-        s = self.s
-        frames, counts = np.unique(s.frame, return_counts=True)
-        n = int(counts[0])
-        if not (
-            np.all(counts == n)
-            and np.array_equal(s.frame, np.repeat(frames, n))
-            and np.array_equal(s.part, np.tile(s.part[:n], len(frames)))
-        ):
-            return np.full(len(s.points_base), -1, np.int8)
-        first = near_a_crease(cKDTree(s.points_base[:n]), s.normals_base[:n], np.arange(n), self.opts.crease_radius_m)
-        return np.tile(first, len(frames))
 
     def _facing(self, T, idx, p_cam):
         """Whether each model point's normal is within ``max_incidence_deg`` of its ray (camera frame ``p_cam``)."""

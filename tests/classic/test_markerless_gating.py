@@ -7,7 +7,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from classic.markerless import MarkerlessOptions
-from classic.markerless.gating import DEPTH_GATES, near_a_crease, within_gate
+from classic.markerless.gating import DEPTH_GATES, crease_flags_from_first_frame, near_a_crease, within_gate
 from handeye.core.errors import HandEyeInputError
 
 GATE_M = 0.01
@@ -105,3 +105,32 @@ def test_the_crease_radius_is_checked():
             assert "crease_radius_m" in str(e)
         else:
             raise AssertionError(f"crease_radius_m={bad} accepted")
+
+
+def test_the_first_frames_creases_are_every_frames_where_the_frames_hold_the_same_samples():
+    """A cube and a plate beside it, moved rigidly from frame to frame: the flags found on the first frame and
+    repeated are those of a test in each frame; a surface whose frames hold other samples is left to that test."""
+    from scipy.spatial.transform import Rotation
+
+    cube, cube_n, _ = _cube()
+    g = (np.arange(10) + 0.5) * 0.002
+    plate = np.c_[[x.ravel() for x in np.meshgrid(g, g)]].T
+    plate = np.c_[plate + 0.04, np.zeros(len(plate))]  # 1 cm beyond the cube's face at x = 0.03
+    points0 = np.vstack([cube, plate])
+    normals0 = np.vstack([cube_n, np.tile([0.0, 0.0, 1.0], (len(plate), 1))])
+    part0 = np.r_[np.zeros(len(cube), int), np.ones(len(plate), int)]
+    rng = np.random.default_rng(2)
+    points, normals, frame = [], [], []
+    for f in range(3):
+        R = Rotation.random(random_state=rng).as_matrix()
+        points.append(points0 @ R.T + rng.normal(size=3))
+        normals.append(normals0 @ R.T)
+        frame.append(np.full(len(points0), f))
+    points, normals, frame = np.vstack(points), np.vstack(normals), np.concatenate(frame)
+    part = np.tile(part0, 3)
+    radius = 0.008
+    flags = crease_flags_from_first_frame(points, normals, frame, part, radius)
+    keyed = cKDTree(np.c_[points, frame * 1000.0])  # each sample among its own frame's
+    assert np.array_equal(flags, near_a_crease(keyed, normals, np.arange(len(points)), radius))
+    assert flags.any() and not flags.all()
+    assert crease_flags_from_first_frame(points[1:], normals[1:], frame[1:], part[1:], radius) is None
