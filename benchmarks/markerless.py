@@ -99,7 +99,7 @@ def accuracy(ds, cams, surface, opts, perturb=None, rng=None, shared=False):
             return res
 
         for c, (_, res) in second_passes(results, K, opts, register).items():
-            results[c] = results[c] if res is None else res
+            results[c] = res  # each again, under the pooled prior or, where nothing pooled, the stated one
     return [_accuracy_row(results[c], truth[c], seconds[c]) for c in cams]
 
 

@@ -265,10 +265,7 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
             spread = ", ".join(f"{n} {v:.2f}" for n, v in zip(("fx", "fy", "cx", "cy"), prior.spread) if v > 0)
             spread = f" (spread px: {spread})" if spread else ""
             notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)}{spread} {prior.reason}".rstrip())
-        if res is None:
-            shared.append(one)
-            continue
-        shared.append(_outcome(res, frames[c][2], one[5] + seconds[c]))
+        shared.append(_outcome(res, frames[c][2], one[5] + seconds[c]))  # each registered again (second_passes)
         print(f"  camera {c}, shared: {shared[-1]}", file=sys.stderr, flush=True)
     return alone, shared, notes
 

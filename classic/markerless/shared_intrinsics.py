@@ -68,10 +68,10 @@ SPREAD_QUANTILE = 0.95
 #: prior this many times wider (:func:`first_pass_options`), and the pool takes that prior out of each estimate
 #: and adds the stated one once (:func:`pooled_prior`). Under the stated prior each first pass keeps a share of the
 #: given matrix's error, and the pool keeps it at a sigma many times smaller: measured on `paper-real`'s all-together
-#: case, 0.11-0.12 of a +0.7 % focal-length error per placement (twice the share its sigma says where the fit
-#: leaves the noise's bias out, 0.16-0.27), which moved the pooled answers along the optical axis by the sign of the
-#: factory's error (the camera matrix -0.7 % instead of +0.7 %: 2.08 mm median against 0.93). Three times wider
-#: leaves a ninth of it, and the rest is what the linear taking-out removes.
+#: case, 0.11-0.12 of a +0.7 % focal-length error per placement (0.16-0.27 under the fit that takes the noise's
+#: bias out, whose frames hold the focal length less tightly), which moved the pooled answers along the optical axis
+#: by the sign of the factory's error (the camera matrix -0.7 % instead of +0.7 %: 2.08 mm median against 0.93).
+#: Three times wider leaves a ninth of it, and the rest is what the linear taking-out removes.
 FIRST_PASS_PRIOR_TIMES = 3.0
 
 #: Coarse windows of a second pass started from the first's answer: it is within millimetres already.
