@@ -128,7 +128,7 @@ class Problem:
         )
         cs = self.coarse_subset
         self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
-        self._crease, self._crease_tree = None, None  # near_crease's flags, found as the samples are first matched
+        self._crease, self._crease_tree = None, None  # near_crease's flags (and its per-frame tree where needed)
 
     def sigma_z(self, z):
         """Depth noise sigma at depth ``z`` (metres): given, or measured, or the fallback."""
