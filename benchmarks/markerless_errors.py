@@ -219,7 +219,19 @@ def _outcome(res, T_true, seconds) -> tuple:
     return ("ok", rot, mm, res.sigma["rotation_deg"], res.sigma["translation_mm"], seconds)
 
 
-def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False, pool=()) -> tuple:
+def _floor_note(res) -> str:
+    """Where the stated prior floored a shared answer's sigma: the sigma under the pooled prior alone, and the
+    floor's (mm)."""
+    floor = res.diagnostics.get("sigma_shared_floor") if res.ok else None
+    if not floor:
+        return ""
+    own = np.sqrt(max(res.sigma["translation_mm"] ** 2 - floor["translation_mm"] ** 2, 0.0))
+    return f", sigma under the pooled prior {own:.2f} mm, under the stated {floor['floor']['translation_mm']:.2f} mm"
+
+
+def run_case_shared(
+    ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False, pool=(), floor=False
+) -> tuple:
     """The case twice on the same frames: each placement alone (the front's first pass, under
     :func:`classic.markerless.shared_intrinsics.first_pass_options`), then again with the
     intrinsics the other placements estimated as its prior (``handeye markerless``'s default with 4 or more
@@ -228,7 +240,8 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
     ``one_unit``: every placement's sensor errors are the first placement's draw (one camera moved between
     placements, as in a cell; else each placement draws its own unit, as the table's other rows do). ``pool``:
     further placements of the same camera whose first pass joins the others' estimates (as every placement of a
-    dataset does in ``handeye markerless``), their own errors not counted.
+    dataset does in ``handeye markerless``), their own errors not counted. ``floor``: each pooled answer's sigma
+    no narrower than under the stated prior (:attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`).
     Returns the two lists of :func:`row`'s tuples for ``cams`` (the second's seconds both passes'), and a line
     per placement of what was pooled.
     """
@@ -253,6 +266,8 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
         depth, posed, _ = frames[c]
         t0 = time.process_time()
         analysis = first[c].depth_analysis
+        if floor and second_opts.intrinsics_prior_sigma != opts.intrinsics_prior_sigma:  # a pooled prior
+            second_opts = replace(second_opts, intrinsics_floor_prior_sigma=opts.intrinsics_prior_sigma)
         res = register_robot(depth, K_prior, posed, starts=starts, options=second_opts, depth_analysis=analysis)
         seconds[c] = time.process_time() - t0
         return res
@@ -266,7 +281,7 @@ def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=No
             spread = f" (spread px: {spread})" if spread else ""
             notes.append(f"{c}: {''.join('x' if u else '.' for u in prior.pooled)}{spread} {prior.reason}".rstrip())
         shared.append(_outcome(res, frames[c][2], one[5] + seconds[c]))  # each registered again (second_passes)
-        print(f"  camera {c}, shared: {shared[-1]}", file=sys.stderr, flush=True)
+        print(f"  camera {c}, shared: {shared[-1]}{_floor_note(res)}", file=sys.stderr, flush=True)
     return alone, shared, notes
 
 
@@ -327,6 +342,12 @@ def main():
         "moved between placements), else each placement draws its own",
     )
     ap.add_argument(
+        "--sigma-floor",
+        action="store_true",
+        help="with --shared-intrinsics: each pooled answer's sigma kept no narrower than under the stated intrinsics "
+        "prior (MarkerlessOptions.intrinsics_floor_prior_sigma); each shared placement's line on stderr gives both",
+    )
+    ap.add_argument(
         "--pool-train",
         action="store_true",
         help="with --shared-intrinsics: the datasets' train placements join the pool (their first pass only, their "
@@ -335,8 +356,8 @@ def main():
     )
     Report.add_out(ap)
     args = ap.parse_args()
-    if (args.one_unit or args.pool_train) and not args.shared_intrinsics:
-        ap.error("--one-unit and --pool-train need --shared-intrinsics")
+    if (args.one_unit or args.pool_train or args.sigma_floor) and not args.shared_intrinsics:
+        ap.error("--one-unit, --pool-train and --sigma-floor need --shared-intrinsics")
     Report.cut(args, max_placements=1)
     title = "Markerless calibration against a real cell's errors"
     rep = Report(title, "benchmarks/markerless_errors.py", None, versions())
@@ -351,6 +372,8 @@ def main():
             + (", one sensor unit for all placements: --one-unit" if args.one_unit else ", a unit per placement")
             + "); s: CPU seconds of one thread, both passes in the shared rows.\n"
         )
+    if args.sigma_floor:
+        rep.say("Each pooled answer's sigma kept no narrower than under the stated intrinsics prior (--sigma-floor).\n")
     if args.pool_train:
         rep.say(
             "The pool: every placement of the dataset (--pool-train), the train placements' first pass joining "
@@ -393,7 +416,7 @@ def main():
                 draw_lines.append(per_draw(case["name"], draws))
                 continue
             runs = {
-                s: run_case_shared(ds, surface, stride, cams, case, s, options, args.one_unit, pool) for s in args.seed
+                s: run_case_shared(ds, surface, stride, cams, case, s, options, args.one_unit, pool, args.sigma_floor) for s in args.seed
             }
             rep.say(row(case["name"] + ", alone", sum((r[0] for r in runs.values()), [])))
             rep.say(row(case["name"] + ", intrinsics shared", sum((r[1] for r in runs.values()), [])))

@@ -49,6 +49,14 @@ class MarkerlessOptions:
         Stated uncertainty of the camera matrix given: ``f_x`` and ``f_y`` relative, ``c_x`` and ``c_y`` in pixels
         (one sigma; a factory-calibrated D435-class camera's 0.7 % and 3 px by default,
         :data:`classic.markerless.intrinsics.INTRINSICS_PRIORS` per profile).
+    intrinsics_floor_prior_sigma : tuple of 4 float or None
+        Where the intrinsics' prior is narrower than the camera matrix's stated uncertainty (a pooled prior,
+        :func:`classic.markerless.shared_intrinsics.second_pass_options`): that stated uncertainty, in the units of
+        ``intrinsics_prior_sigma``. The answer's sigma is found again under it at the same matches and kept no
+        narrower (``diagnostics["sigma_shared_floor"]``, with the ``floor`` itself): the pooled prior may move the
+        answer, not narrow its sigma below what one placement alone claims. A conservative sigma for placements
+        that may share an error the pool cannot average; measured, it is 2-4 times the errors of pooled answers
+        (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own'). None (the default): no floor.
     intrinsics_determined_share : float
         A parameter counts as determined by the frames where they leave its sigma below this share of the
         prior's (reported, not a refusal: an undetermined one stays near the value given, its prior in the sigma).
@@ -169,6 +177,7 @@ class MarkerlessOptions:
     max_depth_prior_share: float = 0.5
     intrinsics_model: str = "estimate"
     intrinsics_prior_sigma: tuple = (0.007, 0.007, 3.0, 3.0)
+    intrinsics_floor_prior_sigma: tuple | None = None
     intrinsics_determined_share: float = 0.5
     joint_offsets_model: str = "estimate"
     joint_offset_prior_deg: float | tuple = JOINT_OFFSET_PRIORS_DEG["ur"]
@@ -234,6 +243,14 @@ class MarkerlessOptions:
             raise HandEyeInputError(
                 "intrinsics_model 'estimate' needs four positive prior sigmas (fx, fy relative; cx, cy pixels), got "
                 f"{self.intrinsics_prior_sigma!r}; a camera matrix known exactly is intrinsics_model='fixed'"
+            )
+        floor = self.intrinsics_floor_prior_sigma
+        if floor is not None and not (
+            np.shape(floor) == (4,) and np.all(np.isfinite(floor)) and np.all(np.asarray(floor, dtype=float) > 0)
+        ):
+            raise HandEyeInputError(
+                f"intrinsics_floor_prior_sigma must be None or four positive sigmas as intrinsics_prior_sigma, got "
+                f"{floor!r}"
             )
 
     def _check_sigmas(self):

@@ -119,7 +119,8 @@ class PlaneFit:
         Their covariance, two-way and frame-clustered as the depth's.
     repeated : dict or None
         With ``PlaneFitOptions.repeated_radius_px``: what an error repeated per image pixel across frames adds,
-        :func:`classic.markerless.repeated_error.repeated_error_covariance` (``covariance`` of all parameters).
+        :func:`classic.markerless.repeated_error.repeated_error_covariance` (``covariance`` of all parameters), with
+        the intrinsics estimated their block as ``intrinsics_covariance`` (4, 4).
     """
 
     T_base_cam: np.ndarray
@@ -498,6 +499,9 @@ def solve_point_to_plane(
     if uv is not None and options.repeated_radius_px > 0:
         gain = pixel_gain(J[:, 3:6], p_cam)  # the translation's columns are the normals in the camera frame
         fit.repeated = repeated_error_covariance(J, r, w, gain, uv, groups, prior, options.repeated_radius_px)
+        if x.theta is not None:  # the intrinsics' share of it, which their frame-clustered covariance omits
+            e = x.intrinsics_cols
+            fit.repeated["intrinsics_covariance"] = fit.repeated["covariance"][e, e]
     if x.n_par > 6:
         frames = cov if cross_group is None else clustered_covariance(J, r, w, group, prior)
         _set_covariances(fit, x, cov, frames)

@@ -5,6 +5,7 @@ the point-to-plane fit of its matches. The stages that drive it are :mod:`classi
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from typing import NamedTuple
 
 import numpy as np
@@ -129,6 +130,18 @@ class Problem:
         cs = self.coarse_subset
         self.tree = cKDTree(np.c_[surface.points_base[cs], surface.frame[cs] * _FRAME_KEY_M])
         self._crease, self._crease_tree = None, None  # near_crease's flags (and its per-frame tree where needed)
+
+    @contextmanager
+    def intrinsics_prior(self, relative_sigma):
+        """The intrinsics' prior sigma set to ``relative_sigma`` (``f_x``, ``f_y`` relative, ``c_x``, ``c_y`` pixels, as
+        :attr:`MarkerlessOptions.intrinsics_prior_sigma`) for the block, then restored."""
+        kept = self.intrinsics_prior_sigma
+        relative = np.array([self.theta_given[0], self.theta_given[1], 1.0, 1.0])
+        self.intrinsics_prior_sigma = np.asarray(relative_sigma, dtype=float) * relative
+        try:
+            yield
+        finally:
+            self.intrinsics_prior_sigma = kept
 
     def sigma_z(self, z):
         """Depth noise sigma at depth ``z`` (metres): given, or measured, or the fallback."""

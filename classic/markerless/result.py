@@ -195,31 +195,26 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     depth_fit = fit if debiased is None else replace(fit, depth_correction=debiased)
     depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm)
     refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
-    # what the frames share and differ in by depth or image position: the groups' scatter (an answer only)
-    split = None
-    if opts.split_check and not refused:
-        split = problem.split_check(best.T, best.matches)
     no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
-    # the static parts' repeated error: the moving parts' own covariance, and the static parts' pull on the answer
-    # added whole (an answer only)
-    covariance, static = fit.covariance, []
-    if problem.static_once and not refused:
-        pull, covariance = problem.static_pull(best.T, best.matches)
-        static = [pull]
+    parts = {"split": None, "static": [], "repeated": [], "repeated_covariance": np.zeros((6, 6)), "unit": None}
+    parts["intrinsics"] = None
+    covariance = fit.covariance
+    if not refused:
+        covariance, parts = _answer_terms(problem, best, fit.covariance)
+    split, static, repeated, unit_shared = parts["split"], parts["static"], parts["repeated"], parts["unit"]
     noise = pose_sigma(covariance, best.T[:3, :3])
-    # an error repeated at one image position in every frame: the covariance between frames the clustering omits
-    repeated, repeated_covariance, unit_shared = [], np.zeros((6, 6)), None
-    if opts.repeated_error_px > 0 and not refused:
-        shared = problem.repeated_error(best.T, best.matches)
-        repeated, repeated_covariance = [_repeated_term(shared, best.T[:3, :3])], shared["covariance"][:6, :6]
-        unit_shared = shared["covariance"][6:8, 6:8]
-    if split and "depth_variance" in split:  # the groups' scatter in the depth unit, as in the pose
-        unit_shared = (0.0 if unit_shared is None else unit_shared) + np.diag(split["depth_variance"])
     if fit.depth_correction is not None and unit_shared is not None:  # the depth's sigma widened as the pose's
         depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm, unit_shared)
     # the whole: the noise's and the repeated error's covariances, each bounded term an isotropic block
     bounded = (sampling, extrinsic, split or no_split, *static)
-    whole = covariance + repeated_covariance + sum((_isotropic(term) for term in bounded), np.zeros((6, 6)))
+    whole = covariance + parts["repeated_covariance"] + sum((_isotropic(t) for t in bounded), np.zeros((6, 6)))
+    sigma = in_quadrature(noise, *bounded, *repeated)
+    floor = None if refused else _floor_under_stated_prior(problem, best, (sampling, extrinsic))
+    if floor is not None:  # no narrower than the answer's sigma under the stated prior
+        lack = {k: float(np.sqrt(max(floor[k] ** 2 - sigma[k] ** 2, 0.0))) for k in sigma}
+        diag["sigma_shared_floor"] = {**lack, "floor": floor}
+        whole = whole + _isotropic(lack)
+        sigma = pose_sigma(whole, best.T[:3, :3])
     diag.update(
         {
             "inlier_rms_mm": rms_mm,
@@ -241,16 +236,59 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
         None if refused else best.T,
         refused,
         whole,
-        in_quadrature(noise, *bounded, *repeated),
+        sigma,
         res_frame,
         best.matched,
         best.name,
         diag,
         depth,
-        _intrinsics_result(fit, problem),
+        _intrinsics_result(fit, problem, parts["intrinsics"]),
         registration=registration,
         joint_offsets=_joint_offsets_result(fit, problem, opts),
     )
+
+
+def _answer_terms(problem: Problem, best: Outcome, covariance: np.ndarray) -> tuple[np.ndarray, dict]:
+    """What the accepted answer ``best.T`` adds to the fit's noise ``covariance`` (6, 6) under the problem's current
+    priors: the groups' scatter (``split``, a bounded term or None), with ``static_parts`` their pull (``static``,
+    whose covariance then replaces ``covariance``: the moving parts' own), the error repeated at one image position
+    (``repeated``, its ``repeated_covariance``) and the depth unit's shared covariance (``unit``, or None).
+    Returns the noise's covariance and those parts."""
+    opts = problem.opts
+    # what the frames share and differ in by depth or image position: the groups' scatter
+    split = problem.split_check(best.T, best.matches) if opts.split_check else None
+    # the static parts' repeated error: the moving parts' own covariance, and the static parts' pull added whole
+    static = []
+    if problem.static_once:
+        pull, covariance = problem.static_pull(best.T, best.matches)
+        static = [pull]
+    # an error repeated at one image position in every frame: the covariance between frames the clustering omits
+    repeated, repeated_covariance, unit, intrinsics = [], np.zeros((6, 6)), None, None
+    if opts.repeated_error_px > 0:
+        shared = problem.repeated_error(best.T, best.matches)
+        repeated, repeated_covariance = [_repeated_term(shared, best.T[:3, :3])], shared["covariance"][:6, :6]
+        unit = shared["covariance"][6:8, 6:8]
+        intrinsics = shared.get("intrinsics_covariance")
+    if split and "depth_variance" in split:  # the groups' scatter in the depth unit, as in the pose
+        unit = (0.0 if unit is None else unit) + np.diag(split["depth_variance"])
+    parts = {"split": split, "static": static, "repeated": repeated, "repeated_covariance": repeated_covariance}
+    return covariance, {**parts, "unit": unit, "intrinsics": intrinsics}
+
+
+def _floor_under_stated_prior(problem: Problem, best: Outcome, bounded: tuple) -> dict | None:
+    """The sigma the answer ``best.T`` would have under :attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`
+    (the stated prior, where the registration ran under a pooled one): its covariance and every term that depends
+    on the priors found again at the same matches (no step taken), with the ``bounded`` terms that do not; None
+    without a floor prior or with the intrinsics fixed."""
+    stated = problem.opts.intrinsics_floor_prior_sigma
+    if stated is None or not problem.estimate_intrinsics:
+        return None
+    with problem.intrinsics_prior(stated):
+        fit, _ = problem._solve(best.T, best.matches, iterations=0)
+        covariance, parts = _answer_terms(problem, best, fit.covariance)
+    no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
+    terms = (*bounded, parts["split"] or no_split, *parts["static"], *parts["repeated"])
+    return in_quadrature(pose_sigma(covariance, best.T[:3, :3]), *terms)
 
 
 def _repeated_term(repeated: dict, R_base_cam: np.ndarray) -> dict:
@@ -283,13 +321,15 @@ def _residuals_mm(fit: PlaneFit, frame: np.ndarray, n: int) -> tuple[np.ndarray,
     return res_frame, rms_mm, inl
 
 
-def _intrinsics_result(fit: PlaneFit, problem: Problem) -> dict:
-    """:attr:`MarkerlessResult.intrinsics` of the final fit."""
+def _intrinsics_result(fit: PlaneFit, problem: Problem, repeated: np.ndarray | None = None) -> dict:
+    """:attr:`MarkerlessResult.intrinsics` of the final fit; ``repeated`` (4, 4): what an error repeated at one image
+    position in every frame adds to their covariance (a fixed pattern pulls each placement's focal length its own
+    way, which the frames' clustering cannot see), as the pose's and the depth unit's sigmas have it."""
     if fit.intrinsics is None:
         return {"model": "fixed", "given": [float(x) for x in problem.theta_given]}
     return intrinsics_summary(
         fit.intrinsics,
-        fit.intrinsics_covariance,
+        fit.intrinsics_covariance if repeated is None else fit.intrinsics_covariance + repeated,
         fit.intrinsics_covariance_frames,
         problem.K_given,
         problem.intrinsics_prior_sigma,

@@ -47,7 +47,6 @@ __all__ = [
     "intrinsics_estimates",
     "leave_one_out_priors",
     "second_passes",
-    "no_narrower",
     "inverse_variance_mean",
     "MIN_OTHERS",
     "SPREAD_QUANTILE",
@@ -215,36 +214,8 @@ def second_passes(first: dict, K_given: np.ndarray, options: MarkerlessOptions, 
         starts = {"first pass": first[c].T_base_cam} if started_near else None
         K = K_given if prior is None else prior.K
         second = register(c, K, starts, second_pass_options(options, prior, started_near))
-        out[c] = (prior, no_narrower(second, first[c]))
+        out[c] = (prior, second)
     return out
-
-
-def no_narrower(second, first):
-    """A placement's second pass with its sigma no narrower than its first pass's: the pooled prior may move the
-    answer, it does not narrow its sigma.
-
-    Pooling averages the placements' estimates, not an error they share: an estimate every placement of the camera
-    makes alike (the arm's grazing edges, a depth unit the frames pull the same way) stays whole in the pool, and a
-    sigma narrowed by the pool runs short of it. On ``paper-real``'s noisy test placements (white depth noise, the
-    camera matrix given exactly) all five first passes' depth scales came out high (three by 3.4-4.3 of their
-    sigmas) and four of five focal lengths; pooled, the five answers shared a 0.19-0.26 mm error along the optical
-    axis at sigmas of 0.075-0.14 mm, one beyond 3 sigma (``docs/benchmarks/markerless.md``, 'Accuracy').
-
-    Parameters
-    ----------
-    second, first : MarkerlessResult
-        The placement's second pass and first pass.
-
-    Returns
-    -------
-    MarkerlessResult
-        ``second``, where accepted and narrower than an accepted ``first`` in rotation or translation, widened by
-        what it lacks in quadrature (``diagnostics["sigma_shared_floor"]``), so that its sigma is the first's.
-    """
-    if not (second.ok and first.ok):
-        return second
-    lack = {k: float(np.sqrt(max(first.sigma[k] ** 2 - second.sigma[k] ** 2, 0.0))) for k in first.sigma}
-    return second.widened(lack, "sigma_shared_floor") if any(lack.values()) else second
 
 
 def pooled_prior(
@@ -411,7 +382,15 @@ def second_pass_options(
     options : MarkerlessOptions
         As stated (the first passes' before :func:`first_pass_options`).
     prior : SharedIntrinsicsPrior or None
-        None: the stated prior (too few placements to pool).
+        None: the stated prior (too few placements to pool). The answer's sigma is the second pass's own, under the
+        pooled prior. Until 2026-12-08 it was kept no narrower than one placement's alone, for an error the
+        placements share that the pool cannot average (on ``paper-real``'s noisy placements the depth noise's own bias
+        once put five pooled answers 0.19-0.26 mm off along the optical axis at sigmas of 0.075-0.14 mm). Since the
+        fit takes that bias out, such a floor made the pooled sigmas 2-4 times their errors; without it, on the same
+        kind of placements (24 pooled, white depth noise, the camera matrix given exactly) the errors' RMS over
+        their sigmas is 0.90, at most 1.67, and with every simulated real-cell error at once at most 1.17
+        (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own'). The floor is still there to ask for:
+        :attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`.
     started_near : bool
         The second pass starts from the first's accepted answer: only the finest coarse windows
         (:data:`SECOND_PASS_WINDOWS_M`) are searched, and the fine stage starts at the finest gate

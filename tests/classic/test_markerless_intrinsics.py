@@ -8,6 +8,8 @@ their sigmas of the truth.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -71,6 +73,28 @@ def test_the_intrinsics_estimated_with_the_pose_give_the_truth_within_the_sigma(
         assert p["ratio"] > 0 and p["determined"] == (p["ratio"] < 0.5)
     # the spheres cross the image in every frame: the principal point is what the data determine best
     assert intr["cx"]["determined"] and intr["cy"]["determined"]
+
+
+def test_a_narrower_prior_moves_the_answer_but_the_stated_one_floors_its_sigma(scene):
+    """A pooled prior (here the stated one five times narrower) narrows the sigma along the optical axis; with the
+    stated prior as the floor (``intrinsics_floor_prior_sigma``, as a pooled second pass has it) the answer is the
+    same and its sigma is what the stated prior gives at that answer, found again at the same matches: under the
+    stated prior itself, exactly the sigma the registration reports."""
+    depth, surface, _ = scene
+    stated = MarkerlessOptions()
+    floor = {"intrinsics_floor_prior_sigma": stated.intrinsics_prior_sigma}
+    own = register_robot(depth, K, surface, options=replace(stated, **floor))
+    assert own.ok, own.refused
+    assert own.diagnostics["sigma_shared_floor"]["floor"] == pytest.approx(own.sigma, rel=FLOAT)
+    assert own.diagnostics["sigma_shared_floor"]["translation_mm"] == pytest.approx(0.0, abs=FLOAT)
+    narrow = replace(stated, intrinsics_prior_sigma=tuple(s / 5 for s in stated.intrinsics_prior_sigma))
+    narrowed, floored = (register_robot(depth, K, surface, options=o) for o in (narrow, replace(narrow, **floor)))
+    assert narrowed.ok and floored.ok
+    assert np.array_equal(floored.T_base_cam, narrowed.T_base_cam)  # the floor moves nothing
+    kept = floored.diagnostics["sigma_shared_floor"]["floor"]
+    assert narrowed.sigma["translation_mm"] < kept["translation_mm"]  # the narrow prior alone narrows it
+    assert floored.sigma == pytest.approx(kept, rel=FLOAT)
+    assert "sigma_shared_floor" not in narrowed.diagnostics
 
 
 def test_parameters_the_data_cannot_see_keep_their_prior():

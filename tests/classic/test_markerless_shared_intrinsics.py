@@ -224,7 +224,7 @@ def test_second_passes_register_every_placement_again_from_the_first_answer():
 
     def register(c, K, starts, options):
         calls[c] = (K, starts, options)
-        return SimpleNamespace(ok=False, name=f"second {c}")  # refused: no_narrower passes it through
+        return SimpleNamespace(ok=False, name=f"second {c}")  # refused: returned as it is
 
     opts = MarkerlessOptions()
     out = second_passes(first, GIVEN, opts, register, only=iter([0, MIN_OTHERS + 2]))
@@ -235,6 +235,7 @@ def test_second_passes_register_every_placement_again_from_the_first_answer():
     assert starts0["first pass"] is first[0].T_base_cam
     assert opts0.fine_iterations == min(opts.fine_iterations, SECOND_PASS_FINE_ITERATIONS)
     assert opts0.intrinsics_prior_sigma == prior0.prior_sigma
+    assert prior0.any_pooled and opts0.intrinsics_floor_prior_sigma is None  # the pooled pass's own sigma
     _, starts_refused, opts_refused = calls[MIN_OTHERS + 2]
     assert starts_refused is None and opts_refused.fine_iterations == opts.fine_iterations
     # where nothing is pooled each is registered again all the same, under the given matrix and the stated prior
@@ -247,28 +248,6 @@ def test_second_passes_register_every_placement_again_from_the_first_answer():
     assert sorted(calls) == list(range(MIN_OTHERS + 1))
     for K, _, options in calls.values():
         assert np.allclose(K, GIVEN) and options.intrinsics_prior_sigma == opts.intrinsics_prior_sigma
-
-
-def test_the_pool_moves_the_answer_but_does_not_narrow_its_sigma():
-    from classic.clustered_covariance import pose_sigma
-    from classic.markerless.result import MarkerlessResult
-    from classic.markerless.shared_intrinsics import no_narrower
-
-    def result(rotation_rad, translation_m, refused=None):
-        covariance = np.diag([rotation_rad**2] * 3 + [translation_m**2] * 3)
-        T = np.eye(4)
-        return MarkerlessResult(
-            T, refused, covariance, pose_sigma(covariance, T[:3, :3]), np.zeros(1), 0.9, "first pass"
-        )
-
-    first, narrow, wide = result(1e-4, 2e-4), result(5e-5, 1e-4), result(2e-4, 3e-4)
-    kept = no_narrower(narrow, first)
-    assert kept.sigma == pytest.approx(first.sigma, rel=FLOAT)
-    assert kept.diagnostics["sigma_shared_floor"]["translation_mm"] == pytest.approx(np.sqrt(3 * 0.2**2 - 3 * 0.1**2))
-    assert np.allclose(np.diag(kept.covariance)[3:], (2e-4) ** 2)  # isotropic: each axis the first's here
-    assert no_narrower(wide, first) is wide  # wider already: as it is
-    refused = result(1e-4, 1e-4, refused="did not converge")
-    assert no_narrower(refused, first) is refused and no_narrower(narrow, refused) is narrow
 
 
 def test_the_inverse_variance_mean_of_known_estimates():
