@@ -160,3 +160,27 @@ def test_a_fixed_pattern_is_covered_at_two_image_sizes():
     bound = REPEATED_SCENE_SDS * np.sqrt(1 / (2 * m))
     assert abs(np.sqrt(np.mean(np.square(ratios))) - 1) <= bound, (np.sqrt(np.mean(np.square(ratios))), bound)
     assert np.sqrt(np.mean(np.square(old))) - 1 > bound  # the frame-clustered sigma alone is short
+
+
+def test_the_repeated_error_widens_the_intrinsics_sigma_as_the_poses():
+    """With the intrinsics estimated, what a pattern the same in every frame adds reaches their sigma as it reaches
+    the pose's: the same answer and estimates with the repeated term counted or not, each parameter's variance
+    larger by the term's block, and the principal point's (which a pattern pulls as a depth image's shift does)
+    by a share of its own. Without it, first passes on `paper-real`'s all-together case put the principal point up
+    to 3.6 of its sigmas off (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own')."""
+    depth, K, surface, _ = _pattern_scene(0, 1)
+    runs = {
+        px: register_robot(
+            depth, K, surface, options=MarkerlessOptions(depth_sigma_m_at_1m=SIGMA_1M, repeated_error_px=px)
+        )
+        for px in (0, 12)
+    }
+    assert all(r.ok for r in runs.values())
+    assert np.array_equal(runs[0].T_base_cam, runs[12].T_base_cam)
+    names = ("fx", "fy", "cx", "cy")
+    estimate = {px: np.array([r.intrinsics[n]["estimate"] for n in names]) for px, r in runs.items()}
+    assert np.array_equal(estimate[0], estimate[12])
+    sigma = {px: np.array([r.intrinsics[n]["sigma"] for n in names]) for px, r in runs.items()}
+    assert np.all(sigma[12] >= sigma[0])
+    assert np.all(sigma[12][2:] ** 2 - sigma[0][2:] ** 2 > 0.01 * sigma[0][2:] ** 2)
+    assert "sigma_repeated" in runs[12].diagnostics and "sigma_repeated" not in runs[0].diagnostics
