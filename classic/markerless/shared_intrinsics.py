@@ -49,6 +49,7 @@ __all__ = [
     "second_passes",
     "inverse_variance_mean",
     "MIN_OTHERS",
+    "MIN_OTHERS_OWN_SIGMA",
     "SPREAD_QUANTILE",
     "SHARED_PIXEL_EFFECT_PX",
     "FIRST_PASS_PRIOR_TIMES",
@@ -57,6 +58,15 @@ __all__ = [
 
 #: Other placements' estimates a pool needs: the scatter's chi-square then has at least 2 degrees of freedom.
 MIN_OTHERS = 3
+
+#: Other placements a pool needs for its answers to keep their own sigma; with fewer, each answer's sigma is kept no
+#: narrower than under the stated prior (:attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`). The pool's sigma
+#: trusts the placements' own sigmas except where their scatter shows more (the Birge ratio, the spread), and the
+#: scatter of k estimates measures that ratio to a relative sd of about ``1 / sqrt(2 (k - 1))``: 0.41 at 4, a quarter
+#: from 9. Measured on `paper-real-noisy` (white depth noise, the camera matrix given exactly): 4 others, the five test
+#: placements' answers shared a 0.26 mm error along the optical axis at sigmas of 0.10, the errors' RMS 2.18 of their
+#: sigmas; 23 others, 0.045 mm and 0.86 (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own').
+MIN_OTHERS_OWN_SIGMA = 9
 
 #: The placements' estimates of a parameter differ by a spread of their own (a depth image shifted against the
 #: camera model by each unit's amount) where their scatter's chi-square exceeds this quantile: chance alone puts it
@@ -383,20 +393,20 @@ def second_pass_options(
         As stated (the first passes' before :func:`first_pass_options`).
     prior : SharedIntrinsicsPrior or None
         None: the stated prior (too few placements to pool). The answer's sigma is the second pass's own, under the
-        pooled prior. Until 2026-12-08 it was kept no narrower than one placement's alone, for an error the
-        placements share that the pool cannot average (on ``paper-real``'s noisy placements the depth noise's own bias
-        once put five pooled answers 0.19-0.26 mm off along the optical axis at sigmas of 0.075-0.14 mm). Since the
-        fit takes that bias out, such a floor made the pooled sigmas 2-4 times their errors; without it, on the same
-        kind of placements (24 pooled, white depth noise, the camera matrix given exactly) the errors' RMS over
-        their sigmas is 0.90, at most 1.67, and with every simulated real-cell error at once at most 1.17
-        (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own'). The floor is still there to ask for:
-        :attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`.
+        pooled prior, where at least :data:`MIN_OTHERS_OWN_SIGMA` other placements pooled; with fewer, it is kept no
+        narrower than under the stated prior (:attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`): a few
+        placements' agreement cannot show that their own sigmas are short, and their pooled answers then share the
+        pool's error. Until 8934628 every pooled answer was floored at its first pass's sigma; since the fit takes
+        the depth noise's bias out (c7d6e2a) that floor made the sigmas of large pools two to four times their errors
+        (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own').
     started_near : bool
         The second pass starts from the first's accepted answer: only the finest coarse windows
         (:data:`SECOND_PASS_WINDOWS_M`) are searched, and the fine stage starts at the finest gate
         (:data:`SECOND_PASS_GATES_M`) and iterates at most :data:`SECOND_PASS_FINE_ITERATIONS` times.
     """
     out = options if prior is None else replace(options, intrinsics_prior_sigma=prior.prior_sigma)
+    if prior is not None and prior.any_pooled and prior.others < MIN_OTHERS_OWN_SIGMA:
+        out = replace(out, intrinsics_floor_prior_sigma=options.intrinsics_prior_sigma)
     if started_near:
         out = replace(
             out,

@@ -207,7 +207,7 @@ def test_second_passes_register_every_placement_again_from_the_first_answer():
     from types import SimpleNamespace
 
     from classic.markerless import MarkerlessOptions
-    from classic.markerless.shared_intrinsics import SECOND_PASS_FINE_ITERATIONS, second_passes
+    from classic.markerless.shared_intrinsics import MIN_OTHERS_OWN_SIGMA, SECOND_PASS_FINE_ITERATIONS, second_passes
 
     rng = np.random.default_rng(6)
 
@@ -235,7 +235,9 @@ def test_second_passes_register_every_placement_again_from_the_first_answer():
     assert starts0["first pass"] is first[0].T_base_cam
     assert opts0.fine_iterations == min(opts.fine_iterations, SECOND_PASS_FINE_ITERATIONS)
     assert opts0.intrinsics_prior_sigma == prior0.prior_sigma
-    assert prior0.any_pooled and opts0.intrinsics_floor_prior_sigma is None  # the pooled pass's own sigma
+    # a pool of fewer than MIN_OTHERS_OWN_SIGMA others: the answer's sigma no narrower than under the stated prior
+    assert prior0.any_pooled and prior0.others < MIN_OTHERS_OWN_SIGMA
+    assert opts0.intrinsics_floor_prior_sigma == opts.intrinsics_prior_sigma
     _, starts_refused, opts_refused = calls[MIN_OTHERS + 2]
     assert starts_refused is None and opts_refused.fine_iterations == opts.fine_iterations
     # where nothing is pooled each is registered again all the same, under the given matrix and the stated prior
@@ -248,6 +250,12 @@ def test_second_passes_register_every_placement_again_from_the_first_answer():
     assert sorted(calls) == list(range(MIN_OTHERS + 1))
     for K, _, options in calls.values():
         assert np.allclose(K, GIVEN) and options.intrinsics_prior_sigma == opts.intrinsics_prior_sigma
+        assert options.intrinsics_floor_prior_sigma is None  # nothing pooled: the stated prior itself
+    # enough others: the pooled pass's own sigma
+    many = {c: result(*e) for c, e in enumerate(draws(rng, MIN_OTHERS_OWN_SIGMA + 1))}
+    calls.clear()
+    assert all(p.any_pooled for p, _ in second_passes(many, GIVEN, opts, register).values())
+    assert all(options.intrinsics_floor_prior_sigma is None for _, _, options in calls.values())
 
 
 def test_the_inverse_variance_mean_of_known_estimates():
