@@ -416,7 +416,8 @@ def main():
                 draw_lines.append(per_draw(case["name"], draws))
                 continue
             runs = {
-                s: run_case_shared(ds, surface, stride, cams, case, s, options, args.one_unit, pool, args.sigma_floor) for s in args.seed
+                s: run_case_shared(ds, surface, stride, cams, case, s, options, args.one_unit, pool, args.sigma_floor)
+                for s in args.seed
             }
             rep.say(row(case["name"] + ", alone", sum((r[0] for r in runs.values()), [])))
             rep.say(row(case["name"] + ", intrinsics shared", sum((r[1] for r in runs.values()), [])))

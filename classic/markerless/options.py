@@ -54,8 +54,9 @@ class MarkerlessOptions:
         :func:`classic.markerless.shared_intrinsics.second_pass_options`): that stated uncertainty, in the units of
         ``intrinsics_prior_sigma``. The answer's sigma is found again under it at the same matches and kept no
         narrower (``diagnostics["sigma_shared_floor"]``, with the ``floor`` itself): the pooled prior may move the
-        answer, not narrow its sigma below what one placement alone claims. A conservative sigma for placements
-        that may share an error the pool cannot average; measured, it is 2-4 times the errors of pooled answers
+        answer, not narrow its sigma below what one placement alone claims. Set for pools of fewer than
+        :data:`classic.markerless.shared_intrinsics.MIN_OTHERS_OWN_SIGMA` other placements, whose agreement cannot
+        show an error they share; on larger pools it is two to four times their answers' errors
         (``docs/benchmarks/markerless.md``, 'The pooled sigma, the pool's own'). None (the default): no floor.
     intrinsics_determined_share : float
         A parameter counts as determined by the frames where they leave its sigma below this share of the

@@ -66,7 +66,9 @@ class MarkerlessResult:
         (with the depth scale and offset estimated): the bias the depth noise itself gives a fit that scales the
         observed depth (:meth:`classic.markerless.problem.Problem.depth_debiased`): the ``scale`` and ``offset_mm``
         taken off the depth unit reported, and the ``rotation_deg`` and ``translation_mm`` it would move the pose
-        by, not taken off (on 50-100 frames that made the pose worse).
+        by, not taken off (on 50-100 frames that made the pose worse). ``sigma_shared_floor`` (with
+        :attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`): what was added in quadrature to keep :attr:`sigma`
+        no narrower than under that prior, and that sigma as ``floor``.
     depth : dict
         The sensor's depth as the registration found it: ``model``, and with ``"scale-offset"`` the
         ``scale`` and ``offset_mm`` of ``d_obs = scale d + offset`` with their sigmas (``scale_sigma``,
@@ -128,20 +130,6 @@ class MarkerlessResult:
             raise RefusedError(f"markerless registration refused: {self.refused}")
         return self.T_base_cam
 
-    def widened(self, term: dict, name: str) -> MarkerlessResult:
-        """This result with a bounded ``term`` (``rotation_deg``, ``translation_mm``) added to its sigma, in
-        quadrature, as an isotropic block of :attr:`covariance` (as the bounded terms of :func:`build_result` are),
-        and recorded as ``diagnostics[name]``; a refusal is returned as it is."""
-        if not self.ok:
-            return self
-        covariance = self.covariance + _isotropic(term)
-        return replace(
-            self,
-            covariance=covariance,
-            sigma=pose_sigma(covariance, self.T_base_cam[:3, :3]),
-            diagnostics={**self.diagnostics, name: dict(term)},
-        )
-
     def to_dict(self) -> dict:
         """JSON-serialisable summary."""
         from handeye.core.se3 import pos_quat_xyzw_from_transform
@@ -196,8 +184,8 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm)
     refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
     no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
-    parts = {"split": None, "static": [], "repeated": [], "repeated_covariance": np.zeros((6, 6)), "unit": None}
-    parts["intrinsics"] = None
+    parts = {"split": None, "static": [], "repeated": [], "repeated_covariance": np.zeros((6, 6))}
+    parts.update(unit=None, intrinsics=None)
     covariance = fit.covariance
     if not refused:
         covariance, parts = _answer_terms(problem, best, fit.covariance)
