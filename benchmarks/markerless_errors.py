@@ -29,6 +29,7 @@ import sys
 import time
 from dataclasses import fields, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -229,25 +230,34 @@ def _floor_note(res) -> str:
     return f", sigma under the pooled prior {own:.2f} mm, under the stated {floor['floor']['translation_mm']:.2f} mm"
 
 
-def run_case_shared(
-    ds, surface, stride, cams, case: dict, seed: int, options=None, one_unit=False, pool=(), floor=False
-) -> tuple:
+class Pooling(NamedTuple):
+    """How :func:`run_case_shared` pools: ``one_unit``, every placement's sensor errors the first placement's draw
+    (one camera moved between placements, as in a cell; else each placement draws its own unit, as the table's
+    other rows do); ``pool``, further placements of the same camera whose first pass joins the others' estimates (as
+    every placement of a dataset does in ``handeye markerless``), their own errors not counted; ``floor``, each
+    pooled answer's sigma no narrower than under the stated prior
+    (:attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`)."""
+
+    one_unit: bool = False
+    pool: tuple = ()
+    floor: bool = False
+
+
+def run_case_shared(ds, surface, stride, cams, case: dict, seed: int, options=None, pooling=Pooling()) -> tuple:
     """The case twice on the same frames: each placement alone (the front's first pass, under
     :func:`classic.markerless.shared_intrinsics.first_pass_options`), then again with the
     intrinsics the other placements estimated as its prior (``handeye markerless``'s default with 4 or more
     placements: :func:`handeye.markerless_shared.share_intrinsics`'s steps, on the benchmark's sensor frames).
 
-    ``one_unit``: every placement's sensor errors are the first placement's draw (one camera moved between
-    placements, as in a cell; else each placement draws its own unit, as the table's other rows do). ``pool``:
-    further placements of the same camera whose first pass joins the others' estimates (as every placement of a
-    dataset does in ``handeye markerless``), their own errors not counted. ``floor``: each pooled answer's sigma
-    no narrower than under the stated prior (:attr:`MarkerlessOptions.intrinsics_floor_prior_sigma`).
+    ``pooling``: which unit, which further placements pool, whether the stated prior floors the sigma
+    (:class:`Pooling`).
     Returns the two lists of :func:`row`'s tuples for ``cams`` (the second's seconds both passes'), and a line
     per placement of what was pooled.
     """
     K = told_intrinsics(ds.meta["intrinsics"]["K"], case.get("intrinsics"))
     T_true = ds.truth()
     opts = front_options(case["sensor"], stride, **{**(options or {}), **case.get("options", {})})
+    one_unit, pool, floor = pooling
     unit = cams[0] if one_unit else None
     frames, first, alone = {}, {}, []
     for c in [*cams, *(p for p in pool if p not in cams)]:
@@ -405,6 +415,7 @@ def main():
         cams = placements(ds, "test", args.max_placements)
         pool = placements(ds, "train") if args.pool_train else []
         more = f", {len(pool)} more in the pool" if pool else ""
+        pooling = Pooling(args.one_unit, tuple(pool), args.sigma_floor)
         rep.say(f"\n## {ds.root.name}: {len(cams)} test placements{more}\n")
         rep.say("| error the method is not told | accepted | median mm / deg | worst mm / deg | beyond 3 sigma | s |")
         rep.say("|---|---|---|---|---|---|")
@@ -415,10 +426,7 @@ def main():
                 rep.say(row(case["name"], sum(draws.values(), [])))
                 draw_lines.append(per_draw(case["name"], draws))
                 continue
-            runs = {
-                s: run_case_shared(ds, surface, stride, cams, case, s, options, args.one_unit, pool, args.sigma_floor)
-                for s in args.seed
-            }
+            runs = {s: run_case_shared(ds, surface, stride, cams, case, s, options, pooling) for s in args.seed}
             rep.say(row(case["name"] + ", alone", sum((r[0] for r in runs.values()), [])))
             rep.say(row(case["name"] + ", intrinsics shared", sum((r[1] for r in runs.values()), [])))
             draw_lines.append(per_draw(case["name"] + ", intrinsics shared", {s: r[1] for s, r in runs.items()}))

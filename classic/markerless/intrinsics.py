@@ -18,7 +18,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["INTRINSICS_PRIORS", "NAMES", "camera_matrix", "intrinsics_vector", "rays_for", "intrinsics_summary"]
+__all__ = [
+    "INTRINSICS_PRIORS",
+    "NAMES",
+    "camera_matrix",
+    "intrinsics_vector",
+    "prior_sigma_px",
+    "rays_for",
+    "intrinsics_summary",
+]
 
 #: The parameters, in the order of the vectors below.
 NAMES = ("fx", "fy", "cx", "cy")
@@ -41,6 +49,12 @@ INTRINSICS_PRIORS = {
 def intrinsics_vector(K: np.ndarray) -> np.ndarray:
     """``(f_x, f_y, c_x, c_y)`` of a camera matrix ``K`` (3, 3); shape (4,)."""
     return np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]], dtype=float)
+
+
+def prior_sigma_px(relative_sigma, theta: np.ndarray) -> np.ndarray:
+    """Pixels, shape (4,), of intrinsics sigmas stated as :attr:`MarkerlessOptions.intrinsics_prior_sigma` states them
+    (``f_x``, ``f_y`` relative, ``c_x``, ``c_y`` pixels), about ``theta = (f_x, f_y, c_x, c_y)``."""
+    return np.asarray(relative_sigma, dtype=float) * np.array([theta[0], theta[1], 1.0, 1.0])
 
 
 def camera_matrix(theta: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ from classic.markerless.consistency import frame_splits, split_excess
 from classic.markerless.depth import backproject
 from classic.markerless.depth_analysis import DepthAnalysis, analyse_depth, depth_key
 from classic.markerless.gating import crease_flags_from_first_frame, near_a_crease, within_gate
-from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, rays_for
+from classic.markerless.intrinsics import camera_matrix, intrinsics_vector, prior_sigma_px, rays_for
 from classic.markerless.kinematics import joint_status, moved_surface
 from classic.markerless.point_to_plane import (
     MatchedModel,
@@ -97,8 +97,7 @@ class Problem:
         self.theta_given = intrinsics_vector(K)
         self.theta = self.theta_given
         self.estimate_intrinsics = opts.intrinsics_model == "estimate"
-        relative = np.array([self.theta_given[0], self.theta_given[1], 1.0, 1.0])
-        self.intrinsics_prior_sigma = np.asarray(opts.intrinsics_prior_sigma, dtype=float) * relative
+        self.intrinsics_prior_sigma = prior_sigma_px(opts.intrinsics_prior_sigma, self.theta_given)
         if analysis is None or analysis.key != depth_key(depth_m, opts.depth_sigma_m_at_1m):
             analysis = analyse_depth(depth_m, opts.depth_sigma_m_at_1m)
         self.analysis = analysis  # the noise, the mixed pixels (treated as missing) and the moving ones
@@ -136,8 +135,7 @@ class Problem:
         """The intrinsics' prior sigma set to ``relative_sigma`` (``f_x``, ``f_y`` relative, ``c_x``, ``c_y`` pixels, as
         :attr:`MarkerlessOptions.intrinsics_prior_sigma`) for the block, then restored."""
         kept = self.intrinsics_prior_sigma
-        relative = np.array([self.theta_given[0], self.theta_given[1], 1.0, 1.0])
-        self.intrinsics_prior_sigma = np.asarray(relative_sigma, dtype=float) * relative
+        self.intrinsics_prior_sigma = prior_sigma_px(relative_sigma, self.theta_given)
         try:
             yield
         finally:

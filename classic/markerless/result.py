@@ -164,6 +164,19 @@ def refused_result(reason: str, diag: dict) -> MarkerlessResult:
     return MarkerlessResult(None, reason, np.full((6, 6), np.nan), nan_sigma, np.full(n, np.nan), 0.0, "", diag)
 
 
+#: The groups' scatter where it was not checked.
+_NO_SPLIT = {"rotation_deg": 0.0, "translation_mm": 0.0}
+#: :func:`_answer_terms`' parts of a refusal (read only): none.
+_NO_TERMS = {
+    "split": None,
+    "static": (),
+    "repeated": (),
+    "repeated_covariance": np.zeros((6, 6)),
+    "unit": None,
+    "intrinsics": None,
+}
+
+
 def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResult:
     """The best start's fit as the answer with its sigma, or refused with the reason; ``diag`` completed."""
     opts, fit = problem.opts, best.fit
@@ -183,10 +196,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     depth_fit = fit if debiased is None else replace(fit, depth_correction=debiased)
     depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm)
     refused = _refusal(opts, best.matched, rms_mm, expected_mm, best.step, depth)
-    no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
-    parts = {"split": None, "static": [], "repeated": [], "repeated_covariance": np.zeros((6, 6))}
-    parts.update(unit=None, intrinsics=None)
-    covariance = fit.covariance
+    covariance, parts = fit.covariance, _NO_TERMS
     if not refused:
         covariance, parts = _answer_terms(problem, best, fit.covariance)
     split, static, repeated, unit_shared = parts["split"], parts["static"], parts["repeated"], parts["unit"]
@@ -194,7 +204,7 @@ def build_result(problem: Problem, best: Outcome, diag: dict) -> MarkerlessResul
     if fit.depth_correction is not None and unit_shared is not None:  # the depth's sigma widened as the pose's
         depth = depth_summary(depth_fit, opts, best.depth_range, problem.noise_source, noise_mm, unit_shared)
     # the whole: the noise's and the repeated error's covariances, each bounded term an isotropic block
-    bounded = (sampling, extrinsic, split or no_split, *static)
+    bounded = _bounded_terms(sampling, extrinsic, parts)
     whole = covariance + parts["repeated_covariance"] + sum((_isotropic(t) for t in bounded), np.zeros((6, 6)))
     sigma = in_quadrature(noise, *bounded, *repeated)
     floor = None if refused else _floor_under_stated_prior(problem, best, (sampling, extrinsic))
@@ -274,9 +284,14 @@ def _floor_under_stated_prior(problem: Problem, best: Outcome, bounded: tuple) -
     with problem.intrinsics_prior(stated):
         fit, _ = problem._solve(best.T, best.matches, iterations=0)
         covariance, parts = _answer_terms(problem, best, fit.covariance)
-    no_split = {"rotation_deg": 0.0, "translation_mm": 0.0}
-    terms = (*bounded, parts["split"] or no_split, *parts["static"], *parts["repeated"])
-    return in_quadrature(pose_sigma(covariance, best.T[:3, :3]), *terms)
+    return in_quadrature(pose_sigma(covariance, best.T[:3, :3]), *_bounded_terms(*bounded, parts), *parts["repeated"])
+
+
+def _bounded_terms(sampling: dict, extrinsic: dict, parts: dict) -> tuple:
+    """The bounded sigma terms of an answer: the sampling bias, the depth-to-colour extrinsic, the groups' scatter
+    (zero where not checked) and, with ``static_parts``, the static parts' pull; each ``rotation_deg``,
+    ``translation_mm``."""
+    return (sampling, extrinsic, parts["split"] or _NO_SPLIT, *parts["static"])
 
 
 def _repeated_term(repeated: dict, R_base_cam: np.ndarray) -> dict:

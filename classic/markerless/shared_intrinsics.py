@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
-from classic.markerless.intrinsics import NAMES, camera_matrix, intrinsics_vector
+from classic.markerless.intrinsics import NAMES, camera_matrix, intrinsics_vector, prior_sigma_px
 from classic.markerless.options import MarkerlessOptions
 
 __all__ = [
@@ -135,7 +135,7 @@ class SharedIntrinsicsPrior:
     def to_dict(self) -> dict:
         """JSON-serialisable: the prior's mean and sigma per parameter, what was pooled, from how many."""
         theta = intrinsics_vector(self.K)
-        scale = np.array([theta[0], theta[1], 1.0, 1.0])
+        sigma_px = prior_sigma_px(self.prior_sigma, theta)
         return {
             "others": self.others,
             "reason": self.reason,
@@ -143,7 +143,7 @@ class SharedIntrinsicsPrior:
                 name: {
                     "pooled": bool(self.pooled[i]),
                     "mean": float(theta[i]),
-                    "sigma": float(self.prior_sigma[i] * scale[i]),
+                    "sigma": float(sigma_px[i]),
                     "birge": float(self.birge[i]) if np.isfinite(self.birge[i]) else None,
                     "spread": float(self.spread[i]),
                 }
@@ -261,7 +261,7 @@ def pooled_prior(
     SharedIntrinsicsPrior
     """
     given = intrinsics_vector(np.asarray(K_given, dtype=float))
-    given_px = np.asarray(given_sigma, dtype=float) * np.array([given[0], given[1], 1.0, 1.0])
+    given_px = prior_sigma_px(given_sigma, given)
     if len(others) < min_others:
         reason = f"{len(others)} other placements estimated the intrinsics (at least {min_others} needed)"
         return _prior(given, given_px, np.zeros(4, bool), len(others), np.full(4, np.nan), reason)
@@ -444,7 +444,7 @@ def against_given(intrinsics: dict, K_given: np.ndarray, given_sigma: tuple, det
     if not intrinsics or intrinsics.get("model") != "estimated":
         return intrinsics
     given = intrinsics_vector(np.asarray(K_given, dtype=float))
-    given_px = np.asarray(given_sigma, dtype=float) * np.array([given[0], given[1], 1.0, 1.0])
+    given_px = prior_sigma_px(given_sigma, given)
     out = {"model": "estimated", "prior": "shared", "given": [float(x) for x in given]}
     for i, name in enumerate(NAMES):
         entry = dict(intrinsics[name])
